@@ -1,0 +1,125 @@
+// Closest-hit queries: Möller–Trumbore (paper 3.3 step 2), the slab test, brute force
+// over every triangle (the paper's mode) and BVH traversal. Mirrors src/geometry.rs and
+// src/bvh/traverse.rs.
+
+struct Hit {
+    float t;
+    float u;
+    float v;
+    uint tri;       // global index into triangles[]
+    uint instance;
+};
+
+// Möller–Trumbore: returns true and shrinks t_max when the triangle is hit closer.
+bool intersect_triangle(vec3 o, vec3 d, uint k, inout Hit hit) {
+    Triangle tri = triangles[k];
+    vec3 e1 = tri.e1.xyz;
+    vec3 e2 = tri.e2.xyz;
+    vec3 p = cross(d, e2);
+    float det = dot(e1, p);
+    if (abs(det) < 1e-12) return false;
+    float inv = 1.0 / det;
+    vec3 tv = o - tri.v0.xyz;
+    float u = dot(tv, p) * inv;
+    if (u < 0.0 || u > 1.0) return false;
+    vec3 q = cross(tv, e1);
+    float v = dot(d, q) * inv;
+    if (v < 0.0 || u + v > 1.0) return false;
+    float t = dot(e2, q) * inv;
+    if (t > 0.0 && t < hit.t) {
+        hit.t = t;
+        hit.u = u;
+        hit.v = v;
+        hit.tri = k;
+        return true;
+    }
+    return false;
+}
+
+// Entry distance of the ray into the box, or INF when it misses within (0, t_max).
+float slab(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float t_max) {
+    vec3 t0 = (bmin - o) * inv_d;
+    vec3 t1 = (bmax - o) * inv_d;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    float enter = max(max(lo.x, lo.y), max(lo.z, 0.0));
+    float exit = min(min(hi.x, hi.y), min(hi.z, t_max));
+    return enter <= exit ? enter : INF;
+}
+
+// 1/d without infinities (0 * inf would give NaN in the slab test).
+vec3 safe_inverse(vec3 d) {
+    vec3 s = vec3(d.x < 0.0 ? -1.0 : 1.0, d.y < 0.0 ? -1.0 : 1.0, d.z < 0.0 ? -1.0 : 1.0);
+    return 1.0 / (s * max(abs(d), vec3(1e-20)));
+}
+
+void test_leaf(vec3 o, vec3 d, uint first, uint count, uint tri_base, inout Hit hit, inout uvec2 cost) {
+    for (uint k = 0u; k < count; k++) {
+        intersect_triangle(o, d, tri_base + first + k, hit);
+    }
+    cost.y += count;
+}
+
+// Stack-based BVH2 traversal: leaves are tested as soon as their box is hit, inner
+// children are visited near first with the far one pushed.
+void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, inout uvec2 cost) {
+    vec3 inv_d = safe_inverse(d);
+    uint stack[64];
+    uint sp = 0u;
+    uint node = 0u;
+    while (true) {
+        BvhNode n = nodes[node_base + node];
+        cost.x += 1u;
+        uint li = floatBitsToUint(n.left_min.w);
+        uint lc = floatBitsToUint(n.left_max.w);
+        uint ri = floatBitsToUint(n.right_min.w);
+        uint rc = floatBitsToUint(n.right_max.w);
+        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
+        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
+        if (tl < INF && lc > 0u) { test_leaf(o, d, li, lc, tri_base, hit, cost); tl = INF; }
+        if (tr < INF && rc > 0u) { test_leaf(o, d, ri, rc, tri_base, hit, cost); tr = INF; }
+        if (tl < INF && tr < INF) {
+            // Both inner children: near first, far on the stack.
+            if (tl <= tr) { stack[sp] = ri; node = li; } else { stack[sp] = li; node = ri; }
+            sp += 1u;
+        } else if (tl < INF) {
+            node = li;
+        } else if (tr < INF) {
+            node = ri;
+        } else {
+            if (sp == 0u) break;
+            sp -= 1u;
+            node = stack[sp];
+        }
+    }
+}
+
+// The closest hit over all instances in (0, t_max). Instances carry a uniform scale, so
+// the object-space ray keeps world-space distances.
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+    Hit hit;
+    hit.t = INF;
+    hit.tri = EMPTY;
+    hit.instance = EMPTY;
+    hit.u = 0.0;
+    hit.v = 0.0;
+    uint count = frame.misc.x;
+    for (uint i = 0u; i < count; i++) {
+        Instance inst = instances[i];
+        float s = inst.translation_scale.w;
+        vec3 lo = (o - inst.translation_scale.xyz) / s;
+        vec3 ld = d / s;
+        uint before = hit.tri;
+        if (use_bvh) {
+            traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
+        } else {
+            // The paper's brute force: every triangle of every model.
+            for (uint k = 0u; k < inst.offsets.z; k++) {
+                intersect_triangle(lo, ld, inst.offsets.y + k, hit);
+            }
+            cost.y += inst.offsets.z;
+        }
+        if (hit.tri != before) hit.instance = i;
+    }
+    return hit;
+}

@@ -1,0 +1,65 @@
+// Scene data as the host packs it (src/tracer/packed.rs holds the Rust twins of these
+// structs; keep the two in step). All buffers are std430.
+
+struct Triangle {
+    vec4 v0;   // xyz: corner 0; w: material index (uint bits)
+    vec4 e1;   // xyz: v1 - v0;  w: triangle index in its mesh's file order (uint bits)
+    vec4 e2;   // xyz: v2 - v0;  w: unused
+};
+
+struct TriangleShading {
+    vec4 n0;   // xyz: vertex normals of the three corners (object space)
+    vec4 n1;
+    vec4 n2;
+};
+
+struct Material {
+    vec4 diffuse_mirror;     // rgb: Kd, a: mirror strength (scales the blend ratio)
+    vec4 specular_shininess; // rgb: Ks, a: Ns
+};
+
+// Two child boxes per node; .w of the four vec4s: left index, left count, right index,
+// right count (uint bits). count 0 = inner node, index EMPTY = absent child.
+struct BvhNode {
+    vec4 left_min;
+    vec4 left_max;
+    vec4 right_min;
+    vec4 right_max;
+};
+
+struct Instance {
+    vec4 translation_scale;  // world = object * scale + translation
+    uvec4 offsets;           // node base, triangle base, triangle count, prim-id base
+};
+
+layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Shading { TriangleShading shading[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Nodes { BvhNode nodes[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instances[]; };
+layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };
+layout(std430, set = 0, binding = 6) buffer OutFloat { vec4 out_float[]; };
+
+// Per-frame parameters (src/tracer/frame.rs: FrameParams::push_constants). 128 bytes.
+layout(push_constant) uniform Frame {
+    vec4 cam_origin_eps;     // xyz: camera position, w: ray offset epsilon
+    vec4 cam_forward_blend;  // xyz: forward, w: reflection blend ratio
+    vec4 cam_right_ambient;  // xyz: right * tan(fov/2) * aspect, w: ambient fraction
+    vec4 cam_up;             // xyz: up * tan(fov/2)
+    vec4 light_pos;          // xyz: point light position
+    vec4 light_color;        // rgb: light colour
+    uvec4 dims;              // width, height, bounces, flags
+    uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), unused
+} frame;
+
+const uint EMPTY = 0xffffffffu;
+const float INF = 1e30;
+
+// flags bits
+const uint FLAG_BVH = 1u;
+const uint AOV_SHIFT = 1u;  // 3 bits: 0 colour, 1 depth, 2 normal, 3 prim id, 4 cost
+const uint AOV_COLOR = 0u;
+const uint AOV_DEPTH = 1u;
+const uint AOV_NORMAL = 2u;
+const uint AOV_PRIM_ID = 3u;
+const uint AOV_COST = 4u;

@@ -1,0 +1,776 @@
+//! Binned-SAH builder (top-down, in place), the structural checker and the tree statistics.
+//!
+//! The build works on one array of per-primitive boxes (`Prim`), partitioned in place:
+//! every subtree owns a contiguous range of it, and a leaf is simply a range. Each node
+//! bins its primitives' centroids into `bins` slabs per axis, sweeps the slab planes for
+//! the lowest SAH cost and partitions around the winner. Subtrees of at least
+//! `PARALLEL_MIN_PRIMS` primitives are built on both threads (`rayon::join`), each
+//! sequential subtree into its own node vector; the pieces are stitched together in
+//! depth-first order at the end.
+
+use glam::{UVec3, Vec3, Vec3A};
+use rayon::prelude::*;
+
+use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
+use crate::geometry::Aabb;
+
+/// Build parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildOptions {
+    /// Largest leaf the builder makes (clamped to 1..=255); nodes with more primitives are always split.
+    pub max_leaf_size: u32,
+    /// SAH bins per axis (clamped to 2..=32); small nodes use fewer.
+    pub bins: u32,
+    /// SAH cost of visiting one node (fetch + two box tests).
+    pub traversal_cost: f32,
+    /// SAH cost of one ray/triangle test.
+    pub intersection_cost: f32,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        Self { max_leaf_size: 4, bins: 16, traversal_cost: 1.0, intersection_cost: 1.0 }
+    }
+}
+
+const MAX_BINS: usize = 32;
+
+/// Subtrees at least this big are split off onto the other thread; below it the fork
+/// overhead outweighs the gain.
+const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
+
+/// Nodes at least this big bin their primitives on all threads (only the top few levels,
+/// where too few subtrees exist to keep the threads busy).
+const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
+
+// ---------------------------------------------------------------------------------------
+// Build
+// ---------------------------------------------------------------------------------------
+
+impl Bvh {
+    /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
+    pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
+        let prims = triangles
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
+            .collect();
+        build_from_prims(prims, options)
+    }
+
+    /// Same over arbitrary boxes (used for a top level over instances); empty boxes are
+    /// treated as a point at the origin.
+    pub fn build_from_boxes(boxes: &[Aabb], options: &BuildOptions) -> Bvh {
+        let prims = boxes
+            .par_iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let b = if b.is_empty() { Aabb { min: Vec3::ZERO, max: Vec3::ZERO } } else { *b };
+                Prim::new(b.min, b.max, i as u32)
+            })
+            .collect();
+        build_from_prims(prims, options)
+    }
+}
+
+/// One primitive's box and original index: the unit that the build sorts in place
+/// (32 bytes, so a partition swap moves half a cache line).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+struct Prim {
+    min: Vec3,
+    index: u32,
+    max: Vec3,
+    _pad: u32,
+}
+
+impl Prim {
+    fn new(min: Vec3, max: Vec3, index: u32) -> Self {
+        Self { min, index, max, _pad: 0 }
+    }
+
+    #[inline(always)]
+    fn bounds_min(&self) -> Vec3A {
+        self.min.into()
+    }
+
+    #[inline(always)]
+    fn bounds_max(&self) -> Vec3A {
+        self.max.into()
+    }
+
+    /// Box centre; halves first so that huge coordinates cannot overflow.
+    #[inline(always)]
+    fn centroid(&self) -> Vec3A {
+        self.bounds_min() * 0.5 + self.bounds_max() * 0.5
+    }
+}
+
+/// A box in SIMD registers, for the hot loops (`Aabb` is the public, 12-byte-vector one).
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+
+    #[inline(always)]
+    fn grow(&mut self, min: Vec3A, max: Vec3A) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+
+    #[inline(always)]
+    fn union(self, o: Bounds) -> Bounds {
+        Bounds { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Half the surface area of the box scaled by `scale`, plus a tiny floor on each edge
+    /// so that boxes flat in two axes (collinear primitives) still weigh by length.
+    #[inline(always)]
+    fn half_area(&self, scale: f32) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO) * scale + Vec3A::splat(1e-6);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
+    fn to_aabb(self) -> Aabb {
+        Aabb { min: self.min.into(), max: self.max.into() }
+    }
+}
+
+/// What a node needs to know about its primitives: their box and the box of their centroids.
+#[derive(Clone, Copy, Debug)]
+struct NodeInfo {
+    bounds: Bounds,
+    centroids: Bounds,
+}
+
+impl NodeInfo {
+    const EMPTY: NodeInfo = NodeInfo { bounds: Bounds::EMPTY, centroids: Bounds::EMPTY };
+
+    fn of(prims: &[Prim]) -> NodeInfo {
+        let mut info = NodeInfo::EMPTY;
+        for p in prims {
+            info.add(p);
+        }
+        info
+    }
+
+    #[inline(always)]
+    fn add(&mut self, p: &Prim) {
+        self.bounds.grow(p.bounds_min(), p.bounds_max());
+        let c = p.centroid();
+        self.centroids.grow(c, c);
+    }
+
+    fn union(self, o: NodeInfo) -> NodeInfo {
+        NodeInfo { bounds: self.bounds.union(o.bounds), centroids: self.centroids.union(o.centroids) }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Bounds,
+    count: u32,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin { bounds: Bounds::EMPTY, count: 0 };
+}
+
+/// The bins of one node, per axis. Lives on the stack and is reused down a subtree; only
+/// the first `n` bins of each axis are in use.
+struct BinSet {
+    bins: [[Bin; MAX_BINS]; 3],
+}
+
+impl BinSet {
+    fn new() -> Self {
+        Self { bins: [[Bin::EMPTY; MAX_BINS]; 3] }
+    }
+
+    fn clear(&mut self, n: usize) {
+        for axis in &mut self.bins {
+            axis[..n].fill(Bin::EMPTY);
+        }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
+        for p in prims {
+            let b = grid.bin_of(p.centroid());
+            let (min, max) = (p.bounds_min(), p.bounds_max());
+            for axis in 0..3 {
+                let bin = &mut self.bins[axis][b[axis] as usize];
+                bin.count += 1;
+                bin.bounds.grow(min, max);
+            }
+        }
+    }
+
+    fn merge(&mut self, o: &BinSet, n: usize) {
+        for axis in 0..3 {
+            for i in 0..n {
+                let (a, b) = (&mut self.bins[axis][i], &o.bins[axis][i]);
+                a.count += b.count;
+                a.bounds = a.bounds.union(b.bounds);
+            }
+        }
+    }
+}
+
+/// Maps a centroid to its bin on each axis: `bin = (c - origin) * scale`, clamped.
+/// Axes along which the centroids do not spread get `scale = 0` (everything in bin 0).
+struct BinGrid {
+    origin: Vec3A,
+    scale: Vec3A,
+    count: usize,
+}
+
+impl BinGrid {
+    /// `None` when the centroids coincide (or their spread is not representable).
+    fn new(centroids: &Bounds, count: usize) -> Option<BinGrid> {
+        let extent = centroids.max - centroids.min;
+        let mut scale = Vec3A::ZERO;
+        for axis in 0..3 {
+            let s = count as f32 / extent[axis];
+            if extent[axis] > 0.0 && s.is_finite() {
+                scale[axis] = s;
+            }
+        }
+        (scale != Vec3A::ZERO).then_some(BinGrid { origin: centroids.min, scale, count })
+    }
+
+    /// The binning and the partition both call this, so they always agree.
+    #[inline(always)]
+    fn bin_of(&self, c: Vec3A) -> UVec3 {
+        ((c - self.origin) * self.scale).as_uvec3().min(UVec3::splat(self.count as u32 - 1))
+    }
+}
+
+/// A split of a node's primitive range: `prims[..mid]` go left, the rest right.
+struct Split {
+    mid: usize,
+    left: NodeInfo,
+    right: NodeInfo,
+}
+
+/// A child as its parent will record it (`BvhChild` with the box still in SIMD form).
+#[derive(Clone, Copy)]
+struct ChildRef {
+    bounds: Bounds,
+    index: u32,
+    count: u32,
+}
+
+impl ChildRef {
+    fn to_child(self) -> BvhChild {
+        BvhChild { bounds: self.bounds.to_aabb(), index: self.index, count: self.count }
+    }
+}
+
+/// The resolved build options shared by all threads.
+struct Builder {
+    max_leaf: usize,
+    bins: usize,
+    traversal_cost: f32,
+    intersection_cost: f32,
+}
+
+fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
+    if prims.is_empty() {
+        return Bvh::default();
+    }
+    let builder = Builder {
+        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
+        bins: (options.bins as usize).clamp(2, MAX_BINS),
+        traversal_cost: options.traversal_cost,
+        intersection_cost: options.intersection_cost,
+    };
+    let info = prims
+        .par_chunks(64 * 1024)
+        .map(NodeInfo::of)
+        .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
+
+    let root = builder.build_parallel(&mut prims, 0, info, 1);
+
+    let nodes = if root.child.count > 0 {
+        // A single leaf: the root node holds it on the left and nothing on the right.
+        vec![BvhNode::new(root.child.to_child(), BvhChild::EMPTY)]
+    } else {
+        root.flatten()
+    };
+    let prim_indices = prims.par_iter().map(|p| p.index).collect();
+    Bvh { nodes, prim_indices }
+}
+
+impl Builder {
+    /// Builds the subtree over `prims` (which start at `first` in the whole array) into
+    /// `nodes`, depth-first, and returns it as its parent will record it. `level` is the
+    /// depth of the node this call would create (root = 1).
+    fn build_subtree(
+        &self,
+        prims: &mut [Prim],
+        first: u32,
+        info: NodeInfo,
+        level: usize,
+        nodes: &mut Vec<BvhNode>,
+        bins: &mut BinSet,
+    ) -> ChildRef {
+        if prims.len() <= self.max_leaf {
+            return ChildRef { bounds: info.bounds, index: first, count: prims.len() as u32 };
+        }
+        let split = self.split(prims, &info, level, bins);
+        let slot = nodes.len();
+        nodes.push(BvhNode::default()); // filled in once both children exist
+        let (left_prims, right_prims) = prims.split_at_mut(split.mid);
+        let left = self.build_subtree(left_prims, first, split.left, level + 1, nodes, bins);
+        let right =
+            self.build_subtree(right_prims, first + split.mid as u32, split.right, level + 1, nodes, bins);
+        nodes[slot] = BvhNode::new(left.to_child(), right.to_child());
+        ChildRef { bounds: info.bounds, index: slot as u32, count: 0 }
+    }
+
+    /// As `build_subtree`, but forks big subtrees onto the other thread. Each sequential
+    /// subtree gets its own node vector; the result is a list of them in depth-first order.
+    fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
+        if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
+            let mut nodes = Vec::with_capacity(prims.len() / 2);
+            let child = self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::new());
+            return Fragment { child, len: nodes.len() as u32, chunks: vec![Chunk { offset: 0, nodes }] };
+        }
+        let split = self.split(prims, &info, level, &mut BinSet::new());
+        let (left_prims, right_prims) = prims.split_at_mut(split.mid);
+        let right_first = first + split.mid as u32;
+        let (mut left, mut right) = rayon::join(
+            || self.build_parallel(left_prims, first, split.left, level + 1),
+            || self.build_parallel(right_prims, right_first, split.right, level + 1),
+        );
+        // Depth-first order: this node, then the left fragment, then the right one.
+        left.shift(1);
+        right.shift(1 + left.len);
+        let node = BvhNode::new(left.child.to_child(), right.child.to_child());
+        let mut chunks = Vec::with_capacity(1 + left.chunks.len() + right.chunks.len());
+        chunks.push(Chunk { offset: 0, nodes: vec![node] });
+        chunks.append(&mut left.chunks);
+        chunks.append(&mut right.chunks);
+        Fragment {
+            child: ChildRef { bounds: info.bounds, index: 0, count: 0 },
+            len: 1 + left.len + right.len,
+            chunks,
+        }
+    }
+
+    /// Chooses how to split a node that must be split: the best binned-SAH plane, or the
+    /// median when binning cannot separate the primitives or the depth budget runs out.
+    fn split(&self, prims: &mut [Prim], info: &NodeInfo, level: usize, bins: &mut BinSet) -> Split {
+        // A median split from here on needs ceil(log2(n)) more levels at most; keep that
+        // within MAX_DEPTH so that the traversal stack can never overflow.
+        let levels_left = (usize::BITS - (prims.len() - 1).leading_zeros()) as usize;
+        if level + levels_left < MAX_DEPTH {
+            if let Some(split) = self.sah_split(prims, info, bins) {
+                return split;
+            }
+        }
+        median_split(prims, info)
+    }
+
+    fn sah_split(&self, prims: &mut [Prim], info: &NodeInfo, bins: &mut BinSet) -> Option<Split> {
+        let n_bins = self.bins.min(2 * prims.len()); // few primitives need few bins
+        let grid = BinGrid::new(&info.centroids, n_bins)?;
+
+        if prims.len() >= PARALLEL_BIN_MIN_PRIMS {
+            *bins = prims
+                .par_chunks(32 * 1024)
+                .map(|chunk| {
+                    let mut b = BinSet::new();
+                    b.add(chunk, &grid);
+                    b
+                })
+                .reduce(BinSet::new, |mut a, b| {
+                    a.merge(&b, n_bins);
+                    a
+                });
+        } else {
+            bins.clear(n_bins);
+            bins.add(prims, &grid);
+        }
+
+        // Sweep the planes between bins; plane i has bins 0..i on its left. Areas are scaled
+        // by the node's size so that they stay finite for huge coordinates.
+        let extent = (info.bounds.max - info.bounds.min).max_element();
+        let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
+        let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
+        for axis in 0..3 {
+            if grid.scale[axis] == 0.0 {
+                continue;
+            }
+            let axis_bins = &bins.bins[axis][..n_bins];
+            let mut left_cost = [0.0f32; MAX_BINS];
+            let mut left_count = [0u32; MAX_BINS];
+            let (mut acc, mut count) = (Bounds::EMPTY, 0);
+            for i in 1..n_bins {
+                acc = acc.union(axis_bins[i - 1].bounds);
+                count += axis_bins[i - 1].count;
+                left_count[i] = count;
+                left_cost[i] = acc.half_area(scale) * count as f32;
+            }
+            let (mut acc, mut count) = (Bounds::EMPTY, 0);
+            for i in (1..n_bins).rev() {
+                acc = acc.union(axis_bins[i].bounds);
+                count += axis_bins[i].count;
+                if left_count[i] == 0 || count == 0 {
+                    continue;
+                }
+                let cost = left_cost[i] + acc.half_area(scale) * count as f32;
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, i));
+                }
+            }
+        }
+        let (_, axis, plane) = best?;
+
+        // In-place partition; the centroid boxes of the two sides come for free here.
+        let (mut left, mut right) = (NodeInfo::EMPTY, NodeInfo::EMPTY);
+        let (mut i, mut j) = (0, prims.len());
+        while i < j {
+            if (grid.bin_of(prims[i].centroid())[axis] as usize) < plane {
+                i += 1;
+            } else {
+                j -= 1;
+                prims.swap(i, j);
+            }
+        }
+        // The primitive boxes of each side are the union of its bins.
+        let axis_bins = &bins.bins[axis][..n_bins];
+        left.bounds = axis_bins[..plane].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
+        right.bounds = axis_bins[plane..].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
+        left.centroids = centroid_bounds(&prims[..i]);
+        right.centroids = centroid_bounds(&prims[i..]);
+        Some(Split { mid: i, left, right })
+    }
+}
+
+fn centroid_bounds(prims: &[Prim]) -> Bounds {
+    let mut b = Bounds::EMPTY;
+    for p in prims {
+        let c = p.centroid();
+        b.grow(c, c);
+    }
+    b
+}
+
+/// Object-median split along the widest centroid axis; when all centroids coincide, any
+/// halving is as good as another, so the range is just cut in two.
+fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
+    let mid = prims.len() / 2;
+    let extent = info.centroids.max - info.centroids.min;
+    if extent.max_element() > 0.0 {
+        let axis = extent.max_position();
+        prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
+    }
+    Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
+}
+
+/// A built subtree as a list of node vectors that, concatenated, are its nodes in
+/// depth-first order. Stitching is deferred: each chunk remembers how far it will be
+/// shifted, so joining fragments costs O(chunks), not O(nodes).
+struct Fragment {
+    child: ChildRef,
+    len: u32,
+    chunks: Vec<Chunk>,
+}
+
+/// A run of nodes whose inner-child indices are relative to the run's start; `offset` is
+/// where that start lands in the enclosing fragment.
+struct Chunk {
+    offset: u32,
+    nodes: Vec<BvhNode>,
+}
+
+impl Fragment {
+    /// Moves the fragment `by` nodes further into its parent's node list.
+    fn shift(&mut self, by: u32) {
+        for chunk in &mut self.chunks {
+            chunk.offset += by;
+        }
+        if self.child.count == 0 {
+            self.child.index += by;
+        }
+    }
+
+    /// The nodes in their final places, inner-child indices made absolute.
+    fn flatten(self) -> Vec<BvhNode> {
+        let mut nodes = Vec::with_capacity(self.len as usize);
+        for chunk in self.chunks {
+            debug_assert_eq!(chunk.offset as usize, nodes.len());
+            let inner = |index: u32, count: u32| count == 0 && index != EMPTY;
+            nodes.extend(chunk.nodes.into_iter().map(|mut n| {
+                if inner(n.left_index, n.left_count) {
+                    n.left_index += chunk.offset;
+                }
+                if inner(n.right_index, n.right_count) {
+                    n.right_index += chunk.offset;
+                }
+                n
+            }));
+        }
+        nodes
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Statistics and validation
+// ---------------------------------------------------------------------------------------
+
+impl Bvh {
+    /// SAH cost of the tree (root-surface-area normalised, with the options' costs), for reports:
+    /// `(Ct * sum of node areas + Ci * sum of leaf areas * leaf sizes) / root area`, root node included.
+    pub fn sah_cost(&self, options: &BuildOptions) -> f32 {
+        let Some(root) = self.nodes.first() else { return 0.0 };
+        let area = |b: &Aabb| {
+            let e = b.extent().as_dvec3();
+            2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+        };
+        let root_box = root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+        // f64 so that 1e30-sized boxes do not overflow; a zero-area root (all primitives on one
+        // point or line) weighs every node fully.
+        let root_area = area(&root_box);
+        let ratio = |b: &Aabb| if root_area > 0.0 { area(b) / root_area } else { 1.0 };
+        let (ct, ci) = (options.traversal_cost as f64, options.intersection_cost as f64);
+        let mut cost = ct; // the root is always visited
+        for node in &self.nodes {
+            for child in node.children() {
+                if child.is_leaf() {
+                    cost += ci * ratio(&child.bounds) * child.count as f64;
+                } else if child.is_inner() {
+                    cost += ct * ratio(&child.bounds);
+                }
+            }
+        }
+        cost as f32
+    }
+
+    /// Longest root-to-leaf path in nodes (leaves live in their parent): 0 when empty, 1 for a
+    /// root over leaves. A traversal needs at most this many stack entries.
+    pub fn depth(&self) -> usize {
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        let mut deepest = 0;
+        let mut stack = vec![(0u32, 1usize)];
+        while let Some((index, level)) = stack.pop() {
+            deepest = deepest.max(level);
+            for child in self.nodes[index as usize].children() {
+                if child.is_inner() {
+                    stack.push((child.index, level + 1));
+                }
+            }
+        }
+        deepest
+    }
+
+    /// Number of leaves (non-empty leaf children).
+    pub fn leaf_count(&self) -> usize {
+        self.nodes.iter().flat_map(|n| n.children()).filter(|c| c.is_leaf()).count()
+    }
+
+    /// Check the structural invariants (leaf sizes against the default options); Err names the first broken one.
+    /// See [`Bvh::validate_with`].
+    pub fn validate(&self, triangles: &[[Vec3; 3]]) -> Result<(), String> {
+        self.validate_with(triangles, &BuildOptions::default())
+    }
+
+    /// Check the structural invariants; Err names the first broken one: every primitive referenced exactly
+    /// once, child boxes inside the box recorded for their node in its parent, primitives inside their leaf's
+    /// box, leaves within `max_leaf_size`, node indices in range, every node reached once (no cycles, no
+    /// orphans), depth within `MAX_DEPTH`.
+    pub fn validate_with(&self, triangles: &[[Vec3; 3]], options: &BuildOptions) -> Result<(), String> {
+        self.check(triangles.len(), |i| Aabb::from_points(&triangles[i]), options)
+    }
+
+    /// [`Bvh::validate_with`] for a BVH built over boxes.
+    pub fn validate_boxes(&self, boxes: &[Aabb], options: &BuildOptions) -> Result<(), String> {
+        self.check(boxes.len(), |i| boxes[i], options)
+    }
+
+    fn check(&self, prim_count: usize, prim_box: impl Fn(usize) -> Aabb, options: &BuildOptions) -> Result<(), String> {
+        if self.prim_indices.len() != prim_count {
+            return Err(format!("prim_indices has {} entries for {prim_count} primitives", self.prim_indices.len()));
+        }
+        let mut seen = vec![false; prim_count];
+        for (k, &p) in self.prim_indices.iter().enumerate() {
+            let Some(s) = seen.get_mut(p as usize) else {
+                return Err(format!("prim_indices[{k}] = {p} is out of range"));
+            };
+            if std::mem::replace(s, true) {
+                return Err(format!("primitive {p} appears twice in prim_indices (again at {k})"));
+            }
+        }
+        if prim_count == 0 {
+            return match self.nodes.is_empty() {
+                true => Ok(()),
+                false => Err("nodes present but no primitives".into()),
+            };
+        }
+        if self.nodes.is_empty() {
+            return Err("no nodes for a non-empty primitive set".into());
+        }
+
+        let max_leaf = options.max_leaf_size.max(1);
+        let mut node_seen = vec![false; self.nodes.len()];
+        let mut slot_seen = vec![false; prim_count];
+        // (node, the box its parent records for it, level)
+        let mut stack: Vec<(u32, Option<Aabb>, usize)> = vec![(0, None, 1)];
+        while let Some((index, parent_box, level)) = stack.pop() {
+            if std::mem::replace(&mut node_seen[index as usize], true) {
+                return Err(format!("node {index} is reached twice (cycle or shared child)"));
+            }
+            if level > MAX_DEPTH {
+                return Err(format!("node {index} is at depth {level} > MAX_DEPTH = {MAX_DEPTH}"));
+            }
+            let node = &self.nodes[index as usize];
+            for (side, child) in ["left", "right"].into_iter().zip(node.children()) {
+                let here = format!("node {index} {side} child");
+                if child.is_empty() {
+                    let lone_leaf = index == 0 && side == "right" && node.child(0).is_leaf();
+                    if !lone_leaf {
+                        return Err(format!("{here} is EMPTY (only a root over a single leaf may have one)"));
+                    }
+                    continue;
+                }
+                if child.bounds.is_empty() {
+                    return Err(format!("{here} has an empty box"));
+                }
+                if let Some(pb) = parent_box {
+                    if !pb.contains(&child.bounds) {
+                        return Err(format!("{here} box {:?} is not inside its node's box {pb:?}", child.bounds));
+                    }
+                }
+                if child.is_inner() {
+                    if child.index as usize >= self.nodes.len() {
+                        return Err(format!("{here} points to node {} of {}", child.index, self.nodes.len()));
+                    }
+                    stack.push((child.index, Some(child.bounds), level + 1));
+                    continue;
+                }
+                if child.count > max_leaf {
+                    return Err(format!("{here} is a leaf of {} > max_leaf_size = {max_leaf}", child.count));
+                }
+                let range = child.index as usize..child.index as usize + child.count as usize;
+                if range.end > prim_count {
+                    return Err(format!("{here} leaf range {range:?} exceeds {prim_count} primitives"));
+                }
+                for k in range {
+                    if std::mem::replace(&mut slot_seen[k], true) {
+                        return Err(format!("{here} references slot {k}, already in another leaf"));
+                    }
+                    let p = self.prim_indices[k] as usize;
+                    if !child.bounds.contains(&prim_box(p)) {
+                        return Err(format!("{here}: primitive {p} is not inside the leaf box"));
+                    }
+                }
+            }
+        }
+        if let Some(k) = slot_seen.iter().position(|s| !s) {
+            return Err(format!("slot {k} (primitive {}) is in no leaf", self.prim_indices[k]));
+        }
+        if let Some(i) = node_seen.iter().position(|s| !s) {
+            return Err(format!("node {i} is unreachable from the root"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn soup(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
+        let mut s = seed;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(next(), next(), next()) * 10.0;
+                [c, c + Vec3::new(next(), next(), next()) * 0.3, c + Vec3::new(next(), next(), next()) * 0.3]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn empty_and_single() {
+        let o = BuildOptions::default();
+        let bvh = Bvh::build(&[], &o);
+        assert!(bvh.nodes.is_empty() && bvh.prim_indices.is_empty());
+        assert_eq!(bvh.validate(&[]), Ok(()));
+        assert_eq!((bvh.depth(), bvh.leaf_count(), bvh.sah_cost(&o)), (0, 0, 0.0));
+
+        let tri = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+        let bvh = Bvh::build(&tri, &o);
+        assert_eq!(bvh.nodes.len(), 1);
+        assert_eq!(bvh.nodes[0].child(0).count, 1);
+        assert!(bvh.nodes[0].child(1).is_empty());
+        assert_eq!(bvh.validate(&tri), Ok(()));
+        assert_eq!((bvh.depth(), bvh.leaf_count()), (1, 1));
+        assert!((bvh.sah_cost(&o) - 2.0).abs() < 1e-6); // one node + one triangle
+    }
+
+    #[test]
+    fn sequential_and_parallel_paths_are_valid() {
+        let o = BuildOptions::default();
+        for n in [5, 100, 3000, PARALLEL_MIN_PRIMS * 5] {
+            let tris = soup(n, 7 + n as u64);
+            let bvh = Bvh::build(&tris, &o);
+            assert_eq!(bvh.validate(&tris), Ok(()), "n = {n}");
+            assert!(bvh.depth() <= MAX_DEPTH);
+            // Depth-first order: each inner child comes after its parent.
+            for (i, node) in bvh.nodes.iter().enumerate() {
+                for c in node.children() {
+                    assert!(!c.is_inner() || c.index as usize > i);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn leaf_size_option_is_respected() {
+        let tris = soup(2000, 3);
+        for leaf in [1, 2, 8] {
+            let o = BuildOptions { max_leaf_size: leaf, ..Default::default() };
+            let bvh = Bvh::build(&tris, &o);
+            assert_eq!(bvh.validate_with(&tris, &o), Ok(()));
+        }
+    }
+
+    #[test]
+    fn depth_budget_holds_for_exponential_spacing() {
+        // Triangles at 2^k: binned SAH peels one off per level; the budget must cap the depth.
+        let tris: Vec<[Vec3; 3]> = (0..120)
+            .flat_map(|k| {
+                let x = 2f32.powi(k - 60);
+                (0..8).map(move |j| {
+                    let p = Vec3::new(x, j as f32 * x, 0.0);
+                    [p, p + Vec3::X * x * 0.1, p + Vec3::Y * x * 0.1]
+                })
+            })
+            .collect();
+        let bvh = Bvh::build(&tris, &BuildOptions { max_leaf_size: 1, ..Default::default() });
+        assert_eq!(bvh.validate_with(&tris, &BuildOptions { max_leaf_size: 1, ..Default::default() }), Ok(()));
+        assert!(bvh.depth() <= MAX_DEPTH);
+    }
+
+    #[test]
+    fn boxes_build_is_valid() {
+        let boxes: Vec<Aabb> = soup(500, 11).iter().map(|t| Aabb::from_points(t)).chain([Aabb::EMPTY]).collect();
+        let o = BuildOptions::default();
+        let bvh = Bvh::build_from_boxes(&boxes, &o);
+        assert_eq!(bvh.validate_boxes(&boxes, &o), Ok(()));
+    }
+}

@@ -1,0 +1,131 @@
+//! Flags shared by `view`, `render` and `bench`, with their ranges.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::scene::paper::{LightOrbit, ModelSource, MAX_MODELS};
+use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
+
+/// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
+/// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
+/// tool on the paper's scene: a model inside six mirror planes, lit by an orbiting light.
+#[derive(Parser, Debug)]
+#[command(name = "meshtracer", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// What to do.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Open the interactive tool (the default).
+    View(ViewArgs),
+    /// Render one frame headless and write it to a file.
+    Render(RenderArgs),
+    /// List the Vulkan devices (for --device).
+    Devices,
+}
+
+fn parse_unit(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(format!("{s} is out of range (0..=1)")) }
+}
+
+fn parse_finite(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() { Ok(v) } else { Err(format!("{s} is not a finite number")) }
+}
+
+/// The scene and frame: what `view`, `render` and `bench` share.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Model: geosphere, torusknot, sphere, cylinder (the paper's four) or a path to an .obj file.
+    #[arg(long, default_value = "geosphere")]
+    pub model: String,
+    /// Number of identical models, laid out along the axes as in the paper's Table 2.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_MODELS as i64))]
+    pub models: u32,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64))]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64))]
+    pub height: u32,
+    /// Mirror bounces after the primary hit (the paper used 2).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64))]
+    pub bounces: u32,
+    /// Reflection blend ratio: 0 = no reflections, 1 = pure mirrors.
+    #[arg(long, default_value_t = 0.5, value_parser = parse_unit)]
+    pub blend: f32,
+    /// Position of the light on its orbit, in degrees.
+    #[arg(long, default_value_t = 45.0, value_parser = parse_finite)]
+    pub light_angle: f32,
+    /// Acceleration: bvh, or brute (the paper's every-ray-against-every-triangle).
+    #[arg(long, default_value = "bvh")]
+    pub accel: Accel,
+    /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
+    #[arg(long)]
+    pub device: Option<usize>,
+}
+
+impl SceneArgs {
+    /// Where the model comes from.
+    pub fn model_source(&self) -> ModelSource {
+        ModelSource::parse(&self.model)
+    }
+
+    /// The light orbit with the requested angle.
+    pub fn light(&self) -> LightOrbit {
+        LightOrbit { angle_deg: self.light_angle, ..LightOrbit::default() }
+    }
+
+    /// Frame settings for `aov`.
+    pub fn settings(&self, aov: Aov) -> RenderSettings {
+        RenderSettings { width: self.width, height: self.height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov }
+    }
+}
+
+/// `meshtracer view`.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Quit after this many frames (for scripts and tests).
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// Write the traced image (render resolution) to this PNG at exit.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    /// Write the window as seen, panel included, to this PNG at exit.
+    #[arg(long)]
+    pub screenshot_ui: Option<PathBuf>,
+    /// Initial window size as WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x800")]
+    pub window: String,
+    /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
+    #[arg(long)]
+    pub validation: bool,
+}
+
+/// `meshtracer render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Trace on the CPU reference tracer instead of the GPU.
+    #[arg(long)]
+    pub cpu: bool,
+    /// What to write: color (PNG), or depth, normal, prim-id, cost (32-bit float OpenEXR).
+    #[arg(long, default_value = "color")]
+    pub aov: Aov,
+    /// Output file (.png for color, .exr for the other AOVs).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
+    #[arg(long)]
+    pub validation: bool,
+}

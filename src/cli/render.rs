@@ -1,0 +1,57 @@
+//! `meshtracer render`: one frame, headless, to a PNG or EXR.
+
+use anyhow::{bail, Context};
+
+use super::args::RenderArgs;
+use crate::gpu::{ContextOptions, GpuContext, GpuTracer};
+use crate::scene::paper::load_paper_scene;
+use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
+
+/// Run the command; the returned error is printed as one line by `main`.
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    match (args.aov, is_exr) {
+        (Aov::Color, true) | (Aov::Color, false) => {}
+        (aov, false) => bail!("the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr"),
+        _ => {}
+    }
+    let settings = args.scene.settings(args.aov);
+    settings.validate().map_err(anyhow::Error::msg)?;
+    let source = args.scene.model_source();
+    let (scene, warnings) = load_paper_scene(&source, args.scene.models, args.scene.light())?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let packed = PackedScene::new(&scene);
+    let params = FrameParams::new(&scene, settings);
+
+    let (image, how) = if args.cpu {
+        let start = std::time::Instant::now();
+        let image = cpu::render(&packed, &params);
+        (image, format!("CPU reference, {:.1} ms", start.elapsed().as_secs_f64() * 1e3))
+    } else {
+        let options = ContextOptions { validation: args.validation, device_index: args.scene.device, ..Default::default() };
+        let ctx = GpuContext::new(&options)?;
+        let mut tracer = GpuTracer::new(&ctx, &packed)?;
+        let (image, timing) = tracer.render(&params)?;
+        let messages = ctx.validation_messages();
+        if !messages.is_empty() {
+            bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+        }
+        let gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
+        (image, format!("{}, {gpu}", ctx.info.name))
+    };
+    image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    println!(
+        "wrote {} ({}x{}, {} x{}, {} triangles, {} bounces, {}; {how})",
+        args.output.display(),
+        settings.width,
+        settings.height,
+        source.label(),
+        args.scene.models,
+        scene.triangle_count(),
+        settings.bounces,
+        settings.accel,
+    );
+    Ok(())
+}

@@ -1,0 +1,101 @@
+//! Buffers with memory from gpu-allocator, and the paper's upload path (3.2): host data ->
+//! host-visible staging buffer -> device-local storage buffer through a recorded copy.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::context::GpuContext;
+use super::error::{GpuError, VkContext};
+
+/// A Vulkan buffer and its memory; freed on drop.
+pub struct GpuBuffer {
+    ctx: Arc<GpuContext>,
+    pub buffer: vk::Buffer,
+    allocation: Option<Allocation>,
+    /// Size in bytes (at least 16: Vulkan has no empty buffers).
+    pub size: u64,
+}
+
+impl GpuBuffer {
+    /// Create a buffer of `size` bytes in `location`.
+    pub fn new(ctx: &Arc<GpuContext>, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation, name: &'static str) -> Result<Self, GpuError> {
+        let size = size.max(16);
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let device = &ctx.device;
+        let buffer = unsafe { device.create_buffer(&info, None) }.during("creating a buffer")?;
+        let requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
+        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(source) => {
+                unsafe { device.destroy_buffer(buffer, None) };
+                return Err(GpuError::Allocation { what: name, source });
+            }
+        };
+        unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) }.during("binding buffer memory")?;
+        Ok(Self { ctx: ctx.clone(), buffer, allocation: Some(allocation), size })
+    }
+
+    /// The mapped bytes of a host-visible buffer.
+    pub fn mapped(&mut self) -> Option<&mut [u8]> {
+        let size = self.size as usize;
+        self.allocation.as_mut().and_then(|a| a.mapped_slice_mut()).map(|s| &mut s[..size])
+    }
+
+    /// A device-local storage buffer filled with `data` through a staging copy (paper 3.2).
+    pub fn device_local_with(ctx: &Arc<GpuContext>, data: &[u8], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+        let dst = GpuBuffer::new(ctx, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        dst.upload(data)?;
+        Ok(dst)
+    }
+
+    /// Overwrite the start of this (device-local) buffer with `data` through a staging copy.
+    pub fn upload(&self, data: &[u8]) -> Result<(), GpuError> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        assert!(data.len() as u64 <= self.size, "upload larger than the buffer");
+        let mut staging = GpuBuffer::new(&self.ctx, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
+        staging.mapped().expect("staging memory is mapped")[..data.len()].copy_from_slice(data);
+        let device = &self.ctx.device;
+        self.ctx.one_shot(|cmd| unsafe {
+            let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
+            device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region);
+            // Make the copy visible to the compute shader that reads the buffer next.
+            let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
+            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+        })
+    }
+
+    /// Read `len` bytes back from this (device-local) buffer through a staging copy.
+    pub fn download(&self, len: u64) -> Result<Vec<u8>, GpuError> {
+        let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
+        let device = &self.ctx.device;
+        self.ctx.one_shot(|cmd| unsafe {
+            let before = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
+            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &before, &[], &[]);
+            device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size: len }]);
+            let after = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ)];
+            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::HOST, vk::DependencyFlags::empty(), &after, &[], &[]);
+        })?;
+        Ok(staging.mapped().expect("readback memory is mapped")[..len as usize].to_vec())
+    }
+}
+
+impl Drop for GpuBuffer {
+    fn drop(&mut self) {
+        if let Some(a) = self.allocation.take() {
+            let _ = self.ctx.allocator().free(a);
+        }
+        unsafe { self.ctx.device.destroy_buffer(self.buffer, None) };
+    }
+}

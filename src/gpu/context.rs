@@ -1,0 +1,400 @@
+//! Vulkan instance, validation, device selection and the memory allocator: the one place
+//! that owns the Vulkan objects everything else borrows.
+
+use std::ffi::{c_char, c_void, CStr};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex};
+
+use ash::ext::debug_utils;
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::error::{GpuError, VkContext};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How to create the context.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable `VK_LAYER_KHRONOS_validation`; also switched on by `MESHTRACER_VALIDATION=1`.
+    pub validation: bool,
+    /// Also enable the layer's synchronization validation (implies `validation`).
+    pub sync_validation: bool,
+    /// Extra instance extensions (the window system's surface extensions).
+    pub instance_extensions: Vec<*const c_char>,
+    /// Enable the swapchain extension and dynamic rendering (for the window).
+    pub presentation: bool,
+    /// Pick this device (index into `list_devices`) instead of the best one.
+    pub device_index: Option<usize>,
+}
+
+impl ContextOptions {
+    /// Options for tests: validation (with synchronization validation) always on.
+    pub fn validated() -> Self {
+        Self { validation: true, sync_validation: true, ..Default::default() }
+    }
+
+    fn validation_wanted(&self) -> bool {
+        self.validation || self.sync_validation || std::env::var("MESHTRACER_VALIDATION").is_ok_and(|v| v == "1")
+    }
+}
+
+/// What the chosen device is, for reports and limits checks.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub device_type: String,
+    /// Driver name and version as the driver reports them.
+    pub driver: String,
+    /// Vulkan version the device supports, "1.3.x".
+    pub api_version: String,
+    pub max_storage_buffer_range: u64,
+    pub max_compute_work_group_count: [u32; 3],
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+    /// Valid bits of the queue's timestamps (0 = no timestamps).
+    pub timestamp_valid_bits: u32,
+    /// Device-local heap size in bytes (the largest such heap).
+    pub device_local_bytes: u64,
+}
+
+/// Validation messages collected by the debug messenger.
+#[derive(Default)]
+pub struct ValidationLog {
+    messages: Mutex<Vec<String>>,
+}
+
+impl ValidationLog {
+    /// Messages of warning or error severity so far.
+    pub fn messages(&self) -> Vec<String> {
+        self.messages.lock().unwrap().clone()
+    }
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    let message = if data.is_null() || (*data).p_message.is_null() {
+        "(no message)".to_string()
+    } else {
+        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+    };
+    let serious = severity.intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR);
+    if serious && kind.intersects(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE) {
+        log::error!("Vulkan validation: {message}");
+        if !user.is_null() {
+            let log = &*(user as *const ValidationLog);
+            log.messages.lock().unwrap().push(message);
+        }
+    } else {
+        log::debug!("Vulkan: {message}");
+    }
+    vk::FALSE
+}
+
+/// The Vulkan instance, device, queue and allocator.
+pub struct GpuContext {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    /// One queue that does compute, transfers and (for the window) graphics and present.
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub info: DeviceInfo,
+    /// True when the device was created with dynamic rendering and the swapchain.
+    pub presentation: bool,
+    allocator: ManuallyDrop<Mutex<Allocator>>,
+    debug: Option<(debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation: Arc<ValidationLog>,
+    one_shot_pool: Mutex<vk::CommandPool>,
+}
+
+/// A surface-creating callback, run between instance and device creation.
+pub type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
+
+fn load_entry() -> Result<ash::Entry, GpuError> {
+    // SAFETY: loading the system's Vulkan loader library; no other invariants.
+    unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing(e.to_string()))
+}
+
+fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// Names of the Vulkan devices present, in `device_index` order.
+pub fn list_devices() -> Result<Vec<String>, GpuError> {
+    let entry = load_entry()?;
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+    let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }
+        .during("creating the Vulkan instance")?;
+    let names = unsafe {
+        let devices = instance.enumerate_physical_devices().unwrap_or_default();
+        devices
+            .iter()
+            .map(|&d| {
+                let p = instance.get_physical_device_properties(d);
+                format!("{} ({})", p.device_name_as_c_str().unwrap_or(c"?").to_string_lossy(), device_type_name(p.device_type))
+            })
+            .collect()
+    };
+    unsafe { instance.destroy_instance(None) };
+    Ok(names)
+}
+
+impl GpuContext {
+    /// A headless context (no surface).
+    pub fn new(options: &ContextOptions) -> Result<Arc<Self>, GpuError> {
+        Self::with_surface(options, None).map(|(ctx, _)| ctx)
+    }
+
+    /// Create instance, optional surface (via `make_surface`), device and allocator.
+    pub fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
+        let entry = load_entry()?;
+        let validation = options.validation_wanted();
+        let validation_log = Arc::new(ValidationLog::default());
+
+        let mut layers: Vec<*const c_char> = Vec::new();
+        if validation {
+            let available = unsafe { entry.enumerate_instance_layer_properties() }.during("listing instance layers")?;
+            if !available.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
+                return Err(GpuError::ValidationLayerMissing);
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+        }
+        let mut extensions = options.instance_extensions.clone();
+        if validation {
+            extensions.push(debug_utils::NAME.as_ptr());
+        }
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"meshtracer")
+            .engine_name(c"meshtracer")
+            .api_version(vk::API_VERSION_1_3);
+        let sync_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync_features);
+        let mut create = vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layers).enabled_extension_names(&extensions);
+        if validation && options.sync_validation {
+            create = create.push_next(&mut features);
+        }
+        let instance = unsafe { entry.create_instance(&create, None) }.during("creating the Vulkan instance")?;
+
+        let debug = if validation {
+            let loader = debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+                )
+                .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(Arc::as_ptr(&validation_log) as *mut c_void);
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;
+            Some((loader, messenger))
+        } else {
+            None
+        };
+
+        // From here on, failures must tear down what exists: wrap in a guard-like closure.
+        let result = (|| {
+            let surface = match make_surface {
+                Some(f) => Some(f(&entry, &instance)?),
+                None => None,
+            };
+            let surface_loader = ash::khr::surface::Instance::new(&entry, &instance);
+            let (physical_device, queue_family) = pick_device(&instance, options.device_index, surface.map(|s| (&surface_loader, s)))?;
+            Ok::<_, GpuError>((surface, physical_device, queue_family))
+        })();
+        let (surface, physical_device, queue_family) = match result {
+            Ok(v) => v,
+            Err(e) => {
+                unsafe {
+                    if let Some((loader, m)) = &debug {
+                        loader.destroy_debug_utils_messenger(*m, None);
+                    }
+                    instance.destroy_instance(None);
+                }
+                return Err(e);
+            }
+        };
+
+        let props = unsafe { instance.get_physical_device_properties(physical_device) };
+        let presentation = options.presentation;
+        let priorities = [1.0];
+        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let mut device_extensions: Vec<*const c_char> = Vec::new();
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
+        let mut device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        if presentation {
+            device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
+            device_info = device_info.push_next(&mut features13);
+        }
+        device_info = device_info.enabled_extension_names(&device_extensions);
+        let device = unsafe { instance.create_device(physical_device, &device_info, None) }.during("creating the Vulkan device")?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
+
+        let info = device_info_of(&instance, physical_device, queue_family, &props);
+        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
+
+        Ok((
+            Arc::new(Self {
+                entry,
+                instance,
+                physical_device,
+                device,
+                queue,
+                queue_family,
+                info,
+                presentation,
+                allocator: ManuallyDrop::new(Mutex::new(allocator)),
+                debug,
+                validation: validation_log,
+                one_shot_pool: Mutex::new(one_shot_pool),
+            }),
+            surface,
+        ))
+    }
+
+    /// The memory allocator (buffers and images lock it briefly to allocate or free).
+    pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
+        self.allocator.lock().unwrap()
+    }
+
+    /// Validation messages (warnings and errors) seen so far; empty without validation.
+    pub fn validation_messages(&self) -> Vec<String> {
+        self.validation.messages()
+    }
+
+    /// True when the validation layer is active.
+    pub fn validation_enabled(&self) -> bool {
+        self.debug.is_some()
+    }
+
+    /// Record commands with `record`, submit them and wait for completion.
+    pub fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
+        let pool = self.one_shot_pool.lock().unwrap();
+        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        let result = (|| unsafe {
+            self.device
+                .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
+                .during("recording commands")?;
+            let r = record(cmd);
+            self.device.end_command_buffer(cmd).during("recording commands")?;
+            let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None).during("creating a fence")?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let submitted = self.device.queue_submit(self.queue, &submit, fence).during("submitting GPU work");
+            let waited = submitted.and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX).during("waiting for the GPU"));
+            self.device.destroy_fence(fence, None);
+            waited.map(|_| r)
+        })();
+        unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
+        result
+    }
+
+    /// Wait until the GPU is idle (before freeing resources it may still use).
+    pub fn wait_idle(&self) -> Result<(), GpuError> {
+        unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
+    }
+}
+
+impl Drop for GpuContext {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_command_pool(*self.one_shot_pool.get_mut().unwrap(), None);
+            // The allocator frees its memory blocks through the device: drop it first.
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn pick_device(
+    instance: &ash::Instance,
+    index: Option<usize>,
+    surface: Option<(&ash::khr::surface::Instance, vk::SurfaceKHR)>,
+) -> Result<(vk::PhysicalDevice, u32), GpuError> {
+    let devices = unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
+    if devices.is_empty() {
+        return Err(GpuError::NoDevice);
+    }
+    let queue_for = |pd: vk::PhysicalDevice| -> Option<u32> {
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        families.iter().enumerate().find_map(|(i, f)| {
+            let i = i as u32;
+            let mut ok = f.queue_flags.contains(vk::QueueFlags::COMPUTE);
+            if let Some((loader, s)) = surface {
+                ok &= f.queue_flags.contains(vk::QueueFlags::GRAPHICS)
+                    && unsafe { loader.get_physical_device_surface_support(pd, i, s) }.unwrap_or(false);
+            }
+            ok.then_some(i)
+        })
+    };
+    if let Some(i) = index {
+        let pd = *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
+        return queue_for(pd).map(|q| (pd, q)).ok_or(GpuError::NoDevice);
+    }
+    let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }.device_type {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    };
+    let mut candidates: Vec<(i32, vk::PhysicalDevice, u32)> =
+        devices.iter().filter_map(|&pd| queue_for(pd).map(|q| (rank(pd), pd, q))).collect();
+    candidates.sort_by_key(|c| c.0);
+    candidates.first().map(|&(_, pd, q)| (pd, q)).ok_or(GpuError::NoDevice)
+}
+
+fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
+    let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let driver_name = driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let driver_info = driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
+    let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+        .iter()
+        .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .map(|h| h.size)
+        .max()
+        .unwrap_or(0);
+    let v = props.api_version;
+    DeviceInfo {
+        name: props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned(),
+        device_type: device_type_name(props.device_type).into(),
+        driver: format!("{driver_name} {driver_info}").trim().to_string(),
+        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
+        max_compute_work_group_count: props.limits.max_compute_work_group_count,
+        timestamp_period_ns: props.limits.timestamp_period,
+        timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,
+        device_local_bytes,
+    }
+}

@@ -1,0 +1,71 @@
+//! The packed scene in device-local storage buffers, checked against the device's limits
+//! before anything is uploaded.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::buffer::GpuBuffer;
+use super::context::GpuContext;
+use super::error::GpuError;
+use crate::scene::paper::MAX_MODELS;
+use crate::tracer::packed::{GpuInstance, PackedScene};
+
+/// Room in the instance buffer: every model copy plus the mirror box, plus headroom.
+pub const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
+
+/// Device buffers of one packed scene.
+pub struct SceneBuffers {
+    pub triangles: GpuBuffer,
+    pub shading: GpuBuffer,
+    pub materials: GpuBuffer,
+    pub nodes: GpuBuffer,
+    pub instances: GpuBuffer,
+    /// Instances currently uploaded.
+    pub instance_count: u32,
+    /// Bytes of device memory the scene occupies.
+    pub bytes: u64,
+}
+
+/// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
+pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
+    let names = ["triangle", "shading", "material", "BVH node", "instance"];
+    let limit = ctx.info.max_storage_buffer_range;
+    for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
+        if bytes > limit {
+            return Err(GpuError::SceneTooLarge { buffer: name, bytes, limit });
+        }
+    }
+    let total: u64 = packed.buffer_sizes().iter().sum();
+    if ctx.info.device_local_bytes > 0 && total > ctx.info.device_local_bytes / 10 * 9 {
+        return Err(GpuError::SceneTooLarge { buffer: "whole scene", bytes: total, limit: ctx.info.device_local_bytes / 10 * 9 });
+    }
+    Ok(())
+}
+
+impl SceneBuffers {
+    /// Upload the packed scene.
+    pub fn upload(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
+        check_fits(ctx, packed)?;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage, "triangles")?;
+        let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
+        let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
+        let nodes = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.nodes), storage, "bvh nodes")?;
+        let capacity = (INSTANCE_CAPACITY.max(packed.instances.len()) * std::mem::size_of::<GpuInstance>()) as u64;
+        let instances = GpuBuffer::new(ctx, capacity, storage | vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuOnly, "instances")?;
+        let bytes = triangles.size + shading.size + materials.size + nodes.size + instances.size;
+        let mut s = Self { triangles, shading, materials, nodes, instances, instance_count: 0, bytes };
+        s.set_instances(&packed.instances)?;
+        Ok(s)
+    }
+
+    /// Replace the instance list (the top level); the GPU must not be using it.
+    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(instances);
+        assert!(bytes.len() as u64 <= self.instances.size, "more instances than the buffer holds");
+        self.instances.upload(bytes)?;
+        self.instance_count = instances.len() as u32;
+        Ok(())
+    }
+}

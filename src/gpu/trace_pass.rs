@@ -1,0 +1,131 @@
+//! The trace pass: the compute pipeline running `shaders/trace.comp`, its descriptor set
+//! (scene buffers + output buffers) and the recording of one frame's dispatches.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::buffer::GpuBuffer;
+use super::context::GpuContext;
+use super::error::{GpuError, VkContext};
+use super::scene_buffers::SceneBuffers;
+use crate::tracer::frame::{FrameParams, PushConstants};
+
+/// SPIR-V compiled from `shaders/trace.comp` by build.rs.
+static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
+
+/// Work-group size of the shader (`local_size_x/y`).
+pub const GROUP_SIZE: u32 = 8;
+
+const BINDINGS: u32 = 7;
+
+/// Output buffers at one resolution: packed 8-bit colour and float RGBA.
+pub struct TraceOutput {
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: GpuBuffer,
+    pub float: GpuBuffer,
+}
+
+impl TraceOutput {
+    /// Output buffers for `width` x `height` pixels.
+    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32) -> Result<Self, GpuError> {
+        let pixels = width as u64 * height as u64;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let loc = gpu_allocator::MemoryLocation::GpuOnly;
+        Ok(Self {
+            width,
+            height,
+            rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
+            float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
+        })
+    }
+}
+
+/// The compute pipeline and its one descriptor set.
+pub struct TracePass {
+    ctx: Arc<GpuContext>,
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+}
+
+impl TracePass {
+    /// Create the pipeline.
+    pub fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let bindings: Vec<_> = (0..BINDINGS)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }
+            .during("creating the trace descriptor layout")?;
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .size(std::mem::size_of::<PushConstants>() as u32)];
+        let set_layouts = [set_layout];
+        let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
+            .during("creating the trace pipeline layout")?;
+        let code: Vec<u32> = TRACE_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the trace shader")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+        let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        unsafe { device.destroy_shader_module(module, None) };
+        let pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0];
+        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS }];
+        let pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
+            .during("creating the trace descriptor pool")?;
+        let set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) }
+            .during("allocating the trace descriptor set")?[0];
+        Ok(Self { ctx: ctx.clone(), pipeline, layout, set_layout, pool, set })
+    }
+
+    /// Point the descriptor set at a scene and an output; the GPU must not be using the set.
+    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
+        let buffers = [&scene.triangles, &scene.shading, &scene.materials, &scene.nodes, &scene.instances, &output.rgba8, &output.float];
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> =
+            buffers.iter().map(|b| [vk::DescriptorBufferInfo { buffer: b.buffer, offset: 0, range: vk::WHOLE_SIZE }]).collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(i as u32).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info)
+            })
+            .collect();
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Record the dispatch for rows `first_row .. first_row + rows` of the frame.
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, first_row: u32, rows: u32) {
+        let device = &self.ctx.device;
+        let pc = params.push_constants(first_row);
+        let groups_x = params.settings.width.div_ceil(GROUP_SIZE);
+        let groups_y = rows.div_ceil(GROUP_SIZE);
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&pc));
+            device.cmd_dispatch(cmd, groups_x, groups_y, 1);
+        }
+    }
+}
+
+impl Drop for TracePass {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        unsafe {
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

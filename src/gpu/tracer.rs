@@ -1,0 +1,169 @@
+//! The headless GPU tracer: scene buffers + trace pass + output buffers + timer. `render`,
+//! `bench` and the tests use it; the app records the same `TracePass` into its frames.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::error::GpuError;
+use super::scene_buffers::SceneBuffers;
+use super::timer::GpuTimer;
+use super::trace_pass::{TraceOutput, TracePass, GROUP_SIZE};
+use crate::tracer::frame::{Accel, FrameParams};
+use crate::tracer::image::Image;
+use crate::tracer::packed::{GpuInstance, PackedScene};
+
+/// Ray-triangle tests one submission may ask for before the frame is split into row
+/// bands, each its own submission, so no single dispatch runs long enough to trip a
+/// driver watchdog (brute force on big meshes).
+pub const TESTS_PER_SUBMIT: f64 = 4.0e9;
+
+/// Timing of one traced frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceTiming {
+    /// GPU time of the trace dispatches (timestamps), when the queue has timestamps.
+    pub gpu_ms: Option<f64>,
+    /// Wall-clock time from submit to completion, as the paper's fps would count it.
+    pub wall_ms: f64,
+    /// Submissions the frame was split into.
+    pub submissions: u32,
+}
+
+/// A scene on the GPU, ready to trace frames.
+pub struct GpuTracer {
+    ctx: Arc<GpuContext>,
+    pass: TracePass,
+    scene: SceneBuffers,
+    output: Option<TraceOutput>,
+    timer: Option<GpuTimer>,
+    /// Triangles in the largest mesh, for the per-ray cost estimate.
+    triangle_total: u64,
+}
+
+impl GpuTracer {
+    /// Upload `packed` and build the pipeline.
+    pub fn new(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
+        let pass = TracePass::new(ctx)?;
+        let scene = SceneBuffers::upload(ctx, packed)?;
+        let timer = GpuTimer::new(ctx, 1)?;
+        Ok(Self { ctx: ctx.clone(), pass, scene, output: None, timer, triangle_total: 0 }.with_total(packed))
+    }
+
+    fn with_total(mut self, packed: &PackedScene) -> Self {
+        self.triangle_total = packed.instances.iter().map(|i| i.triangle_count as u64).sum();
+        self
+    }
+
+    /// The context this tracer runs on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Replace the instance list (model count change): no geometry is re-uploaded.
+    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+        self.scene.set_instances(instances)?;
+        self.triangle_total = instances.iter().map(|i| i.triangle_count as u64).sum();
+        Ok(())
+    }
+
+    /// Bytes of device memory the scene uses.
+    pub fn scene_bytes(&self) -> u64 {
+        self.scene.bytes
+    }
+
+    fn ensure_output(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        if self.output.as_ref().is_none_or(|o| o.width != width || o.height != height) {
+            self.output = None; // free the old buffers first
+            let out = TraceOutput::new(&self.ctx, width, height)?;
+            self.pass.bind(&self.scene, &out);
+            self.output = Some(out);
+        } else if let Some(out) = &self.output {
+            // Instance buffer contents may have changed; the binding itself has not.
+            let _ = out;
+        }
+        Ok(())
+    }
+
+    /// Rows per submission so that each stays under `TESTS_PER_SUBMIT` tests (a multiple of the group size).
+    fn rows_per_submit(&self, params: &FrameParams) -> u32 {
+        let s = &params.settings;
+        let tests_per_ray = match s.accel {
+            Accel::Brute => self.triangle_total.max(1) as f64,
+            Accel::Bvh => 256.0,
+        };
+        let per_row = s.width as f64 * (s.bounces as f64 + 1.0) * tests_per_ray;
+        let rows = (TESTS_PER_SUBMIT / per_row).floor() as u32;
+        let rows = rows.max(1).div_ceil(GROUP_SIZE) * GROUP_SIZE;
+        rows.min(s.height.div_ceil(GROUP_SIZE) * GROUP_SIZE)
+    }
+
+    /// Trace one frame into the output buffers and wait for it.
+    pub fn trace(&mut self, params: &FrameParams) -> Result<TraceTiming, GpuError> {
+        let s = params.settings;
+        self.ensure_output(s.width, s.height)?;
+        let mut params = *params;
+        params.instance_count = params.instance_count.min(self.scene.instance_count);
+        let band = self.rows_per_submit(&params);
+        let mut timing = TraceTiming { gpu_ms: self.timer.as_ref().map(|_| 0.0), ..Default::default() };
+        let start = Instant::now();
+        let mut row = 0;
+        while row < s.height {
+            let rows = band.min(s.height - row);
+            let pass = &self.pass;
+            let timer = self.timer.as_ref();
+            let device = &self.ctx.device;
+            self.ctx.one_shot(|cmd| unsafe {
+                if let Some(t) = timer {
+                    t.begin(cmd, 0);
+                }
+                // The previous band or frame wrote the outputs; order the writes.
+                let barrier = [vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)
+                    .dst_access_mask(vk::AccessFlags::SHADER_WRITE)];
+                device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::DependencyFlags::empty(),
+                    &barrier,
+                    &[],
+                    &[],
+                );
+                pass.record(cmd, &params, row, rows);
+                if let Some(t) = timer {
+                    t.end(cmd, 0);
+                }
+            })?;
+            if let (Some(t), Some(total)) = (timer, timing.gpu_ms.as_mut()) {
+                *total += t.read_ms(0).unwrap_or(0.0);
+            }
+            timing.submissions += 1;
+            row += rows;
+        }
+        timing.wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(timing)
+    }
+
+    /// Trace a frame and read back the float image (colour or AOV).
+    pub fn render(&mut self, params: &FrameParams) -> Result<(Image, TraceTiming), GpuError> {
+        let timing = self.trace(params)?;
+        Ok((self.read_image()?, timing))
+    }
+
+    /// Read the float output of the last frame.
+    pub fn read_image(&self) -> Result<Image, GpuError> {
+        let out = self.output.as_ref().expect("trace() before read_image()");
+        let bytes = out.float.download(out.width as u64 * out.height as u64 * 16)?;
+        let floats: &[f32] = bytemuck::cast_slice(&bytes);
+        Ok(Image { width: out.width, height: out.height, pixels: floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect() })
+    }
+
+    /// Read the 8-bit colour output of the last frame (RGBA bytes, row 0 at the top).
+    pub fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
+        let out = self.output.as_ref().expect("trace() before read_rgba8()");
+        let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
+        Ok(image::RgbaImage::from_raw(out.width, out.height, bytes).expect("size matches"))
+    }
+}

@@ -1,0 +1,17 @@
+//! meshtracer: a Vulkan compute-shader ray tracer for triangle meshes.
+//!
+//! - [`scene`]: meshes (OBJ loader, the paper's generators), the paper's mirror-box scene.
+//! - [`bvh`]: the acceleration structure, built on the CPU, traversed on both tracers.
+//! - [`tracer`]: the tracing model shared by both tracers: parameters, the packed GPU scene
+//!   layout, and the CPU reference tracer that the tests use as their oracle.
+//! - [`gpu`]: the Vulkan backend (instance/device, memory, buffers, timestamps) and the
+//!   trace pass that runs `shaders/trace.comp`.
+//! - [`app`]: the interactive egui tool on top; [`cli`]: the thin command line.
+
+pub mod bvh;
+pub mod geometry;
+pub mod scene;
+pub mod gpu;
+pub mod tracer;
+pub mod app;
+pub mod cli;

@@ -1,0 +1,28 @@
+//! The `meshtracer` binary: parse the command line, run, and turn any error into one line.
+
+use clap::Parser;
+
+use meshtracer::cli::{self, Cli, Command};
+
+fn main() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).format_timestamp(None).init();
+    // A bug must still end in one readable line, not a backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info.payload().downcast_ref::<&str>().map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+        eprintln!("error: internal error: {msg}{at} (please report this)");
+    }));
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::Render(args)) => cli::render::run(&args),
+        Some(Command::Devices) => cli::devices(),
+        Some(Command::View(args)) => meshtracer::app::run(&args),
+        None => meshtracer::app::run(&cli.view),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}

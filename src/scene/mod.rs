@@ -1,0 +1,171 @@
+//! What is traced: meshes (from .obj files or the paper's generators), their materials,
+//! instances of them placed in the world, the camera and the light.
+
+pub mod camera;
+pub mod obj;
+pub mod paper;
+pub mod primitives;
+
+use std::path::PathBuf;
+
+use glam::{Vec2, Vec3};
+
+use crate::geometry::Aabb;
+
+pub use camera::Camera;
+
+/// A Blinn–Phong material (the paper's diffuse and specular terms) plus how strongly the
+/// surface mirrors: the reflection blend ratio is scaled by `mirror`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Diffuse reflectance (`Kd`).
+    pub diffuse: Vec3,
+    /// Specular reflectance (`Ks`).
+    pub specular: Vec3,
+    /// Blinn–Phong exponent (`Ns`).
+    pub shininess: f32,
+    /// 0 = matte, 1 = takes part fully in the mirror blend.
+    pub mirror: f32,
+    /// `map_Kd`, when the .mtl names one (resolved relative to the .mtl).
+    pub diffuse_texture: Option<PathBuf>,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: "default".into(),
+            diffuse: Vec3::splat(0.8),
+            specular: Vec3::splat(0.5),
+            shininess: 32.0,
+            mirror: 1.0,
+            diffuse_texture: None,
+        }
+    }
+}
+
+/// An indexed triangle mesh. Vertex attributes share one index (tobj's `single_index`).
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Where the mesh came from ("geosphere", a file path, ...), for messages.
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals, same length as `positions`: from the file's `vn`, or
+    /// area-weighted averages of the face normals when the file has none.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, same length as `positions`, or empty.
+    pub texcoords: Vec<Vec2>,
+    /// Triangles in file order (a quad's two triangles follow each other).
+    pub triangles: Vec<[u32; 3]>,
+    /// Material index of each triangle (into `materials`).
+    pub triangle_materials: Vec<u32>,
+    /// At least one material.
+    pub materials: Vec<Material>,
+    /// True when the normals came from the file.
+    pub has_file_normals: bool,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// The three corner positions of triangle `i`.
+    pub fn corners(&self, i: usize) -> [Vec3; 3] {
+        self.triangles[i].map(|k| self.positions[k as usize])
+    }
+
+    /// Bounding box of all vertices.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    /// Area-weighted vertex normals from the triangles (used when a file has no `vn`).
+    pub fn compute_vertex_normals(&mut self) {
+        let mut n = vec![Vec3::ZERO; self.positions.len()];
+        for tri in &self.triangles {
+            let [a, b, c] = tri.map(|k| self.positions[k as usize]);
+            // The cross product's length is twice the area: the weighting comes for free.
+            let face = (b - a).cross(c - a);
+            for &k in tri {
+                n[k as usize] += face;
+            }
+        }
+        self.normals = n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect();
+        self.has_file_normals = false;
+    }
+
+    /// Uniformly scale and translate the mesh so that its bounding box is centred at the
+    /// origin and its largest half-extent is `radius` (models of any size fit the scene).
+    pub fn normalize_to(&mut self, radius: f32) {
+        let b = self.bounds();
+        if b.is_empty() {
+            return;
+        }
+        let c = b.center();
+        let half = b.extent().max_element() * 0.5;
+        let s = if half > 0.0 { radius / half } else { 1.0 };
+        for p in &mut self.positions {
+            *p = (*p - c) * s;
+        }
+    }
+}
+
+/// A placement of a mesh in the world: uniform scale, then translation. Uniform scale keeps
+/// normals and ray distances unchanged by the instance transform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into `Scene::meshes`.
+    pub mesh: usize,
+    pub translation: Vec3,
+    pub scale: f32,
+}
+
+/// A point light (the paper's orbiting light).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    pub position: Vec3,
+    pub color: Vec3,
+}
+
+/// Everything the tracers need: meshes, instances, camera, light and background.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub meshes: Vec<Mesh>,
+    pub instances: Vec<Instance>,
+    pub camera: Camera,
+    pub light: PointLight,
+    /// Colour of rays that hit nothing (the paper: black).
+    pub background: Vec3,
+    /// Ambient fraction of the diffuse colour, so unlit sides are not pitch black.
+    pub ambient: f32,
+}
+
+impl Scene {
+    /// Triangles in the world, counting each instance.
+    pub fn triangle_count(&self) -> usize {
+        self.instances.iter().map(|i| self.meshes[i.mesh].triangle_count()).sum()
+    }
+
+    /// Vertices in the world, counting each instance.
+    pub fn vertex_count(&self) -> usize {
+        self.instances.iter().map(|i| self.meshes[i.mesh].vertex_count()).sum()
+    }
+
+    /// World-space bounding box of all instances.
+    pub fn bounds(&self) -> Aabb {
+        self.instances.iter().fold(Aabb::EMPTY, |acc, inst| {
+            let b = self.meshes[inst.mesh].bounds();
+            if b.is_empty() {
+                return acc;
+            }
+            acc.union(Aabb { min: b.min * inst.scale + inst.translation, max: b.max * inst.scale + inst.translation })
+        })
+    }
+}

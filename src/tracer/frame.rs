@@ -1,0 +1,224 @@
+//! Per-frame parameters: resolution, bounces, blend ratio, acceleration mode, output
+//! (AOV), plus the camera and light of the scene, flattened to the push-constant block
+//! that `shaders/scene.glsl` declares.
+
+use std::fmt;
+use std::str::FromStr;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::scene::camera::CameraBasis;
+use crate::scene::Scene;
+
+/// How closest hits are found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Accel {
+    /// The paper's method: every ray against every triangle.
+    Brute,
+    /// Bounding volume hierarchy per mesh, instances listed on top.
+    #[default]
+    Bvh,
+}
+
+/// What a render writes: the shaded colour or one of the primary-hit buffers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Aov {
+    /// Shaded colour (PNG).
+    #[default]
+    Color,
+    /// Primary-hit distance, -1 on a miss.
+    Depth,
+    /// Primary-hit normal facing the camera, 0 on a miss.
+    Normal,
+    /// Index of the triangle hit (mesh file order), -1 on a miss.
+    PrimId,
+    /// BVH nodes visited (x) and triangles tested (y) over all rays of the pixel.
+    Cost,
+}
+
+impl Aov {
+    fn code(self) -> u32 {
+        match self {
+            Aov::Color => 0,
+            Aov::Depth => 1,
+            Aov::Normal => 2,
+            Aov::PrimId => 3,
+            Aov::Cost => 4,
+        }
+    }
+}
+
+macro_rules! name_enum {
+    ($ty:ty, $what:literal, $($variant:path => $name:literal),+) => {
+        impl fmt::Display for $ty {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(match self { $($variant => $name),+ })
+            }
+        }
+        impl FromStr for $ty {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                match s.to_ascii_lowercase().as_str() {
+                    $($name => Ok($variant),)+
+                    _ => Err(format!(concat!("unknown ", $what, " '{}' (expected one of: {})"), s, [$($name),+].join(", "))),
+                }
+            }
+        }
+    };
+}
+name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh");
+name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost");
+
+/// Limits on the user-facing parameters (checked by the CLI and the panel).
+pub const MAX_BOUNCES: u32 = 8;
+/// Largest image side accepted.
+pub const MAX_RESOLUTION: u32 = 8192;
+
+/// The user's knobs for one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Mirror bounces after the primary hit (0..=8); the paper used 2.
+    pub bounces: u32,
+    /// Reflection blend ratio in [0, 1]: 0 = no reflection, 1 = pure mirror.
+    pub blend: f32,
+    pub accel: Accel,
+    pub aov: Aov,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color }
+    }
+}
+
+impl RenderSettings {
+    /// Check every knob against its range; the error names the knob and the range.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if !(1..=MAX_RESOLUTION).contains(&v) {
+                return Err(format!("{name} {v} is out of range (1..={MAX_RESOLUTION})"));
+            }
+        }
+        if self.bounces > MAX_BOUNCES {
+            return Err(format!("bounces {} is out of range (0..={MAX_BOUNCES})", self.bounces));
+        }
+        if !(0.0..=1.0).contains(&self.blend) {
+            return Err(format!("blend {} is out of range (0..=1)", self.blend));
+        }
+        Ok(())
+    }
+
+    /// Rays traced per frame at most: one primary ray and `bounces` reflected rays per pixel.
+    pub fn max_rays(&self) -> u64 {
+        self.width as u64 * self.height as u64 * (self.bounces as u64 + 1)
+    }
+}
+
+/// Everything one frame needs besides the scene's geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameParams {
+    pub settings: RenderSettings,
+    pub camera: CameraBasis,
+    pub light_position: Vec3,
+    pub light_color: Vec3,
+    pub background: Vec3,
+    pub ambient: f32,
+    /// Offset of a bounce ray's origin along the normal, relative to the scene's size.
+    pub ray_epsilon: f32,
+    /// Instances to trace (the first `instance_count` of the packed list).
+    pub instance_count: u32,
+}
+
+/// The push-constant block of `shaders/scene.glsl` (128 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PushConstants {
+    pub cam_origin_eps: [f32; 4],
+    pub cam_forward_blend: [f32; 4],
+    pub cam_right_ambient: [f32; 4],
+    pub cam_up: [f32; 4],
+    pub light_pos: [f32; 4],
+    pub light_color: [f32; 4],
+    pub dims: [u32; 4],
+    pub misc: [u32; 4],
+}
+
+impl FrameParams {
+    /// Parameters for `scene` rendered with `settings`.
+    pub fn new(scene: &Scene, settings: RenderSettings) -> Self {
+        let extent = scene.bounds().extent().max_element();
+        Self {
+            settings,
+            camera: scene.camera.basis(settings.width, settings.height),
+            light_position: scene.light.position,
+            light_color: scene.light.color,
+            background: scene.background,
+            ambient: scene.ambient,
+            ray_epsilon: (extent * 1e-4).max(1e-6),
+            instance_count: scene.instances.len() as u32,
+        }
+    }
+
+    /// The background as the shader sees it (quantised to 8 bits per channel).
+    pub fn background_rgba8(&self) -> u32 {
+        let c = self.background.clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
+        (c.x.round() as u32) | (c.y.round() as u32) << 8 | (c.z.round() as u32) << 16 | 255 << 24
+    }
+
+    /// The background after that quantisation, for the CPU tracer to match the GPU exactly.
+    pub fn background_quantized(&self) -> Vec3 {
+        let v = self.background_rgba8();
+        Vec3::new((v & 255) as f32, (v >> 8 & 255) as f32, (v >> 16 & 255) as f32) / 255.0
+    }
+
+    /// The push constants for rows starting at `first_row`.
+    pub fn push_constants(&self, first_row: u32) -> PushConstants {
+        let s = &self.settings;
+        let c = &self.camera;
+        let flags = u32::from(s.accel == Accel::Bvh) | s.aov.code() << 1;
+        PushConstants {
+            cam_origin_eps: c.origin.extend(self.ray_epsilon).to_array(),
+            cam_forward_blend: c.forward.extend(s.blend).to_array(),
+            cam_right_ambient: c.right.extend(self.ambient).to_array(),
+            cam_up: c.up.extend(0.0).to_array(),
+            light_pos: self.light_position.extend(1.0).to_array(),
+            light_color: self.light_color.extend(1.0).to_array(),
+            dims: [s.width, s.height, s.bounces, flags],
+            misc: [self.instance_count, first_row, self.background_rgba8(), 0],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_bad_names_list_choices() {
+        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost] {
+            assert_eq!(a.to_string().parse::<Aov>().unwrap(), a);
+        }
+        assert_eq!("BVH".parse::<Accel>().unwrap(), Accel::Bvh);
+        let err = "kd".parse::<Accel>().unwrap_err();
+        assert!(err.contains("brute, bvh"), "{err}");
+    }
+
+    #[test]
+    fn settings_ranges_are_enforced() {
+        let ok = RenderSettings::default();
+        assert!(ok.validate().is_ok());
+        assert!(RenderSettings { width: 0, ..ok }.validate().unwrap_err().contains("width 0"));
+        assert!(RenderSettings { height: 100_000, ..ok }.validate().is_err());
+        assert!(RenderSettings { bounces: 1000, ..ok }.validate().unwrap_err().contains("0..=8"));
+        assert!(RenderSettings { blend: 7.0, ..ok }.validate().is_err());
+        assert!(RenderSettings { blend: f32::NAN, ..ok }.validate().is_err());
+    }
+
+    #[test]
+    fn push_constants_are_128_bytes() {
+        assert_eq!(std::mem::size_of::<PushConstants>(), 128);
+    }
+}

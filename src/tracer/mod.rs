@@ -1,0 +1,13 @@
+//! The tracing model both tracers share: what one frame is asked for ([`FrameParams`]),
+//! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout), the
+//! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
+
+pub mod cpu;
+pub mod frame;
+pub mod image;
+pub mod packed;
+pub mod shading;
+
+pub use frame::{Accel, Aov, FrameParams, RenderSettings};
+pub use image::Image;
+pub use packed::PackedScene;

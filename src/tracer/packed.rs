@@ -1,0 +1,187 @@
+//! The scene flattened into the arrays the GPU reads (and the CPU reference reads the same
+//! way): triangles in BVH order as (v0, e1, e2), their shading normals, materials, every
+//! mesh's BVH nodes back to back, and the instance list on top.
+//!
+//! Geometry is packed once per model load; the instance list (the "top level") is rebuilt
+//! alone when only the model count changes, so no mesh is re-uploaded.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::bvh::{BuildOptions, Bvh, BvhNode};
+use crate::scene::{Instance, Mesh, Scene};
+
+/// A triangle as `shaders/scene.glsl` reads it (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    pub v0: [f32; 3],
+    /// Global material index.
+    pub material: u32,
+    pub e1: [f32; 3],
+    /// Index of the triangle in its mesh's file order.
+    pub prim: u32,
+    pub e2: [f32; 3],
+    pub _pad: u32,
+}
+
+impl GpuTriangle {
+    /// Corner 0 and the two edges, as used by Möller–Trumbore.
+    pub fn edges(&self) -> [Vec3; 3] {
+        [Vec3::from(self.v0), Vec3::from(self.e1), Vec3::from(self.e2)]
+    }
+}
+
+/// Per-corner shading normals of a triangle (48 bytes; .w unused for now).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangleShading {
+    pub normals: [[f32; 4]; 3],
+}
+
+/// A Blinn–Phong material (32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub diffuse: [f32; 3],
+    pub mirror: f32,
+    pub specular: [f32; 3],
+    pub shininess: f32,
+}
+
+/// A placed mesh (32 bytes): uniform scale then translation, and where its data lives.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuInstance {
+    pub translation: [f32; 3],
+    pub scale: f32,
+    pub node_base: u32,
+    pub triangle_base: u32,
+    pub triangle_count: u32,
+    /// Added to a triangle's file-order index to give the prim-id AOV.
+    pub prim_base: u32,
+}
+
+/// Where one mesh's data sits in the packed arrays.
+#[derive(Clone, Debug)]
+pub struct PackedMesh {
+    pub name: String,
+    pub node_base: u32,
+    pub triangle_base: u32,
+    pub triangle_count: u32,
+    pub vertex_count: u32,
+    pub prim_base: u32,
+    /// The mesh's BVH (its nodes are also in `PackedScene::nodes` at `node_base`).
+    pub bvh: Bvh,
+}
+
+/// The whole scene as flat arrays.
+#[derive(Clone, Debug, Default)]
+pub struct PackedScene {
+    pub triangles: Vec<GpuTriangle>,
+    pub shading: Vec<GpuTriangleShading>,
+    pub materials: Vec<GpuMaterial>,
+    pub nodes: Vec<BvhNode>,
+    pub instances: Vec<GpuInstance>,
+    pub meshes: Vec<PackedMesh>,
+    /// Seconds spent building BVHs, for reports.
+    pub bvh_build_seconds: f64,
+}
+
+impl PackedScene {
+    /// Build every mesh's BVH and pack the scene.
+    pub fn new(scene: &Scene) -> Self {
+        let mut packed = PackedScene::default();
+        let options = BuildOptions::default();
+        let mut prim_base = 0u32;
+        for mesh in &scene.meshes {
+            packed.push_mesh(mesh, &options, prim_base);
+            prim_base += mesh.triangle_count() as u32;
+        }
+        packed.set_instances(&scene.instances);
+        packed
+    }
+
+    fn push_mesh(&mut self, mesh: &Mesh, options: &BuildOptions, prim_base: u32) {
+        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+        let start = std::time::Instant::now();
+        let bvh = Bvh::build(&corners, options);
+        self.bvh_build_seconds += start.elapsed().as_secs_f64();
+
+        let material_base = self.materials.len() as u32;
+        self.materials.extend(mesh.materials.iter().map(|m| GpuMaterial {
+            diffuse: m.diffuse.to_array(),
+            mirror: m.mirror,
+            specular: m.specular.to_array(),
+            shininess: m.shininess,
+        }));
+        let triangle_base = self.triangles.len() as u32;
+        self.triangles.reserve(bvh.prim_indices.len());
+        self.shading.reserve(bvh.prim_indices.len());
+        for &prim in &bvh.prim_indices {
+            let [a, b, c] = corners[prim as usize];
+            self.triangles.push(GpuTriangle {
+                v0: a.to_array(),
+                material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
+                e1: (b - a).to_array(),
+                prim,
+                e2: (c - a).to_array(),
+                _pad: 0,
+            });
+            let idx = mesh.triangles[prim as usize];
+            let normal = |k: u32| mesh.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO).extend(0.0).to_array();
+            self.shading.push(GpuTriangleShading { normals: idx.map(normal) });
+        }
+        let node_base = self.nodes.len() as u32;
+        self.nodes.extend_from_slice(&bvh.nodes);
+        self.meshes.push(PackedMesh {
+            name: mesh.name.clone(),
+            node_base,
+            triangle_base,
+            triangle_count: mesh.triangle_count() as u32,
+            vertex_count: mesh.vertex_count() as u32,
+            prim_base,
+            bvh,
+        });
+    }
+
+    /// Rebuild the instance list (the top level) alone; geometry is untouched.
+    pub fn set_instances(&mut self, instances: &[Instance]) {
+        self.instances = instances
+            .iter()
+            .map(|inst| {
+                let m = &self.meshes[inst.mesh];
+                GpuInstance {
+                    translation: inst.translation.to_array(),
+                    scale: inst.scale,
+                    node_base: m.node_base,
+                    triangle_base: m.triangle_base,
+                    triangle_count: m.triangle_count,
+                    prim_base: m.prim_base,
+                }
+            })
+            .collect();
+    }
+
+    /// Bytes of each GPU array: triangles, shading, materials, nodes, instances.
+    pub fn buffer_sizes(&self) -> [u64; 5] {
+        fn bytes<T>(v: &[T]) -> u64 {
+            std::mem::size_of_val(v) as u64
+        }
+        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), bytes(&self.nodes), bytes(&self.instances)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_structs_match_the_shader_layout() {
+        assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
+        assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 48);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
+        assert_eq!(std::mem::size_of::<GpuInstance>(), 32);
+        assert_eq!(std::mem::size_of::<BvhNode>(), 64);
+    }
+}

@@ -1,0 +1,469 @@
+//! BVH build and traversal against brute force, on ordinary and degenerate meshes, plus the
+//! checker's ability to catch broken trees and the SAH cost against simpler trees.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats, MAX_DEPTH};
+use meshtracer::geometry::{intersect_triangle, Aabb, Ray, TriHit};
+
+/// xorshift64: a seeded, dependency-free random source.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    /// Uniform in [0, 1).
+    fn f(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f()
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    fn vec_in(&mut self, b: &Aabb) -> Vec3 {
+        Vec3::new(self.range(b.min.x, b.max.x), self.range(b.min.y, b.max.y), self.range(b.min.z, b.max.z))
+    }
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+// --- meshes -------------------------------------------------------------------------------
+
+fn soup(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Vec<[Vec3; 3]> {
+    let b = Aabb { min: Vec3::splat(-extent), max: Vec3::splat(extent) };
+    (0..n)
+        .map(|_| {
+            let c = rng.vec_in(&b);
+            [c + rng.unit() * size, c + rng.unit() * size, c + rng.unit() * size]
+        })
+        .collect()
+}
+
+/// A closed UV sphere with `rings` x `segments` quads (two triangles each).
+fn sphere(rings: usize, segments: usize, radius: f32) -> Vec<[Vec3; 3]> {
+    let p = |i: usize, j: usize| {
+        let (theta, phi) = (std::f32::consts::PI * i as f32 / rings as f32, std::f32::consts::TAU * j as f32 / segments as f32);
+        Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius
+    };
+    let mut tris = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            tris.push([a, b, c]);
+            tris.push([a, c, d]);
+        }
+    }
+    tris
+}
+
+/// A flat `n` x `n` grid of quads in the plane z = `z`.
+fn grid(n: usize, z: f32) -> Vec<[Vec3; 3]> {
+    let mut tris = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let p = |a: usize, b: usize| Vec3::new(a as f32, b as f32, z);
+            tris.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            tris.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    tris
+}
+
+fn bounds(tris: &[[Vec3; 3]]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(Aabb::from_points(t)))
+}
+
+// --- the oracle ---------------------------------------------------------------------------
+
+fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(u32, TriHit)> {
+    let mut best: Option<(u32, TriHit)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        let t_max = best.map_or(f32::INFINITY, |(_, h)| h.t);
+        if let Some(h) = intersect_triangle(ray, t[0], t[1] - t[0], t[2] - t[0], 0.0, t_max) {
+            best = Some((i as u32, h));
+        }
+    }
+    best
+}
+
+/// Random rays: origins inside and around the bounds, half of them aimed at a random
+/// point of a random triangle (so that most hit), half in uniform random directions.
+fn random_rays(rng: &mut Rng, tris: &[[Vec3; 3]], count: usize) -> Vec<Ray> {
+    let b = bounds(tris);
+    let pad = b.extent().max_element().max(1e-3);
+    let around = Aabb { min: b.min - pad, max: b.max + pad };
+    (0..count)
+        .map(|i| {
+            let origin = if i % 3 == 0 { rng.vec_in(&b) } else { rng.vec_in(&around) };
+            let dir = if i % 2 == 0 && !tris.is_empty() {
+                let t = tris[rng.below(tris.len())];
+                let (u, v) = (rng.f(), rng.f());
+                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                let target = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                (target - origin).try_normalize().unwrap_or(Vec3::Z)
+            } else {
+                rng.unit()
+            };
+            Ray::new(origin, dir)
+        })
+        .collect()
+}
+
+/// Builds, validates and checks `rays` random rays against brute force; returns the stats.
+fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, seed: u64, options: &BuildOptions) -> TraversalStats {
+    let bvh = Bvh::build(tris, options);
+    bvh.validate_with(tris, options).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let ordered = ordered_edges(&bvh, tris);
+    let mut rng = Rng(seed);
+    let mut stats = TraversalStats::default();
+    let mut hits = 0;
+    for (r, ray) in random_rays(&mut rng, tris, rays).iter().enumerate() {
+        let got = bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut stats);
+        let want = brute_force(tris, ray);
+        match (got, want) {
+            (None, None) => {}
+            (Some((k, g)), Some((i, w))) => {
+                hits += 1;
+                let close = (g.t - w.t).abs() <= 1e-5 * w.t.abs().max(1e-30);
+                let index = bvh.prim_indices[k as usize];
+                // Same triangle, or a tie (coincident triangles, a shared edge) at the same t.
+                assert!(close, "{name} ray {r}: bvh t = {} (tri {index}) vs brute t = {} (tri {i}): {ray:?}", g.t, w.t);
+                if index == i {
+                    assert_eq!(g, w, "{name} ray {r}: same triangle, different hit");
+                }
+            }
+            (g, w) => panic!("{name} ray {r}: bvh {g:?} vs brute force {w:?}: {ray:?}"),
+        }
+    }
+    assert!(tris.len() < 2 || hits > rays / 10 || name.contains("degenerate"), "{name}: only {hits} hits");
+    stats
+}
+
+// --- hits agree with brute force ------------------------------------------------------------
+
+#[test]
+fn random_soup_matches_brute_force() {
+    let tris = soup(&mut Rng(1), 3000, 10.0, 0.8);
+    let stats = check_mesh("soup", &tris, 10_000, 2, &BuildOptions::default());
+    // The tree must actually cull: far fewer triangle tests than brute force's 3000 per ray.
+    assert!(stats.triangles < 10_000 * 100, "{stats:?}");
+}
+
+#[test]
+fn sphere_and_grid_match_brute_force() {
+    check_mesh("sphere", &sphere(32, 48, 2.0), 10_000, 3, &BuildOptions::default());
+    check_mesh("grid", &grid(40, 0.5), 10_000, 4, &BuildOptions::default());
+}
+
+#[test]
+fn tiny_meshes_match_brute_force() {
+    let one = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    check_mesh("one triangle", &one, 10_000, 5, &BuildOptions::default());
+    let two = [[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z, Vec3::Z + Vec3::X, Vec3::Z + Vec3::Y]];
+    check_mesh("two triangles", &two, 10_000, 6, &BuildOptions::default());
+}
+
+#[test]
+fn leaf_sizes_and_bin_counts_match_brute_force() {
+    let tris = soup(&mut Rng(7), 800, 5.0, 1.0);
+    for (leaf, bins) in [(1, 2), (2, 8), (8, 32), (16, 16)] {
+        let options = BuildOptions { max_leaf_size: leaf, bins, ..Default::default() };
+        check_mesh(&format!("soup leaf {leaf} bins {bins}"), &tris, 2_000, 8 + leaf as u64, &options);
+    }
+}
+
+#[test]
+fn coincident_triangles_tie_at_equal_t() {
+    // Every triangle twice (and once more reversed): hits tie; either index is fine.
+    let base = sphere(8, 12, 1.0);
+    let tris: Vec<[Vec3; 3]> = base.iter().flat_map(|&t| [t, t, [t[2], t[1], t[0]]]).collect();
+    check_mesh("coincident", &tris, 10_000, 9, &BuildOptions::default());
+}
+
+#[test]
+fn random_small_sets_property() {
+    // Property test by seeded sampling: many small random meshes, mixing scales, duplicates
+    // and degenerate triangles; the tree is valid and every ray agrees with brute force.
+    let mut rng = Rng(0x5eed);
+    for case in 0..300 {
+        let n = 1 + rng.below(40);
+        let scale = [1e-3, 1.0, 1e3][rng.below(3)];
+        let size = scale * rng.range(0.01, 1.0);
+        let mut tris = soup(&mut rng, n, scale, size);
+        for _ in 0..rng.below(4) {
+            let t = tris[rng.below(tris.len())];
+            tris.push(match rng.below(3) {
+                0 => t,                  // duplicate
+                1 => [t[0], t[0], t[1]], // zero area
+                _ => [t[0], t[0], t[0]], // a point
+            });
+        }
+        let options = BuildOptions { max_leaf_size: 1 + rng.below(6) as u32, bins: 2 + rng.below(31) as u32, ..Default::default() };
+        check_mesh(&format!("case {case}"), &tris, 200, rng.next_u64() | 1, &options);
+    }
+}
+
+// --- degenerate inputs --------------------------------------------------------------------
+
+#[test]
+fn empty_input() {
+    let bvh = Bvh::build(&[], &BuildOptions::default());
+    assert!(bvh.nodes.is_empty() && bvh.prim_indices.is_empty());
+    assert_eq!(bvh.validate(&[]), Ok(()));
+    let ray = Ray::new(Vec3::ZERO, Vec3::X);
+    assert!(bvh.closest_hit(&[], &ray, 0.0, f32::INFINITY, &mut TraversalStats::default()).is_none());
+    assert_eq!(Bvh::build_from_boxes(&[], &BuildOptions::default()).nodes.len(), 0);
+}
+
+#[test]
+fn single_triangle_is_a_root_over_one_leaf() {
+    let tri = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    let bvh = Bvh::build(&tri, &BuildOptions::default());
+    assert_eq!(bvh.nodes.len(), 1);
+    assert_eq!(bvh.nodes[0].child(0).count, 1);
+    assert!(bvh.nodes[0].child(1).is_empty());
+    assert_eq!(bvh.prim_indices, vec![0]);
+}
+
+#[test]
+fn zero_area_triangles() {
+    let mut rng = Rng(10);
+    // Collinear corners, repeated corners, axis-aligned segments: none can be hit.
+    let mut tris: Vec<[Vec3; 3]> = (0..500)
+        .map(|i| {
+            let a = rng.vec_in(&Aabb { min: Vec3::splat(-5.0), max: Vec3::splat(5.0) });
+            let d = rng.unit();
+            match i % 3 {
+                0 => [a, a + d, a + d * 2.5],
+                1 => [a, a, a + d],
+                _ => [a, a + Vec3::X, a + Vec3::X * 3.0],
+            }
+        })
+        .collect();
+    check_mesh("degenerate only", &tris, 2_000, 11, &BuildOptions::default());
+    tris.extend(soup(&mut rng, 300, 5.0, 0.5));
+    check_mesh("degenerate mixed", &tris, 5_000, 12, &BuildOptions::default());
+}
+
+#[test]
+fn all_coplanar() {
+    let mut rng = Rng(13);
+    let tris: Vec<[Vec3; 3]> = soup(&mut rng, 2000, 10.0, 0.7).into_iter().map(|t| t.map(|p| Vec3::new(p.x, p.y, 1.5))).collect();
+    check_mesh("coplanar", &tris, 10_000, 14, &BuildOptions::default());
+    check_mesh("grid", &grid(30, -2.0), 5_000, 15, &BuildOptions::default());
+}
+
+#[test]
+fn all_at_one_point() {
+    let p = Vec3::new(1.0, -2.0, 3.0);
+    let tris = vec![[p, p, p]; 1000];
+    let bvh = Bvh::build(&tris, &BuildOptions::default());
+    assert_eq!(bvh.validate(&tris), Ok(()));
+    assert!(bvh.depth() <= MAX_DEPTH);
+    check_mesh("degenerate point", &tris, 1_000, 16, &BuildOptions::default());
+}
+
+#[test]
+fn huge_coordinate_ranges() {
+    let mut rng = Rng(17);
+    // Triangles of size ~1 scattered over +-1e20 (areas overflow f32 without care).
+    let spread: Vec<[Vec3; 3]> = soup(&mut rng, 2000, 1e20, 1.0);
+    let bvh = Bvh::build(&spread, &BuildOptions::default());
+    assert_eq!(bvh.validate(&spread), Ok(()));
+    assert!(bvh.sah_cost(&BuildOptions::default()).is_finite());
+    // Big triangles at 1e20 scale, traced (rays tolerate the scale; f32 t is relative).
+    let big = soup(&mut rng, 2000, 1e20, 3e19);
+    check_mesh("1e20 scale", &big, 5_000, 18, &BuildOptions::default());
+    // Mixed: unit triangles near the origin plus a few at 1e30.
+    let mut mixed = soup(&mut rng, 1000, 1.0, 0.2);
+    mixed.extend(soup(&mut rng, 20, 1e30, 1e29));
+    let bvh = Bvh::build(&mixed, &BuildOptions::default());
+    assert_eq!(bvh.validate(&mixed), Ok(()));
+    assert!(bvh.sah_cost(&BuildOptions::default()).is_finite());
+    // Exponentially spaced clusters: unbalanced SAH splits must stay within the depth budget.
+    let exp: Vec<[Vec3; 3]> = (0..2000)
+        .map(|i| {
+            let s = 10f32.powf(-30.0 + 60.0 * i as f32 / 2000.0);
+            [Vec3::splat(s), Vec3::new(s * 1.1, s, s), Vec3::new(s, s * 1.1, s)]
+        })
+        .collect();
+    let bvh = Bvh::build(&exp, &BuildOptions { max_leaf_size: 1, ..Default::default() });
+    assert_eq!(bvh.validate_with(&exp, &BuildOptions { max_leaf_size: 1, ..Default::default() }), Ok(()));
+    assert!(bvh.depth() <= MAX_DEPTH, "depth {}", bvh.depth());
+}
+
+#[test]
+fn many_identical_triangles_build_fast() {
+    let tris = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 100_000];
+    let start = Instant::now();
+    let bvh = Bvh::build(&tris, &BuildOptions::default());
+    let elapsed = start.elapsed();
+    assert_eq!(bvh.validate(&tris), Ok(()));
+    assert!(bvh.depth() <= MAX_DEPTH);
+    // Generous for debug builds on a loaded 2-core machine; release takes a few ms.
+    assert!(elapsed.as_secs_f32() < 5.0, "{elapsed:?}");
+    let ordered = ordered_edges(&bvh, &tris);
+    let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+    let hit = bvh.closest_hit(&ordered, &ray, 0.0, f32::INFINITY, &mut TraversalStats::default());
+    assert!((hit.unwrap().1.t - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn boxes_build() {
+    let mut rng = Rng(19);
+    let boxes: Vec<Aabb> = soup(&mut rng, 3000, 50.0, 2.0).iter().map(|t| Aabb::from_points(t)).collect();
+    let options = BuildOptions::default();
+    let bvh = Bvh::build_from_boxes(&boxes, &options);
+    assert_eq!(bvh.validate_boxes(&boxes, &options), Ok(()));
+    assert_eq!(Bvh::build_from_boxes(&boxes[..1], &options).nodes.len(), 1);
+}
+
+// --- the checker catches broken trees --------------------------------------------------------
+
+fn first_inner(bvh: &Bvh) -> (usize, usize) {
+    for (i, n) in bvh.nodes.iter().enumerate() {
+        for side in 0..2 {
+            if n.child(side).is_inner() {
+                return (i, side);
+            }
+        }
+    }
+    unreachable!()
+}
+
+fn set_child(node: &mut BvhNode, side: usize, c: BvhChild) {
+    let [l, r] = node.children();
+    *node = if side == 0 { BvhNode::new(c, r) } else { BvhNode::new(l, c) };
+}
+
+#[test]
+fn validate_reports_corruption() {
+    let tris = soup(&mut Rng(20), 500, 10.0, 0.5);
+    let good = Bvh::build(&tris, &BuildOptions::default());
+    assert_eq!(good.validate(&tris), Ok(()));
+    let expect_err = |bvh: &Bvh, what: &str| {
+        let err = bvh.validate(&tris).expect_err(what);
+        println!("{what}: {err}");
+    };
+
+    // Shrink an inner child's box: its own children stick out.
+    let mut bvh = good.clone();
+    let (i, side) = first_inner(&bvh);
+    let mut c = bvh.nodes[i].child(side);
+    c.bounds.max = c.bounds.center();
+    set_child(&mut bvh.nodes[i], side, c);
+    expect_err(&bvh, "shrunken inner box");
+
+    // Shrink a leaf's box: its triangles stick out.
+    let mut bvh = good.clone();
+    let (i, side) = bvh.nodes.iter().enumerate().find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s))).unwrap();
+    let mut c = bvh.nodes[i].child(side);
+    c.bounds.min = c.bounds.center();
+    set_child(&mut bvh.nodes[i], side, c);
+    expect_err(&bvh, "shrunken leaf box");
+
+    // Duplicate a primitive index.
+    let mut bvh = good.clone();
+    bvh.prim_indices[1] = bvh.prim_indices[0];
+    expect_err(&bvh, "duplicate prim index");
+
+    // A cycle: an inner child pointing back at the root.
+    let mut bvh = good.clone();
+    let (i, side) = first_inner(&bvh);
+    let mut c = bvh.nodes[i].child(side);
+    c.index = 0;
+    set_child(&mut bvh.nodes[i], side, c);
+    expect_err(&bvh, "cycle");
+
+    // An out-of-range node index.
+    let mut bvh = good.clone();
+    let mut c = bvh.nodes[i].child(side);
+    c.index = bvh.nodes.len() as u32;
+    set_child(&mut bvh.nodes[i], side, c);
+    expect_err(&bvh, "node index out of range");
+
+    // A leaf grown past max_leaf_size (and overlapping its neighbour).
+    let mut bvh = good.clone();
+    let (i, side) = bvh.nodes.iter().enumerate().find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s))).unwrap();
+    let mut c = bvh.nodes[i].child(side);
+    c.count = 5;
+    set_child(&mut bvh.nodes[i], side, c);
+    expect_err(&bvh, "oversized leaf");
+
+    // A missing triangle.
+    let mut bvh = good.clone();
+    bvh.prim_indices.pop();
+    expect_err(&bvh, "missing primitive");
+
+    // A stray EMPTY child below the root.
+    let mut bvh = good.clone();
+    let (i, side) = first_inner(&bvh);
+    set_child(&mut bvh.nodes[i], side, BvhChild::EMPTY);
+    expect_err(&bvh, "EMPTY inner child");
+}
+
+// --- SAH cost -------------------------------------------------------------------------------
+
+/// An independent object-median tree (widest axis, halves by count), for comparison.
+fn median_tree(tris: &[[Vec3; 3]], max_leaf: usize) -> Bvh {
+    fn build(tris: &[[Vec3; 3]], order: &mut [u32], first: u32, max_leaf: usize, nodes: &mut Vec<BvhNode>) -> BvhChild {
+        let bounds = order.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb::from_points(&tris[i as usize])));
+        if order.len() <= max_leaf {
+            return BvhChild { bounds, index: first, count: order.len() as u32 };
+        }
+        let centroid = |i: u32| Aabb::from_points(&tris[i as usize]).center();
+        let axis = bounds.extent().max_position();
+        order.sort_by(|&a, &b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
+        let mid = order.len() / 2;
+        let slot = nodes.len();
+        nodes.push(BvhNode::default());
+        let (l, r) = order.split_at_mut(mid);
+        let left = build(tris, l, first, max_leaf, nodes);
+        let right = build(tris, r, first + mid as u32, max_leaf, nodes);
+        nodes[slot] = BvhNode::new(left, right);
+        BvhChild { bounds, index: slot as u32, count: 0 }
+    }
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    let mut nodes = Vec::new();
+    build(tris, &mut order, 0, max_leaf, &mut nodes);
+    Bvh { nodes, prim_indices: order }
+}
+
+#[test]
+fn sah_cost_beats_median_and_single_leaf() {
+    let tris = soup(&mut Rng(21), 20_000, 20.0, 0.5);
+    let options = BuildOptions::default();
+    let ours = Bvh::build(&tris, &options);
+    let median = median_tree(&tris, 4);
+    assert_eq!(median.validate(&tris), Ok(()));
+    let (sah, sah_median) = (ours.sah_cost(&options), median.sah_cost(&options));
+    // A single leaf: one node visit, then every triangle is tested.
+    let single_leaf = options.traversal_cost + options.intersection_cost * tris.len() as f32;
+    println!(
+        "SAH cost: binned {sah:.2} (depth {}, {} leaves), median {sah_median:.2}, single leaf {single_leaf:.0}",
+        ours.depth(),
+        ours.leaf_count()
+    );
+    assert!(sah < sah_median, "binned SAH {sah} vs median {sah_median}");
+    assert!(sah < single_leaf);
+    assert!(sah > 1.0);
+
+    // A root over one leaf costs exactly that, by construction.
+    let few = &tris[..3];
+    let leaf = Bvh::build(few, &options);
+    assert!((leaf.sah_cost(&options) - (options.traversal_cost + 3.0 * options.intersection_cost)).abs() < 1e-5);
+}

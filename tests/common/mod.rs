@@ -1,0 +1,73 @@
+//! Shared test helpers: one validated Vulkan context per test binary, and scene builders.
+#![allow(dead_code)]
+
+use std::sync::{Arc, OnceLock};
+
+use glam::Vec3;
+use meshtracer::gpu::{ContextOptions, GpuContext, GpuTracer};
+use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
+use meshtracer::scene::primitives::PaperModel;
+use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
+use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene, RenderSettings};
+
+/// The Vulkan context every GPU test uses: validation (with synchronization validation)
+/// on. There is no skip: a machine without Vulkan fails these tests.
+pub fn ctx() -> Arc<GpuContext> {
+    static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
+    CTX.get_or_init(|| {
+        GpuContext::new(&ContextOptions::validated())
+            .unwrap_or_else(|e| panic!("GPU tests need Vulkan with the validation layer (CI installs lavapipe): {e}"))
+    })
+    .clone()
+}
+
+/// Fail if the validation layer has said anything.
+pub fn assert_validation_clean(ctx: &GpuContext) {
+    let m = ctx.validation_messages();
+    assert!(m.is_empty(), "{} validation message(s), first: {}", m.len(), m[0]);
+}
+
+/// The paper's scene with `model` repeated `count` times.
+pub fn paper(model: PaperModel, count: u32) -> Scene {
+    let mut mesh = model.mesh();
+    prepare_model(&mut mesh);
+    paper_scene(mesh, count, LightOrbit::default())
+}
+
+/// Render on both tracers; returns (gpu, cpu).
+pub fn render_both(scene: &Scene, settings: RenderSettings) -> (Image, Image) {
+    let packed = PackedScene::new(scene);
+    let params = FrameParams::new(scene, settings);
+    let ctx = ctx();
+    let mut tracer = GpuTracer::new(&ctx, &packed).expect("upload");
+    let (gpu, _) = tracer.render(&params).expect("trace");
+    drop(tracer);
+    assert_validation_clean(&ctx);
+    (gpu, cpu::render(&packed, &params))
+}
+
+/// A unit quad in the z = 0 plane facing +z, as one mesh with one material.
+pub fn quad_mesh(material: Material) -> Mesh {
+    let mut m = Mesh {
+        name: "quad".into(),
+        positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
+        triangles: vec![[0, 1, 3], [1, 2, 3]],
+        triangle_materials: vec![0, 0],
+        materials: vec![material],
+        ..Default::default()
+    };
+    m.compute_vertex_normals();
+    m
+}
+
+/// A quad seen head-on from `distance` with the light at `light`, black background.
+pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
+    Scene {
+        meshes: vec![quad_mesh(material)],
+        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        camera: Camera { position: Vec3::new(0.0, 0.0, distance), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 60.0 },
+        light: PointLight { position: light, color: Vec3::ONE },
+        background: Vec3::ZERO,
+        ambient: 0.1,
+    }
+}
