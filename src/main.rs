@@ -17,6 +17,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Render(args)) => cli::render::run(&args),
+        Some(Command::Bench(args)) => cli::bench::run(&args),
         Some(Command::Devices) => cli::devices(),
         Some(Command::View(args)) => meshtracer::app::run(&args),
         None => meshtracer::app::run(&cli.view),

@@ -50,11 +50,13 @@ const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
     pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
+        let t0 = std::time::Instant::now();
         let prims = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
             .collect();
+        eprintln!("prims {:?}", t0.elapsed());
         build_from_prims(prims, options)
     }
 
@@ -289,12 +291,16 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
         traversal_cost: options.traversal_cost,
         intersection_cost: options.intersection_cost,
     };
+    let t0 = std::time::Instant::now();
     let info = prims
         .par_chunks(64 * 1024)
         .map(NodeInfo::of)
         .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
-
+    eprintln!("info {:?}", t0.elapsed());
+    let t0 = std::time::Instant::now();
     let root = builder.build_parallel(&mut prims, 0, info, 1);
+    eprintln!("tree {:?}", t0.elapsed());
+    let t0 = std::time::Instant::now();
 
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
@@ -303,6 +309,7 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
         root.flatten()
     };
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
+    eprintln!("flatten {:?}", t0.elapsed());
     Bvh { nodes, prim_indices }
 }
 

@@ -26,6 +26,8 @@ pub enum Command {
     View(ViewArgs),
     /// Render one frame headless and write it to a file.
     Render(RenderArgs),
+    /// Measure frame times: the paper's tables (--paper) and scaling series (--scaling).
+    Bench(super::bench::BenchArgs),
     /// List the Vulkan devices (for --device).
     Devices,
 }

@@ -1,6 +1,7 @@
 //! The command line: a thin layer that parses flags and calls the library.
 
 pub mod args;
+pub mod bench;
 pub mod render;
 
 pub use args::{Cli, Command};

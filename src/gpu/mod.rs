@@ -7,6 +7,7 @@ pub mod buffer;
 pub mod context;
 pub mod error;
 pub mod scene_buffers;
+pub mod swapchain;
 pub mod timer;
 pub mod trace_pass;
 pub mod tracer;

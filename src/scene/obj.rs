@@ -274,15 +274,25 @@ impl<'a> LineFeeder<'a> {
 
     /// Check one line before tobj sees it; returns the text to hand to tobj.
     fn check_line(&mut self, line: &'a str) -> Result<&'a str, ObjError> {
-        let mut words = line.split_whitespace();
+        // tobj splits on Unicode whitespace. The usual ASCII line gives the same words
+        // split as bytes, which is faster; anything else goes the way tobj goes.
+        if line.is_ascii() {
+            let words = line.as_bytes().split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty());
+            self.check_statement(words, line)
+        } else {
+            self.check_statement(line.split_whitespace().map(str::as_bytes), line)
+        }
+    }
+
+    fn check_statement<'w>(&mut self, mut words: impl Iterator<Item = &'w [u8]>, line: &'a str) -> Result<&'a str, ObjError> {
         match words.next() {
-            Some("v") => self.vertices += 1,
-            Some("vt") => self.texcoords += 1,
-            Some("vn") => self.normals += 1,
-            Some("f") => self.check_face(words)?,
+            Some(b"v") => self.vertices += 1,
+            Some(b"vt") => self.texcoords += 1,
+            Some(b"vn") => self.normals += 1,
+            Some(b"f") => self.check_face(words)?,
             // A polyline is not a surface, but tobj would turn `l 1 2 3` into a triangle.
-            Some("l") => return Ok("\n"),
-            Some("usemtl") => {
+            Some(b"l") => return Ok("\n"),
+            Some(b"usemtl") => {
                 // tobj takes the name the same way: everything after the first space.
                 let name = line.split_once(' ').map_or("", |(_, n)| n.trim());
                 if !name.is_empty() && self.usemtl_seen.insert(name) {
@@ -297,42 +307,51 @@ impl<'a> LineFeeder<'a> {
     /// Every corner must be `v`, `v/vt`, `v//vn` or `v/vt/vn` with indices (absolute or
     /// negative/relative) of elements defined earlier in the file, and there must be at
     /// least three corners.
-    fn check_face(&self, corners: std::str::SplitWhitespace<'a>) -> Result<(), ObjError> {
+    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(), ObjError> {
+        let kinds = [
+            ("vertex", "vertices", self.vertices),
+            ("texture coordinate", "texture coordinates", self.texcoords),
+            ("normal", "normals", self.normals),
+        ];
         let mut count = 0;
         for corner in corners {
             count += 1;
-            let mut parts = corner.split('/');
-            let kinds = [
-                ("vertex", "vertices", self.vertices),
-                ("texture coordinate", "texture coordinates", self.texcoords),
-                ("normal", "normals", self.normals),
-            ];
-            for (slot, (kind, kind_plural, available)) in kinds.into_iter().enumerate() {
+            let mut parts = corner.split(|&b| b == b'/');
+            for (slot, &(kind, kind_plural, available)) in kinds.iter().enumerate() {
                 let Some(text) = parts.next() else { break };
                 if text.is_empty() && slot > 0 {
                     continue; // `v//vn` and `v/vt/`: the element is simply absent
                 }
                 let Some(index) = parse_index(text) else {
                     return Err(self.parse_error(format!(
-                        "`{corner}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                        "`{}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                        String::from_utf8_lossy(corner),
                         quote(self.current_line)
                     )));
                 };
                 // Negative indices count back from the last element defined so far.
-                let in_range = if index > 0 { index as u64 <= available as u64 } else { index != 0 && index.unsigned_abs() <= available as u64 };
+                let in_range = match index {
+                    1.. => index as u64 <= available as u64,
+                    0 => false,
+                    _ => index.unsigned_abs() <= available as u64,
+                };
                 if !in_range {
                     return Err(ObjError::IndexOutOfRange {
                         name: self.name.to_owned(),
                         line: self.line,
                         kind,
                         kind_plural,
-                        index: text.to_owned(),
+                        index: String::from_utf8_lossy(text).into_owned(),
                         count: available,
                     });
                 }
             }
             if parts.next().is_some() {
-                return Err(self.parse_error(format!("`{corner}` has more than three indices in {}", quote(self.current_line))));
+                return Err(self.parse_error(format!(
+                    "`{}` has more than three indices in {}",
+                    String::from_utf8_lossy(corner),
+                    quote(self.current_line)
+                )));
             }
         }
         if count < 3 {
@@ -342,19 +361,25 @@ impl<'a> LineFeeder<'a> {
     }
 }
 
+/// The ASCII characters that `char::is_whitespace` accepts (vertical tab and form feed
+/// included, unlike `u8::is_ascii_whitespace`).
+fn is_ascii_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+}
+
 /// An OBJ index: optional sign, decimal digits. Saturates instead of overflowing, since
 /// anything that large is out of range anyway.
-fn parse_index(text: &str) -> Option<i64> {
-    let (negative, digits) = match text.as_bytes().first()? {
-        b'-' => (true, &text[1..]),
-        b'+' => (false, &text[1..]),
+fn parse_index(text: &[u8]) -> Option<i64> {
+    let (negative, digits) = match text.split_first()? {
+        (b'-', rest) => (true, rest),
+        (b'+', rest) => (false, rest),
         _ => (false, text),
     };
     if digits.is_empty() {
         return None;
     }
     let mut value: i64 = 0;
-    for b in digits.bytes() {
+    for &b in digits {
         if !b.is_ascii_digit() {
             return None;
         }
@@ -683,10 +708,39 @@ fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut materials: Vec
             }
         }
         mesh.has_file_normals = true;
+    } else if models.len() > 1 || with_texcoords {
+        // tobj splits vertices at every `usemtl`/`o`/`g` and at texture seams: averaging
+        // per vertex would leave shading seams there, so average per position instead.
+        smooth_normals_by_position(&mut mesh);
     } else {
         mesh.compute_vertex_normals();
     }
     Ok(mesh)
+}
+
+/// Area-weighted normals like [`Mesh::compute_vertex_normals`], but shared by all
+/// vertices at the same position.
+fn smooth_normals_by_position(mesh: &mut Mesh) {
+    let mut slots = std::collections::HashMap::with_capacity(mesh.positions.len());
+    // `+ 0.0` turns -0.0 into 0.0, so that the two zeros share a slot.
+    let slot_of: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let next = slots.len() as u32;
+            *slots.entry((*p + 0.0).to_array().map(f32::to_bits)).or_insert(next)
+        })
+        .collect();
+    let mut sums = vec![Vec3::ZERO; slots.len()];
+    for tri in &mesh.triangles {
+        let [a, b, c] = tri.map(|k| mesh.positions[k as usize]);
+        let face = (b - a).cross(c - a); // length = twice the area: the weight
+        for &k in tri {
+            sums[slot_of[k as usize] as usize] += face;
+        }
+    }
+    mesh.normals = slot_of.iter().map(|&s| sums[s as usize].normalize_or(Vec3::Y)).collect();
+    mesh.has_file_normals = false;
 }
 
 /// The error for the first `v`, `vn` or `vt` line (of the kinds flagged in `bad`) that
@@ -720,12 +774,12 @@ mod tests {
 
     #[test]
     fn index_parsing_accepts_signs_and_saturates() {
-        assert_eq!(parse_index("12"), Some(12));
-        assert_eq!(parse_index("-3"), Some(-3));
-        assert_eq!(parse_index("+7"), Some(7));
-        assert_eq!(parse_index("99999999999999999999999"), Some(i64::MAX));
-        for bad in ["", "-", "1a", "1.0", " 1"] {
-            assert_eq!(parse_index(bad), None, "{bad:?}");
+        assert_eq!(parse_index(b"12"), Some(12));
+        assert_eq!(parse_index(b"-3"), Some(-3));
+        assert_eq!(parse_index(b"+7"), Some(7));
+        assert_eq!(parse_index(b"99999999999999999999999"), Some(i64::MAX));
+        for bad in ["", "-", "1a", "1.0", " 1", "+-1"] {
+            assert_eq!(parse_index(bad.as_bytes()), None, "{bad:?}");
         }
     }
 

@@ -1,0 +1,329 @@
+//! The tool's parameters (everything the panel and the keys change) and the pure logic on
+//! them: render resolution, the light's motion, keyboard shortcuts, image placement.
+
+use glam::Vec3;
+use winit::keyboard::KeyCode;
+
+use crate::cli::args::ViewArgs;
+use crate::scene::paper::{default_camera, LightOrbit, MAX_MODELS};
+use crate::scene::Camera;
+use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
+
+/// Square render-resolution presets.
+pub const PRESETS: [u32; 4] = [256, 512, 1024, 2048];
+
+/// How the render resolution is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resolution {
+    /// A square preset (one of [`PRESETS`]).
+    Square(u32),
+    /// The image area of the window, in physical pixels.
+    MatchWindow,
+    /// `custom` width and height.
+    Custom,
+}
+
+/// What the image area shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewMode {
+    /// The shaded colour.
+    Color,
+    /// A heat map of the per-pixel traversal cost.
+    Cost(CostMetric),
+}
+
+/// Which traversal counter the heat map shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CostMetric {
+    /// BVH nodes visited by all rays of the pixel.
+    Nodes,
+    /// Ray-triangle tests by all rays of the pixel.
+    Triangles,
+}
+
+impl CostMetric {
+    pub fn label(self) -> &'static str {
+        match self {
+            CostMetric::Nodes => "BVH nodes visited",
+            CostMetric::Triangles => "triangles tested",
+        }
+    }
+}
+
+/// Everything the user can change.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub resolution: Resolution,
+    pub custom: [u32; 2],
+    pub bounces: u32,
+    pub blend: f32,
+    pub accel: Accel,
+    pub view: ViewMode,
+    pub model_count: u32,
+    pub light: LightOrbit,
+    /// Degrees per second along the orbit.
+    pub light_speed: f32,
+    pub light_paused: bool,
+    pub camera: Camera,
+    pub vsync: bool,
+    pub panel_visible: bool,
+}
+
+impl Params {
+    /// The starting parameters from the command line. A scripted run (`--frames`) starts
+    /// with the light paused at `--light-angle`, so its screenshots match `render`.
+    pub fn from_args(args: &ViewArgs) -> Self {
+        let s = &args.scene;
+        let resolution = if s.width == s.height && PRESETS.contains(&s.width) { Resolution::Square(s.width) } else { Resolution::Custom };
+        Self {
+            resolution,
+            custom: [s.width, s.height],
+            bounces: s.bounces.min(MAX_BOUNCES),
+            blend: s.blend.clamp(0.0, 1.0),
+            accel: s.accel,
+            view: ViewMode::Color,
+            model_count: s.models.clamp(1, MAX_MODELS),
+            light: s.light(),
+            light_speed: 30.0,
+            light_paused: args.frames.is_some(),
+            camera: default_camera(),
+            vsync: true,
+            panel_visible: true,
+        }
+    }
+
+    /// Render width and height for an image area of `area` physical pixels.
+    pub fn render_size(&self, area: [u32; 2]) -> [u32; 2] {
+        let clamp = |v: u32| v.clamp(1, MAX_RESOLUTION);
+        match self.resolution {
+            Resolution::Square(n) => [n, n],
+            Resolution::MatchWindow => [clamp(area[0]), clamp(area[1])],
+            Resolution::Custom => [clamp(self.custom[0]), clamp(self.custom[1])],
+        }
+    }
+
+    /// The frame settings for an image area of `area` physical pixels.
+    pub fn settings(&self, area: [u32; 2]) -> RenderSettings {
+        let [width, height] = self.render_size(area);
+        let aov = match self.view {
+            ViewMode::Color => Aov::Color,
+            ViewMode::Cost(_) => Aov::Cost,
+        };
+        RenderSettings { width, height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov }
+    }
+
+    /// Move the light along its orbit by `dt` seconds (unless paused).
+    pub fn advance_light(&mut self, dt: f32) {
+        if !self.light_paused {
+            self.light.angle_deg = (self.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
+        }
+    }
+
+    /// Put the camera back where the scene opens.
+    pub fn reset_camera(&mut self) {
+        self.camera = default_camera();
+    }
+
+    /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.
+    pub fn drag_camera(&mut self, dx: f32, dy: f32) {
+        const RADIANS_PER_PIXEL: f32 = 0.008;
+        self.camera.orbit(dx * RADIANS_PER_PIXEL, dy * RADIANS_PER_PIXEL, 1.0);
+    }
+
+    /// Zoom by `steps` wheel notches (positive = closer).
+    pub fn zoom_camera(&mut self, steps: f32) {
+        self.camera.orbit(0.0, 0.0, 0.9f32.powf(steps));
+    }
+
+    /// The light's position now.
+    pub fn light_position(&self) -> Vec3 {
+        self.light.position()
+    }
+}
+
+/// Something a key asks for besides a parameter change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeyAction {
+    /// The parameters changed (or nothing happened).
+    None,
+    ScreenshotTrace,
+    ScreenshotWindow,
+    Quit,
+}
+
+/// The keyboard shortcuts, for the panel's help.
+pub const SHORTCUTS: &[(&str, &str)] = &[
+    ("H / F1", "hide or show the panel"),
+    ("F12", "screenshot of the traced image"),
+    ("Shift+F12", "screenshot of the window"),
+    ("PgUp / PgDn", "bounces + / -"),
+    ("[ / ]", "blend - / +"),
+    ("+ / -", "model count"),
+    ("A", "brute force / BVH"),
+    ("C", "colour / cost heat map"),
+    ("M", "render resolution: match window / back"),
+    ("Space", "pause the light"),
+    ("R", "reset the camera"),
+    ("V", "vsync on / off"),
+    ("Ctrl+Q", "quit"),
+    ("drag / wheel", "orbit / zoom the camera"),
+];
+
+impl Params {
+    /// Apply a key press (egui did not want the keyboard). `previous` remembers the
+    /// resolution to go back to when `M` leaves "match window".
+    pub fn apply_key(&mut self, key: KeyCode, shift: bool, ctrl: bool, previous: &mut Resolution) -> KeyAction {
+        match key {
+            KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
+            KeyCode::F12 => return KeyAction::ScreenshotTrace,
+            KeyCode::KeyQ if ctrl => return KeyAction::Quit,
+            KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
+            KeyCode::PageUp => self.bounces = (self.bounces + 1).min(MAX_BOUNCES),
+            KeyCode::PageDown => self.bounces = self.bounces.saturating_sub(1),
+            KeyCode::BracketLeft => self.blend = ((self.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
+            KeyCode::BracketRight => self.blend = ((self.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
+            KeyCode::Equal | KeyCode::NumpadAdd => self.model_count = (self.model_count + 1).min(MAX_MODELS),
+            KeyCode::Minus | KeyCode::NumpadSubtract => self.model_count = self.model_count.saturating_sub(1).max(1),
+            KeyCode::KeyA => self.accel = if self.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh },
+            KeyCode::KeyC => {
+                self.view = match self.view {
+                    ViewMode::Color => ViewMode::Cost(CostMetric::Nodes),
+                    ViewMode::Cost(_) => ViewMode::Color,
+                }
+            }
+            KeyCode::KeyM => {
+                if self.resolution == Resolution::MatchWindow {
+                    self.resolution = *previous;
+                } else {
+                    *previous = self.resolution;
+                    self.resolution = Resolution::MatchWindow;
+                }
+            }
+            KeyCode::Space => self.light_paused = !self.light_paused,
+            KeyCode::KeyR => self.reset_camera(),
+            KeyCode::KeyV => self.vsync = !self.vsync,
+            _ => {}
+        }
+        KeyAction::None
+    }
+}
+
+/// A rectangle in physical pixels: x, y of the top-left corner, width, height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct PixelRect {
+    pub x: i32,
+    pub y: i32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The largest rectangle of the image's aspect centred in `area` (letterbox).
+pub fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
+    if image[0] == 0 || image[1] == 0 || area.width == 0 || area.height == 0 {
+        return PixelRect { x: area.x, y: area.y, width: 0, height: 0 };
+    }
+    let scale = (area.width as f64 / image[0] as f64).min(area.height as f64 / image[1] as f64);
+    let width = ((image[0] as f64 * scale).round() as u32).clamp(1, area.width);
+    let height = ((image[1] as f64 * scale).round() as u32).clamp(1, area.height);
+    PixelRect { x: area.x + ((area.width - width) / 2) as i32, y: area.y + ((area.height - height) / 2) as i32, width, height }
+}
+
+/// Parse `--window WIDTHxHEIGHT`.
+pub fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("--window '{s}' is not WIDTHxHEIGHT (e.g. 1280x800)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(64..=16384).contains(&w) || !(64..=16384).contains(&h) {
+        return Err(format!("--window {w}x{h} is out of range (64..=16384 per side)"));
+    }
+    Ok([w, h])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::args::Cli;
+    use clap::Parser;
+
+    fn args(extra: &[&str]) -> ViewArgs {
+        let mut argv = vec!["meshtracer"];
+        argv.extend_from_slice(extra);
+        Cli::parse_from(argv).view
+    }
+
+    #[test]
+    fn command_line_sets_the_start() {
+        let p = Params::from_args(&args(&["--width", "512", "--height", "512", "--bounces", "3"]));
+        assert_eq!(p.resolution, Resolution::Square(512));
+        assert_eq!(p.bounces, 3);
+        assert!(!p.light_paused);
+        let p = Params::from_args(&args(&["--width", "128", "--height", "96", "--frames", "3"]));
+        assert_eq!(p.resolution, Resolution::Custom);
+        assert_eq!(p.render_size([10, 10]), [128, 96]);
+        assert!(p.light_paused, "scripted runs keep the light still");
+    }
+
+    #[test]
+    fn resolution_modes() {
+        let mut p = Params::from_args(&args(&[]));
+        p.resolution = Resolution::MatchWindow;
+        assert_eq!(p.render_size([800, 600]), [800, 600]);
+        assert_eq!(p.render_size([0, 600]), [1, 600]);
+        assert_eq!(p.render_size([100_000, 5]), [MAX_RESOLUTION, 5]);
+        p.resolution = Resolution::Square(2048);
+        assert_eq!(p.settings([1, 1]).width, 2048);
+    }
+
+    #[test]
+    fn keys_change_parameters_within_range() {
+        let mut p = Params::from_args(&args(&["--bounces", "8", "--blend", "1"]));
+        let mut prev = p.resolution;
+        p.apply_key(KeyCode::PageUp, false, false, &mut prev);
+        assert_eq!(p.bounces, 8);
+        p.apply_key(KeyCode::PageDown, false, false, &mut prev);
+        assert_eq!(p.bounces, 7);
+        p.apply_key(KeyCode::BracketRight, false, false, &mut prev);
+        assert_eq!(p.blend, 1.0);
+        p.apply_key(KeyCode::BracketLeft, false, false, &mut prev);
+        assert!((p.blend - 0.95).abs() < 1e-6);
+        assert_eq!(p.apply_key(KeyCode::F12, false, false, &mut prev), KeyAction::ScreenshotTrace);
+        assert_eq!(p.apply_key(KeyCode::F12, true, false, &mut prev), KeyAction::ScreenshotWindow);
+        assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev), KeyAction::Quit);
+        let start = p.resolution;
+        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
+        assert_eq!(p.resolution, Resolution::MatchWindow);
+        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
+        assert_eq!(p.resolution, start);
+        for _ in 0..40 {
+            p.apply_key(KeyCode::Minus, false, false, &mut prev);
+        }
+        assert_eq!(p.model_count, 1);
+    }
+
+    #[test]
+    fn light_moves_unless_paused() {
+        let mut p = Params::from_args(&args(&["--light-angle", "350"]));
+        p.light_speed = 20.0;
+        p.advance_light(1.0);
+        assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
+        p.light_paused = true;
+        p.advance_light(1.0);
+        assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn letterbox_keeps_aspect_and_centres() {
+        let area = PixelRect { x: 200, y: 0, width: 400, height: 300 };
+        assert_eq!(fit_rect([100, 100], area), PixelRect { x: 250, y: 0, width: 300, height: 300 });
+        assert_eq!(fit_rect([800, 200], area), PixelRect { x: 200, y: 100, width: 400, height: 100 });
+        assert_eq!(fit_rect([10, 10], PixelRect { width: 0, ..area }).width, 0);
+    }
+
+    #[test]
+    fn window_size_parses() {
+        assert_eq!(parse_window_size("640x480"), Ok([640, 480]));
+        assert!(parse_window_size("640").is_err());
+        assert!(parse_window_size("0x5").unwrap_err().contains("out of range"));
+    }
+}

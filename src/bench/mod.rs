@@ -1,0 +1,220 @@
+//! Benchmarks: the paper's tables re-measured and scaling series far beyond them. A run is
+//! a list of [`Case`]s; each is traced headless for warm-up plus measured frames and
+//! reported as GPU time (timestamps around the dispatch) and wall-clock frame time.
+
+pub mod paper_tables;
+pub mod report;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::gpu::{GpuContext, GpuError, GpuTracer};
+use crate::scene::paper::{instances, paper_scene, prepare_model, LightOrbit, ModelSource};
+use crate::scene::Mesh;
+use crate::tracer::{Accel, FrameParams, PackedScene, RenderSettings};
+
+/// Brute-force frames asking for more ray-triangle tests than this are skipped with a note
+/// (minutes per frame otherwise).
+pub const MAX_BRUTE_TESTS_PER_FRAME: f64 = 2.0e12;
+
+/// One benchmark configuration.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// The group this row belongs to ("table1", "triangles", ...).
+    pub series: String,
+    pub model: ModelSource,
+    /// Generated meshes carry their own mesh (large procedural ones).
+    pub generated: Option<Arc<Mesh>>,
+    pub models: u32,
+    pub settings: RenderSettings,
+    /// The paper's figures for this row (fps, ms), when it has them.
+    pub paper: Option<(f64, f64)>,
+}
+
+/// Median and spread of a series of times.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct Stats {
+    pub median: f64,
+    pub p10: f64,
+    pub p90: f64,
+}
+
+impl Stats {
+    /// Percentiles of `samples` (nearest rank).
+    pub fn of(samples: &[f64]) -> Self {
+        if samples.is_empty() {
+            return Self::default();
+        }
+        let mut s = samples.to_vec();
+        s.sort_by(|a, b| a.total_cmp(b));
+        let at = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
+        Self { median: at(0.5), p10: at(0.1), p90: at(0.9) }
+    }
+}
+
+/// One measured (or skipped) row.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub series: String,
+    pub model: String,
+    pub models: u32,
+    pub triangles: u64,
+    pub width: u32,
+    pub height: u32,
+    pub bounces: u32,
+    pub accel: String,
+    /// Rays per frame: every pixel's primary ray plus one per bounce (the mirror box is
+    /// closed, so no ray escapes early).
+    pub rays_per_frame: u64,
+    pub gpu_ms: Option<Stats>,
+    pub wall_ms: Stats,
+    /// Million rays per second from the median GPU time (wall time without timestamps).
+    pub mrays_per_s: f64,
+    pub fps: f64,
+    pub bvh_build_ms: f64,
+    pub scene_bytes: u64,
+    pub paper_fps: Option<f64>,
+    pub paper_ms: Option<f64>,
+    /// Why the row was not measured, if it was not.
+    pub skipped: Option<String>,
+}
+
+/// Options of a run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub frames: u32,
+    pub warmup: u32,
+}
+
+/// The machine a run happened on.
+#[derive(Clone, Debug, Serialize)]
+pub struct Environment {
+    pub device: String,
+    pub device_type: String,
+    pub driver: String,
+    pub vulkan: String,
+    pub date: String,
+}
+
+/// Describe the context's device.
+pub fn environment(ctx: &GpuContext) -> Environment {
+    Environment {
+        device: ctx.info.name.clone(),
+        device_type: ctx.info.device_type.clone(),
+        driver: ctx.info.driver.clone(),
+        vulkan: ctx.info.api_version.clone(),
+        date: chrono::Local::now().format("%Y-%m-%d").to_string(),
+    }
+}
+
+/// Prepared geometry shared by the rows that use the same mesh.
+struct Loaded {
+    key: String,
+    mesh: Mesh,
+}
+
+/// Run `cases` on `ctx`, calling `progress` after each row.
+pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut progress: impl FnMut(usize, &Row)) -> anyhow::Result<Vec<Row>> {
+    let mut rows = Vec::with_capacity(cases.len());
+    let mut loaded: Option<Loaded> = None;
+    // The uploaded scene is reused while mesh (and so BVH) stays the same.
+    let mut current: Option<(String, PackedScene, GpuTracer)> = None;
+    for (i, case) in cases.iter().enumerate() {
+        let key = match &case.generated {
+            Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
+            None => format!("{:?}", case.model),
+        };
+        if loaded.as_ref().is_none_or(|l| l.key != key) {
+            current = None;
+            let mesh = match &case.generated {
+                Some(m) => {
+                    let mut m = (**m).clone();
+                    prepare_model(&mut m);
+                    m
+                }
+                None => case.model.load()?.0,
+            };
+            loaded = Some(Loaded { key: key.clone(), mesh });
+        }
+        let mesh = &loaded.as_ref().unwrap().mesh;
+        let scene = paper_scene(mesh.clone(), case.models, LightOrbit::default());
+        if current.as_ref().is_none_or(|c| c.0 != key) {
+            let packed = PackedScene::new(&scene);
+            let tracer = GpuTracer::new(ctx, &packed)?;
+            current = Some((key.clone(), packed, tracer));
+        }
+        let (_, packed, tracer) = current.as_mut().unwrap();
+        packed.set_instances(&instances(case.models).iter().map(|i| *i).collect::<Vec<_>>());
+        tracer.set_instances(&packed.instances)?;
+        let row = measure(tracer, packed, &scene, case, options)?;
+        progress(i, &row);
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+fn measure(tracer: &mut GpuTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions) -> Result<Row, GpuError> {
+    let s = case.settings;
+    let triangles = scene.triangle_count() as u64;
+    let rays = s.max_rays();
+    let mut row = Row {
+        series: case.series.clone(),
+        model: match &case.generated {
+            Some(m) => m.name.clone(),
+            None => case.model.label(),
+        },
+        models: case.models,
+        triangles,
+        width: s.width,
+        height: s.height,
+        bounces: s.bounces,
+        accel: s.accel.to_string(),
+        rays_per_frame: rays,
+        gpu_ms: None,
+        wall_ms: Stats::default(),
+        mrays_per_s: 0.0,
+        fps: 0.0,
+        bvh_build_ms: packed.bvh_build_seconds * 1e3,
+        scene_bytes: tracer.scene_bytes(),
+        paper_fps: case.paper.map(|p| p.0),
+        paper_ms: case.paper.map(|p| p.1),
+        skipped: None,
+    };
+    if s.accel == Accel::Brute && rays as f64 * triangles as f64 > MAX_BRUTE_TESTS_PER_FRAME {
+        row.skipped = Some(format!("brute force would test {:.1e} ray-triangle pairs per frame", rays as f64 * triangles as f64));
+        return Ok(row);
+    }
+    let params = FrameParams::new(scene, s);
+    for _ in 0..options.warmup {
+        tracer.trace(&params)?;
+    }
+    let mut gpu = Vec::new();
+    let mut wall = Vec::new();
+    for _ in 0..options.frames.max(1) {
+        let start = Instant::now();
+        let t = tracer.trace(&params)?;
+        wall.push(start.elapsed().as_secs_f64() * 1e3);
+        if let Some(g) = t.gpu_ms {
+            gpu.push(g);
+        }
+    }
+    row.wall_ms = Stats::of(&wall);
+    row.gpu_ms = (!gpu.is_empty()).then(|| Stats::of(&gpu));
+    let ms = row.gpu_ms.map_or(row.wall_ms.median, |g| g.median);
+    row.mrays_per_s = rays as f64 / (ms * 1e-3) / 1e6;
+    row.fps = 1e3 / row.wall_ms.median;
+    Ok(row)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentiles_of_a_known_series() {
+        let s = Stats::of(&(1..=11).map(f64::from).collect::<Vec<_>>());
+        assert_eq!(s, Stats { median: 6.0, p10: 2.0, p90: 10.0 });
+    }
+}

@@ -1,0 +1,93 @@
+//! The paper's Table 1 and Table 2 (GTX 1080 Ti, brute force, 2 bounces) and the case
+//! lists that re-measure them, plus the scaling series.
+
+use std::sync::Arc;
+
+use super::Case;
+use crate::scene::paper::ModelSource;
+use crate::scene::primitives::{large_torus_knot, PaperModel};
+use crate::tracer::{Accel, Aov, RenderSettings};
+
+/// Table 1: (model, [(fps, ms) at 512x512, (fps, ms) at 1024x1024]).
+pub const TABLE1: [(PaperModel, [(f64, f64); 2]); 4] = [
+    (PaperModel::Geosphere, [(250.0, 4.52), (72.0, 14.58)]),
+    (PaperModel::TorusKnot, [(50.0, 20.91), (14.0, 77.42)]),
+    (PaperModel::Sphere, [(27.0, 38.96), (8.0, 143.36)]),
+    (PaperModel::Cylinder, [(22.0, 48.12), (6.0, 200.5)]),
+];
+
+/// Table 2: geosphere copies -> [(fps, ms) at 512x512, at 1024x1024].
+pub const TABLE2: [(u32, [(f64, f64); 2]); 4] = [
+    (1, [(250.0, 4.52), (72.0, 14.58)]),
+    (2, [(140.0, 7.69), (40.0, 26.14)]),
+    (3, [(98.0, 10.81), (27.0, 38.96)]),
+    (4, [(76.0, 13.83), (21.0, 50.5)]),
+];
+
+fn settings(size: u32, bounces: u32, accel: Accel) -> RenderSettings {
+    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel, aov: Aov::Color }
+}
+
+/// Both tables at the given resolutions (the paper's: 512, 1024) for each acceleration.
+pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
+    let mut cases = Vec::new();
+    for &accel in accels {
+        for (model, figures) in TABLE1 {
+            for &size in resolutions {
+                let paper = match size {
+                    512 => Some(figures[0]),
+                    1024 => Some(figures[1]),
+                    _ => None,
+                };
+                cases.push(Case { series: "table1".into(), model: ModelSource::Paper(model), generated: None, models: 1, settings: settings(size, 2, accel), paper });
+            }
+        }
+        for (count, figures) in TABLE2 {
+            for &size in resolutions {
+                let paper = match size {
+                    512 => Some(figures[0]),
+                    1024 => Some(figures[1]),
+                    _ => None,
+                };
+                cases.push(Case {
+                    series: "table2".into(),
+                    model: ModelSource::Paper(PaperModel::Geosphere),
+                    generated: None,
+                    models: count,
+                    settings: settings(size, 2, accel),
+                    paper,
+                });
+            }
+        }
+    }
+    cases
+}
+
+/// Frame time against triangle count (generated torus knots), resolution, bounces and
+/// model count; `extra` .obj files join the triangle series.
+pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32) -> Vec<Case> {
+    let mut cases = Vec::new();
+    for &n in triangle_counts {
+        let mesh = Arc::new(large_torus_knot(n));
+        for &accel in accels {
+            cases.push(Case { series: "triangles".into(), model: ModelSource::default(), generated: Some(mesh.clone()), models: 1, settings: settings(size, 2, accel), paper: None });
+        }
+    }
+    for source in extra {
+        for &accel in accels {
+            cases.push(Case { series: "triangles".into(), model: source.clone(), generated: None, models: 1, settings: settings(size, 2, accel), paper: None });
+        }
+    }
+    for &accel in accels {
+        for res in [256, 512, 1024, 2048] {
+            cases.push(Case { series: "resolution".into(), model: ModelSource::Paper(PaperModel::Cylinder), generated: None, models: 1, settings: settings(res, 2, accel), paper: None });
+        }
+        for b in 0..=8 {
+            cases.push(Case { series: "bounces".into(), model: ModelSource::Paper(PaperModel::Cylinder), generated: None, models: 1, settings: settings(size, b, accel), paper: None });
+        }
+        for m in [1, 2, 4, 7, 14, 27] {
+            cases.push(Case { series: "models".into(), model: ModelSource::Paper(PaperModel::Geosphere), generated: None, models: m, settings: settings(size, 2, accel), paper: None });
+        }
+    }
+    cases
+}

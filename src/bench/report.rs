@@ -1,0 +1,66 @@
+//! Bench output: an aligned table on the terminal (with the paper's figures beside each
+//! row), JSON and CSV files.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context;
+use serde::Serialize;
+
+use super::{Environment, Row};
+
+/// A whole run, as written to JSON.
+#[derive(Serialize)]
+pub struct Report<'a> {
+    pub environment: &'a Environment,
+    pub frames: u32,
+    pub warmup: u32,
+    pub rows: &'a [Row],
+}
+
+/// One table line for a row.
+pub fn format_row(r: &Row) -> String {
+    let paper = match (r.paper_fps, r.paper_ms) {
+        (Some(f), Some(m)) => format!("{f:>6.0} fps {m:>7.2} ms"),
+        _ => String::new(),
+    };
+    if let Some(why) = &r.skipped {
+        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} skipped: {why}", r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel);
+    }
+    let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
+    format!(
+        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}",
+        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s
+    )
+}
+
+/// The header matching `format_row`.
+pub fn header() -> String {
+    format!(
+        "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<5} {:>9} {:>9} {:>8} {:>9}   {}",
+        "series", "model", "n", "triangles", "resolution", "b", "accel", "gpu ms", "frame ms", "fps", "Mrays/s", "paper (GTX 1080 Ti, brute force)"
+    )
+}
+
+/// Write the run as pretty JSON.
+pub fn write_json(path: &Path, report: &Report) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(report)?;
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Write the rows as CSV.
+pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result<()> {
+    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,device,driver,date\n");
+    for r in rows {
+        let g = r.gpu_ms.unwrap_or_default();
+        let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},\"{}\",\"{}\",{}",
+            r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.rays_per_frame,
+            g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
+            opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), env.device, env.driver, env.date
+        );
+    }
+    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,91 @@
+//! `meshtracer bench`: the paper's tables and the scaling series, printed, and written as
+//! JSON/CSV.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::bench::report::{self, Report};
+use crate::bench::{self, paper_tables, RunOptions};
+use crate::gpu::{ContextOptions, GpuContext};
+use crate::scene::paper::ModelSource;
+use crate::tracer::Accel;
+
+/// `meshtracer bench` flags.
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// The paper's Table 1 (four models) and Table 2 (1..4 geospheres), 2 bounces.
+    #[arg(long)]
+    pub paper: bool,
+    /// Frame time against triangles, resolution, bounces and model count.
+    #[arg(long)]
+    pub scaling: bool,
+    /// Measured frames per row.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
+    pub frames: u32,
+    /// Discarded warm-up frames per row.
+    #[arg(long, default_value_t = 5)]
+    pub warmup: u32,
+    /// Resolutions (square) for --paper, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "512,1024", value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub resolutions: Vec<u32>,
+    /// Accelerations to run, comma-separated: brute, bvh.
+    #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
+    pub accel: Vec<Accel>,
+    /// Triangle counts of the generated meshes for --scaling, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,100000,1000000,4000000")]
+    pub triangles: Vec<usize>,
+    /// Resolution (square) of the --scaling series other than resolution itself.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub size: u32,
+    /// Extra .obj files for the triangle series.
+    #[arg(long = "obj")]
+    pub objs: Vec<PathBuf>,
+    /// Write all rows as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write all rows as CSV here.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Vulkan device index (see `meshtracer devices`).
+    #[arg(long)]
+    pub device: Option<usize>,
+    /// Turn on the Vulkan validation layer.
+    #[arg(long)]
+    pub validation: bool,
+}
+
+/// Run the benchmark.
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let mut cases = Vec::new();
+    let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
+    if args.paper || !args.scaling {
+        cases.extend(paper_tables::paper_cases(&args.resolutions, &args.accel));
+    }
+    if args.scaling {
+        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &args.accel, args.size));
+    }
+    let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
+    let env = bench::environment(&ctx);
+    println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
+    println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians)", cases.len(), args.warmup, args.frames);
+    println!("{}", report::header());
+    let total = cases.len();
+    let rows = bench::run(&ctx, &cases, &RunOptions { frames: args.frames, warmup: args.warmup }, |i, row| {
+        println!("{}", report::format_row(row));
+        eprint!("\r[{}/{}]\r", i + 1, total);
+    })?;
+    let messages = ctx.validation_messages();
+    if !messages.is_empty() {
+        anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+    }
+    if let Some(path) = &args.json {
+        report::write_json(path, &Report { environment: &env, frames: args.frames, warmup: args.warmup, rows: &rows })?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.csv {
+        report::write_csv(path, &env, &rows)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

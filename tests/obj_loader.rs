@@ -1,0 +1,434 @@
+//! The OBJ loader from the outside: the paper's parsing rules (3.1), real-world features
+//! (materials, textures, several objects), every class of bad input, and the paper's
+//! models written to `assets/` and read back.
+//!
+//! Fixture files live in `tests/data/obj/`; everything else is inline text.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+use meshtracer::scene::obj::{load_obj, load_obj_from_str, LoadedObj, ObjError};
+use meshtracer::scene::primitives::{write_obj, PaperModel};
+use meshtracer::scene::Mesh;
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj").join(name)
+}
+
+fn load(text: &str) -> LoadedObj {
+    load_obj_from_str(text, "test.obj", None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn load_err(text: &str) -> ObjError {
+    match load_obj_from_str(text, "test.obj", None) {
+        Ok(_) => panic!("loaded, but should have failed:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// The triangles as corner positions, so tests do not depend on vertex order.
+fn triangle_corners(mesh: &Mesh) -> Vec<[Vec3; 3]> {
+    (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect()
+}
+
+const SQUARE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+fn v(x: f32, y: f32, z: f32) -> Vec3 {
+    Vec3::new(x, y, z)
+}
+
+// --- The paper's parsing rules ---------------------------------------------------------
+
+#[test]
+fn quad_splits_into_124_and_234() {
+    let mesh = load(&format!("{SQUARE}f 1 2 3 4\n")).mesh;
+    let [p1, p2, p3, p4] = [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)];
+    assert_eq!(triangle_corners(&mesh), [[p1, p2, p4], [p2, p3, p4]]);
+    assert_eq!(mesh.vertex_count(), 4);
+}
+
+#[test]
+fn polygon_with_more_corners_becomes_a_fan() {
+    let text = "v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n";
+    let mesh = load(text).mesh;
+    let p = [v(0., 0., 0.), v(2., 0., 0.), v(3., 1., 0.), v(1., 2., 0.), v(-1., 1., 0.)];
+    assert_eq!(triangle_corners(&mesh), [[p[0], p[1], p[2]], [p[0], p[2], p[3]], [p[0], p[3], p[4]]]);
+}
+
+#[test]
+fn negative_indices_count_back_from_the_last_vertex() {
+    let absolute = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4 5 6\n").mesh;
+    let relative = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n").mesh;
+    assert_eq!(triangle_corners(&relative), triangle_corners(&absolute));
+    assert_eq!(relative.triangle_count(), 2);
+    assert_eq!(relative.corners(1)[0], v(0., 0., 1.));
+}
+
+#[test]
+fn every_corner_form_is_read() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 2\n";
+
+    let plain = load(&format!("{head}f 1 2 3\n")).mesh;
+    assert!(plain.texcoords.is_empty() && !plain.has_file_normals);
+
+    let with_vt = load(&format!("{head}f 1/1 2/2 3/3\n")).mesh;
+    assert!(!with_vt.has_file_normals);
+    assert_eq!(with_vt.texcoords.len(), 3);
+    let uv_of = |m: &Mesh, p: Vec3| m.texcoords[m.positions.iter().position(|&q| q == p).unwrap()];
+    assert_eq!(uv_of(&with_vt, v(1., 0., 0.)), Vec2::new(1., 0.));
+
+    let with_vn = load(&format!("{head}f 1//1 2//1 3//1\n")).mesh;
+    assert!(with_vn.has_file_normals && with_vn.texcoords.is_empty());
+    // File normals are normalised.
+    assert!(with_vn.normals.iter().all(|&n| n == Vec3::Z));
+
+    let full = load(&format!("{head}f 1/1/1 2/2/1 3/3/1\n")).mesh;
+    assert!(full.has_file_normals);
+    assert_eq!(full.texcoords.len(), full.vertex_count());
+    assert_eq!(uv_of(&full, v(0., 1., 0.)), Vec2::new(0., 1.));
+}
+
+#[test]
+fn normals_come_from_the_file_only_when_every_vertex_has_one() {
+    // The second face has no normals: computed normals for the whole mesh.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 1 0 0\nf 1//1 2//1 3//1\nf 2 4 3\n";
+    let mesh = load(text).mesh;
+    assert!(!mesh.has_file_normals);
+    assert!(mesh.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", mesh.normals);
+}
+
+#[test]
+fn objects_and_groups_merge_into_one_mesh_in_file_order() {
+    let text = "o first\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
+                g second\nv 0 0 5\nv 1 0 5\nv 0 1 5\nv 1 1 5\nf 4 5 7 6\n\
+                o third\nf 1 2 4\n";
+    let mesh = load(text).mesh;
+    assert_eq!(mesh.triangle_count(), 4);
+    let first_z: Vec<f32> = triangle_corners(&mesh).iter().map(|t| t[0].z).collect();
+    assert_eq!(first_z, [0.0, 5.0, 5.0, 0.0]);
+    // tobj keeps vertices per object, so a shared vertex appears in each that uses it.
+    assert_eq!(mesh.vertex_count(), 3 + 4 + 3);
+    assert_eq!(mesh.triangle_materials, [0; 4]);
+    assert_eq!(mesh.materials.len(), 1);
+}
+
+#[test]
+fn lines_and_points_are_not_triangles() {
+    let mesh = load(&format!("{SQUARE}l 1 2 3\np 4\nf 1 2 3\n")).mesh;
+    assert_eq!(mesh.triangle_count(), 1);
+}
+
+#[test]
+fn windows_line_endings_comments_and_a_bom_are_fine() {
+    let mesh = load("\u{feff}# comment\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\ns off\r\nf 1 2 3\r\n").mesh;
+    assert_eq!(mesh.triangle_count(), 1);
+    assert_eq!(mesh.corners(0)[1], v(1., 0., 0.));
+}
+
+// --- Materials ----------------------------------------------------------------------
+
+#[test]
+fn usemtl_assigns_materials_from_the_mtl() {
+    let loaded = load_obj(&data("cube.obj")).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let mesh = &loaded.mesh;
+    assert_eq!(mesh.materials.len(), 2);
+    let (red, blue) = (&mesh.materials[0], &mesh.materials[1]);
+    assert_eq!(red.name, "red");
+    assert_eq!(red.diffuse, v(0.8, 0.1, 0.1));
+    assert_eq!(red.specular, v(0.2, 0.25, 0.3));
+    assert_eq!(red.shininess, 64.0);
+    assert_eq!(red.mirror, 1.0);
+    // Resolved next to the .mtl (in materials/), not next to the .obj.
+    assert_eq!(red.diffuse_texture.as_deref(), Some(data("materials/checker.png").as_path()));
+    assert_eq!((blue.name.as_str(), blue.diffuse, blue.shininess), ("blue", v(0.1, 0.2, 0.9), 8.0));
+    assert_eq!(blue.diffuse_texture, None);
+    // Three quads of each, two triangles per quad.
+    assert_eq!(mesh.triangle_materials, [0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1]);
+}
+
+#[test]
+fn missing_mtl_is_a_warning_and_the_default_material_is_used() {
+    let loaded = load_obj(&data("missing_mtl.obj")).unwrap();
+    assert_eq!(loaded.mesh.triangle_count(), 1);
+    assert_eq!(loaded.mesh.materials.len(), 1);
+    assert_eq!(loaded.mesh.materials[0].diffuse, meshtracer::scene::Material::default().diffuse);
+    assert_eq!(loaded.mesh.triangle_materials, [0]);
+    assert!(loaded.warnings.iter().any(|w| w.contains("does-not-exist.mtl")), "{:?}", loaded.warnings);
+    // And `usemtl shiny` found nothing to use.
+    assert!(loaded.warnings.iter().any(|w| w.contains("usemtl shiny")), "{:?}", loaded.warnings);
+}
+
+#[test]
+fn missing_texture_is_a_warning() {
+    let loaded = load_obj(&data("missing_texture.obj")).unwrap();
+    assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
+    assert!(loaded.warnings[0].contains("not-there.png"), "{}", loaded.warnings[0]);
+    let material = &loaded.mesh.materials[0];
+    assert_eq!(material.name, "painted");
+    assert_eq!(material.diffuse_texture, None);
+    // `Kd 0 0 0` meant "the texture supplies the colour": without it, not black.
+    assert_ne!(material.diffuse, Vec3::ZERO);
+    assert_eq!(material.shininess, 16.0);
+}
+
+#[test]
+fn mtllib_without_a_folder_is_a_warning() {
+    let loaded = load_obj_from_str("mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "inline.obj", None).unwrap();
+    assert_eq!(loaded.mesh.materials.len(), 1);
+    assert!(loaded.warnings.iter().any(|w| w.contains("inline.obj") && w.contains("x.mtl")), "{:?}", loaded.warnings);
+}
+
+#[test]
+fn malformed_mtl_colours_do_not_stop_the_load() {
+    // tobj panics on a `Kd` with fewer than three numbers; the loader must not.
+    let dir = std::env::temp_dir().join(format!("meshtracer-mtl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("odd.mtl"), "newmtl grey\nKd 0.25\nKs 1 2\nNs 5\n").unwrap();
+    let obj = "mtllib odd.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl grey\nf 1 2 3\n";
+    let loaded = load_obj_from_str(obj, "odd.obj", Some(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let grey = &loaded.mesh.materials[0];
+    assert_eq!((grey.name.as_str(), grey.diffuse, grey.shininess), ("grey", Vec3::splat(0.25), 5.0));
+    assert!(loaded.warnings.iter().any(|w| w.contains("odd.mtl line 3")), "{:?}", loaded.warnings);
+}
+
+// --- Normals ------------------------------------------------------------------------
+
+#[test]
+fn computed_normals_point_outward_on_a_closed_cube() {
+    let mesh = load_obj(&data("cube.obj")).unwrap().mesh;
+    assert!(!mesh.has_file_normals);
+    // Each material gets its own copy of the corners it uses (tobj splits at `usemtl`)...
+    assert_eq!(mesh.vertex_count(), 16);
+    // ...yet the copies share one smooth normal: no shading seam between the materials.
+    for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+        // Outward: into the corner's own octant (area weighting favours the faces whose
+        // two triangles both touch the corner, so it is not exactly the diagonal).
+        assert!((n.length() - 1.0).abs() < 1e-5, "corner {p}: normal {n}");
+        assert!((*n * *p).cmpgt(Vec3::ZERO).all(), "corner {p}: normal {n} does not point outward");
+        for (q, m) in mesh.positions.iter().zip(&mesh.normals) {
+            assert!(p != q || n == m, "corner {p}: copies have normals {n} and {m}");
+        }
+    }
+    // The quads' split kept their winding: the signed volume is the cube's.
+    let volume: f32 = (0..mesh.triangle_count())
+        .map(|i| {
+            let [a, b, c] = mesh.corners(i);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    assert!((volume - 8.0).abs() < 1e-4, "volume {volume}");
+}
+
+// --- Bad input ----------------------------------------------------------------------
+
+/// The message names the file and, when given, the line.
+fn assert_names(e: &ObjError, file: &str, line: Option<usize>) {
+    let message = e.to_string();
+    assert!(message.contains(file), "message does not name {file}: {message}");
+    if let Some(n) = line {
+        assert!(message.contains(&format!("line {n}:")), "message does not name line {n}: {message}");
+    }
+    assert!(!message.contains('\n'), "message is not one sentence: {message}");
+}
+
+#[test]
+fn missing_file_names_the_path_and_the_os_error() {
+    let path = data("no-such-file.obj");
+    let e = load_obj(&path).unwrap_err();
+    assert!(matches!(e, ObjError::Io { .. }), "{e:?}");
+    assert_names(&e, "no-such-file.obj", None);
+    let not_found = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
+    assert!(e.to_string().contains(&not_found) || e.to_string().contains("No such file"), "{e}");
+
+    // A directory is not a file either.
+    let e = load_obj(&data("materials")).unwrap_err();
+    assert!(matches!(e, ObjError::Io { .. }), "{e:?}");
+}
+
+#[test]
+fn binary_data_is_not_text() {
+    let dir = std::env::temp_dir().join(format!("meshtracer-bin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("binary.obj");
+    std::fs::write(&path, b"v 0 0 0\nv 1 0 0\n\xff\xfe\x00garbage\nf 1 2 3\n").unwrap();
+    let e = load_obj(&path).unwrap_err();
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(matches!(e, ObjError::NotText { line: 3, .. }), "{e:?}");
+    assert_names(&e, "binary.obj", None);
+    assert!(e.to_string().contains("line 3"), "{e}");
+}
+
+#[test]
+fn face_index_out_of_range_names_the_line() {
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\nf 1 2 3\n\n# next\nf 1 2 9\n";
+    let e = load_obj_from_str(text, "bunny.obj", None).unwrap_err();
+    assert_eq!(e.to_string(), "bunny.obj line 12: face vertex index 9 is out of range (the file has 8 vertices so far)");
+    assert!(matches!(e, ObjError::IndexOutOfRange { line: 12, count: 8, .. }), "{e:?}");
+}
+
+#[test]
+fn every_kind_of_bad_index_is_out_of_range() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    let cases = [
+        ("f 1 2 4", "vertex"),                             // past the end
+        ("f 0 1 2", "vertex"),                             // OBJ counts from 1
+        ("f -4 -2 -1", "vertex"),                          // relative, before the first
+        ("f 1/2 2/1 3/1", "texture coordinate"),           // vt past the end
+        ("f 1/0 2/1 3/1", "texture coordinate"),           // zero vt (overflows inside tobj)
+        ("f 1//1 2//-2 3//1", "normal"),                   // relative vn before the first
+        ("f 1 2 99999999999999999999999", "vertex"),       // does not fit any integer
+        ("f 1//4611686018427387904 2//1 3//1", "normal"),  // overflows `3 * vn` inside tobj
+    ];
+    for (face, kind) in cases {
+        let e = load_err(&format!("{head}{face}\n"));
+        match &e {
+            ObjError::IndexOutOfRange { line: 6, kind: k, .. } if *k == kind => {}
+            _ => panic!("{face}: {e:?}"),
+        }
+        assert_names(&e, "test.obj", Some(6));
+    }
+    // A face may only use what was defined before it.
+    let e = load_err("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n");
+    assert!(matches!(e, ObjError::IndexOutOfRange { line: 3, count: 2, .. }), "{e:?}");
+    // Texture coordinates named when the file has none at all.
+    let e = load_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n");
+    assert!(matches!(e, ObjError::IndexOutOfRange { line: 4, count: 0, kind: "texture coordinate", .. }), "{e:?}");
+}
+
+#[test]
+fn non_finite_coordinates_name_the_line() {
+    for (bad, line, what) in [
+        ("v nan 0 0", 2, "vertex position"),
+        ("v 0 1e39 0", 2, "vertex position"), // overflows f32 to infinity
+        ("v 0 0 inf", 2, "vertex position"),
+        ("v 1 1 1 1e-45", 2, "vertex position"), // w divides to infinity
+    ] {
+        let text = format!("v 0 0 0\n{bad}\nv 0 1 0\nf 1 2 3\n");
+        let e = load_err(&text);
+        assert!(matches!(e, ObjError::NonFinite { line: l, .. } if l == line), "{bad}: {e:?}");
+        assert_names(&e, "test.obj", Some(line));
+        assert!(e.to_string().contains(what), "{e}");
+    }
+    let e = load_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn NaN 0 1\nf 1//1 2//2 3//1\n");
+    assert!(matches!(e, ObjError::NonFinite { line: 5, what: "a normal", .. }), "{e:?}");
+}
+
+#[test]
+fn a_file_without_faces_is_refused() {
+    for text in ["", "# nothing\n", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "v 0 0 0\nv 1 0 0\nl 1 2\n", "hello world\nthis is not an obj\n"] {
+        let e = load_err(text);
+        assert!(matches!(e, ObjError::NoFaces { .. }), "{text:?}: {e:?}");
+        assert_names(&e, "test.obj", None);
+        assert!(e.to_string().contains("contains no faces"), "{e}");
+    }
+}
+
+#[test]
+fn a_truncated_last_line_is_reported_as_such() {
+    let whole = format!("{SQUARE}f 1 2 3\nf 1 3 4\n");
+    for (cut, line) in [("f 1 2", 7), ("v 1.0 2.", 7), ("f 1/", 7), ("vn 0 0", 7)] {
+        let text = format!("{whole}{cut}");
+        let e = load_err(&text);
+        assert!(matches!(e, ObjError::Truncated { line: l, .. } if l == line), "{cut:?}: {e:?}");
+        assert_names(&e, "test.obj", Some(line));
+    }
+    // With a trailing newline and blank lines it is still the last statement.
+    let e = load_err(&format!("{whole}f 1 2\n\n"));
+    assert!(matches!(e, ObjError::Truncated { line: 7, .. }), "{e:?}");
+}
+
+#[test]
+fn malformed_lines_in_the_middle_are_parse_errors() {
+    for (bad, reason) in [
+        ("v 1 x 3", "vertex position"),
+        ("vn 0 1", "normal"),
+        ("vt", "texture coordinate"),
+        ("f 1 2", "three corners"),
+        ("f 1 2 a", "not a face corner"),
+        ("f 1//// 2 3", "more than three indices"),
+        ("f /1 2 3", "not a face corner"),
+        ("v 1 2 3 0", "w is zero"),
+    ] {
+        let text = format!("{SQUARE}{bad}\nf 1 2 3\n");
+        let e = load_err(&text);
+        assert!(matches!(e, ObjError::Parse { line: 5, .. }), "{bad:?}: {e:?}");
+        assert_names(&e, "test.obj", Some(5));
+        assert!(e.to_string().contains(reason), "{bad:?}: {e}");
+    }
+}
+
+#[test]
+fn no_input_makes_the_loader_panic() {
+    // A cheap sweep before real fuzzing: every prefix of a file using all features, and
+    // every line with one byte replaced by a troublesome one. Ok or Err, never a panic.
+    let dir = data("");
+    let text = "mtllib materials/cube.mtl\no a\nv 0 0 0\nv 1 0 0 1\nv 0 1 0\nv 1 1 1 0.5 0.5 0.5\nvt 0 0\nvt 1 1\n\
+                vn 0 0 1\nusemtl red\nf 1/1/1 2/2/1 3/1/1\nf -1//1 -2//1 -3//1 -4//1\ng b\nf 1 2 3 4 1\nl 1 2\n";
+    for end in 0..=text.len() {
+        if text.is_char_boundary(end) {
+            let _ = load_obj_from_str(&text[..end], "prefix.obj", Some(&dir));
+        }
+    }
+    for (i, _) in text.char_indices() {
+        for replacement in ["0", "-", "/", " ", "\n", "9999999999999999999", "nan", "f", "v"] {
+            let mutated = format!("{}{replacement}{}", &text[..i], &text[i + 1..]);
+            let _ = load_obj_from_str(&mutated, "mutated.obj", Some(&dir));
+        }
+    }
+}
+
+// --- The paper's models in assets/ ----------------------------------------------------
+
+/// `assets/<name>.obj` must hold what the generators make. With
+/// `MESHTRACER_WRITE_ASSETS=1` the files are (re)written first.
+#[test]
+fn paper_model_assets_load_back_with_the_generated_counts() {
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let rewrite = std::env::var_os("MESHTRACER_WRITE_ASSETS").is_some_and(|v| v == "1");
+    for model in PaperModel::ALL {
+        let generated = model.mesh();
+        let path = assets.join(format!("{}.obj", model.name()));
+        if rewrite {
+            write_obj(&generated, &path).unwrap();
+        }
+        let loaded = load_obj(&path).unwrap_or_else(|e| panic!("{e} (MESHTRACER_WRITE_ASSETS=1 cargo test --test obj_loader regenerates it)"));
+        assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+        let mesh = loaded.mesh;
+        assert_eq!(mesh.vertex_count(), generated.vertex_count(), "{}", model.name());
+        assert_eq!(mesh.triangle_count(), generated.triangle_count(), "{}", model.name());
+        assert_eq!(mesh.triangle_count(), model.paper_counts().1, "{}", model.name());
+        assert!(mesh.has_file_normals);
+        // Same triangles, and floats written exactly: the file holds the generator's mesh.
+        assert_eq!(triangle_corners(&mesh), triangle_corners(&generated), "{} is stale", path.display());
+    }
+}
+
+// --- Timing on real meshes (not part of the normal run) ----------------------------------
+
+/// `MESHTRACER_BENCH_OBJS=a.obj:b.obj cargo test --release --test obj_loader -- --ignored --nocapture`
+#[test]
+#[ignore = "needs meshes named by MESHTRACER_BENCH_OBJS"]
+fn load_times_of_real_meshes() {
+    let list = std::env::var("MESHTRACER_BENCH_OBJS").unwrap_or_default();
+    for path in list.split(':').filter(|p| !p.is_empty()) {
+        let start = std::time::Instant::now();
+        let loaded = load_obj(Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
+        let elapsed = start.elapsed();
+        let m = &loaded.mesh;
+        println!(
+            "{path}: {} vertices, {} triangles, {} materials, file normals {}, texcoords {}, {:.1} ms, {} warnings",
+            m.vertex_count(),
+            m.triangle_count(),
+            m.materials.len(),
+            m.has_file_normals,
+            !m.texcoords.is_empty(),
+            elapsed.as_secs_f64() * 1e3,
+            loaded.warnings.len()
+        );
+        for w in &loaded.warnings {
+            println!("  warning: {w}");
+        }
+    }
+}
