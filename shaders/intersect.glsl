@@ -104,8 +104,12 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
     hit.u = 0.0;
     hit.v = 0.0;
     uint count = frame.misc.x;
+    vec3 inv_d = safe_inverse(d);
     for (uint i = 0u; i < count; i++) {
         Instance inst = instances[i];
+        // Top level: skip instances whose box the ray misses or meets beyond the closest
+        // hit so far. Brute force stays the paper's: every triangle, no culling.
+        if (use_bvh && slab(inst.bounds_min.xyz, inst.bounds_max.xyz, o, inv_d, hit.t) == INF) continue;
         float s = inst.translation_scale.w;
         vec3 lo = (o - inst.translation_scale.xyz) / s;
         vec3 ld = d / s;

@@ -30,6 +30,8 @@ struct BvhNode {
 struct Instance {
     vec4 translation_scale;  // world = object * scale + translation
     uvec4 offsets;           // node base, triangle base, triangle count, prim-id base
+    vec4 bounds_min;         // world-space box of the instance (the top level's culling test)
+    vec4 bounds_max;
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };

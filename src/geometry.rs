@@ -91,6 +91,13 @@ impl Aabb {
     }
 }
 
+/// `1 / d` without infinities: a zero component becomes ±1e20 (0 * inf would give NaN in
+/// the slab test). The shader's `safe_inverse` does the same.
+pub fn safe_inverse(d: Vec3) -> Vec3 {
+    let fix = |c: f32| if c < 0.0 { -c.abs().max(1e-20) } else { c.max(1e-20) };
+    Vec3::new(fix(d.x), fix(d.y), fix(d.z)).recip()
+}
+
 /// A ray/triangle hit: distance along the ray and the barycentrics of corners 1 and 2.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriHit {

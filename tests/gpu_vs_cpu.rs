@@ -2,9 +2,10 @@
 //! scenes with analytic answers. Every test runs under the Vulkan validation layer.
 //!
 //! Tolerance: the two tracers run the same float maths but not bit-identically (FMA
-//! contraction, `pow`/`normalize` precision), so a pixel may differ by rounding, and a ray
-//! grazing an edge can pick the neighbouring triangle. We require at most 0.5% of pixels
-//! to differ by more than 2/255 in any channel, and a mean difference under 1/255.
+//! contraction, `pow`/`normalize` precision): on lavapipe the largest difference seen is
+//! 4e-6. A ray grazing an edge may still pick the neighbouring triangle on some driver, so
+//! we allow 0.2% of pixels to differ by more than 1e-4 (1/40 of an 8-bit step) in any
+//! channel, and require the mean difference to stay under 1e-4.
 
 mod common;
 
@@ -14,7 +15,7 @@ use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::Material;
 use meshtracer::tracer::{Accel, Aov, RenderSettings};
 
-const THRESHOLD: f32 = 2.0 / 255.0;
+const THRESHOLD: f32 = 1e-4;
 
 fn settings(size: u32, bounces: u32) -> RenderSettings {
     RenderSettings { width: size, height: size, bounces, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color }
@@ -22,7 +23,7 @@ fn settings(size: u32, bounces: u32) -> RenderSettings {
 
 fn assert_close(gpu: &meshtracer::tracer::Image, cpu: &meshtracer::tracer::Image, what: &str) {
     let d = gpu.compare(cpu, THRESHOLD);
-    assert!(d.fraction_over <= 0.005 && d.mean < 1.0 / 255.0, "{what}: GPU and CPU differ: {d:?}");
+    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: GPU and CPU differ: {d:?}");
 }
 
 #[test]

@@ -440,22 +440,25 @@ impl Builder {
         let (_, axis, plane) = best?;
 
         // In-place partition; the centroid boxes of the two sides come for free here.
+        // Branch-free (Lomuto with an unconditional swap): the side of a primitive is a coin
+        // flip to the branch predictor, and a mispredict costs more than a swap.
         let (mut left, mut right) = (NodeInfo::EMPTY, NodeInfo::EMPTY);
-        let (mut i, mut j) = (0, prims.len());
-        while i < j {
-            if (grid.bin_of(prims[i].centroid())[axis] as usize) < plane {
-                i += 1;
-            } else {
-                j -= 1;
-                prims.swap(i, j);
-            }
+        let mut i = 0; // prims[..i] go left, prims[i..k] go right
+        for k in 0..prims.len() {
+            let c = prims[k].centroid();
+            let goes_left = (grid.bin_of(c)[axis] as usize) < plane;
+            let mask = glam::BVec3A::splat(goes_left);
+            left.centroids.min = Vec3A::select(mask, left.centroids.min.min(c), left.centroids.min);
+            left.centroids.max = Vec3A::select(mask, left.centroids.max.max(c), left.centroids.max);
+            right.centroids.min = Vec3A::select(mask, right.centroids.min, right.centroids.min.min(c));
+            right.centroids.max = Vec3A::select(mask, right.centroids.max, right.centroids.max.max(c));
+            prims.swap(i, k);
+            i += goes_left as usize;
         }
         // The primitive boxes of each side are the union of its bins.
         let axis_bins = &bins.bins[axis][..n_bins];
         left.bounds = axis_bins[..plane].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
         right.bounds = axis_bins[plane..].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
-        left.centroids = centroid_bounds(&prims[..i]);
-        right.centroids = centroid_bounds(&prims[i..]);
         Some(Split { mid: i, left, right })
     }
 }

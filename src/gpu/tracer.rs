@@ -7,7 +7,7 @@ use std::time::Instant;
 use ash::vk;
 
 use super::context::GpuContext;
-use super::error::GpuError;
+use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::timer::GpuTimer;
 use super::trace_pass::{TraceOutput, TracePass, GROUP_SIZE};
@@ -38,8 +38,12 @@ pub struct GpuTracer {
     scene: SceneBuffers,
     output: Option<TraceOutput>,
     timer: Option<GpuTimer>,
-    /// Triangles in the largest mesh, for the per-ray cost estimate.
+    /// Triangles over all instances, for the per-ray cost estimate.
     triangle_total: u64,
+    /// One command buffer and fence reused by every submission (no per-frame allocation).
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
 }
 
 impl GpuTracer {
@@ -48,12 +52,33 @@ impl GpuTracer {
         let pass = TracePass::new(ctx)?;
         let scene = SceneBuffers::upload(ctx, packed)?;
         let timer = GpuTimer::new(ctx, 1)?;
-        Ok(Self { ctx: ctx.clone(), pass, scene, output: None, timer, triangle_total: 0 }.with_total(packed))
+        let device = &ctx.device;
+        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.during("creating a fence")?;
+        let triangle_total = packed.instances.iter().map(|i| i.triangle_count as u64).sum();
+        Ok(Self { ctx: ctx.clone(), pass, scene, output: None, timer, triangle_total, pool, cmd, fence })
     }
 
-    fn with_total(mut self, packed: &PackedScene) -> Self {
-        self.triangle_total = packed.instances.iter().map(|i| i.triangle_count as u64).sum();
-        self
+    /// Record with `record` into the reusable command buffer, submit, and wait.
+    fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<(), GpuError> {
+        let device = &self.ctx.device;
+        let cmd = self.cmd;
+        unsafe {
+            device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
+            device
+                .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
+                .during("recording commands")?;
+            record(cmd);
+            device.end_command_buffer(cmd).during("recording commands")?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            device.reset_fences(&[self.fence]).during("resetting a fence")?;
+            device.queue_submit(self.ctx.queue, &submit, self.fence).during("submitting the trace")?;
+            device.wait_for_fences(&[self.fence], true, u64::MAX).during("waiting for the trace")
+        }
     }
 
     /// The context this tracer runs on.
@@ -114,7 +139,7 @@ impl GpuTracer {
             let pass = &self.pass;
             let timer = self.timer.as_ref();
             let device = &self.ctx.device;
-            self.ctx.one_shot(|cmd| unsafe {
+            self.submit_and_wait(|cmd| unsafe {
                 if let Some(t) = timer {
                     t.begin(cmd, 0);
                 }
@@ -165,5 +190,15 @@ impl GpuTracer {
         let out = self.output.as_ref().expect("trace() before read_rgba8()");
         let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
         Ok(image::RgbaImage::from_raw(out.width, out.height, bytes).expect("size matches"))
+    }
+}
+
+impl Drop for GpuTracer {
+    fn drop(&mut self) {
+        let device = &self.ctx.device;
+        unsafe {
+            device.destroy_fence(self.fence, None);
+            device.destroy_command_pool(self.pool, None);
+        }
     }
 }

@@ -190,19 +190,21 @@ fn quote(line: &str) -> String {
 // Feeding tobj one checked line at a time
 // ---------------------------------------------------------------------------------------
 
-/// A `BufRead` over text that hands out exactly one line per `fill_buf`, so that the line
-/// `tobj` is working on is always the last one handed out. In OBJ mode it also counts
-/// `v`/`vt`/`vn`, checks every face before `tobj` parses it, and hides polylines.
+/// The `BufRead` that tobj reads the text through. tobj reads with `BufRead::lines`, so
+/// every `consume` takes exactly one line: the feeder always knows which line tobj is on.
+/// In OBJ mode it checks each line as it is consumed, before tobj parses it (counting
+/// `v`/`vt`/`vn`, checking faces); after a bad line the next `fill_buf` fails, so tobj
+/// stops before it can use the face. It also hides polylines from tobj.
 struct LineFeeder<'a> {
     name: &'a str,
-    /// Text not handed out yet.
+    /// Text not consumed yet.
     rest: &'a str,
-    /// What is left of the current line (tobj may consume it in pieces).
-    current: &'a str,
-    /// The current line as read from the text, for messages.
+    /// The line consumed last: the one tobj is working on.
     current_line: &'a str,
-    /// 1-based number of the current line; 0 before the first.
+    /// 1-based number of `current_line`; 0 before the first.
     line: usize,
+    /// `fill_buf` is handing out an empty line in place of a hidden one.
+    hiding: bool,
     /// Check faces and count elements (OBJ), or only count lines (MTL).
     check_obj: bool,
     vertices: usize,
@@ -220,9 +222,9 @@ impl<'a> LineFeeder<'a> {
         Self {
             name,
             rest: text,
-            current: "",
             current_line: "",
             line: 0,
+            hiding: false,
             check_obj,
             vertices: 0,
             texcoords: 0,
@@ -272,8 +274,8 @@ impl<'a> LineFeeder<'a> {
         self.parse_error(reason)
     }
 
-    /// Check one line before tobj sees it; returns the text to hand to tobj.
-    fn check_line(&mut self, line: &'a str) -> Result<&'a str, ObjError> {
+    /// Check one line before tobj parses it.
+    fn check_line(&mut self, line: &'a str) -> Result<(), ObjError> {
         // tobj splits on Unicode whitespace. The usual ASCII line gives the same words
         // split as bytes, which is faster; anything else goes the way tobj goes.
         if line.is_ascii() {
@@ -284,14 +286,12 @@ impl<'a> LineFeeder<'a> {
         }
     }
 
-    fn check_statement<'w>(&mut self, mut words: impl Iterator<Item = &'w [u8]>, line: &'a str) -> Result<&'a str, ObjError> {
+    fn check_statement<'w>(&mut self, mut words: impl Iterator<Item = &'w [u8]>, line: &'a str) -> Result<(), ObjError> {
         match words.next() {
             Some(b"v") => self.vertices += 1,
             Some(b"vt") => self.texcoords += 1,
             Some(b"vn") => self.normals += 1,
             Some(b"f") => self.check_face(words)?,
-            // A polyline is not a surface, but tobj would turn `l 1 2 3` into a triangle.
-            Some(b"l") => return Ok("\n"),
             Some(b"usemtl") => {
                 // tobj takes the name the same way: everything after the first space.
                 let name = line.split_once(' ').map_or("", |(_, n)| n.trim());
@@ -301,7 +301,7 @@ impl<'a> LineFeeder<'a> {
             }
             _ => {}
         }
-        Ok(line)
+        Ok(())
     }
 
     /// Every corner must be `v`, `v/vt`, `v//vn` or `v/vt/vn` with indices (absolute or
@@ -390,6 +390,7 @@ fn parse_index(text: &[u8]) -> Option<i64> {
 
 impl Read for LineFeeder<'_> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        // Not used by tobj, which only reads lines; correct all the same, if slower.
         let available = self.fill_buf()?;
         let n = available.len().min(buf.len());
         buf[..n].copy_from_slice(&available[..n]);
@@ -400,33 +401,48 @@ impl Read for LineFeeder<'_> {
 
 impl BufRead for LineFeeder<'_> {
     fn fill_buf(&mut self) -> io::Result<&[u8]> {
-        if self.current.is_empty() && !self.rest.is_empty() {
-            let end = self.rest.find('\n').map_or(self.rest.len(), |i| i + 1);
-            let (line, rest) = self.rest.split_at(end);
-            self.rest = rest;
-            self.line += 1;
-            self.current_line = line;
-            self.current = if self.check_obj {
-                match self.check_line(line) {
-                    Ok(fed) => fed,
-                    Err(e) => {
-                        self.error = Some(e);
-                        // tobj turns this into `ReadError`; `into_error` swaps ours back in.
-                        return Err(io::Error::other("stopped at a bad line"));
-                    }
-                }
-            } else {
-                line
-            };
+        if self.error.is_some() {
+            // tobj turns this into `ReadError`; `into_error` swaps ours back in.
+            return Err(io::Error::other("stopped at a bad line"));
         }
-        Ok(self.current.as_bytes())
+        if self.check_obj && !self.hiding && starts_polyline(self.rest) {
+            // tobj would turn `l 1 2 3` into a triangle: it gets an empty line instead.
+            let end = self.rest.find('\n').map_or(self.rest.len(), |i| i + 1);
+            self.advance(end);
+            self.hiding = true;
+        }
+        Ok(if self.hiding { b"\n" } else { self.rest.as_bytes() })
     }
 
     fn consume(&mut self, amount: usize) {
-        // tobj reads whole lines, so `amount` always falls on a char boundary; `get`
-        // keeps a stray byte count from panicking all the same.
-        self.current = self.current.get(amount..).unwrap_or("");
+        if std::mem::take(&mut self.hiding) {
+            return;
+        }
+        self.advance(amount);
+        if self.check_obj {
+            if let Err(e) = self.check_line(self.current_line) {
+                self.error = Some(e);
+            }
+        }
     }
+}
+
+impl LineFeeder<'_> {
+    /// Move the next `amount` bytes (one line) from `rest` to `current_line`.
+    fn advance(&mut self, amount: usize) {
+        // `lines()` consumes whole lines, so `amount` ends on a char boundary; a stray
+        // count takes the rest rather than panic.
+        let (line, rest) = self.rest.split_at_checked(amount).unwrap_or((self.rest, ""));
+        self.current_line = line;
+        self.rest = rest;
+        self.line += 1;
+    }
+}
+
+/// True when `text` starts with an `l` (polyline) statement.
+fn starts_polyline(text: &str) -> bool {
+    let bytes = text.trim_start_matches([' ', '\t']).as_bytes();
+    bytes.first() == Some(&b'l') && bytes.get(1).is_none_or(|&b| is_ascii_space(b))
 }
 
 // ---------------------------------------------------------------------------------------

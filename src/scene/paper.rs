@@ -182,10 +182,13 @@ pub fn default_camera() -> Camera {
     Camera { position: Vec3::new(2.2, 1.5, 3.3), target: Vec3::new(0.0, 0.0, 0.0), up: Vec3::Y, vfov_deg: 60.0 }
 }
 
-/// Instances for `model_count` copies: the box (mesh 1) first, then the models (mesh 0).
+/// Instances for `model_count` copies: the models (mesh 0), then the box (mesh 1). Models
+/// come first so their hits shorten the ray before the box, which every ray meets.
 pub fn instances(model_count: u32) -> Vec<Instance> {
-    std::iter::once(Instance { mesh: 1, translation: Vec3::ZERO, scale: 1.0 })
-        .chain(model_offsets(model_count).into_iter().map(|t| Instance { mesh: 0, translation: t, scale: 1.0 }))
+    model_offsets(model_count)
+        .into_iter()
+        .map(|t| Instance { mesh: 0, translation: t, scale: 1.0 })
+        .chain(std::iter::once(Instance { mesh: 1, translation: Vec3::ZERO, scale: 1.0 }))
         .collect()
 }
 

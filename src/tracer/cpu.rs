@@ -10,7 +10,7 @@ use super::image::Image;
 use super::packed::PackedScene;
 use super::shading::{blinn_phong, reflect, ShadingMaterial};
 use crate::bvh::TraversalStats;
-use crate::geometry::{intersect_triangle, Ray};
+use crate::geometry::{intersect_triangle, Aabb, Ray};
 
 /// A closest hit in the packed scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,7 +39,14 @@ impl<'a> CpuScene<'a> {
     /// Closest hit over the first `instance_count` instances, in (0, inf).
     pub fn closest_hit(&self, ray: &Ray, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
         let mut best: Option<SceneHit> = None;
+        let inv_dir = crate::geometry::safe_inverse(ray.dir);
         for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
+            if accel == Accel::Bvh {
+                let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
+                if bounds.intersect(ray, inv_dir, best.map_or(f32::INFINITY, |h| h.t)).is_none() {
+                    continue;
+                }
+            }
             // Uniform scale: the object-space ray keeps world-space distances.
             let local = Ray::new((ray.origin - Vec3::from(inst.translation)) / inst.scale, ray.dir / inst.scale);
             let t_max = best.map_or(f32::INFINITY, |h| h.t);

@@ -9,6 +9,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::bvh::{BuildOptions, Bvh, BvhNode};
+use crate::geometry::Aabb;
 use crate::scene::{Instance, Mesh, Scene};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
@@ -49,7 +50,7 @@ pub struct GpuMaterial {
     pub shininess: f32,
 }
 
-/// A placed mesh (32 bytes): uniform scale then translation, and where its data lives.
+/// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
@@ -60,6 +61,9 @@ pub struct GpuInstance {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub prim_base: u32,
+    /// World-space bounds (.w unused): the top level culls instances with them.
+    pub bounds_min: [f32; 4],
+    pub bounds_max: [f32; 4],
 }
 
 /// Where one mesh's data sits in the packed arrays.
@@ -71,6 +75,8 @@ pub struct PackedMesh {
     pub triangle_count: u32,
     pub vertex_count: u32,
     pub prim_base: u32,
+    /// Object-space bounds of the mesh.
+    pub bounds: Aabb,
     /// The mesh's BVH (its nodes are also in `PackedScene::nodes` at `node_base`).
     pub bvh: Bvh,
 }
@@ -141,6 +147,7 @@ impl PackedScene {
             triangle_count: mesh.triangle_count() as u32,
             vertex_count: mesh.vertex_count() as u32,
             prim_base,
+            bounds: mesh.bounds(),
             bvh,
         });
     }
@@ -151,7 +158,15 @@ impl PackedScene {
             .iter()
             .map(|inst| {
                 let m = &self.meshes[inst.mesh];
+                let b = m.bounds;
+                let (lo, hi) = if b.is_empty() {
+                    (Vec3::ZERO, Vec3::ZERO)
+                } else {
+                    (b.min * inst.scale + inst.translation, b.max * inst.scale + inst.translation)
+                };
                 GpuInstance {
+                    bounds_min: lo.extend(0.0).to_array(),
+                    bounds_max: hi.extend(0.0).to_array(),
                     translation: inst.translation.to_array(),
                     scale: inst.scale,
                     node_base: m.node_base,
@@ -181,7 +196,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
         assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 48);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
-        assert_eq!(std::mem::size_of::<GpuInstance>(), 32);
+        assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     }
 }
