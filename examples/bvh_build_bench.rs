@@ -43,10 +43,12 @@ fn main() {
 
 fn bench(name: &str, tris: &[[Vec3; 3]]) {
     let name = format!("{name} ({}k)", tris.len() / 1000);
-    let options = BuildOptions::default();
-    let runs = if tris.len() > 2_000_000 { 3 } else { 5 };
+    let mut options = BuildOptions::default();
+    options.bins = env("BENCH_BINS").unwrap_or(options.bins);
+    options.max_leaf_size = env("BENCH_LEAF").unwrap_or(options.max_leaf_size);
+    let runs = env("BENCH_RUNS").unwrap_or(if tris.len() > 2_000_000 { 3 } else { 5 });
     let only_ours = std::env::var_os("BENCH_ONLY_OURS").is_some();
-    let rays = probe_rays(tris, 100_000);
+    let rays = if std::env::var_os("BENCH_QUICK").is_some() { vec![] } else { probe_rays(tris, 100_000) };
 
     let (ours, t) = best_of(runs, || Bvh::build(tris, &options));
     report(&name, "ours (binned SAH)", t, &ours, tris, &rays);
@@ -67,6 +69,11 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
 }
 
 /// Best wall time of `runs` calls, and the least CPU time (all threads) of one call.
+/// A number from the environment (`BENCH_RUNS`, `BENCH_BINS`, `BENCH_LEAF`).
+fn env<T: std::str::FromStr>(key: &str) -> Option<T> {
+    std::env::var(key).ok().and_then(|v| v.parse().ok())
+}
+
 fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (T, Timing) {
     let mut best = Timing { wall: Duration::MAX, cpu: Duration::MAX };
     let mut result = None;
@@ -96,6 +103,10 @@ fn process_cpu_time() -> Duration {
 }
 
 fn report(mesh: &str, builder: &str, t: Timing, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
+    if std::env::var_os("BENCH_QUICK").is_some() {
+        println!("{mesh:<28} {builder:<26} {:>10.1} {:>8.0}", t.wall.as_secs_f64() * 1e3, t.cpu.as_secs_f64() * 1e3);
+        return;
+    }
     let options = BuildOptions { max_leaf_size: 255, ..Default::default() };
     if let Err(e) = bvh.validate_with(tris, &options) {
         println!("{mesh:<28} {builder:<26} INVALID: {e}");

@@ -8,14 +8,16 @@ struct Triangle {
 };
 
 struct TriangleShading {
-    vec4 n0;   // xyz: vertex normals of the three corners (object space)
-    vec4 n1;
+    vec4 n0;   // xyz: vertex normals of the three corners (object space); w: u of corner 2
+    vec4 n1;   //                                                          w: v of corner 2
     vec4 n2;
+    vec4 uv01; // texture coordinates of corners 0 and 1
 };
 
 struct Material {
     vec4 diffuse_mirror;     // rgb: Kd, a: mirror strength (scales the blend ratio)
     vec4 specular_shininess; // rgb: Ks, a: Ns
+    uvec4 texture;           // x: diffuse texture index or EMPTY
 };
 
 // Two child boxes per node; .w of the four vec4s: left index, left count, right index,
@@ -41,6 +43,13 @@ layout(std430, set = 0, binding = 3) readonly buffer Nodes { BvhNode nodes[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instances[]; };
 layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };
 layout(std430, set = 0, binding = 6) buffer OutFloat { vec4 out_float[]; };
+// All textures' mip chains, RGBA8 (src/tracer/textures.rs), and where each one starts.
+layout(std430, set = 0, binding = 7) readonly buffer Texels { uint texels[]; };
+layout(std430, set = 0, binding = 8) readonly buffer TextureInfos { uvec4 texture_infos[]; }; // offset, w, h, levels
+// Primary-hit ids of the adaptive pre-pass (one per pixel).
+layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
+// Equirectangular environment: [0] width, [1] height, then RGBA8 texels.
+layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
 
 // Per-frame parameters (src/tracer/frame.rs: FrameParams::push_constants). 128 bytes.
 layout(push_constant) uniform Frame {
@@ -51,7 +60,7 @@ layout(push_constant) uniform Frame {
     vec4 light_pos;          // xyz: point light position
     vec4 light_color;        // rgb: light colour
     uvec4 dims;              // width, height, bounces, flags
-    uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), unused
+    uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), accumulated frames
 } frame;
 
 const uint EMPTY = 0xffffffffu;
@@ -65,3 +74,10 @@ const uint AOV_DEPTH = 1u;
 const uint AOV_NORMAL = 2u;
 const uint AOV_PRIM_ID = 3u;
 const uint AOV_COST = 4u;
+const uint AOV_SAMPLES = 5u;
+const uint FLAG_SMOOTH = 1u << 4;
+const uint FLAG_TEXTURES = 1u << 5;
+const uint FLAG_ENVIRONMENT = 1u << 6;
+const uint FLAG_ADAPTIVE = 1u << 7;
+const uint FLAG_ID_PASS = 1u << 8;   // adaptive pre-pass: write primary-hit ids only
+const uint SPP_SHIFT = 16u;          // 8 bits: samples per pixel

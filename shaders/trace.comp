@@ -1,56 +1,98 @@
 #version 450
 // The tracer (paper 3.3): one invocation per pixel; a primary ray through the pixel
 // centre, the closest hit, Blinn–Phong at the hit, then mirror bounces blended with the
-// colour so far at the reflection ratio. The CPU twin is src/tracer/cpu.rs.
+// colour so far at the reflection ratio. On top, the paper's future work: smooth shading,
+// textures (ray-cone mip selection), an environment map, jittered supersampling with
+// progressive accumulation, and adaptive sampling on triangle edges.
+// The CPU twin is src/tracer/cpu.rs.
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 #include "scene.glsl"
 #include "intersect.glsl"
+#include "texture.glsl"
 #include "shade.glsl"
 
-void main() {
+// PCG hash (Jarzynski & Olano 2020): the sample jitter, identical on the CPU.
+uint pcg(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+float random01(inout uint seed) {
+    seed = pcg(seed);
+    return float(seed >> 8) * (1.0 / 16777216.0);
+}
+
+// The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top).
+vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost) {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
-    uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + frame.misc.y);
-    if (px.x >= width || px.y >= height) return;
-
-    vec2 ndc = vec2((float(px.x) + 0.5) / float(width) * 2.0 - 1.0,
-                    1.0 - (float(px.y) + 0.5) / float(height) * 2.0);
+    uint flags = frame.dims.w;
+    vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
     vec3 o = frame.cam_origin_eps.xyz;
     vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
 
-    uint flags = frame.dims.w;
-    bool use_bvh = (flags & FLAG_BVH) != 0u;
-    uint aov = (flags >> AOV_SHIFT) & 7u;
-    uint bounces = (aov == AOV_COLOR || aov == AOV_COST) ? frame.dims.z : 0u;
+    uint bounces = (aov == AOV_COLOR || aov == AOV_COST || aov == AOV_SAMPLES) ? frame.dims.z : 0u;
     float blend = frame.cam_forward_blend.w;
     float eps = frame.cam_origin_eps.w;
-    vec3 background = unpackUnorm4x8(frame.misc.z).rgb;
+    // Ray cone: the angle one pixel subtends; flat mirrors keep it, so the footprint at a
+    // hit is this angle times the path length so far.
+    float spread = 2.0 * length(frame.cam_up.xyz) / float(height);
+    float path_length = 0.0;
 
     vec3 color = vec3(0.0);
     vec3 throughput = vec3(1.0);
     vec4 aux = vec4(-1.0, -1.0, -1.0, 0.0);
-    uvec2 cost = uvec2(0u);
 
     for (uint bounce = 0u; bounce <= bounces; bounce++) {
         Hit hit = closest_hit(o, d, use_bvh, cost);
         if (hit.tri == EMPTY) {
-            color += throughput * background;
+            vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
+            color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
             break;
         }
+        path_length += hit.t;
         Triangle tri = triangles[hit.tri];
         vec3 p = o + d * hit.t;
-        vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
-        if (dot(n, d) > 0.0) n = -n;  // two-sided: face the incoming ray
-        uint mat_index = floatBitsToUint(tri.v0.w);
-        Material mat = materials[mat_index];
-        vec3 local_color = blinn_phong(mat, p, n, -d);
+        vec3 ng = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+        if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
+        vec3 ns = ng;
+        TriangleShading sh = shading[hit.tri];
+        if ((flags & FLAG_SMOOTH) != 0u) {
+            vec3 interp = sh.n0.xyz * (1.0 - hit.u - hit.v) + sh.n1.xyz * hit.u + sh.n2.xyz * hit.v;
+            if (dot(interp, interp) > 1e-12) {
+                ns = normalize(interp);
+                if (dot(ns, ng) < 0.0) ns = -ns;  // normals wound against the triangle
+            }
+        }
+        Material mat = materials[floatBitsToUint(tri.v0.w)];
+        vec3 kd = mat.diffuse_mirror.rgb;
+        if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {
+            vec2 uv0 = sh.uv01.xy;
+            vec2 uv1 = sh.uv01.zw;
+            vec2 uv2 = vec2(sh.n0.w, sh.n1.w);
+            vec2 uv = uv0 * (1.0 - hit.u - hit.v) + uv1 * hit.u + uv2 * hit.v;
+            uvec4 info = texture_infos[mat.texture.x];
+            float s = instances[hit.instance].translation_scale.w;
+            float world_area = 0.5 * length(cross(tri.e1.xyz, tri.e2.xyz)) * s * s;
+            vec2 duv1 = uv1 - uv0;
+            vec2 duv2 = uv2 - uv0;
+            float texel_area = 0.5 * abs(duv1.x * duv2.y - duv1.y * duv2.x) * float(info.y) * float(info.z);
+            float lod = 0.0;
+            if (world_area > 0.0 && texel_area > 0.0) {
+                float width_at_hit = spread * path_length;
+                lod = log2(max(width_at_hit, 1e-20)) + 0.5 * log2(texel_area / world_area) - log2(max(abs(dot(ng, d)), 1e-4));
+            }
+            kd *= sample_texture(mat.texture.x, uv, lod).rgb;
+        }
+        vec3 local_color = blinn_phong(kd, mat, p, ns, ng, -d);
         if (bounce == 0u) {
             uint prim = floatBitsToUint(tri.e1.w) + instances[hit.instance].offsets.w;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
-            if (aov == AOV_NORMAL) aux = vec4(n, 1.0);
+            if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
             if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);
         }
         float r = blend * mat.diffuse_mirror.a;
@@ -62,19 +104,88 @@ void main() {
         color += throughput * (1.0 - r) * local_color;
         throughput *= r;
         if (r <= 0.0) break;
-        o = p + n * eps;
-        d = reflect(d, n);
+        vec3 reflected = reflect(d, ns);
+        // A shading normal must not send the ray through the surface.
+        if (dot(reflected, ng) <= 0.0) reflected = reflect(d, ng);
+        o = p + ng * eps;
+        d = reflected;
+    }
+    if (aov == AOV_COLOR || aov == AOV_SAMPLES) return vec4(color, 1.0);
+    return aux;
+}
+
+// Id of the primary hit at the pixel centre (adaptive sampling's edge test).
+uint primary_id(uvec2 px, bool use_bvh) {
+    uvec2 cost = uvec2(0u);
+    uint width = frame.dims.x;
+    uint height = frame.dims.y;
+    vec2 pos = vec2(px) + 0.5;
+    vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
+    vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
+    Hit hit = closest_hit(frame.cam_origin_eps.xyz, d, use_bvh, cost);
+    return hit.tri;
+}
+
+void main() {
+    uint width = frame.dims.x;
+    uint height = frame.dims.y;
+    uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + frame.misc.y);
+    if (px.x >= width || px.y >= height) return;
+    uint pixel = px.y * width + px.x;
+    uint flags = frame.dims.w;
+    bool use_bvh = (flags & FLAG_BVH) != 0u;
+    uint aov = (flags >> AOV_SHIFT) & 7u;
+
+    if ((flags & FLAG_ID_PASS) != 0u) {
+        prim_ids[pixel] = primary_id(px, use_bvh);
+        return;
     }
 
-    uint pixel = px.y * width + px.x;
+    uint frame_index = frame.misc.w;
+    uint spp = max((flags >> SPP_SHIFT) & 255u, 1u);
+    bool single_value = aov == AOV_DEPTH || aov == AOV_NORMAL || aov == AOV_PRIM_ID;
+    if (single_value) spp = 1u;
+    if ((flags & FLAG_ADAPTIVE) != 0u && !single_value) {
+        // Extra samples only where a 4-neighbour's primary ray hit another triangle.
+        uint id = prim_ids[pixel];
+        uint l = prim_ids[px.y * width + (px.x > 0u ? px.x - 1u : px.x)];
+        uint r = prim_ids[px.y * width + min(px.x + 1u, width - 1u)];
+        uint u = prim_ids[(px.y > 0u ? px.y - 1u : px.y) * width + px.x];
+        uint dn = prim_ids[min(px.y + 1u, height - 1u) * width + px.x];
+        bool edge = l != id || r != id || u != id || dn != id;
+        if (!edge) spp = 1u;
+    }
+    // The paper's single ray through the centre unless several samples are asked for.
+    bool jitter = !single_value && (spp > 1u || frame_index > 0u);
+
+    uvec2 cost = uvec2(0u);
+    vec4 sum = vec4(0.0);
+    for (uint s = 0u; s < spp; s++) {
+        vec2 offset = vec2(0.5);
+        if (jitter) {
+            uint seed = pcg(pixel ^ pcg(frame_index * 256u + s));
+            offset = vec2(random01(seed), random01(seed));
+        }
+        sum += trace_sample(vec2(px) + offset, aov, use_bvh, cost);
+    }
+    vec4 value = sum / float(spp);
+
     if (aov == AOV_COLOR) {
-        out_float[pixel] = vec4(color, 1.0);
-        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(color, 0.0, 1.0), 1.0));
+        if (frame_index > 0u) {
+            // Progressive accumulation: running mean over frames.
+            vec4 previous = out_float[pixel];
+            value = previous + (value - previous) / float(frame_index + 1u);
+        }
+        out_float[pixel] = value;
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
     } else if (aov == AOV_COST) {
         out_float[pixel] = vec4(float(cost.x), float(cost.y), 0.0, 1.0);
-        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(color, 0.0, 1.0), 1.0));
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
+    } else if (aov == AOV_SAMPLES) {
+        out_float[pixel] = vec4(float(spp), float(spp), float(spp), 1.0);
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
     } else {
-        out_float[pixel] = aux;
-        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(abs(aux.xyz) * 0.1, 0.0, 1.0), 1.0));
+        out_float[pixel] = value;
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(abs(value.xyz) * 0.1, 0.0, 1.0), 1.0));
     }
 }

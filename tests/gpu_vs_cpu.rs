@@ -18,7 +18,7 @@ use meshtracer::tracer::{Accel, Aov, RenderSettings};
 const THRESHOLD: f32 = 1e-4;
 
 fn settings(size: u32, bounces: u32) -> RenderSettings {
-    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color }
+    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, ..RenderSettings::default() }
 }
 
 fn assert_close(gpu: &meshtracer::tracer::Image, cpu: &meshtracer::tracer::Image, what: &str) {

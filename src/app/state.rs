@@ -67,6 +67,8 @@ pub struct Params {
     pub camera: Camera,
     pub vsync: bool,
     pub panel_visible: bool,
+    /// The knobs the panel does not (yet) show, as the command line set them.
+    pub base: RenderSettings,
 }
 
 impl Params {
@@ -89,6 +91,7 @@ impl Params {
             camera: default_camera(),
             vsync: true,
             panel_visible: true,
+            base: s.settings(Aov::Color),
         }
     }
 
@@ -109,7 +112,7 @@ impl Params {
             ViewMode::Color => Aov::Color,
             ViewMode::Cost(_) => Aov::Cost,
         };
-        RenderSettings { width, height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov }
+        RenderSettings { width, height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov, ..self.base }
     }
 
     /// Move the light along its orbit by `dt` seconds (unless paused).

@@ -25,7 +25,7 @@ pub const TABLE2: [(u32, [(f64, f64); 2]); 4] = [
 ];
 
 fn settings(size: u32, bounces: u32, accel: Accel) -> RenderSettings {
-    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel, aov: Aov::Color }
+    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel, aov: Aov::Color, ..RenderSettings::default() }
 }
 
 /// Both tables at the given resolutions (the paper's: 512, 1024) for each acceleration.

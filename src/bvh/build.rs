@@ -50,13 +50,11 @@ const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
     pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
-        let t0 = std::time::Instant::now();
         let prims = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
             .collect();
-        eprintln!("prims {:?}", t0.elapsed());
         build_from_prims(prims, options)
     }
 
@@ -186,11 +184,13 @@ impl Bin {
 /// the first `n` bins of each axis are in use.
 struct BinSet {
     bins: [[Bin; MAX_BINS]; 3],
+    /// A second set for the odd primitives of big ranges (see `add`).
+    spare: [[Bin; MAX_BINS]; 3],
 }
 
 impl BinSet {
     fn new() -> Self {
-        Self { bins: [[Bin::EMPTY; MAX_BINS]; 3] }
+        Self { bins: [[Bin::EMPTY; MAX_BINS]; 3], spare: [[Bin::EMPTY; MAX_BINS]; 3] }
     }
 
     fn clear(&mut self, n: usize) {
@@ -199,26 +199,89 @@ impl BinSet {
         }
     }
 
-    #[inline(always)]
-    fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
-        for p in prims {
-            let b = grid.bin_of(p.centroid());
-            let (min, max) = (p.bounds_min(), p.bounds_max());
-            for axis in 0..3 {
-                let bin = &mut self.bins[axis][b[axis] as usize];
-                bin.count += 1;
-                bin.bounds.grow(min, max);
+    /// Bins `prims` (on top of what the bins hold). Neighbouring triangles of a mesh tend to
+    /// land in the same bins, chaining each update on the previous one; big ranges therefore
+    /// alternate between two sets of bins, merged at the end.
+        fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
+        let BinSet { bins, spare } = self;
+        if prims.len() < 256 {
+            prims.iter().for_each(|p| add_to(bins, p, grid));
+            return;
+        }
+        for axis in spare.iter_mut() {
+            axis[..grid.count].fill(Bin::EMPTY);
+        }
+        let pairs = prims.chunks_exact(2);
+        pairs.remainder().iter().for_each(|p| add_to(bins, p, grid));
+        for pair in pairs {
+            add_to(bins, &pair[0], grid);
+            add_to(spare, &pair[1], grid);
+        }
+        merge_bins(bins, spare, grid.count);
+    }
+
+    /// The cheapest SAH split plane over all axes as (axis, plane): plane `i` has bins `..i`
+    /// on its left. `None` when no plane has primitives on both sides.
+    fn best_plane(&self, grid: &BinGrid, node_bounds: &Bounds) -> Option<(usize, usize)> {
+        // Areas are scaled by the node's size so that they stay finite for huge coordinates.
+        let extent = (node_bounds.max - node_bounds.min).max_element();
+        let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
+        let n = grid.count;
+        let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
+        for axis in 0..3 {
+            if grid.scale[axis] == 0.0 {
+                continue; // the centroids do not spread along this axis
+            }
+            let bins = &self.bins[axis][..n];
+            // Left to right: area * count of everything left of each plane.
+            let mut left_cost = [0.0f32; MAX_BINS];
+            let mut left_count = [0u32; MAX_BINS];
+            let (mut acc, mut count) = (Bounds::EMPTY, 0);
+            for i in 1..n {
+                acc = acc.union(bins[i - 1].bounds);
+                count += bins[i - 1].count;
+                left_count[i] = count;
+                left_cost[i] = acc.half_area(scale) * count as f32;
+            }
+            // Right to left, completing each plane's cost.
+            let (mut acc, mut count) = (Bounds::EMPTY, 0);
+            for i in (1..n).rev() {
+                acc = acc.union(bins[i].bounds);
+                count += bins[i].count;
+                if left_count[i] == 0 || count == 0 {
+                    continue;
+                }
+                let cost = left_cost[i] + acc.half_area(scale) * count as f32;
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, i));
+                }
             }
         }
+        best.map(|(_, axis, plane)| (axis, plane))
     }
 
     fn merge(&mut self, o: &BinSet, n: usize) {
-        for axis in 0..3 {
-            for i in 0..n {
-                let (a, b) = (&mut self.bins[axis][i], &o.bins[axis][i]);
-                a.count += b.count;
-                a.bounds = a.bounds.union(b.bounds);
-            }
+        merge_bins(&mut self.bins, &o.bins, n);
+    }
+}
+
+#[inline(always)]
+fn add_to(bins: &mut [[Bin; MAX_BINS]; 3], p: &Prim, grid: &BinGrid) {
+    let b = grid.bin_of(p.centroid());
+    let (min, max) = (p.bounds_min(), p.bounds_max());
+    for axis in 0..3 {
+        let bin = &mut bins[axis][b[axis] as usize];
+        bin.count += 1;
+        bin.bounds.grow(min, max);
+    }
+}
+
+fn merge_bins(into: &mut [[Bin; MAX_BINS]; 3], from: &[[Bin; MAX_BINS]; 3], n: usize) {
+    for axis in 0..3 {
+        for i in 0..n {
+            let (a, b) = (&mut into[axis][i], &from[axis][i]);
+            a.count += b.count;
+            a.bounds = a.bounds.union(b.bounds);
         }
     }
 }
@@ -245,10 +308,18 @@ impl BinGrid {
         (scale != Vec3A::ZERO).then_some(BinGrid { origin: centroids.min, scale, count })
     }
 
-    /// The binning and the partition both call this, so they always agree.
+    /// The bins of centroid `c` on all three axes (for binning).
     #[inline(always)]
     fn bin_of(&self, c: Vec3A) -> UVec3 {
         ((c - self.origin) * self.scale).as_uvec3().min(UVec3::splat(self.count as u32 - 1))
+    }
+
+    /// The bin of primitive `p` on one axis (for the partition): the same float operations
+    /// as one lane of `bin_of(p.centroid())`, so both always agree.
+    #[inline(always)]
+    fn bin_on_axis(&self, p: &Prim, axis: usize) -> usize {
+        let c = p.min[axis] * 0.5 + p.max[axis] * 0.5;
+        (((c - self.origin[axis]) * self.scale[axis]) as u32).min(self.count as u32 - 1) as usize
     }
 }
 
@@ -277,8 +348,6 @@ impl ChildRef {
 struct Builder {
     max_leaf: usize,
     bins: usize,
-    traversal_cost: f32,
-    intersection_cost: f32,
 }
 
 fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
@@ -288,19 +357,12 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
     let builder = Builder {
         max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
         bins: (options.bins as usize).clamp(2, MAX_BINS),
-        traversal_cost: options.traversal_cost,
-        intersection_cost: options.intersection_cost,
     };
-    let t0 = std::time::Instant::now();
     let info = prims
         .par_chunks(64 * 1024)
         .map(NodeInfo::of)
         .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
-    eprintln!("info {:?}", t0.elapsed());
-    let t0 = std::time::Instant::now();
     let root = builder.build_parallel(&mut prims, 0, info, 1);
-    eprintln!("tree {:?}", t0.elapsed());
-    let t0 = std::time::Instant::now();
 
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
@@ -309,7 +371,6 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
         root.flatten()
     };
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
-    eprintln!("flatten {:?}", t0.elapsed());
     Bvh { nodes, prim_indices }
 }
 
@@ -375,8 +436,7 @@ impl Builder {
     fn split(&self, prims: &mut [Prim], info: &NodeInfo, level: usize, bins: &mut BinSet) -> Split {
         // A median split from here on needs ceil(log2(n)) more levels at most; keep that
         // within MAX_DEPTH so that the traversal stack can never overflow.
-        let levels_left = (usize::BITS - (prims.len() - 1).leading_zeros()) as usize;
-        if level + levels_left < MAX_DEPTH {
+        if level + ceil_log2(prims.len()) < MAX_DEPTH {
             if let Some(split) = self.sah_split(prims, info, bins) {
                 return split;
             }
@@ -384,8 +444,9 @@ impl Builder {
         median_split(prims, info)
     }
 
+    /// The best binned-SAH split; `None` when binning cannot separate the primitives.
     fn sah_split(&self, prims: &mut [Prim], info: &NodeInfo, bins: &mut BinSet) -> Option<Split> {
-        let n_bins = self.bins.min(2 * prims.len()); // few primitives need few bins
+        let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
         if prims.len() >= PARALLEL_BIN_MIN_PRIMS {
@@ -405,71 +466,39 @@ impl Builder {
             bins.add(prims, &grid);
         }
 
-        // Sweep the planes between bins; plane i has bins 0..i on its left. Areas are scaled
-        // by the node's size so that they stay finite for huge coordinates.
-        let extent = (info.bounds.max - info.bounds.min).max_element();
-        let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
-        let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
-        for axis in 0..3 {
-            if grid.scale[axis] == 0.0 {
-                continue;
-            }
-            let axis_bins = &bins.bins[axis][..n_bins];
-            let mut left_cost = [0.0f32; MAX_BINS];
-            let mut left_count = [0u32; MAX_BINS];
-            let (mut acc, mut count) = (Bounds::EMPTY, 0);
-            for i in 1..n_bins {
-                acc = acc.union(axis_bins[i - 1].bounds);
-                count += axis_bins[i - 1].count;
-                left_count[i] = count;
-                left_cost[i] = acc.half_area(scale) * count as f32;
-            }
-            let (mut acc, mut count) = (Bounds::EMPTY, 0);
-            for i in (1..n_bins).rev() {
-                acc = acc.union(axis_bins[i].bounds);
-                count += axis_bins[i].count;
-                if left_count[i] == 0 || count == 0 {
-                    continue;
-                }
-                let cost = left_cost[i] + acc.half_area(scale) * count as f32;
-                if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, i));
-                }
-            }
-        }
-        let (_, axis, plane) = best?;
-
-        // In-place partition; the centroid boxes of the two sides come for free here.
-        // Branch-free (Lomuto with an unconditional swap): the side of a primitive is a coin
-        // flip to the branch predictor, and a mispredict costs more than a swap.
-        let (mut left, mut right) = (NodeInfo::EMPTY, NodeInfo::EMPTY);
-        let mut i = 0; // prims[..i] go left, prims[i..k] go right
-        for k in 0..prims.len() {
-            let c = prims[k].centroid();
-            let goes_left = (grid.bin_of(c)[axis] as usize) < plane;
-            let mask = glam::BVec3A::splat(goes_left);
-            left.centroids.min = Vec3A::select(mask, left.centroids.min.min(c), left.centroids.min);
-            left.centroids.max = Vec3A::select(mask, left.centroids.max.max(c), left.centroids.max);
-            right.centroids.min = Vec3A::select(mask, right.centroids.min, right.centroids.min.min(c));
-            right.centroids.max = Vec3A::select(mask, right.centroids.max, right.centroids.max.max(c));
-            prims.swap(i, k);
-            i += goes_left as usize;
-        }
-        // The primitive boxes of each side are the union of its bins.
+        let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
+        let mid = partition(prims, &grid, axis, plane);
+        // Each side's box is the union of its bins. Its centroids lie in that box and in the
+        // node's centroid box: the intersection bounds them (loosely; binning only needs a
+        // range that covers them, and tracking them exactly would cost a pass).
         let axis_bins = &bins.bins[axis][..n_bins];
-        left.bounds = axis_bins[..plane].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
-        right.bounds = axis_bins[plane..].iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
-        Some(Split { mid: i, left, right })
+        let side = |bins: &[Bin]| {
+            let bounds = bins.iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
+            let centroids = Bounds { min: bounds.min.max(info.centroids.min), max: bounds.max.min(info.centroids.max) };
+            NodeInfo { bounds, centroids }
+        };
+        Some(Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) })
     }
 }
 
-fn centroid_bounds(prims: &[Prim]) -> Bounds {
-    let mut b = Bounds::EMPTY;
-    for p in prims {
-        let c = p.centroid();
-        b.grow(c, c);
+/// Moves the primitives whose centroid bin on `axis` is below `plane` to the front and
+/// returns how many there are.
+///
+/// Branch-free (Lomuto with an unconditional swap): a primitive's side is a coin flip to the
+/// branch predictor, and a mispredict costs more than the swap.
+fn partition(prims: &mut [Prim], grid: &BinGrid, axis: usize, plane: usize) -> usize {
+    let mut i = 0; // prims[..i] go left, prims[i..k] go right
+    for k in 0..prims.len() {
+        let goes_left = grid.bin_on_axis(&prims[k], axis) < plane;
+        prims.swap(i, k);
+        i += goes_left as usize;
     }
-    b
+    i
+}
+
+/// `ceil(log2(n))` for `n >= 1`: the levels a median split needs to bring `n` down to 1.
+fn ceil_log2(n: usize) -> usize {
+    (usize::BITS - (n - 1).leading_zeros()) as usize
 }
 
 /// Object-median split along the widest centroid axis; when all centroids coincide, any

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 use crate::scene::paper::{LightOrbit, ModelSource, MAX_MODELS};
-use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::scene::EnvironmentSource;
+use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -72,12 +73,52 @@ pub struct SceneArgs {
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
     pub device: Option<usize>,
+    /// Smooth shading: interpolate vertex normals (the paper shades flat).
+    #[arg(long)]
+    pub smooth: bool,
+    /// Ignore `map_Kd` textures (use the materials' Kd).
+    #[arg(long)]
+    pub no_textures: bool,
+    /// Environment seen by rays that miss: none (black, the paper), sky (generated), or an
+    /// equirectangular image (PNG, JPEG, HDR, EXR).
+    #[arg(long, default_value = "none")]
+    pub env: String,
+    /// Jittered samples per pixel (anti-aliasing); 1 = one ray through the pixel centre.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
+    pub spp: u32,
+    /// Spend the --spp samples only on pixels at triangle edges, one elsewhere.
+    #[arg(long)]
+    pub adaptive: bool,
+    /// Leave out the six mirror planes (to see an --env map around the model).
+    #[arg(long)]
+    pub no_box: bool,
 }
 
 impl SceneArgs {
     /// Where the model comes from.
     pub fn model_source(&self) -> ModelSource {
         ModelSource::parse(&self.model)
+    }
+
+    /// The environment map asked for; a file that cannot be read is an error here, before
+    /// any work.
+    pub fn environment(&self) -> anyhow::Result<Option<EnvironmentSource>> {
+        let env = EnvironmentSource::parse(&self.env);
+        if let Some(EnvironmentSource::File(p)) = &env {
+            crate::tracer::textures::load_environment(p)?;
+        }
+        Ok(env)
+    }
+
+    /// Load the model and build the scene these flags describe; warnings are returned.
+    pub fn load_scene(&self) -> anyhow::Result<(crate::scene::Scene, Vec<String>)> {
+        let environment = self.environment()?;
+        let (mut scene, warnings) = crate::scene::paper::load_paper_scene(&self.model_source(), self.models, self.light())?;
+        if self.no_box {
+            scene.instances.retain(|i| i.mesh == 0);
+        }
+        scene.environment = environment;
+        Ok((scene, warnings))
     }
 
     /// The light orbit with the requested angle.
@@ -87,7 +128,18 @@ impl SceneArgs {
 
     /// Frame settings for `aov`.
     pub fn settings(&self, aov: Aov) -> RenderSettings {
-        RenderSettings { width: self.width, height: self.height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov }
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            bounces: self.bounces,
+            blend: self.blend,
+            accel: self.accel,
+            aov,
+            smooth: self.smooth,
+            textures: !self.no_textures,
+            spp: self.spp,
+            adaptive: self.adaptive,
+        }
     }
 }
 

@@ -4,7 +4,6 @@ use anyhow::{bail, Context};
 
 use super::args::RenderArgs;
 use crate::gpu::{ContextOptions, GpuContext, GpuTracer};
-use crate::scene::paper::load_paper_scene;
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
@@ -18,11 +17,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let settings = args.scene.settings(args.aov);
     settings.validate().map_err(anyhow::Error::msg)?;
     let source = args.scene.model_source();
-    let (scene, warnings) = load_paper_scene(&source, args.scene.models, args.scene.light())?;
-    for w in &warnings {
+    let (scene, warnings) = args.scene.load_scene()?;
+    let packed = PackedScene::new(&scene);
+    for w in warnings.iter().chain(&packed.warnings) {
         eprintln!("warning: {w}");
     }
-    let packed = PackedScene::new(&scene);
     let params = FrameParams::new(&scene, settings);
 
     let (image, how) = if args.cpu {

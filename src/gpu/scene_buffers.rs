@@ -21,6 +21,9 @@ pub struct SceneBuffers {
     pub materials: GpuBuffer,
     pub nodes: GpuBuffer,
     pub instances: GpuBuffer,
+    pub texels: GpuBuffer,
+    pub texture_infos: GpuBuffer,
+    pub environment: GpuBuffer,
     /// Instances currently uploaded.
     pub instance_count: u32,
     /// Bytes of device memory the scene occupies.
@@ -29,7 +32,7 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
-    let names = ["triangle", "shading", "material", "BVH node", "instance"];
+    let names = ["triangle", "shading", "material", "BVH node", "instance", "texture"];
     let limit = ctx.info.max_storage_buffer_range;
     for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
         if bytes > limit {
@@ -54,10 +57,23 @@ impl SceneBuffers {
         let nodes = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.nodes), storage, "bvh nodes")?;
         let capacity = (INSTANCE_CAPACITY.max(packed.instances.len()) * std::mem::size_of::<GpuInstance>()) as u64;
         let instances = GpuBuffer::new(ctx, capacity, storage | vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuOnly, "instances")?;
-        let bytes = triangles.size + shading.size + materials.size + nodes.size + instances.size;
-        let mut s = Self { triangles, shading, materials, nodes, instances, instance_count: 0, bytes };
+        let texels = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.texels), storage, "texels")?;
+        let texture_infos = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.infos), storage, "texture infos")?;
+        let environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.environment_words()), storage, "environment")?;
+        let bytes = triangles.size + shading.size + materials.size + nodes.size + instances.size + texels.size + texture_infos.size + environment.size;
+        let mut s = Self { triangles, shading, materials, nodes, instances, texels, texture_infos, environment, instance_count: 0, bytes };
         s.set_instances(&packed.instances)?;
         Ok(s)
+    }
+
+    /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);
+    /// the GPU must not be using it.
+    pub fn set_environment(&mut self, ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<(), GpuError> {
+        let words = packed.environment_words();
+        self.bytes -= self.environment.size;
+        self.environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&words), vk::BufferUsageFlags::STORAGE_BUFFER, "environment")?;
+        self.bytes += self.environment.size;
+        Ok(())
     }
 
     /// Replace the instance list (the top level); the GPU must not be using it.

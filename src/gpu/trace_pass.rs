@@ -17,7 +17,7 @@ static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"))
 /// Work-group size of the shader (`local_size_x/y`).
 pub const GROUP_SIZE: u32 = 8;
 
-const BINDINGS: u32 = 7;
+const BINDINGS: u32 = 11;
 
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA.
 pub struct TraceOutput {
@@ -25,6 +25,8 @@ pub struct TraceOutput {
     pub height: u32,
     pub rgba8: GpuBuffer,
     pub float: GpuBuffer,
+    /// Primary-hit ids of the adaptive-sampling pre-pass.
+    pub prim_ids: GpuBuffer,
 }
 
 impl TraceOutput {
@@ -38,6 +40,7 @@ impl TraceOutput {
             height,
             rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
             float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
+            prim_ids: GpuBuffer::new(ctx, pixels * 4, usage, loc, "primary ids")?,
         })
     }
 }
@@ -90,7 +93,19 @@ impl TracePass {
 
     /// Point the descriptor set at a scene and an output; the GPU must not be using the set.
     pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
-        let buffers = [&scene.triangles, &scene.shading, &scene.materials, &scene.nodes, &scene.instances, &output.rgba8, &output.float];
+        let buffers = [
+            &scene.triangles,
+            &scene.shading,
+            &scene.materials,
+            &scene.nodes,
+            &scene.instances,
+            &output.rgba8,
+            &output.float,
+            &scene.texels,
+            &scene.texture_infos,
+            &output.prim_ids,
+            &scene.environment,
+        ];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> =
             buffers.iter().map(|b| [vk::DescriptorBufferInfo { buffer: b.buffer, offset: 0, range: vk::WHOLE_SIZE }]).collect();
         let writes: Vec<_> = infos
@@ -103,16 +118,33 @@ impl TracePass {
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
+    /// Record adaptive sampling's pre-pass (primary-hit ids of the whole frame) and the
+    /// barrier that makes them visible to the main pass. Needed once per frame before
+    /// `record` when `settings.adaptive` is on.
+    pub fn record_id_pass(&self, cmd: vk::CommandBuffer, params: &FrameParams) {
+        let mut pc = params.push_constants(0);
+        pc.dims[3] |= crate::tracer::frame::flags::ID_PASS;
+        self.dispatch(cmd, &pc, params.settings.width, params.settings.height);
+        let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
+        unsafe {
+            self.ctx.device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+        }
+    }
+
     /// Record the dispatch for rows `first_row .. first_row + rows` of the frame.
     pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, first_row: u32, rows: u32) {
-        let device = &self.ctx.device;
         let pc = params.push_constants(first_row);
-        let groups_x = params.settings.width.div_ceil(GROUP_SIZE);
+        self.dispatch(cmd, &pc, params.settings.width, rows);
+    }
+
+    fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, width: u32, rows: u32) {
+        let device = &self.ctx.device;
+        let groups_x = width.div_ceil(GROUP_SIZE);
         let groups_y = rows.div_ceil(GROUP_SIZE);
         unsafe {
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
-            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&pc));
+            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(pc));
             device.cmd_dispatch(cmd, groups_x, groups_y, 1);
         }
     }

@@ -93,6 +93,15 @@ impl GpuTracer {
         Ok(())
     }
 
+    /// Replace the environment image (after `PackedScene::set_environment`).
+    pub fn set_environment(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+        self.scene.set_environment(&self.ctx, packed)?;
+        if let Some(out) = &self.output {
+            self.pass.bind(&self.scene, out);
+        }
+        Ok(())
+    }
+
     /// Bytes of device memory the scene uses.
     pub fn scene_bytes(&self) -> u64 {
         self.scene.bytes
@@ -134,7 +143,10 @@ impl GpuTracer {
         let mut timing = TraceTiming { gpu_ms: self.timer.as_ref().map(|_| 0.0), ..Default::default() };
         let start = Instant::now();
         let mut row = 0;
+        let mut first = true;
         while row < s.height {
+            let id_pass = first && s.adaptive;
+            first = false;
             let rows = band.min(s.height - row);
             let pass = &self.pass;
             let timer = self.timer.as_ref();
@@ -156,6 +168,9 @@ impl GpuTracer {
                     &[],
                     &[],
                 );
+                if id_pass {
+                    pass.record_id_pass(cmd, &params);
+                }
                 pass.record(cmd, &params, row, rows);
                 if let Some(t) = timer {
                     t.end(cmd, 0);

@@ -134,6 +134,26 @@ pub struct PointLight {
     pub color: Vec3,
 }
 
+/// What rays that hit nothing see, besides the plain background colour.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EnvironmentSource {
+    /// The sky gradient generated in code (works with no file).
+    Sky,
+    /// An equirectangular image (PNG, JPEG, HDR, EXR...).
+    File(PathBuf),
+}
+
+impl EnvironmentSource {
+    /// Parse `--env`: `none` (None), `sky`, or a path.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "none" | "black" | "off" => None,
+            "sky" => Some(EnvironmentSource::Sky),
+            _ => Some(EnvironmentSource::File(PathBuf::from(s))),
+        }
+    }
+}
+
 /// Everything the tracers need: meshes, instances, camera, light and background.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -145,6 +165,8 @@ pub struct Scene {
     pub background: Vec3,
     /// Ambient fraction of the diffuse colour, so unlit sides are not pitch black.
     pub ambient: f32,
+    /// Environment map seen by misses (None: the background colour, the paper's black).
+    pub environment: Option<EnvironmentSource>,
 }
 
 impl Scene {

@@ -147,7 +147,9 @@ pub fn model_offsets(count: u32) -> Vec<Vec3> {
     cells.into_iter().take(count.min(MAX_MODELS) as usize).map(|c| c * MODEL_SPACING).collect()
 }
 
-/// Six inward-facing planes closing a cube of half-size `half` (12 triangles).
+/// Six inward-facing planes closing a cube of half-size `half` (12 triangles). Each face
+/// has its own four vertices with the face's normal, so the mirrors stay flat under
+/// smooth shading.
 pub fn mirror_box(half: f32) -> Mesh {
     let h = half;
     let positions: Vec<Vec3> = (0..8).map(|i| Vec3::new(
@@ -164,17 +166,28 @@ pub fn mirror_box(half: f32) -> Mesh {
         [0, 1, 3, 2], // -z
         [4, 6, 7, 5], // +z
     ];
-    let triangles: Vec<[u32; 3]> = quads.iter().flat_map(|q| [[q[0], q[1], q[3]], [q[1], q[2], q[3]]]).collect();
-    let mut mesh = Mesh {
+    let mut face_positions = Vec::with_capacity(24);
+    let mut normals = Vec::with_capacity(24);
+    let mut triangles = Vec::with_capacity(12);
+    for q in quads {
+        let corners = q.map(|i| positions[i as usize]);
+        let n = (corners[1] - corners[0]).cross(corners[3] - corners[0]).normalize();
+        let base = face_positions.len() as u32;
+        face_positions.extend(corners);
+        normals.extend([n; 4]);
+        // Split as the paper splits quads: (1,2,4) and (2,3,4).
+        triangles.push([base, base + 1, base + 3]);
+        triangles.push([base + 1, base + 2, base + 3]);
+    }
+    Mesh {
         name: "mirror box".into(),
-        positions,
+        positions: face_positions,
+        normals,
         triangle_materials: vec![0; triangles.len()],
         triangles,
         materials: vec![mirror_material()],
         ..Default::default()
-    };
-    mesh.compute_vertex_normals();
-    mesh
+    }
 }
 
 /// The camera the scene opens with: inside the box, looking at the centre model.
@@ -192,6 +205,14 @@ pub fn instances(model_count: u32) -> Vec<Instance> {
         .collect()
 }
 
+/// The paper's scene without its mirror box: the model(s) alone, so that an environment
+/// map is seen around them and in their reflections.
+pub fn open_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
+    let mut scene = paper_scene(model, model_count, light);
+    scene.instances.retain(|i| i.mesh == 0);
+    scene
+}
+
 /// The paper's scene around an already prepared model mesh.
 pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
     Scene {
@@ -201,6 +222,7 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
         light: PointLight { position: light.position(), color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
+        environment: None,
     }
 }
 
@@ -243,6 +265,10 @@ mod tests {
             let n = (c1 - a).cross(c2 - a);
             let centre = (a + c1 + c2) / 3.0;
             assert!(n.dot(-centre) > 0.0, "face {i} points outward");
+            // Flat under smooth shading: every corner normal is the face normal.
+            for k in b.triangles[i] {
+                assert!((b.normals[k as usize] - n.normalize()).length() < 1e-6);
+            }
         }
     }
 

@@ -234,8 +234,9 @@ pub fn large_torus_knot(min_triangles: usize) -> Mesh {
     let sides = (quads / LENGTH_OVER_CIRCUMFERENCE).sqrt().ceil().max(8.0);
     let segments = (quads / sides).ceil().max(32.0);
     let (sides, segments) = (sides as u32, segments as u32);
-    let mut mesh = tube_knot("torusknot-large", 2, 3, segments, sides);
-    mesh.name = format!("torusknot-{}", mesh.triangles.len());
+    let mut mesh = tube_knot("torusknot", 2, 3, segments, sides);
+    let name = format!("torusknot-{}", mesh.triangle_count());
+    name_mesh(&mut mesh, &name);
     mesh
 }
 
@@ -447,6 +448,18 @@ mod tests {
             assert!(mesh.triangle_count() <= (min * 11 / 10).max(2 * 8 * 32), "{min}: got {}", mesh.triangle_count());
         }
         check_closed_outward(&large_torus_knot(50_000));
+    }
+
+    /// `cargo test --release --lib large_torus_knot_speed -- --ignored --nocapture`
+    #[test]
+    #[ignore = "timing; run in release"]
+    fn large_torus_knot_speed() {
+        for million in [1, 4, 10] {
+            let start = std::time::Instant::now();
+            let mesh = large_torus_knot(million * 1_000_000);
+            let elapsed = start.elapsed();
+            println!("{}: {} vertices in {:.0} ms", mesh.name, mesh.vertex_count(), elapsed.as_secs_f64() * 1e3);
+        }
     }
 
     #[test]

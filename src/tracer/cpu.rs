@@ -2,15 +2,16 @@
 //! packed arrays, in plain Rust (rows in parallel with rayon). The tests use it as the
 //! oracle for the GPU; `render --cpu` uses it where no Vulkan device exists.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::frame::{Accel, Aov, FrameParams};
 use super::image::Image;
-use super::packed::PackedScene;
+use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{blinn_phong, reflect, ShadingMaterial};
+use super::textures::direction_to_equirect;
 use crate::bvh::TraversalStats;
-use crate::geometry::{intersect_triangle, Aabb, Ray};
+use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
 /// A closest hit in the packed scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -22,6 +23,18 @@ pub struct SceneHit {
     pub triangle: u32,
     /// Index into `PackedScene::instances`.
     pub instance: u32,
+}
+
+/// The shader's PCG hash, for identical sample jitter on both tracers.
+pub fn pcg(v: u32) -> u32 {
+    let state = v.wrapping_mul(747796405).wrapping_add(2891336453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277803737);
+    (word >> 22) ^ word
+}
+
+fn random01(seed: &mut u32) -> f32 {
+    *seed = pcg(*seed);
+    (*seed >> 8) as f32 * (1.0 / 16777216.0)
 }
 
 /// The packed scene with each mesh's triangles as (v0, e1, e2) triples, as BVH traversal wants.
@@ -39,7 +52,7 @@ impl<'a> CpuScene<'a> {
     /// Closest hit over the first `instance_count` instances, in (0, inf).
     pub fn closest_hit(&self, ray: &Ray, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
         let mut best: Option<SceneHit> = None;
-        let inv_dir = crate::geometry::safe_inverse(ray.dir);
+        let inv_dir = safe_inverse(ray.dir);
         for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
             if accel == Accel::Bvh {
                 let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
@@ -73,45 +86,89 @@ impl<'a> CpuScene<'a> {
         best
     }
 
-    fn material(&self, triangle: u32) -> ShadingMaterial {
-        let m = &self.packed.materials[self.packed.triangles[triangle as usize].material as usize];
-        ShadingMaterial { diffuse: m.diffuse.into(), specular: m.specular.into(), shininess: m.shininess, mirror: m.mirror }
+    fn environment(&self, d: Vec3) -> Vec3 {
+        let Some(img) = &self.packed.environment else { return Vec3::ZERO };
+        let (w, h) = (img.width() as i32, img.height() as i32);
+        let uv = direction_to_equirect(d);
+        let p = Vec2::new(uv.x * w as f32 - 0.5, (1.0 - uv.y) * h as f32 - 0.5);
+        let f = p.floor();
+        let t = p - f;
+        let texel = |x: i32, y: i32| {
+            let px = img.get_pixel(x.rem_euclid(w) as u32, y.clamp(0, h - 1) as u32).0;
+            Vec3::new(px[0] as f32, px[1] as f32, px[2] as f32) / 255.0
+        };
+        let (x, y) = (f.x as i32, f.y as i32);
+        let a = texel(x, y).lerp(texel(x + 1, y), t.x);
+        let b = texel(x, y + 1).lerp(texel(x + 1, y + 1), t.x);
+        a.lerp(b, t.y)
     }
 
-    /// Trace one pixel: the colour (or AOV) the shader would write.
-    pub fn trace_pixel(&self, params: &FrameParams, px: u32, py: u32) -> [f32; 4] {
+    /// One camera sample through image position `pos` (pixel units): colour or AOV.
+    fn trace_sample(&self, params: &FrameParams, pos: Vec2, stats: &mut TraversalStats) -> Vec4 {
         let s = &params.settings;
-        let mut ray = params.camera.primary_ray(px, py, s.width, s.height);
-        let bounces = if matches!(s.aov, Aov::Color | Aov::Cost) { s.bounces } else { 0 };
-        let background = params.background_quantized();
+        let mut ray = params.camera.ray_at(pos.x, pos.y, s.width, s.height);
+        let bounces = if matches!(s.aov, Aov::Color | Aov::Cost | Aov::Samples) { s.bounces } else { 0 };
+        let spread = 2.0 * params.camera.up.length() / s.height as f32;
+        let mut path_length = 0.0f32;
         let mut color = Vec3::ZERO;
         let mut throughput = 1.0f32;
-        let mut aux = [-1.0f32, -1.0, -1.0, 0.0];
-        let mut stats = TraversalStats::default();
+        let mut aux = Vec4::new(-1.0, -1.0, -1.0, 0.0);
 
         for bounce in 0..=bounces {
-            let Some(hit) = self.closest_hit(&ray, s.accel, params.instance_count, &mut stats) else {
-                color += throughput * background;
+            let Some(hit) = self.closest_hit(&ray, s.accel, params.instance_count, stats) else {
+                let miss = if params.environment { self.environment(ray.dir) } else { params.background_quantized() };
+                color += throughput * miss;
                 if bounce == 0 && s.aov == Aov::Normal {
-                    aux = [0.0; 4];
+                    aux = Vec4::ZERO;
                 }
                 break;
             };
+            path_length += hit.t;
             let tri = &self.packed.triangles[hit.triangle as usize];
+            let sh = &self.packed.shading[hit.triangle as usize];
             let p = ray.at(hit.t);
-            let mut n = Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).normalize();
-            if n.dot(ray.dir) > 0.0 {
-                n = -n;
+            let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+            let mut ng = e1.cross(e2).normalize();
+            if ng.dot(ray.dir) > 0.0 {
+                ng = -ng;
             }
-            let mat = self.material(hit.triangle);
-            let local = blinn_phong(&mat, p, n, -ray.dir, params.light_position, params.light_color, params.ambient);
+            let mut ns = ng;
+            let w = 1.0 - hit.u - hit.v;
+            if s.smooth {
+                let interp = sh.normal(0) * w + sh.normal(1) * hit.u + sh.normal(2) * hit.v;
+                if interp.length_squared() > 1e-12 {
+                    ns = interp.normalize();
+                    if ns.dot(ng) < 0.0 {
+                        ns = -ns;
+                    }
+                }
+            }
+            let gm = &self.packed.materials[tri.material as usize];
+            let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
+            let mut kd = mat.diffuse;
+            if s.textures && gm.texture != NO_TEXTURE {
+                let [uv0, uv1, uv2] = sh.uvs();
+                let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
+                let info = self.packed.textures.infos[gm.texture as usize];
+                let scale = self.packed.instances[hit.instance as usize].scale;
+                let world_area = 0.5 * e1.cross(e2).length() * scale * scale;
+                let (d1, d2) = (uv1 - uv0, uv2 - uv0);
+                let texel_area = 0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
+                let mut lod = 0.0;
+                if world_area > 0.0 && texel_area > 0.0 {
+                    let width_at_hit = spread * path_length;
+                    lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2() - ng.dot(ray.dir).abs().max(1e-4).log2();
+                }
+                kd *= self.packed.textures.sample(gm.texture, uv, lod).truncate();
+            }
+            let local = blinn_phong(&mat, kd, p, ns, ng, -ray.dir, params.light_position, params.light_color, params.ambient);
             if bounce == 0 {
                 let prim = (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
                 match s.aov {
-                    Aov::Depth => aux = [hit.t, hit.t, hit.t, 1.0],
-                    Aov::Normal => aux = [n.x, n.y, n.z, 1.0],
-                    Aov::PrimId => aux = [prim, prim, prim, 1.0],
-                    Aov::Color | Aov::Cost => {}
+                    Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
+                    Aov::Normal => aux = ns.extend(1.0),
+                    Aov::PrimId => aux = Vec4::new(prim, prim, prim, 1.0),
+                    Aov::Color | Aov::Cost | Aov::Samples => {}
                 }
             }
             let r = s.blend * mat.mirror;
@@ -124,25 +181,93 @@ impl<'a> CpuScene<'a> {
             if r <= 0.0 {
                 break;
             }
-            ray = Ray::new(p + n * params.ray_epsilon, reflect(ray.dir, n));
+            let mut reflected = reflect(ray.dir, ns);
+            if reflected.dot(ng) <= 0.0 {
+                reflected = reflect(ray.dir, ng);
+            }
+            ray = Ray::new(p + ng * params.ray_epsilon, reflected);
         }
         match s.aov {
-            Aov::Color => [color.x, color.y, color.z, 1.0],
-            Aov::Cost => [stats.nodes as f32, stats.triangles as f32, 0.0, 1.0],
+            Aov::Color | Aov::Samples => color.extend(1.0),
             _ => aux,
+        }
+    }
+
+    /// Triangle hit by the ray through the centre of each pixel (`u32::MAX` on a miss):
+    /// adaptive sampling's edge test.
+    pub fn primary_ids(&self, params: &FrameParams) -> Vec<u32> {
+        let (w, h) = (params.settings.width, params.settings.height);
+        (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let ray = params.camera.primary_ray(i % w, i / w, w, h);
+                let mut stats = TraversalStats::default();
+                self.closest_hit(&ray, params.settings.accel, params.instance_count, &mut stats).map_or(u32::MAX, |hit| hit.triangle)
+            })
+            .collect()
+    }
+
+    /// Trace one pixel: the value the shader writes to the float output (before accumulation).
+    pub fn trace_pixel(&self, params: &FrameParams, px: u32, py: u32, ids: Option<&[u32]>) -> [f32; 4] {
+        let s = &params.settings;
+        let (w, h) = (s.width, s.height);
+        let pixel = py * w + px;
+        let single_value = matches!(s.aov, Aov::Depth | Aov::Normal | Aov::PrimId);
+        let mut spp = if single_value { 1 } else { s.spp.clamp(1, 255) };
+        if let (true, Some(ids), false) = (s.adaptive, ids, single_value) {
+            let id = ids[pixel as usize];
+            let at = |x: u32, y: u32| ids[(y * w + x) as usize];
+            let edge = at(px.saturating_sub(1), py) != id
+                || at((px + 1).min(w - 1), py) != id
+                || at(px, py.saturating_sub(1)) != id
+                || at(px, (py + 1).min(h - 1)) != id;
+            if !edge {
+                spp = 1;
+            }
+        }
+        let jitter = !single_value && (spp > 1 || params.frame_index > 0);
+        let mut stats = TraversalStats::default();
+        let mut sum = Vec4::ZERO;
+        for sample in 0..spp {
+            let mut offset = Vec2::splat(0.5);
+            if jitter {
+                let mut seed = pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
+                offset = Vec2::new(random01(&mut seed), random01(&mut seed));
+            }
+            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, &mut stats);
+        }
+        let value = sum / spp as f32;
+        match s.aov {
+            Aov::Cost => [stats.nodes as f32, stats.triangles as f32, 0.0, 1.0],
+            Aov::Samples => [spp as f32, spp as f32, spp as f32, 1.0],
+            _ => value.to_array(),
         }
     }
 }
 
-/// Render a whole frame on the CPU.
+/// Render a whole frame on the CPU (`params.frame_index` must be 0; see [`accumulate`]).
 pub fn render(packed: &PackedScene, params: &FrameParams) -> Image {
+    let mut image = Image::new(params.settings.width, params.settings.height);
+    accumulate(packed, params, &mut image);
+    image
+}
+
+/// Trace a frame and fold it into `image` as the running mean of `params.frame_index + 1`
+/// frames (frame 0 overwrites), as the shader does for progressive accumulation.
+pub fn accumulate(packed: &PackedScene, params: &FrameParams, image: &mut Image) {
     let scene = CpuScene::new(packed);
-    let (w, h) = (params.settings.width, params.settings.height);
-    let mut image = Image::new(w, h);
+    let w = params.settings.width;
+    let ids = params.settings.adaptive.then(|| scene.primary_ids(params));
+    let n = params.frame_index;
     image.pixels.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
-            *px = scene.trace_pixel(params, x as u32, y as u32);
+            let v = scene.trace_pixel(params, x as u32, y as u32, ids.as_deref());
+            *px = if n > 0 && params.settings.aov == Aov::Color {
+                let prev = Vec4::from(*px);
+                (prev + (Vec4::from(v) - prev) / (n + 1) as f32).to_array()
+            } else {
+                v
+            };
         }
     });
-    image
 }

@@ -35,6 +35,8 @@ pub enum Aov {
     PrimId,
     /// BVH nodes visited (x) and triangles tested (y) over all rays of the pixel.
     Cost,
+    /// Camera samples spent on the pixel (adaptive sampling's view).
+    Samples,
 }
 
 impl Aov {
@@ -45,6 +47,7 @@ impl Aov {
             Aov::Normal => 2,
             Aov::PrimId => 3,
             Aov::Cost => 4,
+            Aov::Samples => 5,
         }
     }
 }
@@ -68,12 +71,14 @@ macro_rules! name_enum {
     };
 }
 name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh");
-name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost");
+name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples");
 
 /// Limits on the user-facing parameters (checked by the CLI and the panel).
 pub const MAX_BOUNCES: u32 = 8;
 /// Largest image side accepted.
 pub const MAX_RESOLUTION: u32 = 8192;
+/// Most camera samples per pixel in one frame.
+pub const MAX_SPP: u32 = 64;
 
 /// The user's knobs for one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,11 +91,19 @@ pub struct RenderSettings {
     pub blend: f32,
     pub accel: Accel,
     pub aov: Aov,
+    /// Interpolate vertex normals (smooth shading) instead of the paper's flat normals.
+    pub smooth: bool,
+    /// Apply `map_Kd` diffuse textures.
+    pub textures: bool,
+    /// Jittered camera samples per pixel (1 = the paper's ray through the pixel centre).
+    pub spp: u32,
+    /// Spend the `spp` samples only on pixels whose neighbours hit another triangle.
+    pub adaptive: bool,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color }
+        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false }
     }
 }
 
@@ -108,12 +121,16 @@ impl RenderSettings {
         if !(0.0..=1.0).contains(&self.blend) {
             return Err(format!("blend {} is out of range (0..=1)", self.blend));
         }
+        if !(1..=MAX_SPP).contains(&self.spp) {
+            return Err(format!("spp {} is out of range (1..={MAX_SPP})", self.spp));
+        }
         Ok(())
     }
 
-    /// Rays traced per frame at most: one primary ray and `bounces` reflected rays per pixel.
+    /// Rays traced per frame at most: per camera sample, one primary ray and `bounces`
+    /// reflected rays (adaptive sampling traces fewer).
     pub fn max_rays(&self) -> u64 {
-        self.width as u64 * self.height as u64 * (self.bounces as u64 + 1)
+        self.width as u64 * self.height as u64 * (self.bounces as u64 + 1) * self.spp as u64
     }
 }
 
@@ -130,6 +147,22 @@ pub struct FrameParams {
     pub ray_epsilon: f32,
     /// Instances to trace (the first `instance_count` of the packed list).
     pub instance_count: u32,
+    /// Misses see the scene's environment map instead of the background colour.
+    pub environment: bool,
+    /// Frames already accumulated into the output (0 = start afresh).
+    pub frame_index: u32,
+}
+
+/// Flag bits of `dims.w` (see `shaders/scene.glsl`).
+pub mod flags {
+    pub const BVH: u32 = 1;
+    pub const AOV_SHIFT: u32 = 1;
+    pub const SMOOTH: u32 = 1 << 4;
+    pub const TEXTURES: u32 = 1 << 5;
+    pub const ENVIRONMENT: u32 = 1 << 6;
+    pub const ADAPTIVE: u32 = 1 << 7;
+    pub const ID_PASS: u32 = 1 << 8;
+    pub const SPP_SHIFT: u32 = 16;
 }
 
 /// The push-constant block of `shaders/scene.glsl` (128 bytes).
@@ -159,7 +192,27 @@ impl FrameParams {
             ambient: scene.ambient,
             ray_epsilon: (extent * 1e-4).max(1e-6),
             instance_count: scene.instances.len() as u32,
+            environment: scene.environment.is_some(),
+            frame_index: 0,
         }
+    }
+
+    /// The flag word of the push constants.
+    pub fn flags(&self) -> u32 {
+        let s = &self.settings;
+        let mut f = s.aov.code() << flags::AOV_SHIFT | s.spp.clamp(1, 255) << flags::SPP_SHIFT;
+        for (on, bit) in [
+            (s.accel == Accel::Bvh, flags::BVH),
+            (s.smooth, flags::SMOOTH),
+            (s.textures, flags::TEXTURES),
+            (self.environment, flags::ENVIRONMENT),
+            (s.adaptive, flags::ADAPTIVE),
+        ] {
+            if on {
+                f |= bit;
+            }
+        }
+        f
     }
 
     /// The background as the shader sees it (quantised to 8 bits per channel).
@@ -178,7 +231,7 @@ impl FrameParams {
     pub fn push_constants(&self, first_row: u32) -> PushConstants {
         let s = &self.settings;
         let c = &self.camera;
-        let flags = u32::from(s.accel == Accel::Bvh) | s.aov.code() << 1;
+        let flags = self.flags();
         PushConstants {
             cam_origin_eps: c.origin.extend(self.ray_epsilon).to_array(),
             cam_forward_blend: c.forward.extend(s.blend).to_array(),
@@ -187,7 +240,7 @@ impl FrameParams {
             light_pos: self.light_position.extend(1.0).to_array(),
             light_color: self.light_color.extend(1.0).to_array(),
             dims: [s.width, s.height, s.bounces, flags],
-            misc: [self.instance_count, first_row, self.background_rgba8(), 0],
+            misc: [self.instance_count, first_row, self.background_rgba8(), self.frame_index],
         }
     }
 }
@@ -198,7 +251,7 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_bad_names_list_choices() {
-        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost] {
+        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost, Aov::Samples] {
             assert_eq!(a.to_string().parse::<Aov>().unwrap(), a);
         }
         assert_eq!("BVH".parse::<Accel>().unwrap(), Accel::Bvh);
@@ -215,6 +268,7 @@ mod tests {
         assert!(RenderSettings { bounces: 1000, ..ok }.validate().unwrap_err().contains("0..=8"));
         assert!(RenderSettings { blend: 7.0, ..ok }.validate().is_err());
         assert!(RenderSettings { blend: f32::NAN, ..ok }.validate().is_err());
+        assert!(RenderSettings { spp: 0, ..ok }.validate().unwrap_err().contains("1..=64"));
     }
 
     #[test]

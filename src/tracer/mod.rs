@@ -7,6 +7,7 @@ pub mod frame;
 pub mod image;
 pub mod packed;
 pub mod shading;
+pub mod textures;
 
 pub use frame::{Accel, Aov, FrameParams, RenderSettings};
 pub use image::Image;

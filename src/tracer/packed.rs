@@ -5,12 +5,17 @@
 //! Geometry is packed once per model load; the instance list (the "top level") is rebuilt
 //! alone when only the model count changes, so no mesh is re-uploaded.
 
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::bvh::{BuildOptions, Bvh, BvhNode};
 use crate::geometry::Aabb;
-use crate::scene::{Instance, Mesh, Scene};
+use crate::scene::{EnvironmentSource, Instance, Mesh, Scene};
+use super::textures::{load_environment, sky_image, TextureAtlas};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
 #[repr(C)]
@@ -33,14 +38,32 @@ impl GpuTriangle {
     }
 }
 
-/// Per-corner shading normals of a triangle (48 bytes; .w unused for now).
+/// Per-corner shading normals and texture coordinates of a triangle (64 bytes): the
+/// normals' .w hold corner 2's (u, v), `uv01` corners 0 and 1.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangleShading {
     pub normals: [[f32; 4]; 3],
+    pub uv01: [f32; 4],
 }
 
-/// A Blinn–Phong material (32 bytes).
+impl GpuTriangleShading {
+    /// The three corner normals.
+    pub fn normal(&self, k: usize) -> Vec3 {
+        Vec3::from_slice(&self.normals[k][..3])
+    }
+
+    /// The three corner texture coordinates.
+    pub fn uvs(&self) -> [Vec2; 3] {
+        [
+            Vec2::new(self.uv01[0], self.uv01[1]),
+            Vec2::new(self.uv01[2], self.uv01[3]),
+            Vec2::new(self.normals[0][3], self.normals[1][3]),
+        ]
+    }
+}
+
+/// A Blinn–Phong material (48 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -48,7 +71,13 @@ pub struct GpuMaterial {
     pub mirror: f32,
     pub specular: [f32; 3],
     pub shininess: f32,
+    /// Diffuse texture index into the atlas, or `NO_TEXTURE`.
+    pub texture: u32,
+    pub _pad: [u32; 3],
 }
+
+/// `GpuMaterial::texture` of an untextured material.
+pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
@@ -90,6 +119,13 @@ pub struct PackedScene {
     pub nodes: Vec<BvhNode>,
     pub instances: Vec<GpuInstance>,
     pub meshes: Vec<PackedMesh>,
+    /// Diffuse textures of all materials.
+    pub textures: TextureAtlas,
+    /// The environment image, when the scene has one.
+    pub environment: Option<image::RgbaImage>,
+    /// Problems worked around while packing (unreadable textures...).
+    pub warnings: Vec<String>,
+    texture_index: HashMap<PathBuf, u32>,
     /// Seconds spent building BVHs, for reports.
     pub bvh_build_seconds: f64,
 }
@@ -100,12 +136,66 @@ impl PackedScene {
         let mut packed = PackedScene::default();
         let options = BuildOptions::default();
         let mut prim_base = 0u32;
+        packed.load_textures(scene);
         for mesh in &scene.meshes {
             packed.push_mesh(mesh, &options, prim_base);
             prim_base += mesh.triangle_count() as u32;
         }
         packed.set_instances(&scene.instances);
+        packed.set_environment(scene.environment.as_ref());
         packed
+    }
+
+    /// Decode every material's diffuse texture (in parallel) into the atlas.
+    fn load_textures(&mut self, scene: &Scene) {
+        let mut paths: Vec<&Path> = scene
+            .meshes
+            .iter()
+            .filter(|m| !m.texcoords.is_empty())
+            .flat_map(|m| m.materials.iter().filter_map(|mat| mat.diffuse_texture.as_deref()))
+            .collect();
+        paths.sort();
+        paths.dedup();
+        let decoded: Vec<_> = paths.par_iter().map(|p| (p, image::open(p).map(|i| i.to_rgba8()))).collect();
+        for (path, result) in decoded {
+            match result {
+                Ok(img) => {
+                    let index = self.textures.add(&img);
+                    self.texture_index.insert(path.to_path_buf(), index);
+                }
+                Err(e) => {
+                    let msg = format!("cannot read texture {}: {e}; using the material's Kd instead", path.display());
+                    log::warn!("{msg}");
+                    self.warnings.push(msg);
+                }
+            }
+        }
+    }
+
+    /// Replace the environment image (None: misses see the background colour). A file that
+    /// cannot be read falls back to the generated sky, with a warning.
+    pub fn set_environment(&mut self, source: Option<&EnvironmentSource>) {
+        self.environment = source.map(|s| match s {
+            EnvironmentSource::Sky => sky_image(512, 256),
+            EnvironmentSource::File(path) => load_environment(path).unwrap_or_else(|e| {
+                let msg = format!("{e}; using the generated sky instead");
+                log::warn!("{msg}");
+                self.warnings.push(msg);
+                sky_image(512, 256)
+            }),
+        });
+    }
+
+    /// The environment buffer as the shader reads it: width, height, then RGBA8 texels.
+    pub fn environment_words(&self) -> Vec<u32> {
+        match &self.environment {
+            Some(img) => {
+                let mut words = vec![img.width(), img.height()];
+                words.extend(img.pixels().map(|p| u32::from_le_bytes(p.0)));
+                words
+            }
+            None => vec![1, 1, 0],
+        }
     }
 
     fn push_mesh(&mut self, mesh: &Mesh, options: &BuildOptions, prim_base: u32) {
@@ -115,12 +205,22 @@ impl PackedScene {
         self.bvh_build_seconds += start.elapsed().as_secs_f64();
 
         let material_base = self.materials.len() as u32;
-        self.materials.extend(mesh.materials.iter().map(|m| GpuMaterial {
-            diffuse: m.diffuse.to_array(),
-            mirror: m.mirror,
-            specular: m.specular.to_array(),
-            shininess: m.shininess,
-        }));
+        let texture_of = |m: &crate::scene::Material| {
+            m.diffuse_texture.as_ref().filter(|_| !mesh.texcoords.is_empty()).and_then(|p| self.texture_index.get(p).copied()).unwrap_or(NO_TEXTURE)
+        };
+        let materials: Vec<GpuMaterial> = mesh
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                diffuse: m.diffuse.to_array(),
+                mirror: m.mirror,
+                specular: m.specular.to_array(),
+                shininess: m.shininess,
+                texture: texture_of(m),
+                _pad: [0; 3],
+            })
+            .collect();
+        self.materials.extend(materials);
         let triangle_base = self.triangles.len() as u32;
         self.triangles.reserve(bvh.prim_indices.len());
         self.shading.reserve(bvh.prim_indices.len());
@@ -135,8 +235,13 @@ impl PackedScene {
                 _pad: 0,
             });
             let idx = mesh.triangles[prim as usize];
-            let normal = |k: u32| mesh.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO).extend(0.0).to_array();
-            self.shading.push(GpuTriangleShading { normals: idx.map(normal) });
+            let normal = |k: u32| mesh.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO);
+            let uv = |k: u32| mesh.texcoords.get(k as usize).copied().unwrap_or(Vec2::ZERO);
+            let [t0, t1, t2] = idx.map(uv);
+            self.shading.push(GpuTriangleShading {
+                normals: [normal(idx[0]).extend(t2.x).to_array(), normal(idx[1]).extend(t2.y).to_array(), normal(idx[2]).extend(0.0).to_array()],
+                uv01: [t0.x, t0.y, t1.x, t1.y],
+            });
         }
         let node_base = self.nodes.len() as u32;
         self.nodes.extend_from_slice(&bvh.nodes);
@@ -178,12 +283,12 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, shading, materials, nodes, instances.
-    pub fn buffer_sizes(&self) -> [u64; 5] {
+    /// Bytes of each GPU array: triangles, shading, materials, nodes, instances, texels.
+    pub fn buffer_sizes(&self) -> [u64; 6] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
-        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), bytes(&self.nodes), bytes(&self.instances)]
+        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), bytes(&self.nodes), bytes(&self.instances), bytes(&self.textures.texels)]
     }
 }
 
@@ -194,8 +299,8 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
-        assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 48);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 32);
+        assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 64);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 48);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     }

@@ -69,5 +69,38 @@ pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
         light: PointLight { position: light, color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
+        environment: None,
     }
+}
+
+/// Render on both tracers from a prepared scene with params adjusted by `tweak`.
+pub fn render_both_with(scene: &Scene, settings: RenderSettings, tweak: impl Fn(&mut FrameParams)) -> (Image, Image) {
+    let packed = PackedScene::new(scene);
+    let mut params = FrameParams::new(scene, settings);
+    tweak(&mut params);
+    let ctx = ctx();
+    let mut tracer = GpuTracer::new(&ctx, &packed).expect("upload");
+    let (gpu, _) = tracer.render(&params).expect("trace");
+    drop(tracer);
+    assert_validation_clean(&ctx);
+    (gpu, cpu::render(&packed, &params))
+}
+
+/// Count of neighbour pairs (right and below) on the surface whose largest RGB difference
+/// exceeds `step`: a measure of visible facets. Pairs touching the black background
+/// (silhouettes) are left out.
+pub fn large_neighbour_steps(img: &Image, step: f32) -> usize {
+    let mut n = 0;
+    for y in 0..img.height - 1 {
+        for x in 0..img.width - 1 {
+            let c = img.get(x, y);
+            let background = |p: [f32; 4]| p[..3].iter().all(|&v| v < 1e-6);
+            for o in [img.get(x + 1, y), img.get(x, y + 1)] {
+                if !background(c) && !background(o) && (0..3).map(|i| (c[i] - o[i]).abs()).fold(0.0, f32::max) > step {
+                    n += 1;
+                }
+            }
+        }
+    }
+    n
 }

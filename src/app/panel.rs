@@ -1,0 +1,427 @@
+//! The egui side panel: every control in a collapsible section (later issues add sections
+//! without crowding), the live frame-time graph and the status lines.
+
+use egui::{Color32, RichText, Sense, Shape, Stroke, Ui};
+
+use super::cost_view::heat_color;
+use super::frame_stats::{mrays_per_second, FrameStats, Series, Summary, HISTORY_SECONDS};
+use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
+use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
+use crate::scene::primitives::PaperModel;
+use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
+
+/// Colour of the GPU-time line and text.
+pub const GPU_COLOR: Color32 = Color32::from_rgb(255, 150, 60);
+/// Colour of the frame-time line and text.
+pub const FRAME_COLOR: Color32 = Color32::from_rgb(90, 170, 255);
+const ERROR_COLOR: Color32 = Color32::from_rgb(255, 110, 100);
+
+/// Default width of the panel in points.
+pub const PANEL_WIDTH: f32 = 300.0;
+
+/// What the panel asks the tool to do beyond changing parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PanelAction {
+    LoadModel(ModelSource),
+    ScreenshotTrace,
+    ScreenshotWindow,
+}
+
+/// A status line: text and whether it reports a failure.
+#[derive(Clone, Debug, Default)]
+pub struct Status {
+    pub text: String,
+    pub error: bool,
+}
+
+impl Status {
+    pub fn ok(text: impl Into<String>) -> Self {
+        Self { text: text.into(), error: false }
+    }
+    pub fn error(text: impl Into<String>) -> Self {
+        Self { text: text.into(), error: true }
+    }
+}
+
+/// The panel's own state between frames.
+#[derive(Default)]
+pub struct PanelState {
+    /// The .obj path field.
+    pub path: String,
+    /// The last model load's outcome.
+    pub model_status: Option<Status>,
+    /// A render setting that could not be applied.
+    pub render_status: Option<Status>,
+    /// The last screenshot's outcome.
+    pub screenshot_status: Option<Status>,
+    /// A file is being dragged over the window.
+    pub hovering_file: bool,
+}
+
+/// Read-only facts the panel shows.
+pub struct PanelInfo<'a> {
+    pub device: &'a str,
+    pub model: Option<&'a ModelSource>,
+    pub triangles: u64,
+    pub vertices: u64,
+    pub render_size: [u32; 2],
+    pub rays: u64,
+    /// (model, stage, seconds) of a load in progress.
+    pub loading: Option<(&'a str, &'a str, f64)>,
+    pub present_mode: String,
+    pub vsync_off_available: bool,
+    /// (scale top, max, mean) of the heat map shown.
+    pub heat: Option<(f32, f32, f32)>,
+    pub screenshot_dir: String,
+    pub stats: &'a FrameStats,
+}
+
+/// Show the panel's contents inside `ui` and return the actions asked for.
+pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &PanelInfo) -> Vec<PanelAction> {
+    let mut actions = Vec::new();
+    ui.horizontal(|ui| {
+        ui.heading("meshtracer");
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            if ui.small_button("hide (H)").clicked() {
+                params.panel_visible = false;
+            }
+        });
+    });
+    ui.label(RichText::new(info.device).small().weak());
+    ui.separator();
+    egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
+        render_section(ui, params, state, info);
+        model_section(ui, params, state, info, &mut actions);
+        light_section(ui, params);
+        camera_section(ui, params);
+        display_section(ui, params, info);
+        performance_section(ui, info);
+        screenshot_section(ui, state, info, &mut actions);
+        egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
+            egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
+                for (key, what) in SHORTCUTS {
+                    ui.label(RichText::new(*key).monospace());
+                    ui.label(*what);
+                    ui.end_row();
+                }
+            });
+        });
+    });
+    actions
+}
+
+fn resolution_label(r: Resolution, custom: [u32; 2]) -> String {
+    match r {
+        Resolution::Square(n) => format!("{n} x {n}"),
+        Resolution::MatchWindow => "match window".into(),
+        Resolution::Custom => format!("custom ({} x {})", custom[0], custom[1]),
+    }
+}
+
+fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &PanelInfo) {
+    egui::CollapsingHeader::new("Render").default_open(true).show(ui, |ui| {
+        egui::Grid::new("render").num_columns(2).show(ui, |ui| {
+            ui.label("Resolution");
+            egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
+                for n in PRESETS {
+                    ui.selectable_value(&mut params.resolution, Resolution::Square(n), format!("{n} x {n}"));
+                }
+                ui.selectable_value(&mut params.resolution, Resolution::MatchWindow, "match window");
+                ui.selectable_value(&mut params.resolution, Resolution::Custom, "custom");
+            });
+            ui.end_row();
+            if params.resolution == Resolution::Custom {
+                ui.label("");
+                ui.horizontal(|ui| {
+                    ui.add(egui::DragValue::new(&mut params.custom[0]).range(1..=MAX_RESOLUTION).speed(4));
+                    ui.label("x");
+                    ui.add(egui::DragValue::new(&mut params.custom[1]).range(1..=MAX_RESOLUTION).speed(4));
+                });
+                ui.end_row();
+            }
+            ui.label("");
+            ui.label(RichText::new(format!("tracing {} x {}", info.render_size[0], info.render_size[1])).small().weak());
+            ui.end_row();
+            ui.label("Bounces");
+            ui.add(egui::Slider::new(&mut params.bounces, 0..=MAX_BOUNCES));
+            ui.end_row();
+            ui.label("Blend");
+            ui.add(egui::Slider::new(&mut params.blend, 0.0..=1.0).fixed_decimals(2));
+            ui.end_row();
+            ui.label("Acceleration");
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut params.accel, Accel::Bvh, "BVH");
+                ui.radio_value(&mut params.accel, Accel::Brute, "brute force");
+            });
+            ui.end_row();
+            ui.label("View");
+            ui.horizontal(|ui| {
+                let mut cost = matches!(params.view, ViewMode::Cost(_));
+                ui.radio_value(&mut cost, false, "colour");
+                ui.radio_value(&mut cost, true, "cost heat map");
+                params.view = match (cost, params.view) {
+                    (false, _) => ViewMode::Color,
+                    (true, ViewMode::Cost(m)) => ViewMode::Cost(m),
+                    (true, ViewMode::Color) => ViewMode::Cost(CostMetric::Nodes),
+                };
+            });
+            ui.end_row();
+            if let ViewMode::Cost(metric) = &mut params.view {
+                ui.label("Counter");
+                ui.horizontal(|ui| {
+                    ui.radio_value(metric, CostMetric::Nodes, "nodes");
+                    ui.radio_value(metric, CostMetric::Triangles, "triangles");
+                });
+                ui.end_row();
+            }
+        });
+        if let Some(s) = &state.render_status {
+            status_line(ui, s);
+        }
+        if let (ViewMode::Cost(metric), Some((top, max, mean))) = (params.view, info.heat) {
+            heat_legend(ui, metric, top, max, mean);
+        }
+    });
+}
+
+fn heat_legend(ui: &mut Ui, metric: CostMetric, top: f32, max: f32, mean: f32) {
+    ui.label(RichText::new(format!("{} per pixel, all rays", metric.label())).small());
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
+    let steps = 64;
+    for i in 0..steps {
+        let t0 = i as f32 / steps as f32;
+        let t1 = (i + 1) as f32 / steps as f32;
+        let [r, g, b] = heat_color((t0 + t1) * 0.5);
+        let x0 = rect.left() + rect.width() * t0;
+        let x1 = rect.left() + rect.width() * t1;
+        ui.painter().rect_filled(egui::Rect::from_x_y_ranges(x0..=x1 + 0.5, rect.y_range()), 0.0, Color32::from_rgb(r, g, b));
+    }
+    ui.horizontal(|ui| {
+        ui.label(RichText::new("0").small());
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.label(RichText::new(format!("{top:.0} (99th pct.)")).small());
+        });
+    });
+    ui.label(RichText::new(format!("mean {mean:.1}, max {max:.0}")).small().weak());
+}
+
+fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
+    egui::CollapsingHeader::new("Model").default_open(true).show(ui, |ui| {
+        let current = info.model.map_or("(none)".to_string(), |m| m.label());
+        ui.horizontal(|ui| {
+            ui.label("Paper model");
+            egui::ComboBox::new("model", "").selected_text(current).show_ui(ui, |ui| {
+                for m in PaperModel::ALL {
+                    let selected = info.model == Some(&ModelSource::Paper(m));
+                    if ui.selectable_label(selected, m.name()).clicked() && !selected {
+                        actions.push(PanelAction::LoadModel(ModelSource::Paper(m)));
+                    }
+                }
+            });
+        });
+        ui.horizontal(|ui| {
+            let field = ui.add(egui::TextEdit::singleline(&mut state.path).hint_text("path/to/model.obj").desired_width(ui.available_width() - 52.0));
+            let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            let clicked = ui.add_enabled(!state.path.trim().is_empty(), egui::Button::new("Load")).clicked();
+            if (clicked || enter) && !state.path.trim().is_empty() {
+                actions.push(PanelAction::LoadModel(ModelSource::File(state.path.trim().into())));
+            }
+        });
+        ui.label(RichText::new(if state.hovering_file { "drop the file to load it" } else { "or drop an .obj file on the window" }).small().weak());
+        if let Some((label, stage, secs)) = info.loading {
+            ui.horizontal(|ui| {
+                ui.spinner();
+                ui.label(format!("{label}: {stage} ({secs:.1} s)"));
+            });
+        } else if let Some(s) = &state.model_status {
+            status_line(ui, s);
+        }
+        ui.horizontal(|ui| {
+            ui.label("Copies");
+            ui.add(egui::Slider::new(&mut params.model_count, 1..=MAX_MODELS));
+        });
+        ui.label(RichText::new(format!("{} triangles, {} vertices in the scene", group(info.triangles), group(info.vertices))).small());
+    });
+}
+
+fn light_section(ui: &mut Ui, params: &mut Params) {
+    egui::CollapsingHeader::new("Light").default_open(true).show(ui, |ui| {
+        let limit = BOX_HALF_SIZE * 0.98;
+        egui::Grid::new("light").num_columns(2).show(ui, |ui| {
+            ui.label("Orbit radius");
+            ui.add(egui::Slider::new(&mut params.light.radius, 0.0..=limit).fixed_decimals(2));
+            ui.end_row();
+            ui.label("Height");
+            ui.add(egui::Slider::new(&mut params.light.height, -limit..=limit).fixed_decimals(2));
+            ui.end_row();
+            ui.label("Speed");
+            ui.add(egui::Slider::new(&mut params.light_speed, -180.0..=180.0).suffix(" °/s").fixed_decimals(0));
+            ui.end_row();
+            ui.label("");
+            ui.checkbox(&mut params.light_paused, "paused (Space)");
+            ui.end_row();
+            ui.label("Phase");
+            ui.add_enabled(params.light_paused, egui::Slider::new(&mut params.light.angle_deg, 0.0..=360.0).suffix("°").fixed_decimals(1));
+            ui.end_row();
+        });
+    });
+}
+
+fn camera_section(ui: &mut Ui, params: &mut Params) {
+    egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| {
+        ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
+        let p = params.camera.position;
+        ui.label(RichText::new(format!("at ({:.2}, {:.2}, {:.2}), distance {:.2}", p.x, p.y, p.z, (p - params.camera.target).length())).small());
+        if ui.button("Reset camera (R)").clicked() {
+            params.reset_camera();
+        }
+    });
+}
+
+fn display_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
+    egui::CollapsingHeader::new("Display").default_open(false).show(ui, |ui| {
+        ui.add_enabled(info.vsync_off_available || !params.vsync, egui::Checkbox::new(&mut params.vsync, "vsync (V)"));
+        ui.label(RichText::new(format!("present mode: {}", info.present_mode)).small().weak());
+        if !info.vsync_off_available {
+            ui.label(RichText::new("this surface offers only FIFO (vsync)").small().weak());
+        }
+    });
+}
+
+fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
+    ui.label(RichText::new(name).color(color));
+    match s {
+        Some(s) => {
+            for v in [s.current, s.min, s.mean, s.max] {
+                ui.label(RichText::new(format!("{v:.2}")).monospace());
+            }
+        }
+        None => {
+            for _ in 0..4 {
+                ui.label("-");
+            }
+        }
+    }
+    ui.end_row();
+}
+
+fn performance_section(ui: &mut Ui, info: &PanelInfo) {
+    egui::CollapsingHeader::new("Performance").default_open(true).show(ui, |ui| {
+        frame_graph(ui, info.stats);
+        egui::Grid::new("times").num_columns(5).striped(true).show(ui, |ui| {
+            ui.label("ms");
+            for h in ["now", "min", "mean", "max"] {
+                ui.label(RichText::new(h).small().weak());
+            }
+            ui.end_row();
+            summary_row(ui, "GPU trace", GPU_COLOR, info.stats.gpu.summary());
+            summary_row(ui, "frame", FRAME_COLOR, info.stats.frame.summary());
+        });
+        let gpu_now = info.stats.gpu.summary().map(|s| s.current);
+        egui::Grid::new("counts").num_columns(2).show(ui, |ui| {
+            ui.label("fps");
+            ui.label(format!("{:.1}", info.stats.fps()));
+            ui.end_row();
+            ui.label("rays / frame");
+            ui.label(format!("{} (at most)", group(info.rays)));
+            ui.end_row();
+            ui.label("Mrays/s");
+            ui.label(gpu_now.map_or("-".into(), |ms| format!("{:.1}", mrays_per_second(info.rays, ms))));
+            ui.end_row();
+        });
+    });
+}
+
+/// The last `HISTORY_SECONDS` of both series as lines over a light grid.
+fn frame_graph(ui: &mut Ui, stats: &FrameStats) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 110.0), Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
+    let latest = [&stats.gpu, &stats.frame].iter().filter_map(|s| s.samples.back().map(|v| v.0)).fold(0.0, f64::max);
+    let t0 = latest - HISTORY_SECONDS;
+    let top = nice_ceiling(stats.gpu.max().max(stats.frame.max()).max(1.0) * 1.1);
+    let grid = ui.visuals().widgets.noninteractive.bg_stroke.color;
+    let text = ui.visuals().weak_text_color();
+    for i in 1..4 {
+        let y = rect.bottom() - rect.height() * i as f32 / 4.0;
+        painter.line_segment([egui::pos2(rect.left(), y), egui::pos2(rect.right(), y)], Stroke::new(0.5, grid));
+        painter.text(egui::pos2(rect.left() + 3.0, y), egui::Align2::LEFT_BOTTOM, format!("{:.0} ms", top * i as f64 / 4.0), egui::FontId::proportional(9.0), text);
+    }
+    let to_screen = |t: f64, ms: f64| {
+        egui::pos2(
+            rect.left() + rect.width() * ((t - t0) / HISTORY_SECONDS) as f32,
+            rect.bottom() - rect.height() * (ms / top).min(1.0) as f32,
+        )
+    };
+    let line = |series: &Series, color: Color32| {
+        let points: Vec<egui::Pos2> = series.samples.iter().map(|&(t, ms)| to_screen(t, ms)).collect();
+        if points.len() >= 2 {
+            painter.add(Shape::line(points, Stroke::new(1.5, color)));
+        }
+    };
+    line(&stats.frame, FRAME_COLOR);
+    line(&stats.gpu, GPU_COLOR);
+    painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, format!("last {HISTORY_SECONDS:.0} s"), egui::FontId::proportional(9.0), text);
+}
+
+/// 1, 2 or 5 times a power of ten, at least `v`.
+fn nice_ceiling(v: f64) -> f64 {
+    let p = 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * p).find(|&c| c >= v).unwrap_or(10.0 * p)
+}
+
+fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
+    egui::CollapsingHeader::new("Screenshots").default_open(true).show(ui, |ui| {
+        ui.horizontal(|ui| {
+            if ui.button("Traced image (F12)").on_hover_text("PNG at render resolution").clicked() {
+                actions.push(PanelAction::ScreenshotTrace);
+            }
+            if ui.button("Window").on_hover_text("PNG of the window as seen, panel included (Shift+F12)").clicked() {
+                actions.push(PanelAction::ScreenshotWindow);
+            }
+        });
+        ui.label(RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak());
+        if let Some(s) = &state.screenshot_status {
+            status_line(ui, s);
+        }
+    });
+}
+
+fn status_line(ui: &mut Ui, s: &Status) {
+    let text = RichText::new(&s.text).small();
+    ui.add(egui::Label::new(if s.error { text.color(ERROR_COLOR) } else { text }).wrap());
+}
+
+/// 1234567 -> "1 234 567".
+pub fn group(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digits_are_grouped() {
+        assert_eq!(group(0), "0");
+        assert_eq!(group(999), "999");
+        assert_eq!(group(1000), "1 000");
+        assert_eq!(group(1234567), "1 234 567");
+    }
+
+    #[test]
+    fn graph_scale_is_round() {
+        assert_eq!(nice_ceiling(1.1), 2.0);
+        assert_eq!(nice_ceiling(7.0), 10.0);
+        assert_eq!(nice_ceiling(20.0), 20.0);
+        assert_eq!(nice_ceiling(0.3), 0.5);
+    }
+}

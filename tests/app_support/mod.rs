@@ -1,0 +1,223 @@
+//! Helpers for the window tests: a private Xvfb per test, the built binary with the test's
+//! environment, xdotool, temporary folders and image comparison.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+static NEXT: AtomicU32 = AtomicU32::new(0);
+
+/// An Xvfb server on its own display number, killed on drop.
+pub struct Xvfb {
+    child: Child,
+    pub display: String,
+}
+
+impl Xvfb {
+    /// Start `Xvfb :N -screen 0 1024x768x24` on a free N and wait for its socket.
+    pub fn start() -> Self {
+        let base = 90 + (std::process::id() % 300) * 16;
+        for _ in 0..64 {
+            let n = base + NEXT.fetch_add(1, Ordering::SeqCst);
+            let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+            if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
+                continue;
+            }
+            let mut child = Command::new("Xvfb")
+                .args([format!(":{n}").as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("Xvfb must be installed for the window tests (CI installs xvfb)");
+            let start = Instant::now();
+            while start.elapsed() < Duration::from_secs(20) {
+                if socket.exists() {
+                    return Self { child, display: format!(":{n}") };
+                }
+                if let Ok(Some(_)) = child.try_wait() {
+                    break; // the display was taken meanwhile: try the next number
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        panic!("could not start Xvfb on any display number");
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A temporary folder, removed on drop.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("meshtracer-{name}-{}-{}", std::process::id(), NEXT.fetch_add(1, Ordering::SeqCst)));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        Self(dir)
+    }
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if std::env::var_os("MESHTRACER_KEEP_TEST_FILES").is_none() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// The binary, run in `dir` on `display` with validation on.
+pub fn meshtracer(display: &str, dir: &Path) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
+    cmd.current_dir(dir)
+        .env("DISPLAY", display)
+        .env("MESHTRACER_VALIDATION", "1")
+        .env("MESHTRACER_SCREENSHOT_DIR", dir)
+        // Xvfb's DPI is arbitrary: pin the scale so window sizes are exact.
+        .env("WINIT_X11_SCALE_FACTOR", "1")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("MESHTRACER_KEEP_TEST_FILES");
+    cmd
+}
+
+/// Run xdotool on `display`.
+pub fn xdotool(display: &str, args: &[&str]) -> Output {
+    Command::new("xdotool").args(args).env("DISPLAY", display).output().expect("xdotool must be installed for the window tests (CI installs it)")
+}
+
+/// A running child process, killed on drop if still running.
+pub struct Running(pub Option<Child>);
+
+impl Running {
+    /// Wait up to `timeout` for the exit; kill it and fail otherwise.
+    pub fn wait(&mut self, timeout: Duration) -> Output {
+        let start = Instant::now();
+        loop {
+            let child = self.0.as_mut().unwrap();
+            if child.try_wait().unwrap().is_some() {
+                return self.0.take().unwrap().wait_with_output().unwrap();
+            }
+            if start.elapsed() > timeout {
+                let mut child = self.0.take().unwrap();
+                let _ = child.kill();
+                let out = child.wait_with_output().unwrap();
+                panic!("meshtracer did not exit within {timeout:?}; stderr: {}", String::from_utf8_lossy(&out.stderr));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Fail (with its stderr) if the process has exited already.
+    pub fn assert_alive(&mut self) {
+        let child = self.0.as_mut().unwrap();
+        if child.try_wait().unwrap().is_some() {
+            let out = self.0.take().unwrap().wait_with_output().unwrap();
+            panic!("meshtracer exited early ({}): {}", out.status, String::from_utf8_lossy(&out.stderr));
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.0.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Spawn with piped output.
+pub fn spawn(mut cmd: Command) -> Running {
+    Running(Some(cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap()))
+}
+
+/// Wait until the app's window is mapped; returns its id.
+pub fn wait_for_window(display: &str, app: &mut Running) -> String {
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(60) {
+        app.assert_alive();
+        let out = xdotool(display, &["search", "--onlyvisible", "--name", "^meshtracer"]);
+        if let Some(id) = String::from_utf8_lossy(&out.stdout).lines().next() {
+            return id.trim().to_string();
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    panic!("the meshtracer window did not appear");
+}
+
+/// Focus `window` and press `keys` (xdotool key names) through XTEST, like a user.
+pub fn press(display: &str, window: &str, keys: &[&str]) {
+    let out = xdotool(display, &["windowfocus", window]);
+    assert!(out.status.success(), "xdotool windowfocus failed: {}", String::from_utf8_lossy(&out.stderr));
+    let mut args = vec!["key", "--delay", "50"];
+    args.extend_from_slice(keys);
+    let out = xdotool(display, &args);
+    assert!(out.status.success(), "xdotool key failed: {}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Poll until `f` returns Some, or fail after `timeout` with `what`.
+pub fn wait_until<T>(timeout: Duration, what: &str, mut f: impl FnMut() -> Option<T>) -> T {
+    let start = Instant::now();
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(start.elapsed() < timeout, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// PNG files in `dir` whose names start with `prefix`.
+pub fn pngs(dir: &Path, prefix: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "png") && p.file_name().unwrap().to_string_lossy().starts_with(prefix))
+        .collect();
+    v.sort();
+    v
+}
+
+/// Load a PNG as RGBA.
+pub fn load(path: &Path) -> image::RgbaImage {
+    image::open(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display())).to_rgba8()
+}
+
+/// Largest per-channel difference (images must have the same size).
+pub fn max_diff(a: &image::RgbaImage, b: &image::RgbaImage) -> u8 {
+    assert_eq!(a.dimensions(), b.dimensions(), "image sizes differ");
+    a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0)
+}
+
+/// `meshtracer render` of the same scene flags into `out`.
+pub fn headless_render(dir: &Path, flags: &[&str], out: &str) -> image::RgbaImage {
+    let output = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+        .current_dir(dir)
+        .env("MESHTRACER_VALIDATION", "1")
+        .arg("render")
+        .args(flags)
+        .args(["-o", out])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "render failed: {}", String::from_utf8_lossy(&output.stderr));
+    load(&dir.join(out))
+}
+
+/// Fail unless the run exited 0 without validation messages.
+pub fn assert_clean_exit(out: &Output) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "meshtracer failed ({}): {stderr}", out.status);
+    assert!(!stderr.to_lowercase().contains("validation"), "validation messages: {stderr}");
+}

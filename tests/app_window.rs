@@ -1,0 +1,157 @@
+//! The interactive tool, run for real: the built binary in a private Xvfb with the Vulkan
+//! validation layer on, driven by command-line scripts and by real X input (xdotool).
+//! No skipping: a machine without Xvfb, xdotool or Vulkan fails these tests.
+
+mod app_support;
+
+use std::time::Duration;
+
+use app_support::*;
+
+const SCENE: [&str; 6] = ["--width", "128", "--height", "128", "--bounces", "2"];
+const WINDOW: [&str; 2] = ["--window", "640x480"];
+
+fn view_args(extra: &[&str]) -> Vec<String> {
+    SCENE.iter().chain(WINDOW.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
+}
+
+fn with_bounces(b: &str) -> Vec<&str> {
+    let mut flags = SCENE.to_vec();
+    flags[5] = b;
+    flags
+}
+
+#[test]
+fn scripted_run_writes_trace_and_window_screenshots() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("scripted");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "5", "--screenshot", "a.png", "--screenshot-ui", "b.png"]));
+    let out = spawn(cmd).wait(Duration::from_secs(180));
+    assert_clean_exit(&out);
+
+    // The traced image is exactly what the headless renderer makes of the same flags.
+    let a = load(&dir.path().join("a.png"));
+    let reference = headless_render(dir.path(), &SCENE, "ref.png");
+    assert_eq!(a.dimensions(), (128, 128));
+    assert!(max_diff(&a, &reference) <= 1, "window trace differs from `render` by {}", max_diff(&a, &reference));
+
+    // The window screenshot: the window's size, the panel on the left, the image beside it.
+    let b = load(&dir.path().join("b.png"));
+    assert_eq!(b.dimensions(), (640, 480));
+    let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;
+    let left: Vec<_> = (0..200).flat_map(|x| (0..480).map(move |y| (x, y))).map(|(x, y)| b.get_pixel(x, y)).collect();
+    let panel_share = left.iter().filter(|p| panel_gray(p)).count() as f64 / left.len() as f64;
+    assert!(panel_share > 0.4, "the panel's background covers only {:.0}% of the left of the window", panel_share * 100.0);
+    // Text and widgets are drawn on it.
+    let bright = left.iter().filter(|p| p.0[0] > 120 && p.0[1] > 120 && p.0[2] > 120).count();
+    assert!(bright > 200, "no text on the panel ({bright} bright pixels)");
+
+    // The panel ends where the columns stop being mostly panel-grey.
+    let gray_share = |x: u32| (0..480).filter(|&y| panel_gray(b.get_pixel(x, y))).count() as f64 / 480.0;
+    let panel_end = (100..640).find(|&x| (x..(x + 4).min(640)).all(|c| gray_share(c) < 0.1)).expect("the panel fills the window");
+    assert!((200..500).contains(&panel_end), "the panel ends at x = {panel_end}");
+    // Find the traced image right of the panel and its edge line (the letterbox is the clear colour).
+    let clear = |p: &image::Rgba<u8>| p.0[0].abs_diff(15) <= 2 && p.0[1].abs_diff(15) <= 2 && p.0[2].abs_diff(18) <= 2;
+    let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+    for y in 0..480 {
+        for x in panel_end + 3..640 {
+            if !clear(b.get_pixel(x, y)) {
+                x0 = x0.min(x);
+                y0 = y0.min(y);
+                x1 = x1.max(x);
+                y1 = y1.max(y);
+            }
+        }
+    }
+    assert!(x1 > x0 && y1 > y0, "no traced image in the window");
+    let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+    assert!(w.abs_diff(h) <= 2, "the image is not square in the window: {w}x{h}");
+    assert!(w > 200, "the image is small in the window: {w}x{h}");
+    let region = image::imageops::crop_imm(&b, x0, y0, w, h).to_image();
+    let scaled = image::imageops::resize(&a, w, h, image::imageops::FilterType::Nearest);
+    let mean: f64 = region.as_raw().iter().zip(scaled.as_raw()).map(|(p, q)| p.abs_diff(*q) as f64).sum::<f64>() / region.as_raw().len() as f64;
+    assert!(mean < 12.0, "the window shows something else than the trace (mean difference {mean:.1})");
+}
+
+#[test]
+fn keys_take_screenshots_and_change_parameters() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("keys");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    // A long scripted run: the light stays still, Ctrl+Q ends it.
+    cmd.args(view_args(&["--frames", "1000000", "--screenshot", "final.png"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+
+    // F12 until the traced image appears in the screenshot folder (the model may still be loading).
+    let shot = wait_until(Duration::from_secs(90), "an F12 screenshot", || {
+        app.assert_alive();
+        press(&x.display, &window, &["F12"]);
+        std::thread::sleep(Duration::from_millis(700));
+        pngs(dir.path(), "meshtracer_").into_iter().find(|p| !p.to_string_lossy().ends_with("_window.png"))
+    });
+    let name = shot.file_name().unwrap().to_string_lossy().to_string();
+    assert!(name.contains("_geosphere_x1_128x128_b2_blend0.50"), "{name}");
+    let before = headless_render(dir.path(), &SCENE, "ref2.png");
+    assert!(max_diff(&load(&shot), &before) <= 1, "F12 screenshot differs from `render`");
+
+    // The window screenshot key.
+    press(&x.display, &window, &["shift+F12"]);
+    let win = wait_until(Duration::from_secs(30), "a window screenshot", || pngs(dir.path(), "meshtracer_").into_iter().find(|p| p.to_string_lossy().ends_with("_window.png")));
+    assert_eq!(load(&win).width(), 640);
+
+    // PageUp: one more bounce; then quit. The exit screenshot shows three bounces.
+    press(&x.display, &window, &["Prior"]);
+    press(&x.display, &window, &["ctrl+q"]);
+    let out = app.wait(Duration::from_secs(120));
+    assert_clean_exit(&out);
+    let after = headless_render(dir.path(), &with_bounces("3"), "ref3.png");
+    assert!(max_diff(&before, &after) > 1, "2 and 3 bounces look the same: the test proves nothing");
+    let last = load(&dir.path().join("final.png"));
+    assert!(max_diff(&last, &after) <= 1, "PageUp did not give 3 bounces (differs from `render --bounces 3` by {})", max_diff(&last, &after));
+}
+
+#[test]
+fn survives_resize_minimize_and_restore() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("resize");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000", "--screenshot-ui", "end.png"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let pause = || std::thread::sleep(Duration::from_millis(800));
+    pause();
+    // Render at the window's size from here on, so resizes also rebuild the trace output.
+    press(&x.display, &window, &["m"]);
+    for (w, h) in [("800", "600"), ("300", "200"), ("1000", "700")] {
+        xdotool(&x.display, &["windowsize", &window, w, h]);
+        pause();
+        app.assert_alive();
+    }
+    xdotool(&x.display, &["windowminimize", &window]);
+    pause();
+    xdotool(&x.display, &["windowunmap", &window]);
+    pause();
+    app.assert_alive();
+    xdotool(&x.display, &["windowmap", &window]);
+    pause();
+    xdotool(&x.display, &["windowsize", &window, "700", "500"]);
+    pause();
+    press(&x.display, &window, &["ctrl+q"]);
+    let out = app.wait(Duration::from_secs(120));
+    assert_clean_exit(&out);
+    let end = load(&dir.path().join("end.png"));
+    assert_eq!(end.dimensions(), (700, 500), "the swapchain did not follow the last resize");
+}
+
+#[test]
+fn no_display_is_one_line_with_the_render_hint() {
+    let dir = TempDir::new("nodisplay");
+    let out = meshtracer(":999", dir.path()).args(view_args(&["--frames", "1"])).output().unwrap();
+    assert!(!out.status.success(), "ran without a display");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got: {stderr}");
+    assert!(lines[0].contains("meshtracer render"), "{stderr}");
+}

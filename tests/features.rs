@@ -1,0 +1,161 @@
+//! The paper's future work, each on both tracers (validation layer on): smooth shading,
+//! texture mapping, environment mapping, anti-aliasing with progressive accumulation,
+//! adaptive sampling. Tolerance as in gpu_vs_cpu.rs: at most 0.2% of pixels may differ
+//! by more than 1e-4, mean difference under 1e-4.
+
+mod common;
+
+use common::*;
+use glam::{Vec2, Vec3};
+use meshtracer::gpu::GpuTracer;
+use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
+use meshtracer::scene::primitives::{uv_sphere, PaperModel};
+use meshtracer::scene::{EnvironmentSource, Material};
+use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
+use meshtracer::tracer::{cpu, Aov, FrameParams, Image, PackedScene, RenderSettings};
+
+fn settings(size: u32) -> RenderSettings {
+    RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() }
+}
+
+fn assert_close(gpu: &Image, cpu: &Image, what: &str) {
+    let d = gpu.compare(cpu, 1e-4);
+    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: GPU and CPU differ: {d:?}");
+}
+
+#[test]
+fn smooth_shading_matches_cpu_and_hides_facets() {
+    let mut sphere = uv_sphere(12, 6); // coarse on purpose
+    prepare_model(&mut sphere);
+    for m in &mut sphere.materials {
+        m.specular = Vec3::ZERO; // diffuse only: facets are the only sharp steps
+    }
+    let scene = open_scene(sphere, 1, LightOrbit::default());
+    let (flat, _) = render_both(&scene, RenderSettings { bounces: 0, ..settings(96) });
+    let (smooth, smooth_cpu) = render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(96) });
+    assert_close(&smooth, &smooth_cpu, "smooth");
+    // Steps above 0.1 per pixel: facet edges of the flat sphere (about 270 here); the
+    // smooth sphere's steepest honest gradient, at its rim, stays mostly below it.
+    let (f, s) = (large_neighbour_steps(&flat, 0.1), large_neighbour_steps(&smooth, 0.1));
+    assert!(s * 2 < f, "smooth shading should remove facet steps: flat {f}, smooth {s}");
+}
+
+fn checker_quad_scene(dir: &std::path::Path, cells: u32, distance: f32) -> meshtracer::scene::Scene {
+    // A cells x cells checker: red and blue texels.
+    let tex = image::RgbaImage::from_fn(cells, cells, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([0, 0, 255, 255]) });
+    let path = dir.join(format!("checker{cells}.png"));
+    tex.save(&path).unwrap();
+    let m = Material { diffuse: Vec3::ONE, specular: Vec3::ZERO, mirror: 0.0, diffuse_texture: Some(path), ..Material::default() };
+    let mut scene = quad_scene(m, distance, Vec3::new(0.0, 0.0, distance));
+    scene.ambient = 0.0;
+    scene.meshes[0].texcoords = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+    scene
+}
+
+#[test]
+fn textured_quad_shows_the_checker_texels() {
+    let dir = std::env::temp_dir().join(format!("meshtracer-tex-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = checker_quad_scene(&dir, 2, 3.0);
+    let (gpu, cpu) = render_both(&scene, RenderSettings { bounces: 0, ..settings(65) });
+    assert_close(&gpu, &cpu, "textured quad");
+    // uv (0.25, 0.75) is texel (0, 0) (v = 1 is the top row): red; (0.75, 0.75) blue.
+    // Pixels near the quadrant centres: the light is on the axis, N.L close to 1.
+    let (top_left, top_right) = (gpu.get(23, 23), gpu.get(41, 23));
+    assert!(top_left[0] > 0.85 && top_left[2] < 0.1, "top-left {top_left:?} should be red");
+    assert!(top_right[2] > 0.85 && top_right[0] < 0.1, "top-right {top_right:?} should be blue");
+    // Texture off: the material's Kd (white).
+    let (plain, _) = render_both(&scene, RenderSettings { bounces: 0, textures: false, ..settings(65) });
+    let c = plain.get(23, 23);
+    assert!(c[0] > 0.9 && c[1] > 0.9 && c[2] > 0.9, "untextured {c:?}");
+    // Far away, a fine checker is minified to its mip average (purple), not aliased.
+    let far = checker_quad_scene(&dir, 64, 40.0);
+    let (gpu, cpu) = render_both(&far, RenderSettings { bounces: 0, ..settings(65) });
+    assert_close(&gpu, &cpu, "minified quad");
+    let c = gpu.get(32, 32);
+    assert!((c[0] - c[2]).abs() < 0.1 && c[0] > 0.3, "minified checker should average to purple: {c:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn environment_is_seen_on_misses_and_in_mirrors() {
+    let mut mesh = PaperModel::Sphere.mesh();
+    prepare_model(&mut mesh);
+    let mut scene = open_scene(mesh, 1, LightOrbit::default());
+    scene.environment = Some(EnvironmentSource::Sky);
+    let (gpu, cpu) = render_both(&scene, RenderSettings { smooth: true, ..settings(64) });
+    assert_close(&gpu, &cpu, "environment");
+    // A corner pixel misses: it shows the sky texel in its direction.
+    let packed = PackedScene::new(&scene);
+    let params = FrameParams::new(&scene, settings(64));
+    let dir = params.camera.primary_ray(0, 0, 64, 64).dir;
+    let sky = sky_image(512, 256);
+    let uv = direction_to_equirect(dir);
+    let mut atlas = TextureAtlas::default();
+    let i = atlas.add(&sky);
+    let expect = atlas.sample(i, uv, 0.0);
+    let got = gpu.get(0, 0);
+    assert!((0..3).all(|c| (got[c] - expect[c]).abs() < 0.02), "miss {got:?} vs sky {expect:?}");
+    assert!(packed.environment.is_some());
+    // A perfect mirror sphere reflects the sky: its centre pixel shows the sky behind the camera.
+    let mut mirror = scene.clone();
+    for m in &mut mirror.meshes[0].materials {
+        *m = Material { diffuse: Vec3::ZERO, specular: Vec3::ZERO, mirror: 1.0, ..m.clone() };
+    }
+    let mirror_settings = RenderSettings { blend: 1.0, bounces: 1, smooth: true, ..settings(64) };
+    let (gpu, cpu) = render_both(&mirror, mirror_settings);
+    assert_close(&gpu, &cpu, "mirror");
+    let centre = gpu.get(32, 32);
+    assert!(centre[2] > 0.2 && centre[2] >= centre[0], "the mirror should show sky colours: {centre:?}");
+    // Without the environment the same mirror shows black.
+    mirror.environment = None;
+    let (dark, _) = render_both(&mirror, mirror_settings);
+    assert!(dark.get(32, 32)[..3].iter().all(|&c| c < 1e-6));
+}
+
+#[test]
+fn supersampling_matches_cpu_and_accumulation_converges() {
+    let scene = paper(PaperModel::Cylinder, 1);
+    let (gpu, cpu) = render_both(&scene, RenderSettings { spp: 4, ..settings(48) });
+    assert_close(&gpu, &cpu, "4 spp");
+
+    // Progressive accumulation of 1-spp frames: successive frames differ less and less.
+    let packed = PackedScene::new(&scene);
+    let ctx = ctx();
+    let mut tracer = GpuTracer::new(&ctx, &packed).unwrap();
+    let mut params = FrameParams::new(&scene, settings(48));
+    let mut previous: Option<Image> = None;
+    let mut cpu_acc = Image::new(48, 48);
+    let mut deltas = Vec::new();
+    for frame in 0..16 {
+        params.frame_index = frame;
+        tracer.trace(&params).unwrap();
+        let img = tracer.read_image().unwrap();
+        cpu::accumulate(&packed, &params, &mut cpu_acc);
+        if let Some(p) = &previous {
+            deltas.push(img.compare(p, 0.0).mean);
+        }
+        previous = Some(img);
+    }
+    assert_close(previous.as_ref().unwrap(), &cpu_acc, "16 accumulated frames");
+    let early = deltas[..3].iter().sum::<f32>() / 3.0;
+    let late = deltas[deltas.len() - 3..].iter().sum::<f32>() / 3.0;
+    assert!(late * 3.0 < early, "accumulation should converge: {deltas:?}");
+    drop(tracer);
+    assert_validation_clean(&ctx);
+}
+
+#[test]
+fn adaptive_sampling_spends_samples_on_edges_only() {
+    let scene = paper(PaperModel::Geosphere, 1);
+    let s = RenderSettings { spp: 8, adaptive: true, ..settings(64) };
+    let (gpu, cpu) = render_both(&scene, s);
+    assert_close(&gpu, &cpu, "adaptive colour");
+    let (counts, counts_cpu) = render_both(&scene, RenderSettings { aov: Aov::Samples, ..s });
+    assert_eq!(counts.pixels, counts_cpu.pixels, "both tracers choose the same pixels");
+    let total: f32 = counts.pixels.iter().map(|p| p[0]).sum();
+    let edges = counts.pixels.iter().filter(|p| p[0] == 8.0).count();
+    assert!(counts.pixels.iter().all(|p| p[0] == 1.0 || p[0] == 8.0));
+    assert!(edges > 50, "the model's silhouette and facets are edges: {edges}");
+    assert!(total < 0.5 * 8.0 * 64.0 * 64.0, "adaptive should spend far fewer samples than uniform: {total}");
+}
