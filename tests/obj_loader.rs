@@ -82,6 +82,11 @@ fn every_corner_form_is_read() {
     // File normals are normalised.
     assert!(with_vn.normals.iter().all(|&n| n == Vec3::Z));
 
+    // A zero file normal takes the computed one.
+    let zero = load(&format!("{head}vn 0 0 0\nf 1//1 2//2 3//1\n")).mesh;
+    assert!(zero.has_file_normals);
+    assert!(zero.normals.iter().all(|&n| n == Vec3::Z), "{:?}", zero.normals);
+
     let full = load(&format!("{head}f 1/1/1 2/2/1 3/3/1\n")).mesh;
     assert!(full.has_file_normals);
     assert_eq!(full.texcoords.len(), full.vertex_count());
@@ -272,14 +277,14 @@ fn face_index_out_of_range_names_the_line() {
 fn every_kind_of_bad_index_is_out_of_range() {
     let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
     let cases = [
-        ("f 1 2 4", "vertex"),                             // past the end
-        ("f 0 1 2", "vertex"),                             // OBJ counts from 1
-        ("f -4 -2 -1", "vertex"),                          // relative, before the first
-        ("f 1/2 2/1 3/1", "texture coordinate"),           // vt past the end
-        ("f 1/0 2/1 3/1", "texture coordinate"),           // zero vt (overflows inside tobj)
-        ("f 1//1 2//-2 3//1", "normal"),                   // relative vn before the first
-        ("f 1 2 99999999999999999999999", "vertex"),       // does not fit any integer
-        ("f 1//4611686018427387904 2//1 3//1", "normal"),  // overflows `3 * vn` inside tobj
+        ("f 1 2 4", "vertex"),                            // past the end
+        ("f 0 1 2", "vertex"),                            // OBJ counts from 1
+        ("f -4 -2 -1", "vertex"),                         // relative, before the first
+        ("f 1/2 2/1 3/1", "texture coordinate"),          // vt past the end
+        ("f 1/0 2/1 3/1", "texture coordinate"),          // zero vt (overflows inside tobj)
+        ("f 1//1 2//-2 3//1", "normal"),                  // relative vn before the first
+        ("f 1 2 99999999999999999999999", "vertex"),      // does not fit any integer
+        ("f 1//4611686018427387904 2//1 3//1", "normal"), // overflows `3 * vn` inside tobj
     ];
     for (face, kind) in cases {
         let e = load_err(&format!("{head}{face}\n"));
@@ -289,6 +294,9 @@ fn every_kind_of_bad_index_is_out_of_range() {
         }
         assert_names(&e, "test.obj", Some(6));
     }
+    // The message counts in good English.
+    let e = load_err(&format!("{head}f 1/2 2/1 3/1\n"));
+    assert!(e.to_string().ends_with("index 2 is out of range (the file has 1 texture coordinate so far)"), "{e}");
     // A face may only use what was defined before it.
     let e = load_err("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n");
     assert!(matches!(e, ObjError::IndexOutOfRange { line: 3, count: 2, .. }), "{e:?}");
@@ -313,6 +321,16 @@ fn non_finite_coordinates_name_the_line() {
     }
     let e = load_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn NaN 0 1\nf 1//1 2//2 3//1\n");
     assert!(matches!(e, ObjError::NonFinite { line: 5, what: "a normal", .. }), "{e:?}");
+}
+
+#[test]
+fn vertex_colours_on_some_vertices_only_name_the_first_odd_one() {
+    // Colours are ignored, but tobj refuses a face using a vertex past the last colour.
+    let e = load_err("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0\nv 1 1 0\nf 1 2 4\n");
+    assert!(matches!(e, ObjError::Parse { line: 3, .. }), "{e:?}");
+    assert!(e.to_string().contains("colour"), "{e}");
+    // All or none is fine.
+    assert_eq!(load("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n").mesh.triangle_count(), 1);
 }
 
 #[test]
@@ -393,7 +411,8 @@ fn paper_model_assets_load_back_with_the_generated_counts() {
         if rewrite {
             write_obj(&generated, &path).unwrap();
         }
-        let loaded = load_obj(&path).unwrap_or_else(|e| panic!("{e} (MESHTRACER_WRITE_ASSETS=1 cargo test --test obj_loader regenerates it)"));
+        let loaded =
+            load_obj(&path).unwrap_or_else(|e| panic!("{e} (MESHTRACER_WRITE_ASSETS=1 cargo test --test obj_loader regenerates it)"));
         assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
         let mesh = loaded.mesh;
         assert_eq!(mesh.vertex_count(), generated.vertex_count(), "{}", model.name());

@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::gpu::{GpuContext, GpuError, GpuTracer};
 use crate::scene::paper::{instances, paper_scene, prepare_model, LightOrbit, ModelSource};
-use crate::scene::Mesh;
+use crate::scene::{EnvironmentSource, Mesh};
 use crate::tracer::{Accel, FrameParams, PackedScene, RenderSettings};
 
 /// Brute-force frames asking for more ray-triangle tests than this are skipped with a note
@@ -31,6 +31,17 @@ pub struct Case {
     pub settings: RenderSettings,
     /// The paper's figures for this row (fps, ms), when it has them.
     pub paper: Option<(f64, f64)>,
+    /// Environment map (None: the paper's black background).
+    pub environment: Option<EnvironmentSource>,
+    /// Label of the shading features switched on, for the feature series.
+    pub features: String,
+}
+
+impl Case {
+    /// A row of `series` on a paper model with default shading.
+    pub fn new(series: &str, model: ModelSource, models: u32, settings: RenderSettings) -> Self {
+        Self { series: series.into(), model, generated: None, models, settings, paper: None, environment: None, features: String::new() }
+    }
 }
 
 /// Median and spread of a series of times.
@@ -65,6 +76,8 @@ pub struct Row {
     pub height: u32,
     pub bounces: u32,
     pub accel: String,
+    /// Shading features on (smooth, textures, env, spp, adaptive), empty for the paper's.
+    pub features: String,
     /// Rays per frame: every pixel's primary ray plus one per bounce (the mirror box is
     /// closed, so no ray escapes early).
     pub rays_per_frame: u64,
@@ -139,7 +152,9 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
             loaded = Some(Loaded { key: key.clone(), mesh });
         }
         let mesh = &loaded.as_ref().unwrap().mesh;
-        let scene = paper_scene(mesh.clone(), case.models, LightOrbit::default());
+        let mut scene = paper_scene(mesh.clone(), case.models, LightOrbit::default());
+        scene.environment = case.environment.clone();
+        let key = format!("{key}:{:?}", case.environment);
         if current.as_ref().is_none_or(|c| c.0 != key) {
             let packed = PackedScene::new(&scene);
             let tracer = GpuTracer::new(ctx, &packed)?;
@@ -171,6 +186,7 @@ fn measure(tracer: &mut GpuTracer, packed: &PackedScene, scene: &crate::scene::S
         height: s.height,
         bounces: s.bounces,
         accel: s.accel.to_string(),
+        features: case.features.clone(),
         rays_per_frame: rays,
         gpu_ms: None,
         wall_ms: Stats::default(),

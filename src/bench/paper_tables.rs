@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use super::Case;
 use crate::scene::paper::ModelSource;
+use crate::scene::EnvironmentSource;
 use crate::scene::primitives::{large_torus_knot, PaperModel};
 use crate::tracer::{Accel, Aov, RenderSettings};
 
@@ -39,7 +40,7 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
                     1024 => Some(figures[1]),
                     _ => None,
                 };
-                cases.push(Case { series: "table1".into(), model: ModelSource::Paper(model), generated: None, models: 1, settings: settings(size, 2, accel), paper });
+                cases.push(Case { paper, ..Case::new("table1", ModelSource::Paper(model), 1, settings(size, 2, accel)) });
             }
         }
         for (count, figures) in TABLE2 {
@@ -49,14 +50,7 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
                     1024 => Some(figures[1]),
                     _ => None,
                 };
-                cases.push(Case {
-                    series: "table2".into(),
-                    model: ModelSource::Paper(PaperModel::Geosphere),
-                    generated: None,
-                    models: count,
-                    settings: settings(size, 2, accel),
-                    paper,
-                });
+                cases.push(Case { paper, ..Case::new("table2", ModelSource::Paper(PaperModel::Geosphere), count, settings(size, 2, accel)) });
             }
         }
     }
@@ -65,29 +59,57 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
 
 /// Frame time against triangle count (generated torus knots), resolution, bounces and
 /// model count; `extra` .obj files join the triangle series.
-pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32) -> Vec<Case> {
+pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32, bounces: u32) -> Vec<Case> {
     let mut cases = Vec::new();
     for &n in triangle_counts {
         let mesh = Arc::new(large_torus_knot(n));
         for &accel in accels {
-            cases.push(Case { series: "triangles".into(), model: ModelSource::default(), generated: Some(mesh.clone()), models: 1, settings: settings(size, 2, accel), paper: None });
+            cases.push(Case { generated: Some(mesh.clone()), ..Case::new("triangles", ModelSource::default(), 1, settings(size, bounces, accel)) });
         }
     }
     for source in extra {
         for &accel in accels {
-            cases.push(Case { series: "triangles".into(), model: source.clone(), generated: None, models: 1, settings: settings(size, 2, accel), paper: None });
+            cases.push(Case::new("triangles", source.clone(), 1, settings(size, bounces, accel)));
         }
     }
     for &accel in accels {
         for res in [256, 512, 1024, 2048] {
-            cases.push(Case { series: "resolution".into(), model: ModelSource::Paper(PaperModel::Cylinder), generated: None, models: 1, settings: settings(res, 2, accel), paper: None });
+            cases.push(Case::new("resolution", ModelSource::Paper(PaperModel::Cylinder), 1, settings(res, 2, accel)));
         }
         for b in 0..=8 {
-            cases.push(Case { series: "bounces".into(), model: ModelSource::Paper(PaperModel::Cylinder), generated: None, models: 1, settings: settings(size, b, accel), paper: None });
+            cases.push(Case::new("bounces", ModelSource::Paper(PaperModel::Cylinder), 1, settings(size, b, accel)));
         }
         for m in [1, 2, 4, 7, 14, 27] {
-            cases.push(Case { series: "models".into(), model: ModelSource::Paper(PaperModel::Geosphere), generated: None, models: m, settings: settings(size, 2, accel), paper: None });
+            cases.push(Case::new("models", ModelSource::Paper(PaperModel::Geosphere), m, settings(size, 2, accel)));
         }
+    }
+    cases
+}
+
+/// The cost of each shading feature at `size`, on the BVH: the paper's flat shading as the
+/// baseline, then smooth shading, the environment map, 4 jittered samples, adaptive 4
+/// samples, and textures (on `textured`, e.g. Sponza, when given).
+pub fn feature_cases(size: u32, model: ModelSource, textured: Option<ModelSource>) -> Vec<Case> {
+    let base = RenderSettings { textures: false, ..settings(size, 2, Accel::Bvh) };
+    let variants: [(&str, RenderSettings, bool); 6] = [
+        ("flat (paper)", base, false),
+        ("smooth", RenderSettings { smooth: true, ..base }, false),
+        ("env sky", base, true),
+        ("spp 4", RenderSettings { spp: 4, ..base }, false),
+        ("adaptive 4", RenderSettings { spp: 4, adaptive: true, ..base }, false),
+        ("all", RenderSettings { smooth: true, spp: 4, adaptive: true, ..base }, true),
+    ];
+    let mut cases: Vec<Case> = variants
+        .iter()
+        .map(|(label, s, env)| Case {
+            environment: env.then_some(EnvironmentSource::Sky),
+            features: label.to_string(),
+            ..Case::new("features", model.clone(), 1, *s)
+        })
+        .collect();
+    if let Some(t) = textured {
+        cases.push(Case { features: "untextured".into(), ..Case::new("features", t.clone(), 1, base) });
+        cases.push(Case { features: "textures".into(), ..Case::new("features", t, 1, RenderSettings { textures: true, ..base }) });
     }
     cases
 }

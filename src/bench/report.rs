@@ -29,8 +29,8 @@ pub fn format_row(r: &Row) -> String {
     }
     let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
     format!(
-        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}",
-        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s
+        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}{}",
+        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s, r.features
     )
 }
 
@@ -50,14 +50,14 @@ pub fn write_json(path: &Path, report: &Report) -> anyhow::Result<()> {
 
 /// Write the rows as CSV.
 pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result<()> {
-    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,device,driver,date\n");
+    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,features,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,device,driver,date\n");
     for r in rows {
         let g = r.gpu_ms.unwrap_or_default();
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},\"{}\",\"{}\",{}",
-            r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.rays_per_frame,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},\"{}\",\"{}\",{}",
+            r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.features, r.rays_per_frame,
             g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
             opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), env.device, env.driver, env.date
         );

@@ -1,12 +1,16 @@
 //! Binned-SAH builder (top-down, in place), the structural checker and the tree statistics.
 //!
 //! The build works on one array of per-primitive boxes (`Prim`), partitioned in place:
-//! every subtree owns a contiguous range of it, and a leaf is simply a range. Each node
-//! bins its primitives' centroids into `bins` slabs per axis, sweeps the slab planes for
-//! the lowest SAH cost and partitions around the winner. Subtrees of at least
-//! `PARALLEL_MIN_PRIMS` primitives are built on both threads (`rayon::join`), each
-//! sequential subtree into its own node vector; the pieces are stitched together in
-//! depth-first order at the end.
+//! every subtree owns a contiguous range of it, and a leaf is simply a range. A node of at
+//! most `max_leaf_size` primitives becomes a leaf; a bigger one bins its primitives'
+//! centroids into `bins` slabs per axis, sweeps the slab planes for the lowest SAH cost and
+//! partitions around the winner. Where binning cannot separate the primitives (all
+//! centroids in one point), or where the depth budget (`MAX_DEPTH`) runs short, it splits
+//! at the object median instead, so every leaf stays within `max_leaf_size`.
+//!
+//! Subtrees of at least `PARALLEL_MIN_PRIMS` primitives are built on both threads
+//! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
+//! stitched together in depth-first order at the end.
 
 use glam::{UVec3, Vec3, Vec3A};
 use rayon::prelude::*;
@@ -15,6 +19,9 @@ use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
 use crate::geometry::Aabb;
 
 /// Build parameters.
+///
+/// The two costs weigh [`Bvh::sah_cost`]. The build itself does not need them: the best
+/// split plane does not depend on them, and leaves are made by size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BuildOptions {
     /// Largest leaf the builder makes (clamped to 1..=255); nodes with more primitives are always split.
@@ -202,7 +209,7 @@ impl BinSet {
     /// Bins `prims` (on top of what the bins hold). Neighbouring triangles of a mesh tend to
     /// land in the same bins, chaining each update on the previous one; big ranges therefore
     /// alternate between two sets of bins, merged at the end.
-        fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
+    fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
         let BinSet { bins, spare } = self;
         if prims.len() < 256 {
             prims.iter().for_each(|p| add_to(bins, p, grid));

@@ -20,6 +20,9 @@ pub struct BenchArgs {
     /// Frame time against triangles, resolution, bounces and model count.
     #[arg(long)]
     pub scaling: bool,
+    /// The cost of each shading feature (smooth, env, spp, adaptive; textures on the first --obj).
+    #[arg(long)]
+    pub features: bool,
     /// Measured frames per row.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
     pub frames: u32,
@@ -38,6 +41,9 @@ pub struct BenchArgs {
     /// Resolution (square) of the --scaling series other than resolution itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=8192))]
     pub size: u32,
+    /// Bounces in the triangle series (the paper's 2; 0 = primary rays only).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub bounces: u32,
     /// Extra .obj files for the triangle series.
     #[arg(long = "obj")]
     pub objs: Vec<PathBuf>,
@@ -59,11 +65,15 @@ pub struct BenchArgs {
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
-    if args.paper || !args.scaling {
+    if args.paper || !(args.scaling || args.features) {
         cases.extend(paper_tables::paper_cases(&args.resolutions, &args.accel));
     }
     if args.scaling {
-        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &args.accel, args.size));
+        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &args.accel, args.size, args.bounces));
+    }
+    if args.features {
+        let textured = extra.first().cloned();
+        cases.extend(paper_tables::feature_cases(args.size, ModelSource::Paper(crate::scene::primitives::PaperModel::Sphere), textured));
     }
     let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
     let env = bench::environment(&ctx);

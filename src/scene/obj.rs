@@ -74,7 +74,7 @@ pub enum ObjError {
         reason: String,
     },
     /// A face refers to a vertex, texture coordinate or normal not defined before it.
-    #[error("{name} line {line}: face {kind} index {index} is out of range (the file has {count} {kind_plural} so far)")]
+    #[error("{name} line {line}: face {kind} index {index} is out of range (the file has {count} {} so far)", if *.count == 1 { .kind } else { .kind_plural })]
     IndexOutOfRange {
         /// The file, as named in messages.
         name: String,
@@ -141,12 +141,7 @@ pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Res
     let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
     let mut feeder = LineFeeder::new(text, name, true);
 
-    let options = tobj::LoadOptions {
-        single_index: true,
-        triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
+    let options = tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
     let parsed = tobj::load_obj_buf(&mut feeder, &options, |mtl| libs.load(mtl));
     let (models, materials) = match parsed {
         Ok(ok) => ok,
@@ -160,7 +155,10 @@ pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Res
 
     let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
     for missing in usemtl_names.iter().filter(|n| !known.contains(*n)) {
-        warn(&mut warnings, format!("{name}: `usemtl {missing}` names no material of the loaded libraries; its faces use the default material"));
+        warn(
+            &mut warnings,
+            format!("{name}: `usemtl {missing}` names no material of the loaded libraries; its faces use the default material"),
+        );
     }
 
     let mesh = build_mesh(text, name, &models, materials)?;
@@ -207,6 +205,8 @@ fn quote(line: &str) -> String {
 /// stops before it can use the face. It also hides polylines from tobj.
 struct LineFeeder<'a> {
     name: &'a str,
+    /// The whole text.
+    text: &'a str,
     /// Text not consumed yet.
     rest: &'a str,
     /// The line consumed last: the one tobj is working on.
@@ -231,6 +231,7 @@ impl<'a> LineFeeder<'a> {
     fn new(text: &'a str, name: &'a str, check_obj: bool) -> Self {
         Self {
             name,
+            text,
             rest: text,
             current_line: "",
             line: 0,
@@ -274,11 +275,8 @@ impl<'a> LineFeeder<'a> {
             E::ScalingByZeroError => format!("the vertex weight w is zero in {quoted}"),
             E::ColorParseError => format!("a vertex colour needs three numbers, but the line reads {quoted}"),
             E::MaterialParseError => format!("cannot read the material name from {quoted}"),
-            // Raised when an object is closed, after its faces: no single line to blame.
-            E::FaceColorOutOfBounds => {
-                let reason = "some `v` lines carry a vertex colour and others do not".to_owned();
-                return ObjError::Invalid { name: self.name.to_owned(), reason };
-            }
+            // Raised when an object is closed, after its faces, far from the culprit.
+            E::FaceColorOutOfBounds => return locate_colour_mismatch(self.text, self.name),
             other => format!("{other} in {quoted}"),
         };
         self.parse_error(reason)
@@ -776,24 +774,19 @@ fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut materials: Vec
         return Err(locate_non_finite(text, name, bad));
     }
 
+    let models_with_faces = models.iter().filter(|m| !m.mesh.indices.is_empty()).count();
     if with_normals {
-        // File normals need not be unit length; zero ones get the computed normal instead.
+        // File normals need not be unit length; a zero one takes the computed normal.
         let file_normals = std::mem::take(&mut mesh.normals);
-        let degenerate = file_normals.iter().any(|n| n.length_squared() < 1e-20);
-        if degenerate {
+        let computed = if file_normals.iter().any(|n| n.try_normalize().is_none()) {
             mesh.compute_vertex_normals();
-        }
-        for (i, n) in file_normals.into_iter().enumerate() {
-            if let Some(unit) = n.try_normalize() {
-                if degenerate {
-                    mesh.normals[i] = unit;
-                } else {
-                    mesh.normals.push(unit);
-                }
-            }
-        }
+            std::mem::take(&mut mesh.normals)
+        } else {
+            Vec::new()
+        };
+        mesh.normals = file_normals.iter().enumerate().map(|(i, n)| n.try_normalize().unwrap_or_else(|| computed[i])).collect();
         mesh.has_file_normals = true;
-    } else if models.len() > 1 || with_texcoords {
+    } else if models_with_faces > 1 || with_texcoords {
         // tobj splits vertices at every `usemtl`/`o`/`g` and at texture seams: averaging
         // per vertex would leave shading seams there, so average per position instead.
         smooth_normals_by_position(&mut mesh);
@@ -850,6 +843,32 @@ fn locate_non_finite(text: &str, name: &str, bad: [bool; 3]) -> ObjError {
         }
     }
     let reason = "it contains a coordinate that is not a finite number".to_owned();
+    ObjError::Invalid { name: name.to_owned(), reason }
+}
+
+/// The error for `v` lines that mix colours: tobj only notices when a face uses a vertex
+/// past the last colour, so find the first vertex that differs from the first one.
+fn locate_colour_mismatch(text: &str, name: &str) -> ObjError {
+    let mut first = None;
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("v") {
+            continue;
+        }
+        // x y z [w] or x y z r g b
+        let coloured = words.count() >= 6;
+        match first {
+            None => first = Some((i + 1, coloured)),
+            Some((first_line, first_coloured)) if coloured != first_coloured => {
+                let (has, lacks) = if first_coloured { (first_line, i + 1) } else { (i + 1, first_line) };
+                let reason =
+                    format!("the vertex on line {lacks} has no colour while the one on line {has} has; give every vertex a colour or none");
+                return ObjError::Parse { name: name.to_owned(), line: i + 1, reason };
+            }
+            Some(_) => {}
+        }
+    }
+    let reason = "some `v` lines carry a vertex colour and others do not".to_owned();
     ObjError::Invalid { name: name.to_owned(), reason }
 }
 

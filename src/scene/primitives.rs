@@ -275,9 +275,9 @@ fn tube_knot(name: &str, p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
         // component around the y axis, the position never does.
         let b = t.cross(center).normalize();
         let n = b.cross(t);
-        for ((p, nm), &(sin_a, cos_a)) in pos.iter_mut().zip(nrm.iter_mut()).zip(&around) {
-            *nm = n * cos_a + b * sin_a;
-            *p = center + *nm * KNOT_TUBE;
+        for ((point, normal), &(sin_a, cos_a)) in pos.iter_mut().zip(nrm.iter_mut()).zip(&around) {
+            *normal = n * cos_a + b * sin_a;
+            *point = center + *normal * KNOT_TUBE;
         }
     });
     // The tube surface's normal is exactly the direction from the curve: keep it.
