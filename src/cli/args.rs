@@ -92,6 +92,32 @@ pub struct SceneArgs {
     /// Leave out the six mirror planes (to see an --env map around the model).
     #[arg(long)]
     pub no_box: bool,
+    /// Camera position X,Y,Z (the model sits at the origin with radius 1, the box reaches ±4).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<glam::Vec3>,
+    /// Point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<glam::Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_parser = parse_fov)]
+    pub fov: Option<f32>,
+}
+
+fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("'{s}' is not X,Y,Z"));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = parse_finite(p.trim())?;
+    }
+    Ok(glam::Vec3::from(v))
+}
+
+fn parse_fov(s: &str) -> Result<f32, String> {
+    let v = parse_finite(s)?;
+    if v > 1.0 && v < 179.0 { Ok(v) } else { Err(format!("{s} is out of range (1..179 degrees)")) }
 }
 
 impl SceneArgs {
@@ -116,6 +142,18 @@ impl SceneArgs {
         let (mut scene, warnings) = crate::scene::paper::load_paper_scene(&self.model_source(), self.models, self.light())?;
         if self.no_box {
             scene.instances.retain(|i| i.mesh == 0);
+        }
+        if let Some(eye) = self.eye {
+            scene.camera.position = eye;
+        }
+        if let Some(target) = self.target {
+            scene.camera.target = target;
+        }
+        if let Some(fov) = self.fov {
+            scene.camera.vfov_deg = fov;
+        }
+        if scene.camera.position.distance(scene.camera.target) < 1e-6 {
+            anyhow::bail!("--eye and --target are the same point: the camera has no direction");
         }
         scene.environment = environment;
         Ok((scene, warnings))
