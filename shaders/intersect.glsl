@@ -43,7 +43,8 @@ float slab(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float t_max) {
     vec3 lo = min(t0, t1);
     vec3 hi = max(t0, t1);
     float enter = max(max(lo.x, lo.y), max(lo.z, 0.0));
-    float exit = min(min(hi.x, hi.y), min(hi.z, t_max));
+    // Widened by 2 ulp-ish (pbrt's 1 + 2*gamma3) so rays through a box corner are not lost to rounding.
+    float exit = min(min(hi.x, hi.y), min(hi.z, t_max)) * 1.0000004;
     return enter <= exit ? enter : INF;
 }
 

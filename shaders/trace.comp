@@ -114,7 +114,20 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost) {
     return aux;
 }
 
-// Id of the primary hit at the pixel centre (adaptive sampling's edge test).
+// What the primary ray at the pixel centre hit, for adaptive sampling's edge test: the
+// instance, material and plane of the triangle, so a quad's diagonal (two coplanar
+// triangles of one material) is no edge but a silhouette or a crease is.
+uint surface_key(Hit hit) {
+    if (hit.tri == EMPTY) return EMPTY;
+    Triangle tri = triangles[hit.tri];
+    vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+    if (n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0)))) n = -n;
+    ivec3 q = ivec3(round(n * 1024.0));
+    uint key = pcg(uint(q.x) ^ pcg(uint(q.y) ^ pcg(uint(q.z))));
+    key = pcg(key ^ floatBitsToUint(tri.v0.w)) ^ pcg(hit.instance + 0x9e3779b9u);
+    return key == EMPTY ? 0u : key;
+}
+
 uint primary_id(uvec2 px, bool use_bvh) {
     uvec2 cost = uvec2(0u);
     uint width = frame.dims.x;
@@ -123,7 +136,7 @@ uint primary_id(uvec2 px, bool use_bvh) {
     vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
     vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
     Hit hit = closest_hit(frame.cam_origin_eps.xyz, d, use_bvh, cost);
-    return hit.tri;
+    return surface_key(hit);
 }
 
 void main() {

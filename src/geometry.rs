@@ -86,7 +86,8 @@ impl Aabb {
         let t0 = (self.min - ray.origin) * inv_dir;
         let t1 = (self.max - ray.origin) * inv_dir;
         let tmin = t0.min(t1).max_element().max(0.0);
-        let tmax = t0.max(t1).min_element().min(t_max);
+        // Widened as in pbrt (1 + 2*gamma3): rays through a box corner are not lost to rounding.
+        let tmax = t0.max(t1).min_element().min(t_max) * 1.000_000_4;
         (tmin <= tmax).then_some(tmin)
     }
 }

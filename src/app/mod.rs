@@ -263,6 +263,9 @@ impl Tool {
     /// Handle one window event; Ok(false) quits.
     fn window_event(&mut self, event: &WindowEvent) -> anyhow::Result<bool> {
         let response = self.egui_state.on_window_event(&self.window, event);
+        if matches!(event, WindowEvent::KeyboardInput { .. } | WindowEvent::Ime(_)) {
+            log::debug!("{event:?} -> {response:?}");
+        }
         match event {
             WindowEvent::CloseRequested => self.request_exit(),
             WindowEvent::Resized(size) => self.renderer.resize(size.width, size.height),

@@ -27,7 +27,7 @@ impl Bvh {
         if self.nodes.is_empty() {
             return None;
         }
-        let inv_dir = ray.dir.recip();
+        let inv_dir = crate::geometry::safe_inverse(ray.dir);
         let mut t_max = t_max; // shrinks with every hit, so later boxes are culled harder
         let mut best = None;
         let mut stack = [0u32; STACK_SIZE];

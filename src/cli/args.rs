@@ -211,7 +211,8 @@ pub struct RenderArgs {
     /// Trace on the CPU reference tracer instead of the GPU.
     #[arg(long)]
     pub cpu: bool,
-    /// What to write: color (PNG), or depth, normal, prim-id, cost (32-bit float OpenEXR).
+    /// What to write: color (PNG), or depth, normal, prim-id, cost, samples (32-bit float
+    /// OpenEXR; cost and samples also as a heat-map PNG).
     #[arg(long, default_value = "color")]
     pub aov: Aov,
     /// Output file (.png for color, .exr for the other AOVs).

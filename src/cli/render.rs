@@ -4,15 +4,16 @@ use anyhow::{bail, Context};
 
 use super::args::RenderArgs;
 use crate::gpu::{ContextOptions, GpuContext, GpuTracer};
+use crate::tracer::heat_map::heat_map;
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    match (args.aov, is_exr) {
-        (Aov::Color, true) | (Aov::Color, false) => {}
-        (aov, false) => bail!("the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr"),
-        _ => {}
+    // Colour is PNG; every AOV is float EXR; cost and samples may also be a heat-map PNG.
+    let heat_png = !is_exr && matches!(args.aov, Aov::Cost | Aov::Samples);
+    if !is_exr && !heat_png && args.aov != Aov::Color {
+        bail!("the {} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr", args.aov);
     }
     let settings = args.scene.settings(args.aov);
     settings.validate().map_err(anyhow::Error::msg)?;
@@ -40,7 +41,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
         (image, format!("{}, {gpu}", ctx.info.name))
     };
-    image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    if heat_png {
+        // Cost: nodes visited with the BVH, triangles tested with brute force.
+        let channel = usize::from(args.aov == Aov::Cost && settings.accel == crate::tracer::Accel::Brute);
+        let values: Vec<f32> = image.pixels.iter().map(|p| p[channel]).collect();
+        let map = heat_map(&values);
+        image::RgbaImage::from_raw(image.width, image.height, map.rgba)
+            .expect("size matches")
+            .save(&args.output)
+            .with_context(|| format!("cannot write {}", args.output.display()))?;
+        println!("heat map scale: 0 (black) to {:.0} (pale yellow, the 99th percentile); max {:.0}, mean {:.1}", map.scale_max, map.max, map.mean);
+    } else {
+        image.save(&args.output)?;
+    }
     println!(
         "wrote {} ({}x{}, {} x{}, {} triangles, {} bounces, {}; {how})",
         args.output.display(),

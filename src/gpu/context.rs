@@ -111,6 +111,9 @@ pub struct GpuContext {
     debug: Option<(debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation: Arc<ValidationLog>,
     one_shot_pool: Mutex<vk::CommandPool>,
+    /// Vulkan requires external synchronisation of the queue: every submit and present
+    /// goes through this lock, so tracers on several threads can share one context.
+    queue_lock: Mutex<()>,
 }
 
 /// A surface-creating callback, run between instance and device creation.
@@ -268,6 +271,7 @@ impl GpuContext {
                 debug,
                 validation: validation_log,
                 one_shot_pool: Mutex::new(one_shot_pool),
+                queue_lock: Mutex::new(()),
             }),
             surface,
         ))
@@ -288,6 +292,17 @@ impl GpuContext {
         self.debug.is_some()
     }
 
+    /// Submit to the queue (under the queue lock).
+    pub fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
+        let _guard = self.queue_lock.lock().unwrap();
+        unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
+    }
+
+    /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
+    pub fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.queue_lock.lock().unwrap()
+    }
+
     /// Record commands with `record`, submit them and wait for completion.
     pub fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
         let pool = self.one_shot_pool.lock().unwrap();
@@ -302,7 +317,7 @@ impl GpuContext {
             let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None).during("creating a fence")?;
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            let submitted = self.device.queue_submit(self.queue, &submit, fence).during("submitting GPU work");
+            let submitted = self.submit(&submit, fence);
             let waited = submitted.and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX).during("waiting for the GPU"));
             self.device.destroy_fence(fence, None);
             waited.map(|_| r)

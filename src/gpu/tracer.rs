@@ -76,7 +76,7 @@ impl GpuTracer {
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             device.reset_fences(&[self.fence]).during("resetting a fence")?;
-            device.queue_submit(self.ctx.queue, &submit, self.fence).during("submitting the trace")?;
+            self.ctx.submit(&submit, self.fence)?;
             device.wait_for_fences(&[self.fence], true, u64::MAX).during("waiting for the trace")
         }
     }

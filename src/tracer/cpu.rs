@@ -193,8 +193,23 @@ impl<'a> CpuScene<'a> {
         }
     }
 
-    /// Triangle hit by the ray through the centre of each pixel (`u32::MAX` on a miss):
-    /// adaptive sampling's edge test.
+    /// The shader's `surface_key`: instance, material and plane of the hit triangle, so
+    /// coplanar triangles of one material count as one surface (`u32::MAX` on a miss).
+    pub fn surface_key(&self, hit: Option<SceneHit>) -> u32 {
+        let Some(hit) = hit else { return u32::MAX };
+        let tri = &self.packed.triangles[hit.triangle as usize];
+        let mut n = Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).normalize();
+        if n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0))) {
+            n = -n;
+        }
+        let q = (n * 1024.0).round();
+        let (qx, qy, qz) = (q.x as i32 as u32, q.y as i32 as u32, q.z as i32 as u32);
+        let key = pcg(qx ^ pcg(qy ^ pcg(qz)));
+        let key = pcg(key ^ tri.material) ^ pcg(hit.instance.wrapping_add(0x9e3779b9));
+        if key == u32::MAX { 0 } else { key }
+    }
+
+    /// Surface key of the ray through the centre of each pixel: adaptive sampling's edge test.
     pub fn primary_ids(&self, params: &FrameParams) -> Vec<u32> {
         let (w, h) = (params.settings.width, params.settings.height);
         (0..w * h)
@@ -202,7 +217,7 @@ impl<'a> CpuScene<'a> {
             .map(|i| {
                 let ray = params.camera.primary_ray(i % w, i / w, w, h);
                 let mut stats = TraversalStats::default();
-                self.closest_hit(&ray, params.settings.accel, params.instance_count, &mut stats).map_or(u32::MAX, |hit| hit.triangle)
+                self.surface_key(self.closest_hit(&ray, params.settings.accel, params.instance_count, &mut stats))
             })
             .collect()
     }

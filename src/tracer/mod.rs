@@ -4,6 +4,7 @@
 
 pub mod cpu;
 pub mod frame;
+pub mod heat_map;
 pub mod image;
 pub mod packed;
 pub mod shading;

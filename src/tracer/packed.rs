@@ -226,12 +226,19 @@ impl PackedScene {
         self.shading.reserve(bvh.prim_indices.len());
         for &prim in &bvh.prim_indices {
             let [a, b, c] = corners[prim as usize];
+            let (mut e1, mut e2) = (b - a, c - a);
+            // A (nearly) degenerate triangle would pass Möller–Trumbore's absolute
+            // determinant test on rounding noise and report hits far outside itself:
+            // zero its edges so that both tracers skip it.
+            if e1.cross(e2).length() <= 1e-7 * e1.length() * e2.length() {
+                (e1, e2) = (Vec3::ZERO, Vec3::ZERO);
+            }
             self.triangles.push(GpuTriangle {
                 v0: a.to_array(),
                 material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
-                e1: (b - a).to_array(),
+                e1: e1.to_array(),
                 prim,
-                e2: (c - a).to_array(),
+                e2: e2.to_array(),
                 _pad: 0,
             });
             let idx = mesh.triangles[prim as usize];
