@@ -496,6 +496,7 @@ impl Tool {
             capture_window: capture,
         };
         let outcome = self.renderer.draw(&request)?;
+        log::debug!("frame {} presented {} loading {:?}", self.frames, outcome.presented, self.loader.status());
         let traced = request.params.is_some();
         let t = now.duration_since(self.start).as_secs_f64();
         if outcome.presented {
