@@ -51,7 +51,7 @@ pub const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headles
 pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     let window_size = state::parse_window_size(&args.window).map_err(anyhow::Error::msg)?;
     args.scene.settings(Aov::Color).validate().map_err(anyhow::Error::msg)?;
-    let event_loop = EventLoop::new().map_err(|e| anyhow!("cannot open a window ({e}); {HEADLESS_HINT}"))?;
+    let event_loop = EventLoop::new().map_err(|e| headless_error("cannot open a window", e))?;
     let mut app = App { args: args.clone(), window_size, error: None, tool: None };
     let ran = event_loop.run_app(&mut app);
     let result = app.finish();
@@ -177,7 +177,16 @@ struct Tool {
 }
 
 fn headless_error(what: &str, e: impl std::fmt::Display) -> anyhow::Error {
-    anyhow!("{what} ({e}); {HEADLESS_HINT}")
+    anyhow!("{what} ({}); {HEADLESS_HINT}", os_message(&e.to_string()))
+}
+
+/// winit's OS errors read "os error at path/to/file.rs:123: message": keep the message.
+fn os_message(s: &str) -> String {
+    let message = match s.find("os error at ") {
+        Some(i) => s[i + "os error at ".len()..].split_once(": ").map_or(s, |(_, m)| m),
+        None => s,
+    };
+    message.trim().trim_end_matches('.').replace('\n', " ")
 }
 
 impl Tool {
@@ -189,10 +198,13 @@ impl Tool {
         let display = window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
         let window_handle = window.window_handle().map_err(|e| headless_error("no window handle", e))?.as_raw();
         let extensions = ash_window::enumerate_required_extensions(display).map_err(|e| headless_error("this window system has no Vulkan surface support", e))?;
+        // Spelled with `..Default::default()` so options added later keep their defaults.
+        #[allow(clippy::needless_update)]
         let options = ContextOptions {
             validation: args.validation,
             instance_extensions: extensions.to_vec(),
             presentation: true,
+            sync_validation: std::env::var("MESHTRACER_SYNC_VALIDATION").is_ok_and(|v| v == "1"),
             device_index: args.scene.device,
             ..Default::default()
         };
@@ -263,9 +275,6 @@ impl Tool {
     /// Handle one window event; Ok(false) quits.
     fn window_event(&mut self, event: &WindowEvent) -> anyhow::Result<bool> {
         let response = self.egui_state.on_window_event(&self.window, event);
-        if matches!(event, WindowEvent::KeyboardInput { .. } | WindowEvent::Ime(_)) {
-            log::debug!("{event:?} -> {response:?}");
-        }
         match event {
             WindowEvent::CloseRequested => self.request_exit(),
             WindowEvent::Resized(size) => self.renderer.resize(size.width, size.height),
@@ -462,7 +471,8 @@ impl Tool {
     fn redraw(&mut self) -> anyhow::Result<bool> {
         let now = Instant::now();
         if let Some(last) = self.last_frame {
-            self.params.advance_light(now.duration_since(last).as_secs_f32().min(0.25));
+            // Capped so a stall (a model upload) does not make the light jump.
+            self.params.advance_light(now.duration_since(last).as_secs_f32().min(1.0));
         }
         self.poll_loader()?;
 
@@ -496,7 +506,6 @@ impl Tool {
             capture_window: capture,
         };
         let outcome = self.renderer.draw(&request)?;
-        log::debug!("frame {} presented {} loading {:?}", self.frames, outcome.presented, self.loader.status());
         let traced = request.params.is_some();
         let t = now.duration_since(self.start).as_secs_f64();
         if outcome.presented {
@@ -513,7 +522,9 @@ impl Tool {
         if let Some(ms) = outcome.gpu_ms {
             self.stats.push_gpu(t, ms);
         }
-        self.heat = outcome.heat;
+        if outcome.presented {
+            self.heat = outcome.heat;
+        }
 
         if self.want_trace_shot {
             self.want_trace_shot = false;
@@ -575,5 +586,19 @@ fn to_status(result: Result<(), String>, path: &Path) -> Status {
             Status::ok(format!("wrote {}", shown.display()))
         }
         Err(e) => Status::error(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn winit_errors_lose_their_source_location() {
+        let e = "os error at /home/x/winit-0.30.13/src/platform_impl/linux/mod.rs:788: Failed to open connection to X server";
+        assert_eq!(os_message(e), "Failed to open connection to X server");
+        assert_eq!(os_message("plain."), "plain");
+        let full = headless_error("cannot open a window", e).to_string();
+        assert_eq!(full, format!("cannot open a window (Failed to open connection to X server); {HEADLESS_HINT}"));
     }
 }

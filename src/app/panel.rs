@@ -209,7 +209,7 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
     egui::CollapsingHeader::new("Model").default_open(true).show(ui, |ui| {
         let current = info.model.map_or("(none)".to_string(), |m| m.label());
         ui.horizontal(|ui| {
-            ui.label("Paper model");
+            ui.label("Model");
             egui::ComboBox::new("model", "").selected_text(current).show_ui(ui, |ui| {
                 for m in PaperModel::ALL {
                     let selected = info.model == Some(&ModelSource::Paper(m));

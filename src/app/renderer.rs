@@ -78,7 +78,6 @@ struct CostBuffers {
 
 /// Everything on the GPU side of the window.
 pub struct Renderer {
-    ctx: Arc<GpuContext>,
     swapchain: Swapchain,
     swapchain_dirty: bool,
     window_extent: vk::Extent2D,
@@ -104,6 +103,8 @@ pub struct Renderer {
     last_heat: Option<(u32, u32, Vec<u8>)>,
     /// The output buffers hold a traced frame.
     traced: bool,
+    // Last: everything above is freed through it.
+    ctx: Arc<GpuContext>,
 }
 
 impl Renderer {
@@ -143,7 +144,6 @@ impl Renderer {
         )
         .context("creating the egui renderer")?;
         Ok(Self {
-            ctx: ctx.clone(),
             swapchain,
             swapchain_dirty: false,
             window_extent: extent,
@@ -166,6 +166,7 @@ impl Renderer {
             cost: None,
             last_heat: None,
             traced: false,
+            ctx: ctx.clone(),
         })
     }
 

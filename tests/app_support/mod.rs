@@ -84,6 +84,8 @@ pub fn meshtracer(display: &str, dir: &Path) -> Command {
     cmd.current_dir(dir)
         .env("DISPLAY", display)
         .env("MESHTRACER_VALIDATION", "1")
+        // The app's own switch for the layer's synchronization validation.
+        .env("MESHTRACER_SYNC_VALIDATION", "1")
         .env("MESHTRACER_SCREENSHOT_DIR", dir)
         // Xvfb's DPI is arbitrary: pin the scale so window sizes are exact.
         .env("WINIT_X11_SCALE_FACTOR", "1")
