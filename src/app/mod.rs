@@ -204,7 +204,6 @@ impl Tool {
             validation: args.validation,
             instance_extensions: extensions.to_vec(),
             presentation: true,
-            sync_validation: std::env::var("MESHTRACER_SYNC_VALIDATION").is_ok_and(|v| v == "1"),
             device_index: args.scene.device,
             ..Default::default()
         };

@@ -445,7 +445,7 @@ impl Renderer {
         let signals = [self.swapchain.render_finished[index as usize]];
         let cmds = [cmd];
         let submit = [vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages).command_buffers(&cmds).signal_semaphores(&signals)];
-        unsafe { device.queue_submit(self.ctx.queue, &submit, fence) }.during("submitting a frame")?;
+        self.ctx.submit(&submit, fence)?;
         self.swapchain_dirty |= self.swapchain.present(index)?;
         self.frame += 1;
         outcome.presented = true;

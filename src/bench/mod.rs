@@ -2,13 +2,14 @@
 //! a list of [`Case`]s; each is traced headless for warm-up plus measured frames and
 //! reported as GPU time (timestamps around the dispatch) and wall-clock frame time.
 
+pub mod charts;
 pub mod paper_tables;
 pub mod report;
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::gpu::{GpuContext, GpuError, GpuTracer};
 use crate::scene::paper::{instances, paper_scene, prepare_model, LightOrbit, ModelSource};
@@ -45,7 +46,7 @@ impl Case {
 }
 
 /// Median and spread of a series of times.
-#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct Stats {
     pub median: f64,
     pub p10: f64,
@@ -66,7 +67,7 @@ impl Stats {
 }
 
 /// One measured (or skipped) row.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     pub series: String,
     pub model: String,
@@ -102,7 +103,7 @@ pub struct RunOptions {
 }
 
 /// The machine a run happened on.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Environment {
     pub device: String,
     pub device_type: String,

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::bench::report::{self, Report};
-use crate::bench::{self, paper_tables, RunOptions};
+use crate::bench::{self, charts, paper_tables, RunOptions};
 use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
 use crate::tracer::Accel;
@@ -53,6 +53,14 @@ pub struct BenchArgs {
     /// Write all rows as CSV here.
     #[arg(long)]
     pub csv: Option<PathBuf>,
+    /// Draw PNG charts of the rows into this folder (chart_triangles.png,
+    /// chart_resolution.png, chart_models.png).
+    #[arg(long, value_name = "DIR")]
+    pub charts: Option<PathBuf>,
+    /// Draw the charts from these saved --json reports instead of running anything
+    /// (with --charts DIR).
+    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "json", "csv"])]
+    pub charts_from: Vec<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
     pub device: Option<usize>,
@@ -63,6 +71,9 @@ pub struct BenchArgs {
 
 /// Run the benchmark.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    if !args.charts_from.is_empty() {
+        return charts_from_files(args);
+    }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
     if args.paper || !(args.scaling || args.features) {
@@ -95,6 +106,28 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.csv {
         report::write_csv(path, &env, &rows)?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(dir) = &args.charts {
+        for path in charts::write_charts(dir, std::slice::from_ref(&env), &rows)? {
+            println!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// `--charts-from FILE.json ... --charts DIR`: the charts of saved reports, no GPU needed.
+fn charts_from_files(args: &BenchArgs) -> anyhow::Result<()> {
+    let dir = args.charts.as_ref().ok_or_else(|| anyhow::anyhow!("--charts-from needs --charts DIR"))?;
+    let mut environments = Vec::new();
+    let mut rows = Vec::new();
+    for path in &args.charts_from {
+        let saved = charts::load_report(path)?;
+        println!("{}: {} rows ({}, {})", path.display(), saved.rows.len(), saved.environment.device, saved.environment.date);
+        environments.push(saved.environment);
+        rows.extend(saved.rows);
+    }
+    for path in charts::write_charts(dir, &environments, &rows)? {
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -18,7 +18,8 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 pub struct ContextOptions {
     /// Enable `VK_LAYER_KHRONOS_validation`; also switched on by `MESHTRACER_VALIDATION=1`.
     pub validation: bool,
-    /// Also enable the layer's synchronization validation (implies `validation`).
+    /// Also enable the layer's synchronization validation (implies `validation`); also
+    /// switched on by `MESHTRACER_SYNC_VALIDATION=1`.
     pub sync_validation: bool,
     /// Extra instance extensions (the window system's surface extensions).
     pub instance_extensions: Vec<*const c_char>,
@@ -35,7 +36,11 @@ impl ContextOptions {
     }
 
     fn validation_wanted(&self) -> bool {
-        self.validation || self.sync_validation || std::env::var("MESHTRACER_VALIDATION").is_ok_and(|v| v == "1")
+        self.validation || self.sync_validation_wanted() || std::env::var("MESHTRACER_VALIDATION").is_ok_and(|v| v == "1")
+    }
+
+    fn sync_validation_wanted(&self) -> bool {
+        self.sync_validation || std::env::var("MESHTRACER_SYNC_VALIDATION").is_ok_and(|v| v == "1")
     }
 }
 
@@ -185,7 +190,7 @@ impl GpuContext {
         let sync_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
         let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync_features);
         let mut create = vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layers).enabled_extension_names(&extensions);
-        if validation && options.sync_validation {
+        if validation && options.sync_validation_wanted() {
             create = create.push_next(&mut features);
         }
         let instance = unsafe { entry.create_instance(&create, None) }.during("creating the Vulkan instance")?;

@@ -216,7 +216,11 @@ impl Swapchain {
         let swapchains = [self.handle];
         let indices = [index];
         let info = vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
-        match unsafe { self.loader.queue_present(self.ctx.queue, &info) } {
+        let presented = {
+            let _queue = self.ctx.lock_queue();
+            unsafe { self.loader.queue_present(self.ctx.queue, &info) }
+        };
+        match presented {
             Ok(suboptimal) => Ok(suboptimal),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
             Err(r) => Err(GpuError::vk("presenting a frame", r)),

@@ -1,0 +1,178 @@
+//! `meshtracer bench` end to end: the real binary runs the paper's tables at a tiny size on
+//! the Vulkan device (lavapipe in CI) with the validation layer on, and its JSON, CSV and
+//! PNG charts are checked. No timing is asserted beyond "positive".
+//! Also: `--charts-from` redraws the charts of the committed H100 reports without a GPU.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const CHARTS: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];
+
+/// A fresh, empty scratch folder for this test.
+fn scratch(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("meshtracer-bench-cli-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn meshtracer(args: &[&str], validation: bool) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
+    cmd.args(args).env("RUST_BACKTRACE", "1");
+    if validation {
+        cmd.env("MESHTRACER_VALIDATION", "1");
+    } else {
+        cmd.env_remove("MESHTRACER_VALIDATION");
+    }
+    cmd.output().expect("the binary runs")
+}
+
+fn assert_success(out: &Output, what: &str) {
+    assert!(
+        out.status.success(),
+        "{what}: exit status {:?}\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The chart decodes as a PNG of a sensible size with real content: many non-white pixels
+/// and many colours (axes, text, coloured series), not a blank or a flat image.
+fn check_chart(path: &Path) {
+    assert!(path.is_file(), "{} was not written", path.display());
+    let img = image::open(path).unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display())).to_rgb8();
+    let (w, h) = img.dimensions();
+    assert!(w >= 800 && h >= 500, "{}: {w}x{h}", path.display());
+    let pixels = img.pixels().count();
+    let inked = img.pixels().filter(|p| p.0.iter().any(|&c| c < 200)).count();
+    assert!(inked * 100 > pixels, "{}: only {inked} of {pixels} pixels are not white", path.display());
+    assert!(inked * 2 < pixels, "{}: {inked} of {pixels} pixels are inked, not a chart", path.display());
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 50, "{}: only {} colours", path.display(), colours.len());
+    // Coloured series are drawn (saturated pixels: the blues and reds of the lines).
+    let saturated = img.pixels().filter(|p| {
+        let (max, min) = (*p.0.iter().max().unwrap() as i32, *p.0.iter().min().unwrap() as i32);
+        max - min > 100
+    });
+    assert!(saturated.count() > 200, "{}: no coloured series", path.display());
+}
+
+#[test]
+fn paper_tables_tiny_with_json_csv_and_charts() {
+    let dir = scratch("paper");
+    let json = dir.join("bench.json");
+    let csv = dir.join("bench.csv");
+    let charts = dir.join("charts");
+    let args = [
+        "bench", "--paper", "--resolutions", "32", "--frames", "2", "--warmup", "1", "--accel", "brute,bvh",
+        "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap(), "--charts", charts.to_str().unwrap(),
+    ];
+    let out = meshtracer(&args, true);
+    assert_success(&out, "bench --paper");
+
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written")).expect("valid JSON");
+    assert_eq!(report["frames"], 2);
+    assert_eq!(report["warmup"], 1);
+    let env = &report["environment"];
+    for key in ["device", "driver", "vulkan", "date"] {
+        assert!(env[key].as_str().is_some_and(|s| !s.is_empty()), "environment.{key} missing: {env}");
+    }
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 16, "4 models + 4 copy counts, for each of 2 accelerations");
+
+    let mut seen = Vec::new();
+    for r in rows {
+        let series = r["series"].as_str().unwrap();
+        let model = r["model"].as_str().unwrap().to_string();
+        let models = r["models"].as_u64().unwrap();
+        let accel = r["accel"].as_str().unwrap().to_string();
+        assert!(r["skipped"].is_null(), "row skipped: {r}");
+        assert_eq!(r["width"], 32, "{r}");
+        assert_eq!(r["height"], 32, "{r}");
+        assert_eq!(r["bounces"], 2, "{r}");
+        assert!(accel == "brute" || accel == "bvh", "{r}");
+        assert!(r["triangles"].as_u64().unwrap() > 12, "{r}");
+        assert_eq!(r["rays_per_frame"], 32 * 32 * 3, "{r}");
+        // The paper's figures belong to 512² and 1024² rows only.
+        assert!(r["paper_fps"].is_null() && r["paper_ms"].is_null(), "paper figures on a 32x32 row: {r}");
+        let wall = r["wall_ms"]["median"].as_f64().unwrap();
+        assert!(wall > 0.0, "{r}");
+        let gpu = &r["gpu_ms"];
+        assert!(!gpu.is_null(), "no GPU timestamps: {r}");
+        for q in ["median", "p10", "p90"] {
+            assert!(gpu[q].as_f64().unwrap() > 0.0, "{r}");
+        }
+        assert!(gpu["p10"].as_f64() <= gpu["p90"].as_f64(), "{r}");
+        assert!(r["mrays_per_s"].as_f64().unwrap() > 0.0 && r["fps"].as_f64().unwrap() > 0.0, "{r}");
+        match series {
+            "table1" => assert_eq!(models, 1, "{r}"),
+            "table2" => assert_eq!(model, "geosphere", "{r}"),
+            other => panic!("unexpected series {other}"),
+        }
+        seen.push((series.to_string(), model, models, accel));
+    }
+    for accel in ["brute", "bvh"] {
+        for model in ["geosphere", "torusknot", "sphere", "cylinder"] {
+            assert!(seen.contains(&("table1".into(), model.into(), 1, accel.into())), "table1 {model} {accel} missing");
+        }
+        for n in 1..=4 {
+            assert!(seen.contains(&("table2".into(), "geosphere".into(), n, accel.into())), "table2 x{n} {accel} missing");
+        }
+    }
+
+    let csv_text = std::fs::read_to_string(&csv).expect("CSV written");
+    let lines: Vec<&str> = csv_text.lines().collect();
+    assert_eq!(lines.len(), 17, "header + 16 rows");
+    assert!(lines[0].starts_with("series,model,models,triangles,width,height,bounces,accel"));
+    for l in &lines[1..] {
+        assert!(l.starts_with("table1,") || l.starts_with("table2,"), "{l}");
+        assert!(l.contains(",32,32,2,"), "{l}");
+    }
+
+    for name in CHARTS {
+        check_chart(&charts.join(name));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn charts_from_the_committed_h100_reports() {
+    let results = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results");
+    let dir = scratch("from");
+    let files: Vec<String> = ["scaling.json", "scaling_brute.json", "paper.json", "primary.json", "features.json"]
+        .iter()
+        .map(|f| results.join(f).to_str().unwrap().to_string())
+        .collect();
+    let mut args = vec!["bench", "--charts-from"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend(["--charts", dir.to_str().unwrap()]);
+    let out = meshtracer(&args, false);
+    assert_success(&out, "bench --charts-from");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("NVIDIA H100"), "{stdout}");
+    for name in CHARTS {
+        check_chart(&dir.join(name));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn charts_from_needs_a_folder_and_a_report() {
+    let out = meshtracer(&["bench", "--charts-from", "nothing.json"], false);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--charts"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    let dir = scratch("bad");
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, "{\"rows\": 3}").unwrap();
+    let out = meshtracer(&["bench", "--charts-from", bad.to_str().unwrap(), "--charts", dir.to_str().unwrap()], false);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("bad.json") && !stderr.contains("panicked"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
