@@ -155,3 +155,24 @@ fn no_display_is_one_line_with_the_render_hint() {
     assert_eq!(lines.len(), 1, "expected one line, got: {stderr}");
     assert!(lines[0].contains("meshtracer render"), "{stderr}");
 }
+
+#[test]
+fn shading_features_in_the_window_match_render() {
+    // The paper's future work as the tool shows it: smooth shading, the sky environment
+    // without the mirror box, 4 adaptive samples. Accumulation is off in scripted runs,
+    // so the traced image equals one headless frame.
+    let features = ["--smooth", "--env", "sky", "--no-box", "--spp", "4", "--adaptive", "--model", "sphere"];
+    let x = Xvfb::start();
+    let dir = TempDir::new("features");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&features)).args(["--frames", "3", "--screenshot", "f.png"]);
+    let out = spawn(cmd).wait(Duration::from_secs(180));
+    assert_clean_exit(&out);
+    let shot = load(&dir.path().join("f.png"));
+    let flags: Vec<&str> = SCENE.iter().chain(features.iter()).copied().collect();
+    let reference = headless_render(dir.path(), &flags, "ref.png");
+    assert!(max_diff(&shot, &reference) <= 1, "window differs from `render` by {}", max_diff(&shot, &reference));
+    // And the features are really on: the paper's flat, boxed render looks different.
+    let paper = headless_render(dir.path(), &[&SCENE[..], &["--model", "sphere"]].concat(), "paper.png");
+    assert!(max_diff(&shot, &paper) > 30, "the feature flags changed nothing");
+}

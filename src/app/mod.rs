@@ -35,7 +35,7 @@ use winit::window::{Window, WindowId};
 use crate::cli::args::ViewArgs;
 use crate::gpu::{ContextOptions, GpuContext, GpuError};
 use crate::scene::paper::{instances, ModelSource};
-use crate::scene::Scene;
+use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::{Aov, FrameParams};
 use crate::tracer::packed::PackedScene;
 use model_loader::{LoadedModel, ModelLoader, Poll};
@@ -134,6 +134,16 @@ struct Model {
 struct Applied {
     model_count: u32,
     resolution: [u32; 2],
+    environment: Option<EnvironmentSource>,
+    mirror_box: bool,
+}
+
+/// Progressive accumulation: the frame last traced (with `frame_index` 0) and how many
+/// frames have been averaged into the output since anything changed.
+#[derive(Default)]
+struct Accumulation {
+    last: Option<FrameParams>,
+    frames: u32,
 }
 
 /// Exiting: the frame to capture and the files to write.
@@ -156,6 +166,7 @@ struct Tool {
     /// The resolution `M` returns to.
     previous_resolution: Resolution,
     applied: Applied,
+    accumulation: Accumulation,
     model: Option<Model>,
     loader: ModelLoader,
     stats: frame_stats::FrameStats,
@@ -236,6 +247,7 @@ impl Tool {
             previous_resolution,
             params,
             applied: Applied::default(),
+            accumulation: Accumulation::default(),
             model: None,
             loader,
             stats: Default::default(),
@@ -356,7 +368,11 @@ impl Tool {
             None => Status::ok(text),
         });
         self.window.set_title(&format!("meshtracer — {}", source.label()));
-        self.applied.model_count = scene.instances.len() as u32 - 1;
+        // Force the instance list (model count, mirror box) to be rebuilt by apply_params.
+        self.applied.model_count = 0;
+        // The new scene has no environment yet: apply_params uploads the chosen one.
+        self.applied.environment = None;
+        self.accumulation = Accumulation::default();
         self.model = Some(Model { source, scene, packed });
         Ok(())
     }
@@ -384,11 +400,26 @@ impl Tool {
             }
         }
         if let Some(model) = &mut self.model {
-            if self.applied.model_count != self.params.model_count {
+            if self.applied.model_count != self.params.model_count || self.applied.mirror_box != self.params.mirror_box {
                 model.scene.instances = instances(self.params.model_count);
+                if !self.params.mirror_box {
+                    model.scene.instances.retain(|i| i.mesh == 0);
+                }
+                self.applied.mirror_box = self.params.mirror_box;
                 model.packed.set_instances(&model.scene.instances);
                 self.renderer.set_instances(&model.packed.instances)?;
                 self.applied.model_count = self.params.model_count;
+                self.accumulation = Accumulation::default();
+            }
+            if self.applied.environment != self.params.environment {
+                model.packed.set_environment(self.params.environment.as_ref());
+                if let Some(w) = model.packed.warnings.pop() {
+                    self.panel.render_status = Some(Status::error(w));
+                }
+                model.scene.environment = self.params.environment.clone();
+                self.renderer.set_environment(&model.packed)?;
+                self.applied.environment = self.params.environment.clone();
+                self.accumulation = Accumulation::default();
             }
         }
         self.renderer.set_vsync(self.params.vsync);
@@ -411,7 +442,14 @@ impl Tool {
         let model = self.model.as_mut()?;
         model.scene.camera = self.params.camera;
         model.scene.light.position = self.params.light_position();
-        Some(FrameParams::new(&model.scene, self.params.settings([self.image_area.width, self.image_area.height])))
+        let mut params = FrameParams::new(&model.scene, self.params.settings([self.image_area.width, self.image_area.height]));
+        // Average frames while nothing changes; any change starts afresh.
+        let acc = &mut self.accumulation;
+        let still = self.params.accumulate && params.settings.aov == crate::tracer::Aov::Color && acc.last == Some(params);
+        acc.frames = if still { acc.frames.saturating_add(1).min(1 << 20) } else { 1 };
+        acc.last = Some(params);
+        params.frame_index = acc.frames - 1;
+        Some(params)
     }
 
     /// Run egui for this frame; returns its output and the image area.
@@ -441,6 +479,7 @@ impl Tool {
             present_mode: format!("{:?}", self.renderer.present_mode()),
             vsync_off_available: present_modes.iter().any(|m| *m != vk::PresentModeKHR::FIFO && *m != vk::PresentModeKHR::FIFO_RELAXED),
             heat: self.heat,
+            accumulated_frames: self.accumulation.frames,
             screenshot_dir: dir_text,
             stats: &self.stats,
         };

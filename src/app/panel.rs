@@ -72,6 +72,8 @@ pub struct PanelInfo<'a> {
     pub vsync_off_available: bool,
     /// (scale top, max, mean) of the heat map shown.
     pub heat: Option<(f32, f32, f32)>,
+    /// Frames averaged into the image shown (progressive accumulation).
+    pub accumulated_frames: u32,
     pub screenshot_dir: String,
     pub stats: &'a FrameStats,
 }
@@ -92,6 +94,7 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
         render_section(ui, params, state, info);
         model_section(ui, params, state, info, &mut actions);
+        shading_section(ui, params, info);
         light_section(ui, params);
         camera_section(ui, params);
         display_section(ui, params, info);
@@ -424,4 +427,60 @@ mod tests {
         assert_eq!(nice_ceiling(20.0), 20.0);
         assert_eq!(nice_ceiling(0.3), 0.5);
     }
+}
+
+/// The paper's future work, each a switch: smooth shading, textures, environment map,
+/// supersampling, adaptive sampling, progressive accumulation.
+fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
+    use crate::scene::EnvironmentSource;
+    use crate::tracer::frame::MAX_SPP;
+    egui::CollapsingHeader::new("Shading").default_open(true).show(ui, |ui| {
+        egui::Grid::new("shading").num_columns(2).show(ui, |ui| {
+            ui.label("Normals");
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut params.base.smooth, false, "flat (paper)");
+                ui.radio_value(&mut params.base.smooth, true, "smooth");
+            });
+            ui.end_row();
+            ui.label("Textures");
+            ui.checkbox(&mut params.base.textures, "map_Kd");
+            ui.end_row();
+            ui.label("Environment");
+            let label = |e: &Option<EnvironmentSource>| match e {
+                None => "none (black)".to_string(),
+                Some(EnvironmentSource::Sky) => "sky".to_string(),
+                Some(EnvironmentSource::File(p)) => p.file_name().map_or("file".into(), |f| f.to_string_lossy().into_owned()),
+            };
+            egui::ComboBox::new("environment", "").selected_text(label(&params.environment)).show_ui(ui, |ui| {
+                ui.selectable_value(&mut params.environment, None, label(&None));
+                ui.selectable_value(&mut params.environment, Some(EnvironmentSource::Sky), "sky");
+                if let Some(file) = params.environment_file.clone() {
+                    let text = label(&Some(file.clone()));
+                    ui.selectable_value(&mut params.environment, Some(file), text);
+                }
+            });
+            ui.end_row();
+            ui.label("Samples/pixel");
+            ui.add(egui::Slider::new(&mut params.base.spp, 1..=MAX_SPP).logarithmic(true));
+            ui.end_row();
+            ui.label("Adaptive");
+            ui.checkbox(&mut params.base.adaptive, "extra samples on edges only");
+            ui.end_row();
+            ui.label("Accumulate");
+            ui.checkbox(&mut params.accumulate, "while nothing changes");
+            ui.end_row();
+        });
+        let spp = params.base.spp as u64;
+        let text = format!(
+            "{} frame(s) accumulated, {} samples per pixel{}",
+            group(info.accumulated_frames as u64),
+            group(info.accumulated_frames as u64 * spp),
+            if params.base.adaptive { " on edges" } else { "" }
+        );
+        ui.label(RichText::new(text).small().weak());
+        ui.checkbox(&mut params.mirror_box, "mirror box (the paper's six planes)");
+        if params.environment.is_some() && params.mirror_box {
+            ui.label(RichText::new("The closed mirror box hides the environment: untick it to see the environment.").small().weak());
+        }
+    });
 }

@@ -252,6 +252,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// Replace the environment image (after `PackedScene::set_environment`).
+    pub fn set_environment(&mut self, packed: &PackedScene) -> anyhow::Result<()> {
+        self.wait_idle()?;
+        if let Some(scene) = &mut self.scene {
+            scene.set_environment(&self.ctx, packed)?;
+        }
+        self.rebind();
+        Ok(())
+    }
+
     /// Replace the instance list (model count): no geometry is uploaded.
     pub fn set_instances(&mut self, instances: &[GpuInstance]) -> anyhow::Result<()> {
         self.wait_idle()?;
@@ -342,6 +352,9 @@ impl Renderer {
             }
             let before = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_WRITE)];
             device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &before, &[], &[]);
+            if params.settings.adaptive {
+                pass.record_id_pass(cmd, params);
+            }
             pass.record(cmd, params, 0, h);
             if let Some(t) = timer {
                 t.end(cmd, slot as u32);
@@ -473,6 +486,9 @@ impl Renderer {
             // The previous frame's trace wrote, and its copy read, the output buffers.
             let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_WRITE)];
             device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+            if params.settings.adaptive {
+                self.pass.record_id_pass(cmd, params);
+            }
             self.pass.record(cmd, params, 0, params.settings.height);
             if let Some(t) = &self.timer {
                 t.end(cmd, slot as u32);

@@ -6,7 +6,7 @@ use winit::keyboard::KeyCode;
 
 use crate::cli::args::ViewArgs;
 use crate::scene::paper::{default_camera, LightOrbit, MAX_MODELS};
-use crate::scene::Camera;
+use crate::scene::{Camera, EnvironmentSource};
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// Square render-resolution presets.
@@ -67,8 +67,18 @@ pub struct Params {
     pub camera: Camera,
     pub vsync: bool,
     pub panel_visible: bool,
-    /// The knobs the panel does not (yet) show, as the command line set them.
+    /// Shading features (smooth, textures, spp, adaptive) and the rest of the frame settings.
     pub base: RenderSettings,
+    /// What misses see: None (black, the paper), the generated sky, or a file.
+    pub environment: Option<EnvironmentSource>,
+    /// The environment file given with `--env`, offered in the panel.
+    pub environment_file: Option<EnvironmentSource>,
+    /// Average successive frames while nothing changes (progressive anti-aliasing).
+    pub accumulate: bool,
+    /// Where the camera starts and `reset` returns to.
+    pub home_camera: Camera,
+    /// The paper's six mirror planes around the models.
+    pub mirror_box: bool,
 }
 
 impl Params {
@@ -88,10 +98,15 @@ impl Params {
             light: s.light(),
             light_speed: 30.0,
             light_paused: args.frames.is_some(),
-            camera: default_camera(),
+            camera: s.camera(default_camera()),
             vsync: true,
             panel_visible: true,
             base: s.settings(Aov::Color),
+            environment: EnvironmentSource::parse(&s.env),
+            environment_file: EnvironmentSource::parse(&s.env).filter(|e| *e != EnvironmentSource::Sky),
+            accumulate: args.frames.is_none(),
+            home_camera: s.camera(default_camera()),
+            mirror_box: !s.no_box,
         }
     }
 
@@ -124,7 +139,7 @@ impl Params {
 
     /// Put the camera back where the scene opens.
     pub fn reset_camera(&mut self) {
-        self.camera = default_camera();
+        self.camera = self.home_camera;
     }
 
     /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.

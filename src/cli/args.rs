@@ -143,20 +143,26 @@ impl SceneArgs {
         if self.no_box {
             scene.instances.retain(|i| i.mesh == 0);
         }
-        if let Some(eye) = self.eye {
-            scene.camera.position = eye;
-        }
-        if let Some(target) = self.target {
-            scene.camera.target = target;
-        }
-        if let Some(fov) = self.fov {
-            scene.camera.vfov_deg = fov;
-        }
+        scene.camera = self.camera(scene.camera);
         if scene.camera.position.distance(scene.camera.target) < 1e-6 {
             anyhow::bail!("--eye and --target are the same point: the camera has no direction");
         }
         scene.environment = environment;
         Ok((scene, warnings))
+    }
+
+    /// `camera` with the --eye, --target and --fov overrides applied.
+    pub fn camera(&self, mut camera: crate::scene::Camera) -> crate::scene::Camera {
+        if let Some(eye) = self.eye {
+            camera.position = eye;
+        }
+        if let Some(target) = self.target {
+            camera.target = target;
+        }
+        if let Some(fov) = self.fov {
+            camera.vfov_deg = fov;
+        }
+        camera
     }
 
     /// The light orbit with the requested angle.
