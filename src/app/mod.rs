@@ -138,6 +138,10 @@ struct Applied {
     mirror_box: bool,
 }
 
+/// Most ray-triangle tests per frame the tool lets brute force ask for in its single
+/// dispatch (about a second on an H100); `render` and `bench` split bigger frames instead.
+const MAX_INTERACTIVE_BRUTE_TESTS: f64 = 5.0e10;
+
 /// Progressive accumulation: the frame last traced (with `frame_index` 0) and how many
 /// frames have been averaged into the output since anything changed.
 #[derive(Default)]
@@ -420,6 +424,18 @@ impl Tool {
                 self.renderer.set_environment(&model.packed)?;
                 self.applied.environment = self.params.environment.clone();
                 self.accumulation = Accumulation::default();
+            }
+        }
+        // Brute force records one dispatch per frame: refuse it where that dispatch would run
+        // for about a second or more on a fast GPU (and so risk the driver's watchdog).
+        if self.params.accel == crate::tracer::Accel::Brute {
+            let triangles = self.model.as_ref().map_or(0, |m| m.scene.triangle_count()) as f64;
+            let tests = self.params.settings([w, h]).max_rays() as f64 * triangles;
+            if tests > MAX_INTERACTIVE_BRUTE_TESTS {
+                self.params.accel = crate::tracer::Accel::Bvh;
+                self.panel.render_status = Some(Status::error(format!(
+                    "brute force would test {tests:.1e} ray-triangle pairs per frame (seconds per frame); staying on the BVH"
+                )));
             }
         }
         self.renderer.set_vsync(self.params.vsync);
