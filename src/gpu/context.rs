@@ -129,6 +129,14 @@ fn load_entry() -> Result<ash::Entry, GpuError> {
     unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing(e.to_string()))
 }
 
+/// A failed `vkCreateInstance`: the loader found no driver (ICD) at all, or something else.
+fn instance_error(r: vk::Result) -> GpuError {
+    match r {
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => GpuError::NoDevice,
+        r => GpuError::vk("creating the Vulkan instance", r),
+    }
+}
+
 fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
     match t {
         vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
@@ -143,8 +151,7 @@ fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
 pub fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
-    let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }
-        .during("creating the Vulkan instance")?;
+    let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }.map_err(instance_error)?;
     let names = unsafe {
         let devices = instance.enumerate_physical_devices().unwrap_or_default();
         devices
@@ -193,7 +200,7 @@ impl GpuContext {
         if validation && options.sync_validation_wanted() {
             create = create.push_next(&mut features);
         }
-        let instance = unsafe { entry.create_instance(&create, None) }.during("creating the Vulkan instance")?;
+        let instance = unsafe { entry.create_instance(&create, None) }.map_err(instance_error)?;
 
         let debug = if validation {
             let loader = debug_utils::Instance::new(&entry, &instance);

@@ -33,6 +33,10 @@ impl TraceOutput {
     /// Output buffers for `width` x `height` pixels.
     pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32) -> Result<Self, GpuError> {
         let pixels = width as u64 * height as u64;
+        let limit = ctx.info.max_storage_buffer_range;
+        if pixels * 16 > limit {
+            return Err(GpuError::SceneTooLarge { buffer: "frame output (16 bytes per pixel)", bytes: pixels * 16, limit });
+        }
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let loc = gpu_allocator::MemoryLocation::GpuOnly;
         Ok(Self {

@@ -108,11 +108,13 @@ impl Mesh {
         if b.is_empty() {
             return;
         }
-        let c = b.center();
-        let half = b.extent().max_element() * 0.5;
-        let s = if half > 0.0 { radius / half } else { 1.0 };
+        // In f64: extents near f32::MAX overflow and subnormal ones underflow in f32.
+        let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
+        let c = (min + max) * 0.5;
+        let half = (max - min).max_element() * 0.5;
+        let s = if half > 0.0 { radius as f64 / half } else { 1.0 };
         for p in &mut self.positions {
-            *p = (*p - c) * s;
+            *p = ((p.as_dvec3() - c) * s).as_vec3();
         }
     }
 }
