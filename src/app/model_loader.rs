@@ -56,6 +56,7 @@ impl ModelLoader {
         let first_stage = match &source {
             ModelSource::File(p) => format!("reading {}", p.display()),
             ModelSource::Paper(m) => format!("generating the {}", m.name()),
+            ModelSource::Generated(n) => format!("generating a torus knot of {n} triangles"),
         };
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
             let first_stage = first_stage.clone();

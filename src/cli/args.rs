@@ -46,7 +46,8 @@ fn parse_finite(s: &str) -> Result<f32, String> {
 /// The scene and frame: what `view`, `render` and `bench` share.
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Model: geosphere, torusknot, sphere, cylinder (the paper's four) or a path to an .obj file.
+    /// Model: geosphere, torusknot, sphere, cylinder (the paper's four), torusknot:N (a
+    /// generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file.
     #[arg(long, default_value = "geosphere")]
     pub model: String,
     /// Number of identical models, laid out along the axes as in the paper's Table 2.

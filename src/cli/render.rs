@@ -1,5 +1,7 @@
 //! `meshtracer render`: one frame, headless, to a PNG or EXR.
 
+use std::io::IsTerminal;
+
 use anyhow::{bail, Context};
 
 use super::args::RenderArgs;
@@ -18,8 +20,21 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let settings = args.scene.settings(args.aov);
     settings.validate().map_err(anyhow::Error::msg)?;
     let source = args.scene.model_source();
+    // Progress on a terminal's stderr: big meshes take seconds to load and to build their
+    // BVH. Scripts reading stderr get only warnings and the one-line error.
+    let progress = std::io::stderr().is_terminal();
+    let started = std::time::Instant::now();
+    if progress {
+        eprintln!("loading {} ...", source.label());
+    }
     let (scene, warnings) = args.scene.load_scene()?;
+    if progress {
+        eprintln!("loaded {} triangles in {:.2} s; building the BVH ...", scene.triangle_count(), started.elapsed().as_secs_f64());
+    }
     let packed = PackedScene::new(&scene);
+    if progress {
+        eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
+    }
     for w in warnings.iter().chain(&packed.warnings) {
         eprintln!("warning: {w}");
     }

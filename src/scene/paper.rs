@@ -25,11 +25,18 @@ pub const MAX_MODELS: u32 = 27;
 pub enum ModelSource {
     Paper(PaperModel),
     File(PathBuf),
+    /// A finely tessellated torus knot of at least this many triangles (`torusknot:N`),
+    /// for scaling tests without downloads.
+    Generated(usize),
 }
 
 impl ModelSource {
-    /// Parse a `--model` value: a paper model name, else a path.
+    /// Parse a `--model` value: a paper model name, `torusknot:N` (N triangles, `k`/`M`
+    /// suffixes allowed), else a path.
     pub fn parse(s: &str) -> Self {
+        if let Some(n) = s.strip_prefix("torusknot:").and_then(parse_count) {
+            return ModelSource::Generated(n);
+        }
         match PaperModel::from_name(s) {
             Some(m) => ModelSource::Paper(m),
             None => ModelSource::File(PathBuf::from(s)),
@@ -40,6 +47,7 @@ impl ModelSource {
     pub fn label(&self) -> String {
         match self {
             ModelSource::Paper(m) => m.name().to_string(),
+            ModelSource::Generated(n) => format!("torusknot-{n}"),
             ModelSource::File(p) => p.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned()),
         }
     }
@@ -48,6 +56,7 @@ impl ModelSource {
     pub fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
         let (mut mesh, warnings) = match self {
             ModelSource::Paper(m) => (m.mesh(), Vec::new()),
+            ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
             ModelSource::File(p) => {
                 let loaded = load_obj(p)?;
                 (loaded.mesh, loaded.warnings)
@@ -56,6 +65,18 @@ impl ModelSource {
         prepare_model(&mut mesh);
         Ok((mesh, warnings))
     }
+}
+
+/// "4000000", "250k", "4M" -> a count (at most 100 million, at least 1).
+fn parse_count(s: &str) -> Option<usize> {
+    let s = s.trim();
+    let (digits, scale) = match s.chars().last()? {
+        'k' | 'K' => (&s[..s.len() - 1], 1_000.0),
+        'm' | 'M' => (&s[..s.len() - 1], 1_000_000.0),
+        _ => (s, 1.0),
+    };
+    let v = digits.parse::<f64>().ok()? * scale;
+    (v.is_finite() && (1.0..=1e8).contains(&v)).then_some(v as usize)
 }
 
 impl Default for ModelSource {
@@ -240,6 +261,16 @@ pub fn display_path(p: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn generated_models_parse_with_suffixes() {
+        assert_eq!(ModelSource::parse("torusknot:4M"), ModelSource::Generated(4_000_000));
+        assert_eq!(ModelSource::parse("torusknot:250k"), ModelSource::Generated(250_000));
+        assert_eq!(ModelSource::parse("torusknot"), ModelSource::Paper(PaperModel::TorusKnot));
+        // Out of range or not a number: taken as a file name (which then fails to open).
+        assert!(matches!(ModelSource::parse("torusknot:0"), ModelSource::File(_)));
+        assert!(matches!(ModelSource::parse("torusknot:1e12"), ModelSource::File(_)));
+    }
 
     #[test]
     fn copies_follow_the_axes_and_stay_inside_the_box() {
