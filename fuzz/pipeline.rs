@@ -15,7 +15,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use meshtracer::scene::obj::{load_obj_from_str, ObjError};
-use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS};
+use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::tracer::{cpu, FrameParams, PackedScene, RenderSettings};
 
 /// Inputs longer than this are ignored, so that every run stays fast.
@@ -63,9 +63,15 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
     };
     check_mesh(&mesh);
 
+    let before = mesh.bounds();
     prepare_model(&mut mesh);
     for (i, p) in mesh.positions.iter().enumerate() {
         assert!(p.is_finite(), "vertex {i} is {p} after normalisation");
+    }
+    if before.extent().max_element() > 0.0 {
+        // Normalised to MODEL_RADIUS: neither collapsed to a point nor blown up.
+        let half = mesh.bounds().extent().max_element() * 0.5;
+        assert!(half > 0.0 && half <= 2.0 * MODEL_RADIUS, "a model over {before:?} has half-extent {half} after normalisation");
     }
     let models = 1 + (data.len() as u32 % MAX_MODELS);
     let scene = paper_scene(mesh, models, LightOrbit::default());
