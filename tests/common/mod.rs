@@ -36,14 +36,7 @@ pub fn paper(model: PaperModel, count: u32) -> Scene {
 
 /// Render on both tracers; returns (gpu, cpu).
 pub fn render_both(scene: &Scene, settings: RenderSettings) -> (Image, Image) {
-    let packed = PackedScene::new(scene);
-    let params = FrameParams::new(scene, settings);
-    let ctx = ctx();
-    let mut tracer = GpuTracer::new(&ctx, &packed).expect("upload");
-    let (gpu, _) = tracer.render(&params).expect("trace");
-    drop(tracer);
-    assert_validation_clean(&ctx);
-    (gpu, cpu::render(&packed, &params))
+    render_both_with(scene, settings, |_| {})
 }
 
 /// A unit quad in the z = 0 plane facing +z, as one mesh with one material.
