@@ -29,13 +29,28 @@ use meshtracer::tracer::{FrameParams, PackedScene, RenderSettings};
 
 // --- helpers ---------------------------------------------------------------------------
 
-/// A fresh, empty scratch folder for this test process.
-fn scratch(tag: &str) -> PathBuf {
+/// A fresh, empty scratch folder, removed again when dropped.
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn scratch(tag: &str) -> Scratch {
     static N: AtomicUsize = AtomicUsize::new(0);
     let dir = std::env::temp_dir().join(format!("meshtracer-hardening-{}-{tag}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    Scratch(dir)
 }
 
 /// Run the real binary with `args` (and extra environment).
@@ -328,7 +343,6 @@ fn regressions_dir() -> PathBuf {
 fn replay(data: &[u8], what: &str) -> Result<pipeline::Outcome, String> {
     let dir = scratch("replay");
     let result = std::panic::catch_unwind(|| pipeline::run(data, &dir));
-    let _ = std::fs::remove_dir_all(&dir);
     result.map_err(|p| {
         let msg = p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default();
         format!("{what}: {msg}")
