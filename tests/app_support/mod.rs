@@ -33,11 +33,17 @@ impl Xvfb {
                 .expect("Xvfb must be installed for the window tests (CI installs xvfb)");
             let start = Instant::now();
             while start.elapsed() < Duration::from_secs(20) {
-                if socket.exists() {
-                    return Self { child, display: format!(":{n}") };
-                }
                 if let Ok(Some(_)) = child.try_wait() {
                     break; // the display was taken meanwhile: try the next number
+                }
+                if socket.exists() {
+                    // The socket may belong to another test process's server that won the
+                    // race for this number: ours must still be running a moment later.
+                    std::thread::sleep(Duration::from_millis(200));
+                    if let Ok(None) = child.try_wait() {
+                        return Self { child, display: format!(":{n}") };
+                    }
+                    break;
                 }
                 std::thread::sleep(Duration::from_millis(50));
             }
