@@ -408,27 +408,6 @@ pub fn group(n: u64) -> String {
     out
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn digits_are_grouped() {
-        assert_eq!(group(0), "0");
-        assert_eq!(group(999), "999");
-        assert_eq!(group(1000), "1 000");
-        assert_eq!(group(1234567), "1 234 567");
-    }
-
-    #[test]
-    fn graph_scale_is_round() {
-        assert_eq!(nice_ceiling(1.1), 2.0);
-        assert_eq!(nice_ceiling(7.0), 10.0);
-        assert_eq!(nice_ceiling(20.0), 20.0);
-        assert_eq!(nice_ceiling(0.3), 0.5);
-    }
-}
-
 /// The paper's future work, each a switch: smooth shading, textures, environment map,
 /// supersampling, adaptive sampling, progressive accumulation.
 fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
@@ -483,4 +462,25 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
             ui.label(RichText::new("The closed mirror box hides the environment: untick it to see the environment.").small().weak());
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digits_are_grouped() {
+        assert_eq!(group(0), "0");
+        assert_eq!(group(999), "999");
+        assert_eq!(group(1000), "1 000");
+        assert_eq!(group(1234567), "1 234 567");
+    }
+
+    #[test]
+    fn graph_scale_is_round() {
+        assert_eq!(nice_ceiling(1.1), 2.0);
+        assert_eq!(nice_ceiling(7.0), 10.0);
+        assert_eq!(nice_ceiling(20.0), 20.0);
+        assert_eq!(nice_ceiling(0.3), 0.5);
+    }
 }

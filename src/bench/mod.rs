@@ -162,7 +162,7 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
             current = Some((key.clone(), packed, tracer));
         }
         let (_, packed, tracer) = current.as_mut().unwrap();
-        packed.set_instances(&instances(case.models).iter().map(|i| *i).collect::<Vec<_>>());
+        packed.set_instances(&instances(case.models));
         tracer.set_instances(&packed.instances)?;
         let row = measure(tracer, packed, &scene, case, options)?;
         progress(i, &row);
