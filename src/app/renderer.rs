@@ -525,14 +525,7 @@ impl Renderer {
             );
             device.cmd_clear_color_image(cmd, swap_image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &vk::ClearColorValue { float32: CLEAR }, &[color_range()]);
             if let (Some(d), Some(src)) = (display, source) {
-                let region = vk::BufferImageCopy {
-                    buffer_offset: 0,
-                    buffer_row_length: 0,
-                    buffer_image_height: 0,
-                    image_subresource: color_layers(),
-                    image_offset: vk::Offset3D::default(),
-                    image_extent: vk::Extent3D { width: d.width, height: d.height, depth: 1 },
-                };
+                let region = whole_image_copy(d.width, d.height);
                 device.cmd_copy_buffer_to_image(cmd, src, d.image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[region]);
                 let barriers = [
                     image_barrier(d.image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::AccessFlags::TRANSFER_WRITE, vk::AccessFlags::TRANSFER_READ),
@@ -606,14 +599,7 @@ impl Renderer {
                     vk::AccessFlags::TRANSFER_READ,
                 )];
                 device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &[], &[], &to_src);
-                let region = vk::BufferImageCopy {
-                    buffer_offset: 0,
-                    buffer_row_length: 0,
-                    buffer_image_height: 0,
-                    image_subresource: color_layers(),
-                    image_offset: vk::Offset3D::default(),
-                    image_extent: vk::Extent3D { width: extent.width, height: extent.height, depth: 1 },
-                };
+                let region = whole_image_copy(extent.width, extent.height);
                 device.cmd_copy_image_to_buffer(cmd, swap_image, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buf.buffer, &[region]);
                 let to_host = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ)];
                 let to_present = [image_barrier(swap_image, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR, vk::AccessFlags::TRANSFER_READ, vk::AccessFlags::empty())];
@@ -629,6 +615,18 @@ impl Renderer {
                 device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT, vk::PipelineStageFlags::BOTTOM_OF_PIPE, vk::DependencyFlags::empty(), &[], &[], &to_present);
             }
         }
+    }
+}
+
+/// A copy between a tightly packed buffer and a whole `width` x `height` colour image.
+fn whole_image_copy(width: u32, height: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy {
+        buffer_offset: 0,
+        buffer_row_length: 0,
+        buffer_image_height: 0,
+        image_subresource: color_layers(),
+        image_offset: vk::Offset3D::default(),
+        image_extent: vk::Extent3D { width, height, depth: 1 },
     }
 }
 
