@@ -16,46 +16,59 @@ pub struct Xvfb {
 }
 
 impl Xvfb {
-    /// Start `Xvfb :N -screen 0 1024x768x24` on a free N and wait for its socket.
+    /// Start `Xvfb -screen 0 1024x768x24` on a display number of the server's own choosing.
+    ///
+    /// `-displayfd 1` makes the server pick a free number itself (no races between test
+    /// processes for display numbers) and print it only once it accepts connections, so the
+    /// app never connects to a server that is still starting. `-noreset` keeps the server
+    /// from resetting when xdotool, its first client, disconnects before the app connects.
     pub fn start() -> Self {
-        let base = 90 + (std::process::id() % 300) * 16;
-        for _ in 0..64 {
-            let n = base + NEXT.fetch_add(1, Ordering::SeqCst);
-            let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-            if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
-                continue;
-            }
+        let mut last_error = String::new();
+        for _ in 0..3 {
             let mut child = Command::new("Xvfb")
-                .args([format!(":{n}").as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
-                .stdout(Stdio::null())
+                .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset"])
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
                 .stderr(Stdio::null())
                 .spawn()
                 .expect("Xvfb must be installed for the window tests (CI installs xvfb)");
-            let start = Instant::now();
-            while start.elapsed() < Duration::from_secs(20) {
-                if let Ok(Some(_)) = child.try_wait() {
-                    break; // the display was taken meanwhile: try the next number
-                }
-                if socket.exists() {
-                    // The socket may belong to another test process's server that won the
-                    // race for this number: ours must still be running a moment later.
-                    std::thread::sleep(Duration::from_millis(200));
-                    if let Ok(None) = child.try_wait() {
-                        return Self { child, display: format!(":{n}") };
+            let stdout = child.stdout.take().unwrap();
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                use std::io::BufRead;
+                let mut line = String::new();
+                let _ = std::io::BufReader::new(stdout).read_line(&mut line);
+                let _ = tx.send(line);
+            });
+            match rx.recv_timeout(Duration::from_secs(30)) {
+                Ok(line) if line.trim().parse::<u32>().is_ok() => {
+                    let display = format!(":{}", line.trim());
+                    if xdotool(&display, &["getdisplaygeometry"]).status.success() {
+                        return Self { child, display };
                     }
-                    break;
+                    last_error = format!("Xvfb said {display} but xdotool cannot connect to it");
                 }
-                std::thread::sleep(Duration::from_millis(50));
+                Ok(line) => last_error = format!("Xvfb exited without a display number ({:?})", line.trim()),
+                Err(_) => last_error = "Xvfb did not become ready within 30 s".to_string(),
             }
             let _ = child.kill();
             let _ = child.wait();
         }
-        panic!("could not start Xvfb on any display number");
+        panic!("could not start Xvfb: {last_error}");
     }
 }
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // SIGTERM lets the server remove its lock file and socket; SIGKILL only if it hangs.
+        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
