@@ -3,7 +3,7 @@
 // centre, the closest hit, Blinn–Phong at the hit, then mirror bounces blended with the
 // colour so far at the reflection ratio. On top, the paper's future work: smooth shading,
 // textures (ray-cone mip selection), an environment map, jittered supersampling with
-// progressive accumulation, and adaptive sampling on triangle edges.
+// progressive accumulation, and adaptive sampling on edges seen directly or in the mirrors.
 // The CPU twin is src/tracer/cpu.rs.
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -25,11 +25,36 @@ float random01(inout uint seed) {
     return float(seed >> 8) * (1.0 / 16777216.0);
 }
 
-// The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top).
-vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost) {
+// One surface of a path, for adaptive sampling's edge test: the instance, material and
+// plane of the hit triangle, so a quad's diagonal (two coplanar triangles of one material)
+// is no edge but a silhouette or a crease is.
+uint surface_key(Hit hit) {
+    if (hit.tri == EMPTY) return EMPTY;
+    Triangle tri = triangles[hit.tri];
+    vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+    if (n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0)))) n = -n;
+    ivec3 q = ivec3(round(n * 1024.0));
+    uint key = pcg(uint(q.x) ^ pcg(uint(q.y) ^ pcg(uint(q.z))));
+    key = pcg(key ^ floatBitsToUint(tri.v0.w)) ^ pcg(hit.instance + 0x9e3779b9u);
+    return key == EMPTY ? 0u : key;
+}
+
+// Folds the surface a path reaches into its key while it still shows in 8 bits: an edge
+// seen in a mirror changes the key as much as one seen directly.
+const float KEY_MIN_THROUGHPUT = 1.0 / 256.0;
+
+void add_to_path_key(inout uint key, uint surface, float throughput) {
+    if (throughput >= KEY_MIN_THROUGHPUT) key = pcg(key ^ surface);
+}
+
+// The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top), and
+// the key of the surfaces along its path (adaptive sampling's edge test).
+vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint key) {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
     uint flags = frame.dims.w;
+    // Only the adaptive pre-pass needs the path key.
+    bool keyed = (flags & FLAG_ID_PASS) != 0u;
     vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
     vec3 o = frame.cam_origin_eps.xyz;
     vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
@@ -49,11 +74,13 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost) {
     for (uint bounce = 0u; bounce <= bounces; bounce++) {
         Hit hit = closest_hit(o, d, use_bvh, cost);
         if (hit.tri == EMPTY) {
+            if (keyed) add_to_path_key(key, EMPTY, throughput.x);
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
             color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
             break;
         }
+        if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
         path_length += hit.t;
         Triangle tri = triangles[hit.tri];
         vec3 p = o + d * hit.t;
@@ -114,31 +141,6 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost) {
     return aux;
 }
 
-// What the primary ray at the pixel centre hit, for adaptive sampling's edge test: the
-// instance, material and plane of the triangle, so a quad's diagonal (two coplanar
-// triangles of one material) is no edge but a silhouette or a crease is.
-uint surface_key(Hit hit) {
-    if (hit.tri == EMPTY) return EMPTY;
-    Triangle tri = triangles[hit.tri];
-    vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
-    if (n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0)))) n = -n;
-    ivec3 q = ivec3(round(n * 1024.0));
-    uint key = pcg(uint(q.x) ^ pcg(uint(q.y) ^ pcg(uint(q.z))));
-    key = pcg(key ^ floatBitsToUint(tri.v0.w)) ^ pcg(hit.instance + 0x9e3779b9u);
-    return key == EMPTY ? 0u : key;
-}
-
-uint primary_id(uvec2 px, bool use_bvh) {
-    uvec2 cost = uvec2(0u);
-    uint width = frame.dims.x;
-    uint height = frame.dims.y;
-    vec2 pos = vec2(px) + 0.5;
-    vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
-    vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
-    Hit hit = closest_hit(frame.cam_origin_eps.xyz, d, use_bvh, cost);
-    return surface_key(hit);
-}
-
 void main() {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
@@ -150,7 +152,11 @@ void main() {
     uint aov = (flags >> AOV_SHIFT) & 7u;
 
     if ((flags & FLAG_ID_PASS) != 0u) {
-        prim_ids[pixel] = primary_id(px, use_bvh);
+        // The key of the path through the pixel centre: primary hit and mirror bounces.
+        uvec2 unused_cost = uvec2(0u);
+        uint key = 0u;
+        trace_sample(vec2(px) + 0.5, AOV_COLOR, use_bvh, unused_cost, key);
+        prim_ids[pixel] = key;
         return;
     }
 
@@ -159,7 +165,7 @@ void main() {
     bool single_value = aov == AOV_DEPTH || aov == AOV_NORMAL || aov == AOV_PRIM_ID;
     if (single_value) spp = 1u;
     if ((flags & FLAG_ADAPTIVE) != 0u && !single_value) {
-        // Extra samples only where a 4-neighbour's primary ray hit another triangle.
+        // Extra samples only where a 4-neighbour's path met other surfaces.
         uint id = prim_ids[pixel];
         uint l = prim_ids[px.y * width + (px.x > 0u ? px.x - 1u : px.x)];
         uint r = prim_ids[px.y * width + min(px.x + 1u, width - 1u)];
@@ -172,6 +178,7 @@ void main() {
     bool jitter = !single_value && (spp > 1u || frame_index > 0u);
 
     uvec2 cost = uvec2(0u);
+    uint key = 0u;
     vec4 sum = vec4(0.0);
     for (uint s = 0u; s < spp; s++) {
         vec2 offset = vec2(0.5);
@@ -179,7 +186,7 @@ void main() {
             uint seed = pcg(pixel ^ pcg(frame_index * 256u + s));
             offset = vec2(random01(seed), random01(seed));
         }
-        sum += trace_sample(vec2(px) + offset, aov, use_bvh, cost);
+        sum += trace_sample(vec2(px) + offset, aov, use_bvh, cost, key);
     }
     vec4 value = sum / float(spp);
 

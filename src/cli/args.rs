@@ -87,7 +87,7 @@ pub struct SceneArgs {
     /// Jittered samples per pixel (anti-aliasing); 1 = one ray through the pixel centre.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
     pub spp: u32,
-    /// Spend the --spp samples only on pixels at triangle edges, one elsewhere.
+    /// Spend the --spp samples only on pixels at edges (seen directly or in the mirrors), one elsewhere.
     #[arg(long)]
     pub adaptive: bool,
     /// Leave out the six mirror planes (to see an --env map around the model).

@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::frame::{Accel, Aov, FrameParams};
+use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{blinn_phong, reflect, ShadingMaterial};
@@ -30,6 +30,17 @@ pub fn pcg(v: u32) -> u32 {
     let state = v.wrapping_mul(747796405).wrapping_add(2891336453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277803737);
     (word >> 22) ^ word
+}
+
+/// A path's surfaces count towards its key while their weight still shows in 8 bits, so
+/// an edge seen in a mirror is an edge (the shader's `KEY_MIN_THROUGHPUT`).
+const KEY_MIN_THROUGHPUT: f32 = 1.0 / 256.0;
+
+/// The shader's `add_to_path_key`.
+fn add_to_path_key(key: &mut u32, surface: u32, throughput: f32) {
+    if throughput >= KEY_MIN_THROUGHPUT {
+        *key = pcg(*key ^ surface);
+    }
 }
 
 fn random01(seed: &mut u32) -> f32 {
@@ -103,8 +114,9 @@ impl<'a> CpuScene<'a> {
         a.lerp(b, t.y)
     }
 
-    /// One camera sample through image position `pos` (pixel units): colour or AOV.
-    fn trace_sample(&self, params: &FrameParams, pos: Vec2, stats: &mut TraversalStats) -> Vec4 {
+    /// One camera sample through image position `pos` (pixel units): colour or AOV. With
+    /// `path_key`, also folds the surfaces along the path into it (the shader's pre-pass).
+    fn trace_sample(&self, params: &FrameParams, pos: Vec2, stats: &mut TraversalStats, mut path_key: Option<&mut u32>) -> Vec4 {
         let s = &params.settings;
         let mut ray = params.camera.ray_at(pos.x, pos.y, s.width, s.height);
         let bounces = if matches!(s.aov, Aov::Color | Aov::Cost | Aov::Samples) { s.bounces } else { 0 };
@@ -115,7 +127,11 @@ impl<'a> CpuScene<'a> {
         let mut aux = Vec4::new(-1.0, -1.0, -1.0, 0.0);
 
         for bounce in 0..=bounces {
-            let Some(hit) = self.closest_hit(&ray, s.accel, params.instance_count, stats) else {
+            let hit = self.closest_hit(&ray, s.accel, params.instance_count, stats);
+            if let Some(key) = path_key.as_deref_mut() {
+                add_to_path_key(key, self.surface_key(hit), throughput);
+            }
+            let Some(hit) = hit else {
                 let miss = if params.environment { self.environment(ray.dir) } else { params.background_quantized() };
                 color += throughput * miss;
                 if bounce == 0 && s.aov == Aov::Normal {
@@ -209,15 +225,19 @@ impl<'a> CpuScene<'a> {
         if key == u32::MAX { 0 } else { key }
     }
 
-    /// Surface key of the ray through the centre of each pixel: adaptive sampling's edge test.
-    pub fn primary_ids(&self, params: &FrameParams) -> Vec<u32> {
+    /// Key of the path through the centre of each pixel (primary hit and the mirror bounces
+    /// that still show): adaptive sampling's edge test, as the shader's pre-pass.
+    pub fn path_keys(&self, params: &FrameParams) -> Vec<u32> {
         let (w, h) = (params.settings.width, params.settings.height);
+        let color = FrameParams { settings: RenderSettings { aov: Aov::Color, ..params.settings }, ..*params };
         (0..w * h)
             .into_par_iter()
             .map(|i| {
-                let ray = params.camera.primary_ray(i % w, i / w, w, h);
                 let mut stats = TraversalStats::default();
-                self.surface_key(self.closest_hit(&ray, params.settings.accel, params.instance_count, &mut stats))
+                let mut key = 0;
+                let centre = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                self.trace_sample(&color, centre, &mut stats, Some(&mut key));
+                key
             })
             .collect()
     }
@@ -249,7 +269,7 @@ impl<'a> CpuScene<'a> {
                 let mut seed = pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
                 offset = Vec2::new(random01(&mut seed), random01(&mut seed));
             }
-            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, &mut stats);
+            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, &mut stats, None);
         }
         let value = sum / spp as f32;
         match s.aov {
@@ -272,7 +292,7 @@ pub fn render(packed: &PackedScene, params: &FrameParams) -> Image {
 pub fn accumulate(packed: &PackedScene, params: &FrameParams, image: &mut Image) {
     let scene = CpuScene::new(packed);
     let w = params.settings.width;
-    let ids = params.settings.adaptive.then(|| scene.primary_ids(params));
+    let ids = params.settings.adaptive.then(|| scene.path_keys(params));
     let n = params.frame_index;
     image.pixels.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
