@@ -423,31 +423,3 @@ fn paper_model_assets_load_back_with_the_generated_counts() {
         assert_eq!(triangle_corners(&mesh), triangle_corners(&generated), "{} is stale", path.display());
     }
 }
-
-// --- Timing on real meshes (not part of the normal run) ----------------------------------
-
-/// `MESHTRACER_BENCH_OBJS=a.obj:b.obj cargo test --release --test obj_loader -- --ignored --nocapture`
-#[test]
-#[ignore = "needs meshes named by MESHTRACER_BENCH_OBJS"]
-fn load_times_of_real_meshes() {
-    let list = std::env::var("MESHTRACER_BENCH_OBJS").unwrap_or_default();
-    for path in list.split(':').filter(|p| !p.is_empty()) {
-        let start = std::time::Instant::now();
-        let loaded = load_obj(Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
-        let elapsed = start.elapsed();
-        let m = &loaded.mesh;
-        println!(
-            "{path}: {} vertices, {} triangles, {} materials, file normals {}, texcoords {}, {:.1} ms, {} warnings",
-            m.vertex_count(),
-            m.triangle_count(),
-            m.materials.len(),
-            m.has_file_normals,
-            !m.texcoords.is_empty(),
-            elapsed.as_secs_f64() * 1e3,
-            loaded.warnings.len()
-        );
-        for w in &loaded.warnings {
-            println!("  warning: {w}");
-        }
-    }
-}

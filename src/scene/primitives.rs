@@ -450,18 +450,6 @@ mod tests {
         check_closed_outward(&large_torus_knot(50_000));
     }
 
-    /// `cargo test --release --lib large_torus_knot_speed -- --ignored --nocapture`
-    #[test]
-    #[ignore = "timing; run in release"]
-    fn large_torus_knot_speed() {
-        for million in [1, 4, 10] {
-            let start = std::time::Instant::now();
-            let mesh = large_torus_knot(million * 1_000_000);
-            let elapsed = start.elapsed();
-            println!("{}: {} vertices in {:.0} ms", mesh.name, mesh.vertex_count(), elapsed.as_secs_f64() * 1e3);
-        }
-    }
-
     #[test]
     fn written_obj_lists_every_vertex_and_face() {
         let mesh = PaperModel::Geosphere.mesh();
