@@ -48,7 +48,7 @@ layout(std430, set = 0, binding = 7) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 8) readonly buffer TextureInfos { uvec4 texture_infos[]; }; // offset, w, h, levels
 // Primary-hit ids of the adaptive pre-pass (one per pixel).
 layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
-// Equirectangular environment: [0] width, [1] height, then RGBA8 texels.
+// Equirectangular environment: [0] width, [1] height, then RGB9E5 (HDR) texels.
 layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
 
 // Per-frame parameters (src/tracer/frame.rs: FrameParams::push_constants). 128 bytes.

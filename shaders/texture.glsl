@@ -36,11 +36,19 @@ vec4 sample_texture(uint index, vec2 uv, float lod) {
     return c0;
 }
 
-// Environment: bilinear, level 0, u wraps around, v clamps at the poles.
+// Shared-exponent HDR texel: 9-bit mantissas, 5-bit exponent (EnvironmentMap in
+// src/tracer/textures.rs encodes it).
+vec3 decode_rgb9e5(uint v) {
+    // ldexp, unlike exp2, is exact on every device.
+    int e = int(v >> 27) - 15 - 9;
+    return ldexp(vec3(float(v & 511u), float((v >> 9) & 511u), float((v >> 18) & 511u)), ivec3(e));
+}
+
+// Environment: bilinear, u wraps around, v clamps at the poles.
 vec3 environment_texel(ivec2 p, int w, int h) {
     int x = ((p.x % w) + w) % w;
     int y = clamp(p.y, 0, h - 1);
-    return unpackUnorm4x8(environment[2 + uint(y * w + x)]).rgb;
+    return decode_rgb9e5(environment[2 + uint(y * w + x)]);
 }
 
 vec3 sample_environment(vec3 d) {

@@ -114,6 +114,32 @@ fn environment_is_seen_on_misses_and_in_mirrors() {
 }
 
 #[test]
+fn hdr_environment_keeps_values_above_one() {
+    // A uniform EXR sky of radiance 4 around a mirror sphere at blend 0.25: the reflected
+    // quarter of 4 is a full 1.0, where an 8-bit sky (clamped to 1) would give 0.25.
+    let dir = std::env::temp_dir().join(format!("meshtracer-hdr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bright.exr");
+    image::Rgba32FImage::from_pixel(16, 8, image::Rgba([4.0, 4.0, 4.0, 1.0])).save(&path).unwrap();
+    let mut mesh = PaperModel::Sphere.mesh();
+    prepare_model(&mut mesh);
+    for m in &mut mesh.materials {
+        *m = Material { diffuse: Vec3::ZERO, specular: Vec3::ZERO, mirror: 1.0, ..m.clone() };
+    }
+    let mut scene = open_scene(mesh, 1, LightOrbit::default());
+    scene.ambient = 0.0;
+    scene.environment = Some(EnvironmentSource::File(path));
+    let s = RenderSettings { blend: 0.25, bounces: 1, smooth: true, ..settings(48) };
+    let (gpu, cpu) = render_both(&scene, s);
+    std::fs::remove_dir_all(&dir).ok();
+    assert_close(&gpu, &cpu, "HDR environment");
+    let centre = gpu.get(24, 24);
+    assert!((0..3).all(|c| (centre[c] - 1.0).abs() < 0.01), "a quarter of radiance 4 is 1: {centre:?}");
+    let miss = gpu.get(0, 0);
+    assert!((0..3).all(|c| (miss[c] - 4.0).abs() < 0.04), "misses see the sky's own radiance: {miss:?}");
+}
+
+#[test]
 fn supersampling_matches_cpu_and_accumulation_converges() {
     let scene = paper(PaperModel::Cylinder, 1);
     let (gpu, cpu) = render_both(&scene, RenderSettings { spp: 4, ..settings(48) });

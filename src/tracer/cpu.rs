@@ -9,7 +9,6 @@ use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{blinn_phong, reflect, ShadingMaterial};
-use super::textures::direction_to_equirect;
 use crate::bvh::TraversalStats;
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
@@ -98,20 +97,7 @@ impl<'a> CpuScene<'a> {
     }
 
     fn environment(&self, d: Vec3) -> Vec3 {
-        let Some(img) = &self.packed.environment else { return Vec3::ZERO };
-        let (w, h) = (img.width() as i32, img.height() as i32);
-        let uv = direction_to_equirect(d);
-        let p = Vec2::new(uv.x * w as f32 - 0.5, (1.0 - uv.y) * h as f32 - 0.5);
-        let f = p.floor();
-        let t = p - f;
-        let texel = |x: i32, y: i32| {
-            let px = img.get_pixel(x.rem_euclid(w) as u32, y.clamp(0, h - 1) as u32).0;
-            Vec3::new(px[0] as f32, px[1] as f32, px[2] as f32) / 255.0
-        };
-        let (x, y) = (f.x as i32, f.y as i32);
-        let a = texel(x, y).lerp(texel(x + 1, y), t.x);
-        let b = texel(x, y + 1).lerp(texel(x + 1, y + 1), t.x);
-        a.lerp(b, t.y)
+        self.packed.environment.as_ref().map_or(Vec3::ZERO, |env| env.sample(d))
     }
 
     /// One camera sample through image position `pos` (pixel units): colour or AOV. With

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::bvh::{BuildOptions, Bvh, BvhNode};
 use crate::geometry::Aabb;
 use crate::scene::{EnvironmentSource, Instance, Mesh, Scene};
-use super::textures::{load_environment, sky_image, TextureAtlas};
+use super::textures::{load_environment, sky_image, EnvironmentMap, TextureAtlas};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
 #[repr(C)]
@@ -121,8 +121,8 @@ pub struct PackedScene {
     pub meshes: Vec<PackedMesh>,
     /// Diffuse textures of all materials.
     pub textures: TextureAtlas,
-    /// The environment image, when the scene has one.
-    pub environment: Option<image::RgbaImage>,
+    /// The environment map, when the scene has one.
+    pub environment: Option<EnvironmentMap>,
     /// Problems worked around while packing (unreadable textures...).
     pub warnings: Vec<String>,
     texture_index: HashMap<PathBuf, u32>,
@@ -176,22 +176,22 @@ impl PackedScene {
     /// cannot be read falls back to the generated sky, with a warning.
     pub fn set_environment(&mut self, source: Option<&EnvironmentSource>) {
         self.environment = source.map(|s| match s {
-            EnvironmentSource::Sky => sky_image(512, 256),
+            EnvironmentSource::Sky => EnvironmentMap::from_rgba8(&sky_image(512, 256)),
             EnvironmentSource::File(path) => load_environment(path).unwrap_or_else(|e| {
                 let msg = format!("{e}; using the generated sky instead");
                 log::warn!("{msg}");
                 self.warnings.push(msg);
-                sky_image(512, 256)
+                EnvironmentMap::from_rgba8(&sky_image(512, 256))
             }),
         });
     }
 
-    /// The environment buffer as the shader reads it: width, height, then RGBA8 texels.
+    /// The environment buffer as the shader reads it: width, height, then RGB9E5 texels.
     pub fn environment_words(&self) -> Vec<u32> {
         match &self.environment {
-            Some(img) => {
-                let mut words = vec![img.width(), img.height()];
-                words.extend(img.pixels().map(|p| u32::from_le_bytes(p.0)));
+            Some(env) => {
+                let mut words = vec![env.width, env.height];
+                words.extend_from_slice(&env.texels);
                 words
             }
             None => vec![1, 1, 0],

@@ -1,6 +1,6 @@
-//! Textures for both tracers: every image (diffuse maps and the environment map) packed
-//! into one array of RGBA8 texels with a full mip chain per image, addressed by
-//! `TextureInfo`. One storage buffer serves any number of textures on any driver; the
+//! Textures for both tracers: every diffuse map packed into one array of RGBA8 texels with
+//! a full mip chain per image, addressed by `TextureInfo`, and the environment map in
+//! shared-exponent HDR texels. One storage buffer serves any number of textures on any driver; the
 //! shader (`shaders/texture.glsl`) and [`TextureAtlas::sample`] filter identically.
 
 use std::path::Path;
@@ -136,11 +136,89 @@ pub fn sky_image(width: u32, height: u32) -> image::RgbaImage {
     })
 }
 
-/// Load an equirectangular environment image (PNG, JPEG, HDR, EXR...); high dynamic range
-/// values are clamped to [0, 1] since the tracer's output is 8-bit.
-pub fn load_environment(path: &Path) -> anyhow::Result<image::RgbaImage> {
+/// An equirectangular environment map in high dynamic range: one shared-exponent RGB9E5
+/// word per texel (9-bit mantissas, 5-bit exponent, as GPUs store HDR textures), so an
+/// HDR or EXR sky keeps its bright sun at the size of an 8-bit image. Row 0 is the zenith.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentMap {
+    pub width: u32,
+    pub height: u32,
+    /// RGB9E5 texels, row-major ([`encode_rgb9e5`]).
+    pub texels: Vec<u32>,
+}
+
+/// Mantissa bits, exponent bias and the largest value of RGB9E5 (EXT_texture_shared_exponent).
+const RGB9E5_MANTISSA_BITS: i32 = 9;
+const RGB9E5_BIAS: i32 = 15;
+/// The largest value RGB9E5 holds; brighter texels are clamped to it.
+pub const RGB9E5_MAX: f32 = 65408.0;
+
+/// Encode a linear RGB value as RGB9E5 (negative and NaN become 0, values above
+/// [`RGB9E5_MAX`] are clamped). Each channel keeps 9 bits relative to the largest one.
+pub fn encode_rgb9e5(c: Vec3) -> u32 {
+    let clamp = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, RGB9E5_MAX) };
+    let (r, g, b) = (clamp(c.x), clamp(c.y), clamp(c.z));
+    let max = r.max(g).max(b);
+    if max == 0.0 {
+        return 0;
+    }
+    let mut exp = (max.log2().floor() as i32).max(-RGB9E5_BIAS - 1) + 1 + RGB9E5_BIAS;
+    let mut scale = 2f32.powi(exp - RGB9E5_BIAS - RGB9E5_MANTISSA_BITS);
+    if (max / scale + 0.5).floor() as u32 == 1 << RGB9E5_MANTISSA_BITS {
+        exp += 1;
+        scale *= 2.0;
+    }
+    let m = |x: f32| ((x / scale + 0.5).floor() as u32).min(511);
+    m(r) | (m(g) << 9) | (m(b) << 18) | ((exp as u32) << 27)
+}
+
+/// Decode an RGB9E5 word (exact in f32; the shader's `decode_rgb9e5`).
+pub fn decode_rgb9e5(v: u32) -> Vec3 {
+    let scale = 2f32.powi((v >> 27) as i32 - RGB9E5_BIAS - RGB9E5_MANTISSA_BITS);
+    Vec3::new((v & 511) as f32, ((v >> 9) & 511) as f32, ((v >> 18) & 511) as f32) * scale
+}
+
+impl EnvironmentMap {
+    /// From an 8-bit image (values / 255, as the tracer reads colours).
+    pub fn from_rgba8(img: &image::RgbaImage) -> Self {
+        let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)).collect();
+        Self { width: img.width(), height: img.height(), texels }
+    }
+
+    /// From linear floating-point texels (HDR, EXR).
+    pub fn from_rgba32f(img: &image::Rgba32FImage) -> Self {
+        let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0], p[1], p[2]))).collect();
+        Self { width: img.width(), height: img.height(), texels }
+    }
+
+    /// Texel (x, y): x wraps around, y clamps at the poles.
+    pub fn texel(&self, x: i32, y: i32) -> Vec3 {
+        let (w, h) = (self.width as i32, self.height as i32);
+        decode_rgb9e5(self.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize])
+    }
+
+    /// Bilinear sample in direction `d` (the shader's `sample_environment`).
+    pub fn sample(&self, d: Vec3) -> Vec3 {
+        let uv = direction_to_equirect(d);
+        let p = Vec2::new(uv.x * self.width as f32 - 0.5, (1.0 - uv.y) * self.height as f32 - 0.5);
+        let f = p.floor();
+        let t = p - f;
+        let (x, y) = (f.x as i32, f.y as i32);
+        let a = self.texel(x, y).lerp(self.texel(x + 1, y), t.x);
+        let b = self.texel(x, y + 1).lerp(self.texel(x + 1, y + 1), t.x);
+        a.lerp(b, t.y)
+    }
+}
+
+/// Load an equirectangular environment image: PNG and JPEG as 8-bit values / 255, HDR and
+/// EXR as their linear floating-point values (brighter than 1 stays brighter; see
+/// [`EnvironmentMap`]).
+pub fn load_environment(path: &Path) -> anyhow::Result<EnvironmentMap> {
     let img = image::open(path).map_err(|e| anyhow::anyhow!("cannot read environment map {}: {e}", path.display()))?;
-    Ok(img.to_rgba8())
+    Ok(match img {
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => EnvironmentMap::from_rgba32f(&img.to_rgba32f()),
+        _ => EnvironmentMap::from_rgba8(&img.to_rgba8()),
+    })
 }
 
 #[cfg(test)]
@@ -170,6 +248,36 @@ mod tests {
         assert_eq!(c, Vec4::new(0.0, 0.0, 1.0, 1.0));
         let c = atlas.sample(i, Vec2::new(0.375, 0.125), 0.0);
         assert_eq!(c, Vec4::new(1.0, 0.0, 0.0, 1.0));
+    }
+
+    #[test]
+    fn rgb9e5_keeps_high_dynamic_range_within_its_precision() {
+        for c in [Vec3::new(0.25, 0.5, 1.0), Vec3::new(50.0, 20.0, 0.1), Vec3::new(1.0 / 255.0, 0.0, 0.0), Vec3::splat(65000.0), Vec3::new(3.0e-5, 1e-3, 2e-3)] {
+            let back = decode_rgb9e5(encode_rgb9e5(c));
+            // Each channel within half a mantissa step of the largest channel.
+            let step = c.max_element() / 256.0;
+            assert!((back - c).abs().max_element() <= step, "{c} -> {back}");
+        }
+        // Values 8-bit images hold come back to the same 8-bit value.
+        for v in 0..=255u8 {
+            let back = decode_rgb9e5(encode_rgb9e5(Vec3::splat(v as f32 / 255.0)));
+            assert_eq!((back.x * 255.0).round() as u8, v);
+        }
+        assert_eq!(encode_rgb9e5(Vec3::ZERO), 0);
+        assert_eq!(decode_rgb9e5(encode_rgb9e5(Vec3::new(-1.0, f32::NAN, 0.0))), Vec3::ZERO);
+        assert_eq!(decode_rgb9e5(encode_rgb9e5(Vec3::splat(f32::INFINITY))), Vec3::splat(RGB9E5_MAX));
+    }
+
+    #[test]
+    fn environment_sample_wraps_around_and_clamps_at_the_poles() {
+        let img = image::Rgba32FImage::from_fn(4, 2, |x, y| image::Rgba([x as f32 * 10.0, y as f32, 0.0, 1.0]));
+        let env = EnvironmentMap::from_rgba32f(&img);
+        assert_eq!(env.texel(-1, 0), env.texel(3, 0));
+        assert_eq!(env.texel(0, 5), env.texel(0, 1));
+        assert_eq!(env.texel(3, 0).x, 30.0);
+        // Straight up: the top row, bright values kept.
+        let up = env.sample(Vec3::Y);
+        assert!(up.y.abs() < 1e-6 && up.x > 1.0, "{up}");
     }
 
     #[test]
