@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::{GpuContext, GpuError, GpuTracer};
 use crate::scene::paper::{instances, paper_scene, prepare_model, LightOrbit, ModelSource};
 use crate::scene::{EnvironmentSource, Mesh};
-use crate::tracer::{Accel, FrameParams, PackedScene, RenderSettings};
+use crate::tracer::{Accel, Aov, FrameParams, PackedScene, RenderSettings};
 
 /// Brute-force frames asking for more ray-triangle tests than this are skipped with a note
 /// (minutes per frame otherwise).
@@ -36,12 +36,14 @@ pub struct Case {
     pub environment: Option<EnvironmentSource>,
     /// Label of the shading features switched on, for the feature series.
     pub features: String,
+    /// Move the camera in until the model fills the frame (the `framed` series).
+    pub framed: bool,
 }
 
 impl Case {
     /// A row of `series` on a paper model with default shading.
     pub fn new(series: &str, model: ModelSource, models: u32, settings: RenderSettings) -> Self {
-        Self { series: series.into(), model, generated: None, models, settings, paper: None, environment: None, features: String::new() }
+        Self { series: series.into(), model, generated: None, models, settings, paper: None, environment: None, features: String::new(), framed: false }
     }
 }
 
@@ -155,6 +157,10 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
         let mesh = &loaded.as_ref().unwrap().mesh;
         let mut scene = paper_scene(mesh.clone(), case.models, LightOrbit::default());
         scene.environment = case.environment.clone();
+        if case.framed {
+            // The model is scaled to radius 1: overfill so that only its gaps show the walls.
+            scene.camera = scene.camera.framing(1.0, 1.25);
+        }
         let key = format!("{key}:{:?}", case.environment);
         if current.as_ref().is_none_or(|c| c.0 != key) {
             let packed = PackedScene::new(&scene);
@@ -204,6 +210,14 @@ fn measure(tracer: &mut GpuTracer, packed: &PackedScene, scene: &crate::scene::S
         return Ok(row);
     }
     let params = FrameParams::new(scene, s);
+    if case.framed {
+        // What share of the frame the model covers: its primitives come before the box's.
+        let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
+        let (image, _) = tracer.render(&ids)?;
+        let model_triangles = scene.meshes[0].triangle_count() as f32;
+        let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
+        row.features = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
+    }
     for _ in 0..options.warmup {
         tracer.trace(&params)?;
     }

@@ -86,6 +86,20 @@ pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &
     cases
 }
 
+/// Primary rays only with the camera moved in until the model fills the frame, as in the
+/// vendor's figure (a 4M-triangle mesh filling 1024x1024): every ray meets the mesh's BVH.
+pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], size: u32) -> Vec<Case> {
+    let mut cases = Vec::new();
+    for &n in triangle_counts {
+        let mesh = Arc::new(large_torus_knot(n));
+        cases.push(Case { generated: Some(mesh), framed: true, ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, Accel::Bvh)) });
+    }
+    for source in extra {
+        cases.push(Case { framed: true, ..Case::new("framed", source.clone(), 1, settings(size, 0, Accel::Bvh)) });
+    }
+    cases
+}
+
 /// The cost of each shading feature at `size`, on the BVH: the paper's flat shading as the
 /// baseline, then smooth shading, the environment map, 4 jittered samples, adaptive 4
 /// samples, and textures (on `textured`, e.g. Sponza, when given).

@@ -23,6 +23,10 @@ pub struct BenchArgs {
     /// The cost of each shading feature (smooth, env, spp, adaptive; textures on the first --obj).
     #[arg(long)]
     pub features: bool,
+    /// Primary rays with the camera moved in until the model fills the frame (--triangles
+    /// knots and --obj models at --size): the vendor's comparison.
+    #[arg(long)]
+    pub framed: bool,
     /// Measured frames per row.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
     pub frames: u32,
@@ -59,7 +63,7 @@ pub struct BenchArgs {
     pub charts: Option<PathBuf>,
     /// Draw the charts from these saved --json reports instead of running anything
     /// (with --charts DIR).
-    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "json", "csv"])]
+    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "json", "csv"])]
     pub charts_from: Vec<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
@@ -76,11 +80,14 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
-    if args.paper || !(args.scaling || args.features) {
+    if args.paper || !(args.scaling || args.features || args.framed) {
         cases.extend(paper_tables::paper_cases(&args.resolutions, &args.accel));
     }
     if args.scaling {
         cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &args.accel, args.size, args.bounces));
+    }
+    if args.framed {
+        cases.extend(paper_tables::framed_cases(&args.triangles, &extra, args.size));
     }
     if args.features {
         let textured = extra.first().cloned();

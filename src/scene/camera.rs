@@ -35,6 +35,16 @@ impl Camera {
         CameraBasis { origin: self.position, forward, right: right * half_h * aspect, up: up * half_h }
     }
 
+    /// The same view direction, moved towards the target until a sphere of `radius` around
+    /// the target overfills the frame's height by `overfill` (1 = just touching its edges).
+    pub fn framing(&self, radius: f32, overfill: f32) -> Camera {
+        let dir = (self.position - self.target).normalize_or(Vec3::Z);
+        let half_h = (self.vfov_deg.to_radians() * 0.5).tan();
+        // The sphere's silhouette spans ±radius/dist·(approx.) of the half-height at distance dist.
+        let dist = radius / (half_h * overfill);
+        Camera { position: self.target + dir * dist, ..*self }
+    }
+
     /// Orbit the camera around its target by yaw/pitch (radians) and scale its distance.
     pub fn orbit(&mut self, yaw: f32, pitch: f32, zoom: f32) {
         let offset = self.position - self.target;
