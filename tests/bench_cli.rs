@@ -176,3 +176,24 @@ fn charts_from_needs_a_folder_and_a_report() {
     assert!(stderr.contains("bad.json") && !stderr.contains("panicked"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn framed_series_fills_the_frame_with_the_model() {
+    // The default camera sees the knot in a small part of the frame; the framed series moves
+    // in until the model covers most of it, and says how much.
+    let dir = scratch("framed");
+    let json = dir.join("framed.json");
+    let out = meshtracer(&["bench", "--framed", "--triangles", "2000", "--size", "32", "--frames", "1", "--warmup", "0", "--json", json.to_str().unwrap()], true);
+    assert_success(&out, "bench --framed");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1);
+    let row = &rows[0];
+    assert_eq!(row["series"], "framed");
+    assert_eq!(row["bounces"], 0);
+    let label = row["features"].as_str().unwrap();
+    let percent: f64 = label.trim_start_matches("framed, ").trim_end_matches("% model").parse().unwrap_or_else(|_| panic!("label {label:?}"));
+    assert!((40.0..=100.0).contains(&percent), "the model should cover most of the frame: {label}");
+    assert!(row["gpu_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0) || row["wall_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0));
+    std::fs::remove_dir_all(&dir).ok();
+}
