@@ -40,6 +40,17 @@ impl Default for BuildOptions {
     }
 }
 
+impl BuildOptions {
+    /// What the tracers build with: leaves of at most 2 triangles. On the H100 this traced
+    /// primary rays 7-11% faster than leaves of 4 on 0.2M-4M-triangle meshes (1 gave 13% on
+    /// the 4M knot but doubled the dragon's time; 8 was 18-25% slower) and made no
+    /// difference on the paper's scenes: big meshes pay for triangle bytes more than for
+    /// node visits (docs/BENCHMARKS.md).
+    pub fn for_tracing() -> Self {
+        Self { max_leaf_size: 2, ..Self::default() }
+    }
+}
+
 const MAX_BINS: usize = 32;
 
 /// Subtrees at least this big are split off onto the other thread; below it the fork

@@ -134,7 +134,7 @@ impl PackedScene {
     /// Build every mesh's BVH and pack the scene.
     pub fn new(scene: &Scene) -> Self {
         let mut packed = PackedScene::default();
-        let options = BuildOptions::default();
+        let options = BuildOptions::for_tracing();
         let mut prim_base = 0u32;
         packed.load_textures(scene);
         for mesh in &scene.meshes {
