@@ -492,3 +492,18 @@ fn sah_cost_beats_median_and_single_leaf() {
     let leaf = Bvh::build(few, &options);
     assert!((leaf.sah_cost(&options) - (options.traversal_cost + 3.0 * options.intersection_cost)).abs() < 1e-5);
 }
+
+#[test]
+fn big_parallel_build_fits_small_worker_stacks() {
+    // Rayon workers run stolen work on top of the frames that wait for it, so per-frame
+    // stack use multiplies (a 10M-triangle bench run aborted once on the 16-core GPU
+    // machine; two workers needed more than 256 KB each for that build). Four workers with
+    // 256 KB stacks must build 2M triangles: the builder needed more than 512 KB here before
+    // its bin sets moved to the heap.
+    let mut rng = Rng(21);
+    let tris = soup(&mut rng, 2_000_000, 100.0, 0.3);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(4).stack_size(256 * 1024).build().unwrap();
+    let bvh = pool.install(|| Bvh::build(&tris, &BuildOptions::default()));
+    assert_eq!(bvh.prim_indices.len(), tris.len());
+    assert!(bvh.depth() <= MAX_DEPTH);
+}

@@ -198,8 +198,8 @@ impl Bin {
     const EMPTY: Bin = Bin { bounds: Bounds::EMPTY, count: 0 };
 }
 
-/// The bins of one node, per axis. Lives on the stack and is reused down a subtree; only
-/// the first `n` bins of each axis are in use.
+/// The bins of one node, per axis. Lives on the heap (see `boxed`) and is reused down a
+/// subtree; only the first `n` bins of each axis are in use.
 struct BinSet {
     bins: [[Bin; MAX_BINS]; 3],
     /// A second set for the odd primitives of big ranges (see `add`).
@@ -209,6 +209,18 @@ struct BinSet {
 impl BinSet {
     fn new() -> Self {
         Self { bins: [[Bin::EMPTY; MAX_BINS]; 3], spare: [[Bin::EMPTY; MAX_BINS]; 3] }
+    }
+
+    /// On the heap: a BinSet is about 7 KB, and fork-join frames that each hold some nest
+    /// deeply when rayon's workers steal work while they wait (a 10M-triangle build needed
+    /// more than 256 KB per worker with two threads before the sets moved here, 64 KB after).
+    fn boxed() -> Box<Self> {
+        Box::new(Self::new())
+    }
+
+    fn copy_from(&mut self, o: &BinSet) {
+        self.bins = o.bins;
+        self.spare = o.spare;
     }
 
     fn clear(&mut self, n: usize) {
@@ -424,10 +436,10 @@ impl Builder {
     fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
             let mut nodes = Vec::with_capacity(prims.len() / 2);
-            let child = self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::new());
+            let child = self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed());
             return Fragment { child, len: nodes.len() as u32, chunks: vec![Chunk { offset: 0, nodes }] };
         }
-        let split = self.split(prims, &info, level, &mut BinSet::new());
+        let split = self.split(prims, &info, level, &mut BinSet::boxed());
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
         let right_first = first + split.mid as u32;
         let (mut left, mut right) = rayon::join(
@@ -468,17 +480,18 @@ impl Builder {
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
         if prims.len() >= PARALLEL_BIN_MIN_PRIMS {
-            *bins = prims
+            let reduced = prims
                 .par_chunks(32 * 1024)
                 .map(|chunk| {
-                    let mut b = BinSet::new();
+                    let mut b = BinSet::boxed();
                     b.add(chunk, &grid);
                     b
                 })
-                .reduce(BinSet::new, |mut a, b| {
+                .reduce(BinSet::boxed, |mut a, b| {
                     a.merge(&b, n_bins);
                     a
                 });
+            bins.copy_from(&reduced);
         } else {
             bins.clear(n_bins);
             bins.add(prims, &grid);
