@@ -52,6 +52,45 @@ fn checker_quad_scene(dir: &std::path::Path, cells: u32, distance: f32) -> mesht
     scene
 }
 
+/// A 4x4 DXT1-compressed DDS file of one colour (RGB565), written by hand: the image
+/// crate reads DDS but cannot write it.
+fn write_dxt1_dds(path: &std::path::Path, rgb565: u16) {
+    let mut bytes = b"DDS ".to_vec();
+    let mut header = [0u32; 31];
+    header[0] = 124; // header size
+    header[1] = 0x1 | 0x2 | 0x4 | 0x1000 | 0x80000; // caps, height, width, pixel format, linear size
+    header[2] = 4; // height
+    header[3] = 4; // width
+    header[4] = 8; // bytes of the one block
+    header[18] = 32; // pixel format size
+    header[19] = 0x4; // four-cc
+    header[20] = u32::from_le_bytes(*b"DXT1");
+    header[26] = 0x1000; // texture
+    bytes.extend(header.iter().flat_map(|w| w.to_le_bytes()));
+    bytes.extend(rgb565.to_le_bytes());
+    bytes.extend(rgb565.to_le_bytes());
+    bytes.extend([0u8; 4]); // every texel: colour 0
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn dds_textures_are_read() {
+    // Crytek Sponza's bricks are a DDS file: it must load like PNG and TGA do.
+    let dir = std::env::temp_dir().join(format!("meshtracer-dds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("red.dds");
+    write_dxt1_dds(&path, 0xF800);
+    let m = Material { diffuse: Vec3::ONE, specular: Vec3::ZERO, mirror: 0.0, diffuse_texture: Some(path), ..Material::default() };
+    let mut scene = quad_scene(m, 3.0, Vec3::new(0.0, 0.0, 3.0));
+    scene.meshes[0].texcoords = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+    let packed = PackedScene::new(&scene);
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(packed.warnings.is_empty(), "{:?}", packed.warnings);
+    assert_eq!(packed.textures.infos.len(), 1);
+    let texel = packed.textures.sample(0, Vec2::splat(0.5), 0.0);
+    assert!((texel - glam::Vec4::new(1.0, 0.0, 0.0, 1.0)).abs().max_element() < 0.01, "{texel}");
+}
+
 #[test]
 fn textured_quad_shows_the_checker_texels() {
     let dir = std::env::temp_dir().join(format!("meshtracer-tex-{}", std::process::id()));

@@ -69,7 +69,9 @@ impl ModelLoader {
                         return Err(format!("{} has no triangles", source.label()));
                     }
                     let scene = paper_scene(mesh, model_count, light);
-                    let packed = PackedScene::new(&scene);
+                    let mut packed = PackedScene::new(&scene);
+                    // Textures that could not be read join the loader's warnings in the panel.
+                    let warnings = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
                     Ok(LoadedModel { source, scene, packed, warnings, seconds: started.elapsed().as_secs_f64() })
                 });
                 let _ = tx.send(Message::Done(Box::new(result)));

@@ -164,6 +164,9 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
         let key = format!("{key}:{:?}", case.environment);
         if current.as_ref().is_none_or(|c| c.0 != key) {
             let packed = PackedScene::new(&scene);
+            for w in &packed.warnings {
+                log::warn!("{w}");
+            }
             let tracer = GpuTracer::new(ctx, &packed)?;
             current = Some((key.clone(), packed, tracer));
         }

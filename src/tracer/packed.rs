@@ -164,9 +164,8 @@ impl PackedScene {
                     self.texture_index.insert(path.to_path_buf(), index);
                 }
                 Err(e) => {
-                    let msg = format!("cannot read texture {}: {e}; using the material's Kd instead", path.display());
-                    log::warn!("{msg}");
-                    self.warnings.push(msg);
+                    // Reported by the caller (CLI, panel, bench), once.
+                    self.warnings.push(format!("cannot read texture {}: {e}; using the material's Kd instead", path.display()));
                 }
             }
         }
@@ -178,9 +177,7 @@ impl PackedScene {
         self.environment = source.map(|s| match s {
             EnvironmentSource::Sky => EnvironmentMap::from_rgba8(&sky_image(512, 256)),
             EnvironmentSource::File(path) => load_environment(path).unwrap_or_else(|e| {
-                let msg = format!("{e}; using the generated sky instead");
-                log::warn!("{msg}");
-                self.warnings.push(msg);
+                self.warnings.push(format!("{e}; using the generated sky instead"));
                 EnvironmentMap::from_rgba8(&sky_image(512, 256))
             }),
         });
