@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::bvh::{BuildOptions, Bvh, BvhNode};
 use crate::geometry::Aabb;
 use crate::scene::{EnvironmentSource, Instance, Mesh, Scene};
-use super::textures::{load_environment, sky_image, EnvironmentMap, TextureAtlas};
+use super::textures::{load_environment, EnvironmentMap, TextureAtlas};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
 #[repr(C)]
@@ -175,10 +175,10 @@ impl PackedScene {
     /// cannot be read falls back to the generated sky, with a warning.
     pub fn set_environment(&mut self, source: Option<&EnvironmentSource>) {
         self.environment = source.map(|s| match s {
-            EnvironmentSource::Sky => EnvironmentMap::from_rgba8(&sky_image(512, 256)),
+            EnvironmentSource::Sky => EnvironmentMap::generated_sky(),
             EnvironmentSource::File(path) => load_environment(path).unwrap_or_else(|e| {
                 self.warnings.push(format!("{e}; using the generated sky instead"));
-                EnvironmentMap::from_rgba8(&sky_image(512, 256))
+                EnvironmentMap::generated_sky()
             }),
         });
     }

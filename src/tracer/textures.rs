@@ -185,6 +185,12 @@ impl EnvironmentMap {
         Self { width: img.width(), height: img.height(), texels }
     }
 
+    /// The default sky (`--env sky`, and the fallback for an unreadable file): [`sky_image`]
+    /// at 512x256.
+    pub fn generated_sky() -> Self {
+        Self::from_rgba8(&sky_image(512, 256))
+    }
+
     /// From linear floating-point texels (HDR, EXR).
     pub fn from_rgba32f(img: &image::Rgba32FImage) -> Self {
         let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0], p[1], p[2]))).collect();
