@@ -6,7 +6,7 @@
 //! N spp (N samples on edge pixels, 1 elsewhere), and prints each one's RMSE against the
 //! reference and the camera samples it spent (from the `samples` AOV).
 
-use meshtracer::gpu::{ContextOptions, GpuContext, GpuTracer};
+use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
 use meshtracer::tracer::{Aov, FrameParams, Image, PackedScene, RenderSettings};
 
@@ -22,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     let (scene, _) = load_paper_scene(&model, 1, LightOrbit::default())?;
     let packed = PackedScene::new(&scene);
     let ctx = GpuContext::new(&ContextOptions::default())?;
-    let mut tracer = GpuTracer::new(&ctx, &packed)?;
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
     let base = RenderSettings { width: size, height: size, ..RenderSettings::default() };
     let mut render = |s: RenderSettings| -> anyhow::Result<(Image, f64)> {
         let (img, t) = tracer.render(&FrameParams::new(&scene, s))?;

@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release --example soak -- --frames 20000 --size 64`
 //!
-//! The loop traces the paper's scene with `GpuTracer`, and every `--every` frames changes
+//! The loop traces the paper's scene with `ComputeTracer`, and every `--every` frames changes
 //! the model count (`set_instances`, 1..=27 copies) and the resolution (cycling through
 //! `size`, `size/2`, `size*3/4+1`, `size/4+3`: the output buffers are reallocated) and also reads a
 //! frame back (staging buffers come and go). Every `--report` frames it prints resident
@@ -19,7 +19,7 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Parser;
 use meshtracer::gpu::buffer::GpuBuffer;
-use meshtracer::gpu::{ContextOptions, GpuContext, GpuTracer};
+use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{instances, load_paper_scene, LightOrbit, ModelSource, MAX_MODELS};
 use meshtracer::tracer::{FrameParams, PackedScene, RenderSettings};
 
@@ -105,7 +105,7 @@ fn main() -> anyhow::Result<()> {
     let mut packed = PackedScene::new(&scene);
     let options = ContextOptions { validation: args.validation, sync_validation: args.validation, ..Default::default() };
     let ctx = GpuContext::new(&options)?;
-    let mut tracer = GpuTracer::new(&ctx, &packed)?;
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
     let sizes = [args.size, args.size / 2, args.size * 3 / 4 + 1, args.size / 4 + 3];
     println!(
         "soak: {} frames of {} on {} ({}), sizes {:?}, model count and size change every {} frames",

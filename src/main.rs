@@ -29,8 +29,8 @@ fn main() {
         Some(Command::Render(args)) => cli::render::run(&args),
         Some(Command::Bench(args)) => cli::bench::run(&args),
         Some(Command::Devices) => cli::devices(),
-        Some(Command::View(args)) => meshtracer::app::run(&args),
-        None => meshtracer::app::run(&cli.view),
+        Some(Command::View(args)) => args.options().and_then(|o| meshtracer::app::run(&o)),
+        None => cli.view.options().and_then(|o| meshtracer::app::run(&o)),
     };
     if let Err(e) = result {
         eprintln!("error: {}", one_line(&e));

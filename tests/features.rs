@@ -7,7 +7,7 @@ mod common;
 
 use common::*;
 use glam::{Vec2, Vec3};
-use meshtracer::gpu::GpuTracer;
+use meshtracer::gpu::ComputeTracer;
 use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
 use meshtracer::scene::{EnvironmentSource, Material};
@@ -187,7 +187,7 @@ fn supersampling_matches_cpu_and_accumulation_converges() {
     // Progressive accumulation of 1-spp frames: successive frames differ less and less.
     let packed = PackedScene::new(&scene);
     let ctx = ctx();
-    let mut tracer = GpuTracer::new(&ctx, &packed).unwrap();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
     let mut params = FrameParams::new(&scene, settings(48));
     let mut previous: Option<Image> = None;
     let mut cpu_acc = Image::new(48, 48);

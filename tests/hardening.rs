@@ -21,7 +21,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use ash::vk;
 use meshtracer::gpu::scene_buffers::{check_fits, SceneBuffers};
-use meshtracer::gpu::{ContextOptions, GpuContext, GpuError, GpuTracer};
+use meshtracer::gpu::{ContextOptions, GpuContext, GpuError, ComputeTracer};
 use meshtracer::tracer::packed::{GpuTriangle, GpuTriangleShading};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::tracer::frame::MAX_RESOLUTION;
@@ -203,9 +203,9 @@ fn a_scene_over_the_storage_buffer_range_is_refused_before_upload() {
     };
     check(check_fits(&ctx, &packed), "check_fits");
     check(SceneBuffers::upload(&ctx, &packed).map(drop), "SceneBuffers::upload");
-    let err = GpuTracer::new(&ctx, &packed).err().expect("GpuTracer::new refuses the scene");
-    check(Err(err), "GpuTracer::new");
-    let msg = GpuTracer::new(&ctx, &packed).err().unwrap().to_string();
+    let err = ComputeTracer::with_scene(&ctx, &packed).err().expect("ComputeTracer::new refuses the scene");
+    check(Err(err), "ComputeTracer::with_scene");
+    let msg = ComputeTracer::with_scene(&ctx, &packed).err().unwrap().to_string();
     assert_mentions(&msg, &["triangle buffer", &bytes.to_string(), &limit.to_string()], "message");
     assert!(!msg.contains('\n'), "{msg}");
 
@@ -246,7 +246,7 @@ fn an_output_image_over_the_storage_buffer_range_is_refused() {
     }
     let scene = common::paper(PaperModel::Geosphere, 1);
     let packed = PackedScene::new(&scene);
-    let mut tracer = GpuTracer::new(&ctx, &packed).expect("upload");
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
     let mut params = FrameParams::new(&scene, RenderSettings { width, height, bounces: 0, ..RenderSettings::default() });
     params.instance_count = 0; // if it does trace, every ray misses at once
     let result = tracer.trace(&params);

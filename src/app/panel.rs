@@ -146,15 +146,15 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             ui.label(RichText::new(format!("tracing {} x {}", info.render_size[0], info.render_size[1])).small().weak());
             ui.end_row();
             ui.label("Bounces");
-            ui.add(egui::Slider::new(&mut params.bounces, 0..=MAX_BOUNCES));
+            ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES));
             ui.end_row();
             ui.label("Blend");
-            ui.add(egui::Slider::new(&mut params.blend, 0.0..=1.0).fixed_decimals(2));
+            ui.add(egui::Slider::new(&mut params.settings.blend, 0.0..=1.0).fixed_decimals(2));
             ui.end_row();
             ui.label("Acceleration");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.accel, Accel::Bvh, "BVH");
-                ui.radio_value(&mut params.accel, Accel::Brute, "brute force");
+                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH");
+                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute force");
             });
             ui.end_row();
             ui.label("View");
@@ -417,12 +417,12 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
         egui::Grid::new("shading").num_columns(2).show(ui, |ui| {
             ui.label("Normals");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.base.smooth, false, "flat (paper)");
-                ui.radio_value(&mut params.base.smooth, true, "smooth");
+                ui.radio_value(&mut params.settings.smooth, false, "flat (paper)");
+                ui.radio_value(&mut params.settings.smooth, true, "smooth");
             });
             ui.end_row();
             ui.label("Textures");
-            ui.checkbox(&mut params.base.textures, "map_Kd");
+            ui.checkbox(&mut params.settings.textures, "map_Kd");
             ui.end_row();
             ui.label("Environment");
             let label = |e: &Option<EnvironmentSource>| match e {
@@ -440,21 +440,21 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
             });
             ui.end_row();
             ui.label("Samples/pixel");
-            ui.add(egui::Slider::new(&mut params.base.spp, 1..=MAX_SPP).logarithmic(true));
+            ui.add(egui::Slider::new(&mut params.settings.spp, 1..=MAX_SPP).logarithmic(true));
             ui.end_row();
             ui.label("Adaptive");
-            ui.checkbox(&mut params.base.adaptive, "extra samples on edges only");
+            ui.checkbox(&mut params.settings.adaptive, "extra samples on edges only");
             ui.end_row();
             ui.label("Accumulate");
             ui.checkbox(&mut params.accumulate, "while nothing changes");
             ui.end_row();
         });
-        let spp = params.base.spp as u64;
+        let spp = params.settings.spp as u64;
         let text = format!(
             "{} frame(s) accumulated, {} samples per pixel{}",
             group(info.accumulated_frames as u64),
             group(info.accumulated_frames as u64 * spp),
-            if params.base.adaptive { " on edges" } else { "" }
+            if params.settings.adaptive { " on edges" } else { "" }
         );
         ui.label(RichText::new(text).small().weak());
         ui.checkbox(&mut params.mirror_box, "mirror box (the paper's six planes)");

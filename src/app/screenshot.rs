@@ -93,18 +93,6 @@ pub fn save_png(image: &RgbaImage, path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Turn a window readback (tightly packed, BGRA when `bgra`) into an opaque RGBA image.
-pub fn window_image(mut bytes: Vec<u8>, width: u32, height: u32, bgra: bool) -> Option<RgbaImage> {
-    bytes.truncate(width as usize * height as usize * 4);
-    for px in bytes.chunks_exact_mut(4) {
-        if bgra {
-            px.swap(0, 2);
-        }
-        px[3] = 255;
-    }
-    RgbaImage::from_raw(width, height, bytes)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,12 +114,5 @@ mod tests {
         let err = save_png(&img, Path::new("/nonexistent/folder/x.png")).unwrap_err();
         assert!(err.starts_with("could not write /nonexistent/folder/x.png"), "{err}");
         assert!(!err.contains('\n'));
-    }
-
-    #[test]
-    fn bgra_readback_is_swapped_and_opaque() {
-        let img = window_image(vec![1, 2, 3, 0, 4, 5, 6, 7], 2, 1, true).unwrap();
-        assert_eq!(img.get_pixel(0, 0).0, [3, 2, 1, 255]);
-        assert_eq!(img.get_pixel(1, 0).0, [6, 5, 4, 255]);
     }
 }

@@ -4,8 +4,9 @@
 use glam::Vec3;
 use winit::keyboard::KeyCode;
 
-use crate::cli::args::ViewArgs;
-use crate::scene::paper::{default_camera, LightOrbit, MAX_MODELS};
+pub use crate::gpu::present::PixelRect;
+use crate::scene::paper::{LightOrbit, MAX_MODELS};
+use crate::scene::spec::SceneSpec;
 use crate::scene::{Camera, EnvironmentSource};
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
 
@@ -55,9 +56,10 @@ impl CostMetric {
 pub struct Params {
     pub resolution: Resolution,
     pub custom: [u32; 2],
-    pub bounces: u32,
-    pub blend: f32,
-    pub accel: Accel,
+    /// Bounces, blend, acceleration and the shading features (smooth, textures, spp,
+    /// adaptive): the one copy of each. Width, height and AOV come from `resolution` and
+    /// `view` when a frame is made ([`Params::settings_for`]).
+    pub settings: RenderSettings,
     pub view: ViewMode,
     pub model_count: u32,
     pub light: LightOrbit,
@@ -67,8 +69,6 @@ pub struct Params {
     pub camera: Camera,
     pub vsync: bool,
     pub panel_visible: bool,
-    /// Shading features (smooth, textures, spp, adaptive) and the rest of the frame settings.
-    pub base: RenderSettings,
     /// What misses see: None (black, the paper), the generated sky, or a file.
     pub environment: Option<EnvironmentSource>,
     /// The environment file given with `--env`, offered in the panel.
@@ -82,31 +82,29 @@ pub struct Params {
 }
 
 impl Params {
-    /// The starting parameters from the command line. A scripted run (`--frames`) starts
+    /// The starting parameters from the scene spec. A scripted run (`--frames`) starts
     /// with the light paused at `--light-angle`, so its screenshots match `render`.
-    pub fn from_args(args: &ViewArgs) -> Self {
-        let s = &args.scene;
+    pub fn new(spec: &SceneSpec, scripted: bool) -> Self {
+        let s = &spec.settings;
         let resolution = if s.width == s.height && PRESETS.contains(&s.width) { Resolution::Square(s.width) } else { Resolution::Custom };
+        let settings = RenderSettings { bounces: s.bounces.min(MAX_BOUNCES), blend: s.blend.clamp(0.0, 1.0), aov: Aov::Color, ..*s };
         Self {
             resolution,
             custom: [s.width, s.height],
-            bounces: s.bounces.min(MAX_BOUNCES),
-            blend: s.blend.clamp(0.0, 1.0),
-            accel: s.accel,
+            settings,
             view: ViewMode::Color,
-            model_count: s.models.clamp(1, MAX_MODELS),
-            light: s.light(),
+            model_count: spec.models.clamp(1, MAX_MODELS),
+            light: spec.light,
             light_speed: 30.0,
-            light_paused: args.frames.is_some(),
-            camera: s.camera(default_camera()),
+            light_paused: scripted,
+            camera: spec.camera.camera(),
             vsync: true,
             panel_visible: true,
-            base: s.settings(Aov::Color),
-            environment: EnvironmentSource::parse(&s.env),
-            environment_file: EnvironmentSource::parse(&s.env).filter(|e| *e != EnvironmentSource::Sky),
-            accumulate: args.frames.is_none(),
-            home_camera: s.camera(default_camera()),
-            mirror_box: !s.no_box,
+            environment: spec.environment.clone(),
+            environment_file: spec.environment.clone().filter(|e| *e != EnvironmentSource::Sky),
+            accumulate: !scripted,
+            home_camera: spec.camera.camera(),
+            mirror_box: spec.mirror_box,
         }
     }
 
@@ -121,13 +119,13 @@ impl Params {
     }
 
     /// The frame settings for an image area of `area` physical pixels.
-    pub fn settings(&self, area: [u32; 2]) -> RenderSettings {
+    pub fn settings_for(&self, area: [u32; 2]) -> RenderSettings {
         let [width, height] = self.render_size(area);
         let aov = match self.view {
             ViewMode::Color => Aov::Color,
             ViewMode::Cost(_) => Aov::Cost,
         };
-        RenderSettings { width, height, bounces: self.bounces, blend: self.blend, accel: self.accel, aov, ..self.base }
+        RenderSettings { width, height, aov, ..self.settings }
     }
 
     /// Move the light along its orbit by `dt` seconds (unless paused).
@@ -196,13 +194,13 @@ impl Params {
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
-            KeyCode::PageUp => self.bounces = (self.bounces + 1).min(MAX_BOUNCES),
-            KeyCode::PageDown => self.bounces = self.bounces.saturating_sub(1),
-            KeyCode::BracketLeft => self.blend = ((self.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
-            KeyCode::BracketRight => self.blend = ((self.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
+            KeyCode::PageUp => self.settings.bounces = (self.settings.bounces + 1).min(MAX_BOUNCES),
+            KeyCode::PageDown => self.settings.bounces = self.settings.bounces.saturating_sub(1),
+            KeyCode::BracketLeft => self.settings.blend = ((self.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
+            KeyCode::BracketRight => self.settings.blend = ((self.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
             KeyCode::Equal | KeyCode::NumpadAdd => self.model_count = (self.model_count + 1).min(MAX_MODELS),
             KeyCode::Minus | KeyCode::NumpadSubtract => self.model_count = self.model_count.saturating_sub(1).max(1),
-            KeyCode::KeyA => self.accel = if self.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh },
+            KeyCode::KeyA => self.settings.accel = if self.settings.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh },
             KeyCode::KeyC => {
                 self.view = match self.view {
                     ViewMode::Color => ViewMode::Cost(CostMetric::Nodes),
@@ -226,15 +224,6 @@ impl Params {
     }
 }
 
-/// A rectangle in physical pixels: x, y of the top-left corner, width, height.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct PixelRect {
-    pub x: i32,
-    pub y: i32,
-    pub width: u32,
-    pub height: u32,
-}
-
 /// The largest rectangle of the image's aspect centred in `area` (letterbox).
 pub fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
     if image[0] == 0 || image[1] == 0 || area.width == 0 || area.height == 0 {
@@ -246,37 +235,25 @@ pub fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
     PixelRect { x: area.x + ((area.width - width) / 2) as i32, y: area.y + ((area.height - height) / 2) as i32, width, height }
 }
 
-/// Parse `--window WIDTHxHEIGHT`.
-pub fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
-    let bad = || format!("--window '{s}' is not WIDTHxHEIGHT (e.g. 1280x800)");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if !(64..=16384).contains(&w) || !(64..=16384).contains(&h) {
-        return Err(format!("--window {w}x{h} is out of range (64..=16384 per side)"));
-    }
-    Ok([w, h])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cli::args::Cli;
-    use clap::Parser;
 
-    fn args(extra: &[&str]) -> ViewArgs {
-        let mut argv = vec!["meshtracer"];
-        argv.extend_from_slice(extra);
-        Cli::parse_from(argv).view
+    /// The tool's parameters for the default spec changed by `edit` (an interactive run).
+    fn params(edit: impl FnOnce(&mut SceneSpec)) -> Params {
+        let mut spec = SceneSpec::default();
+        edit(&mut spec);
+        Params::new(&spec, false)
     }
 
     #[test]
     fn command_line_sets_the_start() {
-        let p = Params::from_args(&args(&["--width", "512", "--height", "512", "--bounces", "3"]));
+        let p = params(|s| s.settings = RenderSettings { width: 512, height: 512, bounces: 3, ..s.settings });
         assert_eq!(p.resolution, Resolution::Square(512));
-        assert_eq!(p.bounces, 3);
+        assert_eq!(p.settings.bounces, 3);
         assert!(!p.light_paused);
-        let p = Params::from_args(&args(&["--width", "128", "--height", "96", "--frames", "3"]));
+        let spec = SceneSpec { settings: RenderSettings { width: 128, height: 96, ..Default::default() }, ..Default::default() };
+        let p = Params::new(&spec, true);
         assert_eq!(p.resolution, Resolution::Custom);
         assert_eq!(p.render_size([10, 10]), [128, 96]);
         assert!(p.light_paused, "scripted runs keep the light still");
@@ -284,27 +261,27 @@ mod tests {
 
     #[test]
     fn resolution_modes() {
-        let mut p = Params::from_args(&args(&[]));
+        let mut p = params(|_| {});
         p.resolution = Resolution::MatchWindow;
         assert_eq!(p.render_size([800, 600]), [800, 600]);
         assert_eq!(p.render_size([0, 600]), [1, 600]);
         assert_eq!(p.render_size([100_000, 5]), [MAX_RESOLUTION, 5]);
         p.resolution = Resolution::Square(2048);
-        assert_eq!(p.settings([1, 1]).width, 2048);
+        assert_eq!(p.settings_for([1, 1]).width, 2048);
     }
 
     #[test]
     fn keys_change_parameters_within_range() {
-        let mut p = Params::from_args(&args(&["--bounces", "8", "--blend", "1"]));
+        let mut p = params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
         let mut prev = p.resolution;
         p.apply_key(KeyCode::PageUp, false, false, &mut prev);
-        assert_eq!(p.bounces, 8);
+        assert_eq!(p.settings.bounces, 8);
         p.apply_key(KeyCode::PageDown, false, false, &mut prev);
-        assert_eq!(p.bounces, 7);
+        assert_eq!(p.settings.bounces, 7);
         p.apply_key(KeyCode::BracketRight, false, false, &mut prev);
-        assert_eq!(p.blend, 1.0);
+        assert_eq!(p.settings.blend, 1.0);
         p.apply_key(KeyCode::BracketLeft, false, false, &mut prev);
-        assert!((p.blend - 0.95).abs() < 1e-6);
+        assert!((p.settings.blend - 0.95).abs() < 1e-6);
         assert_eq!(p.apply_key(KeyCode::F12, false, false, &mut prev), KeyAction::ScreenshotTrace);
         assert_eq!(p.apply_key(KeyCode::F12, true, false, &mut prev), KeyAction::ScreenshotWindow);
         assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev), KeyAction::Quit);
@@ -321,7 +298,7 @@ mod tests {
 
     #[test]
     fn light_moves_unless_paused() {
-        let mut p = Params::from_args(&args(&["--light-angle", "350"]));
+        let mut p = params(|s| s.light.angle_deg = 350.0);
         p.light_speed = 20.0;
         p.advance_light(1.0);
         assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
@@ -336,12 +313,5 @@ mod tests {
         assert_eq!(fit_rect([100, 100], area), PixelRect { x: 250, y: 0, width: 300, height: 300 });
         assert_eq!(fit_rect([800, 200], area), PixelRect { x: 200, y: 100, width: 400, height: 100 });
         assert_eq!(fit_rect([10, 10], PixelRect { width: 0, ..area }).width, 0);
-    }
-
-    #[test]
-    fn window_size_parses() {
-        assert_eq!(parse_window_size("640x480"), Ok([640, 480]));
-        assert!(parse_window_size("640").is_err());
-        assert!(parse_window_size("0x5").unwrap_err().contains("out of range"));
     }
 }

@@ -11,39 +11,44 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::{GpuContext, GpuError, GpuTracer};
-use crate::scene::paper::{instances, paper_scene, prepare_model, LightOrbit, ModelSource};
+use crate::gpu::{GpuContext, GpuError, ComputeTracer};
+use crate::scene::paper::{prepare_model, ModelSource};
+use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
-use crate::tracer::{Accel, Aov, FrameParams, PackedScene, RenderSettings};
+use crate::tracer::{budget, Aov, FrameParams, PackedScene, RenderSettings};
 
-/// Brute-force frames asking for more ray-triangle tests than this are skipped with a note
-/// (minutes per frame otherwise).
-pub const MAX_BRUTE_TESTS_PER_FRAME: f64 = 2.0e12;
-
-/// One benchmark configuration.
+/// One benchmark configuration: a scene spec and how to report it.
 #[derive(Clone, Debug)]
 pub struct Case {
     /// The group this row belongs to ("table1", "triangles", ...).
     pub series: String,
-    pub model: ModelSource,
+    /// What is traced: model, copies, camera (framed or not), environment, settings.
+    pub spec: SceneSpec,
     /// Generated meshes carry their own mesh (large procedural ones).
     pub generated: Option<Arc<Mesh>>,
-    pub models: u32,
-    pub settings: RenderSettings,
     /// The paper's figures for this row (fps, ms), when it has them.
     pub paper: Option<(f64, f64)>,
-    /// Environment map (None: the paper's black background).
-    pub environment: Option<EnvironmentSource>,
     /// Label of the shading features switched on, for the feature series.
     pub features: String,
-    /// Move the camera in until the model fills the frame (the `framed` series).
-    pub framed: bool,
 }
 
 impl Case {
     /// A row of `series` on a paper model with default shading.
     pub fn new(series: &str, model: ModelSource, models: u32, settings: RenderSettings) -> Self {
-        Self { series: series.into(), model, generated: None, models, settings, paper: None, environment: None, features: String::new(), framed: false }
+        let spec = SceneSpec { model, models, settings, ..SceneSpec::default() };
+        Self { series: series.into(), spec, generated: None, paper: None, features: String::new() }
+    }
+
+    /// The same row with the camera moved in until the model fills the frame.
+    pub fn framed(mut self) -> Self {
+        self.spec.camera.framed = true;
+        self
+    }
+
+    /// The same row with misses seeing `environment`.
+    pub fn with_environment(mut self, environment: Option<EnvironmentSource>) -> Self {
+        self.spec.environment = environment;
+        self
     }
 }
 
@@ -136,11 +141,11 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
     let mut rows = Vec::with_capacity(cases.len());
     let mut loaded: Option<Loaded> = None;
     // The uploaded scene is reused while mesh (and so BVH) stays the same.
-    let mut current: Option<(String, PackedScene, GpuTracer)> = None;
+    let mut current: Option<(String, PackedScene, ComputeTracer)> = None;
     for (i, case) in cases.iter().enumerate() {
         let key = match &case.generated {
             Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
-            None => format!("{:?}", case.model),
+            None => format!("{:?}", case.spec.model),
         };
         if loaded.as_ref().is_none_or(|l| l.key != key) {
             current = None;
@@ -150,28 +155,23 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
                     prepare_model(&mut m);
                     m
                 }
-                None => case.model.load()?.0,
+                None => case.spec.model.load()?.0,
             };
             loaded = Some(Loaded { key: key.clone(), mesh });
         }
         let mesh = &loaded.as_ref().unwrap().mesh;
-        let mut scene = paper_scene(mesh.clone(), case.models, LightOrbit::default());
-        scene.environment = case.environment.clone();
-        if case.framed {
-            // The model is scaled to radius 1: overfill so that only its gaps show the walls.
-            scene.camera = scene.camera.framing(1.0, 1.25);
-        }
-        let key = format!("{key}:{:?}", case.environment);
+        let scene = case.spec.scene_with(mesh.clone());
+        let key = format!("{key}:{:?}:{}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {
             let packed = PackedScene::new(&scene);
             for w in &packed.warnings {
                 log::warn!("{w}");
             }
-            let tracer = GpuTracer::new(ctx, &packed)?;
+            let tracer = ComputeTracer::with_scene(ctx, &packed)?;
             current = Some((key.clone(), packed, tracer));
         }
         let (_, packed, tracer) = current.as_mut().unwrap();
-        packed.set_instances(&instances(case.models));
+        packed.set_instances(&scene.instances);
         tracer.set_instances(&packed.instances)?;
         let row = measure(tracer, packed, &scene, case, options)?;
         progress(i, &row);
@@ -180,17 +180,17 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
     Ok(rows)
 }
 
-fn measure(tracer: &mut GpuTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions) -> Result<Row, GpuError> {
-    let s = case.settings;
+fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions) -> Result<Row, GpuError> {
+    let s = case.spec.settings;
     let triangles = scene.triangle_count() as u64;
     let rays = s.max_rays();
     let mut row = Row {
         series: case.series.clone(),
         model: match &case.generated {
             Some(m) => m.name.clone(),
-            None => case.model.label(),
+            None => case.spec.model.label(),
         },
-        models: case.models,
+        models: case.spec.models,
         triangles,
         width: s.width,
         height: s.height,
@@ -208,12 +208,12 @@ fn measure(tracer: &mut GpuTracer, packed: &PackedScene, scene: &crate::scene::S
         paper_ms: case.paper.map(|p| p.1),
         skipped: None,
     };
-    if s.accel == Accel::Brute && rays as f64 * triangles as f64 > MAX_BRUTE_TESTS_PER_FRAME {
-        row.skipped = Some(format!("brute force would test {:.1e} ray-triangle pairs per frame", rays as f64 * triangles as f64));
+    if let Some(why) = budget::refusal(&s, triangles) {
+        row.skipped = Some(why);
         return Ok(row);
     }
     let params = FrameParams::new(scene, s);
-    if case.framed {
+    if case.spec.camera.framed {
         // What share of the frame the model covers: its primitives come before the box's.
         let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
         let (image, _) = tracer.render(&ids)?;

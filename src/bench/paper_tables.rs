@@ -92,10 +92,10 @@ pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], size: u32)
     let mut cases = Vec::new();
     for &n in triangle_counts {
         let mesh = Arc::new(large_torus_knot(n));
-        cases.push(Case { generated: Some(mesh), framed: true, ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, Accel::Bvh)) });
+        cases.push(Case { generated: Some(mesh), ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, Accel::Bvh)) }.framed());
     }
     for source in extra {
-        cases.push(Case { framed: true, ..Case::new("framed", source.clone(), 1, settings(size, 0, Accel::Bvh)) });
+        cases.push(Case::new("framed", source.clone(), 1, settings(size, 0, Accel::Bvh)).framed());
     }
     cases
 }
@@ -115,11 +115,7 @@ pub fn feature_cases(size: u32, model: ModelSource, textured: Option<ModelSource
     ];
     let mut cases: Vec<Case> = variants
         .iter()
-        .map(|(label, s, env)| Case {
-            environment: env.then_some(EnvironmentSource::Sky),
-            features: label.to_string(),
-            ..Case::new("features", model.clone(), 1, *s)
-        })
+        .map(|(label, s, env)| Case { features: label.to_string(), ..Case::new("features", model.clone(), 1, *s) }.with_environment(env.then_some(EnvironmentSource::Sky)))
         .collect();
     if let Some(t) = textured {
         cases.push(Case { features: "untextured".into(), ..Case::new("features", t.clone(), 1, base) });

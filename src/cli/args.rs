@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 use crate::scene::paper::{LightOrbit, ModelSource, MAX_MODELS};
+use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::EnvironmentSource;
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
@@ -122,68 +123,27 @@ fn parse_fov(s: &str) -> Result<f32, String> {
 }
 
 impl SceneArgs {
-    /// Where the model comes from.
-    pub fn model_source(&self) -> ModelSource {
-        ModelSource::parse(&self.model)
-    }
-
-    /// The environment map asked for; a file that cannot be read is an error here, before
-    /// any work.
-    pub fn environment(&self) -> anyhow::Result<Option<EnvironmentSource>> {
-        let env = EnvironmentSource::parse(&self.env);
-        if let Some(EnvironmentSource::File(p)) = &env {
-            crate::tracer::textures::load_environment(p)?;
-        }
-        Ok(env)
-    }
-
-    /// Load the model and build the scene these flags describe; warnings are returned.
-    pub fn load_scene(&self) -> anyhow::Result<(crate::scene::Scene, Vec<String>)> {
-        let environment = self.environment()?;
-        let (mut scene, warnings) = crate::scene::paper::load_paper_scene(&self.model_source(), self.models, self.light())?;
-        if self.no_box {
-            scene.instances.retain(|i| i.mesh == 0);
-        }
-        scene.camera = self.camera(scene.camera);
-        if scene.camera.position.distance(scene.camera.target) < 1e-6 {
-            anyhow::bail!("--eye and --target are the same point: the camera has no direction");
-        }
-        scene.environment = environment;
-        Ok((scene, warnings))
-    }
-
-    /// `camera` with the --eye, --target and --fov overrides applied.
-    pub fn camera(&self, mut camera: crate::scene::Camera) -> crate::scene::Camera {
-        if let Some(eye) = self.eye {
-            camera.position = eye;
-        }
-        if let Some(target) = self.target {
-            camera.target = target;
-        }
-        if let Some(fov) = self.fov {
-            camera.vfov_deg = fov;
-        }
-        camera
-    }
-
-    /// The light orbit with the requested angle.
-    pub fn light(&self) -> LightOrbit {
-        LightOrbit { angle_deg: self.light_angle, ..LightOrbit::default() }
-    }
-
-    /// Frame settings for `aov`.
-    pub fn settings(&self, aov: Aov) -> RenderSettings {
-        RenderSettings {
-            width: self.width,
-            height: self.height,
-            bounces: self.bounces,
-            blend: self.blend,
-            accel: self.accel,
-            aov,
-            smooth: self.smooth,
-            textures: !self.no_textures,
-            spp: self.spp,
-            adaptive: self.adaptive,
+    /// The scene spec these flags describe, writing `aov`.
+    pub fn spec(&self, aov: Aov) -> SceneSpec {
+        SceneSpec {
+            model: ModelSource::parse(&self.model),
+            models: self.models,
+            mirror_box: !self.no_box,
+            light: LightOrbit { angle_deg: self.light_angle, ..LightOrbit::default() },
+            camera: CameraSpec { eye: self.eye, target: self.target, fov: self.fov, framed: false },
+            environment: EnvironmentSource::parse(&self.env),
+            settings: RenderSettings {
+                width: self.width,
+                height: self.height,
+                bounces: self.bounces,
+                blend: self.blend,
+                accel: self.accel,
+                aov,
+                smooth: self.smooth,
+                textures: !self.no_textures,
+                spp: self.spp,
+                adaptive: self.adaptive,
+            },
         }
     }
 }
@@ -208,6 +168,22 @@ pub struct ViewArgs {
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub validation: bool,
+}
+
+impl ViewArgs {
+    /// The tool's options: the CLI sits on top of the app, not the other way round.
+    pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
+        let window = crate::app::parse_window_size(&self.window).map_err(anyhow::Error::msg)?;
+        Ok(crate::app::ViewOptions {
+            spec: self.scene.spec(Aov::Color),
+            device: self.scene.device,
+            frames: self.frames,
+            screenshot: self.screenshot.clone(),
+            screenshot_ui: self.screenshot_ui.clone(),
+            window,
+            validation: self.validation,
+        })
+    }
 }
 
 /// `meshtracer render`.

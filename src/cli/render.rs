@@ -5,7 +5,7 @@ use std::io::IsTerminal;
 use anyhow::{bail, Context};
 
 use super::args::RenderArgs;
-use crate::gpu::{ContextOptions, GpuContext, GpuTracer};
+use crate::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use crate::tracer::heat_map::heat_map;
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
 
@@ -17,9 +17,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if !is_exr && !heat_png && args.aov != Aov::Color {
         bail!("the {} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr", args.aov);
     }
-    let settings = args.scene.settings(args.aov);
-    settings.validate().map_err(anyhow::Error::msg)?;
-    let source = args.scene.model_source();
+    let spec = args.scene.spec(args.aov);
+    spec.validate().map_err(anyhow::Error::msg)?;
+    let settings = spec.settings;
+    let source = &spec.model;
     // Progress on a terminal's stderr: big meshes take seconds to load and to build their
     // BVH. Scripts reading stderr get only warnings and the one-line error.
     let progress = std::io::stderr().is_terminal();
@@ -27,7 +28,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if progress {
         eprintln!("loading {} ...", source.label());
     }
-    let (scene, warnings) = args.scene.load_scene()?;
+    let (scene, warnings) = spec.load()?;
     if progress {
         eprintln!("loaded {} triangles in {:.2} s; building the BVH ...", scene.triangle_count(), started.elapsed().as_secs_f64());
     }
@@ -47,7 +48,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     } else {
         let options = ContextOptions { validation: args.validation, device_index: args.scene.device, ..Default::default() };
         let ctx = GpuContext::new(&options)?;
-        let mut tracer = GpuTracer::new(&ctx, &packed)?;
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
         let (image, timing) = tracer.render(&params)?;
         let messages = ctx.validation_messages();
         if !messages.is_empty() {
@@ -75,7 +76,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         settings.width,
         settings.height,
         source.label(),
-        args.scene.models,
+        spec.models,
         scene.triangle_count(),
         settings.bounces,
         settings.accel,

@@ -55,6 +55,8 @@ pub struct DeviceInfo {
     pub api_version: String,
     pub max_storage_buffer_range: u64,
     pub max_compute_work_group_count: [u32; 3],
+    /// Largest side of a 2D image (egui's texture limit).
+    pub max_image_dimension_2d: u32,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period_ns: f32,
     /// Valid bits of the queue's timestamps (0 = no timestamps).
@@ -338,8 +340,11 @@ impl GpuContext {
         result
     }
 
-    /// Wait until the GPU is idle (before freeing resources it may still use).
+    /// Wait until the GPU is idle (before freeing resources it may still use). Holds the
+    /// queue lock: `vkDeviceWaitIdle` needs every queue externally synchronized.
     pub fn wait_idle(&self) -> Result<(), GpuError> {
+        let _guard = self.queue_lock.lock().unwrap();
+        // SAFETY: the queue lock is held, so no other thread uses the queue meanwhile.
         unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
     }
 }
@@ -420,6 +425,7 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
         max_compute_work_group_count: props.limits.max_compute_work_group_count,
+        max_image_dimension_2d: props.limits.max_image_dimension2_d,
         timestamp_period_ns: props.limits.timestamp_period,
         timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,
         device_local_bytes,

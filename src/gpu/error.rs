@@ -23,6 +23,8 @@ pub enum GpuError {
     Allocation { what: &'static str, source: gpu_allocator::AllocationError },
     #[error("the scene does not fit this GPU: the {buffer} buffer needs {bytes} bytes but the device allows {limit} per storage buffer")]
     SceneTooLarge { buffer: &'static str, bytes: u64, limit: u64 },
+    #[error("the tracer is not ready: {0}")]
+    NotReady(&'static str),
 }
 
 impl GpuError {

@@ -1,17 +1,20 @@
 //! The Vulkan backend: instance and device ([`context`]), memory and buffers ([`buffer`]),
-//! GPU timestamps ([`timer`]), the scene's device buffers ([`scene_buffers`]), the trace
-//! compute pass ([`trace_pass`]) and the headless tracer built from them ([`tracer`]).
-//! Nothing here knows about windows; the app adds the swapchain on top.
+//! named pipeline barriers ([`barrier`]), GPU timestamps ([`timer`]), the scene's device
+//! buffers ([`scene_buffers`]), the trace compute pass ([`trace_pass`]) and the compute
+//! tracer built from them ([`compute_tracer`]), and presentation to a window ([`present`]:
+//! surface, swapchain, composite, egui pass). Nothing outside this folder calls Vulkan.
 
+pub mod barrier;
 pub mod buffer;
+pub mod compute_tracer;
 pub mod context;
 pub mod error;
+pub mod image;
+pub mod present;
 pub mod scene_buffers;
-pub mod swapchain;
 pub mod timer;
 pub mod trace_pass;
-pub mod tracer;
 
+pub use compute_tracer::{ComputeTracer, TraceTiming};
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
 pub use error::GpuError;
-pub use tracer::{GpuTracer, TraceTiming};

@@ -1,10 +1,12 @@
 //! The trace pass: the compute pipeline running `shaders/trace.comp`, its descriptor set
 //! (scene buffers + output buffers) and the recording of one frame's dispatches.
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use ash::vk;
 
+use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
@@ -122,23 +124,23 @@ impl TracePass {
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
-    /// Record adaptive sampling's pre-pass (primary-hit ids of the whole frame) and the
-    /// barrier that makes them visible to the main pass. Needed once per frame before
-    /// `record` when `settings.adaptive` is on.
-    pub fn record_id_pass(&self, cmd: vk::CommandBuffer, params: &FrameParams) {
-        let mut pc = params.push_constants(0);
-        pc.dims[3] |= crate::tracer::frame::flags::ID_PASS;
-        self.dispatch(cmd, &pc, params.settings.width, params.settings.height);
-        let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
-        unsafe {
-            self.ctx.device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+    /// Record the trace of rows `rows` of a frame, with the barriers it needs: after the
+    /// last trace wrote (accumulation reads what it wrote) and copies read the outputs, and
+    /// between adaptive sampling's pre-pass and the main pass. The band starting at row 0
+    /// runs the pre-pass (primary-hit ids of the whole frame) when `settings.adaptive` is
+    /// on. The outputs are left as `Access::ComputeWrite`.
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, rows: Range<u32>) {
+        let device = &self.ctx.device;
+        let s = &params.settings;
+        barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
+        if rows.start == 0 && s.adaptive {
+            let mut pc = params.push_constants(0);
+            pc.dims[3] |= crate::tracer::frame::flags::ID_PASS;
+            self.dispatch(cmd, &pc, s.width, s.height);
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead]);
         }
-    }
-
-    /// Record the dispatch for rows `first_row .. first_row + rows` of the frame.
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, first_row: u32, rows: u32) {
-        let pc = params.push_constants(first_row);
-        self.dispatch(cmd, &pc, params.settings.width, rows);
+        let pc = params.push_constants(rows.start);
+        self.dispatch(cmd, &pc, s.width, rows.len() as u32);
     }
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, width: u32, rows: u32) {

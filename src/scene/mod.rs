@@ -5,6 +5,7 @@ pub mod camera;
 pub mod obj;
 pub mod paper;
 pub mod primitives;
+pub mod spec;
 
 use std::path::PathBuf;
 
@@ -180,6 +181,18 @@ impl Scene {
     /// Vertices in the world, counting each instance.
     pub fn vertex_count(&self) -> usize {
         self.instances.iter().map(|i| self.meshes[i.mesh].vertex_count()).sum()
+    }
+
+    /// The scene without the paper's mirror box: only the model instances stay, so an
+    /// environment map is seen around the models and in their reflections.
+    pub fn without_box(mut self) -> Self {
+        self.remove_box();
+        self
+    }
+
+    /// Take the paper's mirror box out of the instance list (see [`Scene::without_box`]).
+    pub fn remove_box(&mut self) {
+        self.instances.retain(|i| i.mesh == paper::MODEL_MESH);
     }
 
     /// World-space bounding box of all instances.

@@ -216,22 +216,25 @@ pub fn default_camera() -> Camera {
     Camera { position: Vec3::new(2.2, 1.5, 3.3), target: Vec3::new(0.0, 0.0, 0.0), up: Vec3::Y, vfov_deg: 60.0 }
 }
 
+/// The model's index in the paper scene's mesh list; the mirror box is [`MIRROR_BOX_MESH`].
+pub const MODEL_MESH: usize = 0;
+/// The mirror box's index in the paper scene's mesh list.
+pub const MIRROR_BOX_MESH: usize = 1;
+
 /// Instances for `model_count` copies: the models (mesh 0), then the box (mesh 1). Models
 /// come first so their hits shorten the ray before the box, which every ray meets.
 pub fn instances(model_count: u32) -> Vec<Instance> {
     model_offsets(model_count)
         .into_iter()
-        .map(|t| Instance { mesh: 0, translation: t, scale: 1.0 })
-        .chain(std::iter::once(Instance { mesh: 1, translation: Vec3::ZERO, scale: 1.0 }))
+        .map(|t| Instance { mesh: MODEL_MESH, translation: t, scale: 1.0 })
+        .chain(std::iter::once(Instance { mesh: MIRROR_BOX_MESH, translation: Vec3::ZERO, scale: 1.0 }))
         .collect()
 }
 
 /// The paper's scene without its mirror box: the model(s) alone, so that an environment
 /// map is seen around them and in their reflections.
 pub fn open_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
-    let mut scene = paper_scene(model, model_count, light);
-    scene.instances.retain(|i| i.mesh == 0);
-    scene
+    paper_scene(model, model_count, light).without_box()
 }
 
 /// The paper's scene around an already prepared model mesh.

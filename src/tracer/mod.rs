@@ -2,6 +2,7 @@
 //! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout), the
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
+pub mod budget;
 pub mod cpu;
 pub mod frame;
 pub mod heat_map;

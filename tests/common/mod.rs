@@ -4,7 +4,7 @@
 use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
-use meshtracer::gpu::{ContextOptions, GpuContext, GpuTracer};
+use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
@@ -72,7 +72,7 @@ pub fn render_both_with(scene: &Scene, settings: RenderSettings, tweak: impl Fn(
     let mut params = FrameParams::new(scene, settings);
     tweak(&mut params);
     let ctx = ctx();
-    let mut tracer = GpuTracer::new(&ctx, &packed).expect("upload");
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
     let (gpu, _) = tracer.render(&params).expect("trace");
     drop(tracer);
     assert_validation_clean(&ctx);

@@ -1,6 +1,4 @@
-//! The window's side of Vulkan: the surface and its swapchain (with a view and a
-//! render-finished semaphore per image), and [`GpuImage`], a device-local 2D image for the
-//! traced picture on its way to the screen.
+//! The surface and its swapchain, with a view and a render-finished semaphore per image.
 //!
 //! One render-finished semaphore per swapchain *image*, not per frame in flight: a
 //! semaphore waited on by a present can only be reused once that image is acquired again,
@@ -9,11 +7,9 @@
 use std::sync::Arc;
 
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
-use gpu_allocator::MemoryLocation;
-
-use super::context::GpuContext;
-use super::error::{GpuError, VkContext};
+use crate::gpu::context::GpuContext;
+use crate::gpu::error::{GpuError, VkContext};
+use crate::gpu::image::color_range;
 
 /// Surface formats the traced pixels can be copied into unchanged (no sRGB encode).
 pub const UNORM_FORMATS: [vk::Format; 2] = [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM];
@@ -231,82 +227,13 @@ impl Swapchain {
 impl Drop for Swapchain {
     fn drop(&mut self) {
         unsafe {
-            let _ = self.ctx.device.device_wait_idle();
+            let _ = self.ctx.wait_idle();
             self.destroy_swapchain();
             for sem in self.render_finished.drain(..) {
                 self.ctx.device.destroy_semaphore(sem, None);
             }
             self.surface_loader.destroy_surface(self.surface, None);
         }
-    }
-}
-
-/// The whole colour subresource of a single-level 2D image.
-pub fn color_range() -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 }
-}
-
-/// The colour layer of a single-level 2D image, for copies and blits.
-pub fn color_layers() -> vk::ImageSubresourceLayers {
-    vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 }
-}
-
-/// A device-local 2D image with one mip level; freed on drop.
-pub struct GpuImage {
-    ctx: Arc<GpuContext>,
-    pub image: vk::Image,
-    allocation: Option<Allocation>,
-    pub format: vk::Format,
-    pub width: u32,
-    pub height: u32,
-}
-
-impl GpuImage {
-    /// Create a `width` x `height` image of `format` with optimal tiling.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags, name: &'static str) -> Result<Self, GpuError> {
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(format)
-            .extent(vk::Extent3D { width, height, depth: 1 })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        let device = &ctx.device;
-        let image = unsafe { device.create_image(&info, None) }.during("creating an image")?;
-        let requirements = unsafe { device.get_image_memory_requirements(image) };
-        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
-            name,
-            requirements,
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
-        let allocation = match allocation {
-            Ok(a) => a,
-            Err(source) => {
-                unsafe { device.destroy_image(image, None) };
-                return Err(GpuError::Allocation { what: name, source });
-            }
-        };
-        if let Err(r) = unsafe { device.bind_image_memory(image, allocation.memory(), allocation.offset()) } {
-            let _ = ctx.allocator().free(allocation);
-            unsafe { device.destroy_image(image, None) };
-            return Err(GpuError::vk("binding image memory", r));
-        }
-        Ok(Self { ctx: ctx.clone(), image, allocation: Some(allocation), format, width, height })
-    }
-}
-
-impl Drop for GpuImage {
-    fn drop(&mut self) {
-        if let Some(a) = self.allocation.take() {
-            let _ = self.ctx.allocator().free(a);
-        }
-        unsafe { self.ctx.device.destroy_image(self.image, None) };
     }
 }
 

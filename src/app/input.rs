@@ -1,0 +1,92 @@
+//! Mouse and keyboard state between window events: the camera drag, the cursor, the
+//! modifier keys. Whether the pointer is over the panel is decided from the cursor of the
+//! latest cursor event against the image area of the latest frame, not from egui's view
+//! of the last frame (which lags by a frame, a long time at a few fps).
+
+use winit::dpi::PhysicalPosition;
+use winit::event::{ElementState, MouseScrollDelta};
+use winit::keyboard::ModifiersState;
+
+use crate::gpu::present::PixelRect;
+
+/// Pixels of a touchpad's smooth scroll that make one wheel notch.
+const PIXELS_PER_NOTCH: f64 = 40.0;
+
+/// The input state the window events leave behind.
+#[derive(Default)]
+pub struct Input {
+    /// A left-button drag that began over the image is orbiting the camera.
+    pub dragging: bool,
+    /// The cursor of the latest cursor event, physical pixels; None outside the window.
+    pub cursor: Option<PhysicalPosition<f64>>,
+    pub modifiers: ModifiersState,
+    /// The window is hidden or minimized: nothing is drawn.
+    pub occluded: bool,
+}
+
+impl Input {
+    /// The cursor is over the traced image (not over the panel, not outside the window).
+    pub fn over_image(&self, image_area: PixelRect) -> bool {
+        self.cursor.is_some_and(|c| {
+            let (x, y) = (c.x, c.y);
+            x >= image_area.x as f64 && y >= image_area.y as f64 && x < image_area.x as f64 + image_area.width as f64 && y < image_area.y as f64 + image_area.height as f64
+        })
+    }
+
+    /// A left-button press or release; a drag starts only over the image.
+    pub fn left_button(&mut self, state: ElementState, image_area: PixelRect) {
+        self.dragging = state == ElementState::Pressed && self.over_image(image_area);
+    }
+
+    /// The cursor moved: returns the drag in pixels to orbit the camera by, if dragging.
+    pub fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(f32, f32)> {
+        let drag = match (self.dragging, self.cursor) {
+            (true, Some(last)) => Some(((position.x - last.x) as f32, (position.y - last.y) as f32)),
+            _ => None,
+        };
+        self.cursor = Some(position);
+        drag
+    }
+
+    /// Wheel notches to zoom by (positive = closer), when the wheel turned over the image.
+    pub fn wheel(&self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
+        if !self.over_image(image_area) {
+            return None;
+        }
+        Some(match delta {
+            MouseScrollDelta::LineDelta(_, y) => y,
+            MouseScrollDelta::PixelDelta(p) => (p.y / PIXELS_PER_NOTCH) as f32,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IMAGE: PixelRect = PixelRect { x: 300, y: 0, width: 500, height: 400 };
+
+    #[test]
+    fn the_wheel_over_the_panel_does_not_zoom() {
+        let mut input = Input::default();
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), None, "no cursor yet");
+        input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), None, "over the panel");
+        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
+        assert_eq!(input.wheel(MouseScrollDelta::PixelDelta(PhysicalPosition::new(0.0, -80.0)), IMAGE), Some(-2.0));
+    }
+
+    #[test]
+    fn drags_start_over_the_image_only() {
+        let mut input = Input::default();
+        input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
+        input.left_button(ElementState::Pressed, IMAGE);
+        assert!(!input.dragging);
+        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
+        input.left_button(ElementState::Pressed, IMAGE);
+        assert_eq!(input.cursor_moved(PhysicalPosition::new(410.0, 95.0)), Some((10.0, -5.0)));
+        input.left_button(ElementState::Released, IMAGE);
+        assert_eq!(input.cursor_moved(PhysicalPosition::new(420.0, 95.0)), None);
+    }
+}

@@ -1,0 +1,57 @@
+//! What the tool is started with: the scene spec and the run's options. The command line
+//! fills it (`ViewArgs::options`); the app never reads command-line types.
+
+use std::path::PathBuf;
+
+use crate::scene::spec::SceneSpec;
+
+/// How to start the interactive tool.
+#[derive(Clone, Debug, Default)]
+pub struct ViewOptions {
+    /// The scene and frame settings to open on.
+    pub spec: SceneSpec,
+    /// Vulkan device index; None picks the fastest kind present.
+    pub device: Option<usize>,
+    /// Quit after this many traced frames (scripts and tests); the light starts paused.
+    pub frames: Option<u64>,
+    /// Write the traced image (render resolution) to this PNG at exit.
+    pub screenshot: Option<PathBuf>,
+    /// Write the window as seen, panel included, to this PNG at exit.
+    pub screenshot_ui: Option<PathBuf>,
+    /// Initial window size in logical pixels.
+    pub window: [u32; 2],
+    /// Turn on the Vulkan validation layer.
+    pub validation: bool,
+}
+
+impl ViewOptions {
+    /// A scripted run ends by itself after `frames` and starts with the light still.
+    pub fn scripted(&self) -> bool {
+        self.frames.is_some()
+    }
+}
+
+/// Parse `--window WIDTHxHEIGHT`.
+pub fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("--window '{s}' is not WIDTHxHEIGHT (e.g. 1280x800)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(64..=16384).contains(&w) || !(64..=16384).contains(&h) {
+        return Err(format!("--window {w}x{h} is out of range (64..=16384 per side)"));
+    }
+    Ok([w, h])
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn window_size_parses() {
+        assert_eq!(parse_window_size("640x480"), Ok([640, 480]));
+        assert!(parse_window_size("640").is_err());
+        assert!(parse_window_size("0x5").unwrap_err().contains("out of range"));
+    }
+}

@@ -1,0 +1,174 @@
+//! The tool's session: the model on the CPU side, what has been pushed to the GPU tracer,
+//! progressive accumulation, and the model loader. Parameter changes reach the tracer
+//! here, each on the next frame.
+
+use crate::gpu::ComputeTracer;
+use crate::scene::paper::{instances, ModelSource};
+use crate::scene::{EnvironmentSource, Scene};
+use crate::tracer::frame::{Aov, FrameParams};
+use crate::tracer::packed::PackedScene;
+use crate::tracer::{budget, Accel};
+
+use super::model_loader::{LoadedModel, ModelLoader, Poll};
+use super::panel::{group, PanelState, Status};
+use super::state::{Params, Resolution};
+
+/// The current model on the CPU side.
+pub struct Model {
+    pub source: ModelSource,
+    pub scene: Scene,
+    /// The packed scene with its geometry arrays emptied after upload: the mesh table
+    /// stays for instance rebuilds, the environment for its changes.
+    pub packed: PackedScene,
+}
+
+/// What the tracer holds now; None = not applied yet (or to be applied again).
+#[derive(Default)]
+struct Applied {
+    /// (model count, mirror box) of the instance list.
+    instances: Option<(u32, bool)>,
+    resolution: Option<[u32; 2]>,
+    environment: Option<Option<EnvironmentSource>>,
+}
+
+/// Progressive accumulation: the frame last traced (with `frame_index` 0) and how many
+/// frames have been averaged into the output since anything changed.
+#[derive(Default)]
+pub struct Accumulation {
+    last: Option<FrameParams>,
+    /// Frames averaged into the image shown.
+    pub frames: u32,
+}
+
+/// The model, the loader and the tracer's state.
+#[derive(Default)]
+pub struct Session {
+    pub model: Option<Model>,
+    pub loader: ModelLoader,
+    applied: Applied,
+    pub accumulation: Accumulation,
+}
+
+impl Session {
+    /// Start loading `source` (the current model stays until it is ready).
+    pub fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
+        panel.model_status = None;
+        self.loader.start(source, params.model_count, params.light);
+    }
+
+    /// Take a finished load: upload it, or keep the old model and say why not. With no
+    /// model to fall back on, a failed load ends the run (the error is returned).
+    pub fn poll_loader(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<Option<String>> {
+        let result = match self.loader.poll() {
+            Poll::Idle | Poll::Busy => return Ok(None),
+            Poll::Done(result) => *result,
+        };
+        let first = self.model.is_none();
+        match result.and_then(|loaded| self.install(loaded, tracer, panel).map_err(|e| format!("{e:#}"))) {
+            Ok(title) => Ok(Some(title)),
+            Err(e) if first => Err(anyhow::anyhow!("{e}")),
+            Err(e) => {
+                let keeping = self.model.as_ref().map_or(String::new(), |m| m.source.label());
+                panel.model_status = Some(Status::error(format!("{e}; keeping {keeping}")));
+                Ok(None)
+            }
+        }
+    }
+
+    /// Upload a loaded model; returns the window title it asks for.
+    fn install(&mut self, loaded: LoadedModel, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<String> {
+        let LoadedModel { source, scene, mut packed, warnings, seconds } = loaded;
+        tracer.set_scene(&packed)?;
+        // The GPU has the geometry now; keep only what instance and environment changes need.
+        packed.triangles = Vec::new();
+        packed.shading = Vec::new();
+        packed.nodes = Vec::new();
+        let text = format!("loaded {} ({} triangles) in {seconds:.2} s", source.label(), group(scene.meshes[0].triangle_count() as u64));
+        panel.model_status = Some(match warnings.first() {
+            Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
+            None => Status::ok(text),
+        });
+        let title = format!("meshtracer — {}", source.label());
+        // The new scene's instance list and environment are the loader's defaults: apply ours.
+        self.applied.instances = None;
+        self.applied.environment = None;
+        self.accumulation = Accumulation::default();
+        self.model = Some(Model { source, scene, packed });
+        Ok(title)
+    }
+
+    /// Push parameter changes to the tracer (each takes effect this frame); `area` is the
+    /// image area in physical pixels.
+    pub fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
+        let size = params.render_size(area);
+        if self.applied.resolution != Some(size) {
+            match tracer.set_resolution(size[0], size[1]) {
+                Ok(()) => panel.render_status = None,
+                Err(e) => {
+                    // Too big for this device: say so and go back to what worked.
+                    let [w, h] = size;
+                    panel.render_status = Some(Status::error(format!("{w} x {h} failed: {e:#}")));
+                    params.resolution = Resolution::Custom;
+                    params.custom = self.applied.resolution.unwrap_or([256, 256]);
+                    tracer.set_resolution(params.custom[0], params.custom[1])?;
+                }
+            }
+            self.applied.resolution = tracer.resolution();
+        }
+        let Some(model) = &mut self.model else { return Ok(()) };
+        let want = (params.model_count, params.mirror_box);
+        if self.applied.instances != Some(want) {
+            model.scene.instances = instances(params.model_count);
+            if !params.mirror_box {
+                model.scene.remove_box();
+            }
+            model.packed.set_instances(&model.scene.instances);
+            tracer.set_instances(&model.packed.instances)?;
+            self.applied.instances = Some(want);
+            self.accumulation = Accumulation::default();
+        }
+        if self.applied.environment.as_ref() != Some(&params.environment) {
+            model.packed.set_environment(params.environment.as_ref());
+            if let Some(w) = model.packed.warnings.pop() {
+                panel.render_status = Some(Status::error(w));
+            }
+            model.scene.environment = params.environment.clone();
+            tracer.set_environment(&model.packed)?;
+            self.applied.environment = Some(params.environment.clone());
+            self.accumulation = Accumulation::default();
+        }
+        // Frames that would take minutes stay on the BVH (the budget shared with render and bench).
+        if params.settings.accel == Accel::Brute {
+            if let Some(why) = budget::refusal(&params.settings_for(area), model.scene.triangle_count() as u64) {
+                params.settings.accel = Accel::Bvh;
+                panel.render_status = Some(Status::error(format!("{why}; staying on the BVH")));
+            }
+        }
+        Ok(())
+    }
+
+    /// This frame's parameters (None without a model), counting accumulated frames.
+    pub fn frame_params(&mut self, params: &Params, area: [u32; 2]) -> Option<FrameParams> {
+        let model = self.model.as_mut()?;
+        model.scene.camera = params.camera;
+        model.scene.light.position = params.light_position();
+        let mut frame = FrameParams::new(&model.scene, params.settings_for(area));
+        // Average frames while nothing changes; any change starts afresh.
+        let acc = &mut self.accumulation;
+        let still = params.accumulate && frame.settings.aov == Aov::Color && acc.last == Some(frame);
+        acc.frames = if still { acc.frames.saturating_add(1).min(1 << 20) } else { 1 };
+        acc.last = Some(frame);
+        frame.frame_index = acc.frames - 1;
+        Some(frame)
+    }
+
+    /// The model's label, for file names ("none" before the first load).
+    pub fn model_label(&self) -> String {
+        self.model.as_ref().map_or("none".into(), |m| m.source.label())
+    }
+
+    /// Triangles and vertices in the world (all instances).
+    pub fn counts(&self) -> (u64, u64) {
+        self.model.as_ref().map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
+    }
+}

@@ -1,0 +1,390 @@
+//! The tool: a window, the GPU side (presenter and the shared compute tracer), egui, and
+//! the three parts of the tool's state: [`Input`], the [`Session`] (model, loader, what
+//! the tracer holds) and the [`ScriptedRun`]. One `redraw` per displayed frame.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{anyhow, Context as _};
+use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::dpi::LogicalSize;
+use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
+use winit::event_loop::ActiveEventLoop;
+use winit::keyboard::PhysicalKey;
+use winit::window::Window;
+
+use super::cost_view::heat_map;
+use super::frame_stats::FrameStats;
+use super::input::Input;
+use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
+use super::screenshot::{self, Kind, NameParts};
+use super::script::ScriptedRun;
+use super::session::Session;
+use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
+use super::{headless_error, ViewOptions};
+use crate::gpu::present::surface::context_for_window;
+use crate::gpu::present::{FrameImage, FrameRequest, PixelRect, Presenter, FRAMES_IN_FLIGHT};
+use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
+use crate::tracer::frame::{FrameParams, RenderSettings};
+
+/// A heat map shown in the cost view: its pixels (for F12) and its scale.
+struct HeatShown {
+    width: u32,
+    height: u32,
+    rgba: Vec<u8>,
+    /// (scale top, max, mean), for the panel's legend.
+    stats: (f32, f32, f32),
+}
+
+/// What the image area shows, decided before the frame is drawn.
+enum Shown {
+    Nothing,
+    /// Trace in the frame's command buffer.
+    Trace(FrameParams),
+    /// Traced already: show the tracer's output.
+    Traced,
+    /// The heat map in `Tool::heat`.
+    Heat,
+}
+
+/// The GPU side: declared in drop order (before the context, the window's surface last).
+struct Gpu {
+    presenter: Presenter,
+    tracer: ComputeTracer,
+    ctx: Arc<GpuContext>,
+}
+
+pub struct Tool {
+    gpu: Gpu,
+    egui_state: egui_winit::State,
+    egui_ctx: egui::Context,
+    pub window: Arc<Window>,
+    params: Params,
+    /// The resolution `M` returns to.
+    previous_resolution: Resolution,
+    session: Session,
+    input: Input,
+    script: ScriptedRun,
+    stats: FrameStats,
+    panel: PanelState,
+    heat: Option<HeatShown>,
+    /// A frame has been traced: F12 has something to save.
+    traced: bool,
+    start: Instant,
+    last_frame: Option<Instant>,
+    image_area: PixelRect,
+    want_trace_shot: bool,
+    want_window_shot: bool,
+}
+
+impl Tool {
+    /// Open the window and the GPU side, and start loading the model.
+    pub fn new(event_loop: &ActiveEventLoop, options: &ViewOptions) -> anyhow::Result<Self> {
+        let [w, h] = options.window;
+        let attributes = Window::default_attributes().with_title(format!("meshtracer — {}", options.spec.model.label())).with_inner_size(LogicalSize::new(w, h));
+        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| headless_error("cannot open a window", e))?);
+        let display = window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
+        let window_handle = window.window_handle().map_err(|e| headless_error("no window handle", e))?.as_raw();
+        let context_options = ContextOptions { validation: options.validation, device_index: options.device, ..Default::default() };
+        // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
+        // owning it is dropped first (see `shut_down`).
+        let (ctx, surface) = unsafe { context_for_window(&context_options, display, window_handle) }.map_err(|e| headless_error("no Vulkan device for the window", e))?;
+        let params = Params::new(&options.spec, options.scripted());
+        let physical = window.inner_size();
+        let presenter = Presenter::new(&ctx, surface, [physical.width, physical.height], params.vsync)?;
+        let tracer = ComputeTracer::new(&ctx, FRAMES_IN_FLIGHT as u32)?;
+
+        let egui_ctx = egui::Context::default();
+        egui_ctx.set_theme(egui::ThemePreference::Dark);
+        let max_texture = ctx.info.max_image_dimension_2d as usize;
+        let egui_state = egui_winit::State::new(egui_ctx.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, Some(max_texture));
+
+        let mut session = Session::default();
+        let mut panel = PanelState::default();
+        session.start_load(options.spec.model.clone(), &params, &mut panel);
+        let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
+        Ok(Self {
+            gpu: Gpu { presenter, tracer, ctx },
+            egui_state,
+            egui_ctx,
+            window,
+            previous_resolution,
+            params,
+            session,
+            input: Input::default(),
+            script: ScriptedRun::new(options.frames, options.screenshot.clone(), options.screenshot_ui.clone()),
+            stats: FrameStats::default(),
+            panel,
+            heat: None,
+            traced: false,
+            start: Instant::now(),
+            last_frame: None,
+            image_area: PixelRect::default(),
+            want_trace_shot: false,
+            want_window_shot: false,
+        })
+    }
+
+    /// The window can be drawn into (not minimized, not hidden).
+    pub fn can_draw(&self) -> bool {
+        let size = self.window.inner_size();
+        size.width > 0 && size.height > 0 && !self.input.occluded
+    }
+
+    /// Free everything in order; returns the validation messages seen.
+    pub fn shut_down(self) -> Vec<String> {
+        let Tool { gpu: Gpu { presenter, tracer, ctx }, egui_state, window, .. } = self;
+        let _ = ctx.wait_idle();
+        drop(presenter);
+        drop(tracer);
+        drop(egui_state);
+        drop(window);
+        ctx.validation_messages()
+    }
+
+    /// Handle one window event; Ok(false) quits.
+    pub fn window_event(&mut self, event: &WindowEvent) -> anyhow::Result<bool> {
+        let response = self.egui_state.on_window_event(&self.window, event);
+        match event {
+            WindowEvent::CloseRequested => self.script.request_exit(),
+            WindowEvent::Resized(size) => self.gpu.presenter.resize(size.width, size.height),
+            WindowEvent::Occluded(occluded) => self.input.occluded = *occluded,
+            WindowEvent::ModifiersChanged(m) => self.input.modifiers = m.state(),
+            WindowEvent::RedrawRequested => return self.redraw(),
+            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, .. }, .. } if !response.consumed => {
+                let m = self.input.modifiers;
+                match self.params.apply_key(*code, m.shift_key(), m.control_key(), &mut self.previous_resolution) {
+                    KeyAction::None => {}
+                    KeyAction::ScreenshotTrace => self.want_trace_shot = true,
+                    KeyAction::ScreenshotWindow => self.want_window_shot = true,
+                    KeyAction::Quit => self.script.request_exit(),
+                }
+            }
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => self.input.left_button(*state, self.image_area),
+            WindowEvent::CursorMoved { position, .. } => {
+                if let Some((dx, dy)) = self.input.cursor_moved(*position) {
+                    self.params.drag_camera(dx, dy);
+                }
+            }
+            WindowEvent::CursorLeft { .. } => self.input.cursor = None,
+            WindowEvent::MouseWheel { delta, .. } => {
+                if let Some(steps) = self.input.wheel(*delta, self.image_area) {
+                    self.params.zoom_camera(steps);
+                }
+            }
+            WindowEvent::HoveredFile(_) => self.panel.hovering_file = true,
+            WindowEvent::HoveredFileCancelled => self.panel.hovering_file = false,
+            WindowEvent::DroppedFile(path) => {
+                self.panel.hovering_file = false;
+                self.panel.path = path.display().to_string();
+                self.session.start_load(crate::scene::paper::ModelSource::File(path.clone()), &self.params, &mut self.panel);
+            }
+            _ => {}
+        }
+        Ok(true)
+    }
+
+    fn area(&self) -> [u32; 2] {
+        [self.image_area.width, self.image_area.height]
+    }
+
+    fn name_parts(&self) -> NameParts {
+        let [width, height] = self.gpu.tracer.resolution().unwrap_or_default();
+        NameParts { model: self.session.model_label(), models: self.params.model_count, width, height, bounces: self.params.settings.bounces, blend: self.params.settings.blend }
+    }
+
+    /// Run egui for this frame; returns its output and the actions the panel asked for,
+    /// and updates the image area.
+    fn run_ui(&mut self) -> (egui::FullOutput, Vec<PanelAction>) {
+        let raw = self.egui_state.take_egui_input(&self.window);
+        let mut actions = Vec::new();
+        let mut central = egui::Rect::NOTHING;
+        let settings: RenderSettings = self.params.settings_for(self.area());
+        let screenshot_dir = screenshot::screenshot_dir();
+        let dir_text = std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
+        let (triangles, vertices) = self.session.counts();
+        let ctx = &self.gpu.ctx;
+        let device = format!("{} ({}){}", ctx.info.name, ctx.info.device_type, if ctx.validation_enabled() { ", validation on" } else { "" });
+        let info = PanelInfo {
+            device: &device,
+            model: self.session.model.as_ref().map(|m| &m.source),
+            triangles,
+            vertices,
+            render_size: [settings.width, settings.height],
+            rays: settings.max_rays(),
+            loading: self.session.loader.status(),
+            present_mode: self.gpu.presenter.present_mode_name(),
+            vsync_off_available: self.gpu.presenter.can_disable_vsync(),
+            heat: self.heat.as_ref().map(|h| h.stats),
+            accumulated_frames: self.session.accumulation.frames,
+            screenshot_dir: dir_text,
+            stats: &self.stats,
+        };
+        let params = &mut self.params;
+        let panel_state = &mut self.panel;
+        let full = self.egui_ctx.run_ui(raw, |ui| {
+            if params.panel_visible {
+                let frame = egui::Frame::side_top_panel(ui.style()).inner_margin(8.0);
+                // At most half a small window, so the image stays visible.
+                let max = (ui.available_width() * 0.5).max(160.0);
+                egui::Panel::left("panel").default_size(panel::PANEL_WIDTH.min(max)).size_range(150.0..=max).frame(frame).show(ui, |ui| {
+                    actions = panel::show(ui, params, panel_state, &info);
+                });
+            }
+            central = ui.available_rect_before_wrap();
+        });
+        let ppp = full.pixels_per_point;
+        let size = self.window.inner_size();
+        let x0 = (central.left() * ppp).round().clamp(0.0, size.width as f32) as i32;
+        let y0 = (central.top() * ppp).round().clamp(0.0, size.height as f32) as i32;
+        let x1 = (central.right() * ppp).round().clamp(0.0, size.width as f32) as i32;
+        let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
+        self.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
+        (full, actions)
+    }
+
+    /// Decide what the image area shows this frame, tracing now what does not go into the
+    /// frame's own command buffer (the cost view, frames of several submissions); returns
+    /// the GPU milliseconds of a trace done here.
+    fn prepare_image(&mut self, params: Option<FrameParams>) -> anyhow::Result<(Shown, Option<f64>)> {
+        let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else { return Ok((Shown::Nothing, None)) };
+        self.traced = true;
+        if let ViewMode::Cost(metric) = self.params.view {
+            let (image, timing) = self.gpu.tracer.render(&params)?;
+            let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
+            self.heat = Some(HeatShown { width: image.width, height: image.height, rgba: map.rgba, stats: (map.scale_max, map.max, map.mean) });
+            return Ok((Shown::Heat, timing.gpu_ms));
+        }
+        self.heat = None;
+        if self.gpu.tracer.fits_one_submission(&params) {
+            Ok((Shown::Trace(params), None))
+        } else {
+            // Bands too big for one submission (brute force on big meshes) run first.
+            let timing = self.gpu.tracer.trace(&params)?;
+            Ok((Shown::Traced, timing.gpu_ms))
+        }
+    }
+
+    fn redraw(&mut self) -> anyhow::Result<bool> {
+        let now = Instant::now();
+        if let Some(last) = self.last_frame {
+            // Capped so a stall (a model upload) does not make the light jump.
+            self.params.advance_light(now.duration_since(last).as_secs_f32().min(1.0));
+        }
+        if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.panel)? {
+            self.window.set_title(&title);
+        }
+
+        let (mut full, actions) = self.run_ui();
+        self.gpu.presenter.update_textures(&mut full.textures_delta)?;
+        for action in actions {
+            match action {
+                PanelAction::LoadModel(source) => self.session.start_load(source, &self.params, &mut self.panel),
+                PanelAction::ScreenshotTrace => self.want_trace_shot = true,
+                PanelAction::ScreenshotWindow => self.want_window_shot = true,
+            }
+        }
+        self.egui_state.handle_platform_output(&self.window, full.platform_output);
+        let area = self.area();
+        self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.panel)?;
+        self.gpu.presenter.set_vsync(self.params.vsync);
+        let primitives = self.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
+
+        let params = self.session.frame_params(&self.params, area);
+        let traced = params.is_some();
+        let final_frame = self.script.is_final_frame(traced);
+        let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
+        let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
+        let (shown, traced_ms) = self.prepare_image(params)?;
+        let image = match (shown, &self.heat) {
+            (Shown::Trace(p), _) => FrameImage::Trace(p),
+            (Shown::Traced, _) => FrameImage::Traced,
+            (Shown::Heat, Some(h)) => FrameImage::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
+            _ => FrameImage::Nothing,
+        };
+        let request = FrameRequest { image, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
+        let outcome = self.gpu.presenter.draw(Some(&self.gpu.tracer), &request)?;
+        let t = now.duration_since(self.start).as_secs_f64();
+        if outcome.presented {
+            if let Some(last) = self.last_frame {
+                self.stats.push_frame(t, now.duration_since(last).as_secs_f64() * 1e3);
+            }
+            self.last_frame = Some(now);
+            if traced {
+                self.script.frames += 1;
+            }
+        } else if !self.can_draw() {
+            self.last_frame = None;
+        }
+        if let Some(ms) = traced_ms.or(outcome.gpu_ms) {
+            self.stats.push_gpu(t, ms);
+        }
+
+        if self.want_trace_shot {
+            self.want_trace_shot = false;
+            let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts());
+            self.panel.screenshot_status = Some(self.save_trace(&path));
+        }
+        if self.want_window_shot && outcome.presented {
+            self.want_window_shot = false;
+            if let Some(image) = outcome.window_image.as_ref().filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
+                let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
+                self.panel.screenshot_status = Some(match image {
+                    Ok(img) => to_status(screenshot::save_png(img, &path), &path),
+                    Err(e) => Status::error(e.clone()),
+                });
+            }
+        }
+
+        if final_frame && self.script.finish_attempt(outcome.presented, !self.can_draw()) {
+            self.write_exit_files(outcome.window_image)?;
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    /// The traced image as shown (the heat map in the cost view); None before the first frame.
+    fn read_trace(&self) -> anyhow::Result<Option<image::RgbaImage>> {
+        if !self.traced {
+            return Ok(None);
+        }
+        if let Some(h) = &self.heat {
+            return Ok(image::RgbaImage::from_raw(h.width, h.height, h.rgba.clone()));
+        }
+        Ok(Some(self.gpu.tracer.read_rgba8()?))
+    }
+
+    fn save_trace(&self, path: &Path) -> Status {
+        match self.read_trace() {
+            Ok(Some(img)) => to_status(screenshot::save_png(&img, path), path),
+            Ok(None) => Status::error("nothing traced yet: no screenshot written"),
+            Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
+        }
+    }
+
+    /// `--screenshot` / `--screenshot-ui` at exit; failures end the run with an error.
+    fn write_exit_files(&self, window_image: Option<Result<image::RgbaImage, String>>) -> anyhow::Result<()> {
+        if let Some(path) = &self.script.screenshot {
+            let img = self.read_trace()?.context("--screenshot: nothing was traced before exit")?;
+            screenshot::save_png(&img, path).map_err(anyhow::Error::msg)?;
+            println!("wrote {}", path.display());
+        }
+        if let Some(path) = &self.script.screenshot_ui {
+            let img = window_image.context("--screenshot-ui: the window was not drawn at exit (minimized?)")?.map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
+            screenshot::save_png(&img, path).map_err(anyhow::Error::msg)?;
+            println!("wrote {}", path.display());
+        }
+        Ok(())
+    }
+}
+
+fn to_status(result: Result<(), String>, path: &Path) -> Status {
+    match result {
+        Ok(()) => {
+            let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+            Status::ok(format!("wrote {}", shown.display()))
+        }
+        Err(e) => Status::error(e),
+    }
+}

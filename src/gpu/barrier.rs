@@ -1,0 +1,154 @@
+//! Pipeline barriers named by what the commands on either side do (after kajiya's
+//! `barrier.rs`): `Access::ComputeWrite -> Access::TransferRead` instead of stage masks,
+//! access masks and layouts spelled out at every use, so they are written once, here.
+
+use ash::vk;
+
+use super::image::color_range;
+
+/// One way a resource is used by the commands before or after a barrier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// Not used (an image's contents are discarded, or nothing waits on it).
+    Nothing,
+    /// The swapchain image just acquired: the submission waits for it at the transfer
+    /// stage, so the first barrier on it chains from there.
+    SwapchainAcquired,
+    /// Read by a compute shader.
+    ComputeRead,
+    /// Written by a compute shader.
+    ComputeWrite,
+    /// Read by a copy or blit.
+    TransferRead,
+    /// Written by a copy, blit or clear.
+    TransferWrite,
+    /// Drawn into as a colour attachment (egui), reading what is there.
+    ColorAttachment,
+    /// Read by the host after the submission's fence.
+    HostRead,
+    /// Handed to the presentation engine.
+    Present,
+}
+
+impl Access {
+    fn stage(self) -> vk::PipelineStageFlags {
+        use vk::PipelineStageFlags as S;
+        match self {
+            Access::Nothing => S::TOP_OF_PIPE,
+            Access::SwapchainAcquired | Access::TransferRead | Access::TransferWrite => S::TRANSFER,
+            Access::ComputeRead | Access::ComputeWrite => S::COMPUTE_SHADER,
+            Access::ColorAttachment => S::COLOR_ATTACHMENT_OUTPUT,
+            Access::HostRead => S::HOST,
+            Access::Present => S::BOTTOM_OF_PIPE,
+        }
+    }
+
+    fn access(self) -> vk::AccessFlags {
+        use vk::AccessFlags as A;
+        match self {
+            Access::Nothing | Access::SwapchainAcquired | Access::Present => A::empty(),
+            Access::ComputeRead => A::SHADER_READ,
+            Access::ComputeWrite => A::SHADER_WRITE,
+            Access::TransferRead => A::TRANSFER_READ,
+            Access::TransferWrite => A::TRANSFER_WRITE,
+            Access::ColorAttachment => A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
+            Access::HostRead => A::HOST_READ,
+        }
+    }
+
+    /// The image layout this access needs.
+    fn layout(self) -> vk::ImageLayout {
+        use vk::ImageLayout as L;
+        match self {
+            Access::Nothing | Access::SwapchainAcquired => L::UNDEFINED,
+            Access::ComputeRead | Access::ComputeWrite | Access::HostRead => L::GENERAL,
+            Access::TransferRead => L::TRANSFER_SRC_OPTIMAL,
+            Access::TransferWrite => L::TRANSFER_DST_OPTIMAL,
+            Access::ColorAttachment => L::COLOR_ATTACHMENT_OPTIMAL,
+            Access::Present => L::PRESENT_SRC_KHR,
+        }
+    }
+}
+
+fn stages(accesses: &[Access], empty: vk::PipelineStageFlags) -> vk::PipelineStageFlags {
+    let s = accesses.iter().fold(vk::PipelineStageFlags::empty(), |s, a| s | a.stage());
+    if s.is_empty() { empty } else { s }
+}
+
+/// Only writes need to be made available; reads before a barrier need only its execution
+/// dependency.
+fn writes(accesses: &[Access]) -> vk::AccessFlags {
+    let write = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
+    accesses.iter().fold(vk::AccessFlags::empty(), |s, a| s | a.access()) & write
+}
+
+fn reads_and_writes(accesses: &[Access]) -> vk::AccessFlags {
+    accesses.iter().fold(vk::AccessFlags::empty(), |s, a| s | a.access())
+}
+
+/// A layout transition of a whole single-level colour image.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageTransition {
+    pub image: vk::Image,
+    pub before: Access,
+    pub after: Access,
+    /// The old contents are not needed (transition from UNDEFINED).
+    pub discard: bool,
+}
+
+/// Record one barrier: buffers (global memory) used as `before` are next used as `after`,
+/// and each image of `images` goes through its transition.
+pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access], images: &[ImageTransition]) {
+    let mut src = stages(before, vk::PipelineStageFlags::empty());
+    let mut dst = stages(after, vk::PipelineStageFlags::empty());
+    let image_barriers: Vec<_> = images
+        .iter()
+        .map(|t| {
+            src |= t.before.stage();
+            dst |= t.after.stage();
+            vk::ImageMemoryBarrier::default()
+                .image(t.image)
+                .old_layout(if t.discard { vk::ImageLayout::UNDEFINED } else { t.before.layout() })
+                .new_layout(t.after.layout())
+                .src_access_mask(writes(&[t.before]))
+                .dst_access_mask(reads_and_writes(&[t.after]))
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .subresource_range(color_range())
+        })
+        .collect();
+    let memory: Vec<_> = if before.is_empty() && after.is_empty() {
+        Vec::new()
+    } else {
+        vec![vk::MemoryBarrier::default().src_access_mask(writes(before)).dst_access_mask(reads_and_writes(after))]
+    };
+    let src = if src.is_empty() { vk::PipelineStageFlags::TOP_OF_PIPE } else { src };
+    let dst = if dst.is_empty() { vk::PipelineStageFlags::BOTTOM_OF_PIPE } else { dst };
+    // SAFETY: `cmd` is in the recording state (callers record into their own command
+    // buffers) and every image handle is alive for the command buffer's lifetime.
+    unsafe { device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &memory, &[], &image_barriers) };
+}
+
+/// Record a global memory barrier between buffer uses.
+pub fn buffers(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access]) {
+    record(device, cmd, before, after, &[]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_before_a_barrier_make_nothing_available() {
+        assert_eq!(writes(&[Access::TransferRead, Access::ComputeRead]), vk::AccessFlags::empty());
+        assert_eq!(writes(&[Access::ComputeWrite, Access::TransferRead]), vk::AccessFlags::SHADER_WRITE);
+        assert_eq!(reads_and_writes(&[Access::TransferRead]), vk::AccessFlags::TRANSFER_READ);
+    }
+
+    #[test]
+    fn stages_and_layouts_follow_the_access() {
+        assert_eq!(stages(&[Access::ComputeWrite, Access::TransferRead], vk::PipelineStageFlags::empty()), vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER);
+        assert_eq!(Access::Present.layout(), vk::ImageLayout::PRESENT_SRC_KHR);
+        assert_eq!(Access::SwapchainAcquired.stage(), vk::PipelineStageFlags::TRANSFER, "chains from the acquire wait");
+    }
+}

@@ -1,0 +1,277 @@
+//! The compute tracer: the scene's device buffers, the trace pass, the output buffers and
+//! the timestamps, as one object that the window, `render`, `bench` and the tests share.
+//! The window records its frames' traces into its own command buffers ([`ComputeTracer::record`]);
+//! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
+//! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
+
+use std::ops::Range;
+use std::sync::Arc;
+use std::time::Instant;
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::error::{GpuError, VkContext};
+use super::scene_buffers::SceneBuffers;
+use super::timer::GpuTimer;
+use super::trace_pass::{TraceOutput, TracePass, GROUP_SIZE};
+use crate::tracer::budget;
+use crate::tracer::frame::FrameParams;
+use crate::tracer::image::Image;
+use crate::tracer::packed::{GpuInstance, PackedScene};
+
+/// Timing of one traced frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceTiming {
+    /// GPU time of the trace dispatches (timestamps), when the queue has timestamps.
+    pub gpu_ms: Option<f64>,
+    /// Wall-clock time from submit to completion, as the paper's fps would count it.
+    pub wall_ms: f64,
+    /// Submissions the frame was split into.
+    pub submissions: u32,
+}
+
+/// The compute-shader tracer of one device: a scene (once set), output buffers at one
+/// resolution, the pipeline, and timestamp slots.
+pub struct ComputeTracer {
+    ctx: Arc<GpuContext>,
+    pass: TracePass,
+    scene: Option<SceneBuffers>,
+    output: Option<TraceOutput>,
+    timer: Option<GpuTimer>,
+    /// Timestamp slots for frames recorded by a caller; one more is the headless path's.
+    recorded_slots: u32,
+    /// Triangles over all instances, for the work estimate that splits frames into bands.
+    triangle_total: u64,
+    /// One command buffer and fence reused by every headless submission.
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl ComputeTracer {
+    /// A tracer with no scene yet, with `recorded_slots` timestamp slots for frames that
+    /// a caller records into its own command buffers (its frames in flight).
+    pub fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
+        let pass = TracePass::new(ctx)?;
+        let timer = GpuTimer::new(ctx, recorded_slots + 1)?;
+        let device = &ctx.device;
+        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: plain object creation on a live device; each object is destroyed in Drop.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        // SAFETY: as above; the buffer is freed with its pool.
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        // SAFETY: as above.
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.during("creating a fence")?;
+        Ok(Self { ctx: ctx.clone(), pass, scene: None, output: None, timer, recorded_slots, triangle_total: 0, pool, cmd, fence })
+    }
+
+    /// A headless tracer with `packed` uploaded.
+    pub fn with_scene(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
+        let mut tracer = Self::new(ctx, 0)?;
+        tracer.set_scene(packed)?;
+        Ok(tracer)
+    }
+
+    /// The context this tracer runs on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Upload a new scene; the old one is freed first (the GPU is waited for).
+    pub fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+        self.ctx.wait_idle()?;
+        self.scene = None;
+        self.scene = Some(SceneBuffers::upload(&self.ctx, packed)?);
+        self.triangle_total = triangle_total(&packed.instances);
+        self.rebind();
+        Ok(())
+    }
+
+    /// Replace the instance list (model count, mirror box): no geometry is re-uploaded.
+    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+        self.ctx.wait_idle()?;
+        if let Some(scene) = &mut self.scene {
+            scene.set_instances(instances)?;
+            self.triangle_total = triangle_total(instances);
+        }
+        Ok(())
+    }
+
+    /// Replace the environment image (after `PackedScene::set_environment`).
+    pub fn set_environment(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+        self.ctx.wait_idle()?;
+        if let Some(scene) = &mut self.scene {
+            scene.set_environment(&self.ctx, packed)?;
+        }
+        self.rebind();
+        Ok(())
+    }
+
+    /// Make the output buffers `width` x `height`; the old ones are freed first (at large
+    /// sizes both may not fit), so on failure there are none.
+    pub fn set_resolution(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        if self.resolution() == Some([width, height]) {
+            return Ok(());
+        }
+        self.ctx.wait_idle()?;
+        self.output = None;
+        self.output = Some(TraceOutput::new(&self.ctx, width, height)?);
+        self.rebind();
+        Ok(())
+    }
+
+    /// The size of the output buffers, if any.
+    pub fn resolution(&self) -> Option<[u32; 2]> {
+        self.output.as_ref().map(|o| [o.width, o.height])
+    }
+
+    /// A scene and output buffers are there: frames can be traced.
+    pub fn is_ready(&self) -> bool {
+        self.scene.is_some() && self.output.is_some()
+    }
+
+    /// Bytes of device memory the scene uses.
+    pub fn scene_bytes(&self) -> u64 {
+        self.scene.as_ref().map_or(0, |s| s.bytes)
+    }
+
+    /// Instances on the GPU now.
+    pub fn instance_count(&self) -> u32 {
+        self.scene.as_ref().map_or(0, |s| s.instance_count)
+    }
+
+    /// The packed 8-bit colour output: (buffer, width, height).
+    pub fn colour_output(&self) -> Option<(vk::Buffer, u32, u32)> {
+        self.output.as_ref().map(|o| (o.rgba8.buffer, o.width, o.height))
+    }
+
+    fn rebind(&self) {
+        if let (Some(scene), Some(output)) = (&self.scene, &self.output) {
+            self.pass.bind(scene, output);
+        }
+    }
+
+    /// Rows per submission for `params`, a multiple of the work-group size.
+    pub fn rows_per_submission(&self, params: &FrameParams) -> u32 {
+        budget::rows_per_submission(&params.settings, self.triangle_total, GROUP_SIZE)
+    }
+
+    /// The frame fits one submission (the window records it into its own frame).
+    pub fn fits_one_submission(&self, params: &FrameParams) -> bool {
+        self.rows_per_submission(params) >= params.settings.height
+    }
+
+    /// `params` limited to the instances uploaded.
+    fn clamped(&self, params: &FrameParams) -> FrameParams {
+        FrameParams { instance_count: params.instance_count.min(self.instance_count()), ..*params }
+    }
+
+    /// Record the trace of rows `rows` of a frame into `cmd`, timed in `timer_slot` (one of
+    /// the `recorded_slots`). The trace pass adds the barriers it needs; the outputs are
+    /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, rows: Range<u32>, timer_slot: Option<u32>) {
+        let params = self.clamped(params);
+        let timer = self.timer.as_ref().zip(timer_slot);
+        if let Some((t, slot)) = timer {
+            t.begin(cmd, slot);
+        }
+        self.pass.record(cmd, &params, rows);
+        if let Some((t, slot)) = timer {
+            t.end(cmd, slot);
+        }
+    }
+
+    /// Milliseconds of the trace recorded with `timer_slot`, once its commands completed.
+    pub fn timer_ms(&self, timer_slot: u32) -> Option<f64> {
+        self.timer.as_ref().and_then(|t| t.read_ms(timer_slot))
+    }
+
+    /// Record with `record` into the reusable command buffer, submit, and wait.
+    fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<(), GpuError> {
+        let device = &self.ctx.device;
+        let cmd = self.cmd;
+        // SAFETY: the command buffer and fence are ours and idle (every submission is
+        // waited for before this returns), so they may be reset and re-recorded.
+        unsafe {
+            device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
+            device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording commands")?;
+            record(cmd);
+            device.end_command_buffer(cmd).during("recording commands")?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            device.reset_fences(&[self.fence]).during("resetting a fence")?;
+            self.ctx.submit(&submit, self.fence)?;
+            device.wait_for_fences(&[self.fence], true, u64::MAX).during("waiting for the trace")
+        }
+    }
+
+    /// Trace one whole frame now, in as many row bands as the budget asks, and wait for it.
+    pub fn trace(&mut self, params: &FrameParams) -> Result<TraceTiming, GpuError> {
+        let s = params.settings;
+        self.set_resolution(s.width, s.height)?;
+        if self.scene.is_none() {
+            return Err(GpuError::NotReady("no scene was uploaded before tracing"));
+        }
+        let band = self.rows_per_submission(params);
+        let slot = self.recorded_slots;
+        let mut timing = TraceTiming { gpu_ms: self.timer.as_ref().map(|_| 0.0), ..Default::default() };
+        let start = Instant::now();
+        let mut row = 0;
+        while row < s.height {
+            let rows = row..(row + band).min(s.height);
+            self.submit_and_wait(|cmd| self.record(cmd, params, rows.clone(), Some(slot)))?;
+            if let Some(total) = timing.gpu_ms.as_mut() {
+                *total += self.timer_ms(slot).unwrap_or(0.0);
+            }
+            timing.submissions += 1;
+            row = rows.end;
+        }
+        timing.wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(timing)
+    }
+
+    /// Trace a frame and read back the float image (colour or AOV).
+    pub fn render(&mut self, params: &FrameParams) -> Result<(Image, TraceTiming), GpuError> {
+        let timing = self.trace(params)?;
+        Ok((self.read_image()?, timing))
+    }
+
+    fn traced_output(&self) -> Result<&TraceOutput, GpuError> {
+        self.ctx.wait_idle()?;
+        self.output.as_ref().ok_or(GpuError::NotReady("nothing has been traced yet"))
+    }
+
+    /// Read the float output of the last frame.
+    pub fn read_image(&self) -> Result<Image, GpuError> {
+        let out = self.traced_output()?;
+        let bytes = out.float.download(out.width as u64 * out.height as u64 * 16)?;
+        let floats: &[f32] = bytemuck::cast_slice(&bytes);
+        Ok(Image { width: out.width, height: out.height, pixels: floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect() })
+    }
+
+    /// Read the 8-bit colour output of the last frame (RGBA bytes, row 0 at the top).
+    pub fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
+        let out = self.traced_output()?;
+        let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
+        image::RgbaImage::from_raw(out.width, out.height, bytes).ok_or(GpuError::NotReady("the colour readback has the wrong size"))
+    }
+}
+
+fn triangle_total(instances: &[GpuInstance]) -> u64 {
+    instances.iter().map(|i| i.triangle_count as u64).sum()
+}
+
+impl Drop for ComputeTracer {
+    fn drop(&mut self) {
+        let device = &self.ctx.device;
+        // SAFETY: the GPU is idle before these are destroyed (headless submissions are
+        // waited for; callers recording into their own frames wait idle before dropping).
+        unsafe {
+            let _ = self.ctx.wait_idle();
+            device.destroy_fence(self.fence, None);
+            device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
