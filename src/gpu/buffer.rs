@@ -25,7 +25,9 @@ impl GpuBuffer {
         let size = size.max(16);
         let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         let device = &ctx.device;
+        // SAFETY: plain object creation on a live device; destroyed in Drop or below.
         let buffer = unsafe { device.create_buffer(&info, None) }.during("creating a buffer")?;
+        // SAFETY: `buffer` was just created on this device.
         let requirements = unsafe { device.get_buffer_memory_requirements(buffer) };
         let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
             name,
@@ -37,11 +39,19 @@ impl GpuBuffer {
         let allocation = match allocation {
             Ok(a) => a,
             Err(source) => {
+                // SAFETY: the buffer was never used.
                 unsafe { device.destroy_buffer(buffer, None) };
                 return Err(GpuError::Allocation { what: name, source });
             }
         };
-        unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) }.during("binding buffer memory")?;
+        // SAFETY: the allocation satisfies the buffer's requirements and is bound once.
+        if let Err(r) = unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) } {
+            // Free both, as GpuImage does: nothing else owns them yet.
+            let _ = ctx.allocator().free(allocation);
+            // SAFETY: the buffer was never used.
+            unsafe { device.destroy_buffer(buffer, None) };
+            return Err(GpuError::vk("binding buffer memory", r));
+        }
         Ok(Self { ctx: ctx.clone(), buffer, allocation: Some(allocation), size })
     }
 
@@ -67,6 +77,7 @@ impl GpuBuffer {
         let mut staging = GpuBuffer::new(&self.ctx, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
         staging.mapped().expect("staging memory is mapped")[..data.len()].copy_from_slice(data);
         let device = &self.ctx.device;
+        // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
         self.ctx.one_shot(|cmd| unsafe {
             let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
             device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region);
@@ -80,6 +91,7 @@ impl GpuBuffer {
     pub fn download(&self, len: u64) -> Result<Vec<u8>, GpuError> {
         let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
         let device = &self.ctx.device;
+        // SAFETY: as in `upload`.
         self.ctx.one_shot(|cmd| unsafe {
             let before = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
             device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &before, &[], &[]);
@@ -96,6 +108,8 @@ impl Drop for GpuBuffer {
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator().free(a);
         }
+        // SAFETY: owners drop buffers only after the GPU finished with them (they wait
+        // on a fence or for idle first).
         unsafe { self.ctx.device.destroy_buffer(self.buffer, None) };
     }
 }
