@@ -5,6 +5,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::contract;
 use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
@@ -234,7 +235,7 @@ impl<'a> CpuScene<'a> {
         let (w, h) = (s.width, s.height);
         let pixel = py * w + px;
         let single_value = matches!(s.aov, Aov::Depth | Aov::Normal | Aov::PrimId);
-        let mut spp = if single_value { 1 } else { s.spp.clamp(1, 255) };
+        let mut spp = if single_value { 1 } else { s.spp.clamp(1, contract::SPP_MASK) };
         if let (true, Some(ids), false) = (s.adaptive, ids, single_value) {
             let id = ids[pixel as usize];
             let at = |x: u32, y: u32| ids[(y * w + x) as usize];

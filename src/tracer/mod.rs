@@ -2,6 +2,9 @@
 //! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout), the
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
+/// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
+/// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
+pub mod contract;
 pub mod cpu;
 pub mod frame;
 pub mod heat_map;

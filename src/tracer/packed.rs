@@ -76,8 +76,8 @@ pub struct GpuMaterial {
     pub _pad: [u32; 3],
 }
 
-/// `GpuMaterial::texture` of an untextured material.
-pub const NO_TEXTURE: u32 = u32::MAX;
+/// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
+pub const NO_TEXTURE: u32 = super::contract::EMPTY;
 
 /// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
