@@ -11,7 +11,7 @@ mod build;
 mod traverse;
 
 pub use build::BuildOptions;
-pub use traverse::{ordered_edges, TraversalStats};
+pub use traverse::{closest_hit, ordered_edges, TraversalStats};
 
 use bytemuck::{Pod, Zeroable};
 

@@ -106,7 +106,8 @@ pub struct PackedMesh {
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
     pub bounds: Aabb,
-    /// The mesh's BVH (its nodes are also in `PackedScene::nodes` at `node_base`).
+    /// The mesh's BVH as built, for validation (tests, fuzzing). Both tracers read the copy
+    /// of its nodes in `PackedScene::nodes` at `node_base`.
     pub bvh: Bvh,
 }
 
