@@ -65,7 +65,7 @@ void test_leaf(vec3 o, vec3 d, uint first, uint count, uint tri_base, inout Hit 
 // children are visited near first with the far one pushed.
 void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, inout uvec2 cost) {
     vec3 inv_d = safe_inverse(d);
-    uint stack[64];
+    uint stack[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
     while (true) {

@@ -1,5 +1,9 @@
 // Scene data as the host packs it (src/tracer/packed.rs holds the Rust twins of these
-// structs; keep the two in step). All buffers are std430.
+// structs; the tests compare their layouts with the compiled shader's). All buffers are
+// std430.
+
+// EMPTY, the flag bits and the AOV codes: generated from src/tracer/contract.rs.
+#include "contract.glsl"
 
 struct Triangle {
     vec4 v0;   // xyz: corner 0; w: material index (uint bits)
@@ -63,21 +67,4 @@ layout(push_constant) uniform Frame {
     uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), accumulated frames
 } frame;
 
-const uint EMPTY = 0xffffffffu;
 const float INF = 1e30;
-
-// flags bits
-const uint FLAG_BVH = 1u;
-const uint AOV_SHIFT = 1u;  // 3 bits: 0 colour, 1 depth, 2 normal, 3 prim id, 4 cost
-const uint AOV_COLOR = 0u;
-const uint AOV_DEPTH = 1u;
-const uint AOV_NORMAL = 2u;
-const uint AOV_PRIM_ID = 3u;
-const uint AOV_COST = 4u;
-const uint AOV_SAMPLES = 5u;
-const uint FLAG_SMOOTH = 1u << 4;
-const uint FLAG_TEXTURES = 1u << 5;
-const uint FLAG_ENVIRONMENT = 1u << 6;
-const uint FLAG_ADAPTIVE = 1u << 7;
-const uint FLAG_ID_PASS = 1u << 8;   // adaptive pre-pass: write primary-hit ids only
-const uint SPP_SHIFT = 16u;          // 8 bits: samples per pixel

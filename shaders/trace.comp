@@ -149,7 +149,7 @@ void main() {
     uint pixel = px.y * width + px.x;
     uint flags = frame.dims.w;
     bool use_bvh = (flags & FLAG_BVH) != 0u;
-    uint aov = (flags >> AOV_SHIFT) & 7u;
+    uint aov = (flags >> AOV_SHIFT) & AOV_MASK;
 
     if ((flags & FLAG_ID_PASS) != 0u) {
         // The key of the path through the pixel centre: primary hit and mirror bounces.
@@ -161,7 +161,7 @@ void main() {
     }
 
     uint frame_index = frame.misc.w;
-    uint spp = max((flags >> SPP_SHIFT) & 255u, 1u);
+    uint spp = max((flags >> SPP_SHIFT) & SPP_MASK, 1u);
     bool single_value = aov == AOV_DEPTH || aov == AOV_NORMAL || aov == AOV_PRIM_ID;
     if (single_value) spp = 1u;
     if ((flags & FLAG_ADAPTIVE) != 0u && !single_value) {

@@ -11,17 +11,18 @@ mod build;
 mod traverse;
 
 pub use build::BuildOptions;
-pub use traverse::{ordered_edges, TraversalStats};
+pub use traverse::{closest_hit, ordered_edges, TraversalStats};
 
 use bytemuck::{Pod, Zeroable};
 
 use crate::geometry::Aabb;
+use crate::tracer::contract;
 
-/// Marks an absent child (its box must not be tested).
-pub const EMPTY: u32 = u32::MAX;
+/// Marks an absent child (its box must not be tested); the shader's `EMPTY`.
+pub const EMPTY: u32 = contract::EMPTY;
 
 /// Entries in the traversal stack (CPU and shader alike).
-pub const STACK_SIZE: usize = 64;
+pub const STACK_SIZE: usize = contract::STACK_SIZE as usize;
 
 /// Deepest tree the builder makes, in nodes ([`Bvh::depth`]). A traversal needs at most
 /// `depth` stack entries, so this stays within [`STACK_SIZE`].

@@ -1,10 +1,12 @@
-//! Closest-hit traversal on the CPU: the reference for `trace.comp`, which mirrors it
-//! line by line (fixed stack, both child boxes per step, leaves tested on the spot).
+//! Closest-hit traversal on the CPU over the packed two-child nodes: the reference for
+//! `traverse_bvh` in `shaders/intersect.glsl`, which it follows step for step (fixed stack,
+//! both child boxes tested against the same `t_max`, leaves tested on the spot, the near
+//! inner child visited next), so that its counts are the shader's cost AOV.
 
 use glam::Vec3;
 
-use super::{Bvh, STACK_SIZE};
-use crate::geometry::{intersect_triangle, Ray, TriHit};
+use super::{Bvh, BvhChild, BvhNode, STACK_SIZE};
+use crate::geometry::{intersect_triangle, safe_inverse, Ray, TriHit};
 
 /// Counters for the cost view: nodes visited and triangles tested for one ray.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -24,56 +26,72 @@ impl Bvh {
         t_max: f32,
         stats: &mut TraversalStats,
     ) -> Option<(u32, TriHit)> {
-        if self.nodes.is_empty() {
-            return None;
-        }
-        let inv_dir = crate::geometry::safe_inverse(ray.dir);
-        let mut t_max = t_max; // shrinks with every hit, so later boxes are culled harder
-        let mut best = None;
-        let mut stack = [0u32; STACK_SIZE];
-        let mut sp = 1; // stack[0] = root
-
-        while sp > 0 {
-            sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
-            stats.nodes += 1;
-
-            // Test both children; leaves are intersected right away, inner nodes queued.
-            let mut inner = [(0.0f32, 0u32); 2]; // (entry distance, node index)
-            let mut inner_count = 0;
-            for child in node.children() {
-                if child.is_empty() {
-                    continue;
-                }
-                let Some(t_enter) = child.bounds.intersect(ray, inv_dir, t_max) else {
-                    continue;
-                };
-                if child.is_leaf() {
-                    for k in child.index..child.index + child.count {
-                        let [v0, e1, e2] = ordered[k as usize];
-                        stats.triangles += 1;
-                        if let Some(hit) = intersect_triangle(ray, v0, e1, e2, t_min, t_max) {
-                            t_max = hit.t;
-                            best = Some((k, hit));
-                        }
-                    }
-                } else {
-                    inner[inner_count] = (t_enter, child.index);
-                    inner_count += 1;
-                }
-            }
-
-            // Far child first, so that the near one is popped (visited) next.
-            if inner_count == 2 && inner[0].0 < inner[1].0 {
-                inner.swap(0, 1);
-            }
-            for &(_, index) in &inner[..inner_count] {
-                stack[sp] = index;
-                sp += 1;
-            }
-        }
-        best
+        closest_hit(&self.nodes, ordered, ray, t_min, t_max, stats)
     }
+}
+
+/// Closest hit of `ray` in (t_min, t_max) through one mesh's `nodes` as the GPU stores them
+/// (root first, child and leaf indices relative to the mesh's node and triangle bases) over
+/// its BVH-ordered (v0, e1, e2) triangles `ordered`; returns (k, hit) with `k` indexing
+/// `ordered`. Adds to `stats` what the shader adds to its cost: one per node, one per triangle.
+pub fn closest_hit(
+    nodes: &[BvhNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+) -> Option<(u32, TriHit)> {
+    if nodes.is_empty() {
+        return None;
+    }
+    let inv_dir = safe_inverse(ray.dir);
+    let mut t_max = t_max; // shrinks with every hit, so later boxes are culled harder
+    let mut best = None;
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 0;
+    let mut node = 0u32;
+
+    loop {
+        let [left, right] = nodes[node as usize].children();
+        stats.nodes += 1;
+        // Both boxes first, against the same t_max: a hit in the left leaf does not cull the
+        // right box (as in the shader, whose cost AOV counts these tests).
+        let enter = |child: &BvhChild| if child.is_empty() { None } else { child.bounds.intersect(ray, inv_dir, t_max) };
+        let (mut t_left, mut t_right) = (enter(&left), enter(&right));
+        for (child, t_enter) in [(&left, &mut t_left), (&right, &mut t_right)] {
+            if t_enter.is_some() && child.is_leaf() {
+                for k in child.index..child.index + child.count {
+                    let [v0, e1, e2] = ordered[k as usize];
+                    stats.triangles += 1;
+                    if let Some(hit) = intersect_triangle(ray, v0, e1, e2, t_min, t_max) {
+                        t_max = hit.t;
+                        best = Some((k, hit));
+                    }
+                }
+                *t_enter = None;
+            }
+        }
+        // Inner children: the near one next (the left one on a tie), the far one stacked.
+        node = match (t_left, t_right) {
+            (Some(l), Some(r)) => {
+                let (near, far) = if l <= r { (left.index, right.index) } else { (right.index, left.index) };
+                stack[sp] = far;
+                sp += 1;
+                near
+            }
+            (Some(_), None) => left.index,
+            (None, Some(_)) => right.index,
+            (None, None) => {
+                if sp == 0 {
+                    break;
+                }
+                sp -= 1;
+                stack[sp]
+            }
+        };
+    }
+    best
 }
 
 /// Helper: triangles (corners) -> BVH-ordered (v0, e1, e2) triples, as the GPU stores them.

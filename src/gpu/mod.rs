@@ -1,8 +1,9 @@
 //! The Vulkan backend: instance and device ([`context`]), memory and buffers ([`buffer`]),
 //! named pipeline barriers ([`barrier`]), GPU timestamps ([`timer`]), the scene's device
-//! buffers ([`scene_buffers`]), the trace compute pass ([`trace_pass`]) and the compute
-//! tracer built from them ([`compute_tracer`]), and presentation to a window ([`present`]:
-//! surface, swapchain, composite, egui pass). Nothing outside this folder calls Vulkan.
+//! buffers ([`scene_buffers`]), the trace compute pass ([`trace_pass`]) with what its
+//! shader declares ([`shader_layout`]), the compute tracer built from them
+//! ([`compute_tracer`]), and presentation to a window ([`present`]: surface, swapchain,
+//! composite, egui pass). Nothing outside this folder calls Vulkan.
 
 pub mod barrier;
 pub mod buffer;
@@ -12,6 +13,7 @@ pub mod error;
 pub mod image;
 pub mod present;
 pub mod scene_buffers;
+pub mod shader_layout;
 pub mod timer;
 pub mod trace_pass;
 

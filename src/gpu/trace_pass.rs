@@ -11,15 +11,14 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
+use super::shader_layout::{TraceBuffer, BINDINGS};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
 static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
 
-/// Work-group size of the shader (`local_size_x/y`).
-pub const GROUP_SIZE: u32 = 8;
-
-const BINDINGS: u32 = 11;
+/// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
+pub const GROUP_SIZE: u32 = super::shader_layout::GROUP_SIZE;
 
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA.
 pub struct TraceOutput {
@@ -65,10 +64,11 @@ impl TracePass {
     /// Create the pipeline.
     pub fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
         let device = &ctx.device;
-        let bindings: Vec<_> = (0..BINDINGS)
+        let bindings: Vec<_> = BINDINGS
+            .iter()
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
+                    .binding(b.binding)
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -89,7 +89,7 @@ impl TracePass {
         let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { device.destroy_shader_module(module, None) };
         let pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0];
-        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS }];
+        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
         let pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
             .during("creating the trace descriptor pool")?;
         let set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) }
@@ -99,26 +99,30 @@ impl TracePass {
 
     /// Point the descriptor set at a scene and an output; the GPU must not be using the set.
     pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
-        let buffers = [
-            &scene.triangles,
-            &scene.shading,
-            &scene.materials,
-            &scene.nodes,
-            &scene.instances,
-            &output.rgba8,
-            &output.float,
-            &scene.texels,
-            &scene.texture_infos,
-            &output.prim_ids,
-            &scene.environment,
-        ];
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> =
-            buffers.iter().map(|b| [vk::DescriptorBufferInfo { buffer: b.buffer, offset: 0, range: vk::WHOLE_SIZE }]).collect();
+        // Each binding the shader declares, by its block name (see shader_layout).
+        let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
+            .iter()
+            .map(|b| {
+                let buffer = match TraceBuffer::of(b) {
+                    TraceBuffer::Triangles => &scene.triangles,
+                    TraceBuffer::Shading => &scene.shading,
+                    TraceBuffer::Materials => &scene.materials,
+                    TraceBuffer::Nodes => &scene.nodes,
+                    TraceBuffer::Instances => &scene.instances,
+                    TraceBuffer::Texels => &scene.texels,
+                    TraceBuffer::TextureInfos => &scene.texture_infos,
+                    TraceBuffer::Environment => &scene.environment,
+                    TraceBuffer::OutRgba8 => &output.rgba8,
+                    TraceBuffer::OutFloat => &output.float,
+                    TraceBuffer::PrimIds => &output.prim_ids,
+                };
+                (b.binding, [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: vk::WHOLE_SIZE }])
+            })
+            .collect();
         let writes: Vec<_> = infos
             .iter()
-            .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(i as u32).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info)
+            .map(|(binding, info)| {
+                vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info)
             })
             .collect();
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
@@ -135,7 +139,7 @@ impl TracePass {
         barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         if rows.start == 0 && s.adaptive {
             let mut pc = params.push_constants(0);
-            pc.dims[3] |= crate::tracer::frame::flags::ID_PASS;
+            pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
             self.dispatch(cmd, &pc, s.width, s.height);
             barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead]);
         }

@@ -5,11 +5,12 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::contract;
 use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{blinn_phong, reflect, ShadingMaterial};
-use crate::bvh::TraversalStats;
+use crate::bvh::{self, TraversalStats};
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
 /// A closest hit in the packed scene.
@@ -47,7 +48,8 @@ fn random01(seed: &mut u32) -> f32 {
     (*seed >> 8) as f32 * (1.0 / 16777216.0)
 }
 
-/// The packed scene with each mesh's triangles as (v0, e1, e2) triples, as BVH traversal wants.
+/// The packed scene, its triangles also as (v0, e1, e2) `Vec3` triples in the packed order,
+/// as the intersection tests want them.
 pub struct CpuScene<'a> {
     packed: &'a PackedScene,
     edges: Vec<[Vec3; 3]>,
@@ -86,8 +88,14 @@ impl<'a> CpuScene<'a> {
                     }
                 }
                 Accel::Bvh => {
-                    let mesh = self.packed.meshes.iter().find(|m| m.triangle_base == inst.triangle_base).expect("instance mesh");
-                    if let Some((k, h)) = mesh.bvh.closest_hit(tris, &local, 0.0, t_max, stats) {
+                    // A mesh without triangles has no nodes: its node base is the next mesh's root.
+                    if inst.triangle_count == 0 {
+                        continue;
+                    }
+                    // The instance's nodes start at its node base, their indices relative to it
+                    // (and to the triangle base), as the shader's traverse_bvh reads them.
+                    let nodes = &self.packed.nodes[inst.node_base as usize..];
+                    if let Some((k, h)) = bvh::closest_hit(nodes, tris, &local, 0.0, t_max, stats) {
                         best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle: inst.triangle_base + k, instance: i as u32 });
                     }
                 }
@@ -234,7 +242,7 @@ impl<'a> CpuScene<'a> {
         let (w, h) = (s.width, s.height);
         let pixel = py * w + px;
         let single_value = matches!(s.aov, Aov::Depth | Aov::Normal | Aov::PrimId);
-        let mut spp = if single_value { 1 } else { s.spp.clamp(1, 255) };
+        let mut spp = if single_value { 1 } else { s.spp.clamp(1, contract::SPP_MASK) };
         if let (true, Some(ids), false) = (s.adaptive, ids, single_value) {
             let id = ids[pixel as usize];
             let at = |x: u32, y: u32| ids[(y * w + x) as usize];

@@ -8,6 +8,7 @@ use std::str::FromStr;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use super::contract;
 use crate::scene::camera::CameraBasis;
 use crate::scene::Scene;
 
@@ -40,14 +41,15 @@ pub enum Aov {
 }
 
 impl Aov {
+    /// The code the shader switches on (`AOV_*` of the contract).
     fn code(self) -> u32 {
         match self {
-            Aov::Color => 0,
-            Aov::Depth => 1,
-            Aov::Normal => 2,
-            Aov::PrimId => 3,
-            Aov::Cost => 4,
-            Aov::Samples => 5,
+            Aov::Color => contract::AOV_COLOR,
+            Aov::Depth => contract::AOV_DEPTH,
+            Aov::Normal => contract::AOV_NORMAL,
+            Aov::PrimId => contract::AOV_PRIM_ID,
+            Aov::Cost => contract::AOV_COST,
+            Aov::Samples => contract::AOV_SAMPLES,
         }
     }
 }
@@ -153,18 +155,6 @@ pub struct FrameParams {
     pub frame_index: u32,
 }
 
-/// Flag bits of `dims.w` (see `shaders/scene.glsl`).
-pub mod flags {
-    pub const BVH: u32 = 1;
-    pub const AOV_SHIFT: u32 = 1;
-    pub const SMOOTH: u32 = 1 << 4;
-    pub const TEXTURES: u32 = 1 << 5;
-    pub const ENVIRONMENT: u32 = 1 << 6;
-    pub const ADAPTIVE: u32 = 1 << 7;
-    pub const ID_PASS: u32 = 1 << 8;
-    pub const SPP_SHIFT: u32 = 16;
-}
-
 /// The push-constant block of `shaders/scene.glsl` (128 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -197,16 +187,16 @@ impl FrameParams {
         }
     }
 
-    /// The flag word of the push constants.
+    /// The flag word of the push constants (bits and fields from [`contract`]).
     pub fn flags(&self) -> u32 {
         let s = &self.settings;
-        let mut f = s.aov.code() << flags::AOV_SHIFT | s.spp.clamp(1, 255) << flags::SPP_SHIFT;
+        let mut f = s.aov.code() << contract::AOV_SHIFT | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
         for (on, bit) in [
-            (s.accel == Accel::Bvh, flags::BVH),
-            (s.smooth, flags::SMOOTH),
-            (s.textures, flags::TEXTURES),
-            (self.environment, flags::ENVIRONMENT),
-            (s.adaptive, flags::ADAPTIVE),
+            (s.accel == Accel::Bvh, contract::FLAG_BVH),
+            (s.smooth, contract::FLAG_SMOOTH),
+            (s.textures, contract::FLAG_TEXTURES),
+            (self.environment, contract::FLAG_ENVIRONMENT),
+            (s.adaptive, contract::FLAG_ADAPTIVE),
         ] {
             if on {
                 f |= bit;

@@ -3,6 +3,9 @@
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
 pub mod budget;
+/// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
+/// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
+pub mod contract;
 pub mod cpu;
 pub mod frame;
 pub mod heat_map;

@@ -76,8 +76,8 @@ pub struct GpuMaterial {
     pub _pad: [u32; 3],
 }
 
-/// `GpuMaterial::texture` of an untextured material.
-pub const NO_TEXTURE: u32 = u32::MAX;
+/// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
+pub const NO_TEXTURE: u32 = super::contract::EMPTY;
 
 /// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
@@ -106,7 +106,8 @@ pub struct PackedMesh {
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
     pub bounds: Aabb,
-    /// The mesh's BVH (its nodes are also in `PackedScene::nodes` at `node_base`).
+    /// The mesh's BVH as built, for validation (tests, fuzzing). Both tracers read the copy
+    /// of its nodes in `PackedScene::nodes` at `node_base`.
     pub bvh: Bvh,
 }
 

@@ -1,0 +1,70 @@
+// The constants that the host and `shaders/*.glsl` must agree on, declared once here.
+//
+// build.rs `include!`s this file and writes every constant of `ALL` into the GLSL header
+// `contract.glsl` (OUT_DIR), which `shaders/scene.glsl` includes; the Rust side uses the
+// consts directly. So this file holds plain `u32` consts only: no `crate::` paths and no
+// inner doc comments, which `include!` into build.rs could not take.
+
+/// Declares each constant as a `pub const NAME: u32` and lists them all in [`ALL`] (name,
+/// value, doc), the table build.rs turns into `contract.glsl`.
+macro_rules! contract {
+    ($($(#[doc = $doc:literal])+ $name:ident = $value:expr;)+) => {
+        $($(#[doc = $doc])+ pub const $name: u32 = $value;)+
+
+        /// Every constant of the contract as (name, value, doc), in declaration order.
+        pub const ALL: &[(&str, u32, &str)] = &[$((stringify!($name), $name, concat!($($doc, "\n"),+))),+];
+    };
+}
+
+contract! {
+    /// An absent index: a BVH child that is not there, a material without texture, a miss.
+    EMPTY = u32::MAX;
+    /// Entries in the BVH traversal stack (CPU and shader alike).
+    STACK_SIZE = 64;
+
+    // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
+
+    /// Flag: find closest hits through the BVH (else the paper's brute force).
+    FLAG_BVH = 1;
+    /// Where the AOV code sits in the flag word.
+    AOV_SHIFT = 1;
+    /// The AOV code's bits once shifted down (3 bits).
+    AOV_MASK = 0b111;
+    /// Flag: interpolate vertex normals (smooth shading).
+    FLAG_SMOOTH = 1 << 4;
+    /// Flag: apply diffuse textures.
+    FLAG_TEXTURES = 1 << 5;
+    /// Flag: misses see the environment map instead of the background colour.
+    FLAG_ENVIRONMENT = 1 << 6;
+    /// Flag: spend the extra samples only on edge pixels (adaptive sampling).
+    FLAG_ADAPTIVE = 1 << 7;
+    /// Flag: adaptive sampling's pre-pass, which writes the path keys only.
+    FLAG_ID_PASS = 1 << 8;
+    /// Where the samples per pixel sit in the flag word.
+    SPP_SHIFT = 16;
+    /// The samples-per-pixel bits once shifted down (8 bits).
+    SPP_MASK = 0xff;
+
+    // AOV codes (`Aov::code`), at `AOV_SHIFT` in the flag word.
+
+    /// AOV: shaded colour.
+    AOV_COLOR = 0;
+    /// AOV: primary-hit distance.
+    AOV_DEPTH = 1;
+    /// AOV: primary-hit normal.
+    AOV_NORMAL = 2;
+    /// AOV: primary-hit triangle index (file order).
+    AOV_PRIM_ID = 3;
+    /// AOV: BVH nodes visited and triangles tested.
+    AOV_COST = 4;
+    /// AOV: camera samples spent on the pixel.
+    AOV_SAMPLES = 5;
+}
+
+// The fields of the flag word must not overlap, and every AOV code must fit its bits.
+const _: () = {
+    let flags = FLAG_BVH | FLAG_SMOOTH | FLAG_TEXTURES | FLAG_ENVIRONMENT | FLAG_ADAPTIVE | FLAG_ID_PASS;
+    let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
+    assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
+    assert!(AOV_SAMPLES <= AOV_MASK);
+};
