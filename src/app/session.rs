@@ -7,6 +7,7 @@ use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::{Aov, FrameParams};
 use crate::tracer::packed::PackedScene;
+use crate::tracer::textures::EnvironmentMap;
 use crate::tracer::{budget, Accel};
 
 use super::model_loader::{LoadedModel, ModelLoader, Poll};
@@ -128,10 +129,11 @@ impl Session {
             self.accumulation = Accumulation::default();
         }
         if self.applied.environment.as_ref() != Some(&params.environment) {
-            model.packed.set_environment(params.environment.as_ref());
-            if let Some(w) = model.packed.warnings.pop() {
+            let (map, warning) = EnvironmentMap::from_source(params.environment.as_ref());
+            if let Some(w) = warning {
                 panel.render_status = Some(Status::error(w));
             }
+            model.packed.set_environment(map);
             model.scene.environment = params.environment.clone();
             tracer.set_environment(&model.packed)?;
             self.applied.environment = Some(params.environment.clone());

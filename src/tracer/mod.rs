@@ -11,6 +11,7 @@ pub mod frame;
 pub mod heat_map;
 pub mod image;
 pub mod packed;
+pub mod prepare;
 pub mod shading;
 pub mod textures;
 

@@ -6,16 +6,16 @@
 //! alone when only the model count changes, so no mesh is re-uploaded.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
 
-use crate::bvh::{BuildOptions, Bvh, BvhNode};
+use super::prepare::PreparedScene;
+use super::textures::{EnvironmentMap, TextureAtlas};
+use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::Aabb;
-use crate::scene::{EnvironmentSource, Instance, Mesh, Scene};
-use super::textures::{load_environment, EnvironmentMap, TextureAtlas};
+use crate::scene::{Instance, Mesh, Scene};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
 #[repr(C)]
@@ -132,56 +132,34 @@ pub struct PackedScene {
 }
 
 impl PackedScene {
-    /// Build every mesh's BVH and pack the scene.
+    /// Prepare (build every mesh's BVH, decode textures and the environment) and pack
+    /// the scene: the one call most callers want.
     pub fn new(scene: &Scene) -> Self {
-        let mut packed = PackedScene::default();
-        let options = BuildOptions::for_tracing();
+        Self::pack(scene, PreparedScene::new(scene))
+    }
+
+    /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
+    /// only copies and reorders: nothing here builds or decodes.
+    pub fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
+        let PreparedScene { bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
+        let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
+        for (path, img) in textures {
+            let index = packed.textures.add(&img);
+            packed.texture_index.insert(path, index);
+        }
         let mut prim_base = 0u32;
-        packed.load_textures(scene);
-        for mesh in &scene.meshes {
-            packed.push_mesh(mesh, &options, prim_base);
+        for (mesh, bvh) in scene.meshes.iter().zip(bvhs) {
+            packed.push_mesh(mesh, bvh, prim_base);
             prim_base += mesh.triangle_count() as u32;
         }
         packed.set_instances(&scene.instances);
-        packed.set_environment(scene.environment.as_ref());
         packed
     }
 
-    /// Decode every material's diffuse texture (in parallel) into the atlas.
-    fn load_textures(&mut self, scene: &Scene) {
-        let mut paths: Vec<&Path> = scene
-            .meshes
-            .iter()
-            .filter(|m| !m.texcoords.is_empty())
-            .flat_map(|m| m.materials.iter().filter_map(|mat| mat.diffuse_texture.as_deref()))
-            .collect();
-        paths.sort();
-        paths.dedup();
-        let decoded: Vec<_> = paths.par_iter().map(|p| (p, image::open(p).map(|i| i.to_rgba8()))).collect();
-        for (path, result) in decoded {
-            match result {
-                Ok(img) => {
-                    let index = self.textures.add(&img);
-                    self.texture_index.insert(path.to_path_buf(), index);
-                }
-                Err(e) => {
-                    // Reported by the caller (CLI, panel, bench), once.
-                    self.warnings.push(format!("cannot read texture {}: {e}; using the material's Kd instead", path.display()));
-                }
-            }
-        }
-    }
-
-    /// Replace the environment image (None: misses see the background colour). A file that
-    /// cannot be read falls back to the generated sky, with a warning.
-    pub fn set_environment(&mut self, source: Option<&EnvironmentSource>) {
-        self.environment = source.map(|s| match s {
-            EnvironmentSource::Sky => EnvironmentMap::generated_sky(),
-            EnvironmentSource::File(path) => load_environment(path).unwrap_or_else(|e| {
-                self.warnings.push(format!("{e}; using the generated sky instead"));
-                EnvironmentMap::generated_sky()
-            }),
-        });
+    /// Replace the environment image (None: misses see the background colour), decoded
+    /// with [`EnvironmentMap::from_source`].
+    pub fn set_environment(&mut self, environment: Option<EnvironmentMap>) {
+        self.environment = environment;
     }
 
     /// The environment buffer as the shader reads it: width, height, then RGB9E5 texels.
@@ -196,11 +174,7 @@ impl PackedScene {
         }
     }
 
-    fn push_mesh(&mut self, mesh: &Mesh, options: &BuildOptions, prim_base: u32) {
-        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-        let start = std::time::Instant::now();
-        let bvh = Bvh::build(&corners, options);
-        self.bvh_build_seconds += start.elapsed().as_secs_f64();
+    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, prim_base: u32) {
 
         let material_base = self.materials.len() as u32;
         let texture_of = |m: &crate::scene::Material| {
@@ -223,7 +197,7 @@ impl PackedScene {
         self.triangles.reserve(bvh.prim_indices.len());
         self.shading.reserve(bvh.prim_indices.len());
         for &prim in &bvh.prim_indices {
-            let [a, b, c] = corners[prim as usize];
+            let [a, b, c] = mesh.corners(prim as usize);
             let (mut e1, mut e2) = (b - a, c - a);
             // A (nearly) degenerate triangle would pass Möller–Trumbore's absolute
             // determinant test on rounding noise and report hits far outside itself:

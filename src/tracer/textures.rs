@@ -191,6 +191,20 @@ impl EnvironmentMap {
         Self::from_rgba8(&sky_image(512, 256))
     }
 
+    /// The map `source` names (None: no environment). A file that cannot be read falls
+    /// back to the generated sky, with the warning returned.
+    pub fn from_source(source: Option<&crate::scene::EnvironmentSource>) -> (Option<Self>, Option<String>) {
+        use crate::scene::EnvironmentSource;
+        match source {
+            None => (None, None),
+            Some(EnvironmentSource::Sky) => (Some(Self::generated_sky()), None),
+            Some(EnvironmentSource::File(path)) => match load_environment(path) {
+                Ok(map) => (Some(map), None),
+                Err(e) => (Some(Self::generated_sky()), Some(format!("{e}; using the generated sky instead"))),
+            },
+        }
+    }
+
     /// From linear floating-point texels (HDR, EXR).
     pub fn from_rgba32f(img: &image::Rgba32FImage) -> Self {
         let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0], p[1], p[2]))).collect();

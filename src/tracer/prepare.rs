@@ -1,0 +1,75 @@
+//! What packing a scene needs that costs time: every mesh's BVH built (in parallel with
+//! the texture decoding), the diffuse textures and the environment map decoded. Done
+//! before [`PackedScene::pack`](super::PackedScene::pack), which only copies.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::Vec3;
+use image::RgbaImage;
+use rayon::prelude::*;
+
+use super::textures::EnvironmentMap;
+use crate::bvh::{BuildOptions, Bvh};
+use crate::scene::Scene;
+
+/// A scene's BVHs (one per mesh, in mesh order), decoded textures and environment.
+pub struct PreparedScene {
+    pub bvhs: Vec<Bvh>,
+    /// Every readable diffuse texture, by the path materials name it with.
+    pub textures: Vec<(PathBuf, RgbaImage)>,
+    pub environment: Option<EnvironmentMap>,
+    /// Problems worked around (unreadable textures or environment), reported by the caller.
+    pub warnings: Vec<String>,
+    /// Seconds spent building BVHs, for reports.
+    pub bvh_build_seconds: f64,
+}
+
+impl PreparedScene {
+    /// Build the BVHs and decode the images `scene` needs.
+    pub fn new(scene: &Scene) -> Self {
+        let (bvhs, textures) = rayon::join(
+            || {
+                let start = Instant::now();
+                let options = BuildOptions::for_tracing();
+                let bvhs: Vec<Bvh> = scene
+                    .meshes
+                    .iter()
+                    .map(|mesh| {
+                        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+                        Bvh::build(&corners, &options)
+                    })
+                    .collect();
+                (bvhs, start.elapsed().as_secs_f64())
+            },
+            || decode_textures(scene),
+        );
+        let ((bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
+        let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
+        warnings.extend(env_warning);
+        Self { bvhs, textures, environment, warnings, bvh_build_seconds }
+    }
+}
+
+/// Decode every textured material's diffuse texture (in parallel); unreadable ones are
+/// warnings, and their materials keep their Kd.
+fn decode_textures(scene: &Scene) -> (Vec<(PathBuf, RgbaImage)>, Vec<String>) {
+    let mut paths: Vec<&Path> = scene
+        .meshes
+        .iter()
+        .filter(|m| !m.texcoords.is_empty())
+        .flat_map(|m| m.materials.iter().filter_map(|mat| mat.diffuse_texture.as_deref()))
+        .collect();
+    paths.sort();
+    paths.dedup();
+    let decoded: Vec<_> = paths.par_iter().map(|p| (p.to_path_buf(), image::open(p).map(|i| i.to_rgba8()))).collect();
+    let mut textures = Vec::new();
+    let mut warnings = Vec::new();
+    for (path, result) in decoded {
+        match result {
+            Ok(img) => textures.push((path, img)),
+            Err(e) => warnings.push(format!("cannot read texture {}: {e}; using the material's Kd instead", path.display())),
+        }
+    }
+    (textures, warnings)
+}
