@@ -24,6 +24,8 @@ use serde::Deserialize;
 use self::draw::render;
 use super::paper_tables::{TABLE1, TABLE2};
 use super::{Environment, Row};
+use crate::scene::primitives::PaperModel;
+use crate::tracer::Accel;
 
 /// The files [`write_charts`] writes, in order.
 pub const CHART_FILES: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];
@@ -143,48 +145,63 @@ const PURPLE_: RGBColor = RGBColor(130, 60, 170);
 const GREY_: RGBColor = RGBColor(110, 110, 110);
 const BVH_SHADES: [RGBColor; 4] = [BLUE_, RGBColor(0, 150, 150), RGBColor(90, 140, 230), RGBColor(20, 50, 110)];
 const BRUTE_SHADES: [RGBColor; 4] = [RED_, RGBColor(230, 130, 0), RGBColor(240, 110, 110), RGBColor(120, 30, 30)];
-const OTHER_SHADES: [RGBColor; 4] = [RGBColor(40, 140, 60), RGBColor(150, 110, 40), RGBColor(200, 80, 170), RGBColor(80, 80, 80)];
 
 /// The n-th colour of an acceleration's family (blues for the BVH, reds for brute force).
-fn accel_color(accel: &str, n: usize) -> RGBColor {
+fn accel_color(accel: Accel, n: usize) -> RGBColor {
     let shades = match accel {
-        "bvh" => &BVH_SHADES,
-        "brute" => &BRUTE_SHADES,
-        _ => &OTHER_SHADES,
+        Accel::Bvh => &BVH_SHADES,
+        Accel::Brute => &BRUTE_SHADES,
     };
     shades[n % shades.len()]
 }
 
+/// The paper's model that a row's model name is: spelled exactly as [`PaperModel::name`],
+/// as the rows spell it (a file `Sphere.obj` is not the paper's sphere).
+fn paper_model(name: &str) -> Option<PaperModel> {
+    PaperModel::from_name(name).filter(|m| m.name() == name)
+}
+
+/// The colour of one of the paper's models.
+fn paper_model_color(model: PaperModel) -> RGBColor {
+    match model {
+        PaperModel::Geosphere => RGBColor(31, 100, 180),
+        PaperModel::TorusKnot => RGBColor(230, 120, 0),
+        PaperModel::Sphere => RGBColor(40, 150, 60),
+        PaperModel::Cylinder => RGBColor(205, 40, 40),
+    }
+}
+
 /// One colour per model of the paper (others from a spare palette).
 fn model_color(model: &str, others: &mut Vec<String>) -> RGBColor {
-    match model {
-        "geosphere" => RGBColor(31, 100, 180),
-        "torusknot" => RGBColor(230, 120, 0),
-        "sphere" => RGBColor(40, 150, 60),
-        "cylinder" => RGBColor(205, 40, 40),
-        _ => {
-            let i = others.iter().position(|m| m == model).unwrap_or_else(|| {
-                others.push(model.to_string());
-                others.len() - 1
-            });
-            [PURPLE_, RGBColor(140, 90, 40), RGBColor(200, 80, 170), GREY_][i % 4]
-        }
+    if let Some(paper) = paper_model(model) {
+        return paper_model_color(paper);
     }
+    let i = others.iter().position(|m| m == model).unwrap_or_else(|| {
+        others.push(model.to_string());
+        others.len() - 1
+    });
+    [PURPLE_, RGBColor(140, 90, 40), RGBColor(200, 80, 170), GREY_][i % 4]
 }
 
-fn accel_marker(accel: &str) -> Marker {
-    if accel == "brute" {
-        Marker::Square
-    } else {
-        Marker::Circle
-    }
-}
-
-fn accel_name(accel: &str) -> String {
+fn accel_marker(accel: Accel) -> Marker {
     match accel {
-        "bvh" => "BVH".into(),
-        "brute" => "brute force".into(),
-        other => other.into(),
+        Accel::Brute => Marker::Square,
+        Accel::Bvh => Marker::Circle,
+    }
+}
+
+fn accel_name(accel: Accel) -> &'static str {
+    match accel {
+        Accel::Bvh => "BVH",
+        Accel::Brute => "brute force",
+    }
+}
+
+/// Brute force before the BVH in legends, as in the paper's tables.
+fn accel_order(accel: Accel) -> u8 {
+    match accel {
+        Accel::Brute => 0,
+        Accel::Bvh => 1,
     }
 }
 
@@ -219,30 +236,45 @@ fn machine_line(environments: &[Environment]) -> String {
     format!("{}, {}", devices.join(" / "), dates.join(" / "))
 }
 
-/// Series keyed by a string, in order of first appearance.
-#[derive(Default)]
-struct Groups(Vec<(String, Series)>);
+/// Series keyed by their acceleration and `K` (what else sets them apart in a chart), in
+/// order of first appearance.
+struct Groups<K>(Vec<(Accel, K, Series)>);
 
-impl Groups {
-    fn get(&mut self, key: String, make: impl FnOnce(&Self) -> Series) -> &mut Series {
-        match self.0.iter().position(|(k, _)| *k == key) {
-            Some(i) => &mut self.0[i].1,
+impl<K> Default for Groups<K> {
+    fn default() -> Self {
+        Self(Vec::new())
+    }
+}
+
+impl<K: PartialEq> Groups<K> {
+    fn get(&mut self, accel: Accel, key: K, make: impl FnOnce(&Self) -> Series) -> &mut Series {
+        match self.0.iter().position(|(a, k, _)| *a == accel && *k == key) {
+            Some(i) => &mut self.0[i].2,
             None => {
                 let s = make(self);
-                self.0.push((key, s));
-                &mut self.0.last_mut().unwrap().1
+                self.0.push((accel, key, s));
+                &mut self.0.last_mut().unwrap().2
             }
         }
     }
 
     /// How many series of `accel` there are so far (to pick the next shade).
-    fn count_accel(&self, accel: &str) -> usize {
-        self.0.iter().filter(|(k, _)| k.starts_with(&format!("{accel}|"))).count()
+    fn count_accel(&self, accel: Accel) -> usize {
+        self.0.iter().filter(|(a, _, _)| *a == accel).count()
     }
 
     fn into_series(self) -> Vec<Series> {
-        self.0.into_iter().map(|(_, s)| s).collect()
+        self.0.into_iter().map(|(_, _, s)| s).collect()
     }
+}
+
+/// What sets a series of the triangle chart apart, besides its acceleration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TriangleSeries {
+    /// The scaling rows: generated torus knots (a line) or .obj models (labelled points).
+    Scaling { generated: bool, width: u32, height: u32, bounces: u32 },
+    /// Our Table 1 rows.
+    Table1 { bounces: u32 },
 }
 
 fn bounces_note(b: u32) -> String {
@@ -259,18 +291,22 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
     let mut groups = Groups::default();
     for r in rows.iter().filter(|r| r.series == "triangles") {
         let Some(ms) = gpu_ms(r) else { continue };
+        // Generated meshes are named `torusknot-<triangles>` (`ModelSource::label`).
         let generated = r.model.starts_with("torusknot-");
-        let key = format!("{}|{}|{}x{}|{}", r.accel, generated, r.width, r.height, r.bounces);
-        let accel = r.accel.clone();
+        let key = TriangleSeries::Scaling { generated, width: r.width, height: r.height, bounces: r.bounces };
+        let accel = r.accel;
         let what = if generated { "torus knots" } else { ".obj models" };
-        let label = format!("ours, {}: {what}, {}, {}", accel_name(&accel), res_label(r.width, r.height), bounces_note(r.bounces));
-        let s = groups.get(key, |g| {
+        let label = format!("ours, {}: {what}, {}, {}", accel_name(accel), res_label(r.width, r.height), bounces_note(r.bounces));
+        let s = groups.get(accel, key, |g| {
             if generated {
-                Series::new(label, accel_color(&accel, g.count_accel(&accel)), Line::Solid, accel_marker(&accel))
+                Series::new(label, accel_color(accel, g.count_accel(accel)), Line::Solid, accel_marker(accel))
             } else {
                 // .obj models as labelled points in purples and greens, apart from the lines.
-                let n = g.0.iter().filter(|(k, s)| k.starts_with(&format!("{accel}|")) && s.marker == Marker::Diamond).count();
-                let shades = if accel == "brute" { [RGBColor(150, 110, 40), RGBColor(200, 80, 170)] } else { [PURPLE_, RGBColor(40, 140, 60)] };
+                let n = g.0.iter().filter(|(a, _, s)| *a == accel && s.marker == Marker::Diamond).count();
+                let shades = match accel {
+                    Accel::Brute => [RGBColor(150, 110, 40), RGBColor(200, 80, 170)],
+                    Accel::Bvh => [PURPLE_, RGBColor(40, 140, 60)],
+                };
                 Series::new(label, shades[n % 2], Line::None, Marker::Diamond)
             }
         });
@@ -280,10 +316,10 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
     let table1: Vec<&Row> = rows.iter().filter(|r| r.series == "table1" && gpu_ms(r).is_some()).collect();
     if let Some(size) = table1.iter().map(|r| r.width as u64 * r.height as u64).max() {
         for r in table1.iter().filter(|r| r.width as u64 * r.height as u64 == size) {
-            let key = format!("{}|table1|{}", r.accel, r.bounces);
-            let accel = r.accel.clone();
-            let label = format!("ours, {}: Table 1 models, {}, {}", accel_name(&accel), res_label(r.width, r.height), bounces_note(r.bounces));
-            let s = groups.get(key, |g| Series::new(label, accel_color(&accel, g.count_accel(&accel) + 1), Line::None, accel_marker(&accel)));
+            let accel = r.accel;
+            let label = format!("ours, {}: Table 1 models, {}, {}", accel_name(accel), res_label(r.width, r.height), bounces_note(r.bounces));
+            let key = TriangleSeries::Table1 { bounces: r.bounces };
+            let s = groups.get(accel, key, |g| Series::new(label, accel_color(accel, g.count_accel(accel) + 1), Line::None, accel_marker(accel)));
             s.push(r.triangles as f64, gpu_ms(r).unwrap(), None);
         }
     }
@@ -309,26 +345,26 @@ fn resolution_chart(rows: &[Row], machine: &str) -> Chart {
     let mut groups = Groups::default();
     for r in rows.iter().filter(|r| r.series == "resolution" || r.series == "table1") {
         let Some(ms) = gpu_ms(r) else { continue };
-        let key = format!("{}|{}|{}|{}", r.accel, r.model, r.models, r.bounces);
+        // (model, copies, bounces)
+        let key = (r.model.clone(), r.models, r.bounces);
         let copies = if r.models > 1 { format!(" x{}", r.models) } else { String::new() };
         let extra = if r.bounces != 2 { format!(", {}", bounces_note(r.bounces)) } else { String::new() };
-        let label = format!("ours, {}: {}{copies}{extra}", accel_name(&r.accel), r.model);
+        let label = format!("ours, {}: {}{copies}{extra}", accel_name(r.accel), r.model);
         let color = model_color(&r.model, &mut others);
-        let s = groups.get(key, |_| Series::new(label, color, Line::Solid, accel_marker(&r.accel)));
+        let s = groups.get(r.accel, key, |_| Series::new(label, color, Line::Solid, accel_marker(r.accel)));
         s.push(r.width as f64 * r.height as f64, ms, None);
     }
     let mut series = Vec::new();
     for (model, figures) in TABLE1 {
-        let mut s = Series::new(format!("paper: {}", model.name()), model_color(model.name(), &mut others), Line::Dashed, Marker::Triangle);
+        let mut s = Series::new(format!("paper: {}", model.name()), paper_model_color(model), Line::Dashed, Marker::Triangle);
         s.push(512.0 * 512.0, figures[0].1, None);
         s.push(1024.0 * 1024.0, figures[1].1, None);
         series.push(s);
     }
     // Brute force before the BVH in the legend, as in the tables.
-    groups.0.sort_by_key(|(key, _)| {
-        let parts: Vec<&str> = key.split('|').collect();
-        let model = TABLE1.iter().position(|(m, _)| m.name() == parts[1]).unwrap_or(TABLE1.len());
-        (if parts[0] == "brute" { 0 } else { 1 }, parts[0].to_string(), model)
+    groups.0.sort_by_key(|(accel, (model, _, _), _)| {
+        let model = paper_model(model).and_then(|m| TABLE1.iter().position(|(t, _)| *t == m)).unwrap_or(TABLE1.len());
+        (accel_order(*accel), model)
     });
     series.extend(groups.into_series());
     Chart {
@@ -350,25 +386,19 @@ fn models_chart(rows: &[Row], machine: &str) -> Chart {
         if !sizes.contains(&(r.width, r.height)) {
             sizes.push((r.width, r.height));
         }
-        let key = format!("{}|{}|{}x{}|{}", r.accel, r.model, r.width, r.height, r.bounces);
-        let accel = r.accel.clone();
-        let label = format!("ours, {}: {} copies, {}, {}", accel_name(&accel), r.model, res_label(r.width, r.height), bounces_note(r.bounces));
-        let s = groups.get(key, |_| Series::new(label, BLACK, Line::Solid, accel_marker(&accel)));
+        // (model, (width, height), bounces)
+        let key = (r.model.clone(), (r.width, r.height), r.bounces);
+        let label = format!("ours, {}: {} copies, {}, {}", accel_name(r.accel), r.model, res_label(r.width, r.height), bounces_note(r.bounces));
+        let s = groups.get(r.accel, key, |_| Series::new(label, BLACK, Line::Solid, accel_marker(r.accel)));
         s.push(r.models as f64, ms, None);
     }
     // Brute force first, then the largest resolution first within each acceleration, each
     // acceleration in its family of colours.
-    let rank = |key: &str| {
-        let parts: Vec<&str> = key.split('|').collect();
-        let (w, h) = parts[2].split_once('x').map(|(w, h)| (w.parse::<u64>().unwrap_or(0), h.parse::<u64>().unwrap_or(0))).unwrap_or((0, 0));
-        (if parts[0] == "brute" { 0 } else { 1 }, parts[0].to_string(), std::cmp::Reverse(w * h), parts[3].to_string())
-    };
-    groups.0.sort_by_key(|(k, _)| rank(k));
-    let mut shade = std::collections::HashMap::<String, usize>::new();
-    for (k, s) in &mut groups.0 {
-        let accel = k.split('|').next().unwrap_or("").to_string();
-        let n = shade.entry(accel.clone()).or_insert(0);
-        s.color = accel_color(&accel, *n);
+    groups.0.sort_by_key(|(accel, (_, (w, h), bounces), _)| (accel_order(*accel), std::cmp::Reverse(*w as u64 * *h as u64), *bounces));
+    let mut shade = std::collections::HashMap::<Accel, usize>::new();
+    for (accel, _, s) in &mut groups.0 {
+        let n = shade.entry(*accel).or_insert(0);
+        s.color = accel_color(*accel, *n);
         *n += 1;
     }
     let mut series = Vec::new();
