@@ -83,7 +83,8 @@ pub struct Row {
     pub width: u32,
     pub height: u32,
     pub bounces: u32,
-    pub accel: String,
+    /// Saved as "bvh" or "brute".
+    pub accel: Accel,
     /// Shading features on (smooth, textures, env, spp, adaptive), empty for the paper's.
     pub features: String,
     /// Rays per frame: every pixel's primary ray plus one per bounce (the mirror box is
@@ -195,7 +196,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         width: s.width,
         height: s.height,
         bounces: s.bounces,
-        accel: s.accel.to_string(),
+        accel: s.accel,
         features: case.features.clone(),
         rays_per_frame: rays,
         gpu_ms: None,

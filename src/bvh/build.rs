@@ -1,4 +1,5 @@
-//! Binned-SAH builder (top-down, in place), the structural checker and the tree statistics.
+//! Binned-SAH builder (top-down, in place); the bins and the plane sweep are in
+//! `build/bins.rs`, the structural checker in `validate.rs`, the tree statistics in `stats.rs`.
 //!
 //! The build works on one array of per-primitive boxes (`Prim`), partitioned in place:
 //! every subtree owns a contiguous range of it, and a leaf is simply a range. A node of at
@@ -12,9 +13,12 @@
 //! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
 //! stitched together in depth-first order at the end.
 
-use glam::{UVec3, Vec3, Vec3A};
+mod bins;
+
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
+use self::bins::{Bin, BinGrid, BinSet};
 use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
 use crate::geometry::Aabb;
 
@@ -60,10 +64,6 @@ const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
 /// Nodes at least this big bin their primitives on all threads (only the top few levels,
 /// where too few subtrees exist to keep the threads busy).
 const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
-
-// ---------------------------------------------------------------------------------------
-// Build
-// ---------------------------------------------------------------------------------------
 
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
@@ -185,171 +185,6 @@ impl NodeInfo {
 
     fn union(self, o: NodeInfo) -> NodeInfo {
         NodeInfo { bounds: self.bounds.union(o.bounds), centroids: self.centroids.union(o.centroids) }
-    }
-}
-
-#[derive(Clone, Copy)]
-struct Bin {
-    bounds: Bounds,
-    count: u32,
-}
-
-impl Bin {
-    const EMPTY: Bin = Bin { bounds: Bounds::EMPTY, count: 0 };
-}
-
-/// The bins of one node, per axis. Lives on the heap (see `boxed`) and is reused down a
-/// subtree; only the first `n` bins of each axis are in use.
-struct BinSet {
-    bins: [[Bin; MAX_BINS]; 3],
-    /// A second set for the odd primitives of big ranges (see `add`).
-    spare: [[Bin; MAX_BINS]; 3],
-}
-
-impl BinSet {
-    fn new() -> Self {
-        Self { bins: [[Bin::EMPTY; MAX_BINS]; 3], spare: [[Bin::EMPTY; MAX_BINS]; 3] }
-    }
-
-    /// On the heap: a BinSet is about 7 KB, and fork-join frames that each hold some nest
-    /// deeply when rayon's workers steal work while they wait (a 10M-triangle build needed
-    /// more than 256 KB per worker with two threads before the sets moved here, 64 KB after).
-    fn boxed() -> Box<Self> {
-        Box::new(Self::new())
-    }
-
-    fn copy_from(&mut self, o: &BinSet) {
-        self.bins = o.bins;
-        self.spare = o.spare;
-    }
-
-    fn clear(&mut self, n: usize) {
-        for axis in &mut self.bins {
-            axis[..n].fill(Bin::EMPTY);
-        }
-    }
-
-    /// Bins `prims` (on top of what the bins hold). Neighbouring triangles of a mesh tend to
-    /// land in the same bins, chaining each update on the previous one; big ranges therefore
-    /// alternate between two sets of bins, merged at the end.
-    fn add(&mut self, prims: &[Prim], grid: &BinGrid) {
-        let BinSet { bins, spare } = self;
-        if prims.len() < 256 {
-            prims.iter().for_each(|p| add_to(bins, p, grid));
-            return;
-        }
-        for axis in spare.iter_mut() {
-            axis[..grid.count].fill(Bin::EMPTY);
-        }
-        let pairs = prims.chunks_exact(2);
-        pairs.remainder().iter().for_each(|p| add_to(bins, p, grid));
-        for pair in pairs {
-            add_to(bins, &pair[0], grid);
-            add_to(spare, &pair[1], grid);
-        }
-        merge_bins(bins, spare, grid.count);
-    }
-
-    /// The cheapest SAH split plane over all axes as (axis, plane): plane `i` has bins `..i`
-    /// on its left. `None` when no plane has primitives on both sides.
-    fn best_plane(&self, grid: &BinGrid, node_bounds: &Bounds) -> Option<(usize, usize)> {
-        // Areas are scaled by the node's size so that they stay finite for huge coordinates.
-        let extent = (node_bounds.max - node_bounds.min).max_element();
-        let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
-        let n = grid.count;
-        let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
-        for axis in 0..3 {
-            if grid.scale[axis] == 0.0 {
-                continue; // the centroids do not spread along this axis
-            }
-            let bins = &self.bins[axis][..n];
-            // Left to right: area * count of everything left of each plane.
-            let mut left_cost = [0.0f32; MAX_BINS];
-            let mut left_count = [0u32; MAX_BINS];
-            let (mut acc, mut count) = (Bounds::EMPTY, 0);
-            for i in 1..n {
-                acc = acc.union(bins[i - 1].bounds);
-                count += bins[i - 1].count;
-                left_count[i] = count;
-                left_cost[i] = acc.half_area(scale) * count as f32;
-            }
-            // Right to left, completing each plane's cost.
-            let (mut acc, mut count) = (Bounds::EMPTY, 0);
-            for i in (1..n).rev() {
-                acc = acc.union(bins[i].bounds);
-                count += bins[i].count;
-                if left_count[i] == 0 || count == 0 {
-                    continue;
-                }
-                let cost = left_cost[i] + acc.half_area(scale) * count as f32;
-                if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, i));
-                }
-            }
-        }
-        best.map(|(_, axis, plane)| (axis, plane))
-    }
-
-    fn merge(&mut self, o: &BinSet, n: usize) {
-        merge_bins(&mut self.bins, &o.bins, n);
-    }
-}
-
-#[inline(always)]
-fn add_to(bins: &mut [[Bin; MAX_BINS]; 3], p: &Prim, grid: &BinGrid) {
-    let b = grid.bin_of(p.centroid());
-    let (min, max) = (p.bounds_min(), p.bounds_max());
-    for axis in 0..3 {
-        let bin = &mut bins[axis][b[axis] as usize];
-        bin.count += 1;
-        bin.bounds.grow(min, max);
-    }
-}
-
-fn merge_bins(into: &mut [[Bin; MAX_BINS]; 3], from: &[[Bin; MAX_BINS]; 3], n: usize) {
-    for axis in 0..3 {
-        for i in 0..n {
-            let (a, b) = (&mut into[axis][i], &from[axis][i]);
-            a.count += b.count;
-            a.bounds = a.bounds.union(b.bounds);
-        }
-    }
-}
-
-/// Maps a centroid to its bin on each axis: `bin = (c - origin) * scale`, clamped.
-/// Axes along which the centroids do not spread get `scale = 0` (everything in bin 0).
-struct BinGrid {
-    origin: Vec3A,
-    scale: Vec3A,
-    count: usize,
-}
-
-impl BinGrid {
-    /// `None` when the centroids coincide (or their spread is not representable).
-    fn new(centroids: &Bounds, count: usize) -> Option<BinGrid> {
-        let extent = centroids.max - centroids.min;
-        let mut scale = Vec3A::ZERO;
-        for axis in 0..3 {
-            let s = count as f32 / extent[axis];
-            if extent[axis] > 0.0 && s.is_finite() {
-                scale[axis] = s;
-            }
-        }
-        (scale != Vec3A::ZERO).then_some(BinGrid { origin: centroids.min, scale, count })
-    }
-
-    /// The bins of centroid `c` on all three axes (for binning).
-    #[inline(always)]
-    fn bin_of(&self, c: Vec3A) -> UVec3 {
-        ((c - self.origin) * self.scale).as_uvec3().min(UVec3::splat(self.count as u32 - 1))
-    }
-
-    /// The bin of primitive `p` on one axis (for the partition): the same float operations
-    /// as one lane of `bin_of(p.centroid())`, so both always agree.
-    #[inline(always)]
-    fn bin_on_axis(&self, p: &Prim, axis: usize) -> usize {
-        let c = p.min[axis] * 0.5 + p.max[axis] * 0.5;
-        (((c - self.origin[axis]) * self.scale[axis]) as u32).min(self.count as u32 - 1) as usize
     }
 }
 
@@ -588,169 +423,6 @@ impl Fragment {
             }));
         }
         nodes
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// Statistics and validation
-// ---------------------------------------------------------------------------------------
-
-impl Bvh {
-    /// SAH cost of the tree (root-surface-area normalised, with the options' costs), for reports:
-    /// `(Ct * sum of node areas + Ci * sum of leaf areas * leaf sizes) / root area`, root node included.
-    pub fn sah_cost(&self, options: &BuildOptions) -> f32 {
-        let Some(root) = self.nodes.first() else { return 0.0 };
-        let area = |b: &Aabb| {
-            let e = b.extent().as_dvec3();
-            2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
-        };
-        let root_box = root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
-        // f64 so that 1e30-sized boxes do not overflow; a zero-area root (all primitives on one
-        // point or line) weighs every node fully.
-        let root_area = area(&root_box);
-        let ratio = |b: &Aabb| if root_area > 0.0 { area(b) / root_area } else { 1.0 };
-        let (ct, ci) = (options.traversal_cost as f64, options.intersection_cost as f64);
-        let mut cost = ct; // the root is always visited
-        for node in &self.nodes {
-            for child in node.children() {
-                if child.is_leaf() {
-                    cost += ci * ratio(&child.bounds) * child.count as f64;
-                } else if child.is_inner() {
-                    cost += ct * ratio(&child.bounds);
-                }
-            }
-        }
-        cost as f32
-    }
-
-    /// Longest root-to-leaf path in nodes (leaves live in their parent): 0 when empty, 1 for a
-    /// root over leaves. A traversal needs at most this many stack entries.
-    pub fn depth(&self) -> usize {
-        if self.nodes.is_empty() {
-            return 0;
-        }
-        let mut deepest = 0;
-        let mut stack = vec![(0u32, 1usize)];
-        while let Some((index, level)) = stack.pop() {
-            deepest = deepest.max(level);
-            for child in self.nodes[index as usize].children() {
-                if child.is_inner() {
-                    stack.push((child.index, level + 1));
-                }
-            }
-        }
-        deepest
-    }
-
-    /// Number of leaves (non-empty leaf children).
-    pub fn leaf_count(&self) -> usize {
-        self.nodes.iter().flat_map(|n| n.children()).filter(|c| c.is_leaf()).count()
-    }
-
-    /// Check the structural invariants (leaf sizes against the default options); Err names the first broken one.
-    /// See [`Bvh::validate_with`].
-    pub fn validate(&self, triangles: &[[Vec3; 3]]) -> Result<(), String> {
-        self.validate_with(triangles, &BuildOptions::default())
-    }
-
-    /// Check the structural invariants; Err names the first broken one: every primitive referenced exactly
-    /// once, child boxes inside the box recorded for their node in its parent, primitives inside their leaf's
-    /// box, leaves within `max_leaf_size`, node indices in range, every node reached once (no cycles, no
-    /// orphans), depth within `MAX_DEPTH`.
-    pub fn validate_with(&self, triangles: &[[Vec3; 3]], options: &BuildOptions) -> Result<(), String> {
-        self.check(triangles.len(), |i| Aabb::from_points(&triangles[i]), options)
-    }
-
-    /// [`Bvh::validate_with`] for a BVH built over boxes.
-    pub fn validate_boxes(&self, boxes: &[Aabb], options: &BuildOptions) -> Result<(), String> {
-        self.check(boxes.len(), |i| boxes[i], options)
-    }
-
-    fn check(&self, prim_count: usize, prim_box: impl Fn(usize) -> Aabb, options: &BuildOptions) -> Result<(), String> {
-        if self.prim_indices.len() != prim_count {
-            return Err(format!("prim_indices has {} entries for {prim_count} primitives", self.prim_indices.len()));
-        }
-        let mut seen = vec![false; prim_count];
-        for (k, &p) in self.prim_indices.iter().enumerate() {
-            let Some(s) = seen.get_mut(p as usize) else {
-                return Err(format!("prim_indices[{k}] = {p} is out of range"));
-            };
-            if std::mem::replace(s, true) {
-                return Err(format!("primitive {p} appears twice in prim_indices (again at {k})"));
-            }
-        }
-        if prim_count == 0 {
-            return match self.nodes.is_empty() {
-                true => Ok(()),
-                false => Err("nodes present but no primitives".into()),
-            };
-        }
-        if self.nodes.is_empty() {
-            return Err("no nodes for a non-empty primitive set".into());
-        }
-
-        let max_leaf = options.max_leaf_size.max(1);
-        let mut node_seen = vec![false; self.nodes.len()];
-        let mut slot_seen = vec![false; prim_count];
-        // (node, the box its parent records for it, level)
-        let mut stack: Vec<(u32, Option<Aabb>, usize)> = vec![(0, None, 1)];
-        while let Some((index, parent_box, level)) = stack.pop() {
-            if std::mem::replace(&mut node_seen[index as usize], true) {
-                return Err(format!("node {index} is reached twice (cycle or shared child)"));
-            }
-            if level > MAX_DEPTH {
-                return Err(format!("node {index} is at depth {level} > MAX_DEPTH = {MAX_DEPTH}"));
-            }
-            let node = &self.nodes[index as usize];
-            for (side, child) in ["left", "right"].into_iter().zip(node.children()) {
-                let here = format!("node {index} {side} child");
-                if child.is_empty() {
-                    let lone_leaf = index == 0 && side == "right" && node.child(0).is_leaf();
-                    if !lone_leaf {
-                        return Err(format!("{here} is EMPTY (only a root over a single leaf may have one)"));
-                    }
-                    continue;
-                }
-                if child.bounds.is_empty() {
-                    return Err(format!("{here} has an empty box"));
-                }
-                if let Some(pb) = parent_box {
-                    if !pb.contains(&child.bounds) {
-                        return Err(format!("{here} box {:?} is not inside its node's box {pb:?}", child.bounds));
-                    }
-                }
-                if child.is_inner() {
-                    if child.index as usize >= self.nodes.len() {
-                        return Err(format!("{here} points to node {} of {}", child.index, self.nodes.len()));
-                    }
-                    stack.push((child.index, Some(child.bounds), level + 1));
-                    continue;
-                }
-                if child.count > max_leaf {
-                    return Err(format!("{here} is a leaf of {} > max_leaf_size = {max_leaf}", child.count));
-                }
-                let range = child.index as usize..child.index as usize + child.count as usize;
-                if range.end > prim_count {
-                    return Err(format!("{here} leaf range {range:?} exceeds {prim_count} primitives"));
-                }
-                for k in range {
-                    if std::mem::replace(&mut slot_seen[k], true) {
-                        return Err(format!("{here} references slot {k}, already in another leaf"));
-                    }
-                    let p = self.prim_indices[k] as usize;
-                    if !child.bounds.contains(&prim_box(p)) {
-                        return Err(format!("{here}: primitive {p} is not inside the leaf box"));
-                    }
-                }
-            }
-        }
-        if let Some(k) = slot_seen.iter().position(|s| !s) {
-            return Err(format!("slot {k} (primitive {}) is in no leaf", self.prim_indices[k]));
-        }
-        if let Some(i) = node_seen.iter().position(|s| !s) {
-            return Err(format!("node {i} is unreachable from the root"));
-        }
-        Ok(())
     }
 }
 

@@ -8,7 +8,9 @@
 //! `count == 0` is an absent child (only in a root over fewer than two triangles).
 
 mod build;
+mod stats;
 mod traverse;
+mod validate;
 
 pub use build::BuildOptions;
 pub use traverse::{closest_hit, ordered_edges, TraversalStats};

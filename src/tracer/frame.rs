@@ -7,6 +7,7 @@ use std::str::FromStr;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::contract;
 use crate::scene::camera::CameraBasis;
@@ -58,7 +59,8 @@ macro_rules! name_enum {
     ($ty:ty, $what:literal, $($variant:path => $name:literal),+) => {
         impl fmt::Display for $ty {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str(match self { $($variant => $name),+ })
+                // `pad`, not `write_str`: `{:<5}` in a table pads the name.
+                f.pad(match self { $($variant => $name),+ })
             }
         }
         impl FromStr for $ty {
@@ -74,6 +76,19 @@ macro_rules! name_enum {
 }
 name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh");
 name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples");
+
+/// Saved as its name ("bvh", "brute"), as in `bench --json` reports.
+impl Serialize for Accel {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Accel {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        String::deserialize(deserializer)?.parse().map_err(serde::de::Error::custom)
+    }
+}
 
 /// Limits on the user-facing parameters (checked by the CLI and the panel).
 pub const MAX_BOUNCES: u32 = 8;
@@ -247,6 +262,16 @@ mod tests {
         assert_eq!("BVH".parse::<Accel>().unwrap(), Accel::Bvh);
         let err = "kd".parse::<Accel>().unwrap_err();
         assert!(err.contains("brute, bvh"), "{err}");
+    }
+
+    #[test]
+    fn accel_is_saved_as_its_lowercase_name() {
+        for (accel, json) in [(Accel::Bvh, "\"bvh\""), (Accel::Brute, "\"brute\"")] {
+            assert_eq!(serde_json::to_string(&accel).unwrap(), json);
+            assert_eq!(serde_json::from_str::<Accel>(json).unwrap(), accel);
+        }
+        assert!(serde_json::from_str::<Accel>("\"kd\"").unwrap_err().to_string().contains("brute, bvh"));
+        assert_eq!(format!("[{:<5}]", Accel::Bvh), "[bvh  ]");
     }
 
     #[test]

@@ -1,0 +1,200 @@
+//! Wavefront OBJ loading (paper 3.1), on top of `tobj`, hardened for real-world files.
+//!
+//! `tobj` does the parsing, the vertex de-duplication (`single_index`) and the .mtl
+//! parsing. Around it this module adds what a viewer needs from a loader:
+//!
+//! - Triangulation done here, so that a quad `1 2 3 4` splits into (1,2,4) and (2,3,4)
+//!   exactly as the paper says; larger polygons become fans.
+//! - Errors that name the file and the line. `tobj` reads through a `LineFeeder`, which
+//!   sees it take one line at a time, so when `tobj` stops with an error the feeder knows
+//!   the line. The feeder also checks every face index against the counts seen so far
+//!   before `tobj` parses it: out-of-range indices get a line number, and `tobj` never
+//!   meets the zero, huge or far-negative indices whose arithmetic can overflow inside it.
+//!   All of this costs about a tenth of `tobj`'s own time; the text is only scanned
+//!   again to find the line of a NaN.
+//! - Warnings instead of failures for what a model can live without: a missing .mtl,
+//!   a missing texture, an unknown `usemtl` name.
+
+mod convert;
+mod line_feeder;
+mod mtl;
+
+use std::cell::RefCell;
+use std::collections::HashSet;
+use std::io::{self, Read};
+use std::path::{Path, PathBuf};
+
+use super::Mesh;
+use convert::build_mesh;
+use line_feeder::LineFeeder;
+use mtl::{convert_materials, MaterialLibraries};
+
+/// A loaded OBJ: the mesh plus the non-fatal problems met on the way (missing .mtl, missing texture...).
+#[derive(Clone, Debug)]
+pub struct LoadedObj {
+    /// All objects and groups of the file merged into one mesh, triangles in file order.
+    pub mesh: Mesh,
+    /// One sentence per problem that was worked around (each also went to `log::warn!`).
+    pub warnings: Vec<String>,
+}
+
+/// Why an OBJ could not be loaded; Display is one clear sentence naming the file and, where known, the line.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjError {
+    /// The file could not be opened or read (missing, a directory, no permission...).
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        /// The path as given.
+        path: PathBuf,
+        /// What the operating system said.
+        #[source]
+        source: io::Error,
+    },
+    /// The bytes are not UTF-8 text: a binary file, or text in another encoding.
+    #[error("{name} is not an OBJ text file (invalid UTF-8 on line {line})")]
+    NotText {
+        /// The file, as named in messages.
+        name: String,
+        /// The line holding the first invalid byte.
+        line: usize,
+    },
+    /// A line could not be read: a malformed number, too few values, a bad face corner.
+    #[error("{name} line {line}: {reason}")]
+    Parse {
+        /// The file, as named in messages.
+        name: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the line, quoting it.
+        reason: String,
+    },
+    /// The last statement of the file is incomplete (`f 1 2`, `v 1.0 2.`): the file was cut short.
+    #[error("{name} line {line}: {reason}; this is the last line, so the file seems to be cut short")]
+    Truncated {
+        /// The file, as named in messages.
+        name: String,
+        /// 1-based line number of the incomplete last line.
+        line: usize,
+        /// What is wrong with the line, quoting it.
+        reason: String,
+    },
+    /// A face refers to a vertex, texture coordinate or normal not defined before it.
+    #[error("{name} line {line}: face {kind} index {index} is out of range (the file has {count} {} so far)", if *.count == 1 { .kind } else { .kind_plural })]
+    IndexOutOfRange {
+        /// The file, as named in messages.
+        name: String,
+        /// 1-based line number of the face.
+        line: usize,
+        /// "vertex", "texture coordinate" or "normal".
+        kind: &'static str,
+        /// The plural of `kind`, for the message.
+        kind_plural: &'static str,
+        /// The index as written in the file (it may not even fit an integer).
+        index: String,
+        /// How many elements of that kind precede the face.
+        count: usize,
+    },
+    /// A vertex, normal or texture coordinate is NaN or infinite.
+    #[error("{name} line {line}: {what} has a coordinate that is not a finite number (NaN or infinity)")]
+    NonFinite {
+        /// The file, as named in messages.
+        name: String,
+        /// 1-based line number of the first such `v`/`vn`/`vt` line.
+        line: usize,
+        /// "a vertex position", "a normal" or "a texture coordinate".
+        what: &'static str,
+    },
+    /// The file has no faces (only points, lines, or nothing at all): nothing to trace.
+    #[error("{name} contains no faces, so there is nothing to trace")]
+    NoFaces {
+        /// The file, as named in messages.
+        name: String,
+    },
+    /// A problem that cannot be pinned to one line (too many vertices, inconsistent colours).
+    #[error("{name}: {reason}")]
+    Invalid {
+        /// The file, as named in messages.
+        name: String,
+        /// What is wrong, one sentence.
+        reason: String,
+    },
+}
+
+/// Load an OBJ file (and the .mtl libraries it names, from its folder).
+///
+/// The whole file is read into memory first: it is needed again to locate the line of
+/// an error, and one read is the fastest way to get at it anyway.
+pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
+    let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let name = path.display().to_string();
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
+        ObjError::NotText { line, name: name.clone() }
+    })?;
+    // `parent()` of a bare file name is "", which joins to paths relative to the working
+    // directory: exactly where the file itself was found.
+    load_obj_from_str(&text, &name, path.parent())
+}
+
+/// Same, from text already in memory (`name` is used in messages, `base_dir` resolves mtllib). Used by tests and the fuzzer.
+///
+/// With `base_dir` `None`, `mtllib` statements are skipped with a warning.
+pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Result<LoadedObj, ObjError> {
+    // A UTF-8 byte-order mark would glue itself to the first keyword.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
+    let mut feeder = LineFeeder::new(text, name, true);
+
+    let options = tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
+    let parsed = tobj::load_obj_buf(&mut feeder, &options, |mtl| libs.load(mtl));
+    let (models, materials) = match parsed {
+        Ok(ok) => ok,
+        Err(e) => return Err(feeder.into_error(e)),
+    };
+    let usemtl_names = feeder.usemtl_names;
+    let mut warnings = libs.warnings.into_inner();
+    // Errors of the libraries were already turned into warnings, one per library.
+    let materials = materials.unwrap_or_default();
+    let materials = convert_materials(&materials, &libs.loaded.into_inner(), &mut warnings);
+
+    let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+    for missing in usemtl_names.iter().filter(|n| !known.contains(*n)) {
+        warn(
+            &mut warnings,
+            format!("{name}: `usemtl {missing}` names no material of the loaded libraries; its faces use the default material"),
+        );
+    }
+
+    let mesh = build_mesh(text, name, &models, materials)?;
+    Ok(LoadedObj { mesh, warnings })
+}
+
+/// The bytes of a regular file. Devices and pipes are refused: `/dev/zero` would never end.
+fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
+    let mut file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
+        return Err(io::Error::new(io::ErrorKind::InvalidInput, format!("it is {what}")));
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0).saturating_add(1));
+    file.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// Record a warning and pass it on to the log.
+fn warn(warnings: &mut Vec<String>, message: String) {
+    log::warn!("{message}");
+    warnings.push(message);
+}
+
+/// A line for quoting in a message: trimmed, and shortened if long.
+fn quote(line: &str) -> String {
+    const MAX: usize = 60;
+    let line = line.trim();
+    match line.char_indices().nth(MAX) {
+        Some((cut, _)) => format!("`{}...`", &line[..cut]),
+        None => format!("`{line}`"),
+    }
+}
