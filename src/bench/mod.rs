@@ -15,7 +15,7 @@ use crate::gpu::{GpuContext, GpuError, ComputeTracer};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
-use crate::tracer::{budget, Aov, FrameParams, PackedScene, RenderSettings};
+use crate::tracer::{budget, Accel, Aov, FrameParams, PackedScene, RenderSettings};
 
 /// One benchmark configuration: a scene spec and how to report it.
 #[derive(Clone, Debug)]
