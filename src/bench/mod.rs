@@ -108,6 +108,8 @@ pub struct Row {
 pub struct RunOptions {
     pub frames: u32,
     pub warmup: u32,
+    /// Print where each scene buffer's memory lives when a scene is uploaded.
+    pub verbose: bool,
 }
 
 /// The machine a run happened on.
@@ -169,6 +171,11 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
                 log::warn!("{w}");
             }
             let tracer = ComputeTracer::with_scene(ctx, &packed)?;
+            if options.verbose {
+                for line in tracer.describe_memory() {
+                    println!("  memory: {line}");
+                }
+            }
             current = Some((key.clone(), packed, tracer));
         }
         let (_, packed, tracer) = current.as_mut().unwrap();

@@ -71,6 +71,9 @@ pub struct BenchArgs {
     /// Turn on the Vulkan validation layer.
     #[arg(long)]
     pub validation: bool,
+    /// Print where each scene buffer's memory lives (memory flags, dedicated or not).
+    #[arg(long)]
+    pub verbose: bool,
 }
 
 /// Run the benchmark.
@@ -99,9 +102,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians)", cases.len(), args.warmup, args.frames);
     println!("{}", report::header());
     let total = cases.len();
-    let rows = bench::run(&ctx, &cases, &RunOptions { frames: args.frames, warmup: args.warmup }, |i, row| {
+    let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let rows = bench::run(&ctx, &cases, &RunOptions { frames: args.frames, warmup: args.warmup, verbose: args.verbose }, |i, row| {
         println!("{}", report::format_row(row));
-        eprint!("\r[{}/{}]\r", i + 1, total);
+        // Progress only on a terminal: piped or captured stderr stays clean.
+        if progress {
+            eprint!("\r[{}/{}]\r", i + 1, total);
+        }
     })?;
     let messages = ctx.validation_messages();
     if !messages.is_empty() {

@@ -17,6 +17,8 @@ pub struct GpuBuffer {
     allocation: Option<Allocation>,
     /// Size in bytes (at least 16: Vulkan has no empty buffers).
     pub size: u64,
+    /// What the buffer is, for messages and `bench --verbose`.
+    pub name: &'static str,
 }
 
 impl GpuBuffer {
@@ -52,7 +54,23 @@ impl GpuBuffer {
             unsafe { device.destroy_buffer(buffer, None) };
             return Err(GpuError::vk("binding buffer memory", r));
         }
-        Ok(Self { ctx: ctx.clone(), buffer, allocation: Some(allocation), size })
+        Ok(Self { ctx: ctx.clone(), buffer, allocation: Some(allocation), size, name })
+    }
+
+    /// Where the memory lives, for `bench --verbose`: name, size, memory flags, dedicated
+    /// or sub-allocated, offset in its memory object.
+    pub fn describe(&self) -> String {
+        match &self.allocation {
+            Some(a) => format!(
+                "{}: {:.1} MB, {:?}, {}, offset {}",
+                self.name,
+                self.size as f64 / 1e6,
+                a.memory_properties(),
+                if a.is_dedicated() { "dedicated" } else { "sub-allocated" },
+                a.offset()
+            ),
+            None => format!("{}: no memory", self.name),
+        }
     }
 
     /// The mapped bytes of a host-visible buffer.

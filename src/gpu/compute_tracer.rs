@@ -137,6 +137,11 @@ impl ComputeTracer {
         self.scene.as_ref().map_or(0, |s| s.bytes)
     }
 
+    /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
+    pub fn describe_memory(&self) -> Vec<String> {
+        self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())
+    }
+
     /// Instances on the GPU now.
     pub fn instance_count(&self) -> u32 {
         self.scene.as_ref().map_or(0, |s| s.instance_count)

@@ -66,6 +66,11 @@ impl SceneBuffers {
         Ok(s)
     }
 
+    /// One line per buffer: where its memory lives (`bench --verbose`).
+    pub fn describe(&self) -> Vec<String> {
+        [&self.triangles, &self.shading, &self.materials, &self.nodes, &self.instances, &self.texels, &self.texture_infos, &self.environment].iter().map(|b| b.describe()).collect()
+    }
+
     /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);
     /// the GPU must not be using it.
     pub fn set_environment(&mut self, ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<(), GpuError> {
