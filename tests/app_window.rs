@@ -26,7 +26,8 @@ fn scripted_run_writes_trace_and_window_screenshots() {
     let x = Xvfb::start();
     let dir = TempDir::new("scripted");
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(view_args(&["--frames", "5", "--screenshot", "a.png", "--screenshot-ui", "b.png"]));
+    // Without the numbers over the image's corner, so the letterbox is plain.
+    cmd.args(view_args(&["--frames", "5", "--screenshot", "a.png", "--screenshot-ui", "b.png", "--no-hud"]));
     let out = spawn(cmd).wait(Duration::from_secs(180));
     assert_clean_exit(&out);
 
@@ -175,4 +176,66 @@ fn shading_features_in_the_window_match_render() {
     // And the features are really on: the paper's flat, boxed render looks different.
     let paper = headless_render(dir.path(), &[&SCENE[..], &["--model", "sphere"]].concat(), "paper.png");
     assert!(max_diff(&shot, &paper) > 30, "the feature flags changed nothing");
+}
+
+/// The newest F12 screenshot after pressing F12 (the light is still in scripted runs, so
+/// two shots of an unchanged view are equal).
+fn f12(x: &Xvfb, window: &str, dir: &std::path::Path, app: &mut Running) -> image::RgbaImage {
+    let before = pngs(dir, "meshtracer_").len();
+    let shot = wait_until(Duration::from_secs(90), "an F12 screenshot", || {
+        app.assert_alive();
+        press(&x.display, window, &["F12"]);
+        std::thread::sleep(Duration::from_millis(700));
+        let all: Vec<_> = pngs(dir, "meshtracer_").into_iter().filter(|p| !p.to_string_lossy().ends_with("_window.png")).collect();
+        (all.len() > before).then(|| all.last().cloned()).flatten()
+    });
+    let img = load(&shot);
+    std::fs::remove_file(&shot).unwrap();
+    img
+}
+
+#[test]
+fn the_wheel_over_the_panel_scrolls_it_and_leaves_the_camera() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("wheel");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+
+    // Move onto the panel and turn the wheel at once, as a user does (no pause between).
+    let out = xdotool(&x.display, &["mousemove", "--window", &window, "100", "300", "click", "5", "click", "5", "click", "5", "click", "5"]);
+    assert!(out.status.success());
+    let over_panel = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&start, &over_panel) <= 1, "the wheel over the panel moved the camera");
+
+    // The same wheel over the image zooms: the test can tell.
+    let out = xdotool(&x.display, &["mousemove", "--window", &window, "450", "240", "click", "4", "click", "4", "click", "4"]);
+    assert!(out.status.success());
+    let over_image = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&start, &over_image) > 1, "the wheel over the image did not zoom");
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
+fn the_numbers_show_over_the_image_in_a_small_window() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("hud");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(SCENE.iter().chain(["--window", "900x600", "--frames", "4", "--screenshot-ui", "hud.png"].iter()));
+    assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(180)));
+    let img = load(&dir.path().join("hud.png"));
+    assert_eq!(img.dimensions(), (900, 600));
+    // The panel is dark grey; the image area starts where the columns stop being it.
+    let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;
+    let gray_share = |x: u32| (0..600).filter(|&y| panel_gray(img.get_pixel(x, y))).count() as f64 / 600.0;
+    let panel_end = (100..900).find(|&x| gray_share(x) < 0.1).expect("a panel");
+    // Near-white text on a dark box at the image's top-left corner.
+    let corner: Vec<_> = (panel_end + 8..panel_end + 150).flat_map(|x| (8..100).map(move |y| (x, y))).map(|(x, y)| *img.get_pixel(x, y)).collect();
+    let text = corner.iter().filter(|p| p.0[..3].iter().all(|&c| c >= 200)).count();
+    let dark = corner.iter().filter(|p| p.0[..3].iter().all(|&c| c < 40)).count();
+    assert!(text > 80, "no HUD text at the image's corner ({text} bright pixels)");
+    assert!(dark * 3 > corner.len(), "no HUD box at the image's corner ({dark} of {} dark pixels)", corner.len());
 }

@@ -106,8 +106,9 @@ impl ApplicationHandler for App {
                 event_loop.set_control_flow(ControlFlow::Poll);
                 tool.window.request_redraw();
             } else {
-                // Minimized or hidden: check back now and then (model loads still finish).
-                event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + Duration::from_millis(50)));
+                // Minimized or hidden: check back now and then (model loads still finish),
+                // tracing nothing meanwhile.
+                event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + Duration::from_millis(100)));
                 tool.window.request_redraw();
             }
         }

@@ -22,6 +22,8 @@ pub struct ViewOptions {
     pub window: [u32; 2],
     /// Turn on the Vulkan validation layer.
     pub validation: bool,
+    /// Show the numbers over the image at the start.
+    pub hud: bool,
 }
 
 impl ViewOptions {

@@ -92,13 +92,14 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
     ui.label(RichText::new(info.device).small().weak());
     ui.separator();
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
+        // The live numbers first: reachable at any window size without scrolling.
+        performance_section(ui, info);
         render_section(ui, params, state, info);
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
         light_section(ui, params);
         camera_section(ui, params);
         display_section(ui, params, info);
-        performance_section(ui, info);
         screenshot_section(ui, state, info, &mut actions);
         egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
             egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
@@ -171,8 +172,10 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             ui.end_row();
             if let ViewMode::Cost(metric) = &mut params.view {
                 ui.label("Counter");
+                // Brute force visits no nodes: only the triangle counter means something.
+                let bvh = params.settings.accel == Accel::Bvh;
                 ui.horizontal(|ui| {
-                    ui.radio_value(metric, CostMetric::Nodes, "nodes");
+                    ui.add_enabled_ui(bvh, |ui| ui.radio_value(metric, CostMetric::Nodes, "nodes")).response.on_disabled_hover_text("brute force visits no BVH nodes");
                     ui.radio_value(metric, CostMetric::Triangles, "triangles");
                 });
                 ui.end_row();
@@ -283,12 +286,36 @@ fn camera_section(ui: &mut Ui, params: &mut Params) {
 
 fn display_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
     egui::CollapsingHeader::new("Display").default_open(false).show(ui, |ui| {
+        ui.checkbox(&mut params.hud_visible, "numbers over the image (I)");
         ui.add_enabled(info.vsync_off_available || !params.vsync, egui::Checkbox::new(&mut params.vsync, "vsync (V)"));
         ui.label(RichText::new(format!("present mode: {}", info.present_mode)).small().weak());
         if !info.vsync_off_available {
             ui.label(RichText::new("this surface offers only FIFO (vsync)").small().weak());
         }
     });
+}
+
+/// The compact numbers drawn over a corner of the image (the HUD): visible at any window
+/// size, whether the panel is shown or scrolled.
+pub fn hud(ui: &mut Ui, info: &PanelInfo) {
+    let gpu = info.stats.gpu.summary().map(|s| s.current);
+    let frame = info.stats.frame.summary().map(|s| s.current);
+    let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
+    let lines = [
+        format!("{:.1} fps", info.stats.fps()),
+        format!("GPU {} ms", ms(gpu)),
+        format!("frame {} ms", ms(frame)),
+        format!("{} Mrays/s", gpu.map_or("-".into(), |g| format!("{:.0}", mrays_per_second(info.rays, g)))),
+        format!("{} triangles", group(info.triangles)),
+    ];
+    for (i, line) in lines.iter().enumerate() {
+        let color = match i {
+            1 => GPU_COLOR,
+            2 => FRAME_COLOR,
+            _ => Color32::from_gray(230),
+        };
+        ui.add(egui::Label::new(RichText::new(line).monospace().color(color)).wrap_mode(egui::TextWrapMode::Extend));
+    }
 }
 
 fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
@@ -311,7 +338,7 @@ fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
 fn performance_section(ui: &mut Ui, info: &PanelInfo) {
     egui::CollapsingHeader::new("Performance").default_open(true).show(ui, |ui| {
         frame_graph(ui, info.stats);
-        egui::Grid::new("times").num_columns(5).striped(true).show(ui, |ui| {
+        egui::Grid::new("times").num_columns(5).spacing([10.0, 2.0]).striped(true).show(ui, |ui| {
             ui.label("ms");
             for h in ["now", "min", "mean", "max"] {
                 ui.label(RichText::new(h).small().weak());

@@ -5,7 +5,7 @@ use glam::Vec3;
 use winit::keyboard::KeyCode;
 
 pub use crate::gpu::present::PixelRect;
-use crate::scene::paper::{LightOrbit, MAX_MODELS};
+use crate::scene::paper::{LightOrbit, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{Camera, EnvironmentSource};
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
@@ -69,6 +69,8 @@ pub struct Params {
     pub camera: Camera,
     pub vsync: bool,
     pub panel_visible: bool,
+    /// The frame numbers over the image's corner (the HUD).
+    pub hud_visible: bool,
     /// What misses see: None (black, the paper), the generated sky, or a file.
     pub environment: Option<EnvironmentSource>,
     /// The environment file given with `--env`, offered in the panel.
@@ -100,6 +102,7 @@ impl Params {
             camera: spec.camera.camera(),
             vsync: true,
             panel_visible: true,
+            hud_visible: true,
             environment: spec.environment.clone(),
             environment_file: spec.environment.clone().filter(|e| *e != EnvironmentSource::Sky),
             accumulate: !scripted,
@@ -144,11 +147,49 @@ impl Params {
     pub fn drag_camera(&mut self, dx: f32, dy: f32) {
         const RADIANS_PER_PIXEL: f32 = 0.008;
         self.camera.orbit(dx * RADIANS_PER_PIXEL, dy * RADIANS_PER_PIXEL, 1.0);
+        self.keep_camera_in_view();
     }
 
-    /// Zoom by `steps` wheel notches (positive = closer).
+    /// Zoom by `steps` wheel notches (positive = closer), staying where the scene can be seen.
     pub fn zoom_camera(&mut self, steps: f32) {
         self.camera.orbit(0.0, 0.0, 0.9f32.powf(steps));
+        self.keep_camera_in_view();
+    }
+
+    /// The farthest the eye may be from the origin: inside the mirror box when it is on
+    /// (outside, the user sees the box's back faces or black), a few box sizes otherwise.
+    pub fn max_eye_distance(&self) -> f32 {
+        if self.mirror_box { BOX_HALF_SIZE * 0.95 } else { BOX_HALF_SIZE * 4.0 }
+    }
+
+    /// Pull the eye back towards the target until it is within [`Self::max_eye_distance`]
+    /// of the origin on every axis (the box is a cube), and no closer to the target than a
+    /// hundredth of the model's radius.
+    pub fn keep_camera_in_view(&mut self) {
+        let limit = self.max_eye_distance();
+        let c = &mut self.camera;
+        let offset = c.position - c.target;
+        let dist = offset.length();
+        if dist < 1e-2 {
+            c.position = c.target + offset.normalize_or(Vec3::Z) * 1e-2;
+        }
+        let far = c.position.abs().max_element();
+        if far > limit && dist > 0.0 {
+            // The largest t in [0, 1] with target + t * offset inside the cube.
+            let dir = offset / dist;
+            let t_box = (0..3)
+                .filter(|&k| dir[k].abs() > 1e-6)
+                .map(|k| (limit * dir[k].signum() - c.target[k]) / dir[k])
+                .fold(f32::INFINITY, f32::min);
+            c.position = c.target + dir * t_box.clamp(1e-2, dist);
+        }
+    }
+
+    /// Brute force visits no BVH nodes: the cost view counts triangles there.
+    pub fn fit_cost_metric(&mut self) {
+        if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.settings.accel) {
+            *metric = CostMetric::Triangles;
+        }
     }
 
     /// The light's position now.
@@ -170,6 +211,7 @@ pub enum KeyAction {
 /// The keyboard shortcuts, for the panel's help.
 pub const SHORTCUTS: &[(&str, &str)] = &[
     ("H / F1", "hide or show the panel"),
+    ("I", "hide or show the numbers over the image"),
     ("F12", "screenshot of the traced image"),
     ("Shift+F12", "screenshot of the window"),
     ("PgUp / PgDn", "bounces + / -"),
@@ -194,18 +236,23 @@ impl Params {
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
+            KeyCode::KeyI => self.hud_visible = !self.hud_visible,
             KeyCode::PageUp => self.settings.bounces = (self.settings.bounces + 1).min(MAX_BOUNCES),
             KeyCode::PageDown => self.settings.bounces = self.settings.bounces.saturating_sub(1),
             KeyCode::BracketLeft => self.settings.blend = ((self.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
             KeyCode::BracketRight => self.settings.blend = ((self.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
             KeyCode::Equal | KeyCode::NumpadAdd => self.model_count = (self.model_count + 1).min(MAX_MODELS),
             KeyCode::Minus | KeyCode::NumpadSubtract => self.model_count = self.model_count.saturating_sub(1).max(1),
-            KeyCode::KeyA => self.settings.accel = if self.settings.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh },
+            KeyCode::KeyA => {
+                self.settings.accel = if self.settings.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh };
+                self.fit_cost_metric();
+            }
             KeyCode::KeyC => {
                 self.view = match self.view {
                     ViewMode::Color => ViewMode::Cost(CostMetric::Nodes),
                     ViewMode::Cost(_) => ViewMode::Color,
-                }
+                };
+                self.fit_cost_metric();
             }
             KeyCode::KeyM => {
                 if self.resolution == Resolution::MatchWindow {
@@ -305,6 +352,37 @@ mod tests {
         p.light_paused = true;
         p.advance_light(1.0);
         assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn twenty_notches_out_keep_the_eye_inside_the_box() {
+        let mut p = params(|_| {});
+        for _ in 0..20 {
+            p.zoom_camera(-1.0);
+        }
+        assert!(p.camera.position.abs().max_element() <= BOX_HALF_SIZE * 0.95 + 1e-4, "{:?}", p.camera.position);
+        assert!((p.camera.position - p.camera.target).length() > 1.0, "the eye still sees the model from afar");
+        // Without the box, farther is allowed but bounded.
+        p.mirror_box = false;
+        for _ in 0..100 {
+            p.zoom_camera(-1.0);
+        }
+        assert!(p.camera.position.abs().max_element() <= BOX_HALF_SIZE * 4.0 + 1e-3);
+        // Zooming in stops short of the target.
+        for _ in 0..200 {
+            p.zoom_camera(1.0);
+        }
+        assert!((p.camera.position - p.camera.target).length() >= 1e-2 - 1e-6);
+    }
+
+    #[test]
+    fn brute_force_cost_view_counts_triangles() {
+        let mut p = params(|_| {});
+        let mut prev = p.resolution;
+        p.apply_key(KeyCode::KeyC, false, false, &mut prev);
+        assert_eq!(p.view, ViewMode::Cost(CostMetric::Nodes));
+        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
+        assert_eq!(p.view, ViewMode::Cost(CostMetric::Triangles), "nodes are all zero without a BVH");
     }
 
     #[test]

@@ -90,7 +90,8 @@ impl Tool {
         // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
         // owning it is dropped first (see `shut_down`).
         let (ctx, surface) = unsafe { context_for_window(&context_options, display, window_handle) }.map_err(|e| headless_error("no Vulkan device for the window", e))?;
-        let params = Params::new(&options.spec, options.scripted());
+        let mut params = Params::new(&options.spec, options.scripted());
+        params.hud_visible = options.hud;
         let physical = window.inner_size();
         let presenter = Presenter::new(&ctx, surface, [physical.width, physical.height], params.vsync)?;
         let tracer = ComputeTracer::new(&ctx, FRAMES_IN_FLIGHT as u32)?;
@@ -233,6 +234,15 @@ impl Tool {
                 });
             }
             central = ui.available_rect_before_wrap();
+            if params.hud_visible {
+                // Top-left of the image area: the panel never covers it.
+                egui::Area::new(egui::Id::new("hud"))
+                    .fixed_pos(central.left_top() + egui::vec2(8.0, 8.0))
+                    .interactable(false)
+                    .show(ui.ctx(), |ui| {
+                        egui::Frame::new().fill(egui::Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| panel::hud(ui, &info));
+                    });
+            }
         });
         let ppp = full.pixels_per_point;
         let size = self.window.inner_size();
@@ -274,6 +284,11 @@ impl Tool {
         }
         if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.panel)? {
             self.window.set_title(&title);
+        }
+        if !self.can_draw() && !self.script.is_final_frame(false) {
+            // Minimized or hidden: nothing is traced or drawn (loads still finish above).
+            self.last_frame = None;
+            return Ok(true);
         }
 
         let (mut full, actions) = self.run_ui();

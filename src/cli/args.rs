@@ -168,6 +168,9 @@ pub struct ViewArgs {
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub validation: bool,
+    /// Start with the numbers over the image hidden (the I key shows them).
+    #[arg(long)]
+    pub no_hud: bool,
 }
 
 impl ViewArgs {
@@ -182,6 +185,7 @@ impl ViewArgs {
             screenshot_ui: self.screenshot_ui.clone(),
             window,
             validation: self.validation,
+            hud: !self.no_hud,
         })
     }
 }
