@@ -63,7 +63,7 @@ impl ModelLoader {
             move || {
                 let started = Instant::now();
                 let _ = tx.send(Message::Stage(first_stage));
-                let result = source.load().map_err(|e| e.to_string()).and_then(|(mesh, warnings)| {
+                let result = source.check_name().and_then(|()| source.load().map_err(|e| e.to_string())).and_then(|(mesh, warnings)| {
                     let _ = tx.send(Message::Stage(format!("building the BVH ({} triangles)", mesh.triangle_count())));
                     if mesh.triangle_count() == 0 {
                         return Err(format!("{} has no triangles", source.label()));

@@ -50,6 +50,8 @@ pub struct PanelState {
     pub path: String,
     /// The last model load's outcome.
     pub model_status: Option<Status>,
+    /// Every warning of the last model load (the status line names the first).
+    pub model_warnings: Vec<String>,
     /// A render setting that could not be applied.
     pub render_status: Option<Status>,
     /// The last screenshot's outcome.
@@ -220,17 +222,22 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
                 for m in PaperModel::ALL {
                     let selected = info.model == Some(&ModelSource::Paper(m));
                     if ui.selectable_label(selected, m.name()).clicked() && !selected {
+                        // The path field no longer names what is shown.
+                        state.path.clear();
                         actions.push(PanelAction::LoadModel(ModelSource::Paper(m)));
                     }
                 }
             });
         });
         ui.horizontal(|ui| {
-            let field = ui.add(egui::TextEdit::singleline(&mut state.path).hint_text("path/to/model.obj").desired_width(ui.available_width() - 52.0));
+            let field = ui
+                .add(egui::TextEdit::singleline(&mut state.path).hint_text("model.obj or torusknot:1M").desired_width(ui.available_width() - 52.0))
+                .on_hover_text("an .obj path, a model name (geosphere, torusknot, sphere, cylinder) or torusknot:N, a generated knot of N triangles");
             let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
             let clicked = ui.add_enabled(!state.path.trim().is_empty(), egui::Button::new("Load")).clicked();
             if (clicked || enter) && !state.path.trim().is_empty() {
-                actions.push(PanelAction::LoadModel(ModelSource::File(state.path.trim().into())));
+                // The same names as --model: built-ins and generated knots too.
+                actions.push(PanelAction::LoadModel(ModelSource::parse(state.path.trim())));
             }
         });
         ui.label(RichText::new(if state.hovering_file { "drop the file to load it" } else { "or drop an .obj file on the window" }).small().weak());
@@ -241,6 +248,13 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
             });
         } else if let Some(s) = &state.model_status {
             status_line(ui, s);
+            if state.model_warnings.len() > 1 {
+                egui::CollapsingHeader::new(format!("{} warnings", state.model_warnings.len())).id_salt("model warnings").default_open(false).show(ui, |ui| {
+                    for w in &state.model_warnings {
+                        ui.add(egui::Label::new(RichText::new(w).small()).wrap());
+                    }
+                });
+            }
         }
         ui.horizontal(|ui| {
             ui.label("Copies");

@@ -54,6 +54,7 @@ impl Session {
     /// Start loading `source` (the current model stays until it is ready).
     pub fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
         panel.model_status = None;
+        panel.model_warnings.clear();
         self.loader.start(source, params.model_count, params.light);
     }
 
@@ -89,6 +90,7 @@ impl Session {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
             None => Status::ok(text),
         });
+        panel.model_warnings = warnings;
         let title = format!("meshtracer — {}", source.label());
         // The new scene's instance list and environment are the loader's defaults: apply ours.
         self.applied.instances = None;

@@ -118,9 +118,28 @@ impl SceneSpec {
     /// Load (or generate) the model and build the scene; the loader's warnings are returned.
     pub fn load(&self) -> anyhow::Result<(Scene, Vec<String>)> {
         self.validate().map_err(anyhow::Error::msg)?;
+        self.model.check_name().map_err(anyhow::Error::msg)?;
         self.check_environment()?;
         let (mesh, warnings) = self.model.load()?;
         Ok((self.scene_with(mesh), warnings))
+    }
+}
+
+/// The model names `--model` and the panel accept, for messages.
+pub const MODEL_NAMES: &str = "geosphere, torusknot, sphere, cylinder, torusknot:N (a generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file";
+
+impl ModelSource {
+    /// A file that does not exist and does not look like a path was probably meant as a
+    /// model name: say which names there are, instead of "No such file".
+    pub fn check_name(&self) -> Result<(), String> {
+        let ModelSource::File(path) = self else { return Ok(()) };
+        let text = path.to_string_lossy();
+        let looks_like_path = text.contains(['/', '\\']) || path.extension().is_some();
+        if path.exists() || looks_like_path {
+            return Ok(());
+        }
+        let why = if text.starts_with("torusknot:") { "is not a triangle count from 1 to 100M" } else { "is no model name and no file" };
+        Err(format!("'{text}' {why}; expected {MODEL_NAMES}"))
     }
 }
 
@@ -156,6 +175,16 @@ mod tests {
     fn a_camera_without_direction_is_refused() {
         let spec = SceneSpec { camera: CameraSpec { eye: Some(Vec3::ZERO), target: Some(Vec3::ZERO), ..Default::default() }, ..Default::default() };
         assert!(spec.validate().unwrap_err().contains("same point"));
+    }
+
+    #[test]
+    fn misspelt_model_names_list_the_valid_ones() {
+        for typed in ["torusknot:abc", "geosphre", "torusknot:0"] {
+            let err = ModelSource::parse(typed).check_name().unwrap_err();
+            assert!(err.contains(typed) && err.contains("geosphere, torusknot"), "{err}");
+        }
+        assert!(ModelSource::parse("torusknot:1M").check_name().is_ok());
+        assert!(ModelSource::parse("missing/model.obj").check_name().is_ok(), "a path gets the file system's message");
     }
 
     #[test]
