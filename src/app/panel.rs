@@ -76,6 +76,8 @@ pub struct PanelInfo<'a> {
     pub heat: Option<(f32, f32, f32)>,
     /// Frames averaged into the image shown (progressive accumulation).
     pub accumulated_frames: u32,
+    /// Share of a long frame traced so far, while it is traced in bands.
+    pub progress: Option<f32>,
     pub screenshot_dir: String,
     pub stats: &'a FrameStats,
 }
@@ -322,7 +324,8 @@ pub fn hud(ui: &mut Ui, info: &PanelInfo) {
         format!("{} Mrays/s", gpu.map_or("-".into(), |g| format!("{:.0}", mrays_per_second(info.rays, g)))),
         format!("{} triangles", group(info.triangles)),
     ];
-    for (i, line) in lines.iter().enumerate() {
+    let banded = info.progress.map(|p| format!("tracing in bands: {:.0}%", p * 100.0));
+    for (i, line) in lines.iter().chain(banded.iter()).enumerate() {
         let color = match i {
             1 => GPU_COLOR,
             2 => FRAME_COLOR,

@@ -8,7 +8,6 @@ use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::{Aov, FrameParams};
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
-use crate::tracer::{budget, Accel};
 
 use super::model_loader::{LoadedModel, ModelLoader, Poll};
 use super::panel::{group, PanelState, Status};
@@ -141,18 +140,12 @@ impl Session {
             self.applied.environment = Some(params.environment.clone());
             self.accumulation = Accumulation::default();
         }
-        // Frames that would take minutes stay on the BVH (the budget shared with render and bench).
-        if params.settings.accel == Accel::Brute {
-            if let Some(why) = budget::refusal(&params.settings_for(area), model.scene.triangle_count() as u64) {
-                params.settings.accel = Accel::Bvh;
-                panel.render_status = Some(Status::error(format!("{why}; staying on the BVH")));
-            }
-        }
         Ok(())
     }
 
-    /// This frame's parameters (None without a model), counting accumulated frames.
-    pub fn frame_params(&mut self, params: &Params, area: [u32; 2]) -> Option<FrameParams> {
+    /// This frame's parameters (None without a model), counting accumulated frames; with
+    /// `hold`, an unchanged frame keeps its index (a long frame still being traced).
+    pub fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameParams> {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
@@ -160,6 +153,10 @@ impl Session {
         // Average frames while nothing changes; any change starts afresh.
         let acc = &mut self.accumulation;
         let still = params.accumulate && frame.settings.aov == Aov::Color && acc.last == Some(frame);
+        if hold && acc.last == Some(frame) {
+            frame.frame_index = acc.frames.max(1) - 1;
+            return Some(frame);
+        }
         acc.frames = if still { acc.frames.saturating_add(1).min(1 << 20) } else { 1 };
         acc.last = Some(frame);
         frame.frame_index = acc.frames - 1;

@@ -24,7 +24,8 @@ use super::session::Session;
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
 use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
-use crate::gpu::present::{FrameImage, FrameRequest, PixelRect, Presenter, FRAMES_IN_FLIGHT};
+use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
+use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::frame::{FrameParams, RenderSettings};
 
@@ -38,15 +39,35 @@ struct HeatShown {
 }
 
 /// What the image area shows, decided before the frame is drawn.
+#[derive(Clone, Copy)]
 enum Shown {
     Nothing,
-    /// Trace in the frame's command buffer.
-    Trace(FrameParams),
-    /// Traced already: show the tracer's output.
-    Traced,
+    /// The tracer's colour output.
+    Output,
     /// The heat map in `Tool::heat`.
     Heat,
 }
+
+/// What one display frame traces and shows.
+struct Prepared {
+    /// Rows to trace in the frame's command buffer.
+    trace: Option<(FrameParams, std::ops::Range<u32>)>,
+    show: Shown,
+    /// GPU time of a trace done before the frame (the cost view's synchronous trace).
+    gpu_ms: Option<f64>,
+    /// This display frame finishes a traced frame (the last or only band).
+    completes: bool,
+}
+
+/// A frame too long for one submission, traced in row bands over several display frames.
+struct Progressive {
+    params: FrameParams,
+    /// The first row not yet traced.
+    next_row: u32,
+}
+
+/// GPU milliseconds a band of a long frame should take, so the window stays responsive.
+const BAND_TARGET_MS: f64 = 40.0;
 
 /// The GPU side: declared in drop order (before the context, the window's surface last).
 struct Gpu {
@@ -69,6 +90,10 @@ pub struct Tool {
     stats: FrameStats,
     panel: PanelState,
     heat: Option<HeatShown>,
+    /// The long frame being traced in bands, if any.
+    progressive: Option<Progressive>,
+    /// Rows per band of a long frame (adapted to the GPU's speed).
+    band_rows: u32,
     /// A frame has been traced: F12 has something to save.
     traced: bool,
     start: Instant,
@@ -118,6 +143,8 @@ impl Tool {
             stats: FrameStats::default(),
             panel,
             heat: None,
+            progressive: None,
+            band_rows: GROUP_SIZE,
             traced: false,
             start: Instant::now(),
             last_frame: None,
@@ -219,6 +246,7 @@ impl Tool {
             vsync_off_available: self.gpu.presenter.can_disable_vsync(),
             heat: self.heat.as_ref().map(|h| h.stats),
             accumulated_frames: self.session.accumulation.frames,
+            progress: self.progressive.as_ref().map(|p| p.next_row as f32 / p.params.settings.height.max(1) as f32),
             screenshot_dir: dir_text,
             stats: &self.stats,
         };
@@ -254,25 +282,69 @@ impl Tool {
         (full, actions)
     }
 
-    /// Decide what the image area shows this frame, tracing now what does not go into the
-    /// frame's own command buffer (the cost view, frames of several submissions); returns
-    /// the GPU milliseconds of a trace done here.
-    fn prepare_image(&mut self, params: Option<FrameParams>) -> anyhow::Result<(Shown, Option<f64>)> {
-        let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else { return Ok((Shown::Nothing, None)) };
+    /// Decide what this display frame traces and shows. A frame that fits one submission
+    /// is traced whole in the frame's command buffer; a longer one (brute force on a big
+    /// mesh) is traced in row bands, one per display frame, so the window keeps drawing
+    /// and answering input while the image fills in, and any change starts it afresh.
+    fn prepare_image(&mut self, params: Option<FrameParams>) -> anyhow::Result<Prepared> {
+        let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else {
+            self.progressive = None;
+            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
+        };
         self.traced = true;
-        if let ViewMode::Cost(metric) = self.params.view {
-            let (image, timing) = self.gpu.tracer.render(&params)?;
-            let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
-            self.heat = Some(HeatShown { width: image.width, height: image.height, rgba: map.rgba, stats: (map.scale_max, map.max, map.mean) });
-            return Ok((Shown::Heat, timing.gpu_ms));
-        }
-        self.heat = None;
+        let cost = match self.params.view {
+            ViewMode::Cost(metric) => Some(metric),
+            ViewMode::Color => None,
+        };
+        let height = params.settings.height;
         if self.gpu.tracer.fits_one_submission(&params) {
-            Ok((Shown::Trace(params), None))
-        } else {
-            // Bands too big for one submission (brute force on big meshes) run first.
-            let timing = self.gpu.tracer.trace(&params)?;
-            Ok((Shown::Traced, timing.gpu_ms))
+            self.progressive = None;
+            if let Some(metric) = cost {
+                let (image, timing) = self.gpu.tracer.render(&params)?;
+                self.set_heat(&image, metric);
+                return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, completes: true });
+            }
+            self.heat = None;
+            return Ok(Prepared { trace: Some((params, 0..height)), show: Shown::Output, gpu_ms: None, completes: true });
+        }
+        // A moving light does not restart a long frame (it would never finish): the frame
+        // keeps the light it began with; any other change starts afresh.
+        let same = |p: &Progressive| p.params == FrameParams { light_position: p.params.light_position, ..params };
+        if !self.progressive.as_ref().is_some_and(same) {
+            self.progressive = Some(Progressive { params, next_row: 0 });
+        }
+        let most = self.gpu.tracer.rows_per_submission(&params);
+        self.band_rows = self.band_rows.clamp(GROUP_SIZE, most.max(GROUP_SIZE));
+        let progressive = self.progressive.as_mut().expect("set above");
+        let params = progressive.params;
+        let rows = progressive.next_row..(progressive.next_row + self.band_rows).min(height);
+        progressive.next_row = rows.end;
+        let completes = rows.end >= height;
+        if completes {
+            self.progressive = None;
+        }
+        let show = match cost {
+            Some(_) if self.heat.is_some() => Shown::Heat,
+            Some(_) => Shown::Nothing,
+            None => {
+                self.heat = None;
+                Shown::Output
+            }
+        };
+        Ok(Prepared { trace: Some((params, rows)), show, gpu_ms: None, completes })
+    }
+
+    /// Make the heat map of a traced cost AOV the picture shown.
+    fn set_heat(&mut self, image: &crate::tracer::Image, metric: super::state::CostMetric) {
+        let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
+        self.heat = Some(HeatShown { width: image.width, height: image.height, rgba: map.rgba, stats: (map.scale_max, map.max, map.mean) });
+    }
+
+    /// Band heights follow the GPU time of the last band: about [`BAND_TARGET_MS`] each.
+    fn adapt_band(&mut self, gpu_ms: f64) {
+        if gpu_ms > 0.0 {
+            let scale = (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0);
+            self.band_rows = ((self.band_rows as f64 * scale) as u32).div_ceil(GROUP_SIZE).max(1) * GROUP_SIZE;
         }
     }
 
@@ -306,20 +378,30 @@ impl Tool {
         self.gpu.presenter.set_vsync(self.params.vsync);
         let primitives = self.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
 
-        let params = self.session.frame_params(&self.params, area);
-        let traced = params.is_some();
+        // A frame being traced in bands keeps its parameters (accumulation waits for it).
+        let params = self.session.frame_params(&self.params, area, self.progressive.is_some());
+        let prepared = self.prepare_image(params)?;
+        let traced = prepared.completes;
         let final_frame = self.script.is_final_frame(traced);
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
-        let (shown, traced_ms) = self.prepare_image(params)?;
-        let image = match (shown, &self.heat) {
-            (Shown::Trace(p), _) => FrameImage::Trace(p),
-            (Shown::Traced, _) => FrameImage::Traced,
-            (Shown::Heat, Some(h)) => FrameImage::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
-            _ => FrameImage::Nothing,
+        let banded = prepared.trace.as_ref().is_some_and(|(p, rows)| rows.len() as u32 != p.settings.height);
+        let show = match (prepared.show, &self.heat) {
+            (Shown::Output, _) => Show::Output,
+            (Shown::Heat, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
+            _ => Show::Nothing,
         };
-        let request = FrameRequest { image, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
+        let request = FrameRequest { trace: prepared.trace.clone(), show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
         let outcome = self.gpu.presenter.draw(Some(&self.gpu.tracer), &request)?;
+        if let (true, ViewMode::Cost(metric)) = (banded && prepared.completes, self.params.view) {
+            // The last band of a long cost frame: its heat map replaces the last one.
+            let image = self.gpu.tracer.read_image()?;
+            self.set_heat(&image, metric);
+        }
+        if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
+            self.adapt_band(ms);
+        }
+        let traced_ms = prepared.gpu_ms;
         let t = now.duration_since(self.start).as_secs_f64();
         if outcome.presented {
             if let Some(last) = self.last_frame {

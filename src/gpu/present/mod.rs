@@ -13,6 +13,7 @@ pub mod surface;
 pub mod swapchain;
 pub mod ui_pass;
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use anyhow::bail;
@@ -38,20 +39,21 @@ pub const FRAMES_IN_FLIGHT: usize = 2;
 
 /// What the image area shows this frame.
 #[derive(Clone, Copy, Debug)]
-pub enum FrameImage<'a> {
+pub enum Show<'a> {
     /// Nothing yet (no model loaded): the panel alone.
     Nothing,
-    /// Trace `params` in this frame's command buffer (it fits one submission) and show it.
-    Trace(FrameParams),
-    /// Show the tracer's colour output as it is (traced before this frame).
-    Traced,
-    /// Show these packed RGBA8 pixels (a heat map made on the CPU).
+    /// The tracer's colour output, after this frame's trace if it has one.
+    Output,
+    /// These packed RGBA8 pixels (a heat map made on the CPU).
     Pixels { rgba: &'a [u8], width: u32, height: u32 },
 }
 
 /// One frame to draw.
 pub struct FrameRequest<'a> {
-    pub image: FrameImage<'a>,
+    /// Rows of a frame to trace in this frame's command buffer (all of them when the
+    /// frame fits one submission; a band of a long frame traced over several).
+    pub trace: Option<(FrameParams, Range<u32>)>,
+    pub show: Show<'a>,
     /// Where the image goes in the window (already letterboxed), physical pixels.
     pub image_rect: PixelRect,
     /// egui's tessellated output and its scale.
@@ -248,13 +250,12 @@ impl Presenter {
 
         // Where the picture comes from (a buffer, how it was last written, its size).
         let ready = tracer.filter(|t| t.is_ready());
-        let traced = |t: &ComputeTracer| t.colour_output().map(|(b, w, h)| (b, Access::ComputeWrite, [w, h]));
-        let (source, trace) = match (req.image, ready) {
-            (FrameImage::Trace(params), Some(t)) => (traced(t), Some(params)),
-            (FrameImage::Traced, Some(t)) => (traced(t), None),
-            (FrameImage::Pixels { rgba, width, height }, _) => (Some((self.upload_pixels(rgba)?, Access::Nothing, [width, height])), None),
-            _ => (None, None),
+        let source = match (req.show, ready) {
+            (Show::Output, Some(t)) => t.colour_output().map(|(b, w, h)| (b, Access::ComputeWrite, [w, h])),
+            (Show::Pixels { rgba, width, height }, _) => Some((self.upload_pixels(rgba)?, Access::Nothing, [width, height])),
+            _ => None,
         };
+        let trace = req.trace.clone().filter(|_| ready.is_some());
         if let Some((_, _, [w, h])) = source {
             self.ensure_display(w, h)?;
         }
@@ -281,8 +282,8 @@ impl Presenter {
             device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
             device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording a frame")?;
         }
-        if let (Some(params), Some(t)) = (trace, ready) {
-            t.record(cmd, &params, 0..params.settings.height, Some(f as u32));
+        if let (Some((params, rows)), Some(t)) = (trace, ready) {
+            t.record(cmd, &params, rows, Some(f as u32));
             self.slots[f].timed = true;
         }
         let swap_image = self.swapchain.images[index as usize];
