@@ -8,6 +8,7 @@
 //! - [`state`]: the parameters and the keyboard shortcuts;
 //! - [`panel`]: the egui panel; [`frame_stats`]: the frame-time history it plots;
 //! - [`model_loader`]: loading .obj files on a worker thread;
+//! - [`progressive`]: long frames traced in bands over several display frames;
 //! - [`screenshot`]: screenshot names and files; [`cost_view`]: the cost heat map.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
@@ -21,6 +22,7 @@ pub mod input;
 pub mod model_loader;
 pub mod options;
 pub mod panel;
+pub mod progressive;
 pub mod screenshot;
 pub mod script;
 pub mod session;

@@ -20,13 +20,14 @@ use super::input::Input;
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
 use super::screenshot::{self, Kind, NameParts};
 use super::script::ScriptedRun;
+use super::progressive::{adapt_groups, Progressive};
 use super::session::Session;
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
 use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
-use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
+use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::frame::{FrameParams, RenderSettings};
 
 /// A heat map shown in the cost view: its pixels (for F12) and its scale.
@@ -50,24 +51,14 @@ enum Shown {
 
 /// What one display frame traces and shows.
 struct Prepared {
-    /// Rows to trace in the frame's command buffer.
-    trace: Option<(FrameParams, std::ops::Range<u32>)>,
+    /// Pixels to trace in the frame's command buffer.
+    trace: Option<(FrameParams, Band)>,
     show: Shown,
     /// GPU time of a trace done before the frame (the cost view's synchronous trace).
     gpu_ms: Option<f64>,
     /// This display frame finishes a traced frame (the last or only band).
     completes: bool,
 }
-
-/// A frame too long for one submission, traced in row bands over several display frames.
-struct Progressive {
-    params: FrameParams,
-    /// The first row not yet traced.
-    next_row: u32,
-}
-
-/// GPU milliseconds a band of a long frame should take, so the window stays responsive.
-const BAND_TARGET_MS: f64 = 40.0;
 
 /// The GPU side: declared in drop order (before the context, the window's surface last).
 struct Gpu {
@@ -92,8 +83,8 @@ pub struct Tool {
     heat: Option<HeatShown>,
     /// The long frame being traced in bands, if any.
     progressive: Option<Progressive>,
-    /// Rows per band of a long frame (adapted to the GPU's speed).
-    band_rows: u32,
+    /// Work groups per band of a long frame (adapted to the GPU's speed).
+    band_groups: u32,
     /// A frame has been traced: F12 has something to save.
     traced: bool,
     start: Instant,
@@ -144,7 +135,7 @@ impl Tool {
             panel,
             heat: None,
             progressive: None,
-            band_rows: GROUP_SIZE,
+            band_groups: 1,
             traced: false,
             start: Instant::now(),
             last_frame: None,
@@ -246,7 +237,7 @@ impl Tool {
             vsync_off_available: self.gpu.presenter.can_disable_vsync(),
             heat: self.heat.as_ref().map(|h| h.stats),
             accumulated_frames: self.session.accumulation.frames,
-            progress: self.progressive.as_ref().map(|p| p.next_row as f32 / p.params.settings.height.max(1) as f32),
+            progress: self.progressive.as_ref().map(Progressive::progress),
             screenshot_dir: dir_text,
             stats: &self.stats,
         };
@@ -296,7 +287,6 @@ impl Tool {
             ViewMode::Cost(metric) => Some(metric),
             ViewMode::Color => None,
         };
-        let height = params.settings.height;
         if self.gpu.tracer.fits_one_submission(&params) {
             self.progressive = None;
             if let Some(metric) = cost {
@@ -305,21 +295,21 @@ impl Tool {
                 return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, completes: true });
             }
             self.heat = None;
-            return Ok(Prepared { trace: Some((params, 0..height)), show: Shown::Output, gpu_ms: None, completes: true });
+            let whole = Band::rows(0..params.settings.height, params.settings.width);
+            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, completes: true });
         }
         // A moving light does not restart a long frame (it would never finish): the frame
         // keeps the light it began with; any other change starts afresh.
         let same = |p: &Progressive| p.params == FrameParams { light_position: p.params.light_position, ..params };
         if !self.progressive.as_ref().is_some_and(same) {
-            self.progressive = Some(Progressive { params, next_row: 0 });
+            self.progressive = Some(Progressive::new(params, GROUP_SIZE));
         }
-        let most = self.gpu.tracer.rows_per_submission(&params);
-        self.band_rows = self.band_rows.clamp(GROUP_SIZE, most.max(GROUP_SIZE));
+        let most = (self.gpu.tracer.rows_per_submission(&params) / GROUP_SIZE) * params.settings.width.div_ceil(GROUP_SIZE);
+        self.band_groups = self.band_groups.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
         let params = progressive.params;
-        let rows = progressive.next_row..(progressive.next_row + self.band_rows).min(height);
-        progressive.next_row = rows.end;
-        let completes = rows.end >= height;
+        let band = progressive.next_band(self.band_groups).expect("a frame in progress has pixels left");
+        let completes = progressive.is_done();
         if completes {
             self.progressive = None;
         }
@@ -331,21 +321,13 @@ impl Tool {
                 Shown::Output
             }
         };
-        Ok(Prepared { trace: Some((params, rows)), show, gpu_ms: None, completes })
+        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, completes })
     }
 
     /// Make the heat map of a traced cost AOV the picture shown.
     fn set_heat(&mut self, image: &crate::tracer::Image, metric: super::state::CostMetric) {
         let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
         self.heat = Some(HeatShown { width: image.width, height: image.height, rgba: map.rgba, stats: (map.scale_max, map.max, map.mean) });
-    }
-
-    /// Band heights follow the GPU time of the last band: about [`BAND_TARGET_MS`] each.
-    fn adapt_band(&mut self, gpu_ms: f64) {
-        if gpu_ms > 0.0 {
-            let scale = (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0);
-            self.band_rows = ((self.band_rows as f64 * scale) as u32).div_ceil(GROUP_SIZE).max(1) * GROUP_SIZE;
-        }
     }
 
     fn redraw(&mut self) -> anyhow::Result<bool> {
@@ -385,7 +367,7 @@ impl Tool {
         let final_frame = self.script.is_final_frame(traced);
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
-        let banded = prepared.trace.as_ref().is_some_and(|(p, rows)| rows.len() as u32 != p.settings.height);
+        let banded = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.settings.width as u64 * p.settings.height as u64);
         let show = match (prepared.show, &self.heat) {
             (Shown::Output, _) => Show::Output,
             (Shown::Heat, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
@@ -399,7 +381,7 @@ impl Tool {
             self.set_heat(&image, metric);
         }
         if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
-            self.adapt_band(ms);
+            self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);
         }
         let traced_ms = prepared.gpu_ms;
         let t = now.duration_since(self.start).as_secs_f64();

@@ -4,7 +4,6 @@
 //! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
 //! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
 
-use std::ops::Range;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -14,7 +13,7 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::timer::GpuTimer;
-use super::trace_pass::{TraceOutput, TracePass, GROUP_SIZE};
+use super::trace_pass::{Band, TraceOutput, TracePass, GROUP_SIZE};
 use crate::tracer::budget;
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
@@ -173,16 +172,16 @@ impl ComputeTracer {
         FrameParams { instance_count: params.instance_count.min(self.instance_count()), ..*params }
     }
 
-    /// Record the trace of rows `rows` of a frame into `cmd`, timed in `timer_slot` (one of
+    /// Record the trace of `band` of a frame into `cmd`, timed in `timer_slot` (one of
     /// the `recorded_slots`). The trace pass adds the barriers it needs; the outputs are
     /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, rows: Range<u32>, timer_slot: Option<u32>) {
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, timer_slot: Option<u32>) {
         let params = self.clamped(params);
         let timer = self.timer.as_ref().zip(timer_slot);
         if let Some((t, slot)) = timer {
             t.begin(cmd, slot);
         }
-        self.pass.record(cmd, &params, rows);
+        self.pass.record(cmd, &params, band);
         if let Some((t, slot)) = timer {
             t.end(cmd, slot);
         }
@@ -225,13 +224,13 @@ impl ComputeTracer {
         let start = Instant::now();
         let mut row = 0;
         while row < s.height {
-            let rows = row..(row + band).min(s.height);
-            self.submit_and_wait(|cmd| self.record(cmd, params, rows.clone(), Some(slot)))?;
+            let rows = Band::rows(row..(row + band).min(s.height), s.width);
+            self.submit_and_wait(|cmd| self.record(cmd, params, &rows, Some(slot)))?;
             if let Some(total) = timing.gpu_ms.as_mut() {
                 *total += self.timer_ms(slot).unwrap_or(0.0);
             }
             timing.submissions += 1;
-            row = rows.end;
+            row = rows.rows.end;
         }
         timing.wall_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(timing)

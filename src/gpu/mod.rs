@@ -18,5 +18,6 @@ pub mod timer;
 pub mod trace_pass;
 
 pub use compute_tracer::{ComputeTracer, TraceTiming};
+pub use trace_pass::Band;
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
 pub use error::GpuError;

@@ -20,6 +20,26 @@ static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"))
 /// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
 pub const GROUP_SIZE: u32 = super::shader_layout::GROUP_SIZE;
 
+/// A rectangle of a frame's pixels traced by one dispatch. Its start row and column are
+/// multiples of the work-group size; its end is one too, or the frame's edge.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Band {
+    pub rows: Range<u32>,
+    pub columns: Range<u32>,
+}
+
+impl Band {
+    /// Whole rows `rows` of a frame `width` pixels wide.
+    pub fn rows(rows: Range<u32>, width: u32) -> Self {
+        Self { rows, columns: 0..width }
+    }
+
+    /// Pixels in the band.
+    pub fn pixels(&self) -> u64 {
+        self.rows.len() as u64 * self.columns.len() as u64
+    }
+}
+
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA.
 pub struct TraceOutput {
     pub width: u32,
@@ -85,7 +105,8 @@ impl TracePass {
         let code: Vec<u32> = TRACE_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the trace shader")?;
         let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+        // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(vk::PipelineCreateFlags::DISPATCH_BASE)];
         let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { device.destroy_shader_module(module, None) };
         let pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0];
@@ -128,34 +149,37 @@ impl TracePass {
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
-    /// Record the trace of rows `rows` of a frame, with the barriers it needs: after the
+    /// Record the trace of the pixels in `band`, with the barriers it needs: after the
     /// last trace wrote (accumulation reads what it wrote) and copies read the outputs, and
-    /// between adaptive sampling's pre-pass and the main pass. The band starting at row 0
-    /// runs the pre-pass (primary-hit ids of the whole frame) when `settings.adaptive` is
-    /// on. The outputs are left as `Access::ComputeWrite`.
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, rows: Range<u32>) {
+    /// between adaptive sampling's pre-pass and the main pass. The band at the frame's
+    /// first pixel runs the pre-pass (primary-hit ids of the whole frame) when
+    /// `settings.adaptive` is on. The outputs are left as `Access::ComputeWrite`.
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
         let device = &self.ctx.device;
         let s = &params.settings;
         barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
-        if rows.start == 0 && s.adaptive {
+        if band.rows.start == 0 && band.columns.start == 0 && s.adaptive {
             let mut pc = params.push_constants(0);
             pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
-            self.dispatch(cmd, &pc, s.width, s.height);
+            self.dispatch(cmd, &pc, &Band::rows(0..s.height, s.width));
             barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead]);
         }
-        let pc = params.push_constants(rows.start);
-        self.dispatch(cmd, &pc, s.width, rows.len() as u32);
+        // Rows are offset through the push constants, columns through the dispatch base.
+        let pc = params.push_constants(band.rows.start);
+        self.dispatch(cmd, &pc, band);
     }
 
-    fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, width: u32, rows: u32) {
+    fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
-        let groups_x = width.div_ceil(GROUP_SIZE);
-        let groups_y = rows.div_ceil(GROUP_SIZE);
+        debug_assert!(band.columns.start % GROUP_SIZE == 0, "a band starts at a group boundary");
+        let base_x = band.columns.start / GROUP_SIZE;
+        let groups_x = band.columns.len().div_ceil(GROUP_SIZE as usize) as u32;
+        let groups_y = band.rows.len().div_ceil(GROUP_SIZE as usize) as u32;
         unsafe {
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(pc));
-            device.cmd_dispatch(cmd, groups_x, groups_y, 1);
+            device.cmd_dispatch_base(cmd, base_x, 0, 0, groups_x, groups_y, 1);
         }
     }
 }

@@ -13,7 +13,6 @@ pub mod surface;
 pub mod swapchain;
 pub mod ui_pass;
 
-use std::ops::Range;
 use std::sync::Arc;
 
 use anyhow::bail;
@@ -28,6 +27,7 @@ use super::compute_tracer::ComputeTracer;
 use super::context::GpuContext;
 use super::error::VkContext;
 use super::image::GpuImage;
+use super::trace_pass::Band;
 use crate::tracer::frame::FrameParams;
 use capture::WindowCapture;
 pub use composite::PixelRect;
@@ -50,9 +50,9 @@ pub enum Show<'a> {
 
 /// One frame to draw.
 pub struct FrameRequest<'a> {
-    /// Rows of a frame to trace in this frame's command buffer (all of them when the
+    /// Pixels of a frame to trace in this frame's command buffer (all of them when the
     /// frame fits one submission; a band of a long frame traced over several).
-    pub trace: Option<(FrameParams, Range<u32>)>,
+    pub trace: Option<(FrameParams, Band)>,
     pub show: Show<'a>,
     /// Where the image goes in the window (already letterboxed), physical pixels.
     pub image_rect: PixelRect,
@@ -282,8 +282,8 @@ impl Presenter {
             device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
             device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording a frame")?;
         }
-        if let (Some((params, rows)), Some(t)) = (trace, ready) {
-            t.record(cmd, &params, rows, Some(f as u32));
+        if let (Some((params, band)), Some(t)) = (trace, ready) {
+            t.record(cmd, &params, &band, Some(f as u32));
             self.slots[f].timed = true;
         }
         let swap_image = self.swapchain.images[index as usize];

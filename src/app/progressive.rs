@@ -1,0 +1,138 @@
+//! Frames too long for one submission (brute force on a big mesh), traced in bands over
+//! several display frames so that the window keeps drawing and answering input while the
+//! image fills in. A band is a run of work groups in reading order: part of one strip of
+//! group-high rows while groups are few, whole strips once they are many.
+
+use crate::gpu::Band;
+use crate::tracer::frame::FrameParams;
+
+/// GPU milliseconds a band should take, so that the window stays responsive.
+pub const BAND_TARGET_MS: f64 = 40.0;
+
+/// A long frame being traced band by band.
+#[derive(Clone, Debug)]
+pub struct Progressive {
+    /// The frame's parameters, fixed when it began.
+    pub params: FrameParams,
+    /// The first row of the strip not yet finished (a multiple of the group size).
+    next_row: u32,
+    /// The first column not yet traced in that strip (a multiple of the group size).
+    next_column: u32,
+    /// The work-group size: bands start on multiples of it.
+    group: u32,
+}
+
+impl Progressive {
+    /// A frame not yet begun, traced in work groups of `group` x `group` pixels.
+    pub fn new(params: FrameParams, group: u32) -> Self {
+        Self { params, next_row: 0, next_column: 0, group: group.max(1) }
+    }
+
+    /// Share of the frame's pixels traced so far, in [0, 1].
+    pub fn progress(&self) -> f32 {
+        let s = &self.params.settings;
+        let strip = self.group.min(s.height.saturating_sub(self.next_row));
+        let done = self.next_row as u64 * s.width as u64 + self.next_column as u64 * strip as u64;
+        (done as f64 / (s.width as u64 * s.height as u64).max(1) as f64).min(1.0) as f32
+    }
+
+    /// Take the next band of about `groups` work groups; `None` once the frame is done.
+    pub fn next_band(&mut self, groups: u32) -> Option<Band> {
+        let group = self.group;
+        let (width, height) = (self.params.settings.width, self.params.settings.height);
+        if self.next_row >= height {
+            return None;
+        }
+        let per_strip = width.div_ceil(group).max(1);
+        let groups = groups.max(1);
+        let band = if self.next_column > 0 || groups < per_strip {
+            // Part of one strip: columns from where the last band stopped.
+            let end = (self.next_column + groups * group).min(width);
+            Band { rows: self.next_row..(self.next_row + group).min(height), columns: self.next_column..end }
+        } else {
+            let strips = groups / per_strip;
+            Band::rows(self.next_row..(self.next_row + strips * group).min(height), width)
+        };
+        if band.columns.end >= width {
+            self.next_row = band.rows.end;
+            self.next_column = 0;
+        } else {
+            self.next_column = band.columns.end;
+        }
+        Some(band)
+    }
+
+    /// The frame is traced to its last pixel.
+    pub fn is_done(&self) -> bool {
+        self.next_row >= self.params.settings.height
+    }
+}
+
+/// The next band's size in groups, from the last band's size and GPU time: about
+/// [`BAND_TARGET_MS`] per band, changing by at most 4x a step, within `1..=most`.
+pub fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
+    let scaled = if gpu_ms > 0.0 { groups as f64 * (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0) } else { groups as f64 };
+    (scaled.round() as u32).clamp(1, most.max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tracer::frame::RenderSettings;
+
+    fn frame(width: u32, height: u32) -> Progressive {
+        let scene = crate::scene::paper::paper_scene(crate::scene::primitives::geosphere(0), 1, Default::default());
+        let settings = RenderSettings { width, height, ..RenderSettings::default() };
+        Progressive::new(FrameParams::new(&scene, settings), 8)
+    }
+
+    /// Bands of any size cover every pixel of the frame exactly once.
+    #[test]
+    fn bands_tile_the_frame_exactly_once() {
+        for (w, h) in [(64, 64), (100, 37), (8, 8), (1, 300), (257, 9)] {
+            for sizes in [vec![1], vec![3], vec![1, 5, 2, 40, 1000], vec![1000]] {
+                let mut p = frame(w, h);
+                let mut seen = vec![0u8; (w * h) as usize];
+                let mut i = 0;
+                while let Some(b) = p.next_band(sizes[i % sizes.len()]) {
+                    assert!(b.rows.start % 8 == 0 && b.columns.start % 8 == 0, "{b:?}");
+                    assert!(b.pixels() > 0);
+                    for y in b.rows.clone() {
+                        for x in b.columns.clone() {
+                            seen[(y * w + x) as usize] += 1;
+                        }
+                    }
+                    i += 1;
+                }
+                assert!(p.is_done());
+                assert!(seen.iter().all(|&n| n == 1), "{w}x{h} with {sizes:?}");
+                assert_eq!(p.progress(), 1.0);
+            }
+        }
+    }
+
+    /// Progress grows band by band and a band of few groups stays inside one strip.
+    #[test]
+    fn progress_grows_and_small_bands_stay_small() {
+        let mut p = frame(64, 64);
+        let mut last = p.progress();
+        assert_eq!(last, 0.0);
+        while let Some(b) = p.next_band(3) {
+            assert!(b.pixels() <= 3 * 64);
+            let now = p.progress();
+            assert!(now > last, "{now} after {last}");
+            last = now;
+        }
+    }
+
+    #[test]
+    fn band_size_follows_the_gpu_time() {
+        assert_eq!(adapt_groups(8, 40.0, 1000), 8);
+        assert_eq!(adapt_groups(8, 80.0, 1000), 4);
+        assert_eq!(adapt_groups(8, 1.0, 1000), 32, "at most 4x bigger a step");
+        assert_eq!(adapt_groups(8, 1000.0, 1000), 2, "at most 4x smaller a step");
+        assert_eq!(adapt_groups(1, 1000.0, 1000), 1, "never empty");
+        assert_eq!(adapt_groups(500, 1.0, 100), 100, "never past the submission budget");
+        assert_eq!(adapt_groups(8, 0.0, 1000), 8, "no timing: unchanged");
+    }
+}
