@@ -239,3 +239,45 @@ fn the_numbers_show_over_the_image_in_a_small_window() {
     assert!(text > 80, "no HUD text at the image's corner ({text} bright pixels)");
     assert!(dark * 3 > corner.len(), "no HUD box at the image's corner ({dark} of {} dark pixels)", corner.len());
 }
+
+#[test]
+fn a_frame_traced_in_bands_equals_render() {
+    // A tiny submission budget makes the window trace the frame in many small bands
+    // (parts of strips and whole strips, over many display frames); the image must be the
+    // one `render` traces in one go.
+    let x = Xvfb::start();
+    let dir = TempDir::new("bands");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.env("MESHTRACER_TESTS_PER_SUBMISSION", "20000");
+    cmd.args(view_args(&["--accel", "brute", "--frames", "2", "--screenshot", "banded.png"]));
+    assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
+    let banded = load(&dir.path().join("banded.png"));
+    let flags: Vec<&str> = SCENE.iter().chain(["--accel", "brute"].iter()).copied().collect();
+    let reference = headless_render(dir.path(), &flags, "ref.png");
+    assert!(max_diff(&banded, &reference) <= 1, "the banded frame differs from `render` by {}", max_diff(&banded, &reference));
+}
+
+#[test]
+fn a_frame_that_takes_minutes_leaves_the_window_answering() {
+    // Brute force on a 100k-triangle knot at 256²: minutes per frame on lavapipe. The
+    // window traces it in bands, so keys land while it fills in: F12 saves what is there,
+    // and Ctrl+Q quits, each long before the frame could be done.
+    let x = Xvfb::start();
+    let dir = TempDir::new("long-frame");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(["--model", "torusknot:100k", "--accel", "brute", "--width", "256", "--height", "256", "--bounces", "2"]).args(WINDOW);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let asked = std::time::Instant::now();
+    let shot = f12(&x, &window, dir.path(), &mut app);
+    assert_eq!(shot.dimensions(), (256, 256));
+    let answered = asked.elapsed();
+    let asked = std::time::Instant::now();
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+    let quit = asked.elapsed();
+    // One frame tests 256² x 3 rays x 100k triangles = 2e10 pairs: a minute or more on a
+    // CPU. The bound is loose; what it catches is a window waiting for the whole frame.
+    assert!(answered < Duration::from_secs(30), "F12 waited {answered:?} for the long frame");
+    assert!(quit < Duration::from_secs(15), "Ctrl+Q waited {quit:?} for the long frame");
+}

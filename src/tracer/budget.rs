@@ -9,6 +9,15 @@ use super::frame::{Accel, RenderSettings};
 /// Most ray-triangle tests one submission may ask for (well under a second on a fast GPU).
 pub const TESTS_PER_SUBMISSION: f64 = 4.0e9;
 
+/// The submission budget in use: [`TESTS_PER_SUBMISSION`], or the environment's
+/// `MESHTRACER_TESTS_PER_SUBMISSION` (tests use a small one to band small frames).
+pub fn tests_per_submission() -> f64 {
+    static BUDGET: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *BUDGET.get_or_init(|| {
+        std::env::var("MESHTRACER_TESTS_PER_SUBMISSION").ok().and_then(|v| v.parse::<f64>().ok()).filter(|v| *v >= 1.0).unwrap_or(TESTS_PER_SUBMISSION)
+    })
+}
+
 /// Most ray-triangle tests one frame may ask for (minutes on an H100 beyond this).
 pub const MAX_TESTS_PER_FRAME: f64 = 2.0e12;
 
@@ -35,11 +44,11 @@ pub fn refusal(settings: &RenderSettings, triangles: u64) -> Option<String> {
     (tests > MAX_TESTS_PER_FRAME).then(|| format!("{} would test {tests:.1e} ray-triangle pairs per frame (minutes per frame)", settings.accel))
 }
 
-/// Rows per submission so that each stays under [`TESTS_PER_SUBMISSION`], rounded up to a
+/// Rows per submission so that each stays under [`tests_per_submission`], rounded up to a
 /// multiple of `row_multiple` (the shader's work-group height) and at most the frame.
 pub fn rows_per_submission(settings: &RenderSettings, triangles: u64, row_multiple: u32) -> u32 {
     let per_row = settings.width as f64 * (settings.bounces as f64 + 1.0) * settings.spp as f64 * tests_per_ray(settings.accel, triangles);
-    let rows = (TESTS_PER_SUBMISSION / per_row).floor() as u32;
+    let rows = (tests_per_submission() / per_row).floor() as u32;
     let rows = rows.max(1).div_ceil(row_multiple) * row_multiple;
     rows.min(settings.height.div_ceil(row_multiple) * row_multiple)
 }
