@@ -5,7 +5,7 @@ pub mod camera;
 pub mod obj;
 pub mod paper;
 pub mod primitives;
-pub mod spec;
+pub(crate) mod spec;
 
 use std::path::PathBuf;
 
