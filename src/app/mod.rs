@@ -39,10 +39,11 @@ use winit::window::WindowId;
 
 use tool::Tool;
 
-pub use options::{parse_window_size, ViewOptions};
+pub use options::ViewOptions;
+pub(crate) use options::parse_window_size;
 
 /// The hint every "cannot open the tool" error carries.
-pub const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
+pub(crate) const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
 
 /// Open the window and run until it is closed (or `--frames` have been shown).
 pub fn run(options: &ViewOptions) -> anyhow::Result<()> {

@@ -48,21 +48,21 @@ impl ContextOptions {
 #[derive(Clone, Debug)]
 pub struct DeviceInfo {
     pub name: String,
-    pub device_type: String,
+    pub(crate) device_type: String,
     /// Driver name and version as the driver reports them.
     pub driver: String,
     /// Vulkan version the device supports, "1.3.x".
-    pub api_version: String,
+    pub(crate) api_version: String,
     pub max_storage_buffer_range: u64,
-    pub max_compute_work_group_count: [u32; 3],
+    pub(crate) max_compute_work_group_count: [u32; 3],
     /// Largest side of a 2D image (egui's texture limit).
-    pub max_image_dimension_2d: u32,
+    pub(crate) max_image_dimension_2d: u32,
     /// Nanoseconds per timestamp tick.
-    pub timestamp_period_ns: f32,
+    pub(crate) timestamp_period_ns: f32,
     /// Valid bits of the queue's timestamps (0 = no timestamps).
-    pub timestamp_valid_bits: u32,
+    pub(crate) timestamp_valid_bits: u32,
     /// Device-local heap size in bytes (the largest such heap).
-    pub device_local_bytes: u64,
+    pub(crate) device_local_bytes: u64,
 }
 
 /// Validation messages collected by the debug messenger.
@@ -104,16 +104,16 @@ unsafe extern "system" fn debug_callback(
 
 /// The Vulkan instance, device, queue and allocator.
 pub struct GpuContext {
-    pub entry: ash::Entry,
-    pub instance: ash::Instance,
-    pub physical_device: vk::PhysicalDevice,
+    pub(crate) entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    pub(crate) physical_device: vk::PhysicalDevice,
     pub device: ash::Device,
     /// One queue that does compute, transfers and (for the window) graphics and present.
-    pub queue: vk::Queue,
-    pub queue_family: u32,
+    pub(crate) queue: vk::Queue,
+    pub(crate) queue_family: u32,
     pub info: DeviceInfo,
     /// True when the device was created with dynamic rendering and the swapchain.
-    pub presentation: bool,
+    pub(crate) presentation: bool,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     debug: Option<(debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation: Arc<ValidationLog>,
@@ -175,7 +175,7 @@ impl GpuContext {
     }
 
     /// Create instance, optional surface (via `make_surface`), device and allocator.
-    pub fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
+    pub(crate) fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
         let entry = load_entry()?;
         let validation = options.validation_wanted();
         let validation_log = Arc::new(ValidationLog::default());
@@ -307,18 +307,18 @@ impl GpuContext {
     }
 
     /// Submit to the queue (under the queue lock).
-    pub fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
+    pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
         let _guard = self.queue_lock.lock().unwrap();
         unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
     }
 
     /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
-    pub fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
+    pub(crate) fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
         self.queue_lock.lock().unwrap()
     }
 
     /// Record commands with `record`, submit them and wait for completion.
-    pub fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
+    pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
         let pool = self.one_shot_pool.lock().unwrap();
         let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
@@ -342,7 +342,7 @@ impl GpuContext {
 
     /// Wait until the GPU is idle (before freeing resources it may still use). Holds the
     /// queue lock: `vkDeviceWaitIdle` needs every queue externally synchronized.
-    pub fn wait_idle(&self) -> Result<(), GpuError> {
+    pub(crate) fn wait_idle(&self) -> Result<(), GpuError> {
         let _guard = self.queue_lock.lock().unwrap();
         // SAFETY: the queue lock is held, so no other thread uses the queue meanwhile.
         unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
