@@ -69,7 +69,9 @@ impl Aabb {
         if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
     }
 
-    /// Surface area, the quantity the SAH weighs children by (0 for the empty box).
+    /// Surface area (0 for the empty box); only the tests use it, the SAH builder has its
+    /// own scaled half area.
+    #[cfg(test)]
     pub(crate) fn surface_area(&self) -> f32 {
         let e = self.extent();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)

@@ -73,11 +73,6 @@ impl ComputeTracer {
         Ok(tracer)
     }
 
-    /// The context this tracer runs on.
-    pub(crate) fn context(&self) -> &Arc<GpuContext> {
-        &self.ctx
-    }
-
     /// Upload a new scene; the old one is freed first (the GPU is waited for).
     pub(crate) fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;

@@ -54,7 +54,6 @@ pub struct DeviceInfo {
     /// Vulkan version the device supports, "1.3.x".
     pub(crate) api_version: String,
     pub max_storage_buffer_range: u64,
-    pub(crate) max_compute_work_group_count: [u32; 3],
     /// Largest side of a 2D image (egui's texture limit).
     pub(crate) max_image_dimension_2d: u32,
     /// Nanoseconds per timestamp tick.
@@ -112,8 +111,6 @@ pub struct GpuContext {
     pub(crate) queue: vk::Queue,
     pub(crate) queue_family: u32,
     pub info: DeviceInfo,
-    /// True when the device was created with dynamic rendering and the swapchain.
-    pub(crate) presentation: bool,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     debug: Option<(debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation: Arc<ValidationLog>,
@@ -280,7 +277,6 @@ impl GpuContext {
                 queue,
                 queue_family,
                 info,
-                presentation,
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 debug,
                 validation: validation_log,
@@ -424,7 +420,6 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         driver: format!("{driver_name} {driver_info}").trim().to_string(),
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
-        max_compute_work_group_count: props.limits.max_compute_work_group_count,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         timestamp_period_ns: props.limits.timestamp_period,
         timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,

@@ -25,7 +25,6 @@ pub struct GpuImage {
     ctx: Arc<GpuContext>,
     pub image: vk::Image,
     allocation: Option<Allocation>,
-    pub format: vk::Format,
     pub width: u32,
     pub height: u32,
 }
@@ -66,7 +65,7 @@ impl GpuImage {
             unsafe { device.destroy_image(image, None) };
             return Err(GpuError::vk("binding image memory", r));
         }
-        Ok(Self { ctx: ctx.clone(), image, allocation: Some(allocation), format, width, height })
+        Ok(Self { ctx: ctx.clone(), image, allocation: Some(allocation), width, height })
     }
 }
 

@@ -2,7 +2,7 @@
 //! planes, optional identical copies along the x, y and z axes at a fixed spacing, and a
 //! point light orbiting inside the box. Every entry point opens on this scene.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 
@@ -254,11 +254,6 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 pub fn load_paper_scene(source: &ModelSource, model_count: u32, light: LightOrbit) -> Result<(Scene, Vec<String>), ObjError> {
     let (mesh, warnings) = source.load()?;
     Ok((paper_scene(mesh, model_count, light), warnings))
-}
-
-/// Resolve a model path relative to the current directory, for messages.
-pub(crate) fn display_path(p: &Path) -> String {
-    p.display().to_string()
 }
 
 #[cfg(test)]

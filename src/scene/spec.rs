@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
-use crate::tracer::frame::{Aov, RenderSettings};
+use crate::tracer::frame::RenderSettings;
 
 /// Where the camera is: the scene's default view with optional overrides, or framed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -89,11 +89,6 @@ impl SceneSpec {
             return Err("the camera's eye and target are the same point: it has no direction".into());
         }
         Ok(())
-    }
-
-    /// The same spec writing `aov`.
-    pub(crate) fn with_aov(&self, aov: Aov) -> Self {
-        Self { settings: RenderSettings { aov, ..self.settings }, ..self.clone() }
     }
 
     /// Read the environment file now, so a bad one fails before any other work.

@@ -98,11 +98,9 @@ pub struct GpuInstance {
 /// Where one mesh's data sits in the packed arrays.
 #[derive(Clone, Debug)]
 pub struct PackedMesh {
-    pub(crate) name: String,
     pub node_base: u32,
     pub triangle_base: u32,
     pub triangle_count: u32,
-    pub(crate) vertex_count: u32,
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
     pub(crate) bounds: Aabb,
@@ -225,11 +223,9 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         self.nodes.extend_from_slice(&bvh.nodes);
         self.meshes.push(PackedMesh {
-            name: mesh.name.clone(),
             node_base,
             triangle_base,
             triangle_count: mesh.triangle_count() as u32,
-            vertex_count: mesh.vertex_count() as u32,
             prim_base,
             bounds: mesh.bounds(),
             bvh,

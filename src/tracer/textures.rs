@@ -104,12 +104,6 @@ impl TextureAtlas {
             c0
         }
     }
-
-    /// Texels of texture `index` at level 0 (width * height).
-    pub(crate) fn texel_count(&self, index: u32) -> u32 {
-        let i = &self.infos[index as usize];
-        i[1] * i[2]
-    }
 }
 
 /// Direction -> equirectangular texture coordinates (u around +y from +x, v = 1 at the zenith).
