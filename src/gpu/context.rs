@@ -77,6 +77,9 @@ impl ValidationLog {
     }
 }
 
+// SAFETY (for the body's dereferences): Vulkan passes `data` null or valid for the call,
+// and `user` is null or the `ValidationLog` that the context keeps (an Arc) until it
+// destroys the messenger.
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     kind: vk::DebugUtilsMessageTypeFlagsEXT,
@@ -150,7 +153,9 @@ fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
 pub fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+    // SAFETY: the create info and the application info it points to outlive the call.
     let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }.map_err(instance_error)?;
+    // SAFETY: the instance was just created and is destroyed only below.
     let names = unsafe {
         let devices = instance.enumerate_physical_devices().unwrap_or_default();
         devices
@@ -161,6 +166,7 @@ pub fn list_devices() -> Result<Vec<String>, GpuError> {
             })
             .collect()
     };
+    // SAFETY: nothing made from the instance is alive any more.
     unsafe { instance.destroy_instance(None) };
     Ok(names)
 }
@@ -179,6 +185,7 @@ impl GpuContext {
 
         let mut layers: Vec<*const c_char> = Vec::new();
         if validation {
+            // SAFETY: a plain query of the loaded entry.
             let available = unsafe { entry.enumerate_instance_layer_properties() }.during("listing instance layers")?;
             if !available.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
                 return Err(GpuError::ValidationLayerMissing);
@@ -199,6 +206,8 @@ impl GpuContext {
         if validation && options.sync_validation_wanted() {
             create = create.push_next(&mut features);
         }
+        // SAFETY: every pointer in the create info (application info, layer and extension
+        // names, validation features) outlives the call.
         let instance = unsafe { entry.create_instance(&create, None) }.map_err(instance_error)?;
 
         let debug = if validation {
@@ -210,6 +219,8 @@ impl GpuContext {
                 .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(Arc::as_ptr(&validation_log) as *mut c_void);
+            // SAFETY: the instance is live; the user data is the `ValidationLog` the
+            // context keeps until it destroys the messenger.
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;
             Some((loader, messenger))
         } else {
@@ -229,6 +240,8 @@ impl GpuContext {
         let (surface, physical_device, queue_family) = match result {
             Ok(v) => v,
             Err(e) => {
+                // SAFETY: the messenger and the instance were made above and nothing else
+                // uses them on this error path.
                 unsafe {
                     if let Some((loader, m)) = &debug {
                         loader.destroy_debug_utils_messenger(*m, None);
@@ -239,6 +252,7 @@ impl GpuContext {
             }
         };
 
+        // SAFETY: a query on a physical device of this live instance.
         let props = unsafe { instance.get_physical_device_properties(physical_device) };
         let presentation = options.presentation;
         let priorities = [1.0];
@@ -251,7 +265,10 @@ impl GpuContext {
             device_info = device_info.push_next(&mut features13);
         }
         device_info = device_info.enabled_extension_names(&device_extensions);
+        // SAFETY: the create info and the queue info, priorities, extension names and
+        // features it points to outlive the call.
         let device = unsafe { instance.create_device(physical_device, &device_info, None) }.during("creating the Vulkan device")?;
+        // SAFETY: the device was created with one queue of this family.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -266,6 +283,7 @@ impl GpuContext {
 
         let info = device_info_of(&instance, physical_device, queue_family, &props);
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
 
         Ok((
@@ -305,6 +323,8 @@ impl GpuContext {
     /// Submit to the queue (under the queue lock).
     pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
         let _guard = self.queue_lock.lock().unwrap();
+        // SAFETY: the queue lock is held, as Vulkan requires of queue use; the submits and
+        // the fence belong to this device.
         unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
     }
 
@@ -317,7 +337,10 @@ impl GpuContext {
     pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
         let pool = self.one_shot_pool.lock().unwrap();
         let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        // SAFETY: the pool lock is held, so no other thread uses the pool.
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        // SAFETY: `cmd` was just allocated and is recorded, submitted and waited for here,
+        // under the pool lock; the fence is destroyed after the wait.
         let result = (|| unsafe {
             self.device
                 .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
@@ -332,6 +355,8 @@ impl GpuContext {
             self.device.destroy_fence(fence, None);
             waited.map(|_| r)
         })();
+        // SAFETY: the buffer is not pending (its submission was waited for, or never made)
+        // and the pool lock is still held.
         unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
         result
     }
@@ -347,6 +372,8 @@ impl GpuContext {
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
+        // SAFETY: every object made from the context holds an Arc to it, so all are gone;
+        // after waiting for the device, children are destroyed before their parents.
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(*self.one_shot_pool.get_mut().unwrap(), None);
@@ -366,17 +393,20 @@ fn pick_device(
     index: Option<usize>,
     surface: Option<(&ash::khr::surface::Instance, vk::SurfaceKHR)>,
 ) -> Result<(vk::PhysicalDevice, u32), GpuError> {
+    // SAFETY: a plain query of the live instance.
     let devices = unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
     if devices.is_empty() {
         return Err(GpuError::NoDevice);
     }
     let queue_for = |pd: vk::PhysicalDevice| -> Option<u32> {
+        // SAFETY: a query on a physical device of this instance.
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
         families.iter().enumerate().find_map(|(i, f)| {
             let i = i as u32;
             let mut ok = f.queue_flags.contains(vk::QueueFlags::COMPUTE);
             if let Some((loader, s)) = surface {
                 ok &= f.queue_flags.contains(vk::QueueFlags::GRAPHICS)
+                    // SAFETY: the surface belongs to this instance and family `i` exists.
                     && unsafe { loader.get_physical_device_surface_support(pd, i, s) }.unwrap_or(false);
             }
             ok.then_some(i)
@@ -386,6 +416,7 @@ fn pick_device(
         let pd = *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
         return queue_for(pd).map(|q| (pd, q)).ok_or(GpuError::NoDevice);
     }
+    // SAFETY: a query on a physical device of this instance.
     let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }.device_type {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,
         vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
@@ -402,10 +433,13 @@ fn pick_device(
 fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
     let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+    // SAFETY: `props2` and the driver properties chained to it outlive the call.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
     let driver_name = driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let driver_info = driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    // SAFETY: queries on a physical device of this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    // SAFETY: as above.
     let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
     let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
         .iter()
