@@ -123,7 +123,7 @@ fn shader_layout(module: &naga::Module, shader: &str) -> String {
     // member by member.
     shared.sort_by_key(|&ty| type_name(ty));
     shared.dedup();
-    out.push_str("/// The structs of the buffers and the push-constant block, by name.\npub const STRUCTS: &[ShaderStruct] = &[\n");
+    out.push_str("/// The structs of the buffers and the push-constant block, by name (the tests check the\n/// host's twins against them).\n#[cfg(test)]\npub const STRUCTS: &[ShaderStruct] = &[\n");
     for ty in shared {
         let naga::TypeInner::Struct { members, .. } = &module.types[ty].inner else { unreachable!() };
         writeln!(out, "    ShaderStruct {{\n        name: {:?},\n        size: {},\n        members: &[", type_name(ty), layouter[ty].size).unwrap();

@@ -6,7 +6,7 @@ use glam::Vec3;
 /// A ray `origin + t * dir`; `dir` need not be normalised (instances scale it).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
-    pub origin: Vec3,
+    pub(crate) origin: Vec3,
     pub dir: Vec3,
 }
 
@@ -17,7 +17,7 @@ impl Ray {
     }
 
     /// The point at parameter `t`.
-    pub fn at(&self, t: f32) -> Vec3 {
+    pub(crate) fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }
 }
@@ -45,7 +45,7 @@ impl Aabb {
     }
 
     /// This box grown to contain `p`.
-    pub fn grow_point(self, p: Vec3) -> Self {
+    pub(crate) fn grow_point(self, p: Vec3) -> Self {
         Self { min: self.min.min(p), max: self.max.max(p) }
     }
 
@@ -55,7 +55,7 @@ impl Aabb {
     }
 
     /// True when the box contains nothing.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
@@ -69,20 +69,22 @@ impl Aabb {
         if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
     }
 
-    /// Surface area, the quantity the SAH weighs children by (0 for the empty box).
-    pub fn surface_area(&self) -> f32 {
+    /// Surface area (0 for the empty box); only the tests use it, the SAH builder has its
+    /// own scaled half area.
+    #[cfg(test)]
+    pub(crate) fn surface_area(&self) -> f32 {
         let e = self.extent();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 
     /// True when `o` lies inside this box (with a small relative slack for float noise).
-    pub fn contains(&self, o: &Aabb) -> bool {
+    pub(crate) fn contains(&self, o: &Aabb) -> bool {
         let slack = (self.extent().max_element() * 1e-6).max(1e-30);
         o.is_empty() || (o.min.cmpge(self.min - slack).all() && o.max.cmple(self.max + slack).all())
     }
 
     /// Slab test: the entry distance if the ray meets the box within `(0, t_max)`.
-    pub fn intersect(&self, ray: &Ray, inv_dir: Vec3, t_max: f32) -> Option<f32> {
+    pub(crate) fn intersect(&self, ray: &Ray, inv_dir: Vec3, t_max: f32) -> Option<f32> {
         let t0 = (self.min - ray.origin) * inv_dir;
         let t1 = (self.max - ray.origin) * inv_dir;
         let tmin = t0.min(t1).max_element().max(0.0);
@@ -94,7 +96,7 @@ impl Aabb {
 
 /// `1 / d` without infinities: a zero component becomes ±1e20 (0 * inf would give NaN in
 /// the slab test). The shader's `safe_inverse` does the same.
-pub fn safe_inverse(d: Vec3) -> Vec3 {
+pub(crate) fn safe_inverse(d: Vec3) -> Vec3 {
     let fix = |c: f32| if c < 0.0 { -c.abs().max(1e-20) } else { c.max(1e-20) };
     Vec3::new(fix(d.x), fix(d.y), fix(d.z)).recip()
 }
@@ -103,8 +105,8 @@ pub fn safe_inverse(d: Vec3) -> Vec3 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriHit {
     pub t: f32,
-    pub u: f32,
-    pub v: f32,
+    pub(crate) u: f32,
+    pub(crate) v: f32,
 }
 
 /// Möller–Trumbore, as in the paper (3.3): solve `O + tD = (1-u-v)V0 + uV1 + vV2` with

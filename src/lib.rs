@@ -8,7 +8,7 @@
 //!   trace pass that runs `shaders/trace.comp`.
 //! - [`app`]: the interactive egui tool on top; [`cli`]: the thin command line.
 
-pub mod bench;
+pub(crate) mod bench;
 pub mod bvh;
 pub mod geometry;
 pub mod scene;

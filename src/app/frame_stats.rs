@@ -78,11 +78,6 @@ impl FrameStats {
             0.0
         }
     }
-
-    /// Forget the history.
-    pub fn clear(&mut self) {
-        *self = Self::default();
-    }
 }
 
 /// Million rays per second for `rays` rays traced in `ms` milliseconds.

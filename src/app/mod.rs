@@ -1,33 +1,33 @@
 //! The interactive tool: a winit window with a Vulkan swapchain showing the traced image,
 //! and the egui tuning panel on top.
 //!
-//! - [`options`]: what the tool is started with (the CLI fills it);
-//! - [`tool`]: the window, GPU side and egui, and one redraw per displayed frame, over
-//!   [`input`] (mouse and keys), [`session`] (model, loader, what the tracer holds) and
-//!   [`script`] (`--frames` runs and exiting);
-//! - [`state`]: the parameters and the keyboard shortcuts;
-//! - [`panel`]: the egui panel; [`frame_stats`]: the frame-time history it plots;
-//! - [`model_loader`]: loading .obj files on a worker thread;
-//! - [`progressive`]: long frames traced in bands over several display frames;
-//! - [`screenshot`]: screenshot names and files; [`cost_view`]: the cost heat map.
+//! - `options`: what the tool is started with (the CLI fills it);
+//! - `tool`: the window, GPU side and egui, and one redraw per displayed frame, over
+//!   `input` (mouse and keys), `session` (model, loader, what the tracer holds) and
+//!   `script` (`--frames` runs and exiting);
+//! - `state`: the parameters and the keyboard shortcuts;
+//! - `panel`: the egui panel; `frame_stats`: the frame-time history it plots;
+//! - `model_loader`: loading .obj files on a worker thread;
+//! - `progressive`: long frames traced in bands over several display frames;
+//! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!
 //! A scripted run (`--frames N`) starts with the light paused at `--light-angle` so that
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
-pub mod cost_view;
-pub mod frame_stats;
-pub mod input;
-pub mod model_loader;
-pub mod options;
-pub mod panel;
-pub mod progressive;
-pub mod screenshot;
-pub mod script;
-pub mod session;
-pub mod state;
-pub mod tool;
+pub(crate) mod cost_view;
+pub(crate) mod frame_stats;
+pub(crate) mod input;
+pub(crate) mod model_loader;
+pub(crate) mod options;
+pub(crate) mod panel;
+pub(crate) mod progressive;
+pub(crate) mod screenshot;
+pub(crate) mod script;
+pub(crate) mod session;
+pub(crate) mod state;
+pub(crate) mod tool;
 
 use std::time::{Duration, Instant};
 
@@ -39,10 +39,11 @@ use winit::window::WindowId;
 
 use tool::Tool;
 
-pub use options::{parse_window_size, ViewOptions};
+pub use options::ViewOptions;
+pub(crate) use options::parse_window_size;
 
 /// The hint every "cannot open the tool" error carries.
-pub const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
+pub(crate) const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
 
 /// Open the window and run until it is closed (or `--frames` have been shown).
 pub fn run(options: &ViewOptions) -> anyhow::Result<()> {

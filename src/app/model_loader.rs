@@ -88,7 +88,8 @@ impl ModelLoader {
         }
     }
 
-    /// True while a load runs.
+    /// True while a load runs (the tests' check; the tool polls).
+    #[cfg(test)]
     pub fn busy(&self) -> bool {
         self.job.is_some()
     }
@@ -117,7 +118,8 @@ impl ModelLoader {
         }
     }
 
-    /// Block until the running load finishes (scripted runs wait for their model).
+    /// Block until the running load finishes (for the tests; the tool polls each frame).
+    #[cfg(test)]
     pub fn wait(&mut self) -> Poll {
         loop {
             match self.poll() {

@@ -9,26 +9,26 @@ use crate::scene::spec::SceneSpec;
 #[derive(Clone, Debug, Default)]
 pub struct ViewOptions {
     /// The scene and frame settings to open on.
-    pub spec: SceneSpec,
+    pub(crate) spec: SceneSpec,
     /// Vulkan device index; None picks the fastest kind present.
-    pub device: Option<usize>,
+    pub(crate) device: Option<usize>,
     /// Quit after this many traced frames (scripts and tests); the light starts paused.
-    pub frames: Option<u64>,
+    pub(crate) frames: Option<u64>,
     /// Write the traced image (render resolution) to this PNG at exit.
-    pub screenshot: Option<PathBuf>,
+    pub(crate) screenshot: Option<PathBuf>,
     /// Write the window as seen, panel included, to this PNG at exit.
-    pub screenshot_ui: Option<PathBuf>,
+    pub(crate) screenshot_ui: Option<PathBuf>,
     /// Initial window size in logical pixels.
-    pub window: [u32; 2],
+    pub(crate) window: [u32; 2],
     /// Turn on the Vulkan validation layer.
-    pub validation: bool,
+    pub(crate) validation: bool,
     /// Show the numbers over the image at the start.
-    pub hud: bool,
+    pub(crate) hud: bool,
 }
 
 impl ViewOptions {
     /// A scripted run ends by itself after `frames` and starts with the light still.
-    pub fn scripted(&self) -> bool {
+    pub(crate) fn scripted(&self) -> bool {
         self.frames.is_some()
     }
 }

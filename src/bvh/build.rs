@@ -50,7 +50,7 @@ impl BuildOptions {
     /// the 4M knot but doubled the dragon's time; 8 was 18-25% slower) and made no
     /// difference on the paper's scenes: big meshes pay for triangle bytes more than for
     /// node visits (docs/BENCHMARKS.md).
-    pub fn for_tracing() -> Self {
+    pub(crate) fn for_tracing() -> Self {
         Self { max_leaf_size: 2, ..Self::default() }
     }
 }

@@ -13,7 +13,8 @@ mod traverse;
 mod validate;
 
 pub use build::BuildOptions;
-pub use traverse::{closest_hit, ordered_edges, TraversalStats};
+pub use traverse::{ordered_edges, TraversalStats};
+pub(crate) use traverse::closest_hit;
 
 use bytemuck::{Pod, Zeroable};
 
@@ -21,7 +22,7 @@ use crate::geometry::Aabb;
 use crate::tracer::contract;
 
 /// Marks an absent child (its box must not be tested); the shader's `EMPTY`.
-pub const EMPTY: u32 = contract::EMPTY;
+pub(crate) const EMPTY: u32 = contract::EMPTY;
 
 /// Entries in the traversal stack (CPU and shader alike).
 pub const STACK_SIZE: usize = contract::STACK_SIZE as usize;
@@ -34,14 +35,14 @@ pub const MAX_DEPTH: usize = 60;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
-    pub left_min: [f32; 3],
+    pub(crate) left_min: [f32; 3],
     pub left_index: u32,
-    pub left_max: [f32; 3],
-    pub left_count: u32,
-    pub right_min: [f32; 3],
+    pub(crate) left_max: [f32; 3],
+    pub(crate) left_count: u32,
+    pub(crate) right_min: [f32; 3],
     pub right_index: u32,
-    pub right_max: [f32; 3],
-    pub right_count: u32,
+    pub(crate) right_max: [f32; 3],
+    pub(crate) right_count: u32,
 }
 
 /// A BVH over `prim_indices.len()` triangles. Node 0 is the root.

@@ -46,7 +46,7 @@ fn parse_finite(s: &str) -> Result<f32, String> {
 
 /// The scene and frame: what `view`, `render` and `bench` share.
 #[derive(Args, Debug, Clone)]
-pub struct SceneArgs {
+pub(crate) struct SceneArgs {
     /// Model: geosphere, torusknot, sphere, cylinder (the paper's four), torusknot:N (a
     /// generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file.
     #[arg(long, default_value = "geosphere")]
@@ -124,7 +124,7 @@ fn parse_fov(s: &str) -> Result<f32, String> {
 
 impl SceneArgs {
     /// The scene spec these flags describe, writing `aov`.
-    pub fn spec(&self, aov: Aov) -> SceneSpec {
+    pub(crate) fn spec(&self, aov: Aov) -> SceneSpec {
         SceneSpec {
             model: ModelSource::parse(&self.model),
             models: self.models,
@@ -152,25 +152,25 @@ impl SceneArgs {
 #[derive(Args, Debug, Clone)]
 pub struct ViewArgs {
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// Quit after this many frames (for scripts and tests).
     #[arg(long)]
-    pub frames: Option<u64>,
+    pub(crate) frames: Option<u64>,
     /// Write the traced image (render resolution) to this PNG at exit.
     #[arg(long)]
-    pub screenshot: Option<PathBuf>,
+    pub(crate) screenshot: Option<PathBuf>,
     /// Write the window as seen, panel included, to this PNG at exit.
     #[arg(long)]
-    pub screenshot_ui: Option<PathBuf>,
+    pub(crate) screenshot_ui: Option<PathBuf>,
     /// Initial window size as WIDTHxHEIGHT.
     #[arg(long, default_value = "1280x800")]
-    pub window: String,
+    pub(crate) window: String,
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
-    pub validation: bool,
+    pub(crate) validation: bool,
     /// Start with the numbers over the image hidden (the I key shows them).
     #[arg(long)]
-    pub no_hud: bool,
+    pub(crate) no_hud: bool,
 }
 
 impl ViewArgs {
@@ -194,18 +194,18 @@ impl ViewArgs {
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// Trace on the CPU reference tracer instead of the GPU.
     #[arg(long)]
-    pub cpu: bool,
+    pub(crate) cpu: bool,
     /// What to write: color (PNG), or depth, normal, prim-id, cost, samples (32-bit float
     /// OpenEXR; cost and samples also as a heat-map PNG).
     #[arg(long, default_value = "color")]
-    pub aov: Aov,
+    pub(crate) aov: Aov,
     /// Output file (.png for color, .exr for the other AOVs).
     #[arg(short, long)]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
-    pub validation: bool,
+    pub(crate) validation: bool,
 }

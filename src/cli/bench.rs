@@ -16,64 +16,64 @@ use crate::tracer::Accel;
 pub struct BenchArgs {
     /// The paper's Table 1 (four models) and Table 2 (1..4 geospheres), 2 bounces.
     #[arg(long)]
-    pub paper: bool,
+    pub(crate) paper: bool,
     /// Frame time against triangles, resolution, bounces and model count.
     #[arg(long)]
-    pub scaling: bool,
+    pub(crate) scaling: bool,
     /// The cost of each shading feature (smooth, env, spp, adaptive; textures on the first --obj).
     #[arg(long)]
-    pub features: bool,
+    pub(crate) features: bool,
     /// Primary rays with the camera moved in until the model fills the frame (--triangles
     /// knots and --obj models at --size): the vendor's comparison.
     #[arg(long)]
-    pub framed: bool,
+    pub(crate) framed: bool,
     /// Measured frames per row.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
-    pub frames: u32,
+    pub(crate) frames: u32,
     /// Discarded warm-up frames per row.
     #[arg(long, default_value_t = 5)]
-    pub warmup: u32,
+    pub(crate) warmup: u32,
     /// Resolutions (square) for --paper, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "512,1024", value_parser = clap::value_parser!(u32).range(1..=8192))]
-    pub resolutions: Vec<u32>,
+    pub(crate) resolutions: Vec<u32>,
     /// Accelerations to run, comma-separated: brute, bvh.
     #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
-    pub accel: Vec<Accel>,
+    pub(crate) accel: Vec<Accel>,
     /// Triangle counts of the generated meshes for --scaling, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,100000,1000000,4000000")]
-    pub triangles: Vec<usize>,
+    pub(crate) triangles: Vec<usize>,
     /// Resolution (square) of the --scaling series other than resolution itself.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=8192))]
-    pub size: u32,
+    pub(crate) size: u32,
     /// Bounces in the triangle series (the paper's 2; 0 = primary rays only).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=8))]
-    pub bounces: u32,
+    pub(crate) bounces: u32,
     /// Extra .obj files for the triangle series.
     #[arg(long = "obj")]
-    pub objs: Vec<PathBuf>,
+    pub(crate) objs: Vec<PathBuf>,
     /// Write all rows as JSON here.
     #[arg(long)]
-    pub json: Option<PathBuf>,
+    pub(crate) json: Option<PathBuf>,
     /// Write all rows as CSV here.
     #[arg(long)]
-    pub csv: Option<PathBuf>,
+    pub(crate) csv: Option<PathBuf>,
     /// Draw PNG charts of the rows into this folder (chart_triangles.png,
     /// chart_resolution.png, chart_models.png).
     #[arg(long, value_name = "DIR")]
-    pub charts: Option<PathBuf>,
+    pub(crate) charts: Option<PathBuf>,
     /// Draw the charts from these saved --json reports instead of running anything
     /// (with --charts DIR).
     #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "json", "csv"])]
-    pub charts_from: Vec<PathBuf>,
+    pub(crate) charts_from: Vec<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
-    pub device: Option<usize>,
+    pub(crate) device: Option<usize>,
     /// Turn on the Vulkan validation layer.
     #[arg(long)]
-    pub validation: bool,
+    pub(crate) validation: bool,
     /// Print where each scene buffer's memory lives (memory flags, dedicated or not).
     #[arg(long)]
-    pub verbose: bool,
+    pub(crate) verbose: bool,
 }
 
 /// Run the benchmark.

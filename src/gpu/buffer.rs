@@ -13,12 +13,12 @@ use super::error::{GpuError, VkContext};
 /// A Vulkan buffer and its memory; freed on drop.
 pub struct GpuBuffer {
     ctx: Arc<GpuContext>,
-    pub buffer: vk::Buffer,
+    pub(crate) buffer: vk::Buffer,
     allocation: Option<Allocation>,
     /// Size in bytes (at least 16: Vulkan has no empty buffers).
-    pub size: u64,
+    pub(crate) size: u64,
     /// What the buffer is, for messages and `bench --verbose`.
-    pub name: &'static str,
+    pub(crate) name: &'static str,
 }
 
 impl GpuBuffer {
@@ -74,20 +74,20 @@ impl GpuBuffer {
     }
 
     /// The mapped bytes of a host-visible buffer.
-    pub fn mapped(&mut self) -> Option<&mut [u8]> {
+    pub(crate) fn mapped(&mut self) -> Option<&mut [u8]> {
         let size = self.size as usize;
         self.allocation.as_mut().and_then(|a| a.mapped_slice_mut()).map(|s| &mut s[..size])
     }
 
     /// A device-local storage buffer filled with `data` through a staging copy (paper 3.2).
-    pub fn device_local_with(ctx: &Arc<GpuContext>, data: &[u8], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+    pub(crate) fn device_local_with(ctx: &Arc<GpuContext>, data: &[u8], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
         let dst = GpuBuffer::new(ctx, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
         dst.upload(data)?;
         Ok(dst)
     }
 
     /// Overwrite the start of this (device-local) buffer with `data` through a staging copy.
-    pub fn upload(&self, data: &[u8]) -> Result<(), GpuError> {
+    pub(crate) fn upload(&self, data: &[u8]) -> Result<(), GpuError> {
         if data.is_empty() {
             return Ok(());
         }
@@ -106,7 +106,7 @@ impl GpuBuffer {
     }
 
     /// Read `len` bytes back from this (device-local) buffer through a staging copy.
-    pub fn download(&self, len: u64) -> Result<Vec<u8>, GpuError> {
+    pub(crate) fn download(&self, len: u64) -> Result<Vec<u8>, GpuError> {
         let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
         let device = &self.ctx.device;
         // SAFETY: as in `upload`.

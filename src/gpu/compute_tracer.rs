@@ -27,7 +27,7 @@ pub struct TraceTiming {
     /// Wall-clock time from submit to completion, as the paper's fps would count it.
     pub wall_ms: f64,
     /// Submissions the frame was split into.
-    pub submissions: u32,
+    pub(crate) submissions: u32,
 }
 
 /// The compute-shader tracer of one device: a scene (once set), output buffers at one
@@ -51,7 +51,7 @@ pub struct ComputeTracer {
 impl ComputeTracer {
     /// A tracer with no scene yet, with `recorded_slots` timestamp slots for frames that
     /// a caller records into its own command buffers (its frames in flight).
-    pub fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
         let pass = TracePass::new(ctx)?;
         let timer = GpuTimer::new(ctx, recorded_slots + 1)?;
         let device = &ctx.device;
@@ -73,13 +73,8 @@ impl ComputeTracer {
         Ok(tracer)
     }
 
-    /// The context this tracer runs on.
-    pub fn context(&self) -> &Arc<GpuContext> {
-        &self.ctx
-    }
-
     /// Upload a new scene; the old one is freed first (the GPU is waited for).
-    pub fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+    pub(crate) fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.scene = None;
         self.scene = Some(SceneBuffers::upload(&self.ctx, packed)?);
@@ -99,7 +94,7 @@ impl ComputeTracer {
     }
 
     /// Replace the environment image (after `PackedScene::set_environment`).
-    pub fn set_environment(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+    pub(crate) fn set_environment(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         if let Some(scene) = &mut self.scene {
             scene.set_environment(&self.ctx, packed)?;
@@ -110,7 +105,7 @@ impl ComputeTracer {
 
     /// Make the output buffers `width` x `height`; the old ones are freed first (at large
     /// sizes both may not fit), so on failure there are none.
-    pub fn set_resolution(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+    pub(crate) fn set_resolution(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
         if self.resolution() == Some([width, height]) {
             return Ok(());
         }
@@ -122,17 +117,17 @@ impl ComputeTracer {
     }
 
     /// The size of the output buffers, if any.
-    pub fn resolution(&self) -> Option<[u32; 2]> {
+    pub(crate) fn resolution(&self) -> Option<[u32; 2]> {
         self.output.as_ref().map(|o| [o.width, o.height])
     }
 
     /// A scene and output buffers are there: frames can be traced.
-    pub fn is_ready(&self) -> bool {
+    pub(crate) fn is_ready(&self) -> bool {
         self.scene.is_some() && self.output.is_some()
     }
 
     /// Bytes of device memory the scene uses.
-    pub fn scene_bytes(&self) -> u64 {
+    pub(crate) fn scene_bytes(&self) -> u64 {
         self.scene.as_ref().map_or(0, |s| s.bytes)
     }
 
@@ -142,12 +137,12 @@ impl ComputeTracer {
     }
 
     /// Instances on the GPU now.
-    pub fn instance_count(&self) -> u32 {
+    pub(crate) fn instance_count(&self) -> u32 {
         self.scene.as_ref().map_or(0, |s| s.instance_count)
     }
 
     /// The packed 8-bit colour output: (buffer, width, height).
-    pub fn colour_output(&self) -> Option<(vk::Buffer, u32, u32)> {
+    pub(crate) fn colour_output(&self) -> Option<(vk::Buffer, u32, u32)> {
         self.output.as_ref().map(|o| (o.rgba8.buffer, o.width, o.height))
     }
 
@@ -158,12 +153,12 @@ impl ComputeTracer {
     }
 
     /// Rows per submission for `params`, a multiple of the work-group size.
-    pub fn rows_per_submission(&self, params: &FrameParams) -> u32 {
+    pub(crate) fn rows_per_submission(&self, params: &FrameParams) -> u32 {
         budget::rows_per_submission(&params.settings, self.triangle_total, GROUP_SIZE)
     }
 
     /// The frame fits one submission (the window records it into its own frame).
-    pub fn fits_one_submission(&self, params: &FrameParams) -> bool {
+    pub(crate) fn fits_one_submission(&self, params: &FrameParams) -> bool {
         self.rows_per_submission(params) >= params.settings.height
     }
 
@@ -175,7 +170,7 @@ impl ComputeTracer {
     /// Record the trace of `band` of a frame into `cmd`, timed in `timer_slot` (one of
     /// the `recorded_slots`). The trace pass adds the barriers it needs; the outputs are
     /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, timer_slot: Option<u32>) {
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, timer_slot: Option<u32>) {
         let params = self.clamped(params);
         let timer = self.timer.as_ref().zip(timer_slot);
         if let Some((t, slot)) = timer {
@@ -188,7 +183,7 @@ impl ComputeTracer {
     }
 
     /// Milliseconds of the trace recorded with `timer_slot`, once its commands completed.
-    pub fn timer_ms(&self, timer_slot: u32) -> Option<f64> {
+    pub(crate) fn timer_ms(&self, timer_slot: u32) -> Option<f64> {
         self.timer.as_ref().and_then(|t| t.read_ms(timer_slot))
     }
 
@@ -256,7 +251,7 @@ impl ComputeTracer {
     }
 
     /// Read the 8-bit colour output of the last frame (RGBA bytes, row 0 at the top).
-    pub fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
+    pub(crate) fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
         let out = self.traced_output()?;
         let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
         image::RgbaImage::from_raw(out.width, out.height, bytes).ok_or(GpuError::NotReady("the colour readback has the wrong size"))

@@ -48,21 +48,20 @@ impl ContextOptions {
 #[derive(Clone, Debug)]
 pub struct DeviceInfo {
     pub name: String,
-    pub device_type: String,
+    pub(crate) device_type: String,
     /// Driver name and version as the driver reports them.
     pub driver: String,
     /// Vulkan version the device supports, "1.3.x".
-    pub api_version: String,
+    pub(crate) api_version: String,
     pub max_storage_buffer_range: u64,
-    pub max_compute_work_group_count: [u32; 3],
     /// Largest side of a 2D image (egui's texture limit).
-    pub max_image_dimension_2d: u32,
+    pub(crate) max_image_dimension_2d: u32,
     /// Nanoseconds per timestamp tick.
-    pub timestamp_period_ns: f32,
+    pub(crate) timestamp_period_ns: f32,
     /// Valid bits of the queue's timestamps (0 = no timestamps).
-    pub timestamp_valid_bits: u32,
+    pub(crate) timestamp_valid_bits: u32,
     /// Device-local heap size in bytes (the largest such heap).
-    pub device_local_bytes: u64,
+    pub(crate) device_local_bytes: u64,
 }
 
 /// Validation messages collected by the debug messenger.
@@ -78,6 +77,9 @@ impl ValidationLog {
     }
 }
 
+// SAFETY (for the body's dereferences): Vulkan passes `data` null or valid for the call,
+// and `user` is null or the `ValidationLog` that the context keeps (an Arc) until it
+// destroys the messenger.
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     kind: vk::DebugUtilsMessageTypeFlagsEXT,
@@ -104,16 +106,14 @@ unsafe extern "system" fn debug_callback(
 
 /// The Vulkan instance, device, queue and allocator.
 pub struct GpuContext {
-    pub entry: ash::Entry,
-    pub instance: ash::Instance,
-    pub physical_device: vk::PhysicalDevice,
+    pub(crate) entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    pub(crate) physical_device: vk::PhysicalDevice,
     pub device: ash::Device,
     /// One queue that does compute, transfers and (for the window) graphics and present.
-    pub queue: vk::Queue,
-    pub queue_family: u32,
+    pub(crate) queue: vk::Queue,
+    pub(crate) queue_family: u32,
     pub info: DeviceInfo,
-    /// True when the device was created with dynamic rendering and the swapchain.
-    pub presentation: bool,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     debug: Option<(debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation: Arc<ValidationLog>,
@@ -153,7 +153,9 @@ fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
 pub fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+    // SAFETY: the create info and the application info it points to outlive the call.
     let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }.map_err(instance_error)?;
+    // SAFETY: the instance was just created and is destroyed only below.
     let names = unsafe {
         let devices = instance.enumerate_physical_devices().unwrap_or_default();
         devices
@@ -164,6 +166,7 @@ pub fn list_devices() -> Result<Vec<String>, GpuError> {
             })
             .collect()
     };
+    // SAFETY: nothing made from the instance is alive any more.
     unsafe { instance.destroy_instance(None) };
     Ok(names)
 }
@@ -175,13 +178,14 @@ impl GpuContext {
     }
 
     /// Create instance, optional surface (via `make_surface`), device and allocator.
-    pub fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
+    pub(crate) fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
         let entry = load_entry()?;
         let validation = options.validation_wanted();
         let validation_log = Arc::new(ValidationLog::default());
 
         let mut layers: Vec<*const c_char> = Vec::new();
         if validation {
+            // SAFETY: a plain query of the loaded entry.
             let available = unsafe { entry.enumerate_instance_layer_properties() }.during("listing instance layers")?;
             if !available.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
                 return Err(GpuError::ValidationLayerMissing);
@@ -202,6 +206,8 @@ impl GpuContext {
         if validation && options.sync_validation_wanted() {
             create = create.push_next(&mut features);
         }
+        // SAFETY: every pointer in the create info (application info, layer and extension
+        // names, validation features) outlives the call.
         let instance = unsafe { entry.create_instance(&create, None) }.map_err(instance_error)?;
 
         let debug = if validation {
@@ -213,6 +219,8 @@ impl GpuContext {
                 .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(Arc::as_ptr(&validation_log) as *mut c_void);
+            // SAFETY: the instance is live; the user data is the `ValidationLog` the
+            // context keeps until it destroys the messenger.
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;
             Some((loader, messenger))
         } else {
@@ -232,6 +240,8 @@ impl GpuContext {
         let (surface, physical_device, queue_family) = match result {
             Ok(v) => v,
             Err(e) => {
+                // SAFETY: the messenger and the instance were made above and nothing else
+                // uses them on this error path.
                 unsafe {
                     if let Some((loader, m)) = &debug {
                         loader.destroy_debug_utils_messenger(*m, None);
@@ -242,6 +252,7 @@ impl GpuContext {
             }
         };
 
+        // SAFETY: a query on a physical device of this live instance.
         let props = unsafe { instance.get_physical_device_properties(physical_device) };
         let presentation = options.presentation;
         let priorities = [1.0];
@@ -254,7 +265,10 @@ impl GpuContext {
             device_info = device_info.push_next(&mut features13);
         }
         device_info = device_info.enabled_extension_names(&device_extensions);
+        // SAFETY: the create info and the queue info, priorities, extension names and
+        // features it points to outlive the call.
         let device = unsafe { instance.create_device(physical_device, &device_info, None) }.during("creating the Vulkan device")?;
+        // SAFETY: the device was created with one queue of this family.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -269,6 +283,7 @@ impl GpuContext {
 
         let info = device_info_of(&instance, physical_device, queue_family, &props);
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
 
         Ok((
@@ -280,7 +295,6 @@ impl GpuContext {
                 queue,
                 queue_family,
                 info,
-                presentation,
                 allocator: ManuallyDrop::new(Mutex::new(allocator)),
                 debug,
                 validation: validation_log,
@@ -307,21 +321,26 @@ impl GpuContext {
     }
 
     /// Submit to the queue (under the queue lock).
-    pub fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
+    pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
         let _guard = self.queue_lock.lock().unwrap();
+        // SAFETY: the queue lock is held, as Vulkan requires of queue use; the submits and
+        // the fence belong to this device.
         unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
     }
 
     /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
-    pub fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
+    pub(crate) fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
         self.queue_lock.lock().unwrap()
     }
 
     /// Record commands with `record`, submit them and wait for completion.
-    pub fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
+    pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
         let pool = self.one_shot_pool.lock().unwrap();
         let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        // SAFETY: the pool lock is held, so no other thread uses the pool.
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        // SAFETY: `cmd` was just allocated and is recorded, submitted and waited for here,
+        // under the pool lock; the fence is destroyed after the wait.
         let result = (|| unsafe {
             self.device
                 .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
@@ -336,13 +355,15 @@ impl GpuContext {
             self.device.destroy_fence(fence, None);
             waited.map(|_| r)
         })();
+        // SAFETY: the buffer is not pending (its submission was waited for, or never made)
+        // and the pool lock is still held.
         unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
         result
     }
 
     /// Wait until the GPU is idle (before freeing resources it may still use). Holds the
     /// queue lock: `vkDeviceWaitIdle` needs every queue externally synchronized.
-    pub fn wait_idle(&self) -> Result<(), GpuError> {
+    pub(crate) fn wait_idle(&self) -> Result<(), GpuError> {
         let _guard = self.queue_lock.lock().unwrap();
         // SAFETY: the queue lock is held, so no other thread uses the queue meanwhile.
         unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
@@ -351,6 +372,8 @@ impl GpuContext {
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
+        // SAFETY: every object made from the context holds an Arc to it, so all are gone;
+        // after waiting for the device, children are destroyed before their parents.
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(*self.one_shot_pool.get_mut().unwrap(), None);
@@ -370,17 +393,20 @@ fn pick_device(
     index: Option<usize>,
     surface: Option<(&ash::khr::surface::Instance, vk::SurfaceKHR)>,
 ) -> Result<(vk::PhysicalDevice, u32), GpuError> {
+    // SAFETY: a plain query of the live instance.
     let devices = unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
     if devices.is_empty() {
         return Err(GpuError::NoDevice);
     }
     let queue_for = |pd: vk::PhysicalDevice| -> Option<u32> {
+        // SAFETY: a query on a physical device of this instance.
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
         families.iter().enumerate().find_map(|(i, f)| {
             let i = i as u32;
             let mut ok = f.queue_flags.contains(vk::QueueFlags::COMPUTE);
             if let Some((loader, s)) = surface {
                 ok &= f.queue_flags.contains(vk::QueueFlags::GRAPHICS)
+                    // SAFETY: the surface belongs to this instance and family `i` exists.
                     && unsafe { loader.get_physical_device_surface_support(pd, i, s) }.unwrap_or(false);
             }
             ok.then_some(i)
@@ -390,6 +416,7 @@ fn pick_device(
         let pd = *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
         return queue_for(pd).map(|q| (pd, q)).ok_or(GpuError::NoDevice);
     }
+    // SAFETY: a query on a physical device of this instance.
     let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }.device_type {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,
         vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
@@ -406,10 +433,13 @@ fn pick_device(
 fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
     let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+    // SAFETY: `props2` and the driver properties chained to it outlive the call.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
     let driver_name = driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let driver_info = driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    // SAFETY: queries on a physical device of this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    // SAFETY: as above.
     let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
     let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
         .iter()
@@ -424,7 +454,6 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         driver: format!("{driver_name} {driver_info}").trim().to_string(),
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
-        max_compute_work_group_count: props.limits.max_compute_work_group_count,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         timestamp_period_ns: props.limits.timestamp_period,
         timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,

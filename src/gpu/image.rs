@@ -25,7 +25,6 @@ pub struct GpuImage {
     ctx: Arc<GpuContext>,
     pub image: vk::Image,
     allocation: Option<Allocation>,
-    pub format: vk::Format,
     pub width: u32,
     pub height: u32,
 }
@@ -45,7 +44,10 @@ impl GpuImage {
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let device = &ctx.device;
+        // SAFETY: the create info outlives the call; the image is destroyed in Drop or on
+        // the error paths below.
         let image = unsafe { device.create_image(&info, None) }.during("creating an image")?;
+        // SAFETY: the image was just created on this device.
         let requirements = unsafe { device.get_image_memory_requirements(image) };
         let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
             name,
@@ -57,16 +59,21 @@ impl GpuImage {
         let allocation = match allocation {
             Ok(a) => a,
             Err(source) => {
+                // SAFETY: the image has no memory and nothing uses it.
                 unsafe { device.destroy_image(image, None) };
                 return Err(GpuError::Allocation { what: name, source });
             }
         };
+        // SAFETY: the allocation is fresh and meets the image's size and alignment
+        // requirements.
         if let Err(r) = unsafe { device.bind_image_memory(image, allocation.memory(), allocation.offset()) } {
             let _ = ctx.allocator().free(allocation);
+            // SAFETY: binding failed, so nothing uses the image; its allocation was freed
+            // above.
             unsafe { device.destroy_image(image, None) };
             return Err(GpuError::vk("binding image memory", r));
         }
-        Ok(Self { ctx: ctx.clone(), image, allocation: Some(allocation), format, width, height })
+        Ok(Self { ctx: ctx.clone(), image, allocation: Some(allocation), width, height })
     }
 }
 
@@ -75,6 +82,8 @@ impl Drop for GpuImage {
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator().free(a);
         }
+        // SAFETY: the owner drops the image only after waiting for the GPU (`Presenter`
+        // waits for idle first).
         unsafe { self.ctx.device.destroy_image(self.image, None) };
     }
 }

@@ -1,21 +1,21 @@
-//! The Vulkan backend: instance and device ([`context`]), memory and buffers ([`buffer`]),
-//! named pipeline barriers ([`barrier`]), GPU timestamps ([`timer`]), the scene's device
-//! buffers ([`scene_buffers`]), the trace compute pass ([`trace_pass`]) with what its
-//! shader declares ([`shader_layout`]), the compute tracer built from them
-//! ([`compute_tracer`]), and presentation to a window ([`present`]: surface, swapchain,
+//! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
+//! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the scene's device
+//! buffers ([`scene_buffers`]), the trace compute pass (`trace_pass`) with what its
+//! shader declares (`shader_layout`), the compute tracer built from them
+//! (`compute_tracer`), and presentation to a window (`present`: surface, swapchain,
 //! composite, egui pass). Nothing outside this folder calls Vulkan.
 
-pub mod barrier;
+pub(crate) mod barrier;
 pub mod buffer;
-pub mod compute_tracer;
-pub mod context;
+pub(crate) mod compute_tracer;
+pub(crate) mod context;
 pub mod error;
-pub mod image;
-pub mod present;
+pub(crate) mod image;
+pub(crate) mod present;
 pub mod scene_buffers;
-pub mod shader_layout;
-pub mod timer;
-pub mod trace_pass;
+pub(crate) mod shader_layout;
+pub(crate) mod timer;
+pub(crate) mod trace_pass;
 
 pub use compute_tracer::{ComputeTracer, TraceTiming};
 pub use trace_pass::Band;

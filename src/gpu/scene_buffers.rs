@@ -12,22 +12,22 @@ use crate::scene::paper::MAX_MODELS;
 use crate::tracer::packed::{GpuInstance, PackedScene};
 
 /// Room in the instance buffer: every model copy plus the mirror box, plus headroom.
-pub const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
+pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
 
 /// Device buffers of one packed scene.
 pub struct SceneBuffers {
-    pub triangles: GpuBuffer,
-    pub shading: GpuBuffer,
-    pub materials: GpuBuffer,
-    pub nodes: GpuBuffer,
-    pub instances: GpuBuffer,
-    pub texels: GpuBuffer,
-    pub texture_infos: GpuBuffer,
-    pub environment: GpuBuffer,
+    pub(crate) triangles: GpuBuffer,
+    pub(crate) shading: GpuBuffer,
+    pub(crate) materials: GpuBuffer,
+    pub(crate) nodes: GpuBuffer,
+    pub(crate) instances: GpuBuffer,
+    pub(crate) texels: GpuBuffer,
+    pub(crate) texture_infos: GpuBuffer,
+    pub(crate) environment: GpuBuffer,
     /// Instances currently uploaded.
-    pub instance_count: u32,
+    pub(crate) instance_count: u32,
     /// Bytes of device memory the scene occupies.
-    pub bytes: u64,
+    pub(crate) bytes: u64,
 }
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
@@ -73,7 +73,7 @@ impl SceneBuffers {
 
     /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);
     /// the GPU must not be using it.
-    pub fn set_environment(&mut self, ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<(), GpuError> {
+    pub(crate) fn set_environment(&mut self, ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<(), GpuError> {
         let words = packed.environment_words();
         self.bytes -= self.environment.size;
         self.environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&words), vk::BufferUsageFlags::STORAGE_BUFFER, "environment")?;
@@ -82,7 +82,7 @@ impl SceneBuffers {
     }
 
     /// Replace the instance list (the top level); the GPU must not be using it.
-    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+    pub(crate) fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
         let bytes: &[u8] = bytemuck::cast_slice(instances);
         assert!(bytes.len() as u64 <= self.instances.size, "more instances than the buffer holds");
         self.instances.upload(bytes)?;

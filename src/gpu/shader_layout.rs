@@ -15,7 +15,8 @@ pub struct ShaderBinding {
     pub read_only: bool,
 }
 
-/// A member of a shared struct: its GLSL name, byte offset and size.
+/// A member of a shared struct: its GLSL name, byte offset and size (for the tests).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ShaderMember {
     pub name: &'static str,
@@ -24,7 +25,8 @@ pub struct ShaderMember {
 }
 
 /// A struct the shader shares with the host, as the compiled shader lays it out (std430
-/// for the buffers' elements).
+/// for the buffers' elements); only the tests read it.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ShaderStruct {
     /// The GLSL struct (or push-constant block) name.
@@ -61,6 +63,7 @@ pub enum TraceBuffer {
 
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
+    #[cfg(test)]
     pub const ALL: [TraceBuffer; 11] = [
         Self::Triangles,
         Self::Shading,

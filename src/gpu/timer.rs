@@ -22,6 +22,7 @@ impl GpuTimer {
             return Ok(None);
         }
         let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(slots * 2);
+        // SAFETY: plain object creation on the live device; destroyed in Drop.
         let pool = unsafe { ctx.device.create_query_pool(&info, None) }.during("creating a timestamp query pool")?;
         Ok(Some(Self { ctx: ctx.clone(), pool, slots }))
     }
@@ -29,6 +30,8 @@ impl GpuTimer {
     /// Record a reset of `slot` and its begin timestamp (before the work).
     pub fn begin(&self, cmd: vk::CommandBuffer, slot: u32) {
         assert!(slot < self.slots);
+        // SAFETY: `cmd` is recording (the caller's) and both queries of the slot are in the
+        // pool (asserted above).
         unsafe {
             self.ctx.device.cmd_reset_query_pool(cmd, self.pool, slot * 2, 2);
             self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, slot * 2);
@@ -37,14 +40,19 @@ impl GpuTimer {
 
     /// Record the end timestamp of `slot` (after the work).
     pub fn end(&self, cmd: vk::CommandBuffer, slot: u32) {
+        assert!(slot < self.slots);
+        // SAFETY: as in `begin`.
         unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, slot * 2 + 1) };
     }
 
     /// Milliseconds between begin and end of `slot`, once the GPU has finished it (None if not yet).
     pub fn read_ms(&self, slot: u32) -> Option<f64> {
+        assert!(slot < self.slots);
         let mut data = [[0u64; 2]; 2];
         let flags = vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY;
         // With availability each query yields (value, available).
+        // SAFETY: both queries of the slot are in the pool (asserted above) and `data`
+        // holds a (value, availability) pair of u64 for each, as the flags ask.
         let ok = unsafe { self.ctx.device.get_query_pool_results(self.pool, slot * 2, &mut data, flags) };
         if ok.is_err() || data[0][1] == 0 || data[1][1] == 0 {
             return None;
@@ -58,6 +66,8 @@ impl GpuTimer {
 
 impl Drop for GpuTimer {
     fn drop(&mut self) {
+        // SAFETY: the owner (`ComputeTracer`) waits for the GPU before its timer is
+        // dropped.
         unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
     }
 }

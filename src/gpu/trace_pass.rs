@@ -94,25 +94,32 @@ impl TracePass {
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
             .collect();
+        // SAFETY: the bindings outlive the call; the layout is destroyed in Drop.
         let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }
             .during("creating the trace descriptor layout")?;
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .size(std::mem::size_of::<PushConstants>() as u32)];
         let set_layouts = [set_layout];
+        // SAFETY: the set layout was just created; the arrays outlive the call.
         let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
             .during("creating the trace pipeline layout")?;
         let code: Vec<u32> = TRACE_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        // SAFETY: the words are the SPIR-V that build.rs compiled with naga.
         let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the trace shader")?;
         let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
         // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
         let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(vk::PipelineCreateFlags::DISPATCH_BASE)];
+        // SAFETY: the module and the layout are live; the create infos outlive the call.
         let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        // SAFETY: the pipeline, created or not, no longer needs the module.
         unsafe { device.destroy_shader_module(module, None) };
         let pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0];
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
+        // SAFETY: plain object creation on the live device; destroyed in Drop.
         let pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
             .during("creating the trace descriptor pool")?;
+        // SAFETY: the pool holds exactly this one set of this layout.
         let set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) }
             .during("allocating the trace descriptor set")?[0];
         Ok(Self { ctx: ctx.clone(), pipeline, layout, set_layout, pool, set })
@@ -146,6 +153,8 @@ impl TracePass {
                 vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info)
             })
             .collect();
+        // SAFETY: every caller (`ComputeTracer::rebind`) has waited for the GPU, so the set
+        // is not in use; the buffers are live.
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
@@ -175,6 +184,9 @@ impl TracePass {
         let base_x = band.columns.start / GROUP_SIZE;
         let groups_x = band.columns.len().div_ceil(GROUP_SIZE as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP_SIZE as usize) as u32;
+        // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
+        // outlive its execution (the owner waits for the GPU before dropping them) and the
+        // push constants fit the layout's range.
         unsafe {
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
@@ -187,6 +199,8 @@ impl TracePass {
 impl Drop for TracePass {
     fn drop(&mut self) {
         let d = &self.ctx.device;
+        // SAFETY: the owner (`ComputeTracer`) waits for the GPU before dropping the pass,
+        // so nothing uses these objects.
         unsafe {
             d.destroy_descriptor_pool(self.pool, None);
             d.destroy_pipeline(self.pipeline, None);

@@ -18,15 +18,15 @@ pub struct Camera {
 /// `x, y` in [-1, 1] across the image. The GPU gets exactly these vectors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraBasis {
-    pub origin: Vec3,
-    pub forward: Vec3,
-    pub right: Vec3,
-    pub up: Vec3,
+    pub(crate) origin: Vec3,
+    pub(crate) forward: Vec3,
+    pub(crate) right: Vec3,
+    pub(crate) up: Vec3,
 }
 
 impl Camera {
     /// The ray-generation basis for an image of `width` x `height` pixels.
-    pub fn basis(&self, width: u32, height: u32) -> CameraBasis {
+    pub(crate) fn basis(&self, width: u32, height: u32) -> CameraBasis {
         let forward = (self.target - self.position).normalize_or(Vec3::NEG_Z);
         let right = forward.cross(self.up).normalize_or(Vec3::X);
         let up = right.cross(forward);
@@ -37,7 +37,7 @@ impl Camera {
 
     /// The same view direction, moved towards the target until a sphere of `radius` around
     /// the target overfills the frame's height by `overfill` (1 = just touching its edges).
-    pub fn framing(&self, radius: f32, overfill: f32) -> Camera {
+    pub(crate) fn framing(&self, radius: f32, overfill: f32) -> Camera {
         let dir = (self.position - self.target).normalize_or(Vec3::Z);
         let half_h = (self.vfov_deg.to_radians() * 0.5).tan();
         // The sphere's silhouette spans ±radius/dist·(approx.) of the half-height at distance dist.
@@ -46,7 +46,7 @@ impl Camera {
     }
 
     /// Orbit the camera around its target by yaw/pitch (radians) and scale its distance.
-    pub fn orbit(&mut self, yaw: f32, pitch: f32, zoom: f32) {
+    pub(crate) fn orbit(&mut self, yaw: f32, pitch: f32, zoom: f32) {
         let offset = self.position - self.target;
         let dist = (offset.length() * zoom).clamp(1e-3, 1e6);
         let cur_pitch = (offset.y / offset.length().max(1e-9)).clamp(-1.0, 1.0).asin();
@@ -64,7 +64,7 @@ impl CameraBasis {
     }
 
     /// The ray through a point of the image given in pixel units (sub-pixel positions allowed).
-    pub fn ray_at(&self, sx: f32, sy: f32, width: u32, height: u32) -> Ray {
+    pub(crate) fn ray_at(&self, sx: f32, sy: f32, width: u32, height: u32) -> Ray {
         let x = sx / width as f32 * 2.0 - 1.0;
         let y = 1.0 - sy / height as f32 * 2.0;
         Ray::new(self.origin, (self.forward + x * self.right + y * self.up).normalize())

@@ -5,7 +5,7 @@ pub mod camera;
 pub mod obj;
 pub mod paper;
 pub mod primitives;
-pub mod spec;
+pub(crate) mod spec;
 
 use std::path::PathBuf;
 
@@ -148,7 +148,7 @@ pub enum EnvironmentSource {
 
 impl EnvironmentSource {
     /// Parse `--env`: `none` (None), `sky`, or a path.
-    pub fn parse(s: &str) -> Option<Self> {
+    pub(crate) fn parse(s: &str) -> Option<Self> {
         match s.to_ascii_lowercase().as_str() {
             "none" | "black" | "off" => None,
             "sky" => Some(EnvironmentSource::Sky),
@@ -179,24 +179,24 @@ impl Scene {
     }
 
     /// Vertices in the world, counting each instance.
-    pub fn vertex_count(&self) -> usize {
+    pub(crate) fn vertex_count(&self) -> usize {
         self.instances.iter().map(|i| self.meshes[i.mesh].vertex_count()).sum()
     }
 
     /// The scene without the paper's mirror box: only the model instances stay, so an
     /// environment map is seen around the models and in their reflections.
-    pub fn without_box(mut self) -> Self {
+    pub(crate) fn without_box(mut self) -> Self {
         self.remove_box();
         self
     }
 
     /// Take the paper's mirror box out of the instance list (see [`Scene::without_box`]).
-    pub fn remove_box(&mut self) {
+    pub(crate) fn remove_box(&mut self) {
         self.instances.retain(|i| i.mesh == paper::MODEL_MESH);
     }
 
     /// World-space bounding box of all instances.
-    pub fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         self.instances.iter().fold(Aabb::EMPTY, |acc, inst| {
             let b = self.meshes[inst.mesh].bounds();
             if b.is_empty() {

@@ -2,7 +2,7 @@
 //! planes, optional identical copies along the x, y and z axes at a fixed spacing, and a
 //! point light orbiting inside the box. Every entry point opens on this scene.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 
@@ -15,7 +15,7 @@ pub const BOX_HALF_SIZE: f32 = 4.0;
 /// Every model is scaled so its largest half-extent is this.
 pub const MODEL_RADIUS: f32 = 1.0;
 /// Distance between a copy and the centre model (Table 2's fixed spacing).
-pub const MODEL_SPACING: f32 = 2.5;
+pub(crate) const MODEL_SPACING: f32 = 2.5;
 /// Copies fill a 3x3x3 lattice inside the box: centre, the six axis neighbours, then the
 /// edges and corners.
 pub const MAX_MODELS: u32 = 27;
@@ -53,7 +53,7 @@ impl ModelSource {
     }
 
     /// Load or generate the mesh, normalised to the scene's model size; warnings are returned.
-    pub fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
+    pub(crate) fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
         let (mut mesh, warnings) = match self {
             ModelSource::Paper(m) => (m.mesh(), Vec::new()),
             ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
@@ -86,7 +86,7 @@ impl Default for ModelSource {
 }
 
 /// The model's look where the file does not give one: a warm, glossy plastic.
-pub fn model_material() -> Material {
+pub(crate) fn model_material() -> Material {
     Material {
         name: "model".into(),
         diffuse: Vec3::new(0.85, 0.45, 0.2),
@@ -98,7 +98,7 @@ pub fn model_material() -> Material {
 }
 
 /// The mirror planes' material: a dim diffuse base so the reflections dominate.
-pub fn mirror_material() -> Material {
+pub(crate) fn mirror_material() -> Material {
     Material {
         name: "mirror".into(),
         diffuse: Vec3::new(0.25, 0.27, 0.32),
@@ -171,7 +171,7 @@ pub fn model_offsets(count: u32) -> Vec<Vec3> {
 /// Six inward-facing planes closing a cube of half-size `half` (12 triangles). Each face
 /// has its own four vertices with the face's normal, so the mirrors stay flat under
 /// smooth shading.
-pub fn mirror_box(half: f32) -> Mesh {
+pub(crate) fn mirror_box(half: f32) -> Mesh {
     let h = half;
     let positions: Vec<Vec3> = (0..8).map(|i| Vec3::new(
         if i & 1 != 0 { h } else { -h },
@@ -212,14 +212,14 @@ pub fn mirror_box(half: f32) -> Mesh {
 }
 
 /// The camera the scene opens with: inside the box, looking at the centre model.
-pub fn default_camera() -> Camera {
+pub(crate) fn default_camera() -> Camera {
     Camera { position: Vec3::new(2.2, 1.5, 3.3), target: Vec3::new(0.0, 0.0, 0.0), up: Vec3::Y, vfov_deg: 60.0 }
 }
 
 /// The model's index in the paper scene's mesh list; the mirror box is [`MIRROR_BOX_MESH`].
-pub const MODEL_MESH: usize = 0;
+pub(crate) const MODEL_MESH: usize = 0;
 /// The mirror box's index in the paper scene's mesh list.
-pub const MIRROR_BOX_MESH: usize = 1;
+pub(crate) const MIRROR_BOX_MESH: usize = 1;
 
 /// Instances for `model_count` copies: the models (mesh 0), then the box (mesh 1). Models
 /// come first so their hits shorten the ray before the box, which every ray meets.
@@ -254,11 +254,6 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 pub fn load_paper_scene(source: &ModelSource, model_count: u32, light: LightOrbit) -> Result<(Scene, Vec<String>), ObjError> {
     let (mesh, warnings) = source.load()?;
     Ok((paper_scene(mesh, model_count, light), warnings))
-}
-
-/// Resolve a model path relative to the current directory, for messages.
-pub fn display_path(p: &Path) -> String {
-    p.display().to_string()
 }
 
 #[cfg(test)]

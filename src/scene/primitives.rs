@@ -47,7 +47,7 @@ impl PaperModel {
     }
 
     /// The model called `s`, ignoring case; "torus-knot", "torus_knot" and "torus knot" also work.
-    pub fn from_name(s: &str) -> Option<Self> {
+    pub(crate) fn from_name(s: &str) -> Option<Self> {
         let key: String = s.trim().chars().filter(|c| !matches!(c, '-' | '_' | ' ')).collect();
         Self::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(&key))
     }
@@ -92,7 +92,7 @@ fn finish(name: &str, positions: Vec<Vec3>, normals: Vec<Vec3>, triangles: Vec<[
 /// An icosahedron whose faces are split in four `subdivisions` times, the new vertices
 /// pushed out onto the unit sphere (3ds Max's geosphere). 0 -> 12 v / 20 f,
 /// 1 -> 42 v / 80 f; in general 10·4ⁿ + 2 vertices and 20·4ⁿ faces.
-pub fn geosphere(subdivisions: u32) -> Mesh {
+pub(crate) fn geosphere(subdivisions: u32) -> Mesh {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     #[rustfmt::skip]
     let corners = [
@@ -180,7 +180,7 @@ fn quad(out: &mut Vec<[u32; 3]>, a: u32, b: u32, c: u32, d: u32) {
 ///
 /// Normals are the area-weighted vertex normals: radial on the side, and at a rim
 /// dominated by the cap's larger triangles, which keeps the caps looking flat.
-pub fn cylinder(sides: u32, height_segments: u32) -> Mesh {
+pub(crate) fn cylinder(sides: u32, height_segments: u32) -> Mesh {
     let (sides, segments) = (sides.max(3), height_segments.max(1));
     let r = std::f32::consts::FRAC_1_SQRT_2;
     let mut positions = Vec::with_capacity((sides * (segments + 1) + 2) as usize);
@@ -219,7 +219,7 @@ pub fn cylinder(sides: u32, height_segments: u32) -> Mesh {
 /// `segments·sides` vertices and twice as many faces. (2, 3, 32, 8) -> 256 v / 512 f.
 /// Minimum 3 segments and 3 sides; p and q should be coprime for a knot (else the tube
 /// runs over itself).
-pub fn torus_knot(p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
+pub(crate) fn torus_knot(p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
     tube_knot("torusknot", p.max(1), q.max(1), segments.max(3), sides.max(3))
 }
 

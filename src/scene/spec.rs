@@ -7,11 +7,11 @@ use glam::Vec3;
 
 use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
-use crate::tracer::frame::{Aov, RenderSettings};
+use crate::tracer::frame::RenderSettings;
 
 /// Where the camera is: the scene's default view with optional overrides, or framed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CameraSpec {
+pub(crate) struct CameraSpec {
     /// Camera position (the model sits at the origin with radius 1, the box reaches ±4).
     pub eye: Option<Vec3>,
     /// Point the camera looks at.
@@ -25,7 +25,7 @@ pub struct CameraSpec {
 
 impl CameraSpec {
     /// `camera` with the overrides applied.
-    pub fn apply(&self, mut camera: Camera) -> Camera {
+    pub(crate) fn apply(&self, mut camera: Camera) -> Camera {
         if let Some(eye) = self.eye {
             camera.position = eye;
         }
@@ -43,14 +43,14 @@ impl CameraSpec {
     }
 
     /// The paper's opening camera with the overrides applied.
-    pub fn camera(&self) -> Camera {
+    pub(crate) fn camera(&self) -> Camera {
         self.apply(default_camera())
     }
 }
 
 /// Everything that decides one traced image, apart from the device it runs on.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SceneSpec {
+pub(crate) struct SceneSpec {
     /// The model: one of the paper's, a generated knot, or an .obj file.
     pub model: ModelSource,
     /// Identical copies along the axes (the paper's Table 2), 1..=27.
@@ -82,7 +82,7 @@ impl Default for SceneSpec {
 
 impl SceneSpec {
     /// Check the settings and the camera; the error is one sentence naming the knob.
-    pub fn validate(&self) -> Result<(), String> {
+    pub(crate) fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
         let camera = self.camera.camera();
         if camera.position.distance(camera.target) < 1e-6 {
@@ -91,13 +91,8 @@ impl SceneSpec {
         Ok(())
     }
 
-    /// The same spec writing `aov`.
-    pub fn with_aov(&self, aov: Aov) -> Self {
-        Self { settings: RenderSettings { aov, ..self.settings }, ..self.clone() }
-    }
-
     /// Read the environment file now, so a bad one fails before any other work.
-    pub fn check_environment(&self) -> anyhow::Result<()> {
+    pub(crate) fn check_environment(&self) -> anyhow::Result<()> {
         if let Some(EnvironmentSource::File(p)) = &self.environment {
             crate::tracer::textures::load_environment(p)?;
         }
@@ -105,7 +100,7 @@ impl SceneSpec {
     }
 
     /// The scene around an already loaded and prepared model mesh.
-    pub fn scene_with(&self, model: Mesh) -> Scene {
+    pub(crate) fn scene_with(&self, model: Mesh) -> Scene {
         let mut scene = paper_scene(model, self.models, self.light);
         if !self.mirror_box {
             scene = scene.without_box();
@@ -116,7 +111,7 @@ impl SceneSpec {
     }
 
     /// Load (or generate) the model and build the scene; the loader's warnings are returned.
-    pub fn load(&self) -> anyhow::Result<(Scene, Vec<String>)> {
+    pub(crate) fn load(&self) -> anyhow::Result<(Scene, Vec<String>)> {
         self.validate().map_err(anyhow::Error::msg)?;
         self.model.check_name().map_err(anyhow::Error::msg)?;
         self.check_environment()?;

@@ -12,6 +12,8 @@ macro_rules! contract {
         $($(#[doc = $doc])+ pub const $name: u32 = $value;)+
 
         /// Every constant of the contract as (name, value, doc), in declaration order.
+        // Read by build.rs (which `include!`s this file), not by the crate itself.
+        #[allow(dead_code)]
         pub const ALL: &[(&str, u32, &str)] = &[$((stringify!($name), $name, concat!($($doc, "\n"),+))),+];
     };
 }

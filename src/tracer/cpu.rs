@@ -26,7 +26,7 @@ pub struct SceneHit {
 }
 
 /// The shader's PCG hash, for identical sample jitter on both tracers.
-pub fn pcg(v: u32) -> u32 {
+pub(crate) fn pcg(v: u32) -> u32 {
     let state = v.wrapping_mul(747796405).wrapping_add(2891336453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277803737);
     (word >> 22) ^ word
@@ -205,7 +205,7 @@ impl<'a> CpuScene<'a> {
 
     /// The shader's `surface_key`: instance, material and plane of the hit triangle, so
     /// coplanar triangles of one material count as one surface (`u32::MAX` on a miss).
-    pub fn surface_key(&self, hit: Option<SceneHit>) -> u32 {
+    pub(crate) fn surface_key(&self, hit: Option<SceneHit>) -> u32 {
         let Some(hit) = hit else { return u32::MAX };
         let tri = &self.packed.triangles[hit.triangle as usize];
         let mut n = Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).normalize();
@@ -221,7 +221,7 @@ impl<'a> CpuScene<'a> {
 
     /// Key of the path through the centre of each pixel (primary hit and the mirror bounces
     /// that still show): adaptive sampling's edge test, as the shader's pre-pass.
-    pub fn path_keys(&self, params: &FrameParams) -> Vec<u32> {
+    pub(crate) fn path_keys(&self, params: &FrameParams) -> Vec<u32> {
         let (w, h) = (params.settings.width, params.settings.height);
         let color = FrameParams { settings: RenderSettings { aov: Aov::Color, ..params.settings }, ..*params };
         (0..w * h)
@@ -237,7 +237,7 @@ impl<'a> CpuScene<'a> {
     }
 
     /// Trace one pixel: the value the shader writes to the float output (before accumulation).
-    pub fn trace_pixel(&self, params: &FrameParams, px: u32, py: u32, ids: Option<&[u32]>) -> [f32; 4] {
+    pub(crate) fn trace_pixel(&self, params: &FrameParams, px: u32, py: u32, ids: Option<&[u32]>) -> [f32; 4] {
         let s = &params.settings;
         let (w, h) = (s.width, s.height);
         let pixel = py * w + px;

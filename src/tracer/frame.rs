@@ -91,11 +91,11 @@ impl<'de> Deserialize<'de> for Accel {
 }
 
 /// Limits on the user-facing parameters (checked by the CLI and the panel).
-pub const MAX_BOUNCES: u32 = 8;
+pub(crate) const MAX_BOUNCES: u32 = 8;
 /// Largest image side accepted.
 pub const MAX_RESOLUTION: u32 = 8192;
 /// Most camera samples per pixel in one frame.
-pub const MAX_SPP: u32 = 64;
+pub(crate) const MAX_SPP: u32 = 64;
 
 /// The user's knobs for one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,7 +126,7 @@ impl Default for RenderSettings {
 
 impl RenderSettings {
     /// Check every knob against its range; the error names the knob and the range.
-    pub fn validate(&self) -> Result<(), String> {
+    pub(crate) fn validate(&self) -> Result<(), String> {
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(1..=MAX_RESOLUTION).contains(&v) {
                 return Err(format!("{name} {v} is out of range (1..={MAX_RESOLUTION})"));
@@ -146,7 +146,7 @@ impl RenderSettings {
 
     /// Rays traced per frame at most: per camera sample, one primary ray and `bounces`
     /// reflected rays (adaptive sampling traces fewer).
-    pub fn max_rays(&self) -> u64 {
+    pub(crate) fn max_rays(&self) -> u64 {
         self.width as u64 * self.height as u64 * (self.bounces as u64 + 1) * self.spp as u64
     }
 }
@@ -154,18 +154,18 @@ impl RenderSettings {
 /// Everything one frame needs besides the scene's geometry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameParams {
-    pub settings: RenderSettings,
+    pub(crate) settings: RenderSettings,
     pub camera: CameraBasis,
     pub light_position: Vec3,
-    pub light_color: Vec3,
-    pub background: Vec3,
-    pub ambient: f32,
+    pub(crate) light_color: Vec3,
+    pub(crate) background: Vec3,
+    pub(crate) ambient: f32,
     /// Offset of a bounce ray's origin along the normal, relative to the scene's size.
-    pub ray_epsilon: f32,
+    pub(crate) ray_epsilon: f32,
     /// Instances to trace (the first `instance_count` of the packed list).
     pub instance_count: u32,
     /// Misses see the scene's environment map instead of the background colour.
-    pub environment: bool,
+    pub(crate) environment: bool,
     /// Frames already accumulated into the output (0 = start afresh).
     pub frame_index: u32,
 }
@@ -173,7 +173,7 @@ pub struct FrameParams {
 /// The push-constant block of `shaders/scene.glsl` (128 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct PushConstants {
+pub(crate) struct PushConstants {
     pub cam_origin_eps: [f32; 4],
     pub cam_forward_blend: [f32; 4],
     pub cam_right_ambient: [f32; 4],
@@ -203,7 +203,7 @@ impl FrameParams {
     }
 
     /// The flag word of the push constants (bits and fields from [`contract`]).
-    pub fn flags(&self) -> u32 {
+    pub(crate) fn flags(&self) -> u32 {
         let s = &self.settings;
         let mut f = s.aov.code() << contract::AOV_SHIFT | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
         for (on, bit) in [
@@ -221,19 +221,19 @@ impl FrameParams {
     }
 
     /// The background as the shader sees it (quantised to 8 bits per channel).
-    pub fn background_rgba8(&self) -> u32 {
+    pub(crate) fn background_rgba8(&self) -> u32 {
         let c = self.background.clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
         (c.x.round() as u32) | (c.y.round() as u32) << 8 | (c.z.round() as u32) << 16 | 255 << 24
     }
 
     /// The background after that quantisation, for the CPU tracer to match the GPU exactly.
-    pub fn background_quantized(&self) -> Vec3 {
+    pub(crate) fn background_quantized(&self) -> Vec3 {
         let v = self.background_rgba8();
         Vec3::new((v & 255) as f32, (v >> 8 & 255) as f32, (v >> 16 & 255) as f32) / 255.0
     }
 
     /// The push constants for rows starting at `first_row`.
-    pub fn push_constants(&self, first_row: u32) -> PushConstants {
+    pub(crate) fn push_constants(&self, first_row: u32) -> PushConstants {
         let s = &self.settings;
         let c = &self.camera;
         let flags = self.flags();

@@ -26,7 +26,7 @@ impl Image {
     }
 
     /// 8-bit RGBA, clamped and rounded exactly as the shader's `packUnorm4x8`.
-    pub fn to_rgba8(&self) -> image::RgbaImage {
+    pub(crate) fn to_rgba8(&self) -> image::RgbaImage {
         let bytes = self
             .pixels
             .iter()
@@ -36,7 +36,7 @@ impl Image {
     }
 
     /// Write as PNG (8-bit colour) or, for a `.exr` path, 32-bit float RGBA OpenEXR.
-    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+    pub(crate) fn save(&self, path: &Path) -> anyhow::Result<()> {
         let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
         let result = if is_exr {
             let data = self.pixels.iter().flatten().copied().collect();
@@ -72,8 +72,8 @@ impl Image {
 /// The result of [`Image::compare`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ImageDiff {
-    pub max: f32,
+    pub(crate) max: f32,
     pub mean: f32,
-    pub over_threshold: usize,
+    pub(crate) over_threshold: usize,
     pub fraction_over: f32,
 }

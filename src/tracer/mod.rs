@@ -2,17 +2,17 @@
 //! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout), the
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
-pub mod budget;
+pub(crate) mod budget;
 /// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
 /// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
-pub mod contract;
+pub(crate) mod contract;
 pub mod cpu;
 pub mod frame;
-pub mod heat_map;
+pub(crate) mod heat_map;
 pub mod image;
 pub mod packed;
-pub mod prepare;
-pub mod shading;
+pub(crate) mod prepare;
+pub(crate) mod shading;
 pub mod textures;
 
 pub use frame::{Accel, Aov, FrameParams, RenderSettings};

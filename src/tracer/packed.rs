@@ -28,12 +28,12 @@ pub struct GpuTriangle {
     /// Index of the triangle in its mesh's file order.
     pub prim: u32,
     pub e2: [f32; 3],
-    pub _pad: u32,
+    pub(crate) _pad: u32,
 }
 
 impl GpuTriangle {
     /// Corner 0 and the two edges, as used by Möller–Trumbore.
-    pub fn edges(&self) -> [Vec3; 3] {
+    pub(crate) fn edges(&self) -> [Vec3; 3] {
         [Vec3::from(self.v0), Vec3::from(self.e1), Vec3::from(self.e2)]
     }
 }
@@ -43,18 +43,18 @@ impl GpuTriangle {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangleShading {
-    pub normals: [[f32; 4]; 3],
-    pub uv01: [f32; 4],
+    pub(crate) normals: [[f32; 4]; 3],
+    pub(crate) uv01: [f32; 4],
 }
 
 impl GpuTriangleShading {
     /// The three corner normals.
-    pub fn normal(&self, k: usize) -> Vec3 {
+    pub(crate) fn normal(&self, k: usize) -> Vec3 {
         Vec3::from_slice(&self.normals[k][..3])
     }
 
     /// The three corner texture coordinates.
-    pub fn uvs(&self) -> [Vec2; 3] {
+    pub(crate) fn uvs(&self) -> [Vec2; 3] {
         [
             Vec2::new(self.uv01[0], self.uv01[1]),
             Vec2::new(self.uv01[2], self.uv01[3]),
@@ -67,45 +67,43 @@ impl GpuTriangleShading {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
-    pub diffuse: [f32; 3],
-    pub mirror: f32,
-    pub specular: [f32; 3],
-    pub shininess: f32,
+    pub(crate) diffuse: [f32; 3],
+    pub(crate) mirror: f32,
+    pub(crate) specular: [f32; 3],
+    pub(crate) shininess: f32,
     /// Diffuse texture index into the atlas, or `NO_TEXTURE`.
-    pub texture: u32,
-    pub _pad: [u32; 3],
+    pub(crate) texture: u32,
+    pub(crate) _pad: [u32; 3],
 }
 
 /// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
-pub const NO_TEXTURE: u32 = super::contract::EMPTY;
+pub(crate) const NO_TEXTURE: u32 = super::contract::EMPTY;
 
 /// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
-    pub translation: [f32; 3],
+    pub(crate) translation: [f32; 3],
     pub scale: f32,
     pub node_base: u32,
     pub triangle_base: u32,
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
-    pub prim_base: u32,
+    pub(crate) prim_base: u32,
     /// World-space bounds (.w unused): the top level culls instances with them.
-    pub bounds_min: [f32; 4],
-    pub bounds_max: [f32; 4],
+    pub(crate) bounds_min: [f32; 4],
+    pub(crate) bounds_max: [f32; 4],
 }
 
 /// Where one mesh's data sits in the packed arrays.
 #[derive(Clone, Debug)]
 pub struct PackedMesh {
-    pub name: String,
     pub node_base: u32,
     pub triangle_base: u32,
     pub triangle_count: u32,
-    pub vertex_count: u32,
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
-    pub bounds: Aabb,
+    pub(crate) bounds: Aabb,
     /// The mesh's BVH as built, for validation (tests, fuzzing). Both tracers read the copy
     /// of its nodes in `PackedScene::nodes` at `node_base`.
     pub bvh: Bvh,
@@ -117,7 +115,7 @@ pub struct PackedScene {
     pub triangles: Vec<GpuTriangle>,
     pub shading: Vec<GpuTriangleShading>,
     pub materials: Vec<GpuMaterial>,
-    pub nodes: Vec<BvhNode>,
+    pub(crate) nodes: Vec<BvhNode>,
     pub instances: Vec<GpuInstance>,
     pub meshes: Vec<PackedMesh>,
     /// Diffuse textures of all materials.
@@ -128,7 +126,7 @@ pub struct PackedScene {
     pub warnings: Vec<String>,
     texture_index: HashMap<PathBuf, u32>,
     /// Seconds spent building BVHs, for reports.
-    pub bvh_build_seconds: f64,
+    pub(crate) bvh_build_seconds: f64,
 }
 
 impl PackedScene {
@@ -140,7 +138,7 @@ impl PackedScene {
 
     /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
     /// only copies and reorders: nothing here builds or decodes.
-    pub fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
+    pub(crate) fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
         let PreparedScene { bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
         let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         for (path, img) in textures {
@@ -158,12 +156,12 @@ impl PackedScene {
 
     /// Replace the environment image (None: misses see the background colour), decoded
     /// with [`EnvironmentMap::from_source`].
-    pub fn set_environment(&mut self, environment: Option<EnvironmentMap>) {
+    pub(crate) fn set_environment(&mut self, environment: Option<EnvironmentMap>) {
         self.environment = environment;
     }
 
     /// The environment buffer as the shader reads it: width, height, then RGB9E5 texels.
-    pub fn environment_words(&self) -> Vec<u32> {
+    pub(crate) fn environment_words(&self) -> Vec<u32> {
         match &self.environment {
             Some(env) => {
                 let mut words = vec![env.width, env.height];
@@ -225,11 +223,9 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         self.nodes.extend_from_slice(&bvh.nodes);
         self.meshes.push(PackedMesh {
-            name: mesh.name.clone(),
             node_base,
             triangle_base,
             triangle_count: mesh.triangle_count() as u32,
-            vertex_count: mesh.vertex_count() as u32,
             prim_base,
             bounds: mesh.bounds(),
             bvh,
@@ -263,7 +259,7 @@ impl PackedScene {
     }
 
     /// Bytes of each GPU array: triangles, shading, materials, nodes, instances, texels.
-    pub fn buffer_sizes(&self) -> [u64; 6] {
+    pub(crate) fn buffer_sizes(&self) -> [u64; 6] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }

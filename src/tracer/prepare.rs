@@ -14,7 +14,7 @@ use crate::bvh::{BuildOptions, Bvh};
 use crate::scene::Scene;
 
 /// A scene's BVHs (one per mesh, in mesh order), decoded textures and environment.
-pub struct PreparedScene {
+pub(crate) struct PreparedScene {
     pub bvhs: Vec<Bvh>,
     /// Every readable diffuse texture, by the path materials name it with.
     pub textures: Vec<(PathBuf, RgbaImage)>,
@@ -27,7 +27,7 @@ pub struct PreparedScene {
 
 impl PreparedScene {
     /// Build the BVHs and decode the images `scene` needs.
-    pub fn new(scene: &Scene) -> Self {
+    pub(crate) fn new(scene: &Scene) -> Self {
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();

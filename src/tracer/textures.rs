@@ -8,13 +8,13 @@ use std::path::Path;
 use glam::{Vec2, Vec3, Vec4};
 
 /// Where one texture's texels live: offset of level 0, size, mip level count.
-pub type TextureInfo = [u32; 4];
+pub(crate) type TextureInfo = [u32; 4];
 
 /// All textures of a scene, mip-mapped, in one texel array.
 #[derive(Clone, Debug, Default)]
 pub struct TextureAtlas {
     /// RGBA8 texels, little-endian packed (R in the low byte) as `unpackUnorm4x8` reads them.
-    pub texels: Vec<u32>,
+    pub(crate) texels: Vec<u32>,
     pub infos: Vec<TextureInfo>,
 }
 
@@ -104,12 +104,6 @@ impl TextureAtlas {
             c0
         }
     }
-
-    /// Texels of texture `index` at level 0 (width * height).
-    pub fn texel_count(&self, index: u32) -> u32 {
-        let i = &self.infos[index as usize];
-        i[1] * i[2]
-    }
 }
 
 /// Direction -> equirectangular texture coordinates (u around +y from +x, v = 1 at the zenith).
@@ -141,21 +135,21 @@ pub fn sky_image(width: u32, height: u32) -> image::RgbaImage {
 /// HDR or EXR sky keeps its bright sun at the size of an 8-bit image. Row 0 is the zenith.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentMap {
-    pub width: u32,
-    pub height: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
     /// RGB9E5 texels, row-major ([`encode_rgb9e5`]).
-    pub texels: Vec<u32>,
+    pub(crate) texels: Vec<u32>,
 }
 
 /// Mantissa bits, exponent bias and the largest value of RGB9E5 (EXT_texture_shared_exponent).
 const RGB9E5_MANTISSA_BITS: i32 = 9;
 const RGB9E5_BIAS: i32 = 15;
 /// The largest value RGB9E5 holds; brighter texels are clamped to it.
-pub const RGB9E5_MAX: f32 = 65408.0;
+pub(crate) const RGB9E5_MAX: f32 = 65408.0;
 
 /// Encode a linear RGB value as RGB9E5 (negative and NaN become 0, values above
 /// [`RGB9E5_MAX`] are clamped). Each channel keeps 9 bits relative to the largest one.
-pub fn encode_rgb9e5(c: Vec3) -> u32 {
+pub(crate) fn encode_rgb9e5(c: Vec3) -> u32 {
     let clamp = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, RGB9E5_MAX) };
     let (r, g, b) = (clamp(c.x), clamp(c.y), clamp(c.z));
     let max = r.max(g).max(b);
@@ -173,27 +167,27 @@ pub fn encode_rgb9e5(c: Vec3) -> u32 {
 }
 
 /// Decode an RGB9E5 word (exact in f32; the shader's `decode_rgb9e5`).
-pub fn decode_rgb9e5(v: u32) -> Vec3 {
+pub(crate) fn decode_rgb9e5(v: u32) -> Vec3 {
     let scale = 2f32.powi((v >> 27) as i32 - RGB9E5_BIAS - RGB9E5_MANTISSA_BITS);
     Vec3::new((v & 511) as f32, ((v >> 9) & 511) as f32, ((v >> 18) & 511) as f32) * scale
 }
 
 impl EnvironmentMap {
     /// From an 8-bit image (values / 255, as the tracer reads colours).
-    pub fn from_rgba8(img: &image::RgbaImage) -> Self {
+    pub(crate) fn from_rgba8(img: &image::RgbaImage) -> Self {
         let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)).collect();
         Self { width: img.width(), height: img.height(), texels }
     }
 
     /// The default sky (`--env sky`, and the fallback for an unreadable file): [`sky_image`]
     /// at 512x256.
-    pub fn generated_sky() -> Self {
+    pub(crate) fn generated_sky() -> Self {
         Self::from_rgba8(&sky_image(512, 256))
     }
 
     /// The map `source` names (None: no environment). A file that cannot be read falls
     /// back to the generated sky, with the warning returned.
-    pub fn from_source(source: Option<&crate::scene::EnvironmentSource>) -> (Option<Self>, Option<String>) {
+    pub(crate) fn from_source(source: Option<&crate::scene::EnvironmentSource>) -> (Option<Self>, Option<String>) {
         use crate::scene::EnvironmentSource;
         match source {
             None => (None, None),
@@ -206,19 +200,19 @@ impl EnvironmentMap {
     }
 
     /// From linear floating-point texels (HDR, EXR).
-    pub fn from_rgba32f(img: &image::Rgba32FImage) -> Self {
+    pub(crate) fn from_rgba32f(img: &image::Rgba32FImage) -> Self {
         let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0], p[1], p[2]))).collect();
         Self { width: img.width(), height: img.height(), texels }
     }
 
     /// Texel (x, y): x wraps around, y clamps at the poles.
-    pub fn texel(&self, x: i32, y: i32) -> Vec3 {
+    pub(crate) fn texel(&self, x: i32, y: i32) -> Vec3 {
         let (w, h) = (self.width as i32, self.height as i32);
         decode_rgb9e5(self.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize])
     }
 
     /// Bilinear sample in direction `d` (the shader's `sample_environment`).
-    pub fn sample(&self, d: Vec3) -> Vec3 {
+    pub(crate) fn sample(&self, d: Vec3) -> Vec3 {
         let uv = direction_to_equirect(d);
         let p = Vec2::new(uv.x * self.width as f32 - 0.5, (1.0 - uv.y) * self.height as f32 - 0.5);
         let f = p.floor();
@@ -233,7 +227,7 @@ impl EnvironmentMap {
 /// Load an equirectangular environment image: PNG and JPEG as 8-bit values / 255, HDR and
 /// EXR as their linear floating-point values (brighter than 1 stays brighter; see
 /// [`EnvironmentMap`]).
-pub fn load_environment(path: &Path) -> anyhow::Result<EnvironmentMap> {
+pub(crate) fn load_environment(path: &Path) -> anyhow::Result<EnvironmentMap> {
     let img = image::open(path).map_err(|e| anyhow::anyhow!("cannot read environment map {}: {e}", path.display()))?;
     Ok(match img {
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => EnvironmentMap::from_rgba32f(&img.to_rgba32f()),

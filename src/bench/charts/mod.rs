@@ -30,18 +30,12 @@ use crate::tracer::Accel;
 /// The files [`write_charts`] writes, in order.
 pub const CHART_FILES: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];
 
-/// A saved run, as `bench --json` writes it (a hand-made file may add a `note`).
+/// The parts of a saved run (as `bench --json` writes it) that the charts draw; the other
+/// keys (`frames`, `warmup`, a hand-made file's `note`) are read past.
 #[derive(Clone, Debug, Deserialize)]
 pub struct SavedReport {
     pub environment: Environment,
-    #[serde(default)]
-    pub frames: u32,
-    #[serde(default)]
-    pub warmup: u32,
     pub rows: Vec<Row>,
-    /// Free text, e.g. where hand-transcribed figures came from.
-    #[serde(default)]
-    pub note: Option<String>,
 }
 
 /// Read a report written by `bench --json`.

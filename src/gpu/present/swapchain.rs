@@ -102,8 +102,11 @@ impl Swapchain {
     /// (a minimized window): skip drawing until the next resize.
     pub fn recreate(&mut self, want: vk::Extent2D, vsync: bool) -> Result<bool, GpuError> {
         let pd = self.ctx.physical_device;
+        // SAFETY: the surface and the physical device belong to this context's instance.
         let caps = unsafe { self.surface_loader.get_physical_device_surface_capabilities(pd, self.surface) }.during("querying the window surface")?;
+        // SAFETY: as above.
         let formats = unsafe { self.surface_loader.get_physical_device_surface_formats(pd, self.surface) }.during("querying the window surface formats")?;
+        // SAFETY: as above.
         self.present_modes = unsafe { self.surface_loader.get_physical_device_surface_present_modes(pd, self.surface) }.during("querying the present modes")?;
         let extent = if caps.current_extent.width == u32::MAX {
             vk::Extent2D {
@@ -157,12 +160,15 @@ impl Swapchain {
             .present_mode(present_mode)
             .clipped(true)
             .old_swapchain(old);
+        // SAFETY: the create info's surface is ours and the old swapchain it names is live
+        // (retired here).
         let handle = unsafe { self.loader.create_swapchain(&info, None) }.during("creating the swapchain")?;
         self.destroy_swapchain();
         self.handle = handle;
         self.format = format;
         self.extent = extent;
         self.present_mode = present_mode;
+        // SAFETY: the swapchain was just created.
         self.images = unsafe { self.loader.get_swapchain_images(handle) }.during("listing the swapchain images")?;
         let device = &self.ctx.device;
         for &image in &self.images {
@@ -171,12 +177,15 @@ impl Swapchain {
                 .view_type(vk::ImageViewType::TYPE_2D)
                 .format(format.format)
                 .subresource_range(color_range());
+            // SAFETY: the image belongs to the live swapchain; its views are destroyed
+            // before it.
             let view = unsafe { device.create_image_view(&view_info, None) }.during("creating a swapchain image view")?;
             self.views.push(view);
         }
         // Semaphores are kept across recreations (a present may still wait on one); only
         // add what a larger image count needs.
         while self.render_finished.len() < self.images.len() {
+            // SAFETY: plain object creation on the live device; destroyed in Drop.
             let sem = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.during("creating a semaphore")?;
             self.render_finished.push(sem);
         }
@@ -184,6 +193,8 @@ impl Swapchain {
     }
 
     fn destroy_swapchain(&mut self) {
+        // SAFETY: callers have the GPU idle (recreate requires it, Drop waits), so no view
+        // or image is in use; the views go before their swapchain.
         unsafe {
             for view in self.views.drain(..) {
                 self.ctx.device.destroy_image_view(view, None);
@@ -198,6 +209,9 @@ impl Swapchain {
 
     /// Acquire the next image, signalling `semaphore` when it may be written.
     pub fn acquire(&self, semaphore: vk::Semaphore) -> Result<Acquired, GpuError> {
+        // SAFETY: `Presenter::draw` acquires only from a usable swapchain, with its frame
+        // slot's
+        // semaphore, unsignalled once the slot's fence has been waited for.
         match unsafe { self.loader.acquire_next_image(self.handle, u64::MAX, semaphore, vk::Fence::null()) } {
             Ok((index, suboptimal)) => Ok(Acquired::Image { index, suboptimal }),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Acquired::OutOfDate),
@@ -214,6 +228,8 @@ impl Swapchain {
         let info = vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
         let presented = {
             let _queue = self.ctx.lock_queue();
+            // SAFETY: the queue lock is held; the info's swapchain, image index and
+            // semaphore are live.
             unsafe { self.loader.queue_present(self.ctx.queue, &info) }
         };
         match presented {
@@ -226,6 +242,8 @@ impl Swapchain {
 
 impl Drop for Swapchain {
     fn drop(&mut self) {
+        // SAFETY: after waiting for the GPU nothing uses the swapchain, its semaphores or
+        // the surface; the surface goes last.
         unsafe {
             let _ = self.ctx.wait_idle();
             self.destroy_swapchain();
