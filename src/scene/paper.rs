@@ -94,6 +94,7 @@ pub fn model_material() -> Material {
         shininess: 48.0,
         mirror: 1.0,
         diffuse_texture: None,
+        ..Material::default()
     }
 }
 
@@ -106,6 +107,7 @@ pub fn mirror_material() -> Material {
         shininess: 64.0,
         mirror: 1.0,
         diffuse_texture: None,
+        ..Material::default()
     }
 }
 
