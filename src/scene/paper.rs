@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::obj::{load_obj, ObjError};
+use super::obj::{load_obj_with, LoadOptions, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
 
@@ -54,11 +54,16 @@ impl ModelSource {
 
     /// Load or generate the mesh, normalised to the scene's model size; warnings are returned.
     pub fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
+        self.load_with(&LoadOptions::default())
+    }
+
+    /// [`ModelSource::load`], reading a file with `options` (generated models ignore them).
+    pub fn load_with(&self, options: &LoadOptions) -> Result<(Mesh, Vec<String>), ObjError> {
         let (mut mesh, warnings) = match self {
             ModelSource::Paper(m) => (m.mesh(), Vec::new()),
             ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
             ModelSource::File(p) => {
-                let loaded = load_obj(p)?;
+                let loaded = load_obj_with(p, options)?;
                 (loaded.mesh, loaded.warnings)
             }
         };
