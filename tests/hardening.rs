@@ -126,6 +126,8 @@ fn out_of_range_flags_are_refused_with_the_allowed_range() {
         (&["--light-angle", "NaN"], &["--light-angle", "finite"]),
         (&["--fov", "180"], &["--fov", "1..179"]),
         (&["--eye", "1,2,nan"], &["--eye", "finite"]),
+        (&["--crease-angle", "200"], &["--crease-angle", "0..=180"]),
+        (&["--crease-angle", "-5"], &["--crease-angle", "0..=180"]),
     ];
     let dir = scratch("flags");
     let out_path = dir.join("never.png");
