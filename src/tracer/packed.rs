@@ -79,6 +79,7 @@ pub struct GpuMaterial {
     /// Texture coordinates are `uv * uv_scale + uv_offset` before the lookup
     /// (`TextureTransform`).
     pub uv_scale: [f32; 2],
+    /// Added to the scaled texture coordinates (`map_Kd -o`).
     pub uv_offset: [f32; 2],
 }
 
