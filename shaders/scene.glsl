@@ -21,7 +21,8 @@ struct TriangleShading {
 struct Material {
     vec4 diffuse_mirror;     // rgb: Kd, a: mirror strength (scales the blend ratio)
     vec4 specular_shininess; // rgb: Ks, a: Ns
-    uvec4 texture;           // x: diffuse texture index or EMPTY
+    uvec4 texture;           // x: diffuse texture index or EMPTY, y: texture flags (TEXTURE_CLAMP)
+    vec4 uv_transform;       // xy: scale, zw: offset of the texture coordinates (map_Kd -s, -o)
 };
 
 // Two child boxes per node; .w of the four vec4s: left index, left count, right index,

@@ -1,39 +1,53 @@
-// Texture filtering, the twin of TextureAtlas::sample (src/tracer/textures.rs): bilinear
-// within a mip level, linear between levels, repeat wrap, v = 0 at the image bottom.
+// Texture filtering, the twin of TextureAtlas::sample_with (src/tracer/textures.rs):
+// bilinear within a mip level, linear between levels, repeat wrap (or clamp to the edge
+// texels), v = 0 at the image bottom.
 
-vec4 fetch_texel(uvec4 info, uint level, ivec2 p) {
+vec4 fetch_texel(uvec4 info, uint level, ivec2 p, bool clamped) {
     uint base = info.x;
     for (uint k = 0u; k < level; k++) {
         base += max(info.y >> k, 1u) * max(info.z >> k, 1u);
     }
     int lw = int(max(info.y >> level, 1u));
     int lh = int(max(info.z >> level, 1u));
-    int x = ((p.x % lw) + lw) % lw;
-    int y = ((p.y % lh) + lh) % lh;
+    int x = clamped ? clamp(p.x, 0, lw - 1) : ((p.x % lw) + lw) % lw;
+    int y = clamped ? clamp(p.y, 0, lh - 1) : ((p.y % lh) + lh) % lh;
     return unpackUnorm4x8(texels[base + uint(y * lw + x)]);
 }
 
-vec4 bilinear(uvec4 info, uint level, vec2 uv) {
+vec4 bilinear(uvec4 info, uint level, vec2 uv, bool clamped) {
     float lw = float(max(info.y >> level, 1u));
     float lh = float(max(info.z >> level, 1u));
     vec2 p = vec2(uv.x * lw - 0.5, (1.0 - uv.y) * lh - 0.5);
     vec2 f = floor(p);
     vec2 t = p - f;
     ivec2 i = ivec2(f);
-    vec4 a = mix(fetch_texel(info, level, i), fetch_texel(info, level, i + ivec2(1, 0)), t.x);
-    vec4 b = mix(fetch_texel(info, level, i + ivec2(0, 1)), fetch_texel(info, level, i + ivec2(1, 1)), t.x);
+    vec4 a = mix(fetch_texel(info, level, i, clamped), fetch_texel(info, level, i + ivec2(1, 0), clamped), t.x);
+    vec4 b = mix(fetch_texel(info, level, i + ivec2(0, 1), clamped), fetch_texel(info, level, i + ivec2(1, 1), clamped), t.x);
     return mix(a, b, t.y);
 }
 
-vec4 sample_texture(uint index, vec2 uv, float lod) {
+vec4 sample_texture(uint index, vec2 uv, float lod, bool clamped) {
     uvec4 info = texture_infos[index];
+    if (clamped) uv = clamp(uv, vec2(0.0), vec2(1.0));
     lod = clamp(lod, 0.0, float(info.w - 1u));
     float l0 = floor(lod);
-    vec4 c0 = bilinear(info, uint(l0), uv);
+    vec4 c0 = bilinear(info, uint(l0), uv, clamped);
     if (lod > l0) {
-        c0 = mix(c0, bilinear(info, uint(l0) + 1u, uv), lod - l0);
+        c0 = mix(c0, bilinear(info, uint(l0) + 1u, uv, clamped), lod - l0);
     }
     return c0;
+}
+
+// The texture coordinates a material's texture is looked up at: the surface's scaled
+// and offset (map_Kd -s, -o; GpuMaterial::texture_uv).
+vec2 material_uv(Material mat, vec2 uv) {
+    return uv * mat.uv_transform.xy + mat.uv_transform.zw;
+}
+
+// A material's diffuse texture at `uv` (already through material_uv), repeating or clamped
+// as the material says.
+vec4 sample_material_texture(Material mat, vec2 uv, float lod) {
+    return sample_texture(mat.texture.x, uv, lod, (mat.texture.y & TEXTURE_CLAMP) != 0u);
 }
 
 // Shared-exponent HDR texel: 9-bit mantissas, 5-bit exponent (EnvironmentMap in

@@ -98,9 +98,9 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
         Material mat = materials[floatBitsToUint(tri.v0.w)];
         vec3 kd = mat.diffuse_mirror.rgb;
         if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {
-            vec2 uv0 = sh.uv01.xy;
-            vec2 uv1 = sh.uv01.zw;
-            vec2 uv2 = vec2(sh.n0.w, sh.n1.w);
+            vec2 uv0 = material_uv(mat, sh.uv01.xy);
+            vec2 uv1 = material_uv(mat, sh.uv01.zw);
+            vec2 uv2 = material_uv(mat, vec2(sh.n0.w, sh.n1.w));
             vec2 uv = uv0 * (1.0 - hit.u - hit.v) + uv1 * hit.u + uv2 * hit.v;
             uvec4 info = texture_infos[mat.texture.x];
             float s = instances[hit.instance].translation_scale.w;
@@ -113,7 +113,7 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
                 float width_at_hit = spread * path_length;
                 lod = log2(max(width_at_hit, 1e-20)) + 0.5 * log2(texel_area / world_area) - log2(max(abs(dot(ng, d)), 1e-4));
             }
-            kd *= sample_texture(mat.texture.x, uv, lod).rgb;
+            kd *= sample_material_texture(mat, uv, lod).rgb;
         }
         vec3 local_color = blinn_phong(kd, mat, p, ns, ng, -d);
         if (bounce == 0u) {

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use meshtracer::scene::obj::{load_obj, load_obj_from_str, LoadedObj, ObjError};
+use meshtracer::scene::obj::{load_obj, load_obj_from_str, load_obj_with, LoadOptions, LoadedObj, ObjError};
 use meshtracer::scene::primitives::{write_obj, PaperModel};
 use meshtracer::scene::Mesh;
 
@@ -94,12 +94,15 @@ fn every_corner_form_is_read() {
 }
 
 #[test]
-fn normals_come_from_the_file_only_when_every_vertex_has_one() {
-    // The second face has no normals: computed normals for the whole mesh.
+fn faces_without_normals_get_computed_ones_and_the_others_keep_the_files() {
+    // The second face has no normals: its corners get the computed one, the first face's
+    // keep the file's (even where they share a position).
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 1 0 0\nf 1//1 2//1 3//1\nf 2 4 3\n";
     let mesh = load(text).mesh;
-    assert!(!mesh.has_file_normals);
-    assert!(mesh.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", mesh.normals);
+    assert!(!mesh.has_file_normals, "not every vertex has a file normal");
+    let corner_normals = |t: usize| mesh.triangles[t].map(|k| mesh.normals[k as usize]);
+    assert_eq!(corner_normals(0), [Vec3::X; 3]);
+    assert!(corner_normals(1).iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", mesh.normals);
 }
 
 #[test]
@@ -226,6 +229,137 @@ fn computed_normals_point_outward_on_a_closed_cube() {
     assert!((volume - 8.0).abs() < 1e-4, "volume {volume}");
 }
 
+/// The normal of each corner of triangle `t`, and the triangle's own (face) normal.
+fn corner_and_face_normals(mesh: &Mesh, t: usize) -> ([Vec3; 3], Vec3) {
+    let [a, b, c] = mesh.corners(t);
+    (mesh.triangles[t].map(|k| mesh.normals[k as usize]), (b - a).cross(c - a).normalize())
+}
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-5
+}
+
+#[test]
+fn faces_naming_normals_the_file_never_defines_get_computed_ones() {
+    let loaded = load_obj(&data("missing_normals.obj")).unwrap();
+    assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
+    let w = &loaded.warnings[0];
+    assert!(w.contains("missing_normals.obj line 18: face normal index 1 is out of range (the file has 0 normals so far)"), "{w}");
+    assert!(w.contains("the face and 5 more like it are drawn with computed normals"), "{w}");
+    let mesh = loaded.mesh;
+    assert_eq!(mesh.triangle_count(), 12);
+    assert!(!mesh.has_file_normals);
+    // The texture coordinates stay.
+    assert_eq!(mesh.texcoords.len(), mesh.vertex_count());
+    // The same cube without the normal indices loads to the very same mesh.
+    let text = std::fs::read_to_string(data("missing_normals.obj")).unwrap();
+    let stripped: String = text
+        .lines()
+        .map(|l| if l.starts_with("f ") { l.split(' ').map(|c| c.rsplit_once('/').map_or(c, |(head, _)| head)).collect::<Vec<_>>().join(" ") } else { l.to_owned() })
+        .map(|l| l + "\n")
+        .collect();
+    let plain = load(&stripped).mesh;
+    assert_eq!((plain.positions, plain.normals, plain.texcoords, plain.triangles), (mesh.positions, mesh.normals, mesh.texcoords, mesh.triangles));
+}
+
+#[test]
+fn smoothing_groups_decide_which_faces_share_a_computed_normal() {
+    let mesh = load_obj(&data("smoothing_groups.obj")).unwrap().mesh;
+    assert!(!mesh.has_file_normals);
+    assert_eq!(mesh.triangle_count(), 12);
+    for t in 0..mesh.triangle_count() {
+        let (corners, face) = corner_and_face_normals(&mesh, t);
+        let positions = mesh.corners(t);
+        if face.y.abs() > 0.5 {
+            // Top (s 2, alone in its group) and bottom (s off): flat, hard edges all round.
+            assert!(corners.iter().all(|&n| n == face), "triangle {t}: {corners:?} should all be {face}");
+        } else {
+            // Sides (s 1): each corner averages the two sides that meet there (weighted by
+            // the areas of their triangles at the corner), level since the top and bottom
+            // take no part, pointing out between the two sides.
+            for (n, p) in corners.iter().zip(positions) {
+                assert!(n.y == 0.0 && n.x * p.x > 0.1 && n.z * p.z > 0.1, "triangle {t} corner {p}: {n}");
+            }
+        }
+    }
+    // Each of the 8 corners is used with three normals: a side one, the top's or the
+    // bottom's, so the mesh has 16 vertices.
+    assert_eq!(mesh.vertex_count(), 16);
+    // Without the `s` lines, the same box is smooth all over: no flat top.
+    let text = std::fs::read_to_string(data("smoothing_groups.obj")).unwrap();
+    let blob = load(&text.lines().filter(|l| !l.starts_with("s ")).map(|l| format!("{l}\n")).collect::<String>()).mesh;
+    let (top, face) = corner_and_face_normals(&blob, 8);
+    assert!(face.y > 0.99 && top.iter().all(|n| n.y < 0.9), "{top:?}");
+}
+
+#[test]
+fn faces_before_the_first_smoothing_group_and_in_group_zero_are_flat() {
+    // Two triangles folded along their shared edge: smooth in one group, flat otherwise.
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\n";
+    let folded = |statements: [&str; 2]| load(&format!("{head}{}f 1 2 3\n{}f 2 4 3\n", statements[0], statements[1])).mesh;
+    for (statements, smooth) in [
+        (["s 1\n", ""], true),
+        (["s 4\n", "s 4\n"], true),
+        (["s 1\n", "s 2\n"], false),
+        (["", "s 1\n"], false),
+        (["s 0\n", ""], false),
+        (["s off\n", ""], false),
+        (["s 1\n", "s off\n"], false),
+    ] {
+        let mesh = folded(statements);
+        let (corners, face) = corner_and_face_normals(&mesh, 0);
+        // Corner 2 of the first triangle (vertex 2) lies on the fold.
+        assert_eq!(!close(corners[1], face), smooth, "{statements:?}: {corners:?} against {face}");
+    }
+}
+
+#[test]
+fn a_crease_angle_keeps_sharp_edges_in_files_without_normals_or_groups() {
+    let cube = data("cube.obj");
+    let smooth = load_obj(&cube).unwrap().mesh;
+    let creased = load_obj_with(&cube, &LoadOptions { crease_angle: Some(30.0) }).unwrap().mesh;
+    let wide = load_obj_with(&cube, &LoadOptions { crease_angle: Some(100.0) }).unwrap().mesh;
+    for t in 0..creased.triangle_count() {
+        let (corners, face) = corner_and_face_normals(&creased, t);
+        assert!(corners.iter().all(|n| close(*n, face)), "triangle {t}: {corners:?} should all be {face}");
+        // Above 90 degrees every edge of the cube is smoothed, as without the option.
+        assert_eq!(corner_and_face_normals(&wide, t).0, corner_and_face_normals(&smooth, t).0, "triangle {t}");
+    }
+    assert_eq!(creased.vertex_count(), 24, "each corner of the cube with three normals");
+    // Shallow bends smooth within the angle: a strip of three squares bent by 20 degrees
+    // and then 80.
+    let (c20, s20, c80, s80) = (20f32.to_radians().cos(), 20f32.to_radians().sin(), 100f32.to_radians().cos(), 100f32.to_radians().sin());
+    let text = format!(
+        "v 0 0 0\nv 0 1 0\nv 1 0 0\nv 1 1 0\nv {x2} 0 {z2}\nv {x2} 1 {z2}\nv {x3} 0 {z3}\nv {x3} 1 {z3}\nf 1 3 4 2\nf 3 5 6 4\nf 5 7 8 6\n",
+        x2 = 1.0 + c20,
+        z2 = s20,
+        x3 = 1.0 + c20 + c80,
+        z3 = s20 + s80,
+    );
+    let bent = load_obj_from_str_with_crease(&text, 45.0);
+    let normal_at = |t: usize, k: usize| corner_and_face_normals(&bent, t).0[k];
+    let faces: Vec<Vec3> = (0..bent.triangle_count()).map(|t| corner_and_face_normals(&bent, t).1).collect();
+    // Triangle 0 is (1, 3, 2) of the first square: its corner at vertex 3 is on the
+    // 20-degree bend, where both triangles of the first square and one of the second meet.
+    assert!(close(normal_at(0, 1), (2.0 * faces[0] + faces[2]).normalize()), "{:?}", normal_at(0, 1));
+    // Triangle 2 is (3, 5, 4) of the second square: its corner at vertex 5 is on the 80-degree bend, kept sharp.
+    assert!(close(normal_at(2, 1), faces[2]), "{:?}", normal_at(2, 1));
+}
+
+fn load_obj_from_str_with_crease(text: &str, degrees: f32) -> Mesh {
+    meshtracer::scene::obj::load_obj_from_str_with(text, "test.obj", None, &LoadOptions { crease_angle: Some(degrees) }).unwrap().mesh
+}
+
+#[test]
+fn mtllib_reads_several_names_and_escaped_spaces() {
+    let loaded = load_obj(&data("escaped_mtllib.obj")).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let names: Vec<&str> = loaded.mesh.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["red", "green"]);
+    assert_eq!(loaded.mesh.triangle_materials, [0, 0, 1, 1]);
+    assert_eq!(loaded.mesh.materials[1].diffuse, v(0.1, 0.9, 0.1));
+}
+
 // --- Bad input ----------------------------------------------------------------------
 
 /// The message names the file and, when given, the line.
@@ -274,35 +408,76 @@ fn face_index_out_of_range_names_the_line() {
 }
 
 #[test]
-fn every_kind_of_bad_index_is_out_of_range() {
+fn every_kind_of_bad_vertex_index_is_out_of_range() {
     let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
-    let cases = [
-        ("f 1 2 4", "vertex"),                            // past the end
-        ("f 0 1 2", "vertex"),                            // OBJ counts from 1
-        ("f -4 -2 -1", "vertex"),                         // relative, before the first
-        ("f 1/2 2/1 3/1", "texture coordinate"),          // vt past the end
-        ("f 1/0 2/1 3/1", "texture coordinate"),          // zero vt (overflows inside tobj)
-        ("f 1//1 2//-2 3//1", "normal"),                  // relative vn before the first
-        ("f 1 2 99999999999999999999999", "vertex"),      // does not fit any integer
-        ("f 1//4611686018427387904 2//1 3//1", "normal"), // overflows `3 * vn` inside tobj
-    ];
-    for (face, kind) in cases {
+    for face in [
+        "f 1 2 4",                       // past the end
+        "f 0 1 2",                       // OBJ counts from 1
+        "f -4 -2 -1",                    // relative, before the first
+        "f 1 2 99999999999999999999999", // does not fit any integer
+        "f 1/1 2/1 4/1",                 // good texture coordinates do not save it
+        "f 1/9 2/1 4/1",                 // nor do bad ones change the error
+    ] {
         let e = load_err(&format!("{head}{face}\n"));
-        match &e {
-            ObjError::IndexOutOfRange { line: 6, kind: k, .. } if *k == kind => {}
-            _ => panic!("{face}: {e:?}"),
-        }
+        assert!(matches!(e, ObjError::IndexOutOfRange { line: 6, kind: "vertex", .. }), "{face}: {e:?}");
         assert_names(&e, "test.obj", Some(6));
     }
-    // The message counts in good English.
-    let e = load_err(&format!("{head}f 1/2 2/1 3/1\n"));
-    assert!(e.to_string().ends_with("index 2 is out of range (the file has 1 texture coordinate so far)"), "{e}");
     // A face may only use what was defined before it.
     let e = load_err("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n");
     assert!(matches!(e, ObjError::IndexOutOfRange { line: 3, count: 2, .. }), "{e:?}");
-    // Texture coordinates named when the file has none at all.
-    let e = load_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n");
-    assert!(matches!(e, ObjError::IndexOutOfRange { line: 4, count: 0, kind: "texture coordinate", .. }), "{e:?}");
+}
+
+#[test]
+fn out_of_range_texture_coordinates_and_normals_are_left_out_with_a_warning() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    let cases = [
+        ("f 1/2 2/1 3/1", "texture coordinate"),          // vt past the end
+        ("f 1/0 2/1 3/1", "texture coordinate"),          // zero vt (overflows inside tobj)
+        ("f 1//1 2//-2 3//1", "normal"),                  // relative vn before the first
+        ("f 1//4611686018427387904 2//1 3//1", "normal"), // overflows `3 * vn` inside tobj
+    ];
+    for (face, kind) in cases {
+        let loaded = load(&format!("{head}{face}\n"));
+        assert_eq!(loaded.mesh.triangle_count(), 1, "{face}");
+        assert_eq!(loaded.warnings.len(), 1, "{face}: {:?}", loaded.warnings);
+        let w = &loaded.warnings[0];
+        assert!(w.starts_with("test.obj line 6: ") && w.contains(&format!("face {kind} index")), "{face}: {w}");
+        // The whole face goes without: no texture coordinates, computed normals.
+        assert!(loaded.mesh.texcoords.is_empty(), "{face}");
+        assert!(!loaded.mesh.has_file_normals, "{face}");
+        assert_eq!(loaded.mesh.normals, [Vec3::Z; 3], "{face}");
+    }
+    // The message counts in good English.
+    let w = &load(&format!("{head}f 1/2 2/1 3/1\n")).warnings[0];
+    assert!(w.contains("index 2 is out of range (the file has 1 texture coordinate so far)"), "{w}");
+    // Texture coordinates and normals named when the file has none at all: one warning
+    // each, naming the first face; every face is drawn.
+    let loaded = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1/1/1 2/2/2 3/3/3\nf 2/2/2 4/4/4 3/3/3\n");
+    assert_eq!(loaded.mesh.triangle_count(), 2);
+    assert_eq!(loaded.warnings.len(), 2, "{:?}", loaded.warnings);
+    assert!(loaded.warnings[0].contains("line 5: face texture coordinate index 1 is out of range (the file has 0 texture coordinates so far)"), "{}", loaded.warnings[0]);
+    assert!(loaded.warnings[1].contains("line 5: face normal index 1") && loaded.warnings[1].contains("the face and 1 more like it are drawn with computed normals"), "{}", loaded.warnings[1]);
+}
+
+#[test]
+fn a_face_that_loses_its_attributes_leaves_the_other_faces_theirs() {
+    // Two squares side by side: the first with texture coordinates and normals, the second
+    // naming a normal that does not exist and a texture coordinate out of range.
+    let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0.6 0.8\n\
+                f 1/1/1 2/2/1 3/3/1 4/4/1\nf 2/1/1 5/2/9 6/3/1 3/9/1\n";
+    let loaded = load(text);
+    assert_eq!(loaded.warnings.len(), 2, "{:?}", loaded.warnings);
+    assert!(loaded.warnings.iter().all(|w| w.contains("line 13:")), "{:?}", loaded.warnings);
+    let mesh = loaded.mesh;
+    assert_eq!(mesh.triangle_count(), 4);
+    let uvs = |t: usize| mesh.triangles[t].map(|k| mesh.texcoords[k as usize]);
+    let normals = |t: usize| mesh.triangles[t].map(|k| mesh.normals[k as usize]);
+    // The first square keeps its file normal and texture coordinates (quad split 1 2 4).
+    assert_eq!(uvs(0), [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)]);
+    assert_eq!(normals(0), [Vec3::new(0.0, 0.6, 0.8); 3]);
+    // The second has neither: computed normals, texture coordinates zero.
+    assert_eq!(uvs(2), [Vec2::ZERO; 3]);
+    assert!(normals(2).iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", normals(2));
 }
 
 #[test]

@@ -6,6 +6,7 @@ use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 use std::time::Instant;
 
+use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
 use crate::scene::Scene;
 use crate::tracer::packed::PackedScene;
@@ -48,9 +49,9 @@ struct Job {
 }
 
 impl ModelLoader {
-    /// Start loading `source` for `model_count` copies; a load already running is
-    /// abandoned (its thread finishes on its own and its result is dropped).
-    pub fn start(&mut self, source: ModelSource, model_count: u32, light: LightOrbit) {
+    /// Start loading `source` (a file with `options`) for `model_count` copies; a load
+    /// already running is abandoned (its thread finishes on its own and its result is dropped).
+    pub fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit) {
         let (tx, rx) = channel();
         let label = source.label();
         let first_stage = match &source {
@@ -63,7 +64,7 @@ impl ModelLoader {
             move || {
                 let started = Instant::now();
                 let _ = tx.send(Message::Stage(first_stage));
-                let result = source.check_name().and_then(|()| source.load().map_err(|e| e.to_string())).and_then(|(mesh, warnings)| {
+                let result = source.check_name().and_then(|()| source.load_with(&options).map_err(|e| e.to_string())).and_then(|(mesh, warnings)| {
                     let _ = tx.send(Message::Stage(format!("building the BVH ({} triangles)", mesh.triangle_count())));
                     if mesh.triangle_count() == 0 {
                         return Err(format!("{} has no triangles", source.label()));
@@ -139,7 +140,7 @@ mod tests {
     fn loads_on_a_thread_and_reports_errors_as_one_sentence() {
         let mut loader = ModelLoader::default();
         assert!(matches!(loader.poll(), Poll::Idle));
-        loader.start(ModelSource::Paper(PaperModel::Sphere), 2, LightOrbit::default());
+        loader.start(ModelSource::Paper(PaperModel::Sphere), LoadOptions::default(), 2, LightOrbit::default());
         assert!(loader.busy());
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let loaded = result.unwrap();
@@ -147,7 +148,7 @@ mod tests {
         assert!(!loaded.packed.triangles.is_empty());
         assert!(!loader.busy());
 
-        loader.start(ModelSource::File("/nonexistent/model.obj".into()), 1, LightOrbit::default());
+        loader.start(ModelSource::File("/nonexistent/model.obj".into()), LoadOptions::default(), 1, LightOrbit::default());
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let err = result.err().unwrap();
         assert!(!err.contains('\n'), "{err}");

@@ -54,7 +54,7 @@ impl Session {
     pub fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
         panel.model_status = None;
         panel.model_warnings.clear();
-        self.loader.start(source, params.model_count, params.light);
+        self.loader.start(source, params.load_options, params.model_count, params.light);
     }
 
     /// Take a finished load: upload it, or keep the old model and say why not. With no

@@ -5,6 +5,7 @@ use glam::Vec3;
 use winit::keyboard::KeyCode;
 
 pub use crate::gpu::present::PixelRect;
+use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{Camera, EnvironmentSource};
@@ -62,6 +63,8 @@ pub struct Params {
     pub settings: RenderSettings,
     pub view: ViewMode,
     pub model_count: u32,
+    /// How .obj files are read, for every model loaded in the session (`--crease-angle`).
+    pub load_options: LoadOptions,
     pub light: LightOrbit,
     /// Degrees per second along the orbit.
     pub light_speed: f32,
@@ -96,6 +99,7 @@ impl Params {
             settings,
             view: ViewMode::Color,
             model_count: spec.models.clamp(1, MAX_MODELS),
+            load_options: spec.load_options,
             light: spec.light,
             light_speed: 30.0,
             light_paused: scripted,

@@ -158,7 +158,7 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
                     prepare_model(&mut m);
                     m
                 }
-                None => case.spec.model.load()?.0,
+                None => case.spec.load_model()?.0,
             };
             loaded = Some(Loaded { key: key.clone(), mesh });
         }

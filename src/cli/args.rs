@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
+use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, ModelSource, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::EnvironmentSource;
@@ -51,6 +52,11 @@ pub(crate) struct SceneArgs {
     /// generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file.
     #[arg(long, default_value = "geosphere")]
     pub model: String,
+    /// For .obj files with neither normals nor smoothing groups: faces meeting at a corner
+    /// share a computed normal only where they bend by less than DEG degrees (0..=180),
+    /// keeping sharper edges hard under --smooth. Default: every edge is smoothed.
+    #[arg(long, value_name = "DEG", value_parser = parse_crease_angle, allow_hyphen_values = true)]
+    pub crease_angle: Option<f32>,
     /// Number of identical models, laid out along the axes as in the paper's Table 2.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_MODELS as i64))]
     pub models: u32,
@@ -105,6 +111,11 @@ pub(crate) struct SceneArgs {
     pub fov: Option<f32>,
 }
 
+fn parse_crease_angle(s: &str) -> Result<f32, String> {
+    let v = parse_finite(s)?;
+    if (0.0..=180.0).contains(&v) { Ok(v) } else { Err(format!("{s} is out of range (0..=180 degrees)")) }
+}
+
 fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != 3 {
@@ -127,6 +138,7 @@ impl SceneArgs {
     pub(crate) fn spec(&self, aov: Aov) -> SceneSpec {
         SceneSpec {
             model: ModelSource::parse(&self.model),
+            load_options: LoadOptions { crease_angle: self.crease_angle },
             models: self.models,
             mirror_box: !self.no_box,
             light: LightOrbit { angle_deg: self.light_angle, ..LightOrbit::default() },
@@ -208,4 +220,28 @@ pub struct RenderArgs {
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub(crate) validation: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn render_args(extra: &[&str]) -> Result<RenderArgs, clap::Error> {
+        let cli = Cli::try_parse_from(["meshtracer", "render", "-o", "out.png"].iter().chain(extra))?;
+        match cli.command {
+            Some(Command::Render(args)) => Ok(args),
+            other => panic!("not a render command: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn crease_angle_reaches_the_spec_and_is_checked() {
+        assert_eq!(render_args(&[]).unwrap().scene.spec(Aov::Color).load_options.crease_angle, None);
+        let args = render_args(&["--crease-angle", "30"]).unwrap();
+        assert_eq!(args.scene.spec(Aov::Color).load_options, LoadOptions { crease_angle: Some(30.0) });
+        for bad in ["-1", "180.5", "nan", "sharp"] {
+            let e = render_args(&["--crease-angle", bad]).unwrap_err().to_string();
+            assert!(e.contains("--crease-angle") && e.contains(bad), "{bad}: {e}");
+        }
+    }
 }

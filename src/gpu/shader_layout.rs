@@ -214,7 +214,7 @@ mod tests {
         let twins = [
             ("Triangle", twin!(GpuTriangle { v0: "v0", material: "v0" + 12, e1: "e1", prim: "e1" + 12, e2: "e2", _pad: "e2" + 12 })),
             ("TriangleShading", twin!(GpuTriangleShading { normals: "n0" ..= "n2", uv01: "uv01" })),
-            ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", _pad: "texture" + 4 })),
+            ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", texture_flags: "texture" + 4, _pad: "texture" + 8, uv_scale: "uv_transform", uv_offset: "uv_transform" + 8 })),
             (
                 "BvhNode",
                 twin!(BvhNode {

@@ -30,6 +30,35 @@ pub struct Material {
     pub mirror: f32,
     /// `map_Kd`, when the .mtl names one (resolved relative to the .mtl).
     pub diffuse_texture: Option<PathBuf>,
+    /// How `diffuse_texture` is laid on the surface (`map_Kd`'s `-o`, `-s`, `-clamp`).
+    pub texture_transform: TextureTransform,
+}
+
+/// How a texture is laid on the surface, from the `-s`, `-o` and `-clamp` options of a
+/// `map_Kd` statement: texture coordinates become `uv * scale + offset` before the lookup,
+/// and then repeat (the default) or, with `clamp`, stop at the texture's edges. Both
+/// tracers apply it the same way (`shaders/texture.glsl`, `TextureAtlas::sample_with`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureTransform {
+    /// `-s u v`: scale of the texture coordinates (1, 1 by default).
+    pub scale: Vec2,
+    /// `-o u v`: offset added after the scale (0, 0 by default).
+    pub offset: Vec2,
+    /// `-clamp on`: coordinates outside [0, 1] take the edge texels instead of repeating.
+    pub clamp: bool,
+}
+
+impl Default for TextureTransform {
+    fn default() -> Self {
+        Self { scale: Vec2::ONE, offset: Vec2::ZERO, clamp: false }
+    }
+}
+
+impl TextureTransform {
+    /// The texture coordinates a lookup uses for the surface's `uv` (before wrap or clamp).
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        uv * self.scale + self.offset
+    }
 }
 
 impl Default for Material {
@@ -41,6 +70,7 @@ impl Default for Material {
             shininess: 32.0,
             mirror: 1.0,
             diffuse_texture: None,
+            texture_transform: TextureTransform::default(),
         }
     }
 }

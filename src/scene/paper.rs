@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 
-use super::obj::{load_obj, ObjError};
+use super::obj::{load_obj_with, LoadOptions, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
 
@@ -54,11 +54,16 @@ impl ModelSource {
 
     /// Load or generate the mesh, normalised to the scene's model size; warnings are returned.
     pub(crate) fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
+        self.load_with(&LoadOptions::default())
+    }
+
+    /// [`ModelSource::load`], reading a file with `options` (generated models ignore them).
+    pub(crate) fn load_with(&self, options: &LoadOptions) -> Result<(Mesh, Vec<String>), ObjError> {
         let (mut mesh, warnings) = match self {
             ModelSource::Paper(m) => (m.mesh(), Vec::new()),
             ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
             ModelSource::File(p) => {
-                let loaded = load_obj(p)?;
+                let loaded = load_obj_with(p, options)?;
                 (loaded.mesh, loaded.warnings)
             }
         };
@@ -94,6 +99,7 @@ pub(crate) fn model_material() -> Material {
         shininess: 48.0,
         mirror: 1.0,
         diffuse_texture: None,
+        ..Material::default()
     }
 }
 
@@ -106,6 +112,7 @@ pub(crate) fn mirror_material() -> Material {
         shininess: 64.0,
         mirror: 1.0,
         diffuse_texture: None,
+        ..Material::default()
     }
 }
 

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use super::obj::{LoadOptions, ObjError};
 use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
 use crate::tracer::frame::RenderSettings;
@@ -53,6 +54,8 @@ impl CameraSpec {
 pub(crate) struct SceneSpec {
     /// The model: one of the paper's, a generated knot, or an .obj file.
     pub model: ModelSource,
+    /// How an .obj model is read where the file leaves it open (`--crease-angle`).
+    pub load_options: LoadOptions,
     /// Identical copies along the axes (the paper's Table 2), 1..=27.
     pub models: u32,
     /// The paper's six mirror planes around the models.
@@ -70,6 +73,7 @@ impl Default for SceneSpec {
     fn default() -> Self {
         Self {
             model: ModelSource::default(),
+            load_options: LoadOptions::default(),
             models: 1,
             mirror_box: true,
             light: LightOrbit::default(),
@@ -84,6 +88,9 @@ impl SceneSpec {
     /// Check the settings and the camera; the error is one sentence naming the knob.
     pub(crate) fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
+        if let Some(angle) = self.load_options.crease_angle.filter(|a| !(0.0..=180.0).contains(a)) {
+            return Err(format!("the crease angle {angle} is out of range (0..=180 degrees)"));
+        }
         let camera = self.camera.camera();
         if camera.position.distance(camera.target) < 1e-6 {
             return Err("the camera's eye and target are the same point: it has no direction".into());
@@ -115,8 +122,14 @@ impl SceneSpec {
         self.validate().map_err(anyhow::Error::msg)?;
         self.model.check_name().map_err(anyhow::Error::msg)?;
         self.check_environment()?;
-        let (mesh, warnings) = self.model.load()?;
+        let (mesh, warnings) = self.load_model()?;
         Ok((self.scene_with(mesh), warnings))
+    }
+
+    /// Load (or generate) the model alone, prepared for the scene, with the spec's load
+    /// options; the loader's warnings are returned.
+    pub fn load_model(&self) -> Result<(Mesh, Vec<String>), ObjError> {
+        self.model.load_with(&self.load_options)
     }
 }
 
@@ -170,6 +183,15 @@ mod tests {
     fn a_camera_without_direction_is_refused() {
         let spec = SceneSpec { camera: CameraSpec { eye: Some(Vec3::ZERO), target: Some(Vec3::ZERO), ..Default::default() }, ..Default::default() };
         assert!(spec.validate().unwrap_err().contains("same point"));
+    }
+
+    #[test]
+    fn a_crease_angle_outside_a_half_turn_is_refused() {
+        let with = |angle: f32| SceneSpec { load_options: LoadOptions { crease_angle: Some(angle) }, ..Default::default() }.validate();
+        assert!(with(0.0).is_ok() && with(180.0).is_ok());
+        for bad in [-1.0, 181.0, f32::NAN] {
+            assert!(with(bad).unwrap_err().contains("crease angle"), "{bad}");
+        }
     }
 
     #[test]

@@ -61,6 +61,12 @@ contract! {
     AOV_COST = 4;
     /// AOV: camera samples spent on the pixel.
     AOV_SAMPLES = 5;
+
+    // Texture flags of a material (`GpuMaterial::texture_flags`, `Material.texture.y`).
+
+    /// Texture flag: coordinates clamp to [0, 1] and the edge texels (`map_Kd -clamp on`)
+    /// instead of repeating.
+    TEXTURE_CLAMP = 1;
 }
 
 // The fields of the flag word must not overlap, and every AOV code must fit its bits.

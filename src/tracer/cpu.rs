@@ -157,7 +157,7 @@ impl<'a> CpuScene<'a> {
             let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
             let mut kd = mat.diffuse;
             if s.textures && gm.texture != NO_TEXTURE {
-                let [uv0, uv1, uv2] = sh.uvs();
+                let [uv0, uv1, uv2] = sh.uvs().map(|uv| gm.texture_uv(uv));
                 let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
                 let info = self.packed.textures.infos[gm.texture as usize];
                 let scale = self.packed.instances[hit.instance as usize].scale;
@@ -169,7 +169,7 @@ impl<'a> CpuScene<'a> {
                     let width_at_hit = spread * path_length;
                     lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2() - ng.dot(ray.dir).abs().max(1e-4).log2();
                 }
-                kd *= self.packed.textures.sample(gm.texture, uv, lod).truncate();
+                kd *= self.packed.textures.sample_with(gm.texture, uv, lod, gm.texture_clamps()).truncate();
             }
             let local = blinn_phong(&mat, kd, p, ns, ng, -ray.dir, params.light_position, params.light_color, params.ambient);
             if bounce == 0 {

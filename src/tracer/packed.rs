@@ -63,7 +63,7 @@ impl GpuTriangleShading {
     }
 }
 
-/// A Blinn–Phong material (48 bytes).
+/// A Blinn–Phong material with its diffuse texture and how that is laid on (64 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -73,7 +73,27 @@ pub struct GpuMaterial {
     pub(crate) shininess: f32,
     /// Diffuse texture index into the atlas, or `NO_TEXTURE`.
     pub(crate) texture: u32,
-    pub(crate) _pad: [u32; 3],
+    /// `contract::TEXTURE_CLAMP` when the texture clamps instead of repeating.
+    pub(crate) texture_flags: u32,
+    pub(crate) _pad: [u32; 2],
+    /// Texture coordinates are `uv * uv_scale + uv_offset` before the lookup
+    /// (`TextureTransform`).
+    pub(crate) uv_scale: [f32; 2],
+    /// Added to the scaled texture coordinates (`map_Kd -o`).
+    pub(crate) uv_offset: [f32; 2],
+}
+
+impl GpuMaterial {
+    /// The texture coordinates the lookup uses for the surface's `uv` (the shader's
+    /// `material_uv`).
+    pub(crate) fn texture_uv(&self, uv: Vec2) -> Vec2 {
+        uv * Vec2::from(self.uv_scale) + Vec2::from(self.uv_offset)
+    }
+
+    /// True when the texture clamps at its edges instead of repeating.
+    pub(crate) fn texture_clamps(&self) -> bool {
+        self.texture_flags & super::contract::TEXTURE_CLAMP != 0
+    }
 }
 
 /// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
@@ -187,7 +207,10 @@ impl PackedScene {
                 specular: m.specular.to_array(),
                 shininess: m.shininess,
                 texture: texture_of(m),
-                _pad: [0; 3],
+                texture_flags: if m.texture_transform.clamp { super::contract::TEXTURE_CLAMP } else { 0 },
+                _pad: [0; 2],
+                uv_scale: m.texture_transform.scale.to_array(),
+                uv_offset: m.texture_transform.offset.to_array(),
             })
             .collect();
         self.materials.extend(materials);
@@ -275,7 +298,7 @@ mod tests {
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
         assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 64);
-        assert_eq!(std::mem::size_of::<GpuMaterial>(), 48);
+        assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     }

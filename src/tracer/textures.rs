@@ -67,7 +67,7 @@ impl TextureAtlas {
         (self.infos.len() - 1) as u32
     }
 
-    fn fetch(&self, info: &TextureInfo, level: u32, x: i32, y: i32) -> Vec4 {
+    fn fetch(&self, info: &TextureInfo, level: u32, x: i32, y: i32, clamped: bool) -> Vec4 {
         let [offset, w, h, _] = *info;
         let mut base = offset;
         for k in 0..level {
@@ -75,31 +75,42 @@ impl TextureAtlas {
             base += lw * lh;
         }
         let (lw, lh) = level_size(w, h, level);
-        let xi = x.rem_euclid(lw as i32) as u32;
-        let yi = y.rem_euclid(lh as i32) as u32;
+        let (xi, yi) = if clamped {
+            (x.clamp(0, lw as i32 - 1) as u32, y.clamp(0, lh as i32 - 1) as u32)
+        } else {
+            (x.rem_euclid(lw as i32) as u32, y.rem_euclid(lh as i32) as u32)
+        };
         unpack(self.texels[(base + yi * lw + xi) as usize])
     }
 
-    fn bilinear(&self, info: &TextureInfo, level: u32, uv: Vec2) -> Vec4 {
+    fn bilinear(&self, info: &TextureInfo, level: u32, uv: Vec2, clamped: bool) -> Vec4 {
         let (lw, lh) = level_size(info[1], info[2], level);
         // v = 0 is the bottom of the image (OBJ convention): flip to rows.
         let p = Vec2::new(uv.x * lw as f32 - 0.5, (1.0 - uv.y) * lh as f32 - 0.5);
         let f = p.floor();
         let t = p - f;
         let (x, y) = (f.x as i32, f.y as i32);
-        let a = self.fetch(info, level, x, y).lerp(self.fetch(info, level, x + 1, y), t.x);
-        let b = self.fetch(info, level, x, y + 1).lerp(self.fetch(info, level, x + 1, y + 1), t.x);
+        let a = self.fetch(info, level, x, y, clamped).lerp(self.fetch(info, level, x + 1, y, clamped), t.x);
+        let b = self.fetch(info, level, x, y + 1, clamped).lerp(self.fetch(info, level, x + 1, y + 1, clamped), t.x);
         a.lerp(b, t.y)
     }
 
     /// Trilinear sample of texture `index` at `uv` (repeat wrap) and mip level `lod`.
     pub fn sample(&self, index: u32, uv: Vec2, lod: f32) -> Vec4 {
+        self.sample_with(index, uv, lod, false)
+    }
+
+    /// Trilinear sample of texture `index` at `uv` and mip level `lod`; with `clamped`,
+    /// `uv` clamps to [0, 1] and the filter to the edge texels instead of repeating (the
+    /// shader's `sample_texture`).
+    pub fn sample_with(&self, index: u32, uv: Vec2, lod: f32, clamped: bool) -> Vec4 {
         let info = &self.infos[index as usize];
+        let uv = if clamped { uv.clamp(Vec2::ZERO, Vec2::ONE) } else { uv };
         let lod = lod.clamp(0.0, (info[3] - 1) as f32);
         let l0 = lod.floor();
-        let c0 = self.bilinear(info, l0 as u32, uv);
+        let c0 = self.bilinear(info, l0 as u32, uv, clamped);
         if lod > l0 {
-            c0.lerp(self.bilinear(info, l0 as u32 + 1, uv), lod - l0)
+            c0.lerp(self.bilinear(info, l0 as u32 + 1, uv, clamped), lod - l0)
         } else {
             c0
         }
@@ -262,6 +273,23 @@ mod tests {
         assert_eq!(c, Vec4::new(0.0, 0.0, 1.0, 1.0));
         let c = atlas.sample(i, Vec2::new(0.375, 0.125), 0.0);
         assert_eq!(c, Vec4::new(1.0, 0.0, 0.0, 1.0));
+    }
+
+    #[test]
+    fn clamped_sampling_stops_at_the_edge_texels() {
+        // Red on the left half, blue on the right.
+        let img = image::RgbaImage::from_fn(2, 1, |x, _| if x == 0 { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([0, 0, 255, 255]) });
+        let mut atlas = TextureAtlas::default();
+        let i = atlas.add(&img);
+        let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
+        let blue = Vec4::new(0.0, 0.0, 1.0, 1.0);
+        // Repeating, u = 1.25 is u = 0.25 of the next copy: red; clamped, it is the right edge.
+        assert_eq!(atlas.sample(i, Vec2::new(1.25, 0.5), 0.0), red);
+        assert_eq!(atlas.sample_with(i, Vec2::new(1.25, 0.5), 0.0, true), blue);
+        assert_eq!(atlas.sample_with(i, Vec2::new(-3.0, 0.5), 0.0, true), red);
+        // At the edge itself repeating blends with the other side; clamping does not.
+        assert_eq!(atlas.sample_with(i, Vec2::new(1.0, 0.5), 0.0, true), blue);
+        assert_eq!(atlas.sample(i, Vec2::new(1.0, 0.5), 0.0), (red + blue) * 0.5);
     }
 
     #[test]

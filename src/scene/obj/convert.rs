@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::ObjError;
+use super::{LoadOptions, ObjError};
 use crate::scene::{Material, Mesh};
 
 /// Number of triangles a tobj mesh makes once triangulated.
@@ -40,7 +40,25 @@ fn triangulate(indices: &[u32], arities: &[u32], base: u32, out: &mut Vec<[u32; 
     }
 }
 
-pub(super) fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut materials: Vec<Material>) -> Result<Mesh, ObjError> {
+/// What the line feeder learned about the faces that tobj does not keep.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct FaceNotes<'a> {
+    /// Where the smoothing group changes: (first face, group); empty without `s` lines.
+    pub(super) smoothing: &'a [(usize, u32)],
+    /// Faces (file order, ascending) handed to tobj without their texture coordinates.
+    pub(super) dropped_texcoords: &'a [usize],
+    /// Faces handed to tobj without their normals.
+    pub(super) dropped_normals: &'a [usize],
+}
+
+pub(super) fn build_mesh(
+    text: &str,
+    name: &str,
+    models: &[tobj::Model],
+    mut materials: Vec<Material>,
+    notes: FaceNotes,
+    options: &LoadOptions,
+) -> Result<Mesh, ObjError> {
     let vertex_total: usize = models.iter().map(|m| m.mesh.positions.len() / 3).sum();
     let triangle_total: usize = models.iter().map(|m| triangles_in(&m.mesh)).sum();
     if triangle_total == 0 {
@@ -51,10 +69,12 @@ pub(super) fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut mat
         return Err(ObjError::Invalid { name: name.to_owned(), reason });
     }
     // tobj gives a vertex a normal (texcoord) only when its face corner names one, so a
-    // model has them for every vertex exactly when the counts agree.
-    let has = |attr: &[f32], width: usize, m: &tobj::Mesh| !m.positions.is_empty() && attr.len() / width == m.positions.len() / 3;
-    let with_normals = models.iter().filter(|m| !m.mesh.positions.is_empty()).all(|m| has(&m.mesh.normals, 3, &m.mesh));
-    let with_texcoords = models.iter().any(|m| has(&m.mesh.texcoords, 2, &m.mesh));
+    // model has them for every vertex when the counts agree, for none when there are none,
+    // and otherwise the corners in the text say which vertices have them.
+    let attributes = vertex_attributes(text, models, notes);
+    let with_normals = attributes.iter().any(|a| a.normals != Coverage::None);
+    let all_normals = attributes.iter().zip(models).all(|(a, m)| a.normals == Coverage::All || m.mesh.positions.is_empty());
+    let with_texcoords = attributes.iter().any(|a| a.texcoords != Coverage::None);
 
     let mut mesh = Mesh {
         name: name.to_owned(),
@@ -66,19 +86,16 @@ pub(super) fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut mat
         ..Default::default()
     };
     let mut default_material = None;
-    for model in models {
+    for (model, attrs) in models.iter().zip(&attributes) {
         let m = &model.mesh;
         let base = mesh.positions.len() as u32; // fits: checked against u32 above
         mesh.positions.extend(m.positions.chunks_exact(3).map(Vec3::from_slice));
         if with_normals {
-            mesh.normals.extend(m.normals.chunks_exact(3).map(Vec3::from_slice));
+            // Vertices without a file normal get zero: computed below.
+            attrs.normals.spread(m.normals.chunks_exact(3).map(Vec3::from_slice), Vec3::ZERO, &mut mesh.normals, mesh.positions.len());
         }
         if with_texcoords {
-            if has(&m.texcoords, 2, m) {
-                mesh.texcoords.extend(m.texcoords.chunks_exact(2).map(Vec2::from_slice));
-            } else {
-                mesh.texcoords.resize(mesh.positions.len(), Vec2::ZERO);
-            }
+            attrs.texcoords.spread(m.texcoords.chunks_exact(2).map(Vec2::from_slice), Vec2::ZERO, &mut mesh.texcoords, mesh.positions.len());
         }
         let material = match m.material_id {
             Some(i) if i < materials.len() => i as u32,
@@ -101,42 +118,285 @@ pub(super) fn build_mesh(text: &str, name: &str, models: &[tobj::Model], mut mat
         return Err(locate_non_finite(text, name, bad));
     }
 
+    let groups = (!notes.smoothing.is_empty()).then(|| triangle_groups(models, notes.smoothing));
     let models_with_faces = models.iter().filter(|m| !m.mesh.indices.is_empty()).count();
-    if with_normals {
-        // File normals need not be unit length; a zero one takes the computed normal.
-        let file_normals = std::mem::take(&mut mesh.normals);
-        let computed = if file_normals.iter().any(|n| n.try_normalize().is_none()) {
-            mesh.compute_vertex_normals();
-            std::mem::take(&mut mesh.normals)
-        } else {
-            Vec::new()
-        };
-        mesh.normals = file_normals.iter().enumerate().map(|(i, n)| n.try_normalize().unwrap_or_else(|| computed[i])).collect();
+    if all_normals && mesh.normals.iter().all(|n| n.try_normalize().is_some()) {
+        // File normals need not be unit length.
+        mesh.normals.iter_mut().for_each(|n| *n = n.normalize());
         mesh.has_file_normals = true;
-    } else if models_with_faces > 1 || with_texcoords {
-        // tobj splits vertices at every `usemtl`/`o`/`g` and at texture seams: averaging
-        // per vertex would leave shading seams there, so average per position instead.
-        smooth_normals_by_position(&mut mesh);
+    } else if !with_normals && groups.is_none() && options.crease_angle.is_none() {
+        if models_with_faces > 1 || with_texcoords {
+            // tobj splits vertices at every `usemtl`/`o`/`g` and at texture seams: averaging
+            // per vertex would leave shading seams there, so average per position instead.
+            smooth_normals_by_position(&mut mesh);
+        } else {
+            mesh.compute_vertex_normals();
+        }
     } else {
-        mesh.compute_vertex_normals();
+        // Some vertices (or all) need computed normals, in smoothing groups or within a
+        // crease angle: a vertex used with different normals is split.
+        let file_normals = std::mem::take(&mut mesh.normals);
+        let crease = if groups.is_some() { None } else { options.crease_angle };
+        let corners = corner_normals(&mesh, groups.as_deref(), crease);
+        let usable = |v: usize| file_normals.get(v).and_then(|n| n.try_normalize());
+        apply_corner_normals(&mut mesh, |v, corner| usable(v).unwrap_or(corners[corner]));
+        mesh.has_file_normals = all_normals;
     }
     Ok(mesh)
 }
 
-/// Area-weighted normals like [`Mesh::compute_vertex_normals`], but shared by all
-/// vertices at the same position.
-fn smooth_normals_by_position(mesh: &mut Mesh) {
-    let mut slots = std::collections::HashMap::with_capacity(mesh.positions.len());
+/// Which of a model's vertices have an attribute (normal or texture coordinate).
+#[derive(Clone, Debug, PartialEq)]
+enum Coverage {
+    All,
+    None,
+    /// Per vertex, from the face corners that made it.
+    Some(Vec<bool>),
+}
+
+impl Coverage {
+    /// Append one value per vertex to `out` (up to `total` entries): the model's values
+    /// to the vertices that have one, in order, `absent` to the others.
+    fn spread<T: Copy>(&self, values: impl Iterator<Item = T>, absent: T, out: &mut Vec<T>, total: usize) {
+        match self {
+            Coverage::All => out.extend(values),
+            Coverage::None => {}
+            Coverage::Some(has) => {
+                let mut values = values;
+                out.extend(has.iter().map(|&h| if h { values.next().unwrap_or(absent) } else { absent }));
+            }
+        }
+        out.resize(total, absent);
+    }
+}
+
+/// Per model: which vertices have a normal and which a texture coordinate.
+#[derive(Clone, Debug)]
+struct ModelAttributes {
+    normals: Coverage,
+    texcoords: Coverage,
+}
+
+/// The coverage of normals and texture coordinates of every model. Only when a model has
+/// some and not all does the text get read again, corner by corner, in step with tobj:
+/// models hold the faces in file order, and a vertex is made by the first corner that
+/// names its indices.
+fn vertex_attributes(text: &str, models: &[tobj::Model], notes: FaceNotes) -> Vec<ModelAttributes> {
+    let coverage = |values: usize, width: usize, m: &tobj::Mesh| match values / width {
+        0 => Coverage::None,
+        n if n == m.positions.len() / 3 => Coverage::All,
+        _ => Coverage::Some(Vec::new()),
+    };
+    let mut out: Vec<ModelAttributes> = models
+        .iter()
+        .map(|m| ModelAttributes { normals: coverage(m.mesh.normals.len(), 3, &m.mesh), texcoords: coverage(m.mesh.texcoords.len(), 2, &m.mesh) })
+        .collect();
+    let partial = |a: &ModelAttributes| matches!(a.normals, Coverage::Some(_)) || matches!(a.texcoords, Coverage::Some(_));
+    if !out.iter().any(partial) {
+        return out;
+    }
+    let mut faces = face_corners(text, notes);
+    for (model, attrs) in models.iter().zip(&mut out) {
+        let m = &model.mesh;
+        let arities: Vec<u32> = if m.face_arities.is_empty() { vec![3; m.indices.len() / 3] } else { m.face_arities.clone() };
+        if !partial(attrs) {
+            faces.by_ref().take(arities.len()).for_each(drop);
+            continue;
+        }
+        let vertices = m.positions.len() / 3;
+        let (mut has_vt, mut has_vn) = (Vec::with_capacity(vertices), Vec::with_capacity(vertices));
+        let mut indices = m.indices.iter();
+        for &n in &arities {
+            let corners = faces.next().unwrap_or_default();
+            for k in 0..n as usize {
+                let Some(&index) = indices.next() else { break };
+                if index as usize == has_vt.len() {
+                    let (vt, vn) = corners.get(k).copied().unwrap_or((false, false));
+                    has_vt.push(vt);
+                    has_vn.push(vn);
+                }
+            }
+        }
+        // Should the text and tobj disagree, the attribute is left out (normals computed).
+        let settle = |coverage: &mut Coverage, has: Vec<bool>, values: usize| {
+            if let Coverage::Some(_) = coverage {
+                let agrees = has.len() == vertices && has.iter().filter(|&&h| h).count() == values;
+                *coverage = if agrees { Coverage::Some(has) } else { Coverage::None };
+            }
+        };
+        settle(&mut attrs.texcoords, has_vt, m.texcoords.len() / 2);
+        settle(&mut attrs.normals, has_vn, m.normals.len() / 3);
+    }
+    out
+}
+
+/// Each face of the text, in order, as (names a texture coordinate, names a normal) per
+/// corner, after the feeder's dropping of out-of-range ones.
+fn face_corners<'t>(text: &'t str, notes: FaceNotes<'t>) -> impl Iterator<Item = Vec<(bool, bool)>> + 't {
+    let faces = text.lines().filter_map(|line| {
+        let mut words = line.split_whitespace();
+        (words.next() == Some("f")).then_some(words)
+    });
+    let (mut dropped_vt, mut dropped_vn) = (notes.dropped_texcoords.iter().peekable(), notes.dropped_normals.iter().peekable());
+    faces.enumerate().map(move |(face, corners)| {
+        let keep_vt = dropped_vt.next_if_eq(&&face).is_none();
+        let keep_vn = dropped_vn.next_if_eq(&&face).is_none();
+        corners
+            .map(|corner| {
+                let mut parts = corner.split('/').skip(1);
+                let vt = parts.next().is_some_and(|t| !t.is_empty());
+                let vn = parts.next().is_some_and(|t| !t.is_empty());
+                (vt && keep_vt, vn && keep_vn)
+            })
+            .collect()
+    })
+}
+
+/// The smoothing group of every triangle, in the order [`triangulate`] makes them.
+fn triangle_groups(models: &[tobj::Model], smoothing: &[(usize, u32)]) -> Vec<u32> {
+    let mut groups = Vec::new();
+    let mut runs = smoothing.iter().peekable();
+    let (mut face, mut group) = (0usize, 0u32);
+    for model in models {
+        let m = &model.mesh;
+        let triangles_of = |n: u32| (n as usize).saturating_sub(2);
+        let faces: Box<dyn Iterator<Item = usize>> = if m.face_arities.is_empty() {
+            Box::new(std::iter::repeat_n(1, m.indices.len() / 3))
+        } else {
+            Box::new(m.face_arities.iter().map(|&n| triangles_of(n)))
+        };
+        for triangles in faces {
+            while let Some(&(_, g)) = runs.next_if(|(first, _)| *first <= face) {
+                group = g;
+            }
+            groups.extend(std::iter::repeat_n(group, triangles));
+            face += 1;
+        }
+    }
+    groups
+}
+
+/// A computed normal for every triangle corner (index `3 * triangle + k`): the sum of the
+/// area-weighted normals of the faces at the corner's position that are smoothed with its
+/// face, normalised. With `groups`, those are the faces of the same nonzero group (group
+/// 0 is flat); with a crease angle, those whose normal is within it of the corner's face;
+/// otherwise all of them.
+fn corner_normals(mesh: &Mesh, groups: Option<&[u32]>, crease_angle_deg: Option<f32>) -> Vec<Vec3> {
+    let faces: Vec<Vec3> = mesh.triangles.iter().map(|t| {
+        let [a, b, c] = t.map(|k| mesh.positions[k as usize]);
+        (b - a).cross(c - a) // length = twice the area: the weight
+    }).collect();
+    let slot_of = position_slots(&mesh.positions);
+    let slot_count = slot_of.iter().map(|&s| s as usize + 1).max().unwrap_or(0);
+    let corner_slot = |corner: usize| slot_of[mesh.triangles[corner / 3][corner % 3] as usize] as usize;
+    let corners = 3 * mesh.triangles.len();
+    let normal = |v: Vec3| v.normalize_or(Vec3::Y);
+
+    if let Some(groups) = groups {
+        let mut sums: std::collections::HashMap<(u32, u32), Vec3> = std::collections::HashMap::new();
+        for corner in 0..corners {
+            let group = groups[corner / 3];
+            if group != 0 {
+                *sums.entry((corner_slot(corner) as u32, group)).or_default() += faces[corner / 3];
+            }
+        }
+        return (0..corners)
+            .map(|corner| {
+                let (t, group) = (corner / 3, groups[corner / 3]);
+                if group == 0 { normal(faces[t]) } else { normal(sums[&(corner_slot(corner) as u32, group)]) }
+            })
+            .collect();
+    }
+
+    let Some(angle) = crease_angle_deg else {
+        let mut sums = vec![Vec3::ZERO; slot_count];
+        for corner in 0..corners {
+            sums[corner_slot(corner)] += faces[corner / 3];
+        }
+        return (0..corners).map(|corner| normal(sums[corner_slot(corner)])).collect();
+    };
+
+    // The corners at each position, for comparing the faces that meet there.
+    let mut start = vec![0usize; slot_count + 1];
+    for corner in 0..corners {
+        start[corner_slot(corner) + 1] += 1;
+    }
+    for s in 0..slot_count {
+        start[s + 1] += start[s];
+    }
+    let mut fill = start.clone();
+    let mut at_slot = vec![0u32; corners];
+    for corner in 0..corners {
+        let s = corner_slot(corner);
+        at_slot[fill[s]] = corner as u32;
+        fill[s] += 1;
+    }
+    let cos_limit = angle.to_radians().cos();
+    let units: Vec<Vec3> = faces.iter().map(|f| f.normalize_or_zero()).collect();
+    let mut out = vec![Vec3::ZERO; corners];
+    for s in 0..slot_count {
+        let here = &at_slot[start[s]..start[s + 1]];
+        for &corner in here {
+            let t = corner as usize / 3;
+            let sum = here.iter().fold(Vec3::ZERO, |sum, &other| {
+                let o = other as usize / 3;
+                if o == t || units[t].dot(units[o]) > cos_limit { sum + faces[o] } else { sum }
+            });
+            out[corner as usize] = normal(sum);
+        }
+    }
+    out
+}
+
+/// The same number for vertices at the same position (numbered in order of first use).
+fn position_slots(positions: &[Vec3]) -> Vec<u32> {
+    let mut slots = std::collections::HashMap::with_capacity(positions.len());
     // `+ 0.0` turns -0.0 into 0.0, so that the two zeros share a slot.
-    let slot_of: Vec<u32> = mesh
-        .positions
+    positions
         .iter()
         .map(|p| {
             let next = slots.len() as u32;
             *slots.entry((*p + 0.0).to_array().map(f32::to_bits)).or_insert(next)
         })
-        .collect();
-    let mut sums = vec![Vec3::ZERO; slots.len()];
+        .collect()
+}
+
+/// Give every triangle corner the normal `normal_of(vertex, corner)`: a vertex keeps its
+/// index for the first normal it gets, and is copied (position and texture coordinate)
+/// for each other normal it gets, so that triangles on either side of a hard edge do not
+/// share a vertex.
+fn apply_corner_normals(mesh: &mut Mesh, normal_of: impl Fn(usize, usize) -> Vec3) {
+    let mut normals: Vec<Option<Vec3>> = vec![None; mesh.positions.len()];
+    let mut copies: std::collections::HashMap<(u32, [u32; 3]), u32> = std::collections::HashMap::new();
+    for t in 0..mesh.triangles.len() {
+        for k in 0..3 {
+            let v = mesh.triangles[t][k];
+            let n = normal_of(v as usize, 3 * t + k);
+            match normals[v as usize] {
+                None => normals[v as usize] = Some(n),
+                Some(first) if first.to_array().map(f32::to_bits) == n.to_array().map(f32::to_bits) => {}
+                Some(_) => {
+                    let copy = *copies.entry((v, n.to_array().map(f32::to_bits))).or_insert_with(|| {
+                        mesh.positions.push(mesh.positions[v as usize]);
+                        if !mesh.texcoords.is_empty() {
+                            mesh.texcoords.push(mesh.texcoords[v as usize]);
+                        }
+                        normals.push(Some(n));
+                        (mesh.positions.len() - 1) as u32
+                    });
+                    mesh.triangles[t][k] = copy;
+                }
+            }
+        }
+    }
+    mesh.normals = normals.into_iter().map(|n| n.unwrap_or(Vec3::Y)).collect();
+}
+
+/// Area-weighted normals like [`Mesh::compute_vertex_normals`], but shared by all
+/// vertices at the same position.
+fn smooth_normals_by_position(mesh: &mut Mesh) {
+    let slot_of = position_slots(&mesh.positions);
+    let mut sums = vec![Vec3::ZERO; slot_of.iter().map(|&s| s as usize + 1).max().unwrap_or(0)];
     for tri in &mesh.triangles {
         let [a, b, c] = tri.map(|k| mesh.positions[k as usize]);
         let face = (b - a).cross(c - a); // length = twice the area: the weight

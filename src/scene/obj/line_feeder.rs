@@ -1,8 +1,11 @@
 //! The `LineFeeder` through which tobj reads an OBJ (or MTL) text one line at a time, so
 //! that every error can be pinned to its line; in OBJ mode it also counts `v`/`vt`/`vn`,
 //! validates each face's indices before tobj parses them (a fast byte scan, with a slower
-//! path that says what is wrong), collects `usemtl` names and hides polylines from tobj.
+//! path that says what is wrong), hands tobj a face without the texture coordinates or
+//! normals it names out of range, records smoothing groups (which tobj ignores), collects
+//! `usemtl` names and hides polylines from tobj.
 
+use std::borrow::Cow;
 use std::collections::HashSet;
 use std::io::{self, BufRead, Read};
 
@@ -11,9 +14,10 @@ use super::{quote, ObjError};
 
 /// The `BufRead` that tobj reads the text through. tobj reads with `BufRead::lines`, so
 /// every `consume` takes exactly one line: the feeder always knows which line tobj is on.
-/// In OBJ mode it checks each line as it is consumed, before tobj parses it (counting
-/// `v`/`vt`/`vn`, checking faces); after a bad line the next `fill_buf` fails, so tobj
-/// stops before it can use the face. It also hides polylines from tobj.
+/// In OBJ mode it checks each line before tobj parses it: faces (and polylines) when
+/// `fill_buf` is about to hand them out, so that a face can be handed out changed or not
+/// at all; the other lines as they are consumed (counting `v`/`vt`/`vn`, reading `s`).
+/// After a bad line the next `fill_buf` fails, so tobj stops before it can use it.
 pub(super) struct LineFeeder<'a> {
     name: &'a str,
     /// The whole text.
@@ -24,13 +28,26 @@ pub(super) struct LineFeeder<'a> {
     pub(super) current_line: &'a str,
     /// 1-based number of `current_line`; 0 before the first.
     pub(super) line: usize,
-    /// `fill_buf` is handing out an empty line in place of a hidden one.
-    hiding: bool,
+    /// The line `fill_buf` hands out in place of `rest` (OBJ mode): a face already checked,
+    /// as written or without its out-of-range attributes, or an empty line for a hidden
+    /// polyline. It has already moved from `rest` to `current_line`.
+    pending: Option<Cow<'a, str>>,
+    /// Bytes of `pending` consumed so far.
+    pending_at: usize,
     /// Check faces and count elements (OBJ), or only count lines (MTL).
     check_obj: bool,
     vertices: usize,
     texcoords: usize,
     normals: usize,
+    /// Faces so far (each `f` line is one face for tobj).
+    pub(super) faces: usize,
+    /// Where the smoothing group changes: (index of the first face in it, group), group
+    /// 0 for `s off`/`s 0`. Empty when the file has no `s` statement.
+    pub(super) smoothing: Vec<(usize, u32)>,
+    /// Faces whose texture coordinate indices were out of range and left out.
+    pub(super) dropped_texcoords: Dropped,
+    /// Faces whose normal indices were out of range and left out.
+    pub(super) dropped_normals: Dropped,
     /// Distinct `usemtl` names, in order of first use.
     pub(super) usemtl_names: Vec<&'a str>,
     usemtl_seen: HashSet<&'a str>,
@@ -46,11 +63,16 @@ impl<'a> LineFeeder<'a> {
             rest: text,
             current_line: "",
             line: 0,
-            hiding: false,
+            pending: None,
+            pending_at: 0,
             check_obj,
             vertices: 0,
             texcoords: 0,
             normals: 0,
+            faces: 0,
+            smoothing: Vec::new(),
+            dropped_texcoords: Dropped::default(),
+            dropped_normals: Dropped::default(),
             usemtl_names: Vec::new(),
             usemtl_seen: HashSet::new(),
             error: None,
@@ -93,28 +115,61 @@ impl<'a> LineFeeder<'a> {
         self.parse_error(reason)
     }
 
-    /// Check one line before tobj parses it.
+    /// Check one line other than a face or polyline as tobj consumes it.
     fn check_line(&mut self, line: &'a str) -> Result<(), ObjError> {
         // Fast paths for the statements that make up nearly all of a file.
         match line.as_bytes() {
             [b'v', s, ..] if is_ascii_space(*s) => self.vertices += 1,
             [b'v', b't', s, ..] if is_ascii_space(*s) => self.texcoords += 1,
             [b'v', b'n', s, ..] if is_ascii_space(*s) => self.normals += 1,
-            [b'f', s, corners @ ..] if is_ascii_space(*s) && line.is_ascii() && face_is_valid(corners, self.counts()) => {}
-            _ => return self.check_any_line(line),
+            _ => return self.check_statement(words_of(line), line),
         }
         Ok(())
     }
 
-    /// Any line, and the diagnosis of a bad face.
-    fn check_any_line(&mut self, line: &'a str) -> Result<(), ObjError> {
-        // tobj splits words at Unicode whitespace; for an ASCII line splitting bytes gives
-        // the same words.
-        if line.is_ascii() {
-            let words = line.as_bytes().split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty());
-            self.check_statement(words, line)
-        } else {
-            self.check_statement(line.split_whitespace().map(str::as_bytes), line)
+    /// Check the face on the current line (already taken from `rest`) and decide what tobj
+    /// gets: the line as written, the line without the texture coordinates or normals that
+    /// it names out of range (recorded in `dropped_*`), or nothing (an error).
+    fn prepare_face(&mut self) {
+        let line = self.current_line;
+        let face = self.faces;
+        self.faces += 1;
+        // The fast path: an ASCII face whose indices are all in range.
+        if let [b'f', s, corners @ ..] = line.as_bytes() {
+            if is_ascii_space(*s) && line.is_ascii() && face_is_valid(corners, self.counts()) {
+                self.pending = Some(Cow::Borrowed(line));
+                return;
+            }
+        }
+        let (texcoord, normal) = match self.check_face(words_of(line).skip(1)) {
+            Ok(bad) => bad,
+            Err(e) => {
+                self.error = Some(e);
+                return;
+            }
+        };
+        let (drop_vt, drop_vn) = (texcoord.is_some(), normal.is_some());
+        for (dropped, bad) in [(&mut self.dropped_texcoords, texcoord), (&mut self.dropped_normals, normal)] {
+            if let Some((index, count)) = bad {
+                dropped.faces.push(face);
+                dropped.first.get_or_insert(DroppedFirst { line: self.line, index, count });
+            }
+        }
+        self.pending = Some(if drop_vt || drop_vn { Cow::Owned(without_attributes(line, drop_vt, drop_vn)) } else { Cow::Borrowed(line) });
+    }
+
+    /// `s 1`, `s off`...: faces from here on are in that smoothing group (0 = none).
+    fn set_smoothing_group(&mut self, value: Option<&[u8]>) {
+        let group = match value {
+            Some(v) if v.eq_ignore_ascii_case(b"off") => 0,
+            // A number too large for u32 is still a group: all of them the same one.
+            Some(v) if !v.is_empty() && v.iter().all(u8::is_ascii_digit) => std::str::from_utf8(v).ok().and_then(|t| t.parse().ok()).unwrap_or(u32::MAX),
+            _ => 0,
+        };
+        match self.smoothing.last_mut() {
+            Some(last) if last.0 == self.faces => last.1 = group,
+            Some(last) if last.1 == group => {}
+            _ => self.smoothing.push((self.faces, group)),
         }
     }
 
@@ -128,7 +183,7 @@ impl<'a> LineFeeder<'a> {
             Some(b"v") => self.vertices += 1,
             Some(b"vt") => self.texcoords += 1,
             Some(b"vn") => self.normals += 1,
-            Some(b"f") => self.check_face(words)?,
+            Some(b"s") => self.set_smoothing_group(words.next()),
             Some(b"usemtl") => {
                 // tobj takes the name the same way: everything after the first space.
                 let name = line.split_once(' ').map_or("", |(_, n)| n.trim());
@@ -142,14 +197,17 @@ impl<'a> LineFeeder<'a> {
     }
 
     /// Every corner must be `v`, `v/vt`, `v//vn` or `v/vt/vn` with indices (absolute or
-    /// negative/relative) of elements defined earlier in the file, and there must be at
-    /// least three corners.
-    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(), ObjError> {
+    /// negative/relative), and there must be at least three corners. A vertex index must
+    /// name a vertex defined earlier in the file; a texture coordinate or normal index
+    /// that names none is returned (the first of each kind, with the count so far), for
+    /// the face to go on without them.
+    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(Option<(String, usize)>, Option<(String, usize)>), ObjError> {
         let kinds = [
             ("vertex", "vertices", self.vertices),
             ("texture coordinate", "texture coordinates", self.texcoords),
             ("normal", "normals", self.normals),
         ];
+        let mut bad: [Option<(String, usize)>; 3] = Default::default();
         let mut count = 0;
         for corner in corners {
             count += 1;
@@ -172,7 +230,7 @@ impl<'a> LineFeeder<'a> {
                     0 => false,
                     _ => index.unsigned_abs() <= available as u64,
                 };
-                if !in_range {
+                if !in_range && slot == 0 {
                     return Err(ObjError::IndexOutOfRange {
                         name: self.name.to_owned(),
                         line: self.line,
@@ -181,6 +239,9 @@ impl<'a> LineFeeder<'a> {
                         index: String::from_utf8_lossy(text).into_owned(),
                         count: available,
                     });
+                }
+                if !in_range && bad[slot].is_none() {
+                    bad[slot] = Some((String::from_utf8_lossy(text).into_owned(), available));
                 }
             }
             if parts.next().is_some() {
@@ -194,8 +255,60 @@ impl<'a> LineFeeder<'a> {
         if count < 3 {
             return Err(self.parse_error(format!("a face needs at least three corners, but {} has {count}", quote(self.current_line))));
         }
-        Ok(())
+        let [_, texcoord, normal] = bad;
+        Ok((texcoord, normal))
     }
+}
+
+/// Faces that lost an attribute because they named it out of range.
+#[derive(Debug, Default)]
+pub(super) struct Dropped {
+    /// The faces, by index in file order (from 0), ascending.
+    pub(super) faces: Vec<usize>,
+    /// The first of them, for the warning.
+    pub(super) first: Option<DroppedFirst>,
+}
+
+/// Where and how the first face that lost an attribute named it.
+#[derive(Debug)]
+pub(super) struct DroppedFirst {
+    /// 1-based line number.
+    pub(super) line: usize,
+    /// The first out-of-range index, as written.
+    pub(super) index: String,
+    /// How many elements of the kind the file had defined at that line.
+    pub(super) count: usize,
+}
+
+/// The words of a line as tobj splits them (at Unicode whitespace), as bytes. For an
+/// ASCII line splitting bytes gives the same words, faster.
+fn words_of(line: &str) -> impl Iterator<Item = &[u8]> {
+    let ascii = line.is_ascii();
+    let bytes = ascii.then(|| line.as_bytes().split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty()));
+    let unicode = (!ascii).then(|| line.split_whitespace().map(str::as_bytes));
+    bytes.into_iter().flatten().chain(unicode.into_iter().flatten())
+}
+
+/// A face line without its texture coordinate (`drop_vt`) and/or normal (`drop_vn`)
+/// indices: `f 1/2/3 ...` becomes `f 1/2 ...`, `f 1//3 ...` or `f 1 ...`.
+fn without_attributes(line: &str, drop_vt: bool, drop_vn: bool) -> String {
+    let mut out = String::from("f");
+    for corner in line.split_whitespace().skip(1) {
+        let mut parts = corner.split('/');
+        let v = parts.next().unwrap_or("");
+        let vt = parts.next().filter(|_| !drop_vt).unwrap_or("");
+        let vn = parts.next().filter(|_| !drop_vn).unwrap_or("");
+        out.push(' ');
+        out.push_str(v);
+        match (vt.is_empty(), vn.is_empty()) {
+            (true, true) => {}
+            (false, true) => out.extend(["/", vt]),
+            (true, false) => out.extend(["//", vn]),
+            (false, false) => out.extend(["/", vt, "/", vn]),
+        }
+    }
+    out.push('\n');
+    out
 }
 
 /// The fast check of an ASCII face's corners (the text after `f`) against the element
@@ -274,22 +387,41 @@ impl Read for LineFeeder<'_> {
 
 impl BufRead for LineFeeder<'_> {
     fn fill_buf(&mut self) -> io::Result<&[u8]> {
+        if self.check_obj && self.pending.is_none() && self.error.is_none() {
+            match first_word(self.rest) {
+                "l" => {
+                    // tobj would turn `l 1 2 3` into a triangle: it gets an empty line instead.
+                    self.advance(line_end(self.rest));
+                    self.pending = Some(Cow::Borrowed("\n"));
+                }
+                "f" => {
+                    self.advance(line_end(self.rest));
+                    self.prepare_face();
+                }
+                _ => {}
+            }
+        }
         if self.error.is_some() {
             // tobj turns this into `ReadError`; `into_error` swaps ours back in.
             return Err(io::Error::other("stopped at a bad line"));
         }
-        if self.check_obj && !self.hiding && starts_polyline(self.rest) {
-            // tobj would turn `l 1 2 3` into a triangle: it gets an empty line instead.
-            let end = self.rest.find('\n').map_or(self.rest.len(), |i| i + 1);
-            self.advance(end);
-            self.hiding = true;
-        }
-        Ok(if self.hiding { b"\n" } else { self.rest.as_bytes() })
+        Ok(match &self.pending {
+            Some(line) => &line.as_bytes()[self.pending_at.min(line.len())..],
+            None => self.rest.as_bytes(),
+        })
     }
 
     fn consume(&mut self, amount: usize) {
+        if let Some(line) = &self.pending {
+            // Already taken from `rest` and checked.
+            self.pending_at += amount;
+            if self.pending_at >= line.len() {
+                (self.pending, self.pending_at) = (None, 0);
+            }
+            return;
+        }
         // `read_until` consumes 0 bytes at the end of the text: that is no line.
-        if std::mem::take(&mut self.hiding) || amount == 0 {
+        if amount == 0 {
             return;
         }
         self.advance(amount);
@@ -313,10 +445,22 @@ impl LineFeeder<'_> {
     }
 }
 
+/// The length of the first line of `text`, its `\n` included.
+fn line_end(text: &str) -> usize {
+    text.find('\n').map_or(text.len(), |i| i + 1)
+}
+
+/// The keyword of the first line of `text`, as tobj would see it (`l` for a polyline,
+/// `f` for a face); "" for a blank line.
+fn first_word(text: &str) -> &str {
+    let line = text.trim_start_matches(|c: char| c.is_whitespace() && c != '\n');
+    &line[..line.find(char::is_whitespace).unwrap_or(line.len())]
+}
+
 /// True when the first line of `text` is an `l` (polyline) statement, as tobj would see it.
+#[cfg(test)]
 fn starts_polyline(text: &str) -> bool {
-    let mut chars = text.trim_start_matches(|c: char| c.is_whitespace() && c != '\n').chars();
-    chars.next() == Some('l') && chars.next().is_none_or(char::is_whitespace)
+    first_word(text) == "l"
 }
 
 #[cfg(test)]
@@ -351,7 +495,7 @@ mod tests {
                 }
                 let corners = [b"1/1 -2 ".as_slice(), &tail].concat();
                 let words = corners.split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty());
-                let slow = feeder.check_face(words).is_ok();
+                let slow = matches!(feeder.check_face(words), Ok((None, None)));
                 let text = String::from_utf8_lossy(&corners);
                 assert_eq!(face_is_valid(&corners, [2, 1, 0]), slow, "f {text}");
             }
@@ -366,6 +510,28 @@ mod tests {
         for no in ["", "\nl 1 2", "ln 1 2", "f 1 2 3", "# l 1 2", "lod 1"] {
             assert!(!starts_polyline(no), "{no:?}");
         }
+    }
+
+    #[test]
+    fn faces_are_handed_out_without_the_attributes_they_name_out_of_range() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\n  f 1/2 2/1 3/1\r\nl 1 2\ns 1\nf 1 2 3\ns off\nf 3/1 2/1 1/1";
+        let mut feeder = LineFeeder::new(text, "t.obj", true);
+        let mut lines = Vec::new();
+        let mut buf = String::new();
+        while feeder.read_line(&mut buf).unwrap() > 0 {
+            lines.push((feeder.line, std::mem::take(&mut buf)));
+        }
+        let handed: Vec<(usize, &str)> = lines.iter().map(|(n, l)| (*n, l.as_str())).collect();
+        assert_eq!(
+            handed[4..],
+            [(5, "f 1/1 2/1 3/1\n"), (6, "f 1 2 3\n"), (7, "\n"), (8, "s 1\n"), (9, "f 1 2 3\n"), (10, "s off\n"), (11, "f 3/1 2/1 1/1")]
+        );
+        assert_eq!((feeder.faces, feeder.smoothing.as_slice()), (4, [(2, 1), (3, 0)].as_slice()));
+        assert_eq!(feeder.dropped_normals.faces, [0]);
+        assert_eq!(feeder.dropped_texcoords.faces, [1]);
+        let first = feeder.dropped_texcoords.first.as_ref().unwrap();
+        assert_eq!((first.line, first.index.as_str(), first.count), (6, "2", 1));
+        assert!(feeder.error.is_none());
     }
 
     #[test]

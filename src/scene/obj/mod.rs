@@ -13,7 +13,14 @@
 //!   All of this costs about a tenth of `tobj`'s own time; the text is only scanned
 //!   again to find the line of a NaN.
 //! - Warnings instead of failures for what a model can live without: a missing .mtl,
-//!   a missing texture, an unknown `usemtl` name.
+//!   a missing texture, an unknown `usemtl` name, texture options it does not apply,
+//!   faces naming texture coordinates or normals that the file never defines (the feeder
+//!   hands tobj those faces without them).
+//! - Computed normals (for vertices that the file gives none) that honour smoothing
+//!   groups (`s 1`, `s off`, which tobj ignores) or, without groups, an optional crease
+//!   angle ([`LoadOptions::crease_angle`]).
+//! - Texture options of `map_Kd` (`-o`, `-s`, `-clamp` applied, the others ignored) and
+//!   `mtllib` with several names and `\ ` escapes.
 
 mod convert;
 mod line_feeder;
@@ -25,9 +32,18 @@ use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 
 use super::Mesh;
-use convert::build_mesh;
-use line_feeder::LineFeeder;
+use convert::{build_mesh, FaceNotes};
+use line_feeder::{Dropped, LineFeeder};
 use mtl::{convert_materials, MaterialLibraries};
+
+/// How to load: what the file leaves to the loader.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoadOptions {
+    /// For files with neither normals nor smoothing groups: faces that share a position
+    /// share a computed normal only where their face normals are less than this many
+    /// degrees apart (`--crease-angle`). None smooths across every edge.
+    pub crease_angle: Option<f32>,
+}
 
 /// A loaded OBJ: the mesh plus the non-fatal problems met on the way (missing .mtl, missing texture...).
 #[derive(Clone, Debug)]
@@ -125,6 +141,11 @@ pub enum ObjError {
 /// The whole file is read into memory first: it is needed again to locate the line of
 /// an error, and one read is the fastest way to get at it anyway.
 pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
+    load_obj_with(path, &LoadOptions::default())
+}
+
+/// [`load_obj`] with options.
+pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     let name = path.display().to_string();
     let text = String::from_utf8(bytes).map_err(|e| {
@@ -134,26 +155,33 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
     })?;
     // `parent()` of a bare file name is "", which joins to paths relative to the working
     // directory: exactly where the file itself was found.
-    load_obj_from_str(&text, &name, path.parent())
+    load_obj_from_str_with(&text, &name, path.parent(), options)
 }
 
 /// Same, from text already in memory (`name` is used in messages, `base_dir` resolves mtllib). Used by tests and the fuzzer.
 ///
 /// With `base_dir` `None`, `mtllib` statements are skipped with a warning.
 pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Result<LoadedObj, ObjError> {
+    load_obj_from_str_with(text, name, base_dir, &LoadOptions::default())
+}
+
+/// [`load_obj_from_str`] with options.
+pub fn load_obj_from_str_with(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     // A UTF-8 byte-order mark would glue itself to the first keyword.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
     let mut feeder = LineFeeder::new(text, name, true);
 
-    let options = tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
-    let parsed = tobj::load_obj_buf(&mut feeder, &options, |mtl| libs.load(mtl));
+    let tobj_options = tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
+    let parsed = tobj::load_obj_buf(&mut feeder, &tobj_options, |mtl| libs.load(mtl));
     let (models, materials) = match parsed {
         Ok(ok) => ok,
         Err(e) => return Err(feeder.into_error(e)),
     };
-    let usemtl_names = feeder.usemtl_names;
+    let usemtl_names = std::mem::take(&mut feeder.usemtl_names);
     let mut warnings = libs.warnings.into_inner();
+    warn_dropped(&mut warnings, name, &feeder.dropped_texcoords, "texture coordinate", "texture coordinates", "drawn without texture coordinates");
+    warn_dropped(&mut warnings, name, &feeder.dropped_normals, "normal", "normals", "drawn with computed normals");
     // Errors of the libraries were already turned into warnings, one per library.
     let materials = materials.unwrap_or_default();
     let materials = convert_materials(&materials, &libs.loaded.into_inner(), &mut warnings);
@@ -166,8 +194,28 @@ pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Res
         );
     }
 
-    let mesh = build_mesh(text, name, &models, materials)?;
+    let notes = FaceNotes {
+        smoothing: &feeder.smoothing,
+        dropped_texcoords: &feeder.dropped_texcoords.faces,
+        dropped_normals: &feeder.dropped_normals.faces,
+    };
+    let mesh = build_mesh(text, name, &models, materials, notes, options)?;
     Ok(LoadedObj { mesh, warnings })
+}
+
+/// One warning for all the faces that named a texture coordinate or normal out of range,
+/// naming the first one's line.
+fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind: &str, kind_plural: &str, outcome: &str) {
+    let Some(first) = &dropped.first else { return };
+    let had = if first.count == 1 { kind } else { kind_plural };
+    let these = match dropped.faces.len() - 1 {
+        0 => "the face is".to_owned(),
+        n => format!("the face and {n} more like it are"),
+    };
+    warn(
+        warnings,
+        format!("{name} line {}: face {kind} index {} is out of range (the file has {} {had} so far); {these} {outcome}", first.line, first.index, first.count),
+    );
 }
 
 /// The bytes of a regular file. Devices and pipes are refused: `/dev/zero` would never end.

@@ -5,11 +5,11 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::line_feeder::LineFeeder;
 use super::{quote, read_regular_file, warn};
-use crate::scene::Material;
+use crate::scene::{Material, TextureTransform};
 
 /// The `mtllib` loader handed to tobj: reads libraries relative to the OBJ's folder and
 /// turns every failure into a warning.
@@ -44,13 +44,11 @@ impl MaterialLibraries<'_> {
             self.warn(format!("{}: `mtllib` names no file; using the default material", self.obj_name));
             return Err(tobj::LoadError::OpenFileFailed);
         }
-        let parts: Vec<&str> = if find_file(base, &spelled).is_some() || !spelled.contains(char::is_whitespace) {
-            vec![spelled.as_ref()]
-        } else {
-            spelled.split_whitespace().collect()
-        };
+        // A name with spaces that exists as written wins; otherwise the names are separated
+        // by whitespace, and `\ ` is a space inside a name (`mtllib a.mtl my\ file.mtl`).
+        let parts: Vec<String> = if find_file(base, &spelled).is_some() { vec![spelled.clone().into_owned()] } else { split_escaped(&spelled) };
         let mut merged: Option<(Vec<tobj::Material>, _)> = None;
-        for part in parts {
+        for part in &parts {
             let Ok((mats, map)) = self.load_one(base, part) else { continue };
             match &mut merged {
                 None => merged = Some((mats, map)),
@@ -97,6 +95,30 @@ impl MaterialLibraries<'_> {
             }
         }
     }
+}
+
+/// Words separated by whitespace, where a backslash before a whitespace character makes
+/// it part of the word (`my\ file.mtl` is `my file.mtl`). Other backslashes stay: they
+/// are Windows path separators.
+fn split_escaped(text: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut word = String::new();
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '\\' if chars.peek().is_some_and(|n| n.is_whitespace()) => word.extend(chars.next()),
+            c if c.is_whitespace() => {
+                if !word.is_empty() {
+                    words.push(std::mem::take(&mut word));
+                }
+            }
+            c => word.push(c),
+        }
+    }
+    if !word.is_empty() {
+        words.push(word);
+    }
+    words
 }
 
 /// `dir/spelled` if it is a file, also reading `\` as a path separator (files exported on Windows).
@@ -154,10 +176,17 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
     };
     if let Some(raw) = &m.diffuse_texture {
         let dir = library.and_then(Path::parent).unwrap_or(Path::new(""));
-        out.diffuse_texture = texture_path(dir, raw);
+        let library = library.map_or_else(|| "a material library".to_owned(), |p| p.display().to_string());
+        let map = texture_map(dir, raw);
+        out.diffuse_texture = map.path;
+        out.texture_transform = map.transform;
+        if !map.ignored.is_empty() {
+            let options = map.ignored.join(", ");
+            let plural = if map.ignored.len() == 1 { "option" } else { "options" };
+            warn(warnings, format!("{library}: material {}: `map_Kd` {plural} {options} not supported; ignored", m.name));
+        }
         if out.diffuse_texture.is_none() {
-            let library = library.map_or_else(|| "a material library".to_owned(), |p| p.display().to_string());
-            warn(warnings, format!("{library}: texture `{raw}` of material {} not found; the material keeps its plain colour", m.name));
+            warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", map.file, m.name));
         }
         // Exporters write `Kd 0 0 0` when the map supplies the colour (all of Sponza does).
         // Taken literally that is black whatever the renderer does with textures: white
@@ -169,11 +198,108 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
     out
 }
 
-/// The file a `map_Kd` value names. Options come before the name
-/// (`map_Kd -s 1 1 1 -bm 0.5 wall.png`), but a name may also contain spaces.
-fn texture_path(dir: &Path, raw: &str) -> Option<PathBuf> {
+/// A `map_*` statement's value: its options, then the file name.
+#[derive(Clone, Debug, PartialEq)]
+struct TextureMap<'a> {
+    /// `-o`, `-s` and `-clamp`.
+    transform: TextureTransform,
+    /// The other options, by name, in order of appearance (each once).
+    ignored: Vec<&'a str>,
+    /// The file name as written after the options (spaces allowed).
+    file: &'a str,
+    /// The file found, if any.
+    path: Option<PathBuf>,
+}
+
+/// How many arguments an MTL texture option takes.
+enum OptionArgs {
+    /// `-o`, `-s`, `-t`: one to three numbers.
+    UpToThreeNumbers,
+    /// This many numbers (`-mm` 2; `-bm`, `-boost`, `-texres` 1).
+    Numbers(usize),
+    /// One word (`on`/`off`, a channel letter, a colour space, a map type).
+    Word,
+}
+
+fn option_args(name: &str) -> Option<OptionArgs> {
+    Some(match name.to_ascii_lowercase().as_str() {
+        "-o" | "-s" | "-t" => OptionArgs::UpToThreeNumbers,
+        "-mm" => OptionArgs::Numbers(2),
+        "-bm" | "-boost" | "-texres" => OptionArgs::Numbers(1),
+        "-clamp" | "-blendu" | "-blendv" | "-cc" | "-imfchan" | "-colorspace" | "-type" => OptionArgs::Word,
+        _ => return None,
+    })
+}
+
+/// Read the options at the front of a `map_Kd` value (`-o 0.5 0 -clamp on wall.png`) and
+/// find the file that the rest names, next to the library. A value that names a file as
+/// a whole (options or not) is taken as that file; an option's arguments never take the
+/// last word, which is always part of the name.
+fn texture_map<'a>(dir: &Path, raw: &'a str) -> TextureMap<'a> {
     let raw = raw.trim();
-    find_file(dir, raw).or_else(|| raw.split_whitespace().last().and_then(|file| find_file(dir, file)))
+    let mut map = TextureMap { transform: TextureTransform::default(), ignored: Vec::new(), file: raw, path: None };
+    if let Some(path) = find_file(dir, raw) {
+        map.path = Some(path);
+        return map;
+    }
+    // Words with their byte offsets, so that the name keeps its inner spacing.
+    let words: Vec<(usize, &str)> = raw.split_whitespace().map(|w| (w.as_ptr() as usize - raw.as_ptr() as usize, w)).collect();
+    let number = |w: &str| w.parse::<f32>().ok().filter(|v| v.is_finite());
+    let mut i = 0;
+    while i + 1 < words.len() {
+        let name = words[i].1;
+        if !name.starts_with('-') || name.len() < 2 {
+            break;
+        }
+        i += 1;
+        // Arguments may not take the last word: that is the file name.
+        let available = words.len() - 1 - i;
+        let mut values = Vec::new();
+        let mut word = None;
+        match option_args(name) {
+            Some(OptionArgs::UpToThreeNumbers) => {
+                while values.len() < 3.min(available) {
+                    let Some(v) = number(words[i].1) else { break };
+                    values.push(v);
+                    i += 1;
+                }
+            }
+            Some(OptionArgs::Numbers(n)) => {
+                while values.len() < n.min(available) {
+                    let Some(v) = number(words[i].1) else { break };
+                    values.push(v);
+                    i += 1;
+                }
+            }
+            Some(OptionArgs::Word) if available > 0 => {
+                word = Some(words[i].1);
+                i += 1;
+            }
+            Some(OptionArgs::Word) | None => {}
+        }
+        match name.to_ascii_lowercase().as_str() {
+            "-s" if !values.is_empty() => {
+                map.transform.scale = Vec2::new(values[0], values.get(1).copied().unwrap_or(1.0));
+            }
+            "-o" if !values.is_empty() => {
+                map.transform.offset = Vec2::new(values[0], values.get(1).copied().unwrap_or(0.0));
+            }
+            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("on")) => map.transform.clamp = true,
+            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("off")) => map.transform.clamp = false,
+            _ => {
+                if !map.ignored.contains(&name) {
+                    map.ignored.push(name);
+                }
+            }
+        }
+    }
+    map.file = words.get(i).map_or("", |&(at, _)| raw[at..].trim());
+    // As written; with `\ ` read as a space; else the last word (after an option this
+    // reader does not know, whose arguments joined the name).
+    map.path = find_file(dir, map.file)
+        .or_else(|| map.file.contains("\\ ").then(|| find_file(dir, &map.file.replace("\\ ", " "))).flatten())
+        .or_else(|| map.file.split_whitespace().last().and_then(|file| find_file(dir, file)));
+    map
 }
 
 #[cfg(test)]
@@ -187,5 +313,49 @@ mod tests {
         assert_eq!(text, "newmtl a\nKd 0.5 0.5 0.5\n\n\nKe 1 2 3\n");
         assert_eq!(warnings.len(), 2);
         assert!(warnings[0].contains("m.mtl line 3"), "{}", warnings[0]);
+    }
+
+    #[test]
+    fn texture_options_come_before_the_file_name() {
+        let nowhere = Path::new("/nonexistent-meshtracer-dir");
+        let read = |raw: &'static str| texture_map(nowhere, raw);
+
+        let m = read("-o 0.1 diffuse.jpg");
+        assert_eq!((m.file, m.transform.offset, m.transform.scale), ("diffuse.jpg", Vec2::new(0.1, 0.0), Vec2::ONE));
+        assert!(m.ignored.is_empty() && !m.transform.clamp && m.path.is_none());
+
+        let m = read("-colorspace sRGB -o 0.1 diffuse.jpg");
+        assert_eq!((m.file, m.ignored.as_slice(), m.transform.offset), ("diffuse.jpg", ["-colorspace"].as_slice(), Vec2::new(0.1, 0.0)));
+
+        let m = read("-texres 512 input.jpg");
+        assert_eq!((m.file, m.ignored.as_slice()), ("input.jpg", ["-texres"].as_slice()));
+
+        // u, v and w; w is read and dropped. The name keeps its inner spaces.
+        let m = read("-s 2 3 1  -o 0.5 0.25 0 -clamp on  my  wall.png ");
+        assert_eq!(m.transform, TextureTransform { scale: Vec2::new(2.0, 3.0), offset: Vec2::new(0.5, 0.25), clamp: true });
+        assert_eq!(m.file, "my  wall.png");
+
+        // Every other option of the MTL format, each with its arguments, ignored once.
+        let m = read("-bm 0.5 -mm 0 1 -blendu off -blendv off -cc on -imfchan r -boost 2 -t 0.1 0.1 -bm 2 -type sphere x.png");
+        assert_eq!(m.ignored, ["-bm", "-mm", "-blendu", "-blendv", "-cc", "-imfchan", "-boost", "-t", "-type"]);
+        assert_eq!((m.file, m.transform), ("x.png", TextureTransform::default()));
+
+        // Arguments never take the last word; -o with u alone keeps v = 0, -s keeps v = 1.
+        let m = read("-o 1 2");
+        assert_eq!((m.file, m.transform.offset), ("2", Vec2::new(1.0, 0.0)));
+        let m = read("-s 0.5 t.png");
+        assert_eq!(m.transform.scale, Vec2::new(0.5, 1.0));
+        assert_eq!(read("-clamp").file, "-clamp");
+        assert_eq!(read("plain name.png").file, "plain name.png");
+        // An option this reader does not know is ignored, named; its arguments join the name.
+        let m = read("-halo 3 t.png");
+        assert_eq!((m.file, m.ignored.as_slice()), ("3 t.png", ["-halo"].as_slice()));
+    }
+
+    #[test]
+    fn library_names_split_at_unescaped_spaces() {
+        assert_eq!(split_escaped("a.mtl  my\\ file.mtl\tb.mtl"), ["a.mtl", "my file.mtl", "b.mtl"]);
+        assert_eq!(split_escaped("dir\\sub.mtl"), ["dir\\sub.mtl"]);
+        assert_eq!(split_escaped("  "), Vec::<String>::new());
     }
 }
