@@ -229,9 +229,7 @@ fn the_numbers_show_over_the_image_in_a_small_window() {
     let img = load(&dir.path().join("hud.png"));
     assert_eq!(img.dimensions(), (900, 600));
     // The panel is dark grey; the image area starts where the columns stop being it.
-    let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;
-    let gray_share = |x: u32| (0..600).filter(|&y| panel_gray(img.get_pixel(x, y))).count() as f64 / 600.0;
-    let panel_end = (100..900).find(|&x| gray_share(x) < 0.1).expect("a panel");
+    let panel_end = panel_end(&img);
     // Near-white text on a dark box at the image's top-left corner.
     let corner: Vec<_> = (panel_end + 8..panel_end + 150).flat_map(|x| (8..100).map(move |y| (x, y))).map(|(x, y)| *img.get_pixel(x, y)).collect();
     let text = corner.iter().filter(|p| p.0[..3].iter().all(|&c| c >= 200)).count();
@@ -280,4 +278,30 @@ fn a_frame_that_takes_minutes_leaves_the_window_answering() {
     // CPU. The bound is loose; what it catches is a window waiting for the whole frame.
     assert!(answered < Duration::from_secs(30), "F12 waited {answered:?} for the long frame");
     assert!(quit < Duration::from_secs(15), "Ctrl+Q waited {quit:?} for the long frame");
+}
+
+/// Where the panel's dark grey ends in a window screenshot of `height` rows.
+fn panel_end(img: &image::RgbaImage) -> u32 {
+    let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;
+    let h = img.height();
+    let gray_share = |x: u32| (0..h).filter(|&y| panel_gray(img.get_pixel(x, y))).count() as f64 / h as f64;
+    (100..img.width()).find(|&x| gray_share(x) < 0.1).expect("a panel")
+}
+
+#[test]
+fn a_long_model_name_leaves_the_panel_width_alone() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("long-name");
+    let name = format!("{}.obj", "a_model_exported_with_a_very_long_descriptive_file_name_".repeat(4));
+    std::fs::write(dir.path().join(&name), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let shot = |model: &str, out: &str| {
+        let mut cmd = meshtracer(&x.display, dir.path());
+        // A wide window: room for the panel to grow, if anything made it.
+        cmd.args(SCENE).args(["--window", "1280x600", "--model", model, "--frames", "2", "--screenshot-ui", out, "--no-hud"]);
+        assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(180)));
+        load(&dir.path().join(out))
+    };
+    let short = panel_end(&shot("geosphere", "short.png"));
+    let long = panel_end(&shot(&dir.path().join(&name).to_string_lossy(), "long.png"));
+    assert!(long.abs_diff(short) <= 2, "the panel ends at x = {long} with a long model name, {short} without");
 }

@@ -220,7 +220,7 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
         let current = info.model.map_or("(none)".to_string(), |m| m.label());
         ui.horizontal(|ui| {
             ui.label("Model");
-            egui::ComboBox::new("model", "").selected_text(current).show_ui(ui, |ui| {
+            egui::ComboBox::new("model", "").selected_text(current).width(ui.available_width() - 4.0).truncate().show_ui(ui, |ui| {
                 for m in PaperModel::ALL {
                     let selected = info.model == Some(&ModelSource::Paper(m));
                     if ui.selectable_label(selected, m.name()).clicked() && !selected {
