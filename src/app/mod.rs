@@ -6,16 +6,19 @@
 //!   `input` (mouse and keys), `session` (model, loader, what the tracer holds) and
 //!   `script` (`--frames` runs and exiting);
 //! - `state`: the parameters and the keyboard shortcuts;
-//! - `panel`: the egui panel; `frame_stats`: the frame-time history it plots;
+//! - `panel`: the egui panel (`camera_panel`: its camera section); `frame_stats`: the frame-time history it plots;
 //! - `model_loader`: loading .obj files on a worker thread;
 //! - `progressive`: long frames traced in bands over several display frames;
-//! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map.
+//! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
+//!   `aov_view`: the depth, normal, primitive-id and samples views.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!
 //! A scripted run (`--frames N`) starts with the light paused at `--light-angle` so that
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
+pub(crate) mod aov_view;
+pub(crate) mod camera_panel;
 pub(crate) mod cost_view;
 pub(crate) mod frame_stats;
 pub(crate) mod input;

@@ -3,6 +3,7 @@
 
 use egui::{Color32, RichText, Sense, Shape, Stroke, Ui};
 
+use super::camera_panel::{camera_section, CameraFields};
 use super::cost_view::heat_color;
 use super::frame_stats::{mrays_per_second, FrameStats, Series, Summary, HISTORY_SECONDS};
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
@@ -58,6 +59,8 @@ pub struct PanelState {
     pub screenshot_status: Option<Status>,
     /// A file is being dragged over the window.
     pub hovering_file: bool,
+    /// The camera section's typed eye and target.
+    pub camera: CameraFields,
 }
 
 /// Read-only facts the panel shows.
@@ -74,6 +77,8 @@ pub struct PanelInfo<'a> {
     pub vsync_off_available: bool,
     /// (scale top, max, mean) of the heat map shown.
     pub heat: Option<(f32, f32, f32)>,
+    /// What the colours of a depth, normal or primitive-id view mean.
+    pub view_note: Option<&'a str>,
     /// Frames averaged into the image shown (progressive accumulation).
     pub accumulated_frames: u32,
     /// Share of a long frame traced so far, while it is traced in bands.
@@ -102,7 +107,7 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
         light_section(ui, params);
-        camera_section(ui, params);
+        camera_section(ui, params, &mut state.camera);
         display_section(ui, params, info);
         screenshot_section(ui, state, info, &mut actions);
         egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
@@ -163,15 +168,14 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             });
             ui.end_row();
             ui.label("View");
-            ui.horizontal(|ui| {
-                let mut cost = matches!(params.view, ViewMode::Cost(_));
-                ui.radio_value(&mut cost, false, "colour");
-                ui.radio_value(&mut cost, true, "cost heat map");
-                params.view = match (cost, params.view) {
-                    (false, _) => ViewMode::Color,
-                    (true, ViewMode::Cost(m)) => ViewMode::Cost(m),
-                    (true, ViewMode::Color) => ViewMode::Cost(CostMetric::Nodes),
-                };
+            egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {
+                for view in ViewMode::ALL {
+                    let current = params.view.same_kind(view);
+                    if ui.selectable_label(current, view.label()).clicked() && !current {
+                        params.view = view;
+                        params.fit_cost_metric();
+                    }
+                }
             });
             ui.end_row();
             if let ViewMode::Cost(metric) = &mut params.view {
@@ -188,14 +192,19 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
         if let Some(s) = &state.render_status {
             status_line(ui, s);
         }
-        if let (ViewMode::Cost(metric), Some((top, max, mean))) = (params.view, info.heat) {
-            heat_legend(ui, metric, top, max, mean);
+        match (params.view, info.heat) {
+            (ViewMode::Cost(metric), Some((top, max, mean))) => heat_legend(ui, &format!("{} per pixel, all rays", metric.label()), top, max, mean),
+            (ViewMode::Samples, Some((top, max, mean))) => heat_legend(ui, "camera samples per pixel", top, max, mean),
+            _ => {}
+        }
+        if let Some(note) = info.view_note {
+            ui.label(RichText::new(note).small());
         }
     });
 }
 
-fn heat_legend(ui: &mut Ui, metric: CostMetric, top: f32, max: f32, mean: f32) {
-    ui.label(RichText::new(format!("{} per pixel, all rays", metric.label())).small());
+fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
+    ui.label(RichText::new(what).small());
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
     let steps = 64;
     for i in 0..steps {
@@ -286,17 +295,6 @@ fn light_section(ui: &mut Ui, params: &mut Params) {
             ui.add_enabled(params.light_paused, egui::Slider::new(&mut params.light.angle_deg, 0.0..=360.0).suffix("°").fixed_decimals(1));
             ui.end_row();
         });
-    });
-}
-
-fn camera_section(ui: &mut Ui, params: &mut Params) {
-    egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| {
-        ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
-        let p = params.camera.position;
-        ui.label(RichText::new(format!("at ({:.2}, {:.2}, {:.2}), distance {:.2}", p.x, p.y, p.z, (p - params.camera.target).length())).small());
-        if ui.button("Reset camera (R)").clicked() {
-            params.reset_camera();
-        }
     });
 }
 
@@ -434,7 +432,7 @@ fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions
     });
 }
 
-fn status_line(ui: &mut Ui, s: &Status) {
+pub(crate) fn status_line(ui: &mut Ui, s: &Status) {
     let text = RichText::new(&s.text).small();
     ui.add(egui::Label::new(if s.error { text.color(ERROR_COLOR) } else { text }).wrap());
 }

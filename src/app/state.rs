@@ -32,6 +32,48 @@ pub enum ViewMode {
     Color,
     /// A heat map of the per-pixel traversal cost.
     Cost(CostMetric),
+    /// Primary-hit distance, near bright and far dark.
+    Depth,
+    /// Primary-hit normal, x, y, z as red, green, blue.
+    Normal,
+    /// The triangle hit, a colour per triangle.
+    PrimId,
+    /// Camera samples spent per pixel (adaptive sampling's view), as a heat map.
+    Samples,
+}
+
+impl ViewMode {
+    /// Every view, in the panel's order (the cost view with the BVH-node counter).
+    pub const ALL: [ViewMode; 6] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples];
+
+    /// The output the tracer writes for this view.
+    pub fn aov(self) -> Aov {
+        match self {
+            ViewMode::Color => Aov::Color,
+            ViewMode::Cost(_) => Aov::Cost,
+            ViewMode::Depth => Aov::Depth,
+            ViewMode::Normal => Aov::Normal,
+            ViewMode::PrimId => Aov::PrimId,
+            ViewMode::Samples => Aov::Samples,
+        }
+    }
+
+    /// The name the panel shows.
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewMode::Color => "colour",
+            ViewMode::Cost(_) => "cost heat map",
+            ViewMode::Depth => "depth",
+            ViewMode::Normal => "normal",
+            ViewMode::PrimId => "primitive id",
+            ViewMode::Samples => "samples",
+        }
+    }
+
+    /// Same view, whatever the cost counter.
+    pub fn same_kind(self, other: ViewMode) -> bool {
+        std::mem::discriminant(&self) == std::mem::discriminant(&other)
+    }
 }
 
 /// Which traversal counter the heat map shows.
@@ -128,11 +170,7 @@ impl Params {
     /// The frame settings for an image area of `area` physical pixels.
     pub fn settings_for(&self, area: [u32; 2]) -> RenderSettings {
         let [width, height] = self.render_size(area);
-        let aov = match self.view {
-            ViewMode::Color => Aov::Color,
-            ViewMode::Cost(_) => Aov::Cost,
-        };
-        RenderSettings { width, height, aov, ..self.settings }
+        RenderSettings { width, height, aov: self.view.aov(), ..self.settings }
     }
 
     /// Move the light along its orbit by `dt` seconds (unless paused).
@@ -253,8 +291,8 @@ impl Params {
             }
             KeyCode::KeyC => {
                 self.view = match self.view {
-                    ViewMode::Color => ViewMode::Cost(CostMetric::Nodes),
                     ViewMode::Cost(_) => ViewMode::Color,
+                    _ => ViewMode::Cost(CostMetric::Nodes),
                 };
                 self.fit_cost_metric();
             }

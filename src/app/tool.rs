@@ -14,6 +14,7 @@ use winit::event_loop::ActiveEventLoop;
 use winit::keyboard::PhysicalKey;
 use winit::window::Window;
 
+use super::aov_view;
 use super::cost_view::heat_map;
 use super::frame_stats::FrameStats;
 use super::input::Input;
@@ -30,13 +31,16 @@ use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::frame::{FrameParams, RenderSettings};
 
-/// A heat map shown in the cost view: its pixels (for F12) and its scale.
+/// The picture of a view other than colour (cost heat map, depth, ...): its pixels (for
+/// F12) and its legend.
 struct HeatShown {
     width: u32,
     height: u32,
     rgba: Vec<u8>,
-    /// (scale top, max, mean), for the panel's legend.
-    stats: (f32, f32, f32),
+    /// (scale top, max, mean) of a heat map, for the panel's legend.
+    stats: Option<(f32, f32, f32)>,
+    /// What the colours mean, for the other views.
+    note: Option<String>,
 }
 
 /// What the image area shows, decided before the frame is drawn.
@@ -235,7 +239,8 @@ impl Tool {
             loading: self.session.loader.status(),
             present_mode: self.gpu.presenter.present_mode_name(),
             vsync_off_available: self.gpu.presenter.can_disable_vsync(),
-            heat: self.heat.as_ref().map(|h| h.stats),
+            heat: self.heat.as_ref().and_then(|h| h.stats),
+            view_note: self.heat.as_ref().and_then(|h| h.note.as_deref()),
             accumulated_frames: self.session.accumulation.frames,
             progress: self.progressive.as_ref().map(Progressive::progress),
             screenshot_dir: dir_text,
@@ -286,15 +291,13 @@ impl Tool {
             return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
         };
         self.traced = true;
-        let cost = match self.params.view {
-            ViewMode::Cost(metric) => Some(metric),
-            ViewMode::Color => None,
-        };
+        // Views other than colour are pictures made on the CPU from the float output.
+        let cost = (self.params.view != ViewMode::Color).then_some(self.params.view);
         if self.gpu.tracer.fits_one_submission(&params) {
             self.progressive = None;
-            if let Some(metric) = cost {
+            if let Some(view) = cost {
                 let (image, timing) = self.gpu.tracer.render(&params)?;
-                self.set_heat(&image, metric);
+                self.set_heat(&image, view);
                 return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, completes: true });
             }
             self.heat = None;
@@ -327,10 +330,17 @@ impl Tool {
         Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, completes })
     }
 
-    /// Make the heat map of a traced cost AOV the picture shown.
-    fn set_heat(&mut self, image: &crate::tracer::Image, metric: super::state::CostMetric) {
-        let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
-        self.heat = Some(HeatShown { width: image.width, height: image.height, rgba: map.rgba, stats: (map.scale_max, map.max, map.mean) });
+    /// Make the picture of a view other than colour, traced into `image`, the one shown.
+    fn set_heat(&mut self, image: &crate::tracer::Image, view: ViewMode) {
+        let (width, height) = (image.width, image.height);
+        self.heat = match (view, aov_view::picture(image, view)) {
+            (ViewMode::Cost(metric), _) => {
+                let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
+                Some(HeatShown { width, height, rgba: map.rgba, stats: Some((map.scale_max, map.max, map.mean)), note: None })
+            }
+            (_, Some(p)) => Some(HeatShown { width, height, rgba: p.rgba, stats: p.heat, note: p.note }),
+            (_, None) => None,
+        };
     }
 
     fn redraw(&mut self) -> anyhow::Result<bool> {
@@ -378,10 +388,10 @@ impl Tool {
         };
         let request = FrameRequest { trace: prepared.trace.clone(), show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
         let outcome = self.gpu.presenter.draw(Some(&self.gpu.tracer), &request)?;
-        if let (true, ViewMode::Cost(metric)) = (banded && prepared.completes, self.params.view) {
-            // The last band of a long cost frame: its heat map replaces the last one.
+        if banded && prepared.completes && self.params.view != ViewMode::Color {
+            // The last band of a long frame of another view: its picture replaces the last.
             let image = self.gpu.tracer.read_image()?;
-            self.set_heat(&image, metric);
+            self.set_heat(&image, self.params.view);
         }
         if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
             self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);

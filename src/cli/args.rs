@@ -117,15 +117,7 @@ fn parse_crease_angle(s: &str) -> Result<f32, String> {
 }
 
 fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 3 {
-        return Err(format!("'{s}' is not X,Y,Z"));
-    }
-    let mut v = [0.0f32; 3];
-    for (slot, p) in v.iter_mut().zip(&parts) {
-        *slot = parse_finite(p.trim())?;
-    }
-    Ok(glam::Vec3::from(v))
+    crate::scene::camera::parse_point(s)
 }
 
 fn parse_fov(s: &str) -> Result<f32, String> {

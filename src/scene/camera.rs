@@ -71,9 +71,34 @@ impl CameraBasis {
     }
 }
 
+/// A point written `X,Y,Z` (spaces and surrounding parentheses allowed), as `--eye`,
+/// `--target` and the panel's camera fields take it; the error names what is wrong.
+pub fn parse_point(s: &str) -> Result<Vec3, String> {
+    let inner = s.trim().trim_start_matches('(').trim_end_matches(')');
+    let parts: Vec<&str> = inner.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("'{s}' is not X,Y,Z"));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        let x: f32 = p.parse().map_err(|_| format!("'{p}' is not a number"))?;
+        *slot = if x.is_finite() { x } else { return Err(format!("{p} is not a finite number")) };
+    }
+    Ok(Vec3::from(v))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_parse_with_or_without_spaces_and_parentheses() {
+        assert_eq!(parse_point("1,2,3"), Ok(Vec3::new(1.0, 2.0, 3.0)));
+        assert_eq!(parse_point(" (1.5, -2, 3e1) "), Ok(Vec3::new(1.5, -2.0, 30.0)));
+        assert_eq!(parse_point("1,2"), Err("'1,2' is not X,Y,Z".into()));
+        assert_eq!(parse_point("1,x,3"), Err("'x' is not a number".into()));
+        assert_eq!(parse_point("1,inf,3"), Err("inf is not a finite number".into()));
+    }
 
     #[test]
     fn centre_pixel_looks_at_target() {
