@@ -303,5 +303,7 @@ fn a_long_model_name_leaves_the_panel_width_alone() {
     };
     let short = panel_end(&shot("geosphere", "short.png"));
     let long = panel_end(&shot(&dir.path().join(&name).to_string_lossy(), "long.png"));
-    assert!(long.abs_diff(short) <= 2, "the panel ends at x = {long} with a long model name, {short} without");
+    // A few pixels come and go with the width of the frame-time numbers; a panel widened
+    // by the name reaches half the window.
+    assert!(long.abs_diff(short) <= 16, "the panel ends at x = {long} with a long model name, {short} without");
 }

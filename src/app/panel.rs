@@ -229,7 +229,7 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
         let current = info.model.map_or("(none)".to_string(), |m| m.label());
         ui.horizontal(|ui| {
             ui.label("Model");
-            egui::ComboBox::new("model", "").selected_text(current).width(ui.available_width() - 4.0).truncate().show_ui(ui, |ui| {
+            egui::ComboBox::new("model", "").selected_text(current).width(ui.available_width() - 24.0).truncate().show_ui(ui, |ui| {
                 for m in PaperModel::ALL {
                     let selected = info.model == Some(&ModelSource::Paper(m));
                     if ui.selectable_label(selected, m.name()).clicked() && !selected {
@@ -255,7 +255,8 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
         if let Some((label, stage, secs)) = info.loading {
             ui.horizontal(|ui| {
                 ui.spinner();
-                ui.label(format!("{label}: {stage} ({secs:.1} s)"));
+                // Elided: a long path must not widen the panel.
+                ui.add(egui::Label::new(format!("{label}: {stage} ({secs:.1} s)")).truncate());
             });
         } else if let Some(s) = &state.model_status {
             status_line(ui, s);
@@ -425,7 +426,7 @@ fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions
                 actions.push(PanelAction::ScreenshotWindow);
             }
         });
-        ui.label(RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak());
+        ui.add(egui::Label::new(RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak()).truncate());
         if let Some(s) = &state.screenshot_status {
             status_line(ui, s);
         }

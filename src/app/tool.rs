@@ -254,9 +254,6 @@ impl Tool {
                 // At most half a small window, so the image stays visible.
                 let max = (ui.available_width() * 0.5).max(160.0);
                 egui::Panel::left("panel").default_size(panel::PANEL_WIDTH.min(max)).size_range(150.0..=max).frame(frame).show(ui, |ui| {
-                    // Long text (paths, names) is elided, its whole shown on hover, so it
-                    // never widens the panel.
-                    ui.style_mut().wrap_mode = Some(egui::TextWrapMode::Truncate);
                     actions = panel::show(ui, params, panel_state, &info);
                 });
             }
