@@ -81,8 +81,11 @@ pub struct PanelInfo<'a> {
     pub view_note: Option<&'a str>,
     /// Frames averaged into the image shown (progressive accumulation).
     pub accumulated_frames: u32,
-    /// Share of a long frame traced so far, while it is traced in bands.
-    pub progress: Option<f32>,
+    /// Share of a long frame traced so far, while it is traced in bands, and the seconds
+    /// it still needs at the pace so far.
+    pub progress: Option<(f32, Option<f64>)>,
+    /// Ray-triangle tests one frame of brute force would ask for.
+    pub brute_tests: f64,
     pub screenshot_dir: String,
     pub stats: &'a FrameStats,
 }
@@ -164,7 +167,8 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             ui.label("Acceleration");
             ui.horizontal(|ui| {
                 ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH");
-                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute force");
+                let estimate = format!("{:.1e} ray-triangle tests per frame", info.brute_tests);
+                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute force").on_hover_text(&estimate);
             });
             ui.end_row();
             ui.label("View");
@@ -189,6 +193,11 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
                 ui.end_row();
             }
         });
+        if params.settings.accel == Accel::Brute && info.brute_tests > crate::tracer::budget::tests_per_submission() {
+            // Said before the wait, not after: the frame is long and comes in bands.
+            let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
+            ui.add(egui::Label::new(RichText::new(text).small()).wrap());
+        }
         if let Some(s) = &state.render_status {
             status_line(ui, s);
         }
@@ -323,7 +332,10 @@ pub fn hud(ui: &mut Ui, info: &PanelInfo) {
         format!("{} Mrays/s", gpu.map_or("-".into(), |g| format!("{:.0}", mrays_per_second(info.rays, g)))),
         format!("{} triangles", group(info.triangles)),
     ];
-    let banded = info.progress.map(|p| format!("tracing in bands: {:.0}%", p * 100.0));
+    let banded = info.progress.map(|(p, left)| match left {
+        Some(s) => format!("tracing in bands: {:.0}%, {} left", p * 100.0, duration(s)),
+        None => format!("tracing in bands: {:.0}%", p * 100.0),
+    });
     for (i, line) in lines.iter().chain(banded.iter()).enumerate() {
         let color = match i {
             1 => GPU_COLOR,
@@ -431,6 +443,11 @@ fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions
             status_line(ui, s);
         }
     });
+}
+
+/// Seconds as "12 s" or "3 min".
+fn duration(s: f64) -> String {
+    if s < 90.0 { format!("{s:.0} s") } else { format!("{:.0} min", s / 60.0) }
 }
 
 pub(crate) fn status_line(ui: &mut Ui, s: &Status) {

@@ -20,12 +20,14 @@ pub struct Progressive {
     next_column: u32,
     /// The work-group size: bands start on multiples of it.
     group: u32,
+    /// When the frame began, for the time-left estimate.
+    started: std::time::Instant,
 }
 
 impl Progressive {
     /// A frame not yet begun, traced in work groups of `group` x `group` pixels.
     pub fn new(params: FrameParams, group: u32) -> Self {
-        Self { params, next_row: 0, next_column: 0, group: group.max(1) }
+        Self { params, next_row: 0, next_column: 0, group: group.max(1), started: std::time::Instant::now() }
     }
 
     /// Share of the frame's pixels traced so far, in [0, 1].
@@ -34,6 +36,12 @@ impl Progressive {
         let strip = self.group.min(s.height.saturating_sub(self.next_row));
         let done = self.next_row as u64 * s.width as u64 + self.next_column as u64 * strip as u64;
         (done as f64 / (s.width as u64 * s.height as u64).max(1) as f64).min(1.0) as f32
+    }
+
+    /// Seconds the frame still needs at the pace so far (None before any progress).
+    pub fn seconds_left(&self) -> Option<f64> {
+        let p = self.progress() as f64;
+        (p > 0.0).then(|| self.started.elapsed().as_secs_f64() * (1.0 - p) / p)
     }
 
     /// Take the next band of about `groups` work groups; `None` once the frame is done.

@@ -29,6 +29,7 @@ use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
+use crate::tracer::budget;
 use crate::tracer::frame::{FrameParams, RenderSettings};
 
 /// The picture of a view other than colour (cost heat map, depth, ...): its pixels (for
@@ -242,7 +243,8 @@ impl Tool {
             heat: self.heat.as_ref().and_then(|h| h.stats),
             view_note: self.heat.as_ref().and_then(|h| h.note.as_deref()),
             accumulated_frames: self.session.accumulation.frames,
-            progress: self.progressive.as_ref().map(Progressive::progress),
+            progress: self.progressive.as_ref().map(|p| (p.progress(), p.seconds_left())),
+            brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::tracer::Accel::Brute, ..settings }, triangles),
             screenshot_dir: dir_text,
             stats: &self.stats,
         };
