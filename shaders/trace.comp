@@ -88,11 +88,17 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
         if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
         vec3 ns = ng;
         TriangleShading sh = shading[hit.tri];
+        bool smooth_hit = false;
+        float side = 1.0;  // the corner normals flipped to the viewer's side
         if ((flags & FLAG_SMOOTH) != 0u) {
             vec3 interp = sh.n0.xyz * (1.0 - hit.u - hit.v) + sh.n1.xyz * hit.u + sh.n2.xyz * hit.v;
             if (dot(interp, interp) > 1e-12) {
                 ns = normalize(interp);
-                if (dot(ns, ng) < 0.0) ns = -ns;  // normals wound against the triangle
+                smooth_hit = true;
+                if (dot(ns, ng) < 0.0) {  // normals wound against the triangle
+                    ns = -ns;
+                    side = -1.0;
+                }
             }
         }
         Material mat = materials[floatBitsToUint(tri.v0.w)];
@@ -115,7 +121,11 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
             }
             kd *= sample_material_texture(mat, uv, lod).rgb;
         }
-        vec3 local_color = blinn_phong(kd, mat, p, ns, ng, -d);
+        vec3 l = normalize(frame.light_pos.xyz - p);
+        float scale = instances[hit.instance].translation_scale.w;
+        bool lit = light_reaches(l, ng, ns, smooth_hit, hit.u, hit.v, tri.e1.xyz, tri.e2.xyz,
+                                 sh.n0.xyz * side, sh.n1.xyz * side, sh.n2.xyz * side, p, scale);
+        vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
             uint prim = floatBitsToUint(tri.e1.w) + instances[hit.instance].offsets.w;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);

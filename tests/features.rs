@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 use meshtracer::gpu::ComputeTracer;
 use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
-use meshtracer::scene::{EnvironmentSource, Material};
+use meshtracer::scene::{Camera, EnvironmentSource, Instance, Material, PointLight, Scene};
 use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
 use meshtracer::tracer::{cpu, Aov, FrameParams, Image, PackedScene, RenderSettings};
 
@@ -38,6 +38,58 @@ fn smooth_shading_matches_cpu_and_hides_facets() {
     // smooth sphere's steepest honest gradient, at its rim, stays mostly below it.
     let (f, s) = (large_neighbour_steps(&flat, 0.1), large_neighbour_steps(&smooth, 0.1));
     assert!(s * 2 < f, "smooth shading should remove facet steps: flat {f}, smooth {s}");
+}
+
+/// Issue #15, the shadow terminator: a smooth sphere of 100 triangles lit from the side and
+/// a little from behind. Without Hanika's offset the light test sees the flat triangles, so
+/// the terminator runs along triangle edges in stair steps: rows jump from lit to ambient,
+/// and some get brighter again towards the dark side. With it, every row darkens smoothly.
+#[test]
+fn smooth_terminator_has_no_stair_steps() {
+    let mut sphere = uv_sphere(10, 6);
+    assert_eq!(sphere.triangles.len(), 100);
+    prepare_model(&mut sphere);
+    for m in &mut sphere.materials {
+        m.specular = Vec3::ZERO; // diffuse only: brightness follows N.L
+        m.mirror = 0.0;
+    }
+    let scene = Scene {
+        meshes: vec![sphere],
+        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        camera: Camera { position: Vec3::new(0.0, 0.0, 3.2), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 45.0 },
+        light: PointLight { position: Vec3::new(10.0, 4.0, -1.0), color: Vec3::ONE },
+        background: Vec3::ZERO,
+        ambient: 0.1,
+        environment: None,
+    };
+    let size = 128;
+    let (gpu, cpu) = render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(size) });
+    assert_close(&gpu, &cpu, "smooth sphere at the terminator");
+    for (tracer, img) in [("GPU", &gpu), ("CPU", &cpu)] {
+        // The criterion, on the red channel, for every pair of horizontal neighbours (x, x+1)
+        // at least 2 pixels inside the sphere's outline (the outline itself is an honest
+        // edge): going one pixel away from the light (right to left) brightness never
+        // increases by more than 1e-4, and never drops by more than 0.05 (a smooth N.L falls
+        // by at most ~0.02 per pixel here; the stair steps drop by up to 0.25).
+        let background = |x: u32, y: u32| img.get(x, y)[..3].iter().all(|&c| c < 1e-6);
+        let ambient = 0.85 * 0.1; // the model material's red, times the ambient
+        let mut rows_crossing = 0;
+        for y in 1..size - 1 {
+            let (mut lit, mut dark) = (false, false);
+            for x in 1..size - 2 {
+                if (x - 1..=x + 2).any(|xx| background(xx, y) || background(xx, y - 1) || background(xx, y + 1)) {
+                    continue;
+                }
+                let (here, towards_light) = (img.get(x, y)[0], img.get(x + 1, y)[0]);
+                assert!(here <= towards_light + 1e-4, "{tracer}: row {y} gets brighter away from the light at x = {x}: {towards_light} -> {here}");
+                assert!(towards_light - here <= 0.05, "{tracer}: row {y} steps down at x = {x}: {towards_light} -> {here}");
+                lit |= here > ambient + 0.2;
+                dark |= here < ambient + 1e-4;
+            }
+            rows_crossing += (lit && dark) as u32;
+        }
+        assert!(rows_crossing > 60, "{tracer}: the terminator crosses only {rows_crossing} rows");
+    }
 }
 
 fn checker_quad_scene(dir: &std::path::Path, cells: u32, distance: f32) -> meshtracer::scene::Scene {

@@ -9,7 +9,7 @@ use super::contract;
 use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
-use super::shading::{blinn_phong, reflect, ShadingMaterial};
+use super::shading::{blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
 use crate::bvh::{self, TraversalStats};
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
@@ -144,13 +144,19 @@ impl<'a> CpuScene<'a> {
             }
             let mut ns = ng;
             let w = 1.0 - hit.u - hit.v;
+            // The corner normals on the viewer's side, for the terminator offset.
+            let mut smooth = None;
             if s.smooth {
                 let interp = sh.normal(0) * w + sh.normal(1) * hit.u + sh.normal(2) * hit.v;
                 if interp.length_squared() > 1e-12 {
                     ns = interp.normalize();
+                    let mut side = 1.0;
                     if ns.dot(ng) < 0.0 {
                         ns = -ns;
+                        side = -1.0;
                     }
+                    let normals = [sh.normal(0) * side, sh.normal(1) * side, sh.normal(2) * side];
+                    smooth = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
                 }
             }
             let gm = &self.packed.materials[tri.material as usize];
@@ -171,7 +177,10 @@ impl<'a> CpuScene<'a> {
                 }
                 kd *= self.packed.textures.sample_with(gm.texture, uv, lod, gm.texture_clamps()).truncate();
             }
-            let local = blinn_phong(&mat, kd, p, ns, ng, -ray.dir, params.light_position, params.light_color, params.ambient);
+            let l = (params.light_position - p).normalize();
+            let scale = self.packed.instances[hit.instance as usize].scale;
+            let lit = light_reaches(l, ng, ns, smooth.as_ref(), p, params.light_position, scale);
+            let local = blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
                 let prim = (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
                 match s.aov {
