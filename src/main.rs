@@ -1,7 +1,5 @@
 //! The `meshtracer` binary: parse the command line, run, and turn any error into one line.
 
-use clap::Parser;
-
 use meshtracer::cli::{self, Cli, Command};
 
 fn main() {
@@ -14,7 +12,7 @@ fn main() {
         let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
         eprintln!("error: internal error: {msg}{at} (please report this)");
     }));
-    let cli = match Cli::try_parse() {
+    let cli = match Cli::try_parse_noting_flags() {
         Ok(cli) => cli,
         // --help and --version print as usual; a bad flag is one line, not a page.
         Err(e) if !e.use_stderr() => e.exit(),

@@ -37,6 +37,13 @@ fn scripted_run_writes_trace_and_window_screenshots() {
     assert_eq!(a.dimensions(), (128, 128));
     assert!(max_diff(&a, &reference) <= 1, "window trace differs from `render` by {}", max_diff(&a, &reference));
 
+    // Both carry the settings of the trace in their `meshtracer` text chunk.
+    for name in ["a.png", "b.png"] {
+        let text = meshtracer::tracer::image::png_settings(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
+        let text = text.unwrap_or_else(|| panic!("{name} has no settings chunk"));
+        assert!(text.contains("width = 128\nheight = 128\nbounces = 2\n"), "{name}: {text}");
+    }
+
     // The window screenshot: the window's size, the panel on the left, the image beside it.
     let b = load(&dir.path().join("b.png"));
     assert_eq!(b.dimensions(), (640, 480));
@@ -173,6 +180,9 @@ fn shading_features_in_the_window_match_render() {
     let flags: Vec<&str> = SCENE.iter().chain(features.iter()).copied().collect();
     let reference = headless_render(dir.path(), &flags, "ref.png");
     assert!(max_diff(&shot, &reference) <= 1, "window differs from `render` by {}", max_diff(&shot, &reference));
+    // The screenshot carries its settings: `render --preset` of it makes the same image.
+    let again = headless_render(dir.path(), &["--preset", "f.png"], "again.png");
+    assert!(max_diff(&shot, &again) <= 1, "`render --preset` of the screenshot differs by {}", max_diff(&shot, &again));
     // And the features are really on: the paper's flat, boxed render looks different.
     let paper = headless_render(dir.path(), &[&SCENE[..], &["--model", "sphere"]].concat(), "paper.png");
     assert!(max_diff(&shot, &paper) > 30, "the feature flags changed nothing");

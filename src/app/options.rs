@@ -10,6 +10,8 @@ use crate::scene::spec::SceneSpec;
 pub struct ViewOptions {
     /// The scene and frame settings to open on.
     pub(crate) spec: SceneSpec,
+    /// The preset `spec` came from (the panel lists it among the recent ones).
+    pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index; None picks the fastest kind present.
     pub(crate) device: Option<usize>,
     /// Quit after this many traced frames (scripts and tests); the light starts paused.

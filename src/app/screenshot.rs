@@ -76,15 +76,15 @@ pub fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
     path
 }
 
-/// Write `image` as PNG to `path` (through a temporary file, so a watcher never sees half a
-/// file). The error is one sentence.
-pub fn save_png(image: &RgbaImage, path: &Path) -> Result<(), String> {
+/// Write `image` as PNG to `path` with `settings` (`SceneSpec::to_preset_text`) in its
+/// `meshtracer` text chunk, through a temporary file, so a watcher never sees half a file.
+/// The error is one sentence.
+pub fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
-    let result = image
-        .save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| e.to_string())
+    let result = crate::tracer::image::save_png(image, Some(settings), &tmp)
+        .map_err(|e| e.root_cause().to_string())
         .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
@@ -109,9 +109,21 @@ mod tests {
     }
 
     #[test]
+    fn screenshots_carry_the_settings() {
+        let dir = std::env::temp_dir().join(format!("meshtracer-shot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("shot.png");
+        let spec = crate::scene::spec::SceneSpec::default();
+        save_png(&RgbaImage::new(3, 2), &spec.to_preset_text(), &path).unwrap();
+        let text = crate::tracer::image::png_settings(&std::fs::read(&path).unwrap()).unwrap().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(text, spec.to_preset_text());
+    }
+
+    #[test]
     fn writing_to_a_missing_folder_is_one_sentence() {
         let img = RgbaImage::new(2, 2);
-        let err = save_png(&img, Path::new("/nonexistent/folder/x.png")).unwrap_err();
+        let err = save_png(&img, "", Path::new("/nonexistent/folder/x.png")).unwrap_err();
         assert!(err.starts_with("could not write /nonexistent/folder/x.png"), "{err}");
         assert!(!err.contains('\n'));
     }

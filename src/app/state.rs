@@ -6,8 +6,8 @@ use winit::keyboard::KeyCode;
 
 pub use crate::gpu::present::PixelRect;
 use crate::scene::obj::LoadOptions;
-use crate::scene::paper::{LightOrbit, BOX_HALF_SIZE, MAX_MODELS};
-use crate::scene::spec::SceneSpec;
+use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
+use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::{Camera, EnvironmentSource};
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
 
@@ -237,6 +237,21 @@ impl Params {
     /// The light's position now.
     pub fn light_position(&self) -> Vec3 {
         self.light.position()
+    }
+
+    /// The scene spec of what is shown now (`model`, traced with `settings`): what the
+    /// screenshots carry as their preset, so `render --preset` repeats it.
+    pub fn scene_spec(&self, model: ModelSource, settings: RenderSettings) -> SceneSpec {
+        SceneSpec {
+            model,
+            load_options: self.load_options,
+            models: self.model_count,
+            mirror_box: self.mirror_box,
+            light: self.light,
+            camera: CameraSpec { eye: Some(self.camera.position), target: Some(self.camera.target), fov: Some(self.camera.vfov_deg), framed: false },
+            environment: self.environment.clone(),
+            settings,
+        }
     }
 }
 

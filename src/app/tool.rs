@@ -213,6 +213,16 @@ impl Tool {
         [self.image_area.width, self.image_area.height]
     }
 
+    /// The settings of the traced image, for the screenshots' text chunk.
+    fn settings_text(&self) -> String {
+        let mut settings = self.params.settings_for(self.area());
+        if let Some([width, height]) = self.gpu.tracer.resolution() {
+            (settings.width, settings.height) = (width, height);
+        }
+        let model = self.session.model.as_ref().map_or_else(Default::default, |m| m.source.clone());
+        self.params.scene_spec(model, settings).to_preset_text()
+    }
+
     fn name_parts(&self) -> NameParts {
         let [width, height] = self.gpu.tracer.resolution().unwrap_or_default();
         NameParts { model: self.session.model_label(), models: self.params.model_count, width, height, bounces: self.params.settings.bounces, blend: self.params.settings.blend }
@@ -422,7 +432,7 @@ impl Tool {
             if let Some(image) = outcome.window_image.as_ref().filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
                 let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
                 self.panel.screenshot_status = Some(match image {
-                    Ok(img) => to_status(screenshot::save_png(img, &path), &path),
+                    Ok(img) => to_status(screenshot::save_png(img, &self.settings_text(), &path), &path),
                     Err(e) => Status::error(e.clone()),
                 });
             }
@@ -448,7 +458,7 @@ impl Tool {
 
     fn save_trace(&self, path: &Path) -> Status {
         match self.read_trace() {
-            Ok(Some(img)) => to_status(screenshot::save_png(&img, path), path),
+            Ok(Some(img)) => to_status(screenshot::save_png(&img, &self.settings_text(), path), path),
             Ok(None) => Status::error("nothing traced yet: no screenshot written"),
             Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
         }
@@ -458,12 +468,12 @@ impl Tool {
     fn write_exit_files(&self, window_image: Option<Result<image::RgbaImage, String>>) -> anyhow::Result<()> {
         if let Some(path) = &self.script.screenshot {
             let img = self.read_trace()?.context("--screenshot: nothing was traced before exit")?;
-            screenshot::save_png(&img, path).map_err(anyhow::Error::msg)?;
+            screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
             println!("wrote {}", path.display());
         }
         if let Some(path) = &self.script.screenshot_ui {
             let img = window_image.context("--screenshot-ui: the window was not drawn at exit (minimized?)")?.map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
-            screenshot::save_png(&img, path).map_err(anyhow::Error::msg)?;
+            screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
             println!("wrote {}", path.display());
         }
         Ok(())

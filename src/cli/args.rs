@@ -1,14 +1,17 @@
 //! Flags shared by `view`, `render` and `bench`, with their ranges.
 
+use std::collections::HashSet;
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 
 use crate::scene::obj::LoadOptions;
-use crate::scene::paper::{LightOrbit, ModelSource, MAX_MODELS};
-use crate::scene::spec::{CameraSpec, SceneSpec};
+use crate::scene::paper::{ModelSource, MAX_MODELS};
+use crate::scene::preset::{self, Loaded};
+use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+use crate::tracer::frame::{Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -109,6 +112,13 @@ pub(crate) struct SceneArgs {
     /// Vertical field of view in degrees.
     #[arg(long, value_parser = parse_fov)]
     pub fov: Option<f32>,
+    /// Start from a preset: a TOML preset file, or a PNG this program wrote (it carries
+    /// its preset). Flags given beside it override it.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) preset: Option<PathBuf>,
+    /// The flags given on the command line (clap's ids); None: all of them count as given.
+    #[arg(skip)]
+    pub(crate) given: Option<HashSet<String>>,
 }
 
 fn parse_crease_angle(s: &str) -> Result<f32, String> {
@@ -128,28 +138,122 @@ fn parse_fov(s: &str) -> Result<f32, String> {
 impl SceneArgs {
     /// The scene spec these flags describe, writing `aov`.
     pub(crate) fn spec(&self, aov: Aov) -> SceneSpec {
-        SceneSpec {
-            model: ModelSource::parse(&self.model),
-            load_options: LoadOptions { crease_angle: self.crease_angle },
-            models: self.models,
-            mirror_box: !self.no_box,
-            light: LightOrbit { angle_deg: self.light_angle, ..LightOrbit::default() },
-            camera: CameraSpec { eye: self.eye, target: self.target, fov: self.fov, framed: false },
-            environment: EnvironmentSource::parse(&self.env),
-            settings: RenderSettings {
-                width: self.width,
-                height: self.height,
-                bounces: self.bounces,
-                blend: self.blend,
-                accel: self.accel,
-                aov,
-                smooth: self.smooth,
-                textures: !self.no_textures,
-                spp: self.spp,
-                adaptive: self.adaptive,
-            },
+        let mut spec = SceneSpec::default();
+        self.apply_to(&mut spec, |_| true);
+        spec.settings.aov = aov;
+        spec
+    }
+
+    /// Whether flag `id` (clap's id: the field name) was given on the command line.
+    pub(crate) fn given(&self, id: &str) -> bool {
+        self.given.as_ref().is_none_or(|g| g.contains(id))
+    }
+
+    /// The scene spec to use: the `--preset` (if any) with the flags given beside it over
+    /// it, writing `aov` (over a preset only if `aov_given`); and the preset's warnings.
+    pub(crate) fn resolve(&self, aov: Aov, aov_given: bool) -> anyhow::Result<(SceneSpec, Vec<String>)> {
+        let Some(path) = &self.preset else {
+            return Ok((self.spec(aov), Vec::new()));
+        };
+        let Loaded { mut spec, warnings } = preset::read(path).map_err(anyhow::Error::msg)?;
+        self.apply_to(&mut spec, |id| self.given(id));
+        if aov_given {
+            spec.settings.aov = aov;
+        }
+        Ok((spec, warnings))
+    }
+
+    /// Set the parts of `spec` whose flags `given` names (by field name, as clap's ids),
+    /// leaving the rest: flags over a `--preset`.
+    pub(crate) fn apply_to(&self, spec: &mut SceneSpec, given: impl Fn(&str) -> bool) {
+        let s = &mut spec.settings;
+        if given("model") {
+            spec.model = ModelSource::parse(&self.model);
+        }
+        if given("crease_angle") {
+            spec.load_options = LoadOptions { crease_angle: self.crease_angle };
+        }
+        if given("models") {
+            spec.models = self.models;
+        }
+        if given("width") {
+            s.width = self.width;
+        }
+        if given("height") {
+            s.height = self.height;
+        }
+        if given("bounces") {
+            s.bounces = self.bounces;
+        }
+        if given("blend") {
+            s.blend = self.blend;
+        }
+        if given("light_angle") {
+            spec.light.angle_deg = self.light_angle;
+        }
+        if given("accel") {
+            s.accel = self.accel;
+        }
+        if given("smooth") {
+            s.smooth = self.smooth;
+        }
+        if given("no_textures") {
+            s.textures = !self.no_textures;
+        }
+        if given("env") {
+            spec.environment = EnvironmentSource::parse(&self.env);
+        }
+        if given("spp") {
+            s.spp = self.spp;
+        }
+        if given("adaptive") {
+            s.adaptive = self.adaptive;
+        }
+        if given("no_box") {
+            spec.mirror_box = !self.no_box;
+        }
+        if given("eye") {
+            spec.camera.eye = self.eye;
+        }
+        if given("target") {
+            spec.camera.target = self.target;
+        }
+        if given("fov") {
+            spec.camera.fov = self.fov;
         }
     }
+}
+
+impl Cli {
+    /// Parse the process's command line like [`Parser::try_parse`], noting which flags
+    /// were given on it (they override a `--preset`; the others do not).
+    pub fn try_parse_noting_flags() -> Result<Self, clap::Error> {
+        Self::try_parse_from_noting_flags(std::env::args_os())
+    }
+
+    /// [`Cli::try_parse_noting_flags`] over `args` (the program name first).
+    pub fn try_parse_from_noting_flags<I, T>(args: I) -> Result<Self, clap::Error>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<std::ffi::OsString> + Clone,
+    {
+        let matches = Self::command().try_get_matches_from(args)?;
+        let mut cli = Self::from_arg_matches(&matches)?;
+        let sub = matches.subcommand().map(|(_, m)| given_flags(m));
+        match &mut cli.command {
+            Some(Command::Render(args)) => args.scene.given = sub,
+            Some(Command::View(args)) => args.scene.given = sub,
+            Some(Command::Bench(args)) => args.given = sub,
+            Some(Command::Devices) => {}
+            None => cli.view.scene.given = Some(given_flags(&matches)),
+        }
+        Ok(cli)
+    }
+}
+
+/// The ids of the arguments given on the command line (not defaults).
+fn given_flags(matches: &ArgMatches) -> HashSet<String> {
+    matches.ids().filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine)).map(|id| id.to_string()).collect()
 }
 
 /// `meshtracer view`.
@@ -181,8 +285,13 @@ impl ViewArgs {
     /// The tool's options: the CLI sits on top of the app, not the other way round.
     pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
         let window = crate::app::parse_window_size(&self.window).map_err(anyhow::Error::msg)?;
+        let (spec, warnings) = self.scene.resolve(Aov::Color, true)?;
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
         Ok(crate::app::ViewOptions {
-            spec: self.scene.spec(Aov::Color),
+            spec,
+            preset: self.scene.preset.clone(),
             device: self.scene.device,
             frames: self.frames,
             screenshot: self.screenshot.clone(),
@@ -202,16 +311,25 @@ pub struct RenderArgs {
     /// Trace on the CPU reference tracer instead of the GPU.
     #[arg(long)]
     pub(crate) cpu: bool,
-    /// What to write: color (PNG), or depth, normal, prim-id, cost, samples (32-bit float
-    /// OpenEXR; cost and samples also as a heat-map PNG).
+    /// What to write: color (PNG, JPEG or EXR), or depth, normal, prim-id, cost, samples
+    /// (32-bit float OpenEXR; cost and samples also as a heat-map PNG or JPEG).
     #[arg(long, default_value = "color")]
     pub(crate) aov: Aov,
-    /// Output file (.png for color, .exr for the other AOVs).
+    /// Output file: .png (carrying its preset in a text chunk), .jpg/.jpeg, or .exr (32-bit
+    /// float; the AOVs; depth as a single channel Z).
     #[arg(short, long)]
     pub(crate) output: PathBuf,
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub(crate) validation: bool,
+}
+
+impl RenderArgs {
+    /// The scene spec to render: the `--preset` (if any) with the flags given beside it,
+    /// and the preset's warnings.
+    pub fn spec(&self) -> anyhow::Result<(SceneSpec, Vec<String>)> {
+        self.scene.resolve(self.aov, self.scene.given("aov"))
+    }
 }
 
 #[cfg(test)]

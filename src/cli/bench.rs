@@ -1,15 +1,18 @@
 //! `meshtracer bench`: the paper's tables and the scaling series, printed, and written as
 //! JSON/CSV.
 
-use std::path::PathBuf;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 
 use crate::bench::report::{self, Report};
-use crate::bench::{self, charts, paper_tables, RunOptions};
+use crate::bench::{self, charts, paper_tables, Case, RunOptions};
 use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
-use crate::tracer::Accel;
+use crate::scene::preset::{self, Loaded};
+use crate::scene::spec::SceneSpec;
+use crate::tracer::{Accel, Aov, RenderSettings};
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]
@@ -65,6 +68,11 @@ pub struct BenchArgs {
     /// (with --charts DIR).
     #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "json", "csv"])]
     pub(crate) charts_from: Vec<PathBuf>,
+    /// Benchmark exactly this preset (a TOML preset or a PNG this program wrote), one row
+    /// per --accel given (else the preset's); --size and --bounces given beside it
+    /// override it.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["paper", "scaling", "features", "framed", "charts_from"])]
+    pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
     pub(crate) device: Option<usize>,
@@ -74,6 +82,56 @@ pub struct BenchArgs {
     /// Print where each scene buffer's memory lives (memory flags, dedicated or not).
     #[arg(long)]
     pub(crate) verbose: bool,
+    /// The flags given on the command line (clap's ids); None: all of them count as given.
+    #[arg(skip)]
+    pub(crate) given: Option<HashSet<String>>,
+}
+
+impl BenchArgs {
+    /// Whether flag `id` was given on the command line.
+    pub(crate) fn given(&self, id: &str) -> bool {
+        self.given.as_ref().is_none_or(|g| g.contains(id))
+    }
+
+    /// The rows of `--preset`: the preset as it is, with --size, --bounces and --accel
+    /// given beside it over it; and the preset's warnings.
+    pub(crate) fn preset_cases(&self, path: &Path) -> anyhow::Result<(Vec<Case>, Vec<String>)> {
+        let Loaded { mut spec, warnings } = preset::read(path).map_err(anyhow::Error::msg)?;
+        // Frames are timed as colour, as the other rows are.
+        spec.settings.aov = Aov::Color;
+        if self.given("size") {
+            (spec.settings.width, spec.settings.height) = (self.size, self.size);
+        }
+        if self.given("bounces") {
+            spec.settings.bounces = self.bounces;
+        }
+        spec.validate().map_err(|e| anyhow::anyhow!("preset {}: {e}", path.display()))?;
+        let accels = if self.given("accel") { self.accel.clone() } else { vec![spec.settings.accel] };
+        let cases = accels
+            .into_iter()
+            .map(|accel| Case { series: "preset".into(), spec: SceneSpec { settings: RenderSettings { accel, ..spec.settings }, ..spec.clone() }, generated: None, paper: None, features: features_label(&spec) })
+            .collect();
+        Ok((cases, warnings))
+    }
+}
+
+/// The shading features a preset switches on, named as the feature series names them.
+fn features_label(spec: &SceneSpec) -> String {
+    let s = &spec.settings;
+    let mut on = Vec::new();
+    if s.smooth {
+        on.push("smooth".to_string());
+    }
+    if spec.environment.is_some() {
+        on.push("env".into());
+    }
+    if s.spp > 1 {
+        on.push(format!("{} {}", if s.adaptive { "adaptive" } else { "spp" }, s.spp));
+    }
+    if !spec.mirror_box {
+        on.push("no box".into());
+    }
+    on.join(", ")
 }
 
 /// Run the benchmark.
@@ -83,7 +141,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
-    if args.paper || !(args.scaling || args.features || args.framed) {
+    if let Some(path) = &args.preset {
+        let (preset_cases, warnings) = args.preset_cases(path)?;
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        cases.extend(preset_cases);
+    } else if args.paper || !(args.scaling || args.features || args.framed) {
         cases.extend(paper_tables::paper_cases(&args.resolutions, &args.accel));
     }
     if args.scaling {

@@ -1,25 +1,33 @@
-//! `meshtracer render`: one frame, headless, to a PNG or EXR.
+//! `meshtracer render`: one frame, headless, to a PNG (carrying its preset in a text chunk),
+//! JPEG or EXR.
 
 use std::io::IsTerminal;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 
 use super::args::RenderArgs;
 use crate::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use crate::tracer::heat_map::heat_map;
+use crate::tracer::image::{save_jpeg, save_png, OutputFormat};
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
-    let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    // Colour is PNG; every AOV is float EXR; cost and samples may also be a heat-map PNG.
-    let heat_png = !is_exr && matches!(args.aov, Aov::Cost | Aov::Samples);
-    if !is_exr && !heat_png && args.aov != Aov::Color {
-        bail!("the {} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr", args.aov);
+    let format = OutputFormat::from_path(&args.output).map_err(anyhow::Error::msg)?;
+    let (spec, preset_warnings) = args.spec()?;
+    for w in &preset_warnings {
+        eprintln!("warning: {w}");
     }
-    let spec = args.scene.spec(args.aov);
+    let aov = spec.settings.aov;
+    // Colour is PNG, JPEG or EXR; every AOV is float EXR; cost and samples may also be a
+    // heat map (PNG or JPEG).
+    let heat_map_image = format != OutputFormat::Exr && matches!(aov, Aov::Cost | Aov::Samples);
+    if format != OutputFormat::Exr && !heat_map_image && aov != Aov::Color {
+        bail!("the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr");
+    }
     spec.validate().map_err(anyhow::Error::msg)?;
     let settings = spec.settings;
+    let preset_text = spec.to_preset_text();
     let source = &spec.model;
     // Progress on a terminal's stderr: big meshes take seconds to load and to build their
     // BVH. Scripts reading stderr get only warnings and the one-line error.
@@ -57,18 +65,20 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
         (image, format!("{}, {gpu}", ctx.info.name))
     };
-    if heat_png {
+    if heat_map_image {
         // Cost: nodes visited with the BVH, triangles tested with brute force.
-        let channel = usize::from(args.aov == Aov::Cost && settings.accel == crate::tracer::Accel::Brute);
+        let channel = usize::from(aov == Aov::Cost && settings.accel == crate::tracer::Accel::Brute);
         let values: Vec<f32> = image.pixels.iter().map(|p| p[channel]).collect();
         let map = heat_map(&values);
-        image::RgbaImage::from_raw(image.width, image.height, map.rgba)
-            .expect("size matches")
-            .save(&args.output)
-            .with_context(|| format!("cannot write {}", args.output.display()))?;
+        let rgba = image::RgbaImage::from_raw(image.width, image.height, map.rgba).expect("size matches");
+        if format == OutputFormat::Jpeg {
+            save_jpeg(&rgba, &args.output)?;
+        } else {
+            save_png(&rgba, Some(&preset_text), &args.output)?;
+        }
         println!("heat map scale: 0 (black) to {:.0} (pale yellow, the 99th percentile); max {:.0}, mean {:.1}", map.scale_max, map.max, map.mean);
     } else {
-        image.save(&args.output)?;
+        image.save(&args.output, aov, Some(&preset_text))?;
     }
     println!(
         "wrote {} ({}x{}, {} x{}, {} triangles, {} bounces, {}; {how})",

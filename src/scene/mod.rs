@@ -4,8 +4,9 @@
 pub mod camera;
 pub mod obj;
 pub mod paper;
+pub mod preset;
 pub mod primitives;
-pub(crate) mod spec;
+pub mod spec;
 
 use std::path::PathBuf;
 

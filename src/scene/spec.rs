@@ -12,7 +12,7 @@ use crate::tracer::frame::RenderSettings;
 
 /// Where the camera is: the scene's default view with optional overrides, or framed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct CameraSpec {
+pub struct CameraSpec {
     /// Camera position (the model sits at the origin with radius 1, the box reaches ±4).
     pub eye: Option<Vec3>,
     /// Point the camera looks at.
@@ -47,11 +47,19 @@ impl CameraSpec {
     pub(crate) fn camera(&self) -> Camera {
         self.apply(default_camera())
     }
+
+    /// The same camera with every value spelled out (eye, target and field of view, the
+    /// framing already applied to the eye).
+    #[cfg(test)]
+    pub(crate) fn resolved(&self) -> CameraSpec {
+        let c = self.camera();
+        CameraSpec { eye: Some(c.position), target: Some(c.target), fov: Some(c.vfov_deg), framed: false }
+    }
 }
 
 /// Everything that decides one traced image, apart from the device it runs on.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct SceneSpec {
+pub struct SceneSpec {
     /// The model: one of the paper's, a generated knot, or an .obj file.
     pub model: ModelSource,
     /// How an .obj model is read where the file leaves it open (`--crease-angle`).
@@ -115,6 +123,12 @@ impl SceneSpec {
         scene.camera = self.camera.camera();
         scene.environment = self.environment.clone();
         scene
+    }
+
+    /// This spec as preset text (see [`super::preset`]): what preset files hold and the
+    /// PNGs the program writes carry.
+    pub fn to_preset_text(&self) -> String {
+        super::preset::to_text(self)
     }
 
     /// Load (or generate) the model and build the scene; the loader's warnings are returned.

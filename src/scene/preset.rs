@@ -1,0 +1,460 @@
+//! Presets: everything that decides an image (model and copies, resolution, bounces, blend,
+//! acceleration, shading, environment, light, camera) as one human-readable TOML file with
+//! a format version. The PNGs the program writes carry exactly this text in their
+//! `meshtracer` chunk, so a PNG is a preset too.
+//!
+//! Reading is strict about values and lenient about form: keys left out keep the paper's
+//! defaults, unknown keys are reported as warnings (a typo must not pass unnoticed, nor
+//! stop a render), and a bad value is one line naming the key and the line.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::obj::LoadOptions;
+use super::paper::{LightOrbit, ModelSource, MAX_MODELS};
+use super::spec::{CameraSpec, SceneSpec};
+use super::EnvironmentSource;
+use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+
+/// The format version this build writes and reads (`version = 1`).
+pub(crate) const VERSION: u32 = 1;
+
+/// The first lines of every preset: what the file is and how to use it.
+const HEADER: &str = "# meshtracer preset: `meshtracer view|render|bench --preset THIS_FILE`; flags beside it\n\
+# override it. Keys left out keep their defaults; paths are relative to the working folder.\n";
+
+/// The file as serde sees it: one table per panel section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct File {
+    #[serde(deserialize_with = "de_version")]
+    version: u32,
+    model: ModelPart,
+    image: ImagePart,
+    tracing: TracingPart,
+    shading: ShadingPart,
+    light: LightPart,
+    camera: CameraPart,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct ModelPart {
+    /// `--model` spelling: a paper model, torusknot:N or an .obj path.
+    #[serde(serialize_with = "ser_model", deserialize_with = "de_model")]
+    source: ModelSource,
+    /// `--crease-angle`: written only when set (TOML has no "none").
+    #[serde(skip_serializing_if = "Option::is_none", deserialize_with = "de_crease_angle")]
+    crease_angle: Option<f32>,
+    #[serde(deserialize_with = "de_copies")]
+    copies: u32,
+    mirror_box: bool,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct ImagePart {
+    #[serde(deserialize_with = "de_side")]
+    width: u32,
+    #[serde(deserialize_with = "de_side")]
+    height: u32,
+    #[serde(serialize_with = "ser_display", deserialize_with = "de_from_str")]
+    aov: Aov,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct TracingPart {
+    #[serde(deserialize_with = "de_bounces")]
+    bounces: u32,
+    #[serde(deserialize_with = "de_blend")]
+    blend: f32,
+    #[serde(serialize_with = "ser_display", deserialize_with = "de_from_str")]
+    accel: Accel,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct ShadingPart {
+    smooth: bool,
+    textures: bool,
+    #[serde(deserialize_with = "de_spp")]
+    spp: u32,
+    adaptive: bool,
+    /// `--env` spelling: none, sky or an image path.
+    #[serde(serialize_with = "ser_env", deserialize_with = "de_env")]
+    environment: Option<EnvironmentSource>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct LightPart {
+    #[serde(deserialize_with = "de_finite")]
+    angle: f32,
+    #[serde(deserialize_with = "de_finite")]
+    radius: f32,
+    #[serde(deserialize_with = "de_finite")]
+    height: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+struct CameraPart {
+    #[serde(deserialize_with = "de_point")]
+    eye: [f32; 3],
+    #[serde(deserialize_with = "de_point")]
+    target: [f32; 3],
+    #[serde(deserialize_with = "de_fov")]
+    fov: f32,
+}
+
+impl File {
+    fn from_spec(spec: &SceneSpec) -> Self {
+        let s = &spec.settings;
+        // Written resolved: a framed or default camera becomes numbers that need no code
+        // of this version to mean the same view.
+        let camera = spec.camera.camera();
+        File {
+            version: VERSION,
+            model: ModelPart { source: spec.model.clone(), crease_angle: spec.load_options.crease_angle, copies: spec.models, mirror_box: spec.mirror_box },
+            image: ImagePart { width: s.width, height: s.height, aov: s.aov },
+            tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel },
+            shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, environment: spec.environment.clone() },
+            light: LightPart { angle: spec.light.angle_deg, radius: spec.light.radius, height: spec.light.height },
+            camera: CameraPart { eye: camera.position.to_array(), target: camera.target.to_array(), fov: camera.vfov_deg },
+        }
+    }
+
+    fn into_spec(self) -> SceneSpec {
+        let File { model, image, tracing, shading, light, camera, .. } = self;
+        SceneSpec {
+            model: model.source,
+            load_options: LoadOptions { crease_angle: model.crease_angle },
+            models: model.copies,
+            mirror_box: model.mirror_box,
+            light: LightOrbit { radius: light.radius, height: light.height, angle_deg: light.angle },
+            camera: CameraSpec { eye: Some(Vec3::from(camera.eye)), target: Some(Vec3::from(camera.target)), fov: Some(camera.fov), framed: false },
+            environment: shading.environment,
+            settings: RenderSettings {
+                width: image.width,
+                height: image.height,
+                bounces: tracing.bounces,
+                blend: tracing.blend,
+                accel: tracing.accel,
+                aov: image.aov,
+                smooth: shading.smooth,
+                textures: shading.textures,
+                spp: shading.spp,
+                adaptive: shading.adaptive,
+            },
+        }
+    }
+}
+
+// Each part's default is the default spec's, so a key left out means what the flag left
+// out means.
+impl Default for File {
+    fn default() -> Self {
+        File::from_spec(&SceneSpec::default())
+    }
+}
+
+macro_rules! default_from_file {
+    ($($part:ident: $ty:ty),+) => {
+        $(impl Default for $ty {
+            fn default() -> Self {
+                File::default().$part
+            }
+        })+
+    };
+}
+default_from_file!(model: ModelPart, image: ImagePart, tracing: TracingPart, shading: ShadingPart, light: LightPart, camera: CameraPart);
+
+fn ser_model<S: Serializer>(m: &ModelSource, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&model_arg(m))
+}
+
+fn ser_env<S: Serializer>(e: &Option<EnvironmentSource>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&env_arg(e))
+}
+
+fn ser_display<T: std::fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(v.to_string().trim())
+}
+
+fn de_from_str<'de, T: std::str::FromStr<Err = String>, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+    String::deserialize(d)?.parse().map_err(D::Error::custom)
+}
+
+fn de_model<'de, D: Deserializer<'de>>(d: D) -> Result<ModelSource, D::Error> {
+    let text = String::deserialize(d)?;
+    if text.trim().is_empty() {
+        return Err(D::Error::custom("no model given (a model name, torusknot:N or an .obj path)"));
+    }
+    let model = ModelSource::parse(text.trim());
+    model.check_name().map_err(D::Error::custom)?;
+    Ok(model)
+}
+
+fn de_env<'de, D: Deserializer<'de>>(d: D) -> Result<Option<EnvironmentSource>, D::Error> {
+    let text = String::deserialize(d)?;
+    if text.trim().is_empty() {
+        return Err(D::Error::custom("no environment given (none, sky or an image path)"));
+    }
+    Ok(EnvironmentSource::parse(text.trim()))
+}
+
+fn de_in_range<'de, D: Deserializer<'de>>(d: D, lo: u32, hi: u32) -> Result<u32, D::Error> {
+    let n = i64::deserialize(d)?;
+    if (lo as i64..=hi as i64).contains(&n) { Ok(n as u32) } else { Err(D::Error::custom(format!("{n} is out of range ({lo}..={hi})"))) }
+}
+
+fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    let v = i64::deserialize(d)?;
+    if v == VERSION as i64 { Ok(VERSION) } else { Err(D::Error::custom(format!("format version {v} is not one this meshtracer reads (it reads version {VERSION})"))) }
+}
+
+fn de_copies<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, 1, MAX_MODELS)
+}
+
+fn de_side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, 1, MAX_RESOLUTION)
+}
+
+fn de_bounces<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, 0, MAX_BOUNCES)
+}
+
+fn de_spp<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, 1, MAX_SPP)
+}
+
+fn de_crease_angle<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f32>, D::Error> {
+    let v = de_finite(d)?;
+    if (0.0..=180.0).contains(&v) { Ok(Some(v)) } else { Err(D::Error::custom(format!("{v} is out of range (0..=180 degrees)"))) }
+}
+
+fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    let v = f32::deserialize(d)?;
+    if v.is_finite() { Ok(v) } else { Err(D::Error::custom(format!("{v} is not a finite number"))) }
+}
+
+fn de_blend<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    let v = de_finite(d)?;
+    if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(D::Error::custom(format!("{v} is out of range (0..=1)"))) }
+}
+
+fn de_fov<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    let v = de_finite(d)?;
+    if v > 1.0 && v < 179.0 { Ok(v) } else { Err(D::Error::custom(format!("{v} is out of range (1..179 degrees)"))) }
+}
+
+fn de_point<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let v = Vec::<f32>::deserialize(d)?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        [_, _, _] => Err(D::Error::custom("the coordinates must be finite numbers")),
+        _ => Err(D::Error::custom(format!("expected [x, y, z], got {} number(s)", v.len()))),
+    }
+}
+
+/// The `--model` spelling of a model source (what [`ModelSource::parse`] reads back).
+fn model_arg(model: &ModelSource) -> String {
+    match model {
+        ModelSource::Paper(m) => m.name().to_string(),
+        ModelSource::Generated(n) => format!("torusknot:{n}"),
+        ModelSource::File(p) => p.display().to_string(),
+    }
+}
+
+/// The `--env` spelling of an environment (what [`EnvironmentSource::parse`] reads back).
+fn env_arg(env: &Option<EnvironmentSource>) -> String {
+    match env {
+        None => "none".into(),
+        Some(EnvironmentSource::Sky) => "sky".into(),
+        Some(EnvironmentSource::File(p)) => p.display().to_string(),
+    }
+}
+
+/// A preset that cannot be read: where (line from 1, dotted key) and what is wrong.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PresetError {
+    /// The line the problem is on, when the parser could tell.
+    pub line: Option<usize>,
+    /// The dotted key (`tracing.bounces`) whose value is wrong, when there is one.
+    pub key: Option<String>,
+    /// What is wrong, one sentence.
+    pub message: String,
+}
+
+impl std::fmt::Display for PresetError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.line, &self.key) {
+            (Some(line), Some(key)) => write!(f, "line {line}, key '{key}': {}", self.message),
+            (Some(line), None) => write!(f, "line {line}: {}", self.message),
+            (None, Some(key)) => write!(f, "key '{key}': {}", self.message),
+            (None, None) => write!(f, "{}", self.message),
+        }
+    }
+}
+
+impl std::error::Error for PresetError {}
+
+/// A key the format does not know (ignored), with its line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UnknownKey {
+    /// Dotted key, e.g. `image.colour`.
+    pub key: String,
+    /// Its line, from 1.
+    pub line: usize,
+}
+
+/// The preset text of `spec`: what preset files hold and PNGs carry.
+pub(crate) fn to_text(spec: &SceneSpec) -> String {
+    let body = toml::to_string(&File::from_spec(spec)).expect("a preset always serializes");
+    format!("{HEADER}{body}")
+}
+
+/// Read preset text: the spec (keys left out keep their defaults) and the keys that were
+/// not understood.
+pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError> {
+    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
+    let doc = toml::de::DeTable::parse(text).map_err(|e| {
+        let line = e.span().map(|s| line_of(s.start));
+        // A syntax error: the key is the line's text before its `=`, if it has one.
+        let key = line.and_then(|l| text.lines().nth(l - 1)).and_then(|l| l.split_once('=')).map(|(k, _)| k.trim().to_string()).filter(|k| !k.is_empty());
+        PresetError { line, key, message: first_line(e.message()) }
+    })?;
+    let file: File = toml::from_str(text).map_err(|e| {
+        let span = e.span();
+        PresetError { line: span.as_ref().map(|s| line_of(s.start)), key: span.and_then(|s| key_at(doc.get_ref(), &s)), message: first_line(e.message()) }
+    })?;
+    let spec = file.into_spec();
+    spec.validate().map_err(|message| {
+        let key = "camera.target";
+        PresetError { line: key_span(doc.get_ref(), key).map(|s| line_of(s.start)), key: Some(key.into()), message }
+    })?;
+    // Every key the format has: the default file with the optional keys set.
+    let mut all = File::default();
+    all.model.crease_angle = Some(0.0);
+    let known = toml::Table::try_from(all).expect("a preset always serializes");
+    let mut unknown = Vec::new();
+    unknown_keys(doc.get_ref(), &known, "", &mut |key, span| unknown.push(UnknownKey { key, line: line_of(span.start) }));
+    Ok((spec, unknown))
+}
+
+fn first_line(message: &str) -> String {
+    message.lines().next().unwrap_or("").trim().to_string()
+}
+
+fn join(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") }
+}
+
+/// The dotted key whose value (or name) holds `span`'s start: the innermost one. Tables
+/// are searched whatever their own span, which covers only a `[table]` header.
+fn key_at(table: &toml::de::DeTable, span: &Range<usize>) -> Option<String> {
+    for (key, value) in table.iter() {
+        if let toml::de::DeValue::Table(t) = value.get_ref() {
+            if let Some(inner) = key_at(t, span) {
+                return Some(join(key.get_ref(), &inner));
+            }
+        }
+        if key.span().contains(&span.start) || value.span().contains(&span.start) {
+            return Some(key.get_ref().to_string());
+        }
+    }
+    None
+}
+
+/// The span of dotted `key`'s value, if the document has it.
+fn key_span(table: &toml::de::DeTable, key: &str) -> Option<Range<usize>> {
+    let (head, rest) = key.split_once('.').map_or((key, None), |(h, r)| (h, Some(r)));
+    let (_, value) = table.iter().find(|(k, _)| k.get_ref() == head)?;
+    match (rest, value.get_ref()) {
+        (None, _) => Some(value.span()),
+        (Some(rest), toml::de::DeValue::Table(t)) => key_span(t, rest),
+        _ => None,
+    }
+}
+
+/// Call `found` for each key of `doc` that `known` (the serialized default) lacks.
+fn unknown_keys(doc: &toml::de::DeTable, known: &toml::Table, prefix: &str, found: &mut impl FnMut(String, Range<usize>)) {
+    for (key, value) in doc.iter() {
+        let name = key.get_ref();
+        match (known.get(&**name), value.get_ref()) {
+            (None, _) => found(join(prefix, name), key.span()),
+            (Some(toml::Value::Table(k)), toml::de::DeValue::Table(t)) => unknown_keys(t, k, &join(prefix, name), found),
+            _ => {}
+        }
+    }
+}
+
+/// A preset read from a file: the spec and warnings for keys that were ignored.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub spec: SceneSpec,
+    /// One sentence per unknown key, naming the file, the key and the line.
+    pub warnings: Vec<String>,
+}
+
+/// Read a preset file: TOML, or a PNG this program wrote (its `meshtracer` chunk). The
+/// error is one line naming the file (and the key and the line, for a bad value).
+pub fn read(path: &Path) -> Result<Loaded, String> {
+    let shown = path.display();
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the preset {shown}: {e}"))?;
+    let text = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        match crate::tracer::image::png_settings(&bytes) {
+            Ok(Some(text)) => text,
+            Ok(None) => return Err(format!("preset {shown}: the PNG has no meshtracer settings (only PNGs this program wrote carry them)")),
+            Err(e) => return Err(format!("preset {shown}: not a readable PNG: {e}")),
+        }
+    } else {
+        String::from_utf8(bytes).map_err(|_| format!("preset {shown}: neither a PNG nor a TOML text file"))?
+    };
+    let (spec, unknown) = from_text(&text).map_err(|e| format!("preset {shown}: {e}"))?;
+    let warnings = unknown.iter().map(|u| format!("preset {shown}: unknown key '{}' on line {} is ignored", u.key, u.line)).collect();
+    Ok(Loaded { spec, warnings })
+}
+
+/// Why a preset was not saved.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SaveError {
+    /// The file exists and overwriting was not asked for: ask the user first.
+    Exists(PathBuf),
+    /// Writing failed; one sentence naming the file.
+    Io(String),
+}
+
+impl std::fmt::Display for SaveError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SaveError::Exists(p) => write!(f, "{} exists already", p.display()),
+            SaveError::Io(e) => f.write_str(e),
+        }
+    }
+}
+
+/// Write `spec` as a preset to `path`: into a temporary file beside it, then renamed, so
+/// a reader never sees half a preset. An existing file is replaced only with `overwrite`.
+pub fn save(spec: &SceneSpec, path: &Path, overwrite: bool) -> Result<(), SaveError> {
+    if !overwrite && path.exists() {
+        return Err(SaveError::Exists(path.to_path_buf()));
+    }
+    let name = path.file_name().map_or_else(|| "preset".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = std::fs::write(&tmp, to_text(spec)).and_then(|()| std::fs::rename(&tmp, path));
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        SaveError::Io(format!("could not write the preset {}: {e}", path.display()))
+    })
+}
+
+#[cfg(test)]
+#[path = "preset_tests.rs"]
+mod tests;
