@@ -37,11 +37,12 @@ fn scripted_run_writes_trace_and_window_screenshots() {
     assert_eq!(a.dimensions(), (128, 128));
     assert!(max_diff(&a, &reference) <= 1, "window trace differs from `render` by {}", max_diff(&a, &reference));
 
-    // Both carry the settings of the trace in their `meshtracer` text chunk.
+    // Both carry the preset of the trace in their `meshtracer` text chunk.
     for name in ["a.png", "b.png"] {
         let text = meshtracer::tracer::image::png_settings(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
         let text = text.unwrap_or_else(|| panic!("{name} has no settings chunk"));
-        assert!(text.contains("width = 128\nheight = 128\nbounces = 2\n"), "{name}: {text}");
+        let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
+        assert_eq!((spec.settings.width, spec.settings.height, spec.settings.bounces), (128, 128, 2), "{name}: {text}");
     }
 
     // The window screenshot: the window's size, the panel on the left, the image beside it.
@@ -316,4 +317,24 @@ fn a_long_model_name_leaves_the_panel_width_alone() {
     // A few pixels come and go with the width of the frame-time numbers; a panel widened
     // by the name reaches half the window.
     assert!(long.abs_diff(short) <= 16, "the panel ends at x = {long} with a long model name, {short} without");
+}
+
+#[test]
+fn view_preset_with_a_flag_over_it_matches_render() {
+    // A look from a preset file, one flag beside it: the window traces what `render` does.
+    let x = Xvfb::start();
+    let dir = TempDir::new("preset");
+    let look = "version = 1\n[image]\nwidth = 128\nheight = 96\n[tracing]\nbounces = 1\n[shading]\nsmooth = true\n[light]\nangle = 200.0\n[camera]\neye = [1.5, 1.0, 3.0]\n";
+    std::fs::write(dir.path().join("look.toml"), look).unwrap();
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(["--preset", "look.toml", "--bounces", "3", "--window", "640x480", "--frames", "3", "--screenshot", "s.png", "--no-hud"]);
+    let out = spawn(cmd).wait(Duration::from_secs(180));
+    assert_clean_exit(&out);
+    let shot = load(&dir.path().join("s.png"));
+    assert_eq!(shot.dimensions(), (128, 96));
+    let reference = headless_render(dir.path(), &["--preset", "look.toml", "--bounces", "3"], "ref.png");
+    assert!(max_diff(&shot, &reference) <= 1, "window differs from `render --preset` by {}", max_diff(&shot, &reference));
+    let text = meshtracer::tracer::image::png_settings(&std::fs::read(dir.path().join("s.png")).unwrap()).unwrap().expect("the screenshot carries its preset");
+    let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
+    assert_eq!((spec.settings.bounces, spec.settings.smooth, spec.light.angle_deg), (3, true, 200.0));
 }

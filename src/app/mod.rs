@@ -6,7 +6,8 @@
 //!   `input` (mouse and keys), `session` (model, loader, what the tracer holds) and
 //!   `script` (`--frames` runs and exiting);
 //! - `state`: the parameters and the keyboard shortcuts;
-//! - `panel`: the egui panel (`camera_panel`: its camera section); `frame_stats`: the frame-time history it plots;
+//! - `panel`: the egui panel (`camera_panel`: its camera section; `presets_panel`: its
+//!   Presets section, save, load, recent); `frame_stats`: the frame-time history it plots;
 //! - `model_loader`: loading .obj files on a worker thread;
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
@@ -25,6 +26,7 @@ pub(crate) mod input;
 pub(crate) mod model_loader;
 pub(crate) mod options;
 pub(crate) mod panel;
+pub(crate) mod presets_panel;
 pub(crate) mod progressive;
 pub(crate) mod screenshot;
 pub(crate) mod script;

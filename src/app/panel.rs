@@ -1,10 +1,13 @@
 //! The egui side panel: every control in a collapsible section (later issues add sections
 //! without crowding), the live frame-time graph and the status lines.
 
+use std::path::PathBuf;
+
 use egui::{Color32, RichText, Sense, Shape, Stroke, Ui};
 
 use super::camera_panel::{camera_section, CameraFields};
 use super::cost_view::heat_color;
+use super::presets_panel::{presets_section, PresetPanel};
 use super::frame_stats::{mrays_per_second, FrameStats, Series, Summary, HISTORY_SECONDS};
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
@@ -26,6 +29,10 @@ pub enum PanelAction {
     LoadModel(ModelSource),
     ScreenshotTrace,
     ScreenshotWindow,
+    /// Save the current look as a preset; replace an existing file only with `overwrite`.
+    SavePreset { path: PathBuf, overwrite: bool },
+    /// Take the look of a preset file (or of a PNG the program wrote).
+    LoadPreset(PathBuf),
 }
 
 /// A status line: text and whether it reports a failure.
@@ -61,6 +68,8 @@ pub struct PanelState {
     pub hovering_file: bool,
     /// The camera section's typed eye and target.
     pub camera: CameraFields,
+    /// The Presets section.
+    pub presets: PresetPanel,
 }
 
 /// Read-only facts the panel shows.
@@ -113,6 +122,7 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         camera_section(ui, params, &mut state.camera);
         display_section(ui, params, info);
         screenshot_section(ui, state, info, &mut actions);
+        presets_section(ui, &mut state.presets, &mut actions);
         egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
             egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
                 for (key, what) in SHORTCUTS {
@@ -450,6 +460,7 @@ fn duration(s: f64) -> String {
     if s < 90.0 { format!("{s:.0} s") } else { format!("{:.0} min", s / 60.0) }
 }
 
+/// A status line, red for a failure, wrapped to the panel's width.
 pub(crate) fn status_line(ui: &mut Ui, s: &Status) {
     let text = RichText::new(&s.text).small();
     ui.add(egui::Label::new(if s.error { text.color(ERROR_COLOR) } else { text }).wrap());

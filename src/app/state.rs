@@ -239,6 +239,29 @@ impl Params {
         self.light.position()
     }
 
+    /// Take the look a preset holds (everything but the model, which the tool loads):
+    /// resolution, shading, copies, load options, box, environment, light, and camera,
+    /// which also becomes where R returns. The light is paused at the preset's angle, as
+    /// it was saved; what a preset does not hold (view, vsync, panel, light speed) stays.
+    pub fn apply_preset(&mut self, spec: &SceneSpec) {
+        let fresh = Params::new(spec, true);
+        self.resolution = fresh.resolution;
+        self.custom = fresh.custom;
+        self.settings = fresh.settings;
+        self.model_count = fresh.model_count;
+        self.load_options = fresh.load_options;
+        self.light = fresh.light;
+        self.light_paused = true;
+        self.camera = fresh.camera;
+        self.home_camera = fresh.home_camera;
+        self.environment = fresh.environment;
+        if fresh.environment_file.is_some() {
+            self.environment_file = fresh.environment_file;
+        }
+        self.mirror_box = fresh.mirror_box;
+        self.fit_cost_metric();
+    }
+
     /// The scene spec of what is shown now (`model`, traced with `settings`): what the
     /// screenshots carry as their preset, so `render --preset` repeats it.
     pub fn scene_spec(&self, model: ModelSource, settings: RenderSettings) -> SceneSpec {
@@ -440,6 +463,28 @@ mod tests {
         assert_eq!(p.view, ViewMode::Cost(CostMetric::Nodes));
         p.apply_key(KeyCode::KeyA, false, false, &mut prev);
         assert_eq!(p.view, ViewMode::Cost(CostMetric::Triangles), "nodes are all zero without a BVH");
+    }
+
+    #[test]
+    fn a_loaded_preset_saves_as_itself() {
+        let spec = SceneSpec {
+            models: 3,
+            mirror_box: false,
+            light: LightOrbit { angle_deg: 99.0, radius: 1.5, height: -0.5 },
+            camera: CameraSpec { eye: Some(Vec3::new(1.0, 2.0, 3.0)), target: Some(Vec3::new(0.0, 0.5, 0.0)), fov: Some(35.0), framed: false },
+            environment: Some(EnvironmentSource::Sky),
+            settings: RenderSettings { width: 320, height: 200, bounces: 4, blend: 0.7, accel: Accel::Brute, smooth: true, spp: 8, adaptive: true, textures: false, ..Default::default() },
+            ..SceneSpec::default()
+        };
+        let mut p = params(|_| {});
+        p.vsync = false;
+        p.apply_preset(&spec);
+        assert!(p.light_paused && !p.vsync, "the light stops at the preset's angle; the display stays");
+        let saved = p.scene_spec(spec.model.clone(), p.settings_for([800, 600]));
+        assert_eq!(saved, spec);
+        p.camera.position = Vec3::ONE;
+        p.reset_camera();
+        assert_eq!(p.camera.position, Vec3::new(1.0, 2.0, 3.0), "R returns to the preset's camera");
     }
 
     #[test]

@@ -29,6 +29,8 @@ use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
+use crate::scene::preset::{self, Loaded, SaveError};
+use crate::scene::spec::SceneSpec;
 use crate::tracer::budget;
 use crate::tracer::frame::{FrameParams, RenderSettings};
 
@@ -124,6 +126,9 @@ impl Tool {
 
         let mut session = Session::default();
         let mut panel = PanelState::default();
+        if let Some(path) = &options.preset {
+            panel.presets.used(path);
+        }
         session.start_load(options.spec.model.clone(), &params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
         Ok(Self {
@@ -213,14 +218,57 @@ impl Tool {
         [self.image_area.width, self.image_area.height]
     }
 
-    /// The settings of the traced image, for the screenshots' text chunk.
-    fn settings_text(&self) -> String {
+    /// The spec of the traced image (its resolution as traced): what presets save.
+    fn scene_spec(&self) -> SceneSpec {
         let mut settings = self.params.settings_for(self.area());
         if let Some([width, height]) = self.gpu.tracer.resolution() {
             (settings.width, settings.height) = (width, height);
         }
         let model = self.session.model.as_ref().map_or_else(Default::default, |m| m.source.clone());
-        self.params.scene_spec(model, settings).to_preset_text()
+        self.params.scene_spec(model, settings)
+    }
+
+    /// The preset of the traced image, for the screenshots' text chunk.
+    fn settings_text(&self) -> String {
+        self.scene_spec().to_preset_text()
+    }
+
+    /// Save the look as a preset; an existing file is replaced only once the user agreed.
+    fn save_preset(&mut self, path: &Path, overwrite: bool) {
+        let result = preset::save(&self.scene_spec(), path, overwrite);
+        let presets = &mut self.panel.presets;
+        presets.warnings.clear();
+        match result {
+            Ok(()) => {
+                presets.status = Some(Status::ok(format!("saved {}", path.display())));
+                presets.used(path);
+            }
+            Err(SaveError::Exists(p)) => {
+                presets.status = None;
+                presets.confirm = Some(p);
+            }
+            Err(e) => presets.status = Some(Status::error(e.to_string())),
+        }
+    }
+
+    /// Take the look of a preset file; a model other than the one shown is loaded.
+    fn load_preset(&mut self, path: &Path) {
+        match preset::read(path) {
+            Ok(Loaded { spec, warnings }) => {
+                let options = self.params.load_options;
+                self.params.apply_preset(&spec);
+                // Another model, or the same read another way (--crease-angle): load it.
+                let shown = self.session.model.as_ref().map(|m| &m.source);
+                if shown != Some(&spec.model) || self.params.load_options != options {
+                    self.session.start_load(spec.model.clone(), &self.params, &mut self.panel);
+                }
+                let presets = &mut self.panel.presets;
+                presets.status = Some(Status::ok(format!("loaded {}{}", path.display(), if warnings.is_empty() { String::new() } else { format!("; {} warning(s):", warnings.len()) })));
+                presets.warnings = warnings;
+                presets.used(path);
+            }
+            Err(e) => self.panel.presets.status = Some(Status::error(e)),
+        }
     }
 
     fn name_parts(&self) -> NameParts {
@@ -374,6 +422,8 @@ impl Tool {
                 PanelAction::LoadModel(source) => self.session.start_load(source, &self.params, &mut self.panel),
                 PanelAction::ScreenshotTrace => self.want_trace_shot = true,
                 PanelAction::ScreenshotWindow => self.want_window_shot = true,
+                PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
+                PanelAction::LoadPreset(path) => self.load_preset(&path),
             }
         }
         self.egui_state.handle_platform_output(&self.window, full.platform_output);
