@@ -338,3 +338,72 @@ fn view_preset_with_a_flag_over_it_matches_render() {
     let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
     assert_eq!((spec.settings.bounces, spec.settings.smooth, spec.light.angle_deg), (3, true, 200.0));
 }
+
+/// Move onto (`x`, `y`) of `window`, let a frame see the hover, and click: egui acts on a
+/// press only where the pointer was already known.
+fn click_at(display: &str, window: &str, x: u32, y: u32) {
+    let out = xdotool(display, &["mousemove", "--window", window, &x.to_string(), &y.to_string()]);
+    assert!(out.status.success());
+    std::thread::sleep(Duration::from_millis(400));
+    assert!(xdotool(display, &["click", "1"]).status.success());
+    std::thread::sleep(Duration::from_millis(400));
+}
+
+/// Scroll the panel to its end: then the last sections sit at fixed heights above the
+/// window's bottom, whatever status lines the sections above show.
+fn scroll_panel_to_end(display: &str, window: &str) {
+    assert!(xdotool(display, &["mousemove", "--window", window, "100", "400"]).status.success());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(xdotool(display, &["click", "--repeat", "40", "--delay", "20", "5"]).status.success());
+    std::thread::sleep(Duration::from_millis(500));
+}
+
+/// The bounces a preset file holds.
+fn preset_bounces(path: &std::path::Path) -> u32 {
+    meshtracer::scene::preset::read(path).unwrap().spec.settings.bounces
+}
+
+#[test]
+fn a_preset_saved_in_the_panel_renders_headless_as_the_window_traced_it() {
+    // Positions are those of the panel scrolled to its end in a 900x700 window (the Presets
+    // section above the closed Keys header at the bottom).
+    let x = Xvfb::start();
+    let dir = TempDir::new("panel-preset");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(SCENE).args(["--smooth", "--window", "900x700", "--frames", "1000000", "--no-hud"]);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+
+    // Open Presets, name the file, save.
+    scroll_panel_to_end(&x.display, &window);
+    click_at(&x.display, &window, 45, 662);
+    scroll_panel_to_end(&x.display, &window);
+    click_at(&x.display, &window, 100, 640);
+    assert!(xdotool(&x.display, &["type", "--delay", "40", "look"]).status.success());
+    click_at(&x.display, &window, 42, 662);
+    let saved = dir.path().join("look.toml");
+    wait_until(Duration::from_secs(30), "look.toml to be saved", || saved.is_file().then_some(()));
+    app.assert_alive();
+    let headless = headless_render(dir.path(), &["--preset", "look.toml"], "headless.png");
+    assert!(max_diff(&start, &headless) <= 1, "`render --preset` of the saved preset differs from the window by {}", max_diff(&start, &headless));
+
+    // Another look saved over it: the panel asks first, and only Replace writes.
+    press(&x.display, &window, &["Prior"]);
+    click_at(&x.display, &window, 42, 662);
+    std::thread::sleep(Duration::from_millis(1500));
+    assert_eq!(preset_bounces(&saved), 2, "Save replaced the file without asking");
+    scroll_panel_to_end(&x.display, &window);
+    click_at(&x.display, &window, 52, 631);
+    wait_until(Duration::from_secs(30), "Replace to write the file", || (preset_bounces(&saved) == 3).then_some(()));
+
+    // Loading it from the recent list brings its look back after a change.
+    press(&x.display, &window, &["Next", "Next", "Next"]);
+    scroll_panel_to_end(&x.display, &window);
+    click_at(&x.display, &window, 57, 663);
+    let loaded = f12(&x, &window, dir.path(), &mut app);
+    let reference = headless_render(dir.path(), &["--preset", "look.toml"], "replaced.png");
+    assert!(max_diff(&loaded, &reference) <= 1, "the loaded preset differs from `render --preset` by {}", max_diff(&loaded, &reference));
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
