@@ -398,6 +398,7 @@ fn unknown_keys(doc: &toml::de::DeTable, known: &toml::Table, prefix: &str, foun
 /// A preset read from a file: the spec and warnings for keys that were ignored.
 #[derive(Clone, Debug)]
 pub struct Loaded {
+    /// What the preset describes, keys left out at their defaults.
     pub spec: SceneSpec,
     /// One sentence per unknown key, naming the file, the key and the line.
     pub warnings: Vec<String>,
