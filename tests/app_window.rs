@@ -407,3 +407,24 @@ fn a_preset_saved_in_the_panel_renders_headless_as_the_window_traced_it() {
     press(&x.display, &window, &["ctrl+q"]);
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
 }
+
+#[test]
+fn a_middle_drag_pans_and_r_brings_the_view_back() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("pan");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+    // Press, move and release at once over the image, as a hand does.
+    let out = xdotool(&x.display, &["mousemove", "--window", &window, "450", "240", "mousedown", "2", "mousemove", "--window", &window, "500", "260", "mouseup", "2"]);
+    assert!(out.status.success());
+    let panned = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&start, &panned) > 30, "the middle drag did not move the view");
+    press(&x.display, &window, &["r"]);
+    let reset = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&start, &reset) <= 1, "R did not bring the view back");
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}

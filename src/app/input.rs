@@ -12,11 +12,20 @@ use crate::gpu::present::PixelRect;
 /// Pixels of a touchpad's smooth scroll that make one wheel notch.
 const PIXELS_PER_NOTCH: f64 = 40.0;
 
+/// What a mouse drag over the image does to the camera.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drag {
+    /// Left button: turn around the target.
+    Orbit,
+    /// Middle button, or Shift with the left: slide the view.
+    Pan,
+}
+
 /// The input state the window events leave behind.
 #[derive(Default)]
 pub struct Input {
-    /// A left-button drag that began over the image is orbiting the camera.
-    pub dragging: bool,
+    /// A drag that began over the image, moving the camera.
+    pub drag: Option<Drag>,
     /// The cursor of the latest cursor event, physical pixels; None outside the window.
     pub cursor: Option<PhysicalPosition<f64>>,
     pub modifiers: ModifiersState,
@@ -33,15 +42,17 @@ impl Input {
         })
     }
 
-    /// A left-button press or release; a drag starts only over the image.
-    pub fn left_button(&mut self, state: ElementState, image_area: PixelRect) {
-        self.dragging = state == ElementState::Pressed && self.over_image(image_area);
+    /// A press or release of the button that starts `kind` of drag; a drag starts only over
+    /// the image (Shift turns a left-button orbit into a pan).
+    pub fn drag_button(&mut self, state: ElementState, kind: Drag, image_area: PixelRect) {
+        let kind = if kind == Drag::Orbit && self.modifiers.shift_key() { Drag::Pan } else { kind };
+        self.drag = (state == ElementState::Pressed && self.over_image(image_area)).then_some(kind);
     }
 
-    /// The cursor moved: returns the drag in pixels to orbit the camera by, if dragging.
-    pub fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(f32, f32)> {
-        let drag = match (self.dragging, self.cursor) {
-            (true, Some(last)) => Some(((position.x - last.x) as f32, (position.y - last.y) as f32)),
+    /// The cursor moved: returns the drag and its motion in pixels, if dragging.
+    pub fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(Drag, f32, f32)> {
+        let drag = match (self.drag, self.cursor) {
+            (Some(kind), Some(last)) => Some((kind, (position.x - last.x) as f32, (position.y - last.y) as f32)),
             _ => None,
         };
         self.cursor = Some(position);
@@ -81,12 +92,19 @@ mod tests {
     fn drags_start_over_the_image_only() {
         let mut input = Input::default();
         input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
-        input.left_button(ElementState::Pressed, IMAGE);
-        assert!(!input.dragging);
+        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
+        assert_eq!(input.drag, None);
         input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
-        input.left_button(ElementState::Pressed, IMAGE);
-        assert_eq!(input.cursor_moved(PhysicalPosition::new(410.0, 95.0)), Some((10.0, -5.0)));
-        input.left_button(ElementState::Released, IMAGE);
+        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
+        assert_eq!(input.cursor_moved(PhysicalPosition::new(410.0, 95.0)), Some((Drag::Orbit, 10.0, -5.0)));
+        input.drag_button(ElementState::Released, Drag::Orbit, IMAGE);
         assert_eq!(input.cursor_moved(PhysicalPosition::new(420.0, 95.0)), None);
+        // Shift with the left button, or the middle button: pan.
+        input.modifiers = ModifiersState::SHIFT;
+        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
+        assert_eq!(input.cursor_moved(PhysicalPosition::new(421.0, 95.0)), Some((Drag::Pan, 1.0, 0.0)));
+        input.modifiers = ModifiersState::empty();
+        input.drag_button(ElementState::Pressed, Drag::Pan, IMAGE);
+        assert_eq!(input.drag, Some(Drag::Pan));
     }
 }

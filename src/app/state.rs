@@ -192,6 +192,22 @@ impl Params {
         self.keep_camera_in_view();
     }
 
+    /// Pan by a drag of (`dx`, `dy`) physical pixels over an image `height` pixels high:
+    /// the scene follows the cursor.
+    pub fn pan_camera(&mut self, dx: f32, dy: f32, height: f32) {
+        let h = height.max(1.0);
+        self.camera.pan(dx / h, dy / h);
+        self.keep_camera_in_view();
+    }
+
+    /// Look at the models from the current direction, at the distance where a sphere of
+    /// `radius` around `centre` fills the view.
+    pub fn frame_model(&mut self, centre: Vec3, radius: f32) {
+        self.camera.target = centre;
+        self.camera = self.camera.framing(radius, 0.9);
+        self.keep_camera_in_view();
+    }
+
     /// Zoom by `steps` wheel notches (positive = closer), staying where the scene can be seen.
     pub fn zoom_camera(&mut self, steps: f32) {
         self.camera.orbit(0.0, 0.0, 0.9f32.powf(steps));
@@ -285,6 +301,8 @@ pub enum KeyAction {
     None,
     ScreenshotTrace,
     ScreenshotWindow,
+    /// Frame the models (F): the tool knows where they are.
+    FrameModel,
     Quit,
 }
 
@@ -302,9 +320,11 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("M", "render resolution: match window / back"),
     ("Space", "pause the light"),
     ("R", "reset the camera"),
+    ("F", "frame the models"),
     ("V", "vsync on / off"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
+    ("Shift+drag, middle drag", "pan the camera"),
 ];
 
 impl Params {
@@ -344,6 +364,7 @@ impl Params {
             }
             KeyCode::Space => self.light_paused = !self.light_paused,
             KeyCode::KeyR => self.reset_camera(),
+            KeyCode::KeyF => return KeyAction::FrameModel,
             KeyCode::KeyV => self.vsync = !self.vsync,
             _ => {}
         }

@@ -17,7 +17,7 @@ use winit::window::Window;
 use super::aov_view;
 use super::cost_view::heat_map;
 use super::frame_stats::FrameStats;
-use super::input::Input;
+use super::input::{Drag, Input};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
 use super::screenshot::{self, Kind, NameParts};
 use super::script::ScriptedRun;
@@ -187,15 +187,21 @@ impl Tool {
                     KeyAction::None => {}
                     KeyAction::ScreenshotTrace => self.want_trace_shot = true,
                     KeyAction::ScreenshotWindow => self.want_window_shot = true,
+                    KeyAction::FrameModel => self.frame_model(),
                     KeyAction::Quit => self.script.request_exit(),
                 }
             }
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => self.input.left_button(*state, self.image_area),
-            WindowEvent::CursorMoved { position, .. } => {
-                if let Some((dx, dy)) = self.input.cursor_moved(*position) {
-                    self.params.drag_camera(dx, dy);
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => self.input.drag_button(*state, Drag::Orbit, self.image_area),
+            WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => self.input.drag_button(*state, Drag::Pan, self.image_area),
+            WindowEvent::CursorMoved { position, .. } => match self.input.cursor_moved(*position) {
+                Some((Drag::Orbit, dx, dy)) => self.params.drag_camera(dx, dy),
+                Some((Drag::Pan, dx, dy)) => {
+                    // Pixels of the image as shown: the scene follows the cursor.
+                    let shown = fit_rect(self.gpu.tracer.resolution().unwrap_or([1, 1]), self.image_area);
+                    self.params.pan_camera(dx, dy, shown.height as f32);
                 }
-            }
+                None => {}
+            },
             WindowEvent::CursorLeft { .. } => self.input.cursor = None,
             WindowEvent::MouseWheel { delta, .. } => {
                 if let Some(steps) = self.input.wheel(*delta, self.image_area) {
@@ -336,6 +342,16 @@ impl Tool {
         let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
         self.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
         (full, actions)
+    }
+
+    /// Point the camera at the models in view from where it looks now (F).
+    fn frame_model(&mut self) {
+        if let Some(model) = &self.session.model {
+            let b = model.scene.model_bounds(self.params.model_count as usize);
+            if !b.is_empty() {
+                self.params.frame_model(b.center(), b.extent().length() * 0.5);
+            }
+        }
     }
 
     /// Decide what this display frame traces and shows. A frame that fits one submission

@@ -45,6 +45,19 @@ impl Camera {
         Camera { position: self.target + dir * dist, ..*self }
     }
 
+    /// Slide the eye and the target together across the view: `dx`, `dy` are fractions of
+    /// the image's height (right and down positive), so a drag moves the scene with the cursor.
+    pub(crate) fn pan(&mut self, dx: f32, dy: f32) {
+        let forward = (self.target - self.position).normalize_or(Vec3::NEG_Z);
+        let right = forward.cross(self.up).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        // The view's height at the target's distance: what one image height spans there.
+        let span = 2.0 * (self.target - self.position).length() * (self.vfov_deg.to_radians() * 0.5).tan();
+        let shift = (-dx * right + dy * up) * span;
+        self.position += shift;
+        self.target += shift;
+    }
+
     /// Orbit the camera around its target by yaw/pitch (radians) and scale its distance.
     pub(crate) fn orbit(&mut self, yaw: f32, pitch: f32, zoom: f32) {
         let offset = self.position - self.target;
@@ -90,6 +103,17 @@ pub fn parse_point(s: &str) -> Result<Vec3, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn panning_moves_eye_and_target_together_across_the_view() {
+        let mut c = Camera { position: Vec3::new(0.0, 0.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 90.0 };
+        c.pan(0.25, 0.0);
+        // Height spanned at distance 4 with a 90° view: 8; a quarter of it, to the left.
+        assert!((c.target - Vec3::new(-2.0, 0.0, 0.0)).length() < 1e-5, "{:?}", c.target);
+        assert!((c.position - c.target - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-5, "the view direction stays");
+        c.pan(0.0, 0.5);
+        assert!((c.target.y - 4.0).abs() < 1e-5, "dragging down moves the view up: {:?}", c.target);
+    }
 
     #[test]
     fn points_parse_with_or_without_spaces_and_parentheses() {

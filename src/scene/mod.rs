@@ -228,7 +228,17 @@ impl Scene {
 
     /// World-space bounding box of all instances.
     pub(crate) fn bounds(&self) -> Aabb {
-        self.instances.iter().fold(Aabb::EMPTY, |acc, inst| {
+        self.bounds_of(self.instances.iter())
+    }
+
+    /// World-space bounding box of the first `count` model copies (not the mirror box):
+    /// what "frame the model" looks at.
+    pub(crate) fn model_bounds(&self, count: usize) -> Aabb {
+        self.bounds_of(self.instances.iter().filter(|i| i.mesh == paper::MODEL_MESH).take(count))
+    }
+
+    fn bounds_of<'a>(&'a self, instances: impl Iterator<Item = &'a Instance>) -> Aabb {
+        instances.fold(Aabb::EMPTY, |acc, inst| {
             let b = self.meshes[inst.mesh].bounds();
             if b.is_empty() {
                 return acc;
