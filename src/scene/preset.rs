@@ -25,7 +25,8 @@ pub(crate) const VERSION: u32 = 1;
 
 /// The first lines of every preset: what the file is and how to use it.
 const HEADER: &str = "# meshtracer preset: `meshtracer view|render|bench --preset THIS_FILE`; flags beside it\n\
-# override it. Keys left out keep their defaults; paths are relative to the working folder.\n";
+# override it. Keys left out keep their defaults; a relative path is read from this file's folder\n\
+# (or, failing that, the working folder).\n";
 
 /// The file as serde sees it: one table per panel section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -418,9 +419,45 @@ pub fn read(path: &Path) -> Result<Loaded, String> {
     } else {
         String::from_utf8(bytes).map_err(|_| format!("preset {shown}: neither a PNG nor a TOML text file"))?
     };
-    let (spec, unknown) = from_text(&text).map_err(|e| format!("preset {shown}: {e}"))?;
+    let (mut spec, unknown) = from_text(&text).map_err(|e| format!("preset {shown}: {e}"))?;
+    resolve_paths(&mut spec, path.parent().unwrap_or(Path::new("")));
     let warnings = unknown.iter().map(|u| format!("preset {shown}: unknown key '{}' on line {} is ignored", u.key, u.line)).collect();
     Ok(Loaded { spec, warnings })
+}
+
+/// A relative model or environment path names a file beside the preset when one is there
+/// (a folder of presets and models moves as a whole); otherwise it stays relative to the
+/// working folder, as on the command line.
+fn resolve_paths(spec: &mut SceneSpec, folder: &Path) {
+    let beside = |p: &mut PathBuf| {
+        let candidate = folder.join(&*p);
+        if p.is_relative() && candidate.is_file() {
+            *p = candidate;
+        }
+    };
+    if let ModelSource::File(p) = &mut spec.model {
+        beside(p);
+    }
+    if let Some(EnvironmentSource::File(p)) = &mut spec.environment {
+        beside(p);
+    }
+}
+
+/// Paths as absolute as the file system allows, so a saved preset works from any folder.
+fn absolute_paths(spec: &SceneSpec) -> SceneSpec {
+    let mut spec = spec.clone();
+    let absolute = |p: &mut PathBuf| {
+        if let Ok(full) = std::fs::canonicalize(&*p) {
+            *p = full;
+        }
+    };
+    if let ModelSource::File(p) = &mut spec.model {
+        absolute(p);
+    }
+    if let Some(EnvironmentSource::File(p)) = &mut spec.environment {
+        absolute(p);
+    }
+    spec
 }
 
 /// Why a preset was not saved.
@@ -449,7 +486,7 @@ pub fn save(spec: &SceneSpec, path: &Path, overwrite: bool) -> Result<(), SaveEr
     }
     let name = path.file_name().map_or_else(|| "preset".into(), |n| n.to_string_lossy().into_owned());
     let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = std::fs::write(&tmp, to_text(spec)).and_then(|()| std::fs::rename(&tmp, path));
+    let result = std::fs::write(&tmp, to_text(&absolute_paths(spec))).and_then(|()| std::fs::rename(&tmp, path));
     result.map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         SaveError::Io(format!("could not write the preset {}: {e}", path.display()))

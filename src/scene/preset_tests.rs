@@ -139,3 +139,24 @@ fn saving_renames_into_place_and_asks_before_overwriting() {
     assert!(warnings[0].contains("typo.toml") && warnings[0].contains("'shading.smoth'") && warnings[0].contains("line 2"), "{warnings:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn relative_paths_are_read_beside_the_preset_and_saved_absolute() {
+    let dir = std::env::temp_dir().join(format!("meshtracer-preset-paths-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("knot.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.join("look.toml"), "version = 1\n[model]\nsource = \"knot.obj\"\n").unwrap();
+    let spec = read(&dir.join("look.toml")).unwrap().spec;
+    assert_eq!(spec.model, ModelSource::File(dir.join("knot.obj")), "found beside the preset");
+    // A name with no file beside the preset stays as written (the working folder's).
+    std::fs::write(dir.join("elsewhere.toml"), "version = 1\n[model]\nsource = \"not-here.obj\"\n").unwrap();
+    assert_eq!(read(&dir.join("elsewhere.toml")).unwrap().spec.model, ModelSource::File("not-here.obj".into()));
+    // Saving writes the absolute path, so the preset works from any folder.
+    let relative = SceneSpec { model: ModelSource::File(dir.join("knot.obj")), ..SceneSpec::default() };
+    save(&relative, &dir.join("saved.toml"), false).unwrap();
+    let text = std::fs::read_to_string(dir.join("saved.toml")).unwrap();
+    let absolute = std::fs::canonicalize(dir.join("knot.obj")).unwrap();
+    assert!(text.contains(&absolute.display().to_string()), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
