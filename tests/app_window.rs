@@ -428,3 +428,46 @@ fn a_middle_drag_pans_and_r_brings_the_view_back() {
     press(&x.display, &window, &["ctrl+q"]);
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
 }
+
+/// Mean of the RGB channels over the image, 0-255.
+fn brightness(img: &image::RgbaImage) -> f64 {
+    img.pixels().map(|p| p.0[..3].iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / (img.width() * img.height()) as f64
+}
+
+#[test]
+fn twenty_notches_out_leave_the_scene_in_view() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("zoom-out");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+    let mut args = vec!["mousemove", "--window", window.as_str(), "450", "240"];
+    args.extend(std::iter::repeat_n(["click", "5"], 20).flatten());
+    assert!(xdotool(&x.display, &args).status.success());
+    let out = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&start, &out) > 1, "the wheel did not zoom");
+    // Outside the mirror box the user would see its dark back faces: the clamp keeps the
+    // eye inside, where the lit model and its reflections fill the view.
+    assert!(brightness(&out) > 0.5 * brightness(&start), "the view went dark: {:.1} after, {:.1} before", brightness(&out), brightness(&start));
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
+fn the_cost_view_under_brute_force_is_not_black() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("brute-cost");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--accel", "brute", "--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    press(&x.display, &window, &["c"]);
+    let heat = f12(&x, &window, dir.path(), &mut app);
+    // The counter is triangles tested (nodes are all zero without a BVH): a real scale.
+    let lit = heat.pixels().filter(|p| p.0[..3].iter().any(|&c| c > 60)).count();
+    assert!(lit * 2 > (heat.width() * heat.height()) as usize, "the heat map is mostly black ({lit} lit pixels)");
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
