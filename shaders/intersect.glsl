@@ -10,9 +10,9 @@ struct Hit {
     uint instance;
 };
 
-// Möller–Trumbore: returns true and shrinks t_max when the triangle is hit closer.
-bool intersect_triangle(vec3 o, vec3 d, uint k, inout Hit hit) {
-    Triangle tri = triangles[k];
+// Möller–Trumbore on a loaded triangle `tri` (index k): returns true and shrinks t_max
+// when the triangle is hit closer.
+bool intersect_loaded(vec3 o, vec3 d, Triangle tri, uint k, inout Hit hit) {
     vec3 e1 = tri.e1.xyz;
     vec3 e2 = tri.e2.xyz;
     vec3 p = cross(d, e2);
@@ -36,6 +36,10 @@ bool intersect_triangle(vec3 o, vec3 d, uint k, inout Hit hit) {
     return false;
 }
 
+bool intersect_triangle(vec3 o, vec3 d, uint k, inout Hit hit) {
+    return intersect_loaded(o, d, triangles[k], k, hit);
+}
+
 // Entry distance of the ray into the box, or INF when it misses within (0, t_max).
 float slab(vec3 bmin, vec3 bmax, vec3 o, vec3 inv_d, float t_max) {
     vec3 t0 = (bmin - o) * inv_d;
@@ -54,11 +58,23 @@ vec3 safe_inverse(vec3 d) {
     return 1.0 / (s * max(abs(d), vec3(1e-20)));
 }
 
-void test_leaf(vec3 o, vec3 d, uint first, uint count, uint tri_base, inout Hit hit, inout uvec2 cost) {
-    for (uint k = 0u; k < count; k++) {
-        intersect_triangle(o, d, tri_base + first + k, hit);
-    }
-    cost.y += count;
+// Leaves a and b (global first triangle, count; a count of 0 = nothing to test): the
+// first two triangles of each are loaded before any is tested, so that the fetches
+// overlap instead of queueing behind each other's latency. Tests run in the same order
+// as leaf by leaf (a, then b).
+void test_leaves(vec3 o, vec3 d, uint a, uint na, uint b, uint nb, inout Hit hit, inout uvec2 cost) {
+    Triangle ta0, ta1, tb0, tb1;
+    if (na > 0u) ta0 = triangles[a];
+    if (na > 1u) ta1 = triangles[a + 1u];
+    if (nb > 0u) tb0 = triangles[b];
+    if (nb > 1u) tb1 = triangles[b + 1u];
+    if (na > 0u) intersect_loaded(o, d, ta0, a, hit);
+    if (na > 1u) intersect_loaded(o, d, ta1, a + 1u, hit);
+    for (uint i = 2u; i < na; i++) intersect_triangle(o, d, a + i, hit);
+    if (nb > 0u) intersect_loaded(o, d, tb0, b, hit);
+    if (nb > 1u) intersect_loaded(o, d, tb1, b + 1u, hit);
+    for (uint i = 2u; i < nb; i++) intersect_triangle(o, d, b + i, hit);
+    cost.y += na + nb;
 }
 
 // Stack-based BVH2 traversal: leaves are tested as soon as their box is hit, inner
@@ -77,8 +93,13 @@ void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, 
         uint rc = floatBitsToUint(n.right_max.w);
         float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
         float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
-        if (tl < INF && lc > 0u) { test_leaf(o, d, li, lc, tri_base, hit, cost); tl = INF; }
-        if (tr < INF && rc > 0u) { test_leaf(o, d, ri, rc, tri_base, hit, cost); tr = INF; }
+        uint nl = (tl < INF) ? lc : 0u;
+        uint nr = (tr < INF) ? rc : 0u;
+        if (nl + nr > 0u) {
+            test_leaves(o, d, tri_base + li, nl, tri_base + ri, nr, hit, cost);
+            if (nl > 0u) tl = INF;
+            if (nr > 0u) tr = INF;
+        }
         if (tl < INF && tr < INF) {
             // Both inner children: near first, far on the stack.
             if (tl <= tr) { stack[sp] = ri; node = li; } else { stack[sp] = li; node = ri; }

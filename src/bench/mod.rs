@@ -229,6 +229,9 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
         row.features = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
     }
+    if options.verbose {
+        println!("  work: {}", work_per_ray(tracer, scene, s)?);
+    }
     for _ in 0..options.warmup {
         tracer.trace(&params)?;
     }
@@ -248,6 +251,23 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     row.mrays_per_s = rays as f64 / (ms * 1e-3) / 1e6;
     row.fps = 1e3 / row.wall_ms.median;
     Ok(row)
+}
+
+/// Mean BVH nodes visited and triangles tested per pixel (the cost AOV, summed over the
+/// path's rays), and the bytes of node and triangle records that makes.
+fn work_per_ray(tracer: &mut ComputeTracer, scene: &crate::scene::Scene, s: RenderSettings) -> Result<String, GpuError> {
+    let cost = FrameParams::new(scene, RenderSettings { aov: Aov::Cost, spp: 1, adaptive: false, ..s });
+    let (image, _) = tracer.render(&cost)?;
+    let n = image.pixels.len().max(1) as f64;
+    let nodes = image.pixels.iter().map(|p| p[0] as f64).sum::<f64>() / n;
+    let tris = image.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let node_bytes = std::mem::size_of::<crate::bvh::BvhNode>() as f64;
+    let tri_bytes = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as f64;
+    Ok(format!(
+        "{nodes:.1} nodes ({node_bytes} B) + {tris:.1} triangles ({tri_bytes} B) per pixel, {:.0} B per pixel ({} rays per pixel at most)",
+        nodes * node_bytes + tris * tri_bytes,
+        s.bounces + 1
+    ))
 }
 
 #[cfg(test)]
