@@ -11,7 +11,9 @@
 //! - `model_loader`: loading .obj files on a worker thread;
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
-//!   `aov_view`: the depth, normal, primitive-id and samples views.
+//!   `aov_view`: the depth, normal, primitive-id and samples views;
+//! - `benchmark`: the benchmark run (a camera orbit at fixed settings and its summary);
+//!   `benchmark_panel`: its panel section.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!
@@ -19,6 +21,8 @@
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
 pub(crate) mod aov_view;
+pub(crate) mod benchmark;
+pub(crate) mod benchmark_panel;
 pub(crate) mod camera_panel;
 pub(crate) mod cost_view;
 pub(crate) mod frame_stats;

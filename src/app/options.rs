@@ -26,12 +26,17 @@ pub struct ViewOptions {
     pub(crate) validation: bool,
     /// Show the numbers over the image at the start.
     pub(crate) hud: bool,
+    /// Run the benchmark of this many frames at the start, then quit.
+    pub(crate) benchmark: Option<u32>,
+    /// Append each benchmark's summary to this JSON Lines file (default: one in the
+    /// screenshot folder).
+    pub(crate) benchmark_json: Option<PathBuf>,
 }
 
 impl ViewOptions {
-    /// A scripted run ends by itself after `frames` and starts with the light still.
+    /// A scripted run ends by itself (after `frames`, or the benchmark) and starts with the light still.
     pub(crate) fn scripted(&self) -> bool {
-        self.frames.is_some()
+        self.frames.is_some() || self.benchmark.is_some()
     }
 }
 

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use egui::{Color32, RichText, Sense, Shape, Stroke, Ui};
 
+use super::benchmark_panel::{benchmark_section, BenchmarkPanel};
 use super::camera_panel::{camera_section, CameraFields};
 use super::cost_view::heat_color;
 use super::presets_panel::{presets_section, PresetPanel};
@@ -33,6 +34,9 @@ pub enum PanelAction {
     SavePreset { path: PathBuf, overwrite: bool },
     /// Take the look of a preset file (or of a PNG the program wrote).
     LoadPreset(PathBuf),
+    /// Start a benchmark run of this many frames.
+    Benchmark(u32),
+    CancelBenchmark,
 }
 
 /// A status line: text and whether it reports a failure.
@@ -70,6 +74,8 @@ pub struct PanelState {
     pub camera: CameraFields,
     /// The Presets section.
     pub presets: PresetPanel,
+    /// The benchmark section's frame count and last summary.
+    pub benchmark: BenchmarkPanel,
 }
 
 /// Read-only facts the panel shows.
@@ -97,6 +103,8 @@ pub struct PanelInfo<'a> {
     pub brute_tests: f64,
     pub screenshot_dir: String,
     pub stats: &'a FrameStats,
+    /// (measured, total) frames of a benchmark run in progress.
+    pub benchmark: Option<(u32, u32)>,
 }
 
 /// Show the panel's contents inside `ui` and return the actions asked for.
@@ -123,6 +131,7 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         display_section(ui, params, info);
         screenshot_section(ui, state, info, &mut actions);
         presets_section(ui, &mut state.presets, &mut actions);
+        benchmark_section(ui, &mut state.benchmark, info.benchmark, &mut actions);
         egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
             egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
                 for (key, what) in SHORTCUTS {

@@ -303,6 +303,8 @@ pub enum KeyAction {
     ScreenshotWindow,
     /// Frame the models (F): the tool knows where they are.
     FrameModel,
+    /// Start a benchmark run of the panel's frame count.
+    Benchmark,
     Quit,
 }
 
@@ -312,6 +314,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("I", "hide or show the numbers over the image"),
     ("F12", "screenshot of the traced image"),
     ("Shift+F12", "screenshot of the window"),
+    ("B", "run the benchmark (an orbit; summary in the panel)"),
     ("PgUp / PgDn", "bounces + / -"),
     ("[ / ]", "blend - / +"),
     ("+ / -", "model count"),
@@ -335,6 +338,7 @@ impl Params {
             KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
+            KeyCode::KeyB => return KeyAction::Benchmark,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
             KeyCode::KeyI => self.hud_visible = !self.hud_visible,
             KeyCode::PageUp => self.settings.bounces = (self.settings.bounces + 1).min(MAX_BOUNCES),

@@ -262,8 +262,16 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub(crate) scene: SceneArgs,
     /// Quit after this many frames (for scripts and tests).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "benchmark")]
     pub(crate) frames: Option<u64>,
+    /// Run the benchmark (the camera orbits once in N frames at the given settings), print
+    /// its summary, append it to --benchmark-json, and quit: 0 on success, 1 on a failure.
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "120", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub(crate) benchmark: Option<u32>,
+    /// Append each benchmark's summary (this run's, or the panel's) to this file as one
+    /// line of JSON [default: meshtracer_benchmark.jsonl in the screenshot folder].
+    #[arg(long, value_name = "FILE")]
+    pub(crate) benchmark_json: Option<PathBuf>,
     /// Write the traced image (render resolution) to this PNG at exit.
     #[arg(long)]
     pub(crate) screenshot: Option<PathBuf>,
@@ -299,6 +307,8 @@ impl ViewArgs {
             window,
             validation: self.validation,
             hud: !self.no_hud,
+            benchmark: self.benchmark,
+            benchmark_json: self.benchmark_json.clone(),
         })
     }
 }
@@ -342,6 +352,27 @@ mod tests {
             Some(Command::Render(args)) => Ok(args),
             other => panic!("not a render command: {other:?}"),
         }
+    }
+
+    fn view_args(extra: &[&str]) -> Result<ViewArgs, clap::Error> {
+        let cli = Cli::try_parse_from(["meshtracer", "view"].iter().chain(extra))?;
+        match cli.command {
+            Some(Command::View(args)) => Ok(args),
+            other => panic!("not a view command: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn benchmark_flag_takes_an_optional_frame_count() {
+        assert_eq!(view_args(&[]).unwrap().options().unwrap().benchmark, None);
+        assert_eq!(view_args(&["--benchmark"]).unwrap().benchmark, Some(crate::app::benchmark::DEFAULT_FRAMES));
+        let args = view_args(&["--benchmark", "7", "--benchmark-json", "b.jsonl"]).unwrap();
+        let options = args.options().unwrap();
+        assert_eq!(options.benchmark, Some(7));
+        assert!(options.scripted(), "a benchmark starts with the light still");
+        assert_eq!(options.benchmark_json.as_deref(), Some(std::path::Path::new("b.jsonl")));
+        assert!(view_args(&["--benchmark", "0"]).is_err());
+        assert!(view_args(&["--benchmark", "5", "--frames", "5"]).unwrap_err().to_string().contains("cannot be used with"));
     }
 
     #[test]
