@@ -471,3 +471,66 @@ fn the_cost_view_under_brute_force_is_not_black() {
     press(&x.display, &window, &["ctrl+q"]);
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
 }
+
+/// The summary lines of a JSON Lines benchmark file, checked for sense.
+fn benchmark_rows(path: &std::path::Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("no benchmark file {}: {e}", path.display()));
+    let rows: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}"))).collect();
+    for row in &rows {
+        let ms = |k: &str| row["frame_ms"][k].as_f64().unwrap_or_else(|| panic!("no frame_ms.{k}: {row}"));
+        assert!(0.0 < ms("min") && ms("min") <= ms("mean") && ms("mean") <= ms("max") && ms("p90") <= ms("max"), "{row}");
+        assert!(row["fps"].as_f64().unwrap() > 0.0 && row["mrays_per_s"].as_f64().unwrap() > 0.0, "{row}");
+        assert_eq!(row["rays_per_frame"], 128 * 128 * 3, "{row}");
+        assert!(!row["environment"]["device"].as_str().unwrap().is_empty() && !row["environment"]["driver"].as_str().unwrap().is_empty(), "{row}");
+    }
+    rows
+}
+
+#[test]
+fn the_benchmark_run_writes_its_summary() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("benchmark");
+    // Appended, not overwritten: an earlier run's line stays.
+    let json = dir.path().join("runs.jsonl");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--benchmark", "6", "--benchmark-json", "runs.jsonl"]));
+    let out = spawn(cmd).wait(Duration::from_secs(180));
+    assert_clean_exit(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("benchmark: 6 frames of geosphere") && stdout.contains("Mrays/s") && stdout.contains("appended to"), "{stdout}");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--benchmark", "4", "--benchmark-json", "runs.jsonl"]));
+    assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(180)));
+    let rows = benchmark_rows(&json);
+    assert_eq!(rows.iter().map(|r| r["frames"].as_u64().unwrap()).collect::<Vec<_>>(), [6, 4]);
+
+    // A file that cannot be written fails the run with one line and a non-zero code.
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--benchmark", "2", "--benchmark-json", "no/such/folder/x.jsonl"]));
+    let out = spawn(cmd).wait(Duration::from_secs(180));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert!(errors.len() == 1 && errors[0].contains("cannot append the benchmark to"), "{stderr}");
+
+    // In the window, B runs the panel's benchmark; the summary goes to the screenshot
+    // folder and the tool keeps running.
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    press(&x.display, &window, &["b"]);
+    let default = dir.path().join("meshtracer_benchmark.jsonl");
+    wait_until(Duration::from_secs(120), "the window's benchmark summary", || {
+        app.assert_alive();
+        std::fs::metadata(&default).ok().filter(|m| m.len() > 0)
+    });
+    app.assert_alive();
+    press(&x.display, &window, &["ctrl+q"]);
+    let out = app.wait(Duration::from_secs(60));
+    assert_clean_exit(&out);
+    let rows = benchmark_rows(&default);
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0]["frames"], 120, "the panel's default run");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("benchmark: 120 frames"));
+}
