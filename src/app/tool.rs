@@ -15,7 +15,7 @@ use winit::keyboard::PhysicalKey;
 use winit::window::Window;
 
 use super::aov_view;
-use super::benchmark::{self, Benchmark, Workload};
+use super::benchmark::{Runs, Workload};
 use super::cost_view::heat_map;
 use super::frame_stats::FrameStats;
 use super::input::{Drag, Input};
@@ -100,13 +100,7 @@ pub struct Tool {
     image_area: PixelRect,
     want_trace_shot: bool,
     want_window_shot: bool,
-    /// The benchmark run in progress, and one asked for (its frames), begun next frame.
-    benchmark: Option<Benchmark>,
-    want_benchmark: Option<u32>,
-    /// `--benchmark`: quit when the run ends (an unfinished run is an error).
-    quit_after_benchmark: bool,
-    /// `--benchmark-json`.
-    benchmark_json: Option<PathBuf>,
+    benchmarks: Runs,
 }
 
 impl Tool {
@@ -160,10 +154,7 @@ impl Tool {
             image_area: PixelRect::default(),
             want_trace_shot: false,
             want_window_shot: false,
-            benchmark: None,
-            want_benchmark: options.benchmark,
-            quit_after_benchmark: options.benchmark.is_some(),
-            benchmark_json: options.benchmark_json.clone(),
+            benchmarks: Runs::new(options.benchmark, options.benchmark_json.clone()),
         })
     }
 
@@ -200,7 +191,7 @@ impl Tool {
                     KeyAction::ScreenshotTrace => self.want_trace_shot = true,
                     KeyAction::ScreenshotWindow => self.want_window_shot = true,
                     KeyAction::FrameModel => self.frame_model(),
-                    KeyAction::Benchmark => self.want_benchmark = Some(self.panel.benchmark.frames),
+                    KeyAction::Benchmark => self.benchmarks.want(self.panel.benchmark.frames),
                     KeyAction::Quit => self.script.request_exit(),
                 }
             }
@@ -324,7 +315,7 @@ impl Tool {
             brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::tracer::Accel::Brute, ..settings }, triangles),
             screenshot_dir: dir_text,
             stats: &self.stats,
-            benchmark: self.benchmark.as_ref().map(Benchmark::progress),
+            benchmark: self.benchmarks.progress(),
         };
         let params = &mut self.params;
         let panel_state = &mut self.panel;
@@ -454,15 +445,15 @@ impl Tool {
                 PanelAction::ScreenshotWindow => self.want_window_shot = true,
                 PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
                 PanelAction::LoadPreset(path) => self.load_preset(&path),
-                PanelAction::Benchmark(frames) => self.want_benchmark = Some(frames),
-                PanelAction::CancelBenchmark => self.stop_benchmark("the benchmark was cancelled")?,
+                PanelAction::Benchmark(frames) => self.benchmarks.want(frames),
+                PanelAction::CancelBenchmark => self.benchmarks.stop("the benchmark was cancelled", &mut self.params, &mut self.panel.benchmark)?,
             }
         }
         self.egui_state.handle_platform_output(&self.window, full.platform_output);
         let area = self.area();
         self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.panel)?;
         self.gpu.presenter.set_vsync(self.params.vsync);
-        self.hold_benchmark(area)?;
+        self.benchmarks.before_frame(&mut self.params, area, &mut self.panel.benchmark)?;
         let primitives = self.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
 
         // A frame being traced in bands keeps its parameters (accumulation waits for it).
@@ -504,15 +495,12 @@ impl Tool {
         if let Some(ms) = traced_ms.or(outcome.gpu_ms) {
             self.stats.push_gpu(t, ms);
         }
-        if let Some(run) = &mut self.benchmark {
-            if outcome.presented && traced {
-                run.frame_traced(t, banded);
-            }
-            if let Some(ms) = outcome.gpu_ms {
-                run.gpu_time(ms);
-            }
+        self.benchmarks.after_frame(t, outcome.presented && traced, banded, outcome.gpu_ms);
+        let (session, ctx) = (&self.session, &self.gpu.ctx);
+        let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
+        if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark, workload, || crate::bench::environment(ctx))? {
+            self.script.request_exit();
         }
-        self.finish_benchmark()?;
 
         if self.want_trace_shot {
             self.want_trace_shot = false;
@@ -532,76 +520,10 @@ impl Tool {
 
         if final_frame && self.script.finish_attempt(outcome.presented, !self.can_draw()) {
             self.write_exit_files(outcome.window_image)?;
-            if let (true, Some(run)) = (self.quit_after_benchmark, &self.benchmark) {
-                let (done, total) = run.progress();
-                anyhow::bail!("the benchmark was stopped after {done} of {total} frames (the window was closed)");
-            }
+            self.benchmarks.check_exit()?;
             return Ok(false);
         }
         Ok(true)
-    }
-
-    /// Begin a run asked for, or keep the one in progress on its orbit and settings (a
-    /// change of settings stops it).
-    fn hold_benchmark(&mut self, area: [u32; 2]) -> anyhow::Result<()> {
-        if let Some(frames) = self.want_benchmark.take() {
-            if let Some(old) = self.benchmark.take() {
-                old.restore(&mut self.params);
-            }
-            self.benchmark = Some(Benchmark::begin(frames, &mut self.params, area));
-            self.panel.benchmark.status = Some(Status::ok(format!("running {frames} frames ...")));
-        }
-        let settings = self.params.settings_for(area);
-        match &mut self.benchmark {
-            Some(run) if run.settings_changed(&settings) => self.stop_benchmark("the benchmark stopped: the settings changed during the run"),
-            Some(run) => {
-                run.hold(&mut self.params);
-                Ok(())
-            }
-            None => Ok(()),
-        }
-    }
-
-    /// End the run in progress without a summary, saying `why` (an error under `--benchmark`).
-    fn stop_benchmark(&mut self, why: &str) -> anyhow::Result<()> {
-        let Some(run) = self.benchmark.take() else { return Ok(()) };
-        run.restore(&mut self.params);
-        let (done, total) = run.progress();
-        let text = format!("{why} after {done} of {total} frames");
-        if self.quit_after_benchmark {
-            anyhow::bail!("{text}");
-        }
-        self.panel.benchmark.status = Some(Status::error(text));
-        Ok(())
-    }
-
-    /// A finished run: its summary printed, shown and appended to the JSON file; under
-    /// `--benchmark` the tool then quits (a file that cannot be written is an error).
-    fn finish_benchmark(&mut self) -> anyhow::Result<()> {
-        let Some(run) = self.benchmark.take_if(|r| r.is_finished()) else { return Ok(()) };
-        run.restore(&mut self.params);
-        let (triangles, _) = self.session.counts();
-        let workload = Workload { model: self.session.model_label(), models: self.params.model_count, triangles };
-        let summary = run.summary(workload, crate::bench::environment(&self.gpu.ctx));
-        let lines = summary.lines();
-        for line in &lines {
-            println!("{line}");
-        }
-        let path = benchmark::json_path(self.benchmark_json.as_deref(), &screenshot::screenshot_dir());
-        let written = benchmark::append_json(&path, &summary);
-        self.panel.benchmark.lines = lines;
-        self.panel.benchmark.status = Some(match &written {
-            Ok(()) => {
-                println!("appended to {}", path.display());
-                to_status(Ok(()), &path)
-            }
-            Err(e) => Status::error(e.clone()),
-        });
-        if self.quit_after_benchmark {
-            written.map_err(anyhow::Error::msg)?;
-            self.script.request_exit();
-        }
-        Ok(())
     }
 
     /// The traced image as shown (the heat map in the cost view); None before the first frame.
