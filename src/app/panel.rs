@@ -130,8 +130,9 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         camera_section(ui, params, &mut state.camera);
         display_section(ui, params, info);
         screenshot_section(ui, state, info, &mut actions);
-        presets_section(ui, &mut state.presets, &mut actions);
         benchmark_section(ui, &mut state.benchmark, info.benchmark, &mut actions);
+        // Presets stay last before the keys (the window test clicks there).
+        presets_section(ui, &mut state.presets, &mut actions);
         egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
             egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
                 for (key, what) in SHORTCUTS {
