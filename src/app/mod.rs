@@ -29,6 +29,7 @@ pub(crate) mod frame_stats;
 pub(crate) mod input;
 pub(crate) mod model_loader;
 pub(crate) mod options;
+pub(crate) mod overlay;
 pub(crate) mod panel;
 pub(crate) mod presets_panel;
 pub(crate) mod progressive;

@@ -22,6 +22,7 @@ use super::input::{Drag, Input};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
 use super::screenshot::{self, Kind, NameParts};
 use super::script::ScriptedRun;
+use super::overlay::{self, Notice};
 use super::progressive::{adapt_groups, Progressive};
 use super::session::Session;
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
@@ -91,6 +92,8 @@ pub struct Tool {
     heat: Option<HeatShown>,
     /// The long frame being traced in bands, if any.
     progressive: Option<Progressive>,
+    /// A short notice over the image (a screenshot written).
+    notice: Option<Notice>,
     /// Work groups per band of a long frame (adapted to the GPU's speed).
     band_groups: u32,
     /// A frame has been traced: F12 has something to save.
@@ -148,6 +151,7 @@ impl Tool {
             heat: None,
             progressive: None,
             band_groups: 1,
+            notice: None,
             traced: false,
             start: Instant::now(),
             last_frame: None,
@@ -317,6 +321,8 @@ impl Tool {
             stats: &self.stats,
             benchmark: self.benchmarks.progress(),
         };
+        let light = self.light_marker();
+        let notice = self.notice.as_ref();
         let params = &mut self.params;
         let panel_state = &mut self.panel;
         let full = self.egui_ctx.run_ui(raw, |ui| {
@@ -329,15 +335,7 @@ impl Tool {
                 });
             }
             central = ui.available_rect_before_wrap();
-            if params.hud_visible {
-                // Top-left of the image area: the panel never covers it.
-                egui::Area::new(egui::Id::new("hud"))
-                    .fixed_pos(central.left_top() + egui::vec2(8.0, 8.0))
-                    .interactable(false)
-                    .show(ui.ctx(), |ui| {
-                        egui::Frame::new().fill(egui::Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| panel::hud(ui, &info));
-                    });
-            }
+            overlay::show(ui.ctx(), central, params.hud_visible.then_some(&info), light, notice);
         });
         let ppp = full.pixels_per_point;
         let size = self.window.inner_size();
@@ -347,6 +345,18 @@ impl Tool {
         let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
         self.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
         (full, actions)
+    }
+
+    /// Where the light appears over the image shown, in points (None when no image).
+    fn light_marker(&self) -> Option<egui::Pos2> {
+        let [w, h] = self.gpu.tracer.resolution()?;
+        self.session.model.as_ref()?;
+        let shown = fit_rect([w, h], self.image_area);
+        let (sx, sy) = self.params.camera.basis(w, h).project(self.params.light_position(), w, h)?;
+        let ppp = self.window.scale_factor() as f32;
+        let x = shown.x as f32 + sx / w as f32 * shown.width as f32;
+        let y = shown.y as f32 + sy / h as f32 * shown.height as f32;
+        Some(egui::pos2(x / ppp, y / ppp))
     }
 
     /// Point the camera at the models in view from where it looks now (F).
@@ -506,6 +516,7 @@ impl Tool {
             self.want_trace_shot = false;
             let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts());
             self.panel.screenshot_status = Some(self.save_trace(&path));
+            self.notice_screenshot();
         }
         if self.want_window_shot && outcome.presented {
             self.want_window_shot = false;
@@ -515,6 +526,7 @@ impl Tool {
                     Ok(img) => to_status(screenshot::save_png(img, &self.settings_text(), &path), &path),
                     Err(e) => Status::error(e.clone()),
                 });
+                self.notice_screenshot();
             }
         }
 
@@ -524,6 +536,13 @@ impl Tool {
             return Ok(false);
         }
         Ok(true)
+    }
+
+    /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).
+    fn notice_screenshot(&mut self) {
+        if let Some(s) = &self.panel.screenshot_status {
+            self.notice = Some(Notice::new(s.text.clone()));
+        }
     }
 
     /// The traced image as shown (the heat map in the cost view); None before the first frame.

@@ -76,6 +76,21 @@ impl CameraBasis {
         self.ray_at(px as f32 + 0.5, py as f32 + 0.5, width, height)
     }
 
+    /// Where `point` appears in an image of `width` x `height` pixels (pixel units, row 0 at
+    /// the top; outside the image when off screen): the inverse of [`Self::ray_at`]. None
+    /// behind the camera.
+    pub(crate) fn project(&self, point: Vec3, width: u32, height: u32) -> Option<(f32, f32)> {
+        let d = point - self.origin;
+        // forward is unit length and right/up are perpendicular to it and to each other.
+        let t = d.dot(self.forward);
+        if t <= 1e-6 {
+            return None;
+        }
+        let x = d.dot(self.right) / (self.right.length_squared() * t);
+        let y = d.dot(self.up) / (self.up.length_squared() * t);
+        Some(((x + 1.0) * 0.5 * width as f32, (1.0 - y) * 0.5 * height as f32))
+    }
+
     /// The ray through a point of the image given in pixel units (sub-pixel positions allowed).
     pub(crate) fn ray_at(&self, sx: f32, sy: f32, width: u32, height: u32) -> Ray {
         let x = sx / width as f32 * 2.0 - 1.0;
@@ -103,6 +118,18 @@ pub fn parse_point(s: &str) -> Result<Vec3, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn projection_inverts_ray_generation() {
+        let c = Camera { position: Vec3::new(1.0, 2.0, 5.0), target: Vec3::new(0.0, 0.5, 0.0), up: Vec3::Y, vfov_deg: 50.0 };
+        let b = c.basis(320, 200);
+        for (sx, sy) in [(10.5, 20.25), (160.0, 100.0), (300.0, 190.0)] {
+            let r = b.ray_at(sx, sy, 320, 200);
+            let (px, py) = b.project(r.origin + r.dir * 3.7, 320, 200).unwrap();
+            assert!((px - sx).abs() < 1e-3 && (py - sy).abs() < 1e-3, "({px}, {py}) for ({sx}, {sy})");
+        }
+        assert_eq!(b.project(c.position - (c.target - c.position), 320, 200), None, "behind the camera");
+    }
 
     #[test]
     fn panning_moves_eye_and_target_together_across_the_view() {

@@ -1,0 +1,57 @@
+//! What is drawn over the traced image: the numbers in its corner (HUD), a marker where
+//! the light is, and a short notice when a screenshot was written.
+
+use std::time::{Duration, Instant};
+
+use egui::{Color32, Pos2, Rect, RichText, Stroke};
+
+use super::panel::{self, PanelInfo};
+
+/// How long a screenshot notice stays.
+const NOTICE_TIME: Duration = Duration::from_millis(2500);
+
+/// Colour of the light's marker (the light's own warm white).
+const LIGHT_COLOR: Color32 = Color32::from_rgb(255, 230, 120);
+
+/// A notice shown for a short while over the image.
+pub struct Notice {
+    text: String,
+    since: Instant,
+}
+
+impl Notice {
+    /// A notice starting now.
+    pub fn new(text: impl Into<String>) -> Self {
+        Self { text: text.into(), since: Instant::now() }
+    }
+
+    /// Still worth showing.
+    pub fn is_current(&self) -> bool {
+        self.since.elapsed() < NOTICE_TIME
+    }
+}
+
+/// Draw the overlays over `image` (the image area, in points).
+pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, notice: Option<&Notice>) {
+    if let Some(info) = hud {
+        // Top-left of the image area: the panel never covers it.
+        egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).show(ctx, |ui| {
+            egui::Frame::new().fill(Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| panel::hud(ui, info));
+        });
+    }
+    if let Some(p) = light.filter(|p| image.contains(*p)) {
+        let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("light marker")));
+        painter.circle_stroke(p, 7.0, Stroke::new(2.0, Color32::BLACK));
+        painter.circle_stroke(p, 6.0, Stroke::new(1.5, LIGHT_COLOR));
+        // The label above the marker, or below it near the image's top edge.
+        let (offset, anchor) = if p.y - image.top() < 24.0 { (egui::vec2(10.0, 8.0), egui::Align2::LEFT_TOP) } else { (egui::vec2(10.0, -8.0), egui::Align2::LEFT_BOTTOM) };
+        painter.text(p + offset, anchor, "light", egui::FontId::proportional(12.0), LIGHT_COLOR);
+    }
+    if let Some(n) = notice.filter(|n| n.is_current()) {
+        egui::Area::new(egui::Id::new("notice")).fixed_pos(image.left_bottom() + egui::vec2(8.0, -34.0)).interactable(false).show(ctx, |ui| {
+            egui::Frame::new().fill(Color32::from_black_alpha(180)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| {
+                ui.add(egui::Label::new(RichText::new(&n.text).color(Color32::WHITE)).truncate());
+            });
+        });
+    }
+}
