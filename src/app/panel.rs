@@ -30,6 +30,8 @@ pub enum PanelAction {
     LoadModel(ModelSource),
     ScreenshotTrace,
     ScreenshotWindow,
+    /// The traced float output of the view shown, as OpenEXR.
+    ScreenshotExr,
     /// Save the current look as a preset; replace an existing file only with `overwrite`.
     SavePreset { path: PathBuf, overwrite: bool },
     /// Take the look of a preset file (or of a PNG the program wrote).
@@ -456,6 +458,10 @@ fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions
             }
             if ui.button("Window").on_hover_text("PNG of the window as seen, panel included (Shift+F12)").clicked() {
                 actions.push(PanelAction::ScreenshotWindow);
+            }
+            let what = "32-bit float OpenEXR of the view shown: colour, or the raw depth (one channel Z), normal, primitive id, cost or samples";
+            if ui.button("EXR").on_hover_text(what).clicked() {
+                actions.push(PanelAction::ScreenshotExr);
             }
         });
         ui.add(egui::Label::new(RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak()).truncate());

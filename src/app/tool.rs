@@ -2,7 +2,7 @@
 //! the three parts of the tool's state: [`Input`], the [`Session`] (model, loader, what
 //! the tracer holds) and the [`ScriptedRun`]. One `redraw` per displayed frame.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -453,6 +453,11 @@ impl Tool {
                 PanelAction::LoadModel(source) => self.session.start_load(source, &self.params, &mut self.panel),
                 PanelAction::ScreenshotTrace => self.want_trace_shot = true,
                 PanelAction::ScreenshotWindow => self.want_window_shot = true,
+                PanelAction::ScreenshotExr => {
+                    let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts()).with_extension("exr");
+                    self.panel.screenshot_status = Some(self.save_exr(&path));
+                    self.notice_screenshot();
+                }
                 PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
                 PanelAction::LoadPreset(path) => self.load_preset(&path),
                 PanelAction::Benchmark(frames) => self.benchmarks.want(frames),
@@ -523,7 +528,7 @@ impl Tool {
             if let Some(image) = outcome.window_image.as_ref().filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
                 let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
                 self.panel.screenshot_status = Some(match image {
-                    Ok(img) => to_status(screenshot::save_png(img, &self.settings_text(), &path), &path),
+                    Ok(img) => screenshot::status(screenshot::save_png(img, &self.settings_text(), &path), &path),
                     Err(e) => Status::error(e.clone()),
                 });
                 self.notice_screenshot();
@@ -545,6 +550,17 @@ impl Tool {
         }
     }
 
+    /// Write the float output of the last traced frame (the view's AOV) as OpenEXR.
+    fn save_exr(&self, path: &Path) -> Status {
+        if !self.traced {
+            return Status::error("nothing traced yet: no EXR written");
+        }
+        match self.gpu.tracer.read_image() {
+            Ok(image) => screenshot::status(image.save(path, self.params.view.aov(), None).map_err(|e| format!("{e:#}")), path),
+            Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
+        }
+    }
+
     /// The traced image as shown (the heat map in the cost view); None before the first frame.
     fn read_trace(&self) -> anyhow::Result<Option<image::RgbaImage>> {
         if !self.traced {
@@ -558,7 +574,7 @@ impl Tool {
 
     fn save_trace(&self, path: &Path) -> Status {
         match self.read_trace() {
-            Ok(Some(img)) => to_status(screenshot::save_png(&img, &self.settings_text(), path), path),
+            Ok(Some(img)) => screenshot::status(screenshot::save_png(&img, &self.settings_text(), path), path),
             Ok(None) => Status::error("nothing traced yet: no screenshot written"),
             Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
         }
@@ -577,15 +593,5 @@ impl Tool {
             println!("wrote {}", path.display());
         }
         Ok(())
-    }
-}
-
-fn to_status(result: Result<(), String>, path: &Path) -> Status {
-    match result {
-        Ok(()) => {
-            let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-            Status::ok(format!("wrote {}", shown.display()))
-        }
-        Err(e) => Status::error(e),
     }
 }
