@@ -534,3 +534,31 @@ fn the_benchmark_run_writes_its_summary() {
     assert_eq!(rows[0]["frames"], 120, "the panel's default run");
     assert!(String::from_utf8_lossy(&out.stdout).contains("benchmark: 120 frames"));
 }
+
+#[test]
+fn one_wheel_notch_is_one_zoom_step() {
+    // X11 reports a notch from xdotool (XTEST) as a press and a release of button 4, both
+    // turned into wheel events by winit: the tool must zoom once (0.9 of the distance).
+    let camera = ["--eye", "0,0,3", "--target", "0,0,0"];
+    let x = Xvfb::start();
+    let dir = TempDir::new("notch");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&camera)).args(["--frames", "1000000"]);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    f12(&x, &window, dir.path(), &mut app);
+    assert!(xdotool(&x.display, &["mousemove", "--window", &window, "450", "240", "click", "4"]).status.success());
+    let zoomed = f12(&x, &window, dir.path(), &mut app);
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+    let one_step: Vec<&str> = SCENE.iter().copied().chain(["--eye", "0,0,2.7", "--target", "0,0,0"]).collect();
+    let two_steps: Vec<&str> = SCENE.iter().copied().chain(["--eye", "0,0,2.43", "--target", "0,0,0"]).collect();
+    let one = headless_render(dir.path(), &one_step, "one.png");
+    let two = headless_render(dir.path(), &two_steps, "two.png");
+    // The window's orbit maths puts the eye a rounding error off the axis: a few edge
+    // pixels may differ, so count the pixels that differ visibly.
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 8)).count();
+    let pixels = (one.width() * one.height()) as usize;
+    assert!(differing(&one, &two) * 10 > pixels, "the test cannot tell one step from two");
+    assert!(differing(&zoomed, &one) * 100 < pixels, "one notch is not one step: {} pixels differ from one step, {} from two", differing(&zoomed, &one), differing(&zoomed, &two));
+}

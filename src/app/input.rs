@@ -31,6 +31,8 @@ pub struct Input {
     pub modifiers: ModifiersState,
     /// The window is hidden or minimized: nothing is drawn.
     pub occluded: bool,
+    /// The next wheel event echoes the release of a wheel button (see [`Input::raw_button`]).
+    wheel_release_echo: bool,
 }
 
 impl Input {
@@ -59,8 +61,22 @@ impl Input {
         drag
     }
 
+    /// A raw button event (winit's device events). X11 reports a wheel notch from a device
+    /// without smooth-scroll axes (and from XTEST, as xdotool sends) as a press and a release
+    /// of button 4-7, and winit turns both into a wheel event: one notch, two steps. The raw
+    /// release comes just before its echo, so that echo is dropped. Smooth-scrolling mice send
+    /// no raw wheel buttons (theirs are flagged emulated and not reported), nor does Wayland.
+    pub fn raw_button(&mut self, button: u32, state: ElementState) {
+        if (4..=7).contains(&button) {
+            self.wheel_release_echo = state == ElementState::Released;
+        }
+    }
+
     /// Wheel notches to zoom by (positive = closer), when the wheel turned over the image.
-    pub fn wheel(&self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
+    pub fn wheel(&mut self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
+        if std::mem::take(&mut self.wheel_release_echo) && matches!(delta, MouseScrollDelta::LineDelta(..)) {
+            return None;
+        }
         if !self.over_image(image_area) {
             return None;
         }
@@ -86,6 +102,27 @@ mod tests {
         input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
         assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
         assert_eq!(input.wheel(MouseScrollDelta::PixelDelta(PhysicalPosition::new(0.0, -80.0)), IMAGE), Some(-2.0));
+    }
+
+    #[test]
+    fn a_wheel_buttons_release_echo_is_one_notch_not_two() {
+        let mut input = Input::default();
+        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
+        // X11 without smooth scrolling: raw press, wheel, raw release, wheel (the echo).
+        let mut steps = 0.0;
+        for _ in 0..3 {
+            input.raw_button(4, ElementState::Pressed);
+            steps += input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE).unwrap_or(0.0);
+            input.raw_button(4, ElementState::Released);
+            steps += input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE).unwrap_or(0.0);
+        }
+        assert_eq!(steps, 3.0);
+        // Smooth scrolling (and Wayland): wheel events alone, each a notch.
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
+        // Other buttons leave the wheel alone.
+        input.raw_button(1, ElementState::Released);
+        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, -1.0), IMAGE), Some(-1.0));
     }
 
     #[test]

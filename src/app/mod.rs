@@ -104,6 +104,12 @@ impl ApplicationHandler for App {
         }
     }
 
+    fn device_event(&mut self, _event_loop: &ActiveEventLoop, _id: winit::event::DeviceId, event: winit::event::DeviceEvent) {
+        if let (Some(tool), winit::event::DeviceEvent::Button { button, state }) = (self.tool.as_mut(), event) {
+            tool.raw_button(button, state);
+        }
+    }
+
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(tool) = self.tool.as_mut() else { return };
         match tool.window_event(&event) {

@@ -179,6 +179,11 @@ impl Tool {
         ctx.validation_messages()
     }
 
+    /// A raw mouse button from winit's device events (see [`Input::raw_button`]).
+    pub fn raw_button(&mut self, button: u32, state: winit::event::ElementState) {
+        self.input.raw_button(button, state);
+    }
+
     /// Handle one window event; Ok(false) quits.
     pub fn window_event(&mut self, event: &WindowEvent) -> anyhow::Result<bool> {
         let response = self.egui_state.on_window_event(&self.window, event);
