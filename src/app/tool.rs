@@ -165,7 +165,9 @@ impl Tool {
     /// The window can be drawn into (not minimized, not hidden).
     pub fn can_draw(&self) -> bool {
         let size = self.window.inner_size();
-        size.width > 0 && size.height > 0 && !self.input.occluded
+        // X11 reports no Occluded event when a window is iconified; the window manager's
+        // hidden state (is_minimized) says it there.
+        size.width > 0 && size.height > 0 && !self.input.occluded && self.window.is_minimized() != Some(true)
     }
 
     /// Free everything in order; returns the validation messages seen.
