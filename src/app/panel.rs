@@ -166,7 +166,9 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
                 }
                 ui.selectable_value(&mut params.resolution, Resolution::MatchWindow, "match window");
                 ui.selectable_value(&mut params.resolution, Resolution::Custom, "custom");
-            });
+            })
+            .response
+            .on_hover_text("pixels traced per frame, scaled into the window; M matches the window");
             ui.end_row();
             if params.resolution == Resolution::Custom {
                 ui.label("");
@@ -181,14 +183,16 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             ui.label(RichText::new(format!("tracing {} x {}", info.render_size[0], info.render_size[1])).small().weak());
             ui.end_row();
             ui.label("Bounces");
-            ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES));
+            ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES))
+                .on_hover_text("mirror bounces after the primary hit (the paper's §3.3 used 2); PgUp / PgDn");
             ui.end_row();
             ui.label("Blend");
-            ui.add(egui::Slider::new(&mut params.settings.blend, 0.0..=1.0).fixed_decimals(2));
+            ui.add(egui::Slider::new(&mut params.settings.blend, 0.0..=1.0).fixed_decimals(2))
+                .on_hover_text("reflection blend ratio (§3.3): 0 = the surface's own colour, 1 = pure mirror; [ and ]");
             ui.end_row();
             ui.label("Acceleration");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH");
+                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH").on_hover_text("bounding volume hierarchy (the paper's future work, §5); A toggles");
                 let estimate = format!("{:.1e} ray-triangle tests per frame", info.brute_tests);
                 ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute force").on_hover_text(&estimate);
             });
@@ -202,7 +206,9 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
                         params.fit_cost_metric();
                     }
                 }
-            });
+            })
+            .response
+            .on_hover_text("what the image shows: the shaded colour, or one of the tracer's other outputs; C toggles the cost view");
             ui.end_row();
             if let ViewMode::Cost(metric) = &mut params.view {
                 ui.label("Counter");
@@ -312,16 +318,16 @@ fn light_section(ui: &mut Ui, params: &mut Params) {
         let limit = BOX_HALF_SIZE * 0.98;
         egui::Grid::new("light").num_columns(2).show(ui, |ui| {
             ui.label("Orbit radius");
-            ui.add(egui::Slider::new(&mut params.light.radius, 0.0..=limit).fixed_decimals(2));
+            ui.add(egui::Slider::new(&mut params.light.radius, 0.0..=limit).fixed_decimals(2)).on_hover_text("distance of the light's circle from the vertical axis (inside the box)");
             ui.end_row();
             ui.label("Height");
-            ui.add(egui::Slider::new(&mut params.light.height, -limit..=limit).fixed_decimals(2));
+            ui.add(egui::Slider::new(&mut params.light.height, -limit..=limit).fixed_decimals(2)).on_hover_text("height of the light's circle");
             ui.end_row();
             ui.label("Speed");
-            ui.add(egui::Slider::new(&mut params.light_speed, -180.0..=180.0).suffix(" °/s").fixed_decimals(0));
+            ui.add(egui::Slider::new(&mut params.light_speed, -180.0..=180.0).suffix(" °/s").fixed_decimals(0)).on_hover_text("how fast the light orbits (the paper's moving light, §4); negative turns the other way");
             ui.end_row();
             ui.label("");
-            ui.checkbox(&mut params.light_paused, "paused (Space)");
+            ui.checkbox(&mut params.light_paused, "paused (Space)").on_hover_text("stop the light where it is; the phase slider then places it");
             ui.end_row();
             ui.label("Phase");
             ui.add_enabled(params.light_paused, egui::Slider::new(&mut params.light.angle_deg, 0.0..=360.0).suffix("°").fixed_decimals(1));
@@ -504,12 +510,12 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
         egui::Grid::new("shading").num_columns(2).show(ui, |ui| {
             ui.label("Normals");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.settings.smooth, false, "flat (paper)");
-                ui.radio_value(&mut params.settings.smooth, true, "smooth");
+                ui.radio_value(&mut params.settings.smooth, false, "flat (paper)").on_hover_text("one normal per triangle, as the paper shades (§3.3)");
+                ui.radio_value(&mut params.settings.smooth, true, "smooth").on_hover_text("vertex normals interpolated across each triangle (§5's smooth shading)");
             });
             ui.end_row();
             ui.label("Textures");
-            ui.checkbox(&mut params.settings.textures, "map_Kd");
+            ui.checkbox(&mut params.settings.textures, "map_Kd").on_hover_text("diffuse textures from the model's .mtl (§5)");
             ui.end_row();
             ui.label("Environment");
             let label = |e: &Option<EnvironmentSource>| match e {
@@ -527,13 +533,13 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
             });
             ui.end_row();
             ui.label("Samples/pixel");
-            ui.add(egui::Slider::new(&mut params.settings.spp, 1..=MAX_SPP).logarithmic(true));
+            ui.add(egui::Slider::new(&mut params.settings.spp, 1..=MAX_SPP).logarithmic(true)).on_hover_text("jittered camera rays per pixel: anti-aliasing (§5)");
             ui.end_row();
             ui.label("Adaptive");
-            ui.checkbox(&mut params.settings.adaptive, "extra samples on edges only");
+            ui.checkbox(&mut params.settings.adaptive, "extra samples on edges only").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");
             ui.end_row();
             ui.label("Accumulate");
-            ui.checkbox(&mut params.accumulate, "while nothing changes");
+            ui.checkbox(&mut params.accumulate, "while nothing changes").on_hover_text("average successive frames into a smoother image until a setting or the view changes");
             ui.end_row();
         });
         let spp = params.settings.spp as u64;
@@ -544,7 +550,7 @@ fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
             if params.settings.adaptive { " on edges" } else { "" }
         );
         ui.label(RichText::new(text).small().weak());
-        ui.checkbox(&mut params.mirror_box, "mirror box (the paper's six planes)");
+        ui.checkbox(&mut params.mirror_box, "mirror box (the paper's six planes)").on_hover_text("the six mirror planes around the model (§4's scene)");
         if params.environment.is_some() && params.mirror_box {
             ui.label(RichText::new("The closed mirror box hides the environment: untick it to see the environment.").small().weak());
         }
