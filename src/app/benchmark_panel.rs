@@ -24,7 +24,7 @@ impl Default for BenchmarkPanel {
 
 /// The section; `progress` is (measured, total) frames of the run in progress.
 pub fn benchmark_section(ui: &mut Ui, state: &mut BenchmarkPanel, progress: Option<(u32, u32)>, actions: &mut Vec<PanelAction>) {
-    egui::CollapsingHeader::new("Benchmark").default_open(false).show(ui, |ui| {
+    super::settings::section(ui, "Benchmark", false, |ui| {
         ui.horizontal(|ui| {
             match progress {
                 Some((done, total)) => {

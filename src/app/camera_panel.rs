@@ -32,7 +32,7 @@ pub fn camera_flags(c: &Camera) -> String {
 
 /// Draw the camera section.
 pub fn camera_section(ui: &mut Ui, params: &mut Params, fields: &mut CameraFields) {
-    egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| {
+    super::settings::section(ui, "Camera", false, |ui| {
         ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
         egui::Grid::new("camera grid").num_columns(2).show(ui, |ui| {
             ui.label("Field of view");

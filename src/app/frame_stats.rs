@@ -1,10 +1,11 @@
 //! Frame-time history for the live graph: GPU trace time (timestamps) and whole-frame
-//! time (CPU clock, frame start to frame start), kept for the last few seconds.
+//! time (CPU clock, frame start to frame start), kept for the longest window the graph
+//! offers.
 
 use std::collections::VecDeque;
 
-/// Seconds of history the graph shows.
-pub const HISTORY_SECONDS: f64 = 10.0;
+/// Seconds of history kept: the longest window the graph offers.
+pub const HISTORY_SECONDS: f64 = 60.0;
 
 /// One series of (time in seconds, milliseconds) samples.
 #[derive(Clone, Debug, Default)]
@@ -31,19 +32,25 @@ impl Series {
 
     /// Statistics over the kept history; None when empty.
     pub fn summary(&self) -> Option<Summary> {
-        let &(_, current) = self.samples.back()?;
-        let (mut min, mut max, mut sum) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
-        for &(_, v) in &self.samples {
+        self.summary_over(HISTORY_SECONDS)
+    }
+
+    /// Statistics over the last `seconds` of history; None when empty.
+    pub fn summary_over(&self, seconds: f64) -> Option<Summary> {
+        let &(last, current) = self.samples.back()?;
+        let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0);
+        for &(_, v) in self.samples.iter().rev().take_while(|&&(t, _)| last - t <= seconds) {
             min = min.min(v);
             max = max.max(v);
             sum += v;
+            n += 1;
         }
-        Some(Summary { current, min, mean: sum / self.samples.len() as f64, max })
+        Some(Summary { current, min, mean: sum / n as f64, max })
     }
 
-    /// Largest value, for the graph's scale.
-    pub fn max(&self) -> f64 {
-        self.samples.iter().map(|s| s.1).fold(0.0, f64::max)
+    /// The samples of the last `seconds`, as (seconds before the latest sample of `now`, ms).
+    pub fn recent(&self, seconds: f64, now: f64) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.samples.iter().filter(move |&&(t, _)| now - t <= seconds).map(move |&(t, ms)| [t - now, ms])
     }
 }
 
@@ -65,6 +72,11 @@ impl FrameStats {
     /// Record a GPU trace time that became available at time `t`.
     pub fn push_gpu(&mut self, t: f64, ms: f64) {
         self.gpu.push(t, ms);
+    }
+
+    /// Time of the latest sample of either series (0 before any).
+    pub fn latest(&self) -> f64 {
+        [&self.gpu, &self.frame].iter().filter_map(|s| s.samples.back().map(|v| v.0)).fold(0.0, f64::max)
     }
 
     /// Frames per second over the last second of history.
@@ -100,14 +112,25 @@ mod tests {
         for i in 0..200 {
             s.push_frame(i as f64 * 0.1, if i % 2 == 0 { 10.0 } else { 30.0 });
         }
-        // 10 s of history at 10 samples per second.
-        assert!(s.frame.samples.len() <= 101);
+        // 60 s of history at 10 samples per second.
+        for i in 200..1000 {
+            s.push_frame(i as f64 * 0.1, if i % 2 == 0 { 10.0 } else { 30.0 });
+        }
+        assert!(s.frame.samples.len() <= 601);
         let sum = s.frame.summary().unwrap();
         assert_eq!(sum.current, 30.0);
         assert_eq!(sum.min, 10.0);
         assert_eq!(sum.max, 30.0);
         assert!((sum.mean - 20.0).abs() < 0.5);
         assert!((s.fps() - 50.0).abs() < 5.0, "{}", s.fps());
+        // A window: only its samples count.
+        s.push_frame(101.5, 100.0);
+        let last_second = s.frame.summary_over(1.0).unwrap();
+        assert_eq!(last_second.max, 100.0);
+        assert_eq!(last_second.min, 100.0, "the others are older than a second");
+        let points: Vec<[f64; 2]> = s.frame.recent(5.0, 101.5).collect();
+        assert_eq!(points.last(), Some(&[0.0, 100.0]));
+        assert!(points.iter().all(|p| (-5.0..=0.0).contains(&p[0])));
     }
 
     #[test]

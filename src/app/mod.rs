@@ -7,7 +7,9 @@
 //!   `script` (`--frames` runs and exiting);
 //! - `state`: the parameters and the keyboard shortcuts;
 //! - `panel`: the egui panel (`camera_panel`: its camera section; `presets_panel`: its
-//!   Presets section, save, load, recent); `frame_stats`: the frame-time history it plots;
+//!   Presets section, save, load, recent; `perf_panel`: its Performance section);
+//!   `frame_stats`: the frame-time history it plots; `frame_log`: the frame-time CSV
+//!   (`--stats-csv`, Record); `settings`: what is remembered between runs;
 //! - `model_loader`: loading .obj files on a worker thread;
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
@@ -25,17 +27,20 @@ pub(crate) mod benchmark;
 pub(crate) mod benchmark_panel;
 pub(crate) mod camera_panel;
 pub(crate) mod cost_view;
+pub(crate) mod frame_log;
 pub(crate) mod frame_stats;
 pub(crate) mod input;
 pub(crate) mod model_loader;
 pub(crate) mod options;
 pub(crate) mod overlay;
 pub(crate) mod panel;
+pub(crate) mod perf_panel;
 pub(crate) mod presets_panel;
 pub(crate) mod progressive;
 pub(crate) mod screenshot;
 pub(crate) mod script;
 pub(crate) mod session;
+pub(crate) mod settings;
 pub(crate) mod state;
 pub(crate) mod tool;
 

@@ -20,8 +20,8 @@ pub struct ViewOptions {
     pub(crate) screenshot: Option<PathBuf>,
     /// Write the window as seen, panel included, to this PNG at exit.
     pub(crate) screenshot_ui: Option<PathBuf>,
-    /// Initial window size in logical pixels.
-    pub(crate) window: [u32; 2],
+    /// Initial window size in logical pixels; None: the remembered size, or [`DEFAULT_WINDOW`].
+    pub(crate) window: Option<[u32; 2]>,
     /// Turn on the Vulkan validation layer.
     pub(crate) validation: bool,
     /// Show the numbers over the image at the start.
@@ -31,6 +31,10 @@ pub struct ViewOptions {
     /// Append each benchmark's summary to this JSON Lines file (default: one in the
     /// screenshot folder).
     pub(crate) benchmark_json: Option<PathBuf>,
+    /// Write the frame-time log (a CSV row per frame and per parameter change) to this file.
+    pub(crate) stats_csv: Option<PathBuf>,
+    /// Neither read nor write the remembered settings (scripted runs never do).
+    pub(crate) no_persist: bool,
 }
 
 impl ViewOptions {
@@ -38,7 +42,16 @@ impl ViewOptions {
     pub(crate) fn scripted(&self) -> bool {
         self.frames.is_some() || self.benchmark.is_some()
     }
+
+    /// Whether the run reads and writes the remembered settings: a script must see the
+    /// same tool whatever the user did in the window last.
+    pub(crate) fn persist(&self) -> bool {
+        !self.no_persist && !self.scripted()
+    }
 }
+
+/// The window's size in logical pixels when neither `--window` nor a remembered size says.
+pub const DEFAULT_WINDOW: [u32; 2] = [1280, 800];
 
 /// Parse `--window WIDTHxHEIGHT`.
 pub fn parse_window_size(s: &str) -> Result<[u32; 2], String> {

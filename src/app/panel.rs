@@ -1,15 +1,17 @@
 //! The egui side panel: every control in a collapsible section (later issues add sections
-//! without crowding), the live frame-time graph and the status lines.
+//! without crowding; `perf_panel` draws Performance) and the status lines.
 
 use std::path::PathBuf;
 
-use egui::{Color32, RichText, Sense, Shape, Stroke, Ui};
+use egui::{Color32, RichText, Sense, Ui};
 
 use super::benchmark_panel::{benchmark_section, BenchmarkPanel};
 use super::camera_panel::{camera_section, CameraFields};
 use super::cost_view::heat_color;
 use super::presets_panel::{presets_section, PresetPanel};
-use super::frame_stats::{mrays_per_second, FrameStats, Series, Summary, HISTORY_SECONDS};
+use super::frame_stats::{mrays_per_second, FrameStats};
+use super::perf_panel::{performance_section, PerfPanel};
+use super::settings::section;
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
@@ -39,6 +41,12 @@ pub enum PanelAction {
     /// Start a benchmark run of this many frames.
     Benchmark(u32),
     CancelBenchmark,
+    /// Start the frame-time log (a new CSV in the screenshot folder).
+    Record,
+    /// Close the frame-time log.
+    StopRecording,
+    /// Forget the remembered settings and put the window and sections back as they open.
+    ResetSettings,
 }
 
 /// A status line: text and whether it reports a failure.
@@ -78,6 +86,10 @@ pub struct PanelState {
     pub presets: PresetPanel,
     /// The benchmark section's frame count and last summary.
     pub benchmark: BenchmarkPanel,
+    /// The Performance section's graph window and frame-log status.
+    pub perf: PerfPanel,
+    /// The last "Reset settings" outcome.
+    pub settings_status: Option<Status>,
 }
 
 /// Read-only facts the panel shows.
@@ -107,6 +119,10 @@ pub struct PanelInfo<'a> {
     pub stats: &'a FrameStats,
     /// (measured, total) frames of a benchmark run in progress.
     pub benchmark: Option<(u32, u32)>,
+    /// The frame-time log being written: its file and frames so far.
+    pub recording: Option<(&'a std::path::Path, u64)>,
+    /// Where the remembered settings live (None: `--no-persist` or a scripted run).
+    pub settings_file: Option<&'a std::path::Path>,
 }
 
 /// Show the panel's contents inside `ui` and return the actions asked for.
@@ -124,18 +140,18 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
     ui.separator();
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
         // The live numbers first: reachable at any window size without scrolling.
-        performance_section(ui, info);
+        performance_section(ui, &mut state.perf, info, &mut actions);
         render_section(ui, params, state, info);
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
         light_section(ui, params);
         camera_section(ui, params, &mut state.camera);
-        display_section(ui, params, info);
+        display_section(ui, params, state, info, &mut actions);
         screenshot_section(ui, state, info, &mut actions);
         benchmark_section(ui, &mut state.benchmark, info.benchmark, &mut actions);
         // Presets stay last before the keys (the window test clicks there).
         presets_section(ui, &mut state.presets, &mut actions);
-        egui::CollapsingHeader::new("Keys").default_open(false).show(ui, |ui| {
+        section(ui, "Keys", false, |ui| {
             egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
                 for (key, what) in SHORTCUTS {
                     ui.label(RichText::new(*key).monospace());
@@ -157,7 +173,7 @@ fn resolution_label(r: Resolution, custom: [u32; 2]) -> String {
 }
 
 fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &PanelInfo) {
-    egui::CollapsingHeader::new("Render").default_open(true).show(ui, |ui| {
+    section(ui, "Render", true, |ui| {
         egui::Grid::new("render").num_columns(2).show(ui, |ui| {
             ui.label("Resolution");
             egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
@@ -262,7 +278,7 @@ fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
 }
 
 fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
-    egui::CollapsingHeader::new("Model").default_open(true).show(ui, |ui| {
+    section(ui, "Model", true, |ui| {
         let current = info.model.map_or("(none)".to_string(), |m| m.label());
         ui.horizontal(|ui| {
             ui.label("Model");
@@ -314,7 +330,7 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
 }
 
 fn light_section(ui: &mut Ui, params: &mut Params) {
-    egui::CollapsingHeader::new("Light").default_open(true).show(ui, |ui| {
+    section(ui, "Light", true, |ui| {
         let limit = BOX_HALF_SIZE * 0.98;
         egui::Grid::new("light").num_columns(2).show(ui, |ui| {
             ui.label("Orbit radius");
@@ -336,13 +352,25 @@ fn light_section(ui: &mut Ui, params: &mut Params) {
     });
 }
 
-fn display_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
-    egui::CollapsingHeader::new("Display").default_open(false).show(ui, |ui| {
+fn display_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
+    section(ui, "Display", false, |ui| {
         ui.checkbox(&mut params.hud_visible, "numbers over the image (I)");
         ui.add_enabled(info.vsync_off_available || !params.vsync, egui::Checkbox::new(&mut params.vsync, "vsync (V)"));
         ui.label(RichText::new(format!("present mode: {}", info.present_mode)).small().weak());
         if !info.vsync_off_available {
             ui.label(RichText::new("this surface offers only FIFO (vsync)").small().weak());
+        }
+        ui.separator();
+        let remembered = match info.settings_file {
+            Some(path) => format!("window size, open sections and recent presets are remembered in {}", path.display()),
+            None => "settings are not remembered in this run (--no-persist or a scripted run)".to_string(),
+        };
+        ui.add(egui::Label::new(RichText::new(remembered).small().weak()).wrap());
+        if ui.add_enabled(info.settings_file.is_some(), egui::Button::new("Reset settings")).on_hover_text("forget the remembered settings; the window and sections return to how they first open").clicked() {
+            actions.push(PanelAction::ResetSettings);
+        }
+        if let Some(s) = &state.settings_status {
+            status_line(ui, s);
         }
     });
 }
@@ -374,90 +402,8 @@ pub fn hud(ui: &mut Ui, info: &PanelInfo) {
     }
 }
 
-fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
-    ui.label(RichText::new(name).color(color));
-    match s {
-        Some(s) => {
-            for v in [s.current, s.min, s.mean, s.max] {
-                ui.label(RichText::new(format!("{v:.2}")).monospace());
-            }
-        }
-        None => {
-            for _ in 0..4 {
-                ui.label("-");
-            }
-        }
-    }
-    ui.end_row();
-}
-
-fn performance_section(ui: &mut Ui, info: &PanelInfo) {
-    egui::CollapsingHeader::new("Performance").default_open(true).show(ui, |ui| {
-        frame_graph(ui, info.stats);
-        egui::Grid::new("times").num_columns(5).spacing([10.0, 2.0]).striped(true).show(ui, |ui| {
-            ui.label("ms");
-            for h in ["now", "min", "mean", "max"] {
-                ui.label(RichText::new(h).small().weak());
-            }
-            ui.end_row();
-            summary_row(ui, "GPU trace", GPU_COLOR, info.stats.gpu.summary());
-            summary_row(ui, "frame", FRAME_COLOR, info.stats.frame.summary());
-        });
-        let gpu_now = info.stats.gpu.summary().map(|s| s.current);
-        egui::Grid::new("counts").num_columns(2).show(ui, |ui| {
-            ui.label("fps");
-            ui.label(format!("{:.1}", info.stats.fps()));
-            ui.end_row();
-            ui.label("rays / frame");
-            ui.label(format!("{} (at most)", group(info.rays)));
-            ui.end_row();
-            ui.label("Mrays/s");
-            ui.label(gpu_now.map_or("-".into(), |ms| format!("{:.1}", mrays_per_second(info.rays, ms))));
-            ui.end_row();
-        });
-    });
-}
-
-/// The last `HISTORY_SECONDS` of both series as lines over a light grid.
-fn frame_graph(ui: &mut Ui, stats: &FrameStats) {
-    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 110.0), Sense::hover());
-    let painter = ui.painter_at(rect);
-    painter.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
-    let latest = [&stats.gpu, &stats.frame].iter().filter_map(|s| s.samples.back().map(|v| v.0)).fold(0.0, f64::max);
-    let t0 = latest - HISTORY_SECONDS;
-    let top = nice_ceiling(stats.gpu.max().max(stats.frame.max()).max(1.0) * 1.1);
-    let grid = ui.visuals().widgets.noninteractive.bg_stroke.color;
-    let text = ui.visuals().weak_text_color();
-    for i in 1..4 {
-        let y = rect.bottom() - rect.height() * i as f32 / 4.0;
-        painter.line_segment([egui::pos2(rect.left(), y), egui::pos2(rect.right(), y)], Stroke::new(0.5, grid));
-        painter.text(egui::pos2(rect.left() + 3.0, y), egui::Align2::LEFT_BOTTOM, format!("{:.0} ms", top * i as f64 / 4.0), egui::FontId::proportional(9.0), text);
-    }
-    let to_screen = |t: f64, ms: f64| {
-        egui::pos2(
-            rect.left() + rect.width() * ((t - t0) / HISTORY_SECONDS) as f32,
-            rect.bottom() - rect.height() * (ms / top).min(1.0) as f32,
-        )
-    };
-    let line = |series: &Series, color: Color32| {
-        let points: Vec<egui::Pos2> = series.samples.iter().map(|&(t, ms)| to_screen(t, ms)).collect();
-        if points.len() >= 2 {
-            painter.add(Shape::line(points, Stroke::new(1.5, color)));
-        }
-    };
-    line(&stats.frame, FRAME_COLOR);
-    line(&stats.gpu, GPU_COLOR);
-    painter.text(rect.right_top() + egui::vec2(-4.0, 3.0), egui::Align2::RIGHT_TOP, format!("last {HISTORY_SECONDS:.0} s"), egui::FontId::proportional(9.0), text);
-}
-
-/// 1, 2 or 5 times a power of ten, at least `v`.
-fn nice_ceiling(v: f64) -> f64 {
-    let p = 10f64.powf(v.log10().floor());
-    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * p).find(|&c| c >= v).unwrap_or(10.0 * p)
-}
-
 fn screenshot_section(ui: &mut Ui, state: &PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
-    egui::CollapsingHeader::new("Screenshots").default_open(true).show(ui, |ui| {
+    section(ui, "Screenshots", true, |ui| {
         ui.horizontal(|ui| {
             if ui.button("Traced image (F12)").on_hover_text("PNG at render resolution").clicked() {
                 actions.push(PanelAction::ScreenshotTrace);
@@ -506,7 +452,7 @@ pub fn group(n: u64) -> String {
 fn shading_section(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
     use crate::scene::EnvironmentSource;
     use crate::tracer::frame::MAX_SPP;
-    egui::CollapsingHeader::new("Shading").default_open(true).show(ui, |ui| {
+    section(ui, "Shading", true, |ui| {
         egui::Grid::new("shading").num_columns(2).show(ui, |ui| {
             ui.label("Normals");
             ui.horizontal(|ui| {
@@ -569,11 +515,4 @@ mod tests {
         assert_eq!(group(1234567), "1 234 567");
     }
 
-    #[test]
-    fn graph_scale_is_round() {
-        assert_eq!(nice_ceiling(1.1), 2.0);
-        assert_eq!(nice_ceiling(7.0), 10.0);
-        assert_eq!(nice_ceiling(20.0), 20.0);
-        assert_eq!(nice_ceiling(0.3), 0.5);
-    }
 }

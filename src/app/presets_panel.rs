@@ -53,7 +53,7 @@ fn is_image(path: &Path) -> bool {
 
 /// Show the section; saving and loading are asked of the tool through `actions`.
 pub fn presets_section(ui: &mut Ui, state: &mut PresetPanel, actions: &mut Vec<PanelAction>) {
-    egui::CollapsingHeader::new("Presets").default_open(false).show(ui, |ui| {
+    super::settings::section(ui, "Presets", false, |ui| {
         ui.label(RichText::new("everything tunable, as TOML; meshtracer render --preset FILE renders it headless").small().weak());
         ui.add(egui::TextEdit::singleline(&mut state.path).hint_text("look.toml").desired_width(ui.available_width()))
             .on_hover_text("a preset file to save to or load from (a PNG this program wrote loads too)");

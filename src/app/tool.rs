@@ -2,11 +2,9 @@
 //! the three parts of the tool's state: [`Input`], the [`Session`] (model, loader, what
 //! the tracer holds) and the [`ScriptedRun`]. One `redraw` per displayed frame.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{anyhow, Context as _};
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::dpi::LogicalSize;
 use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
@@ -14,24 +12,28 @@ use winit::event_loop::ActiveEventLoop;
 use winit::keyboard::PhysicalKey;
 use winit::window::Window;
 
+mod files;
+
 use super::aov_view;
 use super::benchmark::{Runs, Workload};
 use super::cost_view::heat_map;
+use super::frame_log::{watched, FrameRow, Recorder};
 use super::frame_stats::FrameStats;
 use super::input::{Drag, Input};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
-use super::screenshot::{self, Kind, NameParts};
+use super::screenshot::{self, Kind};
 use super::script::ScriptedRun;
 use super::overlay::{self, Notice};
 use super::progressive::{adapt_groups, Progressive};
 use super::session::Session;
+use super::settings::{self, Store};
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
+use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
-use crate::scene::preset::{self, Loaded, SaveError};
 use crate::scene::spec::SceneSpec;
 use crate::tracer::budget;
 use crate::tracer::frame::{FrameParams, RenderSettings};
@@ -104,12 +106,19 @@ pub struct Tool {
     want_trace_shot: bool,
     want_window_shot: bool,
     benchmarks: Runs,
+    /// The frame-time log (`--stats-csv`, Record).
+    recorder: Recorder,
+    /// Where the remembered settings are kept (nowhere in scripted runs).
+    store: Store,
 }
 
 impl Tool {
     /// Open the window and the GPU side, and start loading the model.
     pub fn new(event_loop: &ActiveEventLoop, options: &ViewOptions) -> anyhow::Result<Self> {
-        let [w, h] = options.window;
+        let store = Store::new(options.persist());
+        let remembered = store.load();
+        let recorder = Recorder::from_flag(options.stats_csv.as_deref()).map_err(anyhow::Error::msg)?;
+        let [w, h] = options.window.or(remembered.window).unwrap_or(DEFAULT_WINDOW);
         let attributes = Window::default_attributes().with_title(format!("meshtracer — {}", options.spec.model.label())).with_inner_size(LogicalSize::new(w, h));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| headless_error("cannot open a window", e))?);
         let display = window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
@@ -131,6 +140,7 @@ impl Tool {
 
         let mut session = Session::default();
         let mut panel = PanelState::default();
+        settings::restore(&remembered, &mut panel, &egui_ctx);
         if let Some(path) = &options.preset {
             panel.presets.used(path);
         }
@@ -159,6 +169,8 @@ impl Tool {
             want_trace_shot: false,
             want_window_shot: false,
             benchmarks: Runs::new(options.benchmark, options.benchmark_json.clone()),
+            recorder,
+            store,
         })
     }
 
@@ -171,7 +183,8 @@ impl Tool {
     }
 
     /// Free everything in order; returns the validation messages seen.
-    pub fn shut_down(self) -> Vec<String> {
+    pub fn shut_down(mut self) -> Vec<String> {
+        self.remember();
         let Tool { gpu: Gpu { presenter, tracer, ctx }, egui_state, window, .. } = self;
         let _ = ctx.wait_idle();
         drop(presenter);
@@ -249,54 +262,6 @@ impl Tool {
         self.params.scene_spec(model, settings)
     }
 
-    /// The preset of the traced image, for the screenshots' text chunk.
-    fn settings_text(&self) -> String {
-        self.scene_spec().to_preset_text()
-    }
-
-    /// Save the look as a preset; an existing file is replaced only once the user agreed.
-    fn save_preset(&mut self, path: &Path, overwrite: bool) {
-        let result = preset::save(&self.scene_spec(), path, overwrite);
-        let presets = &mut self.panel.presets;
-        presets.warnings.clear();
-        match result {
-            Ok(()) => {
-                presets.status = Some(Status::ok(format!("saved {}", path.display())));
-                presets.used(path);
-            }
-            Err(SaveError::Exists(p)) => {
-                presets.status = None;
-                presets.confirm = Some(p);
-            }
-            Err(e) => presets.status = Some(Status::error(e.to_string())),
-        }
-    }
-
-    /// Take the look of a preset file; a model other than the one shown is loaded.
-    fn load_preset(&mut self, path: &Path) {
-        match preset::read(path) {
-            Ok(Loaded { spec, warnings }) => {
-                let options = self.params.load_options;
-                self.params.apply_preset(&spec);
-                // Another model, or the same read another way (--crease-angle): load it.
-                let shown = self.session.model.as_ref().map(|m| &m.source);
-                if shown != Some(&spec.model) || self.params.load_options != options {
-                    self.session.start_load(spec.model.clone(), &self.params, &mut self.panel);
-                }
-                let presets = &mut self.panel.presets;
-                presets.status = Some(Status::ok(format!("loaded {}{}", path.display(), if warnings.is_empty() { String::new() } else { format!("; {} warning(s):", warnings.len()) })));
-                presets.warnings = warnings;
-                presets.used(path);
-            }
-            Err(e) => self.panel.presets.status = Some(Status::error(e)),
-        }
-    }
-
-    fn name_parts(&self) -> NameParts {
-        let [width, height] = self.gpu.tracer.resolution().unwrap_or_default();
-        NameParts { model: self.session.model_label(), models: self.params.model_count, width, height, bounces: self.params.settings.bounces, blend: self.params.settings.blend }
-    }
-
     /// Run egui for this frame; returns its output and the actions the panel asked for,
     /// and updates the image area.
     fn run_ui(&mut self) -> (egui::FullOutput, Vec<PanelAction>) {
@@ -327,6 +292,8 @@ impl Tool {
             screenshot_dir: dir_text,
             stats: &self.stats,
             benchmark: self.benchmarks.progress(),
+            recording: self.recorder.info(),
+            settings_file: self.store.path.as_deref(),
         };
         let light = self.light_marker();
         let notice = self.notice.as_ref();
@@ -469,6 +436,9 @@ impl Tool {
                 PanelAction::LoadPreset(path) => self.load_preset(&path),
                 PanelAction::Benchmark(frames) => self.benchmarks.want(frames),
                 PanelAction::CancelBenchmark => self.benchmarks.stop("the benchmark was cancelled", &mut self.params, &mut self.panel.benchmark)?,
+                PanelAction::Record => self.panel.perf.status = self.recorder.start(&screenshot::screenshot_dir()),
+                PanelAction::StopRecording => self.panel.perf.status = self.recorder.stop(),
+                PanelAction::ResetSettings => self.reset_settings(),
             }
         }
         self.egui_state.handle_platform_output(&self.window, full.platform_output);
@@ -481,6 +451,8 @@ impl Tool {
         // A frame being traced in bands keeps its parameters (accumulation waits for it).
         let params = self.session.frame_params(&self.params, area, self.progressive.is_some());
         let prepared = self.prepare_image(params)?;
+        // What this frame traces (a long frame keeps the settings it began with).
+        let frame_settings = prepared.trace.as_ref().map(|(p, _)| p.settings).or(params.map(|p| p.settings));
         let traced = prepared.completes;
         let final_frame = self.script.is_final_frame(traced);
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
@@ -503,6 +475,10 @@ impl Tool {
         }
         let traced_ms = prepared.gpu_ms;
         let t = now.duration_since(self.start).as_secs_f64();
+        // Before the frame is logged: its row carries the latest GPU time.
+        if let Some(ms) = traced_ms.or(outcome.gpu_ms) {
+            self.stats.push_gpu(t, ms);
+        }
         if outcome.presented {
             if let Some(last) = self.last_frame {
                 self.stats.push_frame(t, now.duration_since(last).as_secs_f64() * 1e3);
@@ -510,12 +486,14 @@ impl Tool {
             self.last_frame = Some(now);
             if traced {
                 self.script.frames += 1;
+                let (stats, params, session) = (&self.stats, &self.params, &self.session);
+                let row = || (FrameRow::new(t, stats, &frame_settings.unwrap_or_default(), session.counts().0), watched(params, &session.model_label()));
+                if let Some(status) = self.recorder.frame(row) {
+                    self.panel.perf.status = Some(status);
+                }
             }
         } else if !self.can_draw() {
             self.last_frame = None;
-        }
-        if let Some(ms) = traced_ms.or(outcome.gpu_ms) {
-            self.stats.push_gpu(t, ms);
         }
         self.benchmarks.after_frame(t, outcome.presented && traced, banded, outcome.gpu_ms);
         let (session, ctx) = (&self.session, &self.gpu.ctx);
@@ -550,55 +528,4 @@ impl Tool {
         Ok(true)
     }
 
-    /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).
-    fn notice_screenshot(&mut self) {
-        if let Some(s) = &self.panel.screenshot_status {
-            self.notice = Some(Notice::new(s.text.clone()));
-        }
-    }
-
-    /// Write the float output of the last traced frame (the view's AOV) as OpenEXR.
-    fn save_exr(&self, path: &Path) -> Status {
-        if !self.traced {
-            return Status::error("nothing traced yet: no EXR written");
-        }
-        match self.gpu.tracer.read_image() {
-            Ok(image) => screenshot::status(image.save(path, self.params.view.aov(), None).map_err(|e| format!("{e:#}")), path),
-            Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
-        }
-    }
-
-    /// The traced image as shown (the heat map in the cost view); None before the first frame.
-    fn read_trace(&self) -> anyhow::Result<Option<image::RgbaImage>> {
-        if !self.traced {
-            return Ok(None);
-        }
-        if let Some(h) = &self.heat {
-            return Ok(image::RgbaImage::from_raw(h.width, h.height, h.rgba.clone()));
-        }
-        Ok(Some(self.gpu.tracer.read_rgba8()?))
-    }
-
-    fn save_trace(&self, path: &Path) -> Status {
-        match self.read_trace() {
-            Ok(Some(img)) => screenshot::status(screenshot::save_png(&img, &self.settings_text(), path), path),
-            Ok(None) => Status::error("nothing traced yet: no screenshot written"),
-            Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
-        }
-    }
-
-    /// `--screenshot` / `--screenshot-ui` at exit; failures end the run with an error.
-    fn write_exit_files(&self, window_image: Option<Result<image::RgbaImage, String>>) -> anyhow::Result<()> {
-        if let Some(path) = &self.script.screenshot {
-            let img = self.read_trace()?.context("--screenshot: nothing was traced before exit")?;
-            screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
-        }
-        if let Some(path) = &self.script.screenshot_ui {
-            let img = window_image.context("--screenshot-ui: the window was not drawn at exit (minimized?)")?.map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
-            screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
-        }
-        Ok(())
-    }
 }

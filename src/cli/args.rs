@@ -278,21 +278,30 @@ pub struct ViewArgs {
     /// Write the window as seen, panel included, to this PNG at exit.
     #[arg(long)]
     pub(crate) screenshot_ui: Option<PathBuf>,
-    /// Initial window size as WIDTHxHEIGHT.
-    #[arg(long, default_value = "1280x800")]
-    pub(crate) window: String,
+    /// Initial window size as WIDTHxHEIGHT [default: the size it had when last closed, or 1280x800].
+    #[arg(long)]
+    pub(crate) window: Option<String>,
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub(crate) validation: bool,
     /// Start with the numbers over the image hidden (the I key shows them).
     #[arg(long)]
     pub(crate) no_hud: bool,
+    /// Write the frame-time log to this CSV file: a row per traced frame (time, GPU and
+    /// frame ms, resolution, bounces, spp, acceleration, triangles, rays) and a row per
+    /// parameter change, naming it.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) stats_csv: Option<PathBuf>,
+    /// Neither read nor write the remembered settings (window size, open panel sections,
+    /// recent presets); runs with --frames or --benchmark never do.
+    #[arg(long)]
+    pub(crate) no_persist: bool,
 }
 
 impl ViewArgs {
     /// The tool's options: the CLI sits on top of the app, not the other way round.
     pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
-        let window = crate::app::parse_window_size(&self.window).map_err(anyhow::Error::msg)?;
+        let window = self.window.as_deref().map(crate::app::parse_window_size).transpose().map_err(anyhow::Error::msg)?;
         let (spec, warnings) = self.scene.resolve(Aov::Color, true)?;
         for w in &warnings {
             eprintln!("warning: {w}");
@@ -309,6 +318,8 @@ impl ViewArgs {
             hud: !self.no_hud,
             benchmark: self.benchmark,
             benchmark_json: self.benchmark_json.clone(),
+            stats_csv: self.stats_csv.clone(),
+            no_persist: self.no_persist,
         })
     }
 }
