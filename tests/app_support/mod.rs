@@ -106,6 +106,8 @@ pub fn meshtracer(display: &str, dir: &Path) -> Command {
         // The app's own switch for the layer's synchronization validation.
         .env("MESHTRACER_SYNC_VALIDATION", "1")
         .env("MESHTRACER_SCREENSHOT_DIR", dir)
+        // Remembered settings in the test's folder: never the user's, never another test's.
+        .env("MESHTRACER_CONFIG_DIR", dir.join("config"))
         // Xvfb's DPI is arbitrary: pin the scale so window sizes are exact.
         .env("WINIT_X11_SCALE_FACTOR", "1")
         .env_remove("WAYLAND_DISPLAY")
