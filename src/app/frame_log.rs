@@ -39,8 +39,11 @@ pub struct FrameRow {
     pub frame_ms: Option<f64>,
     /// Traced width and height.
     pub size: [u32; 2],
+    /// Mirror bounces after the primary hit.
     pub bounces: u32,
+    /// Camera samples per pixel.
     pub spp: u32,
+    /// BVH or brute force.
     pub accel: Accel,
     /// Triangles in the scene (all copies).
     pub triangles: u64,
@@ -54,8 +57,11 @@ pub type Watched = (&'static str, String);
 /// A parameter that changed: its name, the old and the new value.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Change {
+    /// The parameter, named as in the panel.
     pub name: &'static str,
+    /// Its value before.
     pub from: String,
+    /// Its value after.
     pub to: String,
 }
 
