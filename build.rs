@@ -5,8 +5,8 @@
 //!
 //! Two generated files keep the host and the shader from drifting apart:
 //! - `contract.glsl`: the shared constants of `src/tracer/contract.rs` as GLSL, for the
-//!   shaders to `#include` (a name not found next to the including file is looked up in
-//!   OUT_DIR);
+//!   shaders to `#include` (supplied by `src/gpu/shader_compile.rs`, which assembles and
+//!   compiles the sources for both the build and `view --watch-shaders`);
 //! - `trace_layout.rs`: what the compiled `trace.comp` declares, read back from naga's
 //!   module: its descriptor bindings, work-group size and the std430 layout of the structs
 //!   it shares with the host (`src/gpu/shader_layout.rs` includes it; tests compare the
@@ -14,6 +14,11 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+
+/// Assembling and compiling the shaders, shared with the crate's hot reload.
+#[allow(dead_code)]
+#[path = "src/gpu/shader_compile.rs"]
+mod shader_compile;
 
 /// The shared constants (`ALL`), compiled into the build script too.
 #[allow(dead_code)]
@@ -23,57 +28,12 @@ mod contract {
 
 const CONTRACT_SOURCE: &str = "src/tracer/contract.rs";
 
-/// `contract.glsl`: one `const uint` per contract constant, its doc as a comment.
-fn contract_glsl() -> String {
-    let mut out = format!("// Generated from {CONTRACT_SOURCE} by build.rs: do not edit.\n\n");
-    for (name, value, doc) in contract::ALL {
-        for line in doc.lines() {
-            writeln!(out, "//{line}").unwrap();
-        }
-        let value = if *value > 0xffff { format!("0x{value:x}u") } else { format!("{value}u") };
-        writeln!(out, "const uint {name} = {value};").unwrap();
-    }
-    out
-}
-
-fn expand_includes(path: &Path, out_dir: &Path, depth: u32) -> String {
-    assert!(depth < 8, "include nesting too deep at {}", path.display());
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    let mut out = String::new();
-    for line in text.lines() {
-        if let Some(rest) = line.trim_start().strip_prefix("#include") {
-            let name = rest.trim().trim_matches('"');
-            let beside = path.parent().unwrap().join(name);
-            // Generated headers (contract.glsl) live in OUT_DIR, not next to the sources.
-            let inc = if beside.exists() { beside } else { out_dir.join(name) };
-            out.push_str(&expand_includes(&inc, out_dir, depth + 1));
-        } else {
-            out.push_str(line);
-        }
-        out.push('\n');
-    }
-    out
-}
-
-fn compile(src_path: &Path, out_dir: &Path) -> naga::Module {
-    let src = expand_includes(src_path, out_dir, 0);
-    let mut frontend = naga::front::glsl::Frontend::default();
-    let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
-    let module = frontend.parse(&options, &src).unwrap_or_else(|e| {
-        panic!("GLSL error in {}:\n{}", src_path.display(), e.emit_to_string(&src));
-    });
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("shader validation failed for {}:\n{}", src_path.display(), e.emit_to_string(&src)));
-    let mut spv_options = naga::back::spv::Options::default();
-    // Release builds drop debug info; bounds checks stay off (we index with validated data).
-    spv_options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
-    let spv = naga::back::spv::write_vec(&module, &info, &spv_options, None)
-        .unwrap_or_else(|e| panic!("SPIR-V generation failed for {}: {e}", src_path.display()));
+fn compile(src_path: &Path, contract: &str, out_dir: &Path) -> naga::Module {
+    let shader = shader_compile::compile(src_path, contract).unwrap_or_else(|e| panic!("{e}"));
     let name = src_path.file_stem().unwrap().to_string_lossy();
-    let bytes: Vec<u8> = spv.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let bytes: Vec<u8> = shader.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
     std::fs::write(out_dir.join(format!("{name}.spv")), bytes).unwrap();
-    module
+    shader.module
 }
 
 /// The struct inside a buffer block: the element type of its one runtime-sized array
@@ -133,20 +93,24 @@ fn shader_layout(module: &naga::Module, shader: &str) -> String {
         }
         out.push_str("        ],\n    },\n");
     }
-    out.push_str("];\n");
+    out.push_str("];\n\n");
+    let signature = shader_compile::layout_signature(module).unwrap_or_else(|e| panic!("{shader}: {e}"));
+    writeln!(out, "/// The interface the host relies on (see `shader_compile::layout_signature`); a reloaded\n/// shader must match it.\npub const LAYOUT_SIGNATURE: &str = {signature:?};").unwrap();
     out
 }
 
 fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     println!("cargo:rerun-if-changed={CONTRACT_SOURCE}");
-    std::fs::write(out_dir.join("contract.glsl"), contract_glsl()).unwrap();
+    let contract = shader_compile::contract_glsl(contract::ALL, CONTRACT_SOURCE);
+    // Kept in OUT_DIR for whoever wants to read what the shaders see.
+    std::fs::write(out_dir.join(shader_compile::CONTRACT_HEADER), &contract).unwrap();
     println!("cargo:rerun-if-changed=shaders");
     for entry in std::fs::read_dir("shaders").unwrap() {
         let path = entry.unwrap().path();
         println!("cargo:rerun-if-changed={}", path.display());
         if path.extension().is_some_and(|e| e == "comp") {
-            let module = compile(&path, &out_dir);
+            let module = compile(&path, &contract, &out_dir);
             let stem = path.file_stem().unwrap().to_string_lossy();
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }

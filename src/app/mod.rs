@@ -41,6 +41,7 @@ pub(crate) mod screenshot;
 pub(crate) mod script;
 pub(crate) mod session;
 pub(crate) mod settings;
+pub(crate) mod shader_watch;
 pub(crate) mod state;
 pub(crate) mod tool;
 

@@ -26,6 +26,8 @@ pub struct ViewOptions {
     pub(crate) validation: bool,
     /// Show the numbers over the image at the start.
     pub(crate) hud: bool,
+    /// Recompile the trace shader from this folder when its files change (hot reload).
+    pub(crate) watch_shaders: Option<PathBuf>,
     /// Run the benchmark of this many frames at the start, then quit.
     pub(crate) benchmark: Option<u32>,
     /// Append each benchmark's summary to this JSON Lines file (default: one in the

@@ -76,6 +76,8 @@ pub struct PanelState {
     pub model_warnings: Vec<String>,
     /// A render setting that could not be applied.
     pub render_status: Option<Status>,
+    /// The last shader reload's outcome (`--watch-shaders`).
+    pub shader_status: Option<Status>,
     /// The last screenshot's outcome.
     pub screenshot_status: Option<Status>,
     /// A file is being dragged over the window.
@@ -242,7 +244,7 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
             ui.add(egui::Label::new(RichText::new(text).small()).wrap());
         }
-        if let Some(s) = &state.render_status {
+        for s in [&state.render_status, &state.shader_status].into_iter().flatten() {
             status_line(ui, s);
         }
         match (params.view, info.heat) {

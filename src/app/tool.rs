@@ -23,6 +23,7 @@ use super::input::{Drag, Input};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
 use super::screenshot::{self, Kind};
 use super::script::ScriptedRun;
+use super::shader_watch::ShaderWatch;
 use super::overlay::{self, Notice};
 use super::progressive::{adapt_groups, Progressive};
 use super::session::Session;
@@ -110,6 +111,7 @@ pub struct Tool {
     recorder: Recorder,
     /// Where the remembered settings are kept (nowhere in scripted runs).
     store: Store,
+    shader_watch: Option<ShaderWatch>,
 }
 
 impl Tool {
@@ -171,6 +173,7 @@ impl Tool {
             benchmarks: Runs::new(options.benchmark, options.benchmark_json.clone()),
             recorder,
             store,
+            shader_watch: options.watch_shaders.clone().map(ShaderWatch::new),
         })
     }
 
@@ -413,6 +416,11 @@ impl Tool {
         }
         if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.panel)? {
             self.window.set_title(&title);
+        }
+        if self.shader_watch.as_mut().is_some_and(|w| w.poll(&mut self.gpu.tracer, &mut self.panel)) {
+            // What was accumulated so far came from the old shader.
+            self.session.accumulation = Default::default();
+            self.progressive = None;
         }
         if !self.can_draw() && !self.script.is_final_frame(false) {
             // Minimized or hidden: nothing is traced or drawn (loads still finish above).

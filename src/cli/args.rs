@@ -296,6 +296,10 @@ pub struct ViewArgs {
     /// recent presets); runs with --frames or --benchmark never do.
     #[arg(long)]
     pub(crate) no_persist: bool,
+    /// Recompile DIR/trace.comp (a copy of shaders/) when a file in DIR changes and trace
+    /// with it; a compile error is shown in the panel and the last good shader stays.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) watch_shaders: Option<PathBuf>,
 }
 
 impl ViewArgs {
@@ -316,6 +320,7 @@ impl ViewArgs {
             window,
             validation: self.validation,
             hud: !self.no_hud,
+            watch_shaders: self.watch_shaders.clone(),
             benchmark: self.benchmark,
             benchmark_json: self.benchmark_json.clone(),
             stats_csv: self.stats_csv.clone(),

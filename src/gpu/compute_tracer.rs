@@ -131,6 +131,12 @@ impl ComputeTracer {
         self.scene.as_ref().map_or(0, |s| s.bytes)
     }
 
+    /// Swap the trace pipeline for one built from `spirv` (see `trace_pass::compile_trace_shader`);
+    /// on failure the current one stays.
+    pub fn reload_shader(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+        self.pass.reload(spirv)
+    }
+
     /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
     pub fn describe_memory(&self) -> Vec<String> {
         self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())

@@ -13,6 +13,7 @@ pub mod error;
 pub(crate) mod image;
 pub(crate) mod present;
 pub mod scene_buffers;
+pub(crate) mod shader_compile;
 pub(crate) mod shader_layout;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;

@@ -11,7 +11,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
-use super::shader_layout::{TraceBuffer, BINDINGS};
+use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
@@ -105,16 +105,7 @@ impl TracePass {
         let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
             .during("creating the trace pipeline layout")?;
         let code: Vec<u32> = TRACE_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        // SAFETY: the words are the SPIR-V that build.rs compiled with naga.
-        let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the trace shader")?;
-        let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-        // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(vk::PipelineCreateFlags::DISPATCH_BASE)];
-        // SAFETY: the module and the layout are live; the create infos outlive the call.
-        let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-        // SAFETY: the pipeline, created or not, no longer needs the module.
-        unsafe { device.destroy_shader_module(module, None) };
-        let pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0];
+        let pipeline = create_pipeline(ctx, layout, &code)?;
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
         // SAFETY: plain object creation on the live device; destroyed in Drop.
         let pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
@@ -123,6 +114,21 @@ impl TracePass {
         let set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) }
             .during("allocating the trace descriptor set")?[0];
         Ok(Self { ctx: ctx.clone(), pipeline, layout, set_layout, pool, set })
+    }
+
+    /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
+    /// [`compile_trace_shader`]); on failure the current pipeline stays.
+    pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+        let pipeline = create_pipeline(&self.ctx, self.layout, spirv)?;
+        // The old pipeline may still be in a submitted command buffer.
+        if let Err(e) = self.ctx.wait_idle() {
+            // SAFETY: the new pipeline was never used.
+            unsafe { self.ctx.device.destroy_pipeline(pipeline, None) };
+            return Err(e);
+        }
+        // SAFETY: the GPU is idle, so nothing uses the old pipeline.
+        unsafe { self.ctx.device.destroy_pipeline(std::mem::replace(&mut self.pipeline, pipeline), None) };
+        Ok(())
     }
 
     /// Point the descriptor set at a scene and an output; the GPU must not be using the set.
@@ -196,6 +202,38 @@ impl TracePass {
     }
 }
 
+/// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
+fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline, GpuError> {
+    let device = &ctx.device;
+    // SAFETY: the words are SPIR-V that naga wrote and validated.
+    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during("loading the trace shader")?;
+    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+    // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
+    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(vk::PipelineCreateFlags::DISPATCH_BASE)];
+    // SAFETY: the module and the layout are live; the create infos outlive the call.
+    let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+    // SAFETY: the pipeline, created or not, no longer needs the module.
+    unsafe { device.destroy_shader_module(module, None) };
+    Ok(pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0])
+}
+
+/// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`].
+/// A shader whose bindings, push constants or work group differ from the built-in one's is
+/// refused: the host's buffers and structs are built for that interface.
+pub fn compile_trace_shader(dir: &std::path::Path) -> Result<Vec<u32>, String> {
+    use super::shader_compile;
+    let contract = shader_compile::contract_glsl(crate::tracer::contract::ALL, "src/tracer/contract.rs");
+    let shader = shader_compile::compile(&dir.join("trace.comp"), &contract)?;
+    let signature = shader_compile::layout_signature(&shader.module)?;
+    if let Some((new, old)) = signature.lines().zip(LAYOUT_SIGNATURE.lines()).find(|(a, b)| a != b) {
+        return Err(format!("the edited shader changes the interface the host is built for (`{old}` became `{new}`); rebuild meshtracer for that"));
+    }
+    if signature.lines().count() != LAYOUT_SIGNATURE.lines().count() {
+        return Err("the edited shader adds or removes a buffer binding or the push constants; rebuild meshtracer for that".into());
+    }
+    Ok(shader.spirv)
+}
+
 impl Drop for TracePass {
     fn drop(&mut self) {
         let d = &self.ctx.device;
@@ -207,5 +245,40 @@ impl Drop for TracePass {
             d.destroy_pipeline_layout(self.layout, None);
             d.destroy_descriptor_set_layout(self.set_layout, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_shaders_compile_at_run_time_to_the_built_in_interface() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let spirv = compile_trace_shader(&dir).unwrap();
+        // The same assembly and compiler as build.rs: the very same SPIR-V.
+        let bytes: Vec<u8> = spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+        assert!(bytes == TRACE_SPV, "run-time SPIR-V differs from build.rs's");
+    }
+
+    #[test]
+    fn a_broken_shader_names_its_file_and_line_and_a_changed_interface_is_refused() {
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let dir = std::env::temp_dir().join(format!("meshtracer-shader-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for file in super::super::shader_compile::shader_files(&src).unwrap() {
+            std::fs::copy(&file, dir.join(file.file_name().unwrap())).unwrap();
+        }
+        let shade = std::fs::read_to_string(dir.join("shade.glsl")).unwrap();
+        std::fs::write(dir.join("shade.glsl"), format!("{shade}\nvoid broken( {{\n")).unwrap();
+        let e = compile_trace_shader(&dir).unwrap_err();
+        let line = shade.lines().count() + 2;
+        assert!(e.lines().next().unwrap().contains(&format!("shade.glsl:{line}")), "{e}");
+        std::fs::write(dir.join("shade.glsl"), shade).unwrap();
+        let scene = std::fs::read_to_string(dir.join("scene.glsl")).unwrap();
+        std::fs::write(dir.join("scene.glsl"), scene.replacen("readonly buffer", "buffer", 1)).unwrap();
+        let e = compile_trace_shader(&dir).unwrap_err();
+        assert!(e.contains("interface"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1,0 +1,159 @@
+//! Assembles and compiles the GLSL compute shaders with naga: build.rs uses it for the
+//! embedded SPIR-V, `view --watch-shaders` for hot reload, so both read the sources the same
+//! way. It imports nothing from the crate (build.rs includes this file by path).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The generated header that shaders `#include` for the host's shared constants.
+pub const CONTRACT_HEADER: &str = "contract.glsl";
+
+/// A compiled shader: naga's module (for reflection) and its SPIR-V words.
+pub struct CompiledShader {
+    /// The validated module.
+    pub module: naga::Module,
+    /// SPIR-V words, debug info left out.
+    pub spirv: Vec<u32>,
+}
+
+/// `contract.glsl` from the contract's `(name, value, doc)` list: one `const uint` per
+/// constant, its doc as a comment; `source` names the Rust file in the header line.
+pub fn contract_glsl(all: &[(&str, u32, &str)], source: &str) -> String {
+    let mut out = format!("// Generated from {source} by build.rs: do not edit.\n\n");
+    for (name, value, doc) in all {
+        for line in doc.lines() {
+            writeln!(out, "//{line}").unwrap();
+        }
+        let value = if *value > 0xffff { format!("0x{value:x}u") } else { format!("{value}u") };
+        writeln!(out, "const uint {name} = {value};").unwrap();
+    }
+    out
+}
+
+/// GLSL source with its `#include`s expanded, and where each of its lines came from (so an
+/// error in the expanded text can name the file and line the user edits).
+struct Expanded {
+    text: String,
+    origin: Vec<(PathBuf, usize)>,
+}
+
+impl Expanded {
+    /// `file:line` of the 1-based line of the expanded text.
+    fn locate(&self, line: u32) -> String {
+        match self.origin.get((line as usize).saturating_sub(1)) {
+            Some((path, n)) => format!("{}:{n}", path.display()),
+            None => format!("line {line}"),
+        }
+    }
+
+    // naga's GLSL front end has no preprocessor includes, so they are expanded here. A name
+    // not found next to the including file is the generated contract header.
+    fn include(&mut self, path: &Path, contract: &str, depth: u32) -> Result<(), String> {
+        if depth >= 8 {
+            return Err(format!("{}: #include nesting is deeper than 8", path.display()));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        for (n, line) in text.lines().enumerate() {
+            if let Some(rest) = line.trim_start().strip_prefix("#include") {
+                let name = rest.trim().trim_matches('"');
+                let beside = path.parent().unwrap_or(Path::new(".")).join(name);
+                if beside.exists() {
+                    self.include(&beside, contract, depth + 1)?;
+                } else if name == CONTRACT_HEADER {
+                    for (i, l) in contract.lines().enumerate() {
+                        self.push(l, PathBuf::from(CONTRACT_HEADER), i + 1);
+                    }
+                } else {
+                    return Err(format!("{}:{}: cannot find the included file {name}", path.display(), n + 1));
+                }
+            }
+            // The include line itself stays as an empty line, keeping the count simple.
+            let kept = if line.trim_start().starts_with("#include") { "" } else { line };
+            self.push(kept, path.to_path_buf(), n + 1);
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, line: &str, path: PathBuf, n: usize) {
+        self.text.push_str(line);
+        self.text.push('\n');
+        self.origin.push((path, n));
+    }
+}
+
+/// Compile the compute shader at `path` (its includes expanded, `contract.glsl` from
+/// `contract` unless one lies beside it). An error is one message starting with the
+/// `file:line` of the first problem, naga's full report below it.
+pub fn compile(path: &Path, contract: &str) -> Result<CompiledShader, String> {
+    let mut src = Expanded { text: String::new(), origin: Vec::new() };
+    src.include(path, contract, 0)?;
+    let mut frontend = naga::front::glsl::Frontend::default();
+    let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
+    let module = frontend.parse(&options, &src.text).map_err(|e| {
+        let (line, what) = match e.errors.first() {
+            Some(first) => (first.meta.location(&src.text).line_number, first.kind.to_string()),
+            None => (0, "unknown GLSL error".to_string()),
+        };
+        format!("{}: {what}\n{}", src.locate(line), e.emit_to_string(&src.text))
+    })?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| {
+            let line = e.spans().next().map(|(span, _)| span.location(&src.text).line_number).unwrap_or(0);
+            format!("{}: {}\n{}", src.locate(line), e.as_inner(), e.emit_to_string(&src.text))
+        })?;
+    let mut spv_options = naga::back::spv::Options::default();
+    // Debug info would only grow the binary; bounds checks stay off (we index with validated data).
+    spv_options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
+    let spirv = naga::back::spv::write_vec(&module, &info, &spv_options, None)
+        .map_err(|e| format!("SPIR-V generation failed for {}: {e}", path.display()))?;
+    Ok(CompiledShader { module, spirv })
+}
+
+/// The interface the host relies on, as text: the work-group size, each storage binding
+/// (number, block name, read-only) and the push-constant block's members with their offsets
+/// and sizes. Two shaders with the same text fit the same pipeline layout and host structs.
+pub fn layout_signature(module: &naga::Module) -> Result<String, String> {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).map_err(|e| format!("cannot lay out the shader's types: {e}"))?;
+    let [entry] = module.entry_points.as_slice() else { return Err("the shader must have exactly one entry point".into()) };
+    let mut lines = vec![format!("work group {:?}", entry.workgroup_size)];
+    let mut bindings = Vec::new();
+    for (_, var) in module.global_variables.iter() {
+        let ty = &module.types[var.ty];
+        let name = ty.name.clone().unwrap_or_default();
+        match var.space {
+            naga::AddressSpace::Storage { access } => {
+                let b = var.binding.as_ref().ok_or("a storage buffer has no binding")?;
+                let read_only = if access.contains(naga::StorageAccess::STORE) { "" } else { " readonly" };
+                bindings.push((b.group, b.binding, format!("set {} binding {}: {name}{read_only}", b.group, b.binding)));
+            }
+            naga::AddressSpace::PushConstant => {
+                let mut line = format!("push constants {name}, {} bytes:", layouter[var.ty].size);
+                if let naga::TypeInner::Struct { members, .. } = &ty.inner {
+                    for m in members {
+                        write!(line, " {}@{}+{}", m.name.as_deref().unwrap_or("?"), m.offset, layouter[m.ty].size).unwrap();
+                    }
+                }
+                lines.push(line);
+            }
+            _ => {}
+        }
+    }
+    bindings.sort();
+    lines.extend(bindings.into_iter().map(|(_, _, line)| line));
+    Ok(lines.join("\n"))
+}
+
+/// Every file a shader build reads from `dir` (the `.comp` and `.glsl` files), sorted.
+pub fn shader_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir)? {
+        let path = entry?.path();
+        if path.extension().is_some_and(|e| e == "comp" || e == "glsl") {
+            files.push(path);
+        }
+    }
+    files.sort();
+    Ok(files)
+}
