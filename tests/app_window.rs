@@ -562,3 +562,43 @@ fn one_wheel_notch_is_one_zoom_step() {
     assert!(differing(&one, &two) * 10 > pixels, "the test cannot tell one step from two");
     assert!(differing(&zoomed, &one) * 100 < pixels, "one notch is not one step: {} pixels differ from one step, {} from two", differing(&zoomed, &one), differing(&zoomed, &two));
 }
+
+#[test]
+fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
+    let x = Xvfb::start();
+    let dir = TempDir::new("hot-reload");
+    let shaders = dir.path().join("shaders");
+    std::fs::create_dir(&shaders).unwrap();
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, shaders.join(path.file_name().unwrap())).unwrap();
+    }
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000", "--watch-shaders", "shaders"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+
+    // Half as bright (the default view may see no background, so the pixel value itself is
+    // edited); the reload is polled, so shoot until it shows.
+    let comp = shaders.join("trace.comp");
+    let source = std::fs::read_to_string(&comp).unwrap();
+    let mean = "vec4 value = sum / float(spp);";
+    assert!(source.contains(mean), "trace.comp no longer averages its samples as the test expects");
+    std::fs::write(&comp, source.replacen(mean, "vec4 value = sum / float(spp) * 0.5;", 1)).unwrap();
+    let edited = wait_until(Duration::from_secs(60), "the edited shader's image", || {
+        let shot = f12(&x, &window, dir.path(), &mut app);
+        (max_diff(&start, &shot) > 1).then_some(shot)
+    });
+
+    // A syntax error: the tool keeps tracing with the last good shader.
+    std::fs::write(&comp, format!("{source}\nvoid broken( {{\n")).unwrap();
+    std::thread::sleep(Duration::from_secs(2));
+    let broken = f12(&x, &window, dir.path(), &mut app);
+    assert!(max_diff(&edited, &broken) <= 1, "a broken shader changed the image");
+    press(&x.display, &window, &["ctrl+q"]);
+    let out = app.wait(Duration::from_secs(120));
+    assert_clean_exit(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("shader reload failed") && stderr.contains("trace.comp:"), "the error was not reported with its line: {stderr}");
+}
