@@ -211,10 +211,13 @@ impl Tool {
             WindowEvent::Occluded(occluded) => self.input.occluded = *occluded,
             WindowEvent::ModifiersChanged(m) => self.input.modifiers = m.state(),
             WindowEvent::RedrawRequested => return self.redraw(),
-            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, .. }, .. } if !response.consumed => {
+            // Synthetic presses (keys held while the window gains focus) are not the user's.
+            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. } if !response.consumed => {
                 let m = self.input.modifiers;
                 match self.params.apply_key(*code, m.shift_key(), m.control_key(), &mut self.previous_resolution) {
                     KeyAction::None => {}
+                    // A held key steps a parameter again and again; it does not repeat actions.
+                    _ if *repeat => {}
                     KeyAction::ScreenshotTrace => self.want_trace_shot = true,
                     KeyAction::ScreenshotWindow => self.want_window_shot = true,
                     KeyAction::FrameModel => self.frame_model(),

@@ -26,7 +26,9 @@ impl Xvfb {
         let mut last_error = String::new();
         for _ in 0..3 {
             let mut child = Command::new("Xvfb")
-                .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset"])
+                // -r: no key auto-repeat. Under load the server may see a key's release more
+                // than its repeat delay after the press and repeat it (one PgUp, two bounces).
+                .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset", "-r"])
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::null())
