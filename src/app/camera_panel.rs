@@ -40,8 +40,8 @@ pub fn camera_section(ui: &mut Ui, params: &mut Params, fields: &mut CameraField
             ui.end_row();
             let eye = point_field(ui, "Eye", &mut fields.eye, params.camera.position);
             let target = point_field(ui, "Target", &mut fields.target, params.camera.target);
-            if let Some(typed) = eye.or(target) {
-                fields.status = Some(match typed.and_then(|_| apply(params, &fields.eye, &fields.target)) {
+            if eye || target {
+                fields.status = Some(match apply(params, &fields.eye, &fields.target) {
                     Ok(()) => Status::ok(format!("camera at {}", point_text(params.camera.position))),
                     Err(e) => Status::error(e),
                 });
@@ -65,9 +65,9 @@ pub fn camera_section(ui: &mut Ui, params: &mut Params, fields: &mut CameraField
     });
 }
 
-/// One `X,Y,Z` row. While not being edited it shows `current`; returns Some when Enter was
-/// pressed in it (Ok) or it could not be read (Err).
-fn point_field(ui: &mut Ui, name: &str, text: &mut String, current: Vec3) -> Option<Result<(), String>> {
+/// One `X,Y,Z` row. While not being edited it shows `current`; returns whether Enter was
+/// pressed in it (the text is read by [`apply`]).
+fn point_field(ui: &mut Ui, name: &str, text: &mut String, current: Vec3) -> bool {
     ui.label(name);
     let id = ui.make_persistent_id(("camera field", name));
     if !ui.memory(|m| m.has_focus(id)) {
@@ -75,8 +75,7 @@ fn point_field(ui: &mut Ui, name: &str, text: &mut String, current: Vec3) -> Opt
     }
     let response = ui.add(egui::TextEdit::singleline(text).id(id).desired_width(150.0)).on_hover_text("X,Y,Z, applied on Enter");
     ui.end_row();
-    let entered = response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-    entered.then(|| parse_point(text).map(|_| ()).map_err(|e| format!("{name}: {e}")))
+    response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter))
 }
 
 /// Put the camera at the typed eye and target, kept inside the scene's bounds.
