@@ -3,6 +3,10 @@
 //! end has no preprocessor includes. The SPIR-V lands in OUT_DIR and is embedded with
 //! `include_bytes!`, so the binary can never run a stale shader.
 //!
+//! The vendor path's shaders (`shaders/vendor/`: ray queries in a compute shader and the
+//! stages of a ray tracing pipeline) use GLSL extensions naga does not parse; glslang
+//! compiles them, after the same include expansion, to `vendor_<name>.spv`.
+//!
 //! Two generated files keep the host and the shader from drifting apart:
 //! - `contract.glsl`: the shared constants of `src/tracer/contract.rs` as GLSL, for the
 //!   shaders to `#include` (supplied by `src/gpu/shader_compile.rs`, which assembles and
@@ -99,6 +103,51 @@ fn shader_layout(module: &naga::Module, shader: &str) -> String {
     out
 }
 
+/// Compile a vendor-path shader with glslang (SPIR-V 1.4, which ray tracing needs) into
+/// `vendor_<stem>.spv`. Errors name the file and line of the source, as naga's do.
+fn compile_vendor(path: &Path, contract: &str, out_dir: &Path) {
+    use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderSource, ShaderStage, SourceLanguage, SpirvVersion, Target, VulkanVersion};
+    let stage = match path.extension().and_then(|e| e.to_str()) {
+        Some("comp") => ShaderStage::Compute,
+        Some("rgen") => ShaderStage::RayGeneration,
+        Some("rchit") => ShaderStage::ClosestHit,
+        Some("rmiss") => ShaderStage::Miss,
+        _ => return,
+    };
+    let src = shader_compile::expand(path, contract).unwrap_or_else(|e| panic!("{e}"));
+    // glslang reports "ERROR: 0:LINE: ..." against the expanded text: name the real file.
+    let located = |log: String| -> String {
+        log.lines()
+            .map(|l| {
+                let line = l.strip_prefix("ERROR: 0:").and_then(|r| r.split(':').next()).and_then(|n| n.parse::<u32>().ok());
+                match line {
+                    Some(n) => format!("{}: {l}", src.locate(n)),
+                    None => l.to_string(),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let compiler = Compiler::acquire().expect("glslang initialises once");
+    let options = CompilerOptions {
+        source_language: SourceLanguage::GLSL,
+        target: Target::Vulkan { version: VulkanVersion::Vulkan1_2, spirv_version: SpirvVersion::SPIRV1_4 },
+        ..Default::default()
+    };
+    let source = ShaderSource::from(src.text.clone());
+    let input = ShaderInput::new(&source, stage, &options, None, None).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let shader = match glslang::Shader::new(compiler, input).parse() {
+        Ok(shader) => shader,
+        Err(e) => panic!("{}: {e}", located(e.to_string())),
+    };
+    let mut program = compiler.create_program();
+    program.add_shader(&shader);
+    let words = program.compile(stage).unwrap_or_else(|e| panic!("{}: {}", path.display(), located(e.to_string())));
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let stem = path.file_stem().unwrap().to_string_lossy();
+    std::fs::write(out_dir.join(format!("vendor_{stem}.spv")), bytes).unwrap();
+}
+
 fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     println!("cargo:rerun-if-changed={CONTRACT_SOURCE}");
@@ -114,5 +163,11 @@ fn main() {
             let stem = path.file_stem().unwrap().to_string_lossy();
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }
+    }
+    println!("cargo:rerun-if-changed=shaders/vendor");
+    for entry in std::fs::read_dir("shaders/vendor").unwrap() {
+        let path = entry.unwrap().path();
+        println!("cargo:rerun-if-changed={}", path.display());
+        compile_vendor(&path, &contract, &out_dir);
     }
 }

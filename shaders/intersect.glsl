@@ -2,14 +2,6 @@
 // over every triangle (the paper's mode) and BVH traversal. Mirrors src/geometry.rs and
 // src/bvh/traverse.rs.
 
-struct Hit {
-    float t;
-    float u;
-    float v;
-    uint tri;       // global index into triangles[]
-    uint instance;
-};
-
 // Möller–Trumbore on a loaded triangle `tri` (index k): returns true and shrinks t_max
 // when the triangle is hit closer.
 bool intersect_loaded(vec3 o, vec3 d, Triangle tri, uint k, inout Hit hit) {

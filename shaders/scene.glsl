@@ -69,3 +69,13 @@ layout(push_constant) uniform Frame {
 } frame;
 
 const float INF = 1e30;
+
+// A closest hit: distance along the ray, barycentrics of corners 1 and 2, the triangle
+// (global index into triangles[]; EMPTY for none) and its instance.
+struct Hit {
+    float t;
+    float u;
+    float v;
+    uint tri;
+    uint instance;
+};

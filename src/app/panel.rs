@@ -15,6 +15,7 @@ use super::settings::section;
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
+use crate::gpu::vendor::{AccelStats, VendorKernel};
 use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// Colour of the GPU-time line and text.
@@ -47,6 +48,20 @@ pub enum PanelAction {
     StopRecording,
     /// Forget the remembered settings and put the window and sections back as they open.
     ResetSettings,
+    /// Trace vendor frames with this kind of vendor tracing.
+    VendorKernel(VendorKernel),
+}
+
+/// The vendor path as the panel shows it.
+#[derive(Clone, Debug, Default)]
+pub struct VendorInfo {
+    /// Why the device cannot trace with the vendor's structures (greys the choice out).
+    pub unavailable: Option<String>,
+    /// The kind in use, and every kind the device has.
+    pub kernel: Option<VendorKernel>,
+    pub kernels: Vec<VendorKernel>,
+    /// What the last change built, once something was.
+    pub stats: Option<AccelStats>,
 }
 
 /// A status line: text and whether it reports a failure.
@@ -125,6 +140,45 @@ pub struct PanelInfo<'a> {
     pub recording: Option<(&'a std::path::Path, u64)>,
     /// Where the remembered settings live (None: `--no-persist` or a scripted run).
     pub settings_file: Option<&'a std::path::Path>,
+    /// The vendor's ray tracing on this device.
+    pub vendor: &'a VendorInfo,
+}
+
+/// The vendor path's kind (when the device has both) and what its last change built.
+fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>) {
+    if vendor.kernels.len() > 1 {
+        ui.label("Vendor");
+        ui.horizontal(|ui| {
+            for &k in &vendor.kernels {
+                let text = match k {
+                    VendorKernel::Query => "ray query",
+                    VendorKernel::Pipeline => "RT pipeline",
+                };
+                let hover = match k {
+                    VendorKernel::Query => "the driver's traversal from our compute shader (VK_KHR_ray_query)",
+                    VendorKernel::Pipeline => "a ray tracing pipeline: ray generation, closest-hit and miss shaders (VK_KHR_ray_tracing_pipeline)",
+                };
+                if ui.radio(vendor.kernel == Some(k), text).on_hover_text(hover).clicked() && vendor.kernel != Some(k) {
+                    actions.push(PanelAction::VendorKernel(k));
+                }
+            }
+        });
+        ui.end_row();
+    }
+    if let Some(s) = &vendor.stats {
+        ui.label("Structures");
+        ui.label(RichText::new(format!(
+            "{} bottom levels {:.1} ms, top level {:.1} ms, {:.1} MB; last change rebuilt the {}",
+            s.bottom_count,
+            s.bottom_ms,
+            s.top_ms,
+            s.bytes as f64 / 1e6,
+            s.rebuilt
+        ))
+        .small())
+        .on_hover_text("a new model rebuilds both levels, a new model count only the top level, the light nothing");
+        ui.end_row();
+    }
 }
 
 /// Show the panel's contents inside `ui` and return the actions asked for.
@@ -143,7 +197,7 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
         // The live numbers first: reachable at any window size without scrolling.
         performance_section(ui, &mut state.perf, info, &mut actions);
-        render_section(ui, params, state, info);
+        render_section(ui, params, state, info, &mut actions);
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
         light_section(ui, params);
@@ -174,7 +228,7 @@ fn resolution_label(r: Resolution, custom: [u32; 2]) -> String {
     }
 }
 
-fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &PanelInfo) {
+fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
     section(ui, "Render", true, |ui| {
         egui::Grid::new("render").num_columns(2).show(ui, |ui| {
             ui.label("Resolution");
@@ -210,11 +264,19 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
             ui.end_row();
             ui.label("Acceleration");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH").on_hover_text("bounding volume hierarchy (the paper's future work, §5); A toggles");
-                let estimate = format!("{:.1e} ray-triangle tests per frame", info.brute_tests);
-                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute force").on_hover_text(&estimate);
+                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
+                let estimate = format!("the paper's method (§3.3): {:.1e} ray-triangle tests per frame", info.brute_tests);
+                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
+                let why = info.vendor.unavailable.clone().unwrap_or_default();
+                ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.settings.accel, Accel::Vendor, "vendor"))
+                    .response
+                    .on_hover_text("the GPU driver's own acceleration structures and traversal (Vulkan ray tracing), on the same scene and shading")
+                    .on_disabled_hover_text(&why);
             });
             ui.end_row();
+            if params.settings.accel == Accel::Vendor {
+                vendor_rows(ui, info.vendor, actions);
+            }
             ui.label("View");
             egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {
                 for view in ViewMode::ALL {
@@ -239,6 +301,9 @@ fn render_section(ui: &mut Ui, params: &mut Params, state: &PanelState, info: &P
                 ui.end_row();
             }
         });
+        if params.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
+            ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
+        }
         if params.settings.accel == Accel::Brute && info.brute_tests > crate::tracer::budget::tests_per_submission() {
             // Said before the wait, not after: the frame is long and comes in bands.
             let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);

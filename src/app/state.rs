@@ -348,7 +348,10 @@ impl Params {
             KeyCode::Equal | KeyCode::NumpadAdd => self.model_count = (self.model_count + 1).min(MAX_MODELS),
             KeyCode::Minus | KeyCode::NumpadSubtract => self.model_count = self.model_count.saturating_sub(1).max(1),
             KeyCode::KeyA => {
-                self.settings.accel = if self.settings.accel == Accel::Bvh { Accel::Brute } else { Accel::Bvh };
+                // BVH, brute force, vendor, and round (a device without the vendor's ray
+                // tracing falls back to the BVH with a note in the panel).
+                let next = Accel::ALL.iter().position(|&a| a == self.settings.accel).map_or(0, |i| (i + 1) % Accel::ALL.len());
+                self.settings.accel = Accel::ALL[next];
                 self.fit_cost_metric();
             }
             KeyCode::KeyC => {

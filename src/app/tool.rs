@@ -20,7 +20,7 @@ use super::cost_view::heat_map;
 use super::frame_log::{watched, FrameRow, Recorder};
 use super::frame_stats::FrameStats;
 use super::input::{Drag, Input};
-use super::panel::{self, PanelAction, PanelInfo, PanelState, Status};
+use super::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
 use super::screenshot::{self, Kind};
 use super::script::ScriptedRun;
 use super::shader_watch::ShaderWatch;
@@ -34,10 +34,11 @@ use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
-use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext};
+use crate::gpu::vendor::VendorKernel;
+use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext, GpuError};
 use crate::scene::spec::SceneSpec;
 use crate::tracer::budget;
-use crate::tracer::frame::{FrameParams, RenderSettings};
+use crate::tracer::frame::{Accel, FrameParams, RenderSettings};
 
 /// The picture of a view other than colour (cost heat map, depth, ...): its pixels (for
 /// F12) and its legend.
@@ -278,6 +279,7 @@ impl Tool {
         let screenshot_dir = screenshot::screenshot_dir();
         let dir_text = std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
         let (triangles, vertices) = self.session.counts();
+        let vendor = self.vendor_info();
         let ctx = &self.gpu.ctx;
         let device = format!("{} ({}){}", ctx.info.name, ctx.info.device_type, if ctx.validation_enabled() { ", validation on" } else { "" });
         let info = PanelInfo {
@@ -300,6 +302,7 @@ impl Tool {
             benchmark: self.benchmarks.progress(),
             recording: self.recorder.info(),
             settings_file: self.store.path.as_deref(),
+            vendor: &vendor,
         };
         let light = self.light_marker();
         let notice = self.notice.as_ref();
@@ -325,6 +328,18 @@ impl Tool {
         let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
         self.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
         (full, actions)
+    }
+
+    /// The vendor path as the panel shows it.
+    fn vendor_info(&self) -> VendorInfo {
+        let tracer = &self.gpu.tracer;
+        let support = &self.gpu.ctx.info.vendor;
+        VendorInfo {
+            unavailable: tracer.vendor_kernel().err().map(str::to_string),
+            kernel: tracer.vendor_kernel().ok(),
+            kernels: VendorKernel::ALL.into_iter().filter(|k| k.supported(support)).collect(),
+            stats: tracer.vendor_stats(),
+        }
     }
 
     /// Where the light appears over the image shown, in points (None when no image).
@@ -359,6 +374,16 @@ impl Tool {
             return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
         };
         self.traced = true;
+        if let Err(e) = self.gpu.tracer.prepare(&params) {
+            // A preset or the A key asked for the vendor's ray tracing where the device has
+            // none: say why and trace with our BVH from the next frame on.
+            if let GpuError::VendorUnavailable(why) = &e {
+                self.panel.render_status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
+                self.params.settings.accel = Accel::Bvh;
+                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
+            }
+            return Err(e.into());
+        }
         // Views other than colour are pictures made on the CPU from the float output.
         let cost = (self.params.view != ViewMode::Color).then_some(self.params.view);
         if self.gpu.tracer.fits_one_submission(&params) {
@@ -450,6 +475,11 @@ impl Tool {
                 PanelAction::Record => self.panel.perf.status = self.recorder.start(&screenshot::screenshot_dir()),
                 PanelAction::StopRecording => self.panel.perf.status = self.recorder.stop(),
                 PanelAction::ResetSettings => self.reset_settings(),
+                PanelAction::VendorKernel(kernel) => {
+                    if let Err(e) = self.gpu.tracer.set_vendor_kernel(kernel) {
+                        self.panel.render_status = Some(Status::error(e.to_string()));
+                    }
+                }
             }
         }
         self.egui_state.handle_platform_output(&self.window, full.platform_output);

@@ -11,7 +11,8 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::{GpuContext, GpuError, ComputeTracer};
+use crate::gpu::vendor::VendorKernel;
+use crate::gpu::{ComputeTracer, GpuContext, GpuError};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
@@ -30,13 +31,15 @@ pub struct Case {
     pub paper: Option<(f64, f64)>,
     /// Label of the shading features switched on, for the feature series.
     pub features: String,
+    /// For `Accel::Vendor` rows: the kind of vendor tracing (None: the device's default).
+    pub vendor_kernel: Option<VendorKernel>,
 }
 
 impl Case {
     /// A row of `series` on a paper model with default shading.
     pub fn new(series: &str, model: ModelSource, models: u32, settings: RenderSettings) -> Self {
         let spec = SceneSpec { model, models, settings, ..SceneSpec::default() };
-        Self { series: series.into(), spec, generated: None, paper: None, features: String::new() }
+        Self { series: series.into(), spec, generated: None, paper: None, features: String::new(), vendor_kernel: None }
     }
 
     /// The same row with the camera moved in until the model fills the frame.
@@ -101,6 +104,45 @@ pub struct Row {
     pub paper_ms: Option<f64>,
     /// Why the row was not measured, if it was not.
     pub skipped: Option<String>,
+    /// Vendor rows: how the driver's structures were traced ("query" or "pipeline").
+    #[serde(default)]
+    pub vendor_kernel: Option<String>,
+    /// `bench --compare`: our BVH's GPU time over the vendor's on the same scene and rays
+    /// (on both rows of the pair).
+    #[serde(default)]
+    pub ours_over_vendor: Option<f64>,
+}
+
+impl Row {
+    /// The scene and rays of the row, without the acceleration and the notes (a framed
+    /// row's coverage differs by a few edge pixels between tracers).
+    fn workload(&self) -> (&str, &str, u32, u64, u32, u32, u32) {
+        (&self.series, &self.model, self.models, self.triangles, self.width, self.height, self.bounces)
+    }
+}
+
+/// `bench --compare`: each vendor row's partner, the nearest BVH row before it with the same
+/// workload (the CLI puts the vendor rows right after their BVH row): (ours, vendor) indices.
+pub fn vendor_pairs(rows: &[Row]) -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    for (j, theirs) in rows.iter().enumerate().filter(|(_, r)| r.accel == Accel::Vendor) {
+        if let Some(i) = (0..j).rev().find(|&i| rows[i].accel == Accel::Bvh && rows[i].workload() == theirs.workload()) {
+            pairs.push((i, j));
+        }
+    }
+    pairs
+}
+
+/// `bench --compare`: set [`Row::ours_over_vendor`] on both rows of each pair (on the BVH
+/// row, from its first vendor partner).
+pub fn pair_with_vendor(rows: &mut [Row]) {
+    for (i, j) in vendor_pairs(rows) {
+        if let (Some(ours), Some(theirs)) = (rows[i].gpu_ms, rows[j].gpu_ms) {
+            let ratio = ours.median / theirs.median;
+            rows[j].ours_over_vendor = Some(ratio);
+            rows[i].ours_over_vendor.get_or_insert(ratio);
+        }
+    }
 }
 
 /// Options of a run.
@@ -215,12 +257,27 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         paper_fps: case.paper.map(|p| p.0),
         paper_ms: case.paper.map(|p| p.1),
         skipped: None,
+        vendor_kernel: None,
+        ours_over_vendor: None,
     };
     if let Some(why) = budget::refusal(&s, triangles) {
         row.skipped = Some(why);
         return Ok(row);
     }
     let params = FrameParams::new(scene, s);
+    if s.accel == Accel::Vendor {
+        if let Some(kernel) = case.vendor_kernel {
+            tracer.set_vendor_kernel(kernel)?;
+        }
+        let kernel = tracer.vendor_kernel().map_err(|why| GpuError::VendorUnavailable(why.to_string()))?;
+        row.vendor_kernel = Some(kernel.to_string());
+        // The driver's structures stand in for our BVH in the build and memory columns.
+        tracer.prepare(&params)?;
+        if let Some(stats) = tracer.vendor_stats() {
+            row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
+            row.scene_bytes = stats.bytes;
+        }
+    }
     if case.spec.camera.framed {
         // What share of the frame the model covers: its primitives come before the box's.
         let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
@@ -229,7 +286,8 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
         row.features = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
     }
-    if options.verbose {
+    // The driver's traversal reports no cost.
+    if options.verbose && s.accel != Accel::Vendor {
         println!("  work: {}", work_per_ray(tracer, scene, s)?);
     }
     for _ in 0..options.warmup {

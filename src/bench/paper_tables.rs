@@ -88,14 +88,18 @@ pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &
 
 /// Primary rays only with the camera moved in until the model fills the frame, as in the
 /// vendor's figure (a 4M-triangle mesh filling 1024x1024): every ray meets the mesh's BVH.
-pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], size: u32) -> Vec<Case> {
+pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32) -> Vec<Case> {
     let mut cases = Vec::new();
     for &n in triangle_counts {
         let mesh = Arc::new(large_torus_knot(n));
-        cases.push(Case { generated: Some(mesh), ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, Accel::Bvh)) }.framed());
+        for &accel in accels {
+            cases.push(Case { generated: Some(mesh.clone()), ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, accel)) }.framed());
+        }
     }
     for source in extra {
-        cases.push(Case::new("framed", source.clone(), 1, settings(size, 0, Accel::Bvh)).framed());
+        for &accel in accels {
+            cases.push(Case::new("framed", source.clone(), 1, settings(size, 0, accel)).framed());
+        }
     }
     cases
 }

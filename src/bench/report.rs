@@ -8,6 +8,41 @@ use anyhow::Context;
 use serde::Serialize;
 
 use super::{Environment, Row};
+use crate::tracer::Accel;
+
+/// `bench --compare`'s closing table: per pair of rows, both GPU times, the ratio (ours over
+/// the vendor's: below 1 we are faster), and the build time and memory of both structures.
+pub fn compare_table(rows: &[Row]) -> String {
+    let mut out = format!(
+        "{:<10} {:<12} {:>9} {:>11} {:<2} {:>9} {:>9} {:<8} {:>7} {:>10} {:>12} {:>8} {:>10}\n",
+        "series", "model", "triangles", "resolution", "b", "bvh ms", "vendor ms", "kernel", "ratio", "bvh build", "vendor build", "bvh MB", "vendor MB"
+    );
+    for (i, j) in super::vendor_pairs(rows) {
+        let (ours, theirs) = (&rows[i], &rows[j]);
+        {
+            let (Some(a), Some(b)) = (ours.gpu_ms, theirs.gpu_ms) else { continue };
+            let _ = writeln!(
+                out,
+                "{:<10} {:<12} {:>9} {:>5}x{:<5} b{} {:>9.3} {:>9.3} {:<8} {:>7.2} {:>7.1} ms {:>9.1} ms {:>8.1} {:>10.1}",
+                ours.series,
+                ours.model,
+                ours.triangles,
+                ours.width,
+                ours.height,
+                ours.bounces,
+                a.median,
+                b.median,
+                theirs.vendor_kernel.as_deref().unwrap_or("-"),
+                a.median / b.median,
+                ours.bvh_build_ms,
+                theirs.bvh_build_ms,
+                ours.scene_bytes as f64 / 1e6,
+                theirs.scene_bytes as f64 / 1e6
+            );
+        }
+    }
+    out
+}
 
 /// A whole run, as written to JSON.
 #[derive(Serialize)]
@@ -25,19 +60,26 @@ pub fn format_row(r: &Row) -> String {
         _ => String::new(),
     };
     if let Some(why) = &r.skipped {
-        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} skipped: {why}", r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel);
+        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel);
     }
     let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
+    let mut notes = r.features.clone();
+    if let Some(kernel) = &r.vendor_kernel {
+        notes = [notes.as_str(), kernel.as_str()].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join(", ");
+    }
+    if let (Some(ratio), Accel::Vendor) = (r.ours_over_vendor, r.accel) {
+        notes.push_str(&format!(" (ours/vendor {ratio:.2})"));
+    }
     format!(
-        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<5} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}{}",
-        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s, r.features
+        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}{}",
+        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s, notes
     )
 }
 
 /// The header matching `format_row`.
 pub fn header() -> String {
     format!(
-        "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<5} {:>9} {:>9} {:>8} {:>9}   {}",
+        "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<6} {:>9} {:>9} {:>8} {:>9}   {}",
         "series", "model", "n", "triangles", "resolution", "b", "accel", "gpu ms", "frame ms", "fps", "Mrays/s", "paper (GTX 1080 Ti, brute force)"
     )
 }
@@ -50,16 +92,17 @@ pub fn write_json(path: &Path, report: &Report) -> anyhow::Result<()> {
 
 /// Write the rows as CSV.
 pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result<()> {
-    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,features,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,device,driver,date\n");
+    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,features,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,vendor_kernel,ours_over_vendor,device,driver,date\n");
     for r in rows {
         let g = r.gpu_ms.unwrap_or_default();
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},\"{}\",\"{}\",{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},\"{}\",\"{}\",{}",
             r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.features, r.rays_per_frame,
             g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
-            opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), env.device, env.driver, env.date
+            opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), r.vendor_kernel.clone().unwrap_or_default(),
+            opt(r.ours_over_vendor), env.device, env.driver, env.date
         );
     }
     std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))

@@ -78,7 +78,8 @@ pub(crate) struct SceneArgs {
     /// Position of the light on its orbit, in degrees.
     #[arg(long, default_value_t = 45.0, value_parser = parse_finite)]
     pub light_angle: f32,
-    /// Acceleration: bvh, or brute (the paper's every-ray-against-every-triangle).
+    /// Acceleration: bvh, brute (the paper's every-ray-against-every-triangle), or vendor
+    /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
     #[arg(long, default_value = "bvh")]
     pub accel: Accel,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
@@ -348,6 +349,10 @@ pub struct RenderArgs {
     /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
     #[arg(long)]
     pub(crate) validation: bool,
+    /// With --accel vendor: trace the driver's structures with ray queries from the compute
+    /// shader (query) or a ray tracing pipeline (pipeline). Default: the device's preferred.
+    #[arg(long)]
+    pub(crate) vendor_kernel: Option<crate::gpu::vendor::VendorKernel>,
 }
 
 impl RenderArgs {

@@ -8,6 +8,7 @@ use clap::Args;
 
 use crate::bench::report::{self, Report};
 use crate::bench::{self, charts, paper_tables, Case, RunOptions};
+use crate::gpu::vendor::VendorKernel;
 use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
@@ -30,6 +31,16 @@ pub struct BenchArgs {
     /// knots and --obj models at --size): the vendor's comparison.
     #[arg(long)]
     pub(crate) framed: bool,
+    /// Trace every row with our BVH and with the vendor's ray tracing (and brute force where
+    /// it fits the GPU watchdog's budget) on the same scene, camera and rays, and end with a
+    /// table of the ratio ours / vendor, build times and memory of both.
+    #[arg(long)]
+    pub(crate) compare: bool,
+    /// How vendor rows trace the driver's structures: query (ray queries from the compute
+    /// shader), pipeline (a ray tracing pipeline), comma-separated. Default: with --compare
+    /// every kind the device has, else the device's default.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) vendor_kernel: Vec<VendorKernel>,
     /// Measured frames per row.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
     pub(crate) frames: u32,
@@ -39,7 +50,7 @@ pub struct BenchArgs {
     /// Resolutions (square) for --paper, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "512,1024", value_parser = clap::value_parser!(u32).range(1..=8192))]
     pub(crate) resolutions: Vec<u32>,
-    /// Accelerations to run, comma-separated: brute, bvh.
+    /// Accelerations to run, comma-separated: brute, bvh, vendor.
     #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
     pub(crate) accel: Vec<Accel>,
     /// Triangle counts of the generated meshes for --scaling, comma-separated.
@@ -109,7 +120,14 @@ impl BenchArgs {
         let accels = if self.given("accel") { self.accel.clone() } else { vec![spec.settings.accel] };
         let cases = accels
             .into_iter()
-            .map(|accel| Case { series: "preset".into(), spec: SceneSpec { settings: RenderSettings { accel, ..spec.settings }, ..spec.clone() }, generated: None, paper: None, features: features_label(&spec) })
+            .map(|accel| Case {
+                series: "preset".into(),
+                spec: SceneSpec { settings: RenderSettings { accel, ..spec.settings }, ..spec.clone() },
+                generated: None,
+                paper: None,
+                features: features_label(&spec),
+                vendor_kernel: None,
+            })
             .collect();
         Ok((cases, warnings))
     }
@@ -141,6 +159,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
+    // --compare adds the vendor's rows to our BVH's; the framed series is BVH-only otherwise.
+    let accels: Vec<Accel> = if args.compare { args.accel.iter().copied().filter(|a| *a != Accel::Vendor).collect() } else { args.accel.clone() };
+    let framed_accels = if args.given("accel") || args.compare { accels.clone() } else { vec![Accel::Bvh] };
     if let Some(path) = &args.preset {
         let (preset_cases, warnings) = args.preset_cases(path)?;
         for w in &warnings {
@@ -148,19 +169,52 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
         cases.extend(preset_cases);
     } else if args.paper || !(args.scaling || args.features || args.framed) {
-        cases.extend(paper_tables::paper_cases(&args.resolutions, &args.accel));
+        cases.extend(paper_tables::paper_cases(&args.resolutions, &accels));
     }
     if args.scaling {
-        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &args.accel, args.size, args.bounces));
+        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &accels, args.size, args.bounces));
     }
     if args.framed {
-        cases.extend(paper_tables::framed_cases(&args.triangles, &extra, args.size));
+        cases.extend(paper_tables::framed_cases(&args.triangles, &extra, &framed_accels, args.size));
     }
     if args.features {
         let textured = extra.first().cloned();
         cases.extend(paper_tables::feature_cases(args.size, ModelSource::Paper(crate::scene::primitives::PaperModel::Sphere), textured));
     }
     let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
+    let support = &ctx.info.vendor;
+    let wants_vendor = args.compare || cases.iter().any(|c| c.spec.settings.accel == Accel::Vendor);
+    if wants_vendor && !support.available() {
+        anyhow::bail!("{}", support.missing.clone().unwrap_or_default());
+    }
+    if let Some(k) = args.vendor_kernel.iter().find(|k| !k.supported(support)) {
+        anyhow::bail!("{} does not offer the vendor kernel '{k}' (it has: {})", ctx.info.name, VendorKernel::ALL.iter().filter(|k| k.supported(support)).map(|k| k.to_string()).collect::<Vec<_>>().join(", "));
+    }
+    let kernels: Vec<Option<VendorKernel>> = match (args.vendor_kernel.is_empty(), args.compare) {
+        (false, _) => args.vendor_kernel.iter().copied().map(Some).collect(),
+        (true, true) => VendorKernel::ALL.into_iter().filter(|k| k.supported(support)).map(Some).collect(),
+        (true, false) => vec![None],
+    };
+    let cases: Vec<Case> = cases
+        .into_iter()
+        .flat_map(|case| {
+            let accel = case.spec.settings.accel;
+            let mut out = Vec::new();
+            if accel == Accel::Vendor {
+                out.extend(kernels.iter().map(|&k| Case { vendor_kernel: k, ..case.clone() }));
+            } else {
+                out.push(case.clone());
+            }
+            if args.compare && accel == Accel::Bvh {
+                for &k in &kernels {
+                    let mut vendor = Case { vendor_kernel: k, ..case.clone() };
+                    vendor.spec.settings.accel = Accel::Vendor;
+                    out.push(vendor);
+                }
+            }
+            out
+        })
+        .collect();
     let env = bench::environment(&ctx);
     println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
     println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians)", cases.len(), args.warmup, args.frames);
@@ -174,6 +228,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             eprint!("\r[{}/{}]\r", i + 1, total);
         }
     })?;
+    let mut rows = rows;
+    if args.compare {
+        bench::pair_with_vendor(&mut rows);
+        println!("\nours (BVH) / vendor, GPU ms medians (below 1: ours is faster):");
+        print!("{}", report::compare_table(&rows));
+    }
     let messages = ctx.validation_messages();
     if !messages.is_empty() {
         anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);

@@ -57,12 +57,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let options = ContextOptions { validation: args.validation, device_index: args.scene.device, ..Default::default() };
         let ctx = GpuContext::new(&options)?;
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
+        if let Some(kernel) = args.vendor_kernel {
+            tracer.set_vendor_kernel(kernel)?;
+        }
         let (image, timing) = tracer.render(&params)?;
         let messages = ctx.validation_messages();
         if !messages.is_empty() {
             bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
         }
-        let gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
+        let mut gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
+        if let (crate::tracer::Accel::Vendor, Ok(kernel), Some(stats)) = (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats()) {
+            gpu = format!("vendor {kernel}, structures built in {:.1} ms, {gpu}", stats.bottom_ms + stats.top_ms);
+        }
         (image, format!("{}, {gpu}", ctx.info.name))
     };
     if heat_map_image {

@@ -73,6 +73,13 @@ impl GpuBuffer {
         }
     }
 
+    /// The buffer's address on the device (created with `SHADER_DEVICE_ADDRESS` usage, on a
+    /// context with buffer device addresses: the vendor path).
+    pub(crate) fn device_address(&self) -> vk::DeviceAddress {
+        // SAFETY: the buffer is live and, by the caller's contract, has the usage.
+        unsafe { self.ctx.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.buffer)) }
+    }
+
     /// The mapped bytes of a host-visible buffer.
     pub(crate) fn mapped(&mut self) -> Option<&mut [u8]> {
         let size = self.size as usize;
@@ -107,13 +114,18 @@ impl GpuBuffer {
 
     /// Read `len` bytes back from this (device-local) buffer through a staging copy.
     pub(crate) fn download(&self, len: u64) -> Result<Vec<u8>, GpuError> {
+        self.download_range(0, len)
+    }
+
+    /// Read `len` bytes from `offset` on back from this (device-local) buffer.
+    pub(crate) fn download_range(&self, offset: u64, len: u64) -> Result<Vec<u8>, GpuError> {
         let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
         let device = &self.ctx.device;
         // SAFETY: as in `upload`.
         self.ctx.one_shot(|cmd| unsafe {
             let before = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
             device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &before, &[], &[]);
-            device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size: len }]);
+            device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }]);
             let after = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ)];
             device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::HOST, vk::DependencyFlags::empty(), &after, &[], &[]);
         })?;

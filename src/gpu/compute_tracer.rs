@@ -3,6 +3,7 @@
 //! The window records its frames' traces into its own command buffers ([`ComputeTracer::record`]);
 //! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
 //! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
+//! `Accel::Vendor` frames go to the vendor path ([`super::vendor`]), built on first use.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -13,9 +14,10 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::timer::GpuTimer;
-use super::trace_pass::{Band, TraceOutput, TracePass, GROUP_SIZE};
+use super::trace_pass::{Band, Kernel, TraceOutput, TracePass, GROUP_SIZE};
+use super::vendor::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
-use crate::tracer::frame::FrameParams;
+use crate::tracer::frame::{Accel, FrameParams};
 use crate::tracer::image::Image;
 use crate::tracer::packed::{GpuInstance, PackedScene};
 
@@ -42,6 +44,12 @@ pub struct ComputeTracer {
     recorded_slots: u32,
     /// Triangles over all instances, for the work estimate that splits frames into bands.
     triangle_total: u64,
+    /// The vendor path, or why the device cannot run it.
+    vendor: Result<VendorTracer, String>,
+    /// (first triangle, count) of each mesh, and the instances: what the vendor's
+    /// structures are built from.
+    meshes: Vec<(u32, u32)>,
+    instances: Vec<GpuInstance>,
     /// One command buffer and fence reused by every headless submission.
     pool: vk::CommandPool,
     cmd: vk::CommandBuffer,
@@ -52,7 +60,7 @@ impl ComputeTracer {
     /// A tracer with no scene yet, with `recorded_slots` timestamp slots for frames that
     /// a caller records into its own command buffers (its frames in flight).
     pub(crate) fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
-        let pass = TracePass::new(ctx)?;
+        let pass = TracePass::new(ctx, Kernel::Ours)?;
         let timer = GpuTimer::new(ctx, recorded_slots + 1)?;
         let device = &ctx.device;
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
@@ -63,7 +71,22 @@ impl ComputeTracer {
         let cmd = unsafe { device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
         // SAFETY: as above.
         let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.during("creating a fence")?;
-        Ok(Self { ctx: ctx.clone(), pass, scene: None, output: None, timer, recorded_slots, triangle_total: 0, pool, cmd, fence })
+        let vendor = VendorTracer::new(ctx);
+        Ok(Self {
+            ctx: ctx.clone(),
+            pass,
+            scene: None,
+            output: None,
+            timer,
+            recorded_slots,
+            triangle_total: 0,
+            vendor,
+            meshes: Vec::new(),
+            instances: Vec::new(),
+            pool,
+            cmd,
+            fence,
+        })
     }
 
     /// A headless tracer with `packed` uploaded.
@@ -74,11 +97,16 @@ impl ComputeTracer {
     }
 
     /// Upload a new scene; the old one is freed first (the GPU is waited for).
-    pub(crate) fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+    pub fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.scene = None;
+        if let Ok(v) = &mut self.vendor {
+            v.scene_changed();
+        }
         self.scene = Some(SceneBuffers::upload(&self.ctx, packed)?);
         self.triangle_total = triangle_total(&packed.instances);
+        self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
+        self.instances = packed.instances.clone();
         self.rebind();
         Ok(())
     }
@@ -89,6 +117,10 @@ impl ComputeTracer {
         if let Some(scene) = &mut self.scene {
             scene.set_instances(instances)?;
             self.triangle_total = triangle_total(instances);
+            self.instances = instances.to_vec();
+            if let Ok(v) = &mut self.vendor {
+                v.instances_changed();
+            }
         }
         Ok(())
     }
@@ -154,8 +186,42 @@ impl ComputeTracer {
 
     fn rebind(&self) {
         if let (Some(scene), Some(output)) = (&self.scene, &self.output) {
-            self.pass.bind(scene, output);
+            self.pass.bind(scene, output, None);
+            if let Ok(v) = &self.vendor {
+                v.bind(scene, output);
+            }
         }
+    }
+
+    /// The vendor kernel in use, or why the device has no vendor path (one sentence).
+    pub fn vendor_kernel(&self) -> Result<VendorKernel, &str> {
+        self.vendor.as_ref().map(|v| v.kernel).map_err(String::as_str)
+    }
+
+    /// Trace `Accel::Vendor` frames with `kernel` from now on (if the device has it).
+    pub fn set_vendor_kernel(&mut self, kernel: VendorKernel) -> Result<(), GpuError> {
+        let v = self.vendor.as_mut().map_err(|why| GpuError::VendorUnavailable(why.clone()))?;
+        v.set_kernel(kernel).map_err(GpuError::VendorUnavailable)
+    }
+
+    /// What the vendor path last built (structures, times, bytes), once it has built.
+    pub fn vendor_stats(&self) -> Option<AccelStats> {
+        self.vendor.as_ref().ok().and_then(|v| v.stats().cloned())
+    }
+
+    /// Build what a frame of `params` needs before it is recorded: for `Accel::Vendor`,
+    /// the driver's structures of the scene and the kernel's pipeline (waits for the GPU
+    /// when it builds). Our tracer needs nothing. An error says why the vendor path
+    /// cannot run here.
+    pub fn prepare(&mut self, params: &FrameParams) -> Result<(), GpuError> {
+        if params.settings.accel != Accel::Vendor {
+            return Ok(());
+        }
+        let vendor = self.vendor.as_mut().map_err(|why| GpuError::VendorUnavailable(why.clone()))?;
+        if let (Some(scene), Some(output)) = (&self.scene, &self.output) {
+            vendor.prepare(scene, output, &self.meshes, &self.instances)?;
+        }
+        Ok(())
     }
 
     /// Rows per submission for `params`, a multiple of the work-group size.
@@ -182,7 +248,13 @@ impl ComputeTracer {
         if let Some((t, slot)) = timer {
             t.begin(cmd, slot);
         }
-        self.pass.record(cmd, &params, band);
+        match &self.vendor {
+            Ok(v) if params.settings.accel == Accel::Vendor => {
+                debug_assert!(v.is_ready(), "ComputeTracer::prepare comes before a vendor frame");
+                v.record(cmd, &params, band);
+            }
+            _ => self.pass.record(cmd, &params, band),
+        }
         if let Some((t, slot)) = timer {
             t.end(cmd, slot);
         }
@@ -219,6 +291,7 @@ impl ComputeTracer {
         if self.scene.is_none() {
             return Err(GpuError::NotReady("no scene was uploaded before tracing"));
         }
+        self.prepare(params)?;
         let band = self.rows_per_submission(params);
         let slot = self.recorded_slots;
         let mut timing = TraceTiming { gpu_ms: self.timer.as_ref().map(|_| 0.0), ..Default::default() };

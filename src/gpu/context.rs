@@ -62,6 +62,61 @@ pub struct DeviceInfo {
     pub(crate) timestamp_valid_bits: u32,
     /// Device-local heap size in bytes (the largest such heap).
     pub(crate) device_local_bytes: u64,
+    /// The vendor's ray tracing the device offers (`--accel vendor`), enabled when present.
+    pub vendor: VendorSupport,
+}
+
+/// What the device offers for tracing with the driver's own acceleration structures.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct VendorSupport {
+    /// `VK_KHR_ray_query`: the driver's traversal from a compute shader.
+    pub ray_query: bool,
+    /// `VK_KHR_ray_tracing_pipeline`: ray generation, closest-hit and miss shaders.
+    pub pipeline: bool,
+    /// Why the vendor path cannot run here (one sentence), when neither is usable.
+    pub missing: Option<String>,
+}
+
+impl VendorSupport {
+    /// Either way of tracing with the driver's structures is usable.
+    pub fn available(&self) -> bool {
+        self.ray_query || self.pipeline
+    }
+}
+
+/// Set to 1, the tool leaves the vendor's ray tracing off even where the device has it (to
+/// see the tool as it is on a device without it).
+pub const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
+
+/// Which ray tracing extensions and features `pd` offers, all of them needed together.
+fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::PhysicalDeviceProperties) -> VendorSupport {
+    let name = props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned();
+    let missing = |why: String| VendorSupport { missing: Some(why), ..Default::default() };
+    if std::env::var(NO_VENDOR_ENV).is_ok_and(|v| v == "1") {
+        return missing(format!("the vendor's ray tracing is switched off ({NO_VENDOR_ENV}=1)"));
+    }
+    if props.api_version < vk::API_VERSION_1_2 {
+        return missing(format!("{name} supports only Vulkan {}.{}; the vendor's ray tracing needs 1.2", vk::api_version_major(props.api_version), vk::api_version_minor(props.api_version)));
+    }
+    // SAFETY: a plain query of a physical device of this live instance.
+    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let has = |ext: &CStr| extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ext));
+    let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+    let mut rt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default();
+    let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+    let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut rq).push_next(&mut rt).push_next(&mut accel).push_next(&mut v12);
+    // SAFETY: the feature structs chained to `features` outlive the call.
+    unsafe { instance.get_physical_device_features2(pd, &mut features) };
+    let structures = has(ash::khr::acceleration_structure::NAME) && has(ash::khr::deferred_host_operations::NAME) && accel.acceleration_structure == vk::TRUE && v12.buffer_device_address == vk::TRUE;
+    let ray_query = structures && has(ash::khr::ray_query::NAME) && rq.ray_query == vk::TRUE;
+    let pipeline = structures && has(ash::khr::ray_tracing_pipeline::NAME) && rt.ray_tracing_pipeline == vk::TRUE;
+    if ray_query || pipeline {
+        return VendorSupport { ray_query, pipeline, missing: None };
+    }
+    missing(format!(
+        "{name} does not offer the vendor's ray tracing (VK_KHR_acceleration_structure with VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline); on a CPU, Mesa 25's lavapipe has them"
+    ))
 }
 
 /// Validation messages collected by the debug messenger.
@@ -264,6 +319,25 @@ impl GpuContext {
             device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
             device_info = device_info.push_next(&mut features13);
         }
+        // The vendor's ray tracing, enabled wherever the device has it.
+        let vendor = vendor_support(&instance, physical_device, &props);
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+        let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut query_features = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let mut pipeline_features = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
+        if vendor.available() {
+            device_extensions.push(ash::khr::acceleration_structure::NAME.as_ptr());
+            device_extensions.push(ash::khr::deferred_host_operations::NAME.as_ptr());
+            device_info = device_info.push_next(&mut features12).push_next(&mut accel_features);
+        }
+        if vendor.ray_query {
+            device_extensions.push(ash::khr::ray_query::NAME.as_ptr());
+            device_info = device_info.push_next(&mut query_features);
+        }
+        if vendor.pipeline {
+            device_extensions.push(ash::khr::ray_tracing_pipeline::NAME.as_ptr());
+            device_info = device_info.push_next(&mut pipeline_features);
+        }
         device_info = device_info.enabled_extension_names(&device_extensions);
         // SAFETY: the create info and the queue info, priorities, extension names and
         // features it points to outlive the call.
@@ -276,12 +350,13 @@ impl GpuContext {
             device: device.clone(),
             physical_device,
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            // Acceleration structures are built from and referred to by device addresses.
+            buffer_device_address: vendor.available(),
             allocation_sizes: Default::default(),
         })
         .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
 
-        let info = device_info_of(&instance, physical_device, queue_family, &props);
+        let info = DeviceInfo { vendor, ..device_info_of(&instance, physical_device, queue_family, &props) };
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
@@ -458,5 +533,6 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         timestamp_period_ns: props.limits.timestamp_period,
         timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,
         device_local_bytes,
+        vendor: VendorSupport::default(),
     }
 }

@@ -23,6 +23,9 @@ pub enum GpuError {
     Allocation { what: &'static str, source: gpu_allocator::AllocationError },
     #[error("the scene does not fit this GPU: the {buffer} buffer needs {bytes} bytes but the device allows {limit} per storage buffer")]
     SceneTooLarge { buffer: &'static str, bytes: u64, limit: u64 },
+    /// `--accel vendor` on a device without the extensions: the reason, one sentence.
+    #[error("{0}")]
+    VendorUnavailable(String),
     #[error("the tracer is not ready: {0}")]
     NotReady(&'static str),
 }

@@ -3,7 +3,9 @@
 //! buffers ([`scene_buffers`]), the trace compute pass (`trace_pass`) with what its
 //! shader declares (`shader_layout`), the compute tracer built from them
 //! (`compute_tracer`), and presentation to a window (`present`: surface, swapchain,
-//! composite, egui pass). Nothing outside this folder calls Vulkan.
+//! composite, egui pass), and the vendor's ray tracing beside ours (`vendor`: the driver's
+//! acceleration structures, ray queries, a ray tracing pipeline). Nothing outside this
+//! folder calls Vulkan.
 
 pub(crate) mod barrier;
 pub mod buffer;
@@ -17,8 +19,9 @@ pub(crate) mod shader_compile;
 pub(crate) mod shader_layout;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
+pub mod vendor;
 
 pub use compute_tracer::{ComputeTracer, TraceTiming};
 pub use trace_pass::Band;
-pub use context::{ContextOptions, DeviceInfo, GpuContext};
+pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
 pub use error::GpuError;

@@ -51,7 +51,8 @@ impl SceneBuffers {
     pub fn upload(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
         check_fits(ctx, packed)?;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage, "triangles")?;
+        // Read back by the vendor path to build the driver's structures (no host copy is kept).
+        let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
         let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
         let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
         let nodes = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.nodes), storage, "bvh nodes")?;

@@ -32,14 +32,23 @@ pub fn contract_glsl(all: &[(&str, u32, &str)], source: &str) -> String {
 
 /// GLSL source with its `#include`s expanded, and where each of its lines came from (so an
 /// error in the expanded text can name the file and line the user edits).
-struct Expanded {
-    text: String,
+pub struct Expanded {
+    /// The source with every include in place.
+    pub text: String,
     origin: Vec<(PathBuf, usize)>,
+}
+
+/// The shader at `path` with its includes expanded (`contract.glsl` from `contract` unless
+/// one lies beside it): for naga here, and for glslang in build.rs (the vendor shaders).
+pub fn expand(path: &Path, contract: &str) -> Result<Expanded, String> {
+    let mut src = Expanded { text: String::new(), origin: Vec::new() };
+    src.include(path, contract, 0)?;
+    Ok(src)
 }
 
 impl Expanded {
     /// `file:line` of the 1-based line of the expanded text.
-    fn locate(&self, line: u32) -> String {
+    pub fn locate(&self, line: u32) -> String {
         match self.origin.get((line as usize).saturating_sub(1)) {
             Some((path, n)) => format!("{}:{n}", path.display()),
             None => format!("line {line}"),
@@ -85,8 +94,7 @@ impl Expanded {
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.
 pub fn compile(path: &Path, contract: &str) -> Result<CompiledShader, String> {
-    let mut src = Expanded { text: String::new(), origin: Vec::new() };
-    src.include(path, contract, 0)?;
+    let src = expand(path, contract)?;
     let mut frontend = naga::front::glsl::Frontend::default();
     let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
     let module = frontend.parse(&options, &src.text).map_err(|e| {

@@ -1,5 +1,9 @@
-//! The trace pass: the compute pipeline running `shaders/trace.comp`, its descriptor set
-//! (scene buffers + output buffers) and the recording of one frame's dispatches.
+//! The trace pass: the compute pipeline running `shaders/trace.comp` (our BVH and brute
+//! force) or `shaders/vendor/query.comp` (the driver's traversal through ray queries), its
+//! descriptor set (scene buffers, output buffers, the driver's structure for ray queries)
+//! and the recording of one frame's dispatches. The layout, the descriptor writes and the
+//! frame's recording order are shared with the vendor's ray tracing pipeline
+//! (`vendor::pipeline_pass`).
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -16,6 +20,123 @@ use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
 static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
+
+/// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
+static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
+
+/// Binding of the driver's top-level acceleration structure in the vendor shaders
+/// (`shaders/vendor/tlas.glsl`), after the storage buffers.
+pub(crate) const TLAS_BINDING: u32 = 11;
+
+/// Which compute shader a [`TracePass`] runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// `trace.comp`: our BVH or brute force, as the frame's flags say.
+    Ours,
+    /// `vendor/query.comp`: the driver's traversal through `VK_KHR_ray_query`.
+    RayQuery,
+}
+
+/// SPIR-V words of embedded bytes.
+pub(crate) fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+}
+
+/// The descriptor set layout of the trace shaders: every storage buffer the shader
+/// declares and, for the vendor shaders, the acceleration structure; seen by `stages`.
+pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, with_tlas: bool) -> Result<vk::DescriptorSetLayout, GpuError> {
+    let mut bindings: Vec<_> = BINDINGS
+        .iter()
+        .map(|b| vk::DescriptorSetLayoutBinding::default().binding(b.binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(1).stage_flags(stages))
+        .collect();
+    if with_tlas {
+        bindings.push(
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(TLAS_BINDING)
+                .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+                .descriptor_count(1)
+                .stage_flags(stages),
+        );
+    }
+    // SAFETY: the bindings outlive the call; the caller destroys the layout.
+    unsafe { ctx.device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }.during("creating the trace descriptor layout")
+}
+
+/// A pool holding one set of [`create_set_layout`]'s layout, and that set.
+pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout, with_tlas: bool) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
+    let mut sizes = vec![vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
+    if with_tlas {
+        sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 1 });
+    }
+    // SAFETY: plain object creation on the live device; the caller destroys the pool.
+    let pool = unsafe { ctx.device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
+        .during("creating the trace descriptor pool")?;
+    let set_layouts = [set_layout];
+    // SAFETY: the pool holds exactly this one set of this layout.
+    let set = unsafe { ctx.device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) };
+    match set {
+        Ok(set) => Ok((pool, set[0])),
+        Err(r) => {
+            // SAFETY: the pool was just made and holds nothing.
+            unsafe { ctx.device.destroy_descriptor_pool(pool, None) };
+            Err(GpuError::vk("allocating the trace descriptor set", r))
+        }
+    }
+}
+
+/// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure.
+/// The GPU must not be using the set.
+pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+    // Each binding the shader declares, by its block name (see shader_layout).
+    let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
+        .iter()
+        .map(|b| {
+            let buffer = match TraceBuffer::of(b) {
+                TraceBuffer::Triangles => &scene.triangles,
+                TraceBuffer::Shading => &scene.shading,
+                TraceBuffer::Materials => &scene.materials,
+                TraceBuffer::Nodes => &scene.nodes,
+                TraceBuffer::Instances => &scene.instances,
+                TraceBuffer::Texels => &scene.texels,
+                TraceBuffer::TextureInfos => &scene.texture_infos,
+                TraceBuffer::Environment => &scene.environment,
+                TraceBuffer::OutRgba8 => &output.rgba8,
+                TraceBuffer::OutFloat => &output.float,
+                TraceBuffer::PrimIds => &output.prim_ids,
+            };
+            (b.binding, [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: vk::WHOLE_SIZE }])
+        })
+        .collect();
+    let mut writes: Vec<_> = infos
+        .iter()
+        .map(|(binding, info)| vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info))
+        .collect();
+    let structures = tlas.map(|t| [t]);
+    let mut tlas_write = structures.as_ref().map(|s| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s));
+    if let Some(w) = tlas_write.as_mut() {
+        let mut write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(TLAS_BINDING).descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR).push_next(w);
+        write.descriptor_count = 1;
+        writes.push(write);
+    }
+    // SAFETY: the caller guarantees the set is not in use; the buffers and the structure are live.
+    unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+}
+
+/// The frame's commands for `band`, whatever traces it: the adaptive pre-pass (primary-hit
+/// ids of the whole frame) first when the band is at the frame's first pixel and
+/// `settings.adaptive` is on, then `between` (the pass's barrier from the pre-pass's writes
+/// to the main pass's reads), then the band. `dispatch` records one trace with its push
+/// constants; a band's rows go through the push constants (`misc.y`).
+pub(crate) fn record_frame_band(params: &FrameParams, band: &Band, mut dispatch: impl FnMut(&PushConstants, &Band), between: impl FnOnce()) {
+    let s = &params.settings;
+    if band.rows.start == 0 && band.columns.start == 0 && s.adaptive {
+        let mut pc = params.push_constants(0);
+        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
+        dispatch(&pc, &Band::rows(0..s.height, s.width));
+        between();
+    }
+    dispatch(&params.push_constants(band.rows.start), band);
+}
 
 /// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
 pub const GROUP_SIZE: u32 = super::shader_layout::GROUP_SIZE;
@@ -73,6 +194,7 @@ impl TraceOutput {
 /// The compute pipeline and its one descriptor set.
 pub struct TracePass {
     ctx: Arc<GpuContext>,
+    kernel: Kernel,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
@@ -81,22 +203,12 @@ pub struct TracePass {
 }
 
 impl TracePass {
-    /// Create the pipeline.
-    pub fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
+    /// Create the pipeline of `kernel` (ray queries need the device's support, see
+    /// `DeviceInfo::vendor`).
+    pub fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
         let device = &ctx.device;
-        let bindings: Vec<_> = BINDINGS
-            .iter()
-            .map(|b| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b.binding)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
-        // SAFETY: the bindings outlive the call; the layout is destroyed in Drop.
-        let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }
-            .during("creating the trace descriptor layout")?;
+        let with_tlas = kernel == Kernel::RayQuery;
+        let set_layout = create_set_layout(ctx, vk::ShaderStageFlags::COMPUTE, with_tlas)?;
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .size(std::mem::size_of::<PushConstants>() as u32)];
@@ -104,21 +216,19 @@ impl TracePass {
         // SAFETY: the set layout was just created; the arrays outlive the call.
         let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
             .during("creating the trace pipeline layout")?;
-        let code: Vec<u32> = TRACE_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let code = words(match kernel {
+            Kernel::Ours => TRACE_SPV,
+            Kernel::RayQuery => QUERY_SPV,
+        });
         let pipeline = create_pipeline(ctx, layout, &code)?;
-        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
-        // SAFETY: plain object creation on the live device; destroyed in Drop.
-        let pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
-            .during("creating the trace descriptor pool")?;
-        // SAFETY: the pool holds exactly this one set of this layout.
-        let set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) }
-            .during("allocating the trace descriptor set")?[0];
-        Ok(Self { ctx: ctx.clone(), pipeline, layout, set_layout, pool, set })
+        let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
+        Ok(Self { ctx: ctx.clone(), kernel, pipeline, layout, set_layout, pool, set })
     }
 
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
     /// [`compile_trace_shader`]); on failure the current pipeline stays.
     pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+        debug_assert_eq!(self.kernel, Kernel::Ours, "only trace.comp is reloaded");
         let pipeline = create_pipeline(&self.ctx, self.layout, spirv)?;
         // The old pipeline may still be in a submitted command buffer.
         if let Err(e) = self.ctx.wait_idle() {
@@ -131,37 +241,11 @@ impl TracePass {
         Ok(())
     }
 
-    /// Point the descriptor set at a scene and an output; the GPU must not be using the set.
-    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
-        // Each binding the shader declares, by its block name (see shader_layout).
-        let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
-            .iter()
-            .map(|b| {
-                let buffer = match TraceBuffer::of(b) {
-                    TraceBuffer::Triangles => &scene.triangles,
-                    TraceBuffer::Shading => &scene.shading,
-                    TraceBuffer::Materials => &scene.materials,
-                    TraceBuffer::Nodes => &scene.nodes,
-                    TraceBuffer::Instances => &scene.instances,
-                    TraceBuffer::Texels => &scene.texels,
-                    TraceBuffer::TextureInfos => &scene.texture_infos,
-                    TraceBuffer::Environment => &scene.environment,
-                    TraceBuffer::OutRgba8 => &output.rgba8,
-                    TraceBuffer::OutFloat => &output.float,
-                    TraceBuffer::PrimIds => &output.prim_ids,
-                };
-                (b.binding, [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: vk::WHOLE_SIZE }])
-            })
-            .collect();
-        let writes: Vec<_> = infos
-            .iter()
-            .map(|(binding, info)| {
-                vk::WriteDescriptorSet::default().dst_set(self.set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info)
-            })
-            .collect();
-        // SAFETY: every caller (`ComputeTracer::rebind`) has waited for the GPU, so the set
-        // is not in use; the buffers are live.
-        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    /// Point the descriptor set at a scene, an output and (ray queries) the top-level
+    /// structure; the GPU must not be using the set.
+    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+        debug_assert_eq!(tlas.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
+        write_set(&self.ctx, self.set, scene, output, tlas);
     }
 
     /// Record the trace of the pixels in `band`, with the barriers it needs: after the
@@ -171,17 +255,11 @@ impl TracePass {
     /// `settings.adaptive` is on. The outputs are left as `Access::ComputeWrite`.
     pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
         let device = &self.ctx.device;
-        let s = &params.settings;
         barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
-        if band.rows.start == 0 && band.columns.start == 0 && s.adaptive {
-            let mut pc = params.push_constants(0);
-            pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
-            self.dispatch(cmd, &pc, &Band::rows(0..s.height, s.width));
-            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead]);
-        }
         // Rows are offset through the push constants, columns through the dispatch base.
-        let pc = params.push_constants(band.rows.start);
-        self.dispatch(cmd, &pc, band);
+        record_frame_band(params, band, |pc, band| self.dispatch(cmd, pc, band), || {
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead])
+        });
     }
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
@@ -205,7 +283,7 @@ impl TracePass {
 /// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
 fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline, GpuError> {
     let device = &ctx.device;
-    // SAFETY: the words are SPIR-V that naga wrote and validated.
+    // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
     let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during("loading the trace shader")?;
     let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
     // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).

@@ -29,7 +29,7 @@ const BVH_TESTS_PER_RAY: f64 = 256.0;
 pub fn tests_per_ray(accel: Accel, triangles: u64) -> f64 {
     match accel {
         Accel::Brute => triangles.max(1) as f64,
-        Accel::Bvh => BVH_TESTS_PER_RAY,
+        Accel::Bvh | Accel::Vendor => BVH_TESTS_PER_RAY,
     }
 }
 

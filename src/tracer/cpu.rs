@@ -66,6 +66,8 @@ impl<'a> CpuScene<'a> {
         let mut best: Option<SceneHit> = None;
         let inv_dir = safe_inverse(ray.dir);
         for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
+            // The CPU reference has no vendor traversal: it traces vendor frames with our BVH.
+            let accel = if accel == Accel::Vendor { Accel::Bvh } else { accel };
             if accel == Accel::Bvh {
                 let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
                 if bounds.intersect(ray, inv_dir, best.map_or(f32::INFINITY, |h| h.t)).is_none() {
@@ -87,7 +89,7 @@ impl<'a> CpuScene<'a> {
                         }
                     }
                 }
-                Accel::Bvh => {
+                Accel::Bvh | Accel::Vendor => {
                     // A mesh without triangles has no nodes: its node base is the next mesh's root.
                     if inst.triangle_count == 0 {
                         continue;

@@ -21,6 +21,14 @@ pub enum Accel {
     /// Bounding volume hierarchy per mesh, instances listed on top.
     #[default]
     Bvh,
+    /// The GPU vendor's acceleration structures and traversal (Vulkan ray tracing), where
+    /// the device has them; the CPU reference traces these frames with our BVH.
+    Vendor,
+}
+
+impl Accel {
+    /// Every mode, in the order the panel and the A key cycle through them.
+    pub const ALL: [Accel; 3] = [Accel::Bvh, Accel::Brute, Accel::Vendor];
 }
 
 /// What a render writes: the shaded colour or one of the primary-hit buffers.
@@ -74,7 +82,7 @@ macro_rules! name_enum {
         }
     };
 }
-name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh");
+name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh", Accel::Vendor => "vendor");
 name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples");
 
 /// Saved as its name ("bvh", "brute"), as in `bench --json` reports.

@@ -139,12 +139,14 @@ const PURPLE_: RGBColor = RGBColor(130, 60, 170);
 const GREY_: RGBColor = RGBColor(110, 110, 110);
 const BVH_SHADES: [RGBColor; 4] = [BLUE_, RGBColor(0, 150, 150), RGBColor(90, 140, 230), RGBColor(20, 50, 110)];
 const BRUTE_SHADES: [RGBColor; 4] = [RED_, RGBColor(230, 130, 0), RGBColor(240, 110, 110), RGBColor(120, 30, 30)];
+const VENDOR_SHADES: [RGBColor; 4] = [RGBColor(40, 150, 60), RGBColor(120, 170, 40), RGBColor(60, 200, 120), RGBColor(20, 90, 40)];
 
 /// The n-th colour of an acceleration's family (blues for the BVH, reds for brute force).
 fn accel_color(accel: Accel, n: usize) -> RGBColor {
     let shades = match accel {
         Accel::Bvh => &BVH_SHADES,
         Accel::Brute => &BRUTE_SHADES,
+        Accel::Vendor => &VENDOR_SHADES,
     };
     shades[n % shades.len()]
 }
@@ -181,6 +183,7 @@ fn accel_marker(accel: Accel) -> Marker {
     match accel {
         Accel::Brute => Marker::Square,
         Accel::Bvh => Marker::Circle,
+        Accel::Vendor => Marker::Triangle,
     }
 }
 
@@ -188,6 +191,7 @@ fn accel_name(accel: Accel) -> &'static str {
     match accel {
         Accel::Bvh => "BVH",
         Accel::Brute => "brute force",
+        Accel::Vendor => "vendor",
     }
 }
 
@@ -196,6 +200,7 @@ fn accel_order(accel: Accel) -> u8 {
     match accel {
         Accel::Brute => 0,
         Accel::Bvh => 1,
+        Accel::Vendor => 2,
     }
 }
 
@@ -300,6 +305,7 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
                 let shades = match accel {
                     Accel::Brute => [RGBColor(150, 110, 40), RGBColor(200, 80, 170)],
                     Accel::Bvh => [PURPLE_, RGBColor(40, 140, 60)],
+                    Accel::Vendor => [RGBColor(20, 120, 20), RGBColor(100, 160, 60)],
                 };
                 Series::new(label, shades[n % 2], Line::None, Marker::Diamond)
             }

@@ -1,0 +1,221 @@
+// The tracer (paper 3.3), shared by every way of finding hits: one pixel's camera rays,
+// the closest hit, Blinn–Phong at the hit, then mirror bounces blended with the colour so
+// far at the reflection ratio. On top, the paper's future work: smooth shading, textures
+// (ray-cone mip selection), an environment map, jittered supersampling with progressive
+// accumulation, and adaptive sampling on edges seen directly or in the mirrors.
+// The CPU twin is src/tracer/cpu.rs.
+//
+// The includer declares the scene (scene.glsl) and `Hit closest_hit(o, d, use_bvh, cost)`:
+// our BVH or brute force (intersect.glsl, trace.comp) or the driver's traversal
+// (vendor/query.comp, vendor/raygen.rgen), then calls trace_pixel from its entry point.
+
+#include "texture.glsl"
+#include "shade.glsl"
+
+// PCG hash (Jarzynski & Olano 2020): the sample jitter, identical on the CPU.
+uint pcg(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+float random01(inout uint seed) {
+    seed = pcg(seed);
+    return float(seed >> 8) * (1.0 / 16777216.0);
+}
+
+// One surface of a path, for adaptive sampling's edge test: the instance, material and
+// plane of the hit triangle, so a quad's diagonal (two coplanar triangles of one material)
+// is no edge but a silhouette or a crease is.
+uint surface_key(Hit hit) {
+    if (hit.tri == EMPTY) return EMPTY;
+    Triangle tri = triangles[hit.tri];
+    vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+    if (n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0)))) n = -n;
+    ivec3 q = ivec3(round(n * 1024.0));
+    uint key = pcg(uint(q.x) ^ pcg(uint(q.y) ^ pcg(uint(q.z))));
+    key = pcg(key ^ floatBitsToUint(tri.v0.w)) ^ pcg(hit.instance + 0x9e3779b9u);
+    return key == EMPTY ? 0u : key;
+}
+
+// Folds the surface a path reaches into its key while it still shows in 8 bits: an edge
+// seen in a mirror changes the key as much as one seen directly.
+const float KEY_MIN_THROUGHPUT = 1.0 / 256.0;
+
+void add_to_path_key(inout uint key, uint surface, float throughput) {
+    if (throughput >= KEY_MIN_THROUGHPUT) key = pcg(key ^ surface);
+}
+
+// The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top), and
+// the key of the surfaces along its path (adaptive sampling's edge test).
+vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint key) {
+    uint width = frame.dims.x;
+    uint height = frame.dims.y;
+    uint flags = frame.dims.w;
+    // Only the adaptive pre-pass needs the path key.
+    bool keyed = (flags & FLAG_ID_PASS) != 0u;
+    vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
+    vec3 o = frame.cam_origin_eps.xyz;
+    vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
+
+    uint bounces = (aov == AOV_COLOR || aov == AOV_COST || aov == AOV_SAMPLES) ? frame.dims.z : 0u;
+    float blend = frame.cam_forward_blend.w;
+    float eps = frame.cam_origin_eps.w;
+    // Ray cone: the angle one pixel subtends; flat mirrors keep it, so the footprint at a
+    // hit is this angle times the path length so far.
+    float spread = 2.0 * length(frame.cam_up.xyz) / float(height);
+    float path_length = 0.0;
+
+    vec3 color = vec3(0.0);
+    vec3 throughput = vec3(1.0);
+    vec4 aux = vec4(-1.0, -1.0, -1.0, 0.0);
+
+    for (uint bounce = 0u; bounce <= bounces; bounce++) {
+        Hit hit = closest_hit(o, d, use_bvh, cost);
+        if (hit.tri == EMPTY) {
+            if (keyed) add_to_path_key(key, EMPTY, throughput.x);
+            vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
+            color += throughput * miss;
+            if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
+            break;
+        }
+        if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
+        path_length += hit.t;
+        Triangle tri = triangles[hit.tri];
+        vec3 p = o + d * hit.t;
+        vec3 ng = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+        if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
+        vec3 ns = ng;
+        TriangleShading sh = shading[hit.tri];
+        bool smooth_hit = false;
+        float side = 1.0;  // the corner normals flipped to the viewer's side
+        if ((flags & FLAG_SMOOTH) != 0u) {
+            vec3 interp = sh.n0.xyz * (1.0 - hit.u - hit.v) + sh.n1.xyz * hit.u + sh.n2.xyz * hit.v;
+            if (dot(interp, interp) > 1e-12) {
+                ns = normalize(interp);
+                smooth_hit = true;
+                if (dot(ns, ng) < 0.0) {  // normals wound against the triangle
+                    ns = -ns;
+                    side = -1.0;
+                }
+            }
+        }
+        Material mat = materials[floatBitsToUint(tri.v0.w)];
+        vec3 kd = mat.diffuse_mirror.rgb;
+        if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {
+            vec2 uv0 = material_uv(mat, sh.uv01.xy);
+            vec2 uv1 = material_uv(mat, sh.uv01.zw);
+            vec2 uv2 = material_uv(mat, vec2(sh.n0.w, sh.n1.w));
+            vec2 uv = uv0 * (1.0 - hit.u - hit.v) + uv1 * hit.u + uv2 * hit.v;
+            uvec4 info = texture_infos[mat.texture.x];
+            float s = instances[hit.instance].translation_scale.w;
+            float world_area = 0.5 * length(cross(tri.e1.xyz, tri.e2.xyz)) * s * s;
+            vec2 duv1 = uv1 - uv0;
+            vec2 duv2 = uv2 - uv0;
+            float texel_area = 0.5 * abs(duv1.x * duv2.y - duv1.y * duv2.x) * float(info.y) * float(info.z);
+            float lod = 0.0;
+            if (world_area > 0.0 && texel_area > 0.0) {
+                float width_at_hit = spread * path_length;
+                lod = log2(max(width_at_hit, 1e-20)) + 0.5 * log2(texel_area / world_area) - log2(max(abs(dot(ng, d)), 1e-4));
+            }
+            kd *= sample_material_texture(mat, uv, lod).rgb;
+        }
+        vec3 l = normalize(frame.light_pos.xyz - p);
+        float scale = instances[hit.instance].translation_scale.w;
+        bool lit = light_reaches(l, ng, ns, smooth_hit, hit.u, hit.v, tri.e1.xyz, tri.e2.xyz,
+                                 sh.n0.xyz * side, sh.n1.xyz * side, sh.n2.xyz * side, p, scale);
+        vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
+        if (bounce == 0u) {
+            uint prim = floatBitsToUint(tri.e1.w) + instances[hit.instance].offsets.w;
+            if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
+            if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
+            if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);
+        }
+        float r = blend * mat.diffuse_mirror.a;
+        if (bounce == bounces) {
+            color += throughput * local_color;
+            break;
+        }
+        // mix(local, reflected, r): the local part now, the reflected part next bounce.
+        color += throughput * (1.0 - r) * local_color;
+        throughput *= r;
+        if (r <= 0.0) break;
+        vec3 reflected = reflect(d, ns);
+        // A shading normal must not send the ray through the surface.
+        if (dot(reflected, ng) <= 0.0) reflected = reflect(d, ng);
+        o = p + ng * eps;
+        d = reflected;
+    }
+    if (aov == AOV_COLOR || aov == AOV_SAMPLES) return vec4(color, 1.0);
+    return aux;
+}
+
+// Everything the frame asks of pixel `px` (row 0 at the top): the adaptive pre-pass key, or
+// its samples, accumulated and written to the outputs.
+void trace_pixel(uvec2 px) {
+    uint width = frame.dims.x;
+    uint height = frame.dims.y;
+    if (px.x >= width || px.y >= height) return;
+    uint pixel = px.y * width + px.x;
+    uint flags = frame.dims.w;
+    bool use_bvh = (flags & FLAG_BVH) != 0u;
+    uint aov = (flags >> AOV_SHIFT) & AOV_MASK;
+
+    if ((flags & FLAG_ID_PASS) != 0u) {
+        // The key of the path through the pixel centre: primary hit and mirror bounces.
+        uvec2 unused_cost = uvec2(0u);
+        uint key = 0u;
+        trace_sample(vec2(px) + 0.5, AOV_COLOR, use_bvh, unused_cost, key);
+        prim_ids[pixel] = key;
+        return;
+    }
+
+    uint frame_index = frame.misc.w;
+    uint spp = max((flags >> SPP_SHIFT) & SPP_MASK, 1u);
+    bool single_value = aov == AOV_DEPTH || aov == AOV_NORMAL || aov == AOV_PRIM_ID;
+    if (single_value) spp = 1u;
+    if ((flags & FLAG_ADAPTIVE) != 0u && !single_value) {
+        // Extra samples only where a 4-neighbour's path met other surfaces.
+        uint id = prim_ids[pixel];
+        uint l = prim_ids[px.y * width + (px.x > 0u ? px.x - 1u : px.x)];
+        uint r = prim_ids[px.y * width + min(px.x + 1u, width - 1u)];
+        uint u = prim_ids[(px.y > 0u ? px.y - 1u : px.y) * width + px.x];
+        uint dn = prim_ids[min(px.y + 1u, height - 1u) * width + px.x];
+        bool edge = l != id || r != id || u != id || dn != id;
+        if (!edge) spp = 1u;
+    }
+    // The paper's single ray through the centre unless several samples are asked for.
+    bool jitter = !single_value && (spp > 1u || frame_index > 0u);
+
+    uvec2 cost = uvec2(0u);
+    uint key = 0u;
+    vec4 sum = vec4(0.0);
+    for (uint s = 0u; s < spp; s++) {
+        vec2 offset = vec2(0.5);
+        if (jitter) {
+            uint seed = pcg(pixel ^ pcg(frame_index * 256u + s));
+            offset = vec2(random01(seed), random01(seed));
+        }
+        sum += trace_sample(vec2(px) + offset, aov, use_bvh, cost, key);
+    }
+    vec4 value = sum / float(spp);
+
+    if (aov == AOV_COLOR) {
+        if (frame_index > 0u) {
+            // Progressive accumulation: running mean over frames.
+            vec4 previous = out_float[pixel];
+            value = previous + (value - previous) / float(frame_index + 1u);
+        }
+        out_float[pixel] = value;
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
+    } else if (aov == AOV_COST) {
+        out_float[pixel] = vec4(float(cost.x), float(cost.y), 0.0, 1.0);
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
+    } else if (aov == AOV_SAMPLES) {
+        out_float[pixel] = vec4(float(spp), float(spp), float(spp), 1.0);
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(value.rgb, 0.0, 1.0), 1.0));
+    } else {
+        out_float[pixel] = value;
+        out_rgba8[pixel] = packUnorm4x8(vec4(clamp(abs(value.xyz) * 0.1, 0.0, 1.0), 1.0));
+    }
+}

@@ -1,0 +1,27 @@
+#version 460
+#extension GL_EXT_ray_query : require
+// The tracer with the driver's traversal from the compute shader (VK_KHR_ray_query): the
+// same pixels, shading and outputs as trace.comp, only closest_hit differs.
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+#include "../scene.glsl"
+#include "tlas.glsl"
+
+// `use_bvh` and `cost` are our traversal's: the driver's has no cost to report.
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+    rayQueryEXT query;
+    rayQueryInitializeEXT(query, scene_tlas, VENDOR_RAY_FLAGS, 0xFFu, o, 0.0, d, INF);
+    while (rayQueryProceedEXT(query)) {
+    }
+    if (rayQueryGetIntersectionTypeEXT(query, true) != gl_RayQueryCommittedIntersectionTriangleEXT) return no_hit();
+    return vendor_hit(rayQueryGetIntersectionTEXT(query, true), rayQueryGetIntersectionBarycentricsEXT(query, true),
+                      rayQueryGetIntersectionInstanceCustomIndexEXT(query, true),
+                      rayQueryGetIntersectionPrimitiveIndexEXT(query, true));
+}
+
+#include "../trace.glsl"
+
+void main() {
+    trace_pixel(uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + frame.misc.y));
+}
