@@ -192,7 +192,7 @@ fn bench_compare_gives_the_ratio_for_each_row() {
     let vendor: Vec<_> = rows.iter().filter(|r| r["accel"] == "vendor").collect();
     let ctx = ctx();
     assert_eq!(vendor.len(), kernels(&ctx).len(), "a vendor row per kind the device has: {rows:?}");
-    for r in vendor.iter().chain(rows.iter().filter(|r| r["accel"] == "bvh")) {
+    for r in vendor.iter().copied().chain(rows.iter().filter(|r| r["accel"] == "bvh")) {
         let ratio = r["ours_over_vendor"].as_f64().unwrap_or_else(|| panic!("no ratio on {r}"));
         assert!(ratio.is_finite() && ratio > 0.0, "{r}");
     }
