@@ -602,3 +602,53 @@ fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("shader reload failed") && stderr.contains("trace.comp:"), "the error was not reported with its line: {stderr}");
 }
+
+/// Largest per-channel difference between `a` and `b` over the pixel columns `columns`.
+fn columns_diff(a: &image::RgbaImage, b: &image::RgbaImage, columns: std::ops::Range<u32>) -> u8 {
+    assert_eq!(a.dimensions(), b.dimensions(), "image sizes differ");
+    let mut most = 0;
+    for y in 0..a.height() {
+        for x in columns.clone() {
+            let (p, q) = (a.get_pixel(x, y), b.get_pixel(x, y));
+            most = (0..4).map(|c| p[c].abs_diff(q[c])).fold(most, u8::max);
+        }
+    }
+    most
+}
+
+#[test]
+fn the_split_views_halves_differ_as_set() {
+    // A (the flags: 2 bounces, flat) left of the line, B (no bounces, smooth) right of it.
+    // F12 saves the split frame as traced: each side equals `render` with its half's settings.
+    let x = Xvfb::start();
+    let dir = TempDir::new("split");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(view_args(&["--frames", "1000000", "--split", "0.5", "--split-b", "bounces=0,smooth=on"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let half = f12(&x, &window, dir.path(), &mut app);
+
+    // With the panel hidden the 128² image fills the window's height: 480² from x = 80, the
+    // line (column 64) at x = 320. A left drag from the line moves it to x = 140: column 16.
+    press(&x.display, &window, &["h"]);
+    std::thread::sleep(Duration::from_millis(500));
+    let drag = ["mousemove", "--window", &window, "320", "240", "mousedown", "1", "mousemove", "--window", &window, "250", "240", "mousemove", "--window", &window, "140", "240", "mouseup", "1"];
+    assert!(xdotool(&x.display, &drag).status.success());
+    let moved = f12(&x, &window, dir.path(), &mut app);
+
+    // S turns the split off: the whole frame is A's again.
+    press(&x.display, &window, &["s"]);
+    let whole = f12(&x, &window, dir.path(), &mut app);
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+
+    let a = headless_render(dir.path(), &SCENE, "a.png");
+    let b_flags: Vec<&str> = with_bounces("0").into_iter().chain(["--smooth"]).collect();
+    let b = headless_render(dir.path(), &b_flags, "b.png");
+    for (name, img, line) in [("at 0.5", &half, 64), ("dragged", &moved, 16)] {
+        assert!(columns_diff(img, &a, 0..line) <= 1, "split {name}: left of column {line} differs from `render` (A) by {}", columns_diff(img, &a, 0..line));
+        assert!(columns_diff(img, &b, line..128) <= 1, "split {name}: right of column {line} differs from `render` (B) by {}", columns_diff(img, &b, line..128));
+    }
+    assert!(columns_diff(&a, &b, 0..64) > 30 && columns_diff(&a, &b, 64..128) > 30, "A and B look alike: the test proves nothing");
+    assert!(max_diff(&whole, &a) <= 1, "with the split off the frame differs from `render` (A) by {}", max_diff(&whole, &a));
+}

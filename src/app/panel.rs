@@ -12,6 +12,7 @@ use super::presets_panel::{presets_section, PresetPanel};
 use super::frame_stats::{mrays_per_second, FrameStats};
 use super::perf_panel::{performance_section, PerfPanel};
 use super::settings::section;
+use super::split_panel::split_section;
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
@@ -125,6 +126,8 @@ pub struct PanelInfo<'a> {
     pub recording: Option<(&'a std::path::Path, u64)>,
     /// Where the remembered settings live (None: `--no-persist` or a scripted run).
     pub settings_file: Option<&'a std::path::Path>,
+    /// The latest GPU time of each half of the split view.
+    pub split_ms: crate::gpu::PartTimes,
 }
 
 /// Show the panel's contents inside `ui` and return the actions asked for.
@@ -146,6 +149,8 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         render_section(ui, params, state, info);
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
+        let (a, a_environment) = (params.settings, params.environment.is_some());
+        split_section(ui, &mut params.split, &a, a_environment, info.split_ms);
         light_section(ui, params);
         camera_section(ui, params, &mut state.camera);
         display_section(ui, params, state, info, &mut actions);

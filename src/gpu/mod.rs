@@ -18,7 +18,7 @@ pub(crate) mod shader_layout;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
 
-pub use compute_tracer::{ComputeTracer, TraceTiming};
-pub use trace_pass::Band;
+pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
+pub use trace_pass::{Band, FrameTrace, SplitTrace};
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
 pub use error::GpuError;
