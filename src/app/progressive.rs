@@ -145,6 +145,25 @@ mod tests {
         }
     }
 
+    /// A split frame goes on while only the light moves; a change to either half restarts it.
+    #[test]
+    fn a_split_frame_goes_on_unless_a_half_changes() {
+        use crate::app::split_view::{SplitB, SplitView};
+        let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
+        let p = Progressive::new(split.frame(frame(64, 64).frame.params), 8);
+        let mut moved = p.frame;
+        moved.params.light_position += glam::Vec3::X;
+        if let Some(s) = &mut moved.split {
+            s.params.light_position += glam::Vec3::X;
+        }
+        assert!(p.continues(&moved), "the light alone does not restart a long frame");
+        let other_b = SplitView { b: SplitB { bounces: Some(1), ..split.b }, ..split }.frame(p.frame.params);
+        assert!(!p.continues(&other_b));
+        let moved_line = SplitView { position: 0.25, ..split }.frame(p.frame.params);
+        assert!(!p.continues(&moved_line));
+        assert!(!p.continues(&FrameTrace::whole(p.frame.params)), "turning the split off is a new frame");
+    }
+
     #[test]
     fn band_size_follows_the_gpu_time() {
         assert_eq!(adapt_groups(8, 40.0, 1000), 8);
