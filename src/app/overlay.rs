@@ -18,11 +18,13 @@ const LIGHT_COLOR: Color32 = Color32::from_rgb(255, 230, 120);
 pub struct SplitOverlay {
     /// The line's x, where the halves meet.
     pub x: f32,
-    /// The image's top and bottom: the line spans the image.
+    /// The image's top: the line spans the image.
     pub top: f32,
+    /// The image's bottom, where the labels sit.
     pub bottom: f32,
-    /// Left half's label ("A 12.3 ms"), right half's ("B 20.1 ms").
+    /// The left half's label ("A 12.3 ms").
     pub a: String,
+    /// The right half's label ("B 20.1 ms").
     pub b: String,
     /// What B changes ("bounces 0, smooth off").
     pub b_changes: String,

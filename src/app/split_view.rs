@@ -16,12 +16,19 @@ pub const GRAB_PIXELS: f64 = 8.0;
 /// The parameters in which B differs from A: each None follows A.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SplitB {
+    /// BVH or brute force.
     pub accel: Option<Accel>,
+    /// Mirror bounces (0..=8).
     pub bounces: Option<u32>,
+    /// Reflection blend ratio (0..=1).
     pub blend: Option<f32>,
+    /// Camera samples per pixel (1..=64).
     pub spp: Option<u32>,
+    /// Adaptive sampling.
     pub adaptive: Option<bool>,
+    /// Smooth shading.
     pub smooth: Option<bool>,
+    /// `map_Kd` textures.
     pub textures: Option<bool>,
     /// Misses see the environment (A's, or the generated sky when A has none).
     pub environment: Option<bool>,
@@ -116,10 +123,12 @@ impl SplitB {
 /// The split view's state: whether it is on, where the line is, and B.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SplitView {
+    /// The split is shown (S, the panel's checkbox).
     pub enabled: bool,
     /// The line's place as a share of the image width, in [0, 1]; the halves meet at the
     /// nearest work-group column ([`SplitView::column`]).
     pub position: f32,
+    /// What the right half changes.
     pub b: SplitB,
 }
 

@@ -52,13 +52,16 @@ impl Band {
 pub struct SplitTrace {
     /// The first column of the right part: a multiple of the work-group size, or the width.
     pub column: u32,
+    /// The right part's parameters.
     pub params: FrameParams,
 }
 
 /// How a frame's pixels are traced: all with `params`, or split in two at a column.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameTrace {
+    /// The whole frame's parameters, or the left part's.
     pub params: FrameParams,
+    /// The right part, if split.
     pub split: Option<SplitTrace>,
 }
 
