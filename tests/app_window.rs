@@ -189,22 +189,6 @@ fn shading_features_in_the_window_match_render() {
     assert!(max_diff(&shot, &paper) > 30, "the feature flags changed nothing");
 }
 
-/// The newest F12 screenshot after pressing F12 (the light is still in scripted runs, so
-/// two shots of an unchanged view are equal).
-fn f12(x: &Xvfb, window: &str, dir: &std::path::Path, app: &mut Running) -> image::RgbaImage {
-    let before = pngs(dir, "meshtracer_").len();
-    let shot = wait_until(Duration::from_secs(90), "an F12 screenshot", || {
-        app.assert_alive();
-        press(&x.display, window, &["F12"]);
-        std::thread::sleep(Duration::from_millis(700));
-        let all: Vec<_> = pngs(dir, "meshtracer_").into_iter().filter(|p| !p.to_string_lossy().ends_with("_window.png")).collect();
-        (all.len() > before).then(|| all.last().cloned()).flatten()
-    });
-    let img = load(&shot);
-    std::fs::remove_file(&shot).unwrap();
-    img
-}
-
 #[test]
 fn the_wheel_over_the_panel_scrolls_it_and_leaves_the_camera() {
     let x = Xvfb::start();
@@ -569,9 +553,12 @@ fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
     let dir = TempDir::new("hot-reload");
     let shaders = dir.path().join("shaders");
     std::fs::create_dir(&shaders).unwrap();
+    // The compute tracer's sources (the vendor path's, in shaders/vendor, are not reloaded).
     for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders")).unwrap() {
         let path = entry.unwrap().path();
-        std::fs::copy(&path, shaders.join(path.file_name().unwrap())).unwrap();
+        if path.is_file() {
+            std::fs::copy(&path, shaders.join(path.file_name().unwrap())).unwrap();
+        }
     }
     let mut cmd = meshtracer(&x.display, dir.path());
     cmd.args(view_args(&["--frames", "1000000", "--watch-shaders", "shaders"]));
@@ -581,10 +568,10 @@ fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
 
     // Half as bright (the default view may see no background, so the pixel value itself is
     // edited); the reload is polled, so shoot until it shows.
-    let comp = shaders.join("trace.comp");
+    let comp = shaders.join("trace.glsl");
     let source = std::fs::read_to_string(&comp).unwrap();
     let mean = "vec4 value = sum / float(spp);";
-    assert!(source.contains(mean), "trace.comp no longer averages its samples as the test expects");
+    assert!(source.contains(mean), "trace.glsl no longer averages its samples as the test expects");
     std::fs::write(&comp, source.replacen(mean, "vec4 value = sum / float(spp) * 0.5;", 1)).unwrap();
     let edited = wait_until(Duration::from_secs(60), "the edited shader's image", || {
         let shot = f12(&x, &window, dir.path(), &mut app);
@@ -600,5 +587,5 @@ fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
     let out = app.wait(Duration::from_secs(120));
     assert_clean_exit(&out);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("shader reload failed") && stderr.contains("trace.comp:"), "the error was not reported with its line: {stderr}");
+    assert!(stderr.contains("shader reload failed") && stderr.contains("trace.glsl:"), "the error was not reported with its line: {stderr}");
 }

@@ -19,6 +19,8 @@ pub enum Drag {
     Orbit,
     /// Middle button, or Shift with the left: slide the view.
     Pan,
+    /// Left button on the split view's line: move the line (the camera stays).
+    Split,
 }
 
 /// The input state the window events leave behind.

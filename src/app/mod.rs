@@ -14,6 +14,7 @@
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
 //!   `aov_view`: the depth, normal, primitive-id and samples views;
+//! - `split_view`: the A/B split (two settings side by side); `split_panel`: its section;
 //! - `benchmark`: the benchmark run (a camera orbit at fixed settings and its summary);
 //!   `benchmark_panel`: its panel section.
 //!
@@ -42,6 +43,8 @@ pub(crate) mod script;
 pub(crate) mod session;
 pub(crate) mod settings;
 pub(crate) mod shader_watch;
+pub(crate) mod split_panel;
+pub(crate) mod split_view;
 pub(crate) mod state;
 pub(crate) mod tool;
 
@@ -56,6 +59,7 @@ use winit::window::WindowId;
 use tool::Tool;
 
 pub use options::ViewOptions;
+pub use split_view::{SplitB, SplitView};
 pub(crate) use options::parse_window_size;
 
 /// The hint every "cannot open the tool" error carries.

@@ -37,6 +37,8 @@ pub struct ViewOptions {
     pub(crate) stats_csv: Option<PathBuf>,
     /// Neither read nor write the remembered settings (scripted runs never do).
     pub(crate) no_persist: bool,
+    /// The A/B split view at the start (`--split`, `--split-b`).
+    pub(crate) split: super::split_view::SplitView,
 }
 
 impl ViewOptions {

@@ -1,5 +1,6 @@
 //! What is drawn over the traced image: the numbers in its corner (HUD), a marker where
-//! the light is, and a short notice when a screenshot was written.
+//! the light is, the split view's line with each half's GPU time, and a short notice when
+//! a screenshot was written.
 
 use std::time::{Duration, Instant};
 
@@ -12,6 +13,22 @@ const NOTICE_TIME: Duration = Duration::from_millis(2500);
 
 /// Colour of the light's marker (the light's own warm white).
 const LIGHT_COLOR: Color32 = Color32::from_rgb(255, 230, 120);
+
+/// The split view's line over the image and its labels (points).
+pub struct SplitOverlay {
+    /// The line's x, where the halves meet.
+    pub x: f32,
+    /// The image's top: the line spans the image.
+    pub top: f32,
+    /// The image's bottom, where the labels sit.
+    pub bottom: f32,
+    /// The left half's label ("A 12.3 ms").
+    pub a: String,
+    /// The right half's label ("B 20.1 ms").
+    pub b: String,
+    /// What B changes ("bounces 0, smooth off").
+    pub b_changes: String,
+}
 
 /// A notice shown for a short while over the image.
 pub struct Notice {
@@ -32,7 +49,7 @@ impl Notice {
 }
 
 /// Draw the overlays over `image` (the image area, in points).
-pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, notice: Option<&Notice>) {
+pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, split: Option<&SplitOverlay>, notice: Option<&Notice>) {
     if let Some(info) = hud {
         // Top-left of the image area: the panel never covers it.
         egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).show(ctx, |ui| {
@@ -47,11 +64,31 @@ pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Op
         let (offset, anchor) = if p.y - image.top() < 24.0 { (egui::vec2(10.0, 8.0), egui::Align2::LEFT_TOP) } else { (egui::vec2(10.0, -8.0), egui::Align2::LEFT_BOTTOM) };
         painter.text(p + offset, anchor, "light", egui::FontId::proportional(12.0), LIGHT_COLOR);
     }
+    if let Some(s) = split {
+        split_line(ctx, s);
+    }
     if let Some(n) = notice.filter(|n| n.is_current()) {
         egui::Area::new(egui::Id::new("notice")).fixed_pos(image.left_bottom() + egui::vec2(8.0, -34.0)).interactable(false).show(ctx, |ui| {
             egui::Frame::new().fill(Color32::from_black_alpha(180)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| {
                 ui.add(egui::Label::new(RichText::new(&n.text).color(Color32::WHITE)).truncate());
             });
         });
+    }
+}
+
+/// The split line (white on a dark edge, seen on any image) and the halves' labels beside
+/// it at the image's bottom, A to the left and B (with what it changes) to the right.
+fn split_line(ctx: &egui::Context, s: &SplitOverlay) {
+    let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("split line")));
+    let (top, bottom) = (Pos2::new(s.x, s.top), Pos2::new(s.x, s.bottom));
+    painter.line_segment([top, bottom], Stroke::new(3.0, Color32::from_black_alpha(200)));
+    painter.line_segment([top, bottom], Stroke::new(1.0, Color32::WHITE));
+    let font = egui::FontId::proportional(13.0);
+    let y = s.bottom - 8.0;
+    for (text, anchor, dx) in [(s.a.clone(), egui::Align2::RIGHT_BOTTOM, -6.0), (format!("{}\n{}", s.b, s.b_changes), egui::Align2::LEFT_BOTTOM, 6.0)] {
+        let galley = painter.layout_no_wrap(text, font.clone(), Color32::WHITE);
+        let rect = anchor.anchor_size(Pos2::new(s.x + dx, y), galley.size());
+        painter.rect_filled(rect.expand(3.0), 3.0, Color32::from_black_alpha(170));
+        painter.galley(rect.min, galley, Color32::WHITE);
     }
 }

@@ -12,6 +12,7 @@ use super::presets_panel::{presets_section, PresetPanel};
 use super::frame_stats::{mrays_per_second, FrameStats};
 use super::perf_panel::{performance_section, PerfPanel};
 use super::settings::section;
+use super::split_panel::split_section;
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
@@ -142,6 +143,8 @@ pub struct PanelInfo<'a> {
     pub settings_file: Option<&'a std::path::Path>,
     /// The vendor's ray tracing on this device.
     pub vendor: &'a VendorInfo,
+    /// The latest GPU time of each half of the split view.
+    pub split_ms: crate::gpu::PartTimes,
 }
 
 /// The vendor path's kind (when the device has both) and what its last change built.
@@ -200,6 +203,8 @@ pub fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &Pan
         render_section(ui, params, state, info, &mut actions);
         model_section(ui, params, state, info, &mut actions);
         shading_section(ui, params, info);
+        let (a, a_environment) = (params.settings, params.environment.is_some());
+        split_section(ui, &mut params.split, &a, a_environment, info.split_ms);
         light_section(ui, params);
         camera_section(ui, params, &mut state.camera);
         display_section(ui, params, state, info, &mut actions);

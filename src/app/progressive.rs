@@ -1,10 +1,11 @@
 //! Frames too long for one submission (brute force on a big mesh), traced in bands over
 //! several display frames so that the window keeps drawing and answering input while the
 //! image fills in. A band is a run of work groups in reading order: part of one strip of
-//! group-high rows while groups are few, whole strips once they are many.
+//! group-high rows while groups are few, whole strips once they are many. A split frame's
+//! bands run across the line: each band traces its pixels on both sides, each side with
+//! its own settings.
 
-use crate::gpu::Band;
-use crate::tracer::frame::FrameParams;
+use crate::gpu::{Band, FrameTrace};
 
 /// GPU milliseconds a band should take, so that the window stays responsive.
 pub const BAND_TARGET_MS: f64 = 40.0;
@@ -12,8 +13,8 @@ pub const BAND_TARGET_MS: f64 = 40.0;
 /// A long frame being traced band by band.
 #[derive(Clone, Debug)]
 pub struct Progressive {
-    /// The frame's parameters, fixed when it began.
-    pub params: FrameParams,
+    /// The frame's parameters (both halves of a split), fixed when it began.
+    pub frame: FrameTrace,
     /// The first row of the strip not yet finished (a multiple of the group size).
     next_row: u32,
     /// The first column not yet traced in that strip (a multiple of the group size).
@@ -26,13 +27,13 @@ pub struct Progressive {
 
 impl Progressive {
     /// A frame not yet begun, traced in work groups of `group` x `group` pixels.
-    pub fn new(params: FrameParams, group: u32) -> Self {
-        Self { params, next_row: 0, next_column: 0, group: group.max(1), started: std::time::Instant::now() }
+    pub fn new(frame: FrameTrace, group: u32) -> Self {
+        Self { frame, next_row: 0, next_column: 0, group: group.max(1), started: std::time::Instant::now() }
     }
 
     /// Share of the frame's pixels traced so far, in [0, 1].
     pub fn progress(&self) -> f32 {
-        let s = &self.params.settings;
+        let s = &self.frame.params.settings;
         let strip = self.group.min(s.height.saturating_sub(self.next_row));
         let done = self.next_row as u64 * s.width as u64 + self.next_column as u64 * strip as u64;
         (done as f64 / (s.width as u64 * s.height as u64).max(1) as f64).min(1.0) as f32
@@ -47,7 +48,7 @@ impl Progressive {
     /// Take the next band of about `groups` work groups; `None` once the frame is done.
     pub fn next_band(&mut self, groups: u32) -> Option<Band> {
         let group = self.group;
-        let (width, height) = (self.params.settings.width, self.params.settings.height);
+        let (width, height) = (self.frame.params.settings.width, self.frame.params.settings.height);
         if self.next_row >= height {
             return None;
         }
@@ -70,9 +71,20 @@ impl Progressive {
         Some(band)
     }
 
+    /// `frame` is this frame's: a moving light does not restart a long frame (it would
+    /// never finish), so the light is not compared; any other change is a new frame.
+    pub fn continues(&self, frame: &FrameTrace) -> bool {
+        let mut other = *frame;
+        other.params.light_position = self.frame.params.light_position;
+        if let (Some(theirs), Some(ours)) = (&mut other.split, &self.frame.split) {
+            theirs.params.light_position = ours.params.light_position;
+        }
+        other == self.frame
+    }
+
     /// The frame is traced to its last pixel.
     pub fn is_done(&self) -> bool {
-        self.next_row >= self.params.settings.height
+        self.next_row >= self.frame.params.settings.height
     }
 }
 
@@ -86,12 +98,12 @@ pub fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracer::frame::RenderSettings;
+    use crate::tracer::frame::{FrameParams, RenderSettings};
 
     fn frame(width: u32, height: u32) -> Progressive {
         let scene = crate::scene::paper::paper_scene(crate::scene::primitives::geosphere(0), 1, Default::default());
         let settings = RenderSettings { width, height, ..RenderSettings::default() };
-        Progressive::new(FrameParams::new(&scene, settings), 8)
+        Progressive::new(FrameTrace::whole(FrameParams::new(&scene, settings)), 8)
     }
 
     /// Bands of any size cover every pixel of the frame exactly once.
@@ -131,6 +143,25 @@ mod tests {
             assert!(now > last, "{now} after {last}");
             last = now;
         }
+    }
+
+    /// A split frame goes on while only the light moves; a change to either half restarts it.
+    #[test]
+    fn a_split_frame_goes_on_unless_a_half_changes() {
+        use crate::app::split_view::{SplitB, SplitView};
+        let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
+        let p = Progressive::new(split.frame(frame(64, 64).frame.params), 8);
+        let mut moved = p.frame;
+        moved.params.light_position += glam::Vec3::X;
+        if let Some(s) = &mut moved.split {
+            s.params.light_position += glam::Vec3::X;
+        }
+        assert!(p.continues(&moved), "the light alone does not restart a long frame");
+        let other_b = SplitView { b: SplitB { bounces: Some(1), ..split.b }, ..split }.frame(p.frame.params);
+        assert!(!p.continues(&other_b));
+        let moved_line = SplitView { position: 0.25, ..split }.frame(p.frame.params);
+        assert!(!p.continues(&moved_line));
+        assert!(!p.continues(&FrameTrace::whole(p.frame.params)), "turning the split off is a new frame");
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! progressive accumulation, and the model loader. Parameter changes reach the tracer
 //! here, each on the next frame.
 
-use crate::gpu::ComputeTracer;
+use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::{Aov, FrameParams};
@@ -32,10 +32,11 @@ struct Applied {
 }
 
 /// Progressive accumulation: the frame last traced (with `frame_index` 0) and how many
-/// frames have been averaged into the output since anything changed.
+/// frames have been averaged into the output since anything changed (either half of a
+/// split frame, or the line).
 #[derive(Default)]
 pub struct Accumulation {
-    last: Option<FrameParams>,
+    last: Option<FrameTrace>,
     /// Frames averaged into the image shown.
     pub frames: u32,
 }
@@ -129,37 +130,42 @@ impl Session {
             self.applied.instances = Some(want);
             self.accumulation = Accumulation::default();
         }
-        if self.applied.environment.as_ref() != Some(&params.environment) {
-            let (map, warning) = EnvironmentMap::from_source(params.environment.as_ref());
+        // A's misses see `params.environment`; the split's B may ask for one when A has
+        // none: the sky is uploaded then (A's frames do not sample it).
+        model.scene.environment = params.environment.clone();
+        let b_sky = params.split.enabled && params.split.b.wants_environment();
+        let upload = params.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
+        if self.applied.environment.as_ref() != Some(&upload) {
+            let (map, warning) = EnvironmentMap::from_source(upload.as_ref());
             if let Some(w) = warning {
                 panel.render_status = Some(Status::error(w));
             }
             model.packed.set_environment(map);
-            model.scene.environment = params.environment.clone();
             tracer.set_environment(&model.packed)?;
-            self.applied.environment = Some(params.environment.clone());
+            self.applied.environment = Some(upload);
             self.accumulation = Accumulation::default();
         }
         Ok(())
     }
 
-    /// This frame's parameters (None without a model), counting accumulated frames; with
-    /// `hold`, an unchanged frame keeps its index (a long frame still being traced).
-    pub fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameParams> {
+    /// This frame's parameters (None without a model), split or not, counting accumulated
+    /// frames; with `hold`, an unchanged frame keeps its index (a long frame still being
+    /// traced).
+    pub fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameTrace> {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
-        let mut frame = FrameParams::new(&model.scene, params.settings_for(area));
+        let mut frame = params.split.frame(FrameParams::new(&model.scene, params.settings_for(area)));
         // Average frames while nothing changes; any change starts afresh.
         let acc = &mut self.accumulation;
-        let still = params.accumulate && frame.settings.aov == Aov::Color && acc.last == Some(frame);
+        let still = params.accumulate && frame.params.settings.aov == Aov::Color && acc.last == Some(frame);
         if hold && acc.last == Some(frame) {
-            frame.frame_index = acc.frames.max(1) - 1;
+            set_index(&mut frame, acc.frames.max(1) - 1);
             return Some(frame);
         }
         acc.frames = if still { acc.frames.saturating_add(1).min(1 << 20) } else { 1 };
         acc.last = Some(frame);
-        frame.frame_index = acc.frames - 1;
+        set_index(&mut frame, acc.frames - 1);
         Some(frame)
     }
 
@@ -171,5 +177,13 @@ impl Session {
     /// Triangles and vertices in the world (all instances).
     pub fn counts(&self) -> (u64, u64) {
         self.model.as_ref().map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
+    }
+}
+
+/// Both halves of a frame accumulate in step: each pixel's running mean is its own half's.
+fn set_index(frame: &mut FrameTrace, index: u32) {
+    frame.params.frame_index = index;
+    if let Some(split) = &mut frame.split {
+        split.params.frame_index = index;
     }
 }

@@ -5,6 +5,7 @@ use glam::Vec3;
 use winit::keyboard::KeyCode;
 
 pub use crate::gpu::present::PixelRect;
+use super::split_view::SplitView;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
@@ -126,6 +127,8 @@ pub struct Params {
     pub home_camera: Camera,
     /// The paper's six mirror planes around the models.
     pub mirror_box: bool,
+    /// The A/B split view (S): off, or A left of a line and B right of it.
+    pub split: SplitView,
 }
 
 impl Params {
@@ -154,6 +157,7 @@ impl Params {
             accumulate: !scripted,
             home_camera: spec.camera.camera(),
             mirror_box: spec.mirror_box,
+            split: SplitView::default(),
         }
     }
 
@@ -258,7 +262,8 @@ impl Params {
     /// Take the look a preset holds (everything but the model, which the tool loads):
     /// resolution, shading, copies, load options, box, environment, light, and camera,
     /// which also becomes where R returns. The light is paused at the preset's angle, as
-    /// it was saved; what a preset does not hold (view, vsync, panel, light speed) stays.
+    /// it was saved; what a preset does not hold (view, vsync, panel, light speed, the
+    /// split view) stays.
     pub fn apply_preset(&mut self, spec: &SceneSpec) {
         let fresh = Params::new(spec, true);
         self.resolution = fresh.resolution;
@@ -325,6 +330,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("R", "reset the camera"),
     ("F", "frame the models"),
     ("V", "vsync on / off"),
+    ("S", "A/B split view on / off (drag the line to move it)"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
     ("Shift+drag, middle drag", "pan the camera"),
@@ -373,6 +379,7 @@ impl Params {
             KeyCode::KeyR => self.reset_camera(),
             KeyCode::KeyF => return KeyAction::FrameModel,
             KeyCode::KeyV => self.vsync = !self.vsync,
+            KeyCode::KeyS => self.split.enabled = !self.split.enabled,
             _ => {}
         }
         KeyAction::None

@@ -13,6 +13,7 @@ use winit::keyboard::PhysicalKey;
 use winit::window::Window;
 
 mod files;
+mod split;
 
 use super::aov_view;
 use super::benchmark::{Runs, Workload};
@@ -35,10 +36,10 @@ use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP_SIZE;
 use crate::gpu::vendor::VendorKernel;
-use crate::gpu::{Band, ComputeTracer, ContextOptions, GpuContext, GpuError};
+use crate::gpu::{Band, ComputeTracer, ContextOptions, FrameTrace, GpuContext, GpuError, PartTimes};
 use crate::scene::spec::SceneSpec;
 use crate::tracer::budget;
-use crate::tracer::frame::{Accel, FrameParams, RenderSettings};
+use crate::tracer::frame::{Accel, RenderSettings};
 
 /// The picture of a view other than colour (cost heat map, depth, ...): its pixels (for
 /// F12) and its legend.
@@ -65,10 +66,12 @@ enum Shown {
 /// What one display frame traces and shows.
 struct Prepared {
     /// Pixels to trace in the frame's command buffer.
-    trace: Option<(FrameParams, Band)>,
+    trace: Option<(FrameTrace, Band)>,
     show: Shown,
     /// GPU time of a trace done before the frame (the cost view's synchronous trace).
     gpu_ms: Option<f64>,
+    /// That trace's time per half of a split frame.
+    part_ms: Option<[f64; 2]>,
     /// This display frame finishes a traced frame (the last or only band).
     completes: bool,
 }
@@ -113,6 +116,8 @@ pub struct Tool {
     /// Where the remembered settings are kept (nowhere in scripted runs).
     store: Store,
     shader_watch: Option<ShaderWatch>,
+    /// The latest GPU time of each half of the split view (left A, right B).
+    split_ms: PartTimes,
 }
 
 impl Tool {
@@ -132,6 +137,7 @@ impl Tool {
         let (ctx, surface) = unsafe { context_for_window(&context_options, display, window_handle) }.map_err(|e| headless_error("no Vulkan device for the window", e))?;
         let mut params = Params::new(&options.spec, options.scripted());
         params.hud_visible = options.hud;
+        params.split = options.split;
         let physical = window.inner_size();
         let presenter = Presenter::new(&ctx, surface, [physical.width, physical.height], params.vsync)?;
         let tracer = ComputeTracer::new(&ctx, FRAMES_IN_FLIGHT as u32)?;
@@ -175,6 +181,7 @@ impl Tool {
             recorder,
             store,
             shader_watch: options.watch_shaders.clone().map(ShaderWatch::new),
+            split_ms: [None; 2],
         })
     }
 
@@ -226,10 +233,15 @@ impl Tool {
                     KeyAction::Quit => self.script.request_exit(),
                 }
             }
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => self.input.drag_button(*state, Drag::Orbit, self.image_area),
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+                // A press on the split line moves the line, not the camera.
+                let kind = if self.on_split_line() { Drag::Split } else { Drag::Orbit };
+                self.input.drag_button(*state, kind, self.image_area);
+            }
             WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => self.input.drag_button(*state, Drag::Pan, self.image_area),
             WindowEvent::CursorMoved { position, .. } => match self.input.cursor_moved(*position) {
                 Some((Drag::Orbit, dx, dy)) => self.params.drag_camera(dx, dy),
+                Some((Drag::Split, _, _)) => self.move_split(),
                 Some((Drag::Pan, dx, dy)) => {
                     // Pixels of the image as shown: the scene follows the cursor.
                     let shown = fit_rect(self.gpu.tracer.resolution().unwrap_or([1, 1]), self.image_area);
@@ -303,8 +315,10 @@ impl Tool {
             recording: self.recorder.info(),
             settings_file: self.store.path.as_deref(),
             vendor: &vendor,
+            split_ms: self.split_ms,
         };
         let light = self.light_marker();
+        let split = self.split_overlay();
         let notice = self.notice.as_ref();
         let params = &mut self.params;
         let panel_state = &mut self.panel;
@@ -318,7 +332,7 @@ impl Tool {
                 });
             }
             central = ui.available_rect_before_wrap();
-            overlay::show(ui.ctx(), central, params.hud_visible.then_some(&info), light, notice);
+            overlay::show(ui.ctx(), central, params.hud_visible.then_some(&info), light, split.as_ref(), notice);
         });
         let ppp = full.pixels_per_point;
         let size = self.window.inner_size();
@@ -368,19 +382,25 @@ impl Tool {
     /// is traced whole in the frame's command buffer; a longer one (brute force on a big
     /// mesh) is traced in row bands, one per display frame, so the window keeps drawing
     /// and answering input while the image fills in, and any change starts it afresh.
-    fn prepare_image(&mut self, params: Option<FrameParams>) -> anyhow::Result<Prepared> {
+    fn prepare_image(&mut self, params: Option<FrameTrace>) -> anyhow::Result<Prepared> {
         let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else {
             self.progressive = None;
-            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
+            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
         };
+        let (width, height) = (params.params.settings.width, params.params.settings.height);
         self.traced = true;
         if let Err(e) = self.gpu.tracer.prepare(&params) {
             // A preset or the A key asked for the vendor's ray tracing where the device has
             // none: say why and trace with our BVH from the next frame on.
             if let GpuError::VendorUnavailable(why) = &e {
                 self.panel.render_status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
-                self.params.settings.accel = Accel::Bvh;
-                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, completes: false });
+                if self.params.settings.accel == Accel::Vendor {
+                    self.params.settings.accel = Accel::Bvh;
+                }
+                if self.params.split.b.accel == Some(Accel::Vendor) {
+                    self.params.split.b.accel = Some(Accel::Bvh);
+                }
+                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
             }
             return Err(e.into());
         }
@@ -389,24 +409,23 @@ impl Tool {
         if self.gpu.tracer.fits_one_submission(&params) {
             self.progressive = None;
             if let Some(view) = cost {
-                let (image, timing) = self.gpu.tracer.render(&params)?;
+                let (image, timing) = self.gpu.tracer.render_frame(&params)?;
                 self.set_heat(&image, view);
-                return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, completes: true });
+                return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
             }
             self.heat = None;
-            let whole = Band::rows(0..params.settings.height, params.settings.width);
-            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, completes: true });
+            let whole = Band::rows(0..height, width);
+            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true });
         }
-        // A moving light does not restart a long frame (it would never finish): the frame
-        // keeps the light it began with; any other change starts afresh.
-        let same = |p: &Progressive| p.params == FrameParams { light_position: p.params.light_position, ..params };
-        if !self.progressive.as_ref().is_some_and(same) {
+        // A moving light does not restart a long frame: the frame keeps the light it began
+        // with; any other change starts afresh.
+        if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
             self.progressive = Some(Progressive::new(params, GROUP_SIZE));
         }
-        let most = (self.gpu.tracer.rows_per_submission(&params) / GROUP_SIZE) * params.settings.width.div_ceil(GROUP_SIZE);
+        let most = (self.gpu.tracer.rows_per_submission(&params) / GROUP_SIZE) * width.div_ceil(GROUP_SIZE);
         self.band_groups = self.band_groups.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
-        let params = progressive.params;
+        let params = progressive.frame;
         let band = progressive.next_band(self.band_groups).expect("a frame in progress has pixels left");
         let completes = progressive.is_done();
         if completes {
@@ -420,7 +439,7 @@ impl Tool {
                 Shown::Output
             }
         };
-        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, completes })
+        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes })
     }
 
     /// Make the picture of a view other than colour, traced into `image`, the one shown.
@@ -493,12 +512,12 @@ impl Tool {
         let params = self.session.frame_params(&self.params, area, self.progressive.is_some());
         let prepared = self.prepare_image(params)?;
         // What this frame traces (a long frame keeps the settings it began with).
-        let frame_settings = prepared.trace.as_ref().map(|(p, _)| p.settings).or(params.map(|p| p.settings));
+        let frame_settings = prepared.trace.as_ref().map(|(p, _)| p.params.settings).or(params.map(|p| p.params.settings));
         let traced = prepared.completes;
         let final_frame = self.script.is_final_frame(traced);
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
-        let banded = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.settings.width as u64 * p.settings.height as u64);
+        let banded = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
         let show = match (prepared.show, &self.heat) {
             (Shown::Output, _) => Show::Output,
             (Shown::Heat, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
@@ -515,6 +534,7 @@ impl Tool {
             self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);
         }
         let traced_ms = prepared.gpu_ms;
+        self.note_split_times(prepared.part_ms, &outcome);
         let t = now.duration_since(self.start).as_secs_f64();
         // Before the frame is logged: its row carries the latest GPU time.
         if let Some(ms) = traced_ms.or(outcome.gpu_ms) {

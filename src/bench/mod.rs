@@ -272,7 +272,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         let kernel = tracer.vendor_kernel().map_err(|why| GpuError::VendorUnavailable(why.to_string()))?;
         row.vendor_kernel = Some(kernel.to_string());
         // The driver's structures stand in for our BVH in the build and memory columns.
-        tracer.prepare(&params)?;
+        tracer.prepare(&crate::gpu::FrameTrace::whole(params))?;
         if let Some(stats) = tracer.vendor_stats() {
             row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
             row.scene_bytes = stats.bytes;

@@ -301,6 +301,15 @@ pub struct ViewArgs {
     /// with it; a compile error is shown in the panel and the last good shader stays.
     #[arg(long, value_name = "DIR")]
     pub(crate) watch_shaders: Option<PathBuf>,
+    /// Open with the A/B split view on, its line at FRACTION of the image width (0..1):
+    /// left of it the settings given, right of it those changed by --split-b.
+    #[arg(long, value_name = "FRACTION", num_args = 0..=1, default_missing_value = "0.5")]
+    pub(crate) split: Option<f32>,
+    /// What the right half (B) of the split view changes, as name=value pairs: accel=bvh|brute,
+    /// bounces=N, blend=X, spp=N, adaptive|smooth|textures|env=on|off (e.g. bounces=0,smooth=off).
+    /// Turns the split on (at 0.5 without --split).
+    #[arg(long, value_name = "LIST")]
+    pub(crate) split_b: Option<String>,
 }
 
 impl ViewArgs {
@@ -326,7 +335,24 @@ impl ViewArgs {
             benchmark_json: self.benchmark_json.clone(),
             stats_csv: self.stats_csv.clone(),
             no_persist: self.no_persist,
+            split: self.split_view()?,
         })
+    }
+
+    /// The split view `--split` and `--split-b` ask for (off without either).
+    fn split_view(&self) -> anyhow::Result<crate::app::SplitView> {
+        let mut split = crate::app::SplitView::default();
+        if let Some(x) = self.split {
+            if !(0.0..=1.0).contains(&x) {
+                anyhow::bail!("--split {x} is out of range (0..=1, a share of the image width)");
+            }
+            split.position = x;
+        }
+        if let Some(text) = &self.split_b {
+            split.b = crate::app::SplitB::parse(text).map_err(anyhow::Error::msg)?;
+        }
+        split.enabled = self.split.is_some() || self.split_b.is_some();
+        Ok(split)
     }
 }
 
@@ -394,6 +420,21 @@ mod tests {
         assert_eq!(options.benchmark_json.as_deref(), Some(std::path::Path::new("b.jsonl")));
         assert!(view_args(&["--benchmark", "0"]).is_err());
         assert!(view_args(&["--benchmark", "5", "--frames", "5"]).unwrap_err().to_string().contains("cannot be used with"));
+    }
+
+    #[test]
+    fn split_flags_turn_the_split_on() {
+        let off = view_args(&[]).unwrap().options().unwrap().split;
+        assert!(!off.enabled);
+        let on = view_args(&["--split", "0.25", "--split-b", "bounces=0,smooth=off"]).unwrap().options().unwrap().split;
+        assert!(on.enabled && on.position == 0.25 && on.b.bounces == Some(0) && on.b.smooth == Some(false));
+        let alone = view_args(&["--split-b", "accel=brute"]).unwrap().options().unwrap().split;
+        assert!(alone.enabled && alone.position == 0.5);
+        assert!(view_args(&["--split"]).unwrap().options().unwrap().split.enabled);
+        let e = view_args(&["--split", "2"]).unwrap().options().unwrap_err().to_string();
+        assert!(e.contains("out of range"), "{e}");
+        let e = view_args(&["--split-b", "bounces=x"]).unwrap().options().unwrap_err().to_string();
+        assert!(e.contains("bounces=x") && !e.contains('\n'), "{e}");
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //! The window records its frames' traces into its own command buffers ([`ComputeTracer::record`]);
 //! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
 //! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
-//! `Accel::Vendor` frames go to the vendor path ([`super::vendor`]), built on first use.
+//! `Accel::Vendor` frames (or parts of a split frame) go to the vendor path
+//! ([`super::vendor`]), built on first use.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -14,7 +15,7 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::timer::GpuTimer;
-use super::trace_pass::{Band, Kernel, TraceOutput, TracePass, GROUP_SIZE};
+use super::trace_pass::{Band, FrameTrace, Kernel, TraceOutput, TracePass, GROUP_SIZE};
 use super::vendor::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
 use crate::tracer::frame::{Accel, FrameParams};
@@ -30,7 +31,20 @@ pub struct TraceTiming {
     pub wall_ms: f64,
     /// Submissions the frame was split into.
     pub(crate) submissions: u32,
+    /// GPU time of each part of a split frame (left, right), when timed.
+    pub(crate) parts_ms: Option<[f64; 2]>,
 }
+
+/// GPU milliseconds of each part of a recorded frame (left, right), None where that part
+/// was not traced or its timestamps are not there.
+pub type PartTimes = [Option<f64>; 2];
+
+/// Which passes of which parts a recording timed: `[part][pass]`, part 0 left and 1
+/// right, pass 0 the main pass and 1 adaptive sampling's pre-pass.
+pub type TimedParts = [[bool; 2]; 2];
+
+/// Timer pairs per timestamp slot: a main pass and a pre-pass for each of two parts.
+const PAIRS_PER_SLOT: u32 = 4;
 
 /// The compute-shader tracer of one device: a scene (once set), output buffers at one
 /// resolution, the pipeline, and timestamp slots.
@@ -41,6 +55,7 @@ pub struct ComputeTracer {
     output: Option<TraceOutput>,
     timer: Option<GpuTimer>,
     /// Timestamp slots for frames recorded by a caller; one more is the headless path's.
+    /// Each slot is [`PAIRS_PER_SLOT`] timer pairs.
     recorded_slots: u32,
     /// Triangles over all instances, for the work estimate that splits frames into bands.
     triangle_total: u64,
@@ -61,7 +76,7 @@ impl ComputeTracer {
     /// a caller records into its own command buffers (its frames in flight).
     pub(crate) fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
         let pass = TracePass::new(ctx, Kernel::Ours)?;
-        let timer = GpuTimer::new(ctx, recorded_slots + 1)?;
+        let timer = GpuTimer::new(ctx, (recorded_slots + 1) * PAIRS_PER_SLOT)?;
         let device = &ctx.device;
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on a live device; each object is destroyed in Drop.
@@ -209,12 +224,12 @@ impl ComputeTracer {
         self.vendor.as_ref().ok().and_then(|v| v.stats().cloned())
     }
 
-    /// Build what a frame of `params` needs before it is recorded: for `Accel::Vendor`,
-    /// the driver's structures of the scene and the kernel's pipeline (waits for the GPU
-    /// when it builds). Our tracer needs nothing. An error says why the vendor path
-    /// cannot run here.
-    pub fn prepare(&mut self, params: &FrameParams) -> Result<(), GpuError> {
-        if params.settings.accel != Accel::Vendor {
+    /// Build what a frame needs before it is recorded: where a part of it is traced with
+    /// `Accel::Vendor`, the driver's structures of the scene and the kernel's pipeline
+    /// (waits for the GPU when it builds). Our tracer needs nothing. An error says why the
+    /// vendor path cannot run here.
+    pub fn prepare(&mut self, frame: &FrameTrace) -> Result<(), GpuError> {
+        if !frame.parts().iter().any(|(_, p, _)| p.settings.accel == Accel::Vendor) {
             return Ok(());
         }
         let vendor = self.vendor.as_mut().map_err(|why| GpuError::VendorUnavailable(why.clone()))?;
@@ -224,14 +239,16 @@ impl ComputeTracer {
         Ok(())
     }
 
-    /// Rows per submission for `params`, a multiple of the work-group size.
-    pub(crate) fn rows_per_submission(&self, params: &FrameParams) -> u32 {
-        budget::rows_per_submission(&params.settings, self.triangle_total, GROUP_SIZE)
+    /// Rows per submission for `frame`, a multiple of the work-group size: the budget of
+    /// the costlier part of a split frame, as if it covered the whole width.
+    pub(crate) fn rows_per_submission(&self, frame: &FrameTrace) -> u32 {
+        let rows = |p: &FrameParams| budget::rows_per_submission(&p.settings, self.triangle_total, GROUP_SIZE);
+        frame.parts().iter().map(|(_, p, _)| rows(p)).min().unwrap_or_else(|| rows(&frame.params))
     }
 
     /// The frame fits one submission (the window records it into its own frame).
-    pub(crate) fn fits_one_submission(&self, params: &FrameParams) -> bool {
-        self.rows_per_submission(params) >= params.settings.height
+    pub(crate) fn fits_one_submission(&self, frame: &FrameTrace) -> bool {
+        self.rows_per_submission(frame) >= frame.params.settings.height
     }
 
     /// `params` limited to the instances uploaded.
@@ -239,30 +256,62 @@ impl ComputeTracer {
         FrameParams { instance_count: params.instance_count.min(self.instance_count()), ..*params }
     }
 
-    /// Record the trace of `band` of a frame into `cmd`, timed in `timer_slot` (one of
-    /// the `recorded_slots`). The trace pass adds the barriers it needs; the outputs are
-    /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
-    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, timer_slot: Option<u32>) {
-        let params = self.clamped(params);
-        let timer = self.timer.as_ref().zip(timer_slot);
-        if let Some((t, slot)) = timer {
-            t.begin(cmd, slot);
-        }
-        match &self.vendor {
-            Ok(v) if params.settings.accel == Accel::Vendor => {
-                debug_assert!(v.is_ready(), "ComputeTracer::prepare comes before a vendor frame");
-                v.record(cmd, &params, band);
+    /// Record the trace of `band` of a frame into `cmd`, each part of a split frame with
+    /// its own parameters and timed on its own in `timer_slot` (one of the
+    /// `recorded_slots`); returns what was timed. The frame's first band (at its first
+    /// pixel) runs adaptive sampling's pre-pass of every part that samples adaptively
+    /// before any main pass, so that every key is there when a neighbour reads it (across
+    /// a split line, the other part's). The trace pass adds the barriers it needs; the
+    /// outputs are left as `Access::ComputeWrite` for whoever reads them next. Needs
+    /// [`Self::is_ready`].
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, frame: &FrameTrace, band: &Band, timer_slot: Option<u32>) -> TimedParts {
+        let mut timed = [[false; 2]; 2];
+        let mut any = false;
+        // Timer pair `part * 2 + pass` of the slot, pass 0 the main pass and 1 the pre-pass.
+        let mut time = |part: usize, pass: usize, record: &dyn Fn()| {
+            let timer = self.timer.as_ref().zip(timer_slot.map(|s| s * PAIRS_PER_SLOT + (part * 2 + pass) as u32));
+            if let Some((t, pair)) = timer {
+                t.begin(cmd, pair, any);
             }
-            _ => self.pass.record(cmd, &params, band),
+            record();
+            if let Some((t, pair)) = timer {
+                t.end(cmd, pair);
+                timed[part][pass] = true;
+            }
+            any = true;
+        };
+        let parts: Vec<_> = frame.parts().into_iter().map(|(i, p, columns)| (i, self.clamped(p), columns)).collect();
+        // Each part with the tracer its acceleration asks for.
+        let vendor = |p: &FrameParams| self.vendor.as_ref().ok().filter(|_| p.settings.accel == Accel::Vendor);
+        if band.rows.start == 0 && band.columns.start == 0 {
+            for (i, params, columns) in parts.iter().filter(|(_, p, _)| p.settings.adaptive) {
+                match vendor(params) {
+                    Some(v) => time(*i, 1, &|| v.record_ids(cmd, params, columns)),
+                    None => time(*i, 1, &|| self.pass.record_ids(cmd, params, columns)),
+                }
+            }
         }
-        if let Some((t, slot)) = timer {
-            t.end(cmd, slot);
+        for (i, params, columns) in &parts {
+            if let Some(part_band) = band.within(columns) {
+                match vendor(params) {
+                    Some(v) => time(*i, 0, &|| v.record(cmd, params, &part_band)),
+                    None => time(*i, 0, &|| self.pass.record(cmd, params, &part_band)),
+                }
+            }
         }
+        timed
     }
 
-    /// Milliseconds of the trace recorded with `timer_slot`, once its commands completed.
-    pub(crate) fn timer_ms(&self, timer_slot: u32) -> Option<f64> {
-        self.timer.as_ref().and_then(|t| t.read_ms(timer_slot))
+    /// Milliseconds of each part `timed` by the recording with `timer_slot` (its passes
+    /// added), once its commands completed; None for a part with a pass not yet done.
+    pub(crate) fn timer_ms(&self, timer_slot: u32, timed: TimedParts) -> PartTimes {
+        let Some(t) = &self.timer else { return [None; 2] };
+        let part = |i: usize| {
+            let passes = (0..2).filter(|&p| timed[i][p]);
+            let ms: Option<f64> = passes.clone().map(|p| t.read_ms(timer_slot * PAIRS_PER_SLOT + (i * 2 + p) as u32)).sum();
+            ms.filter(|_| passes.count() > 0)
+        };
+        [part(0), part(1)]
     }
 
     /// Record with `record` into the reusable command buffer, submit, and wait.
@@ -286,22 +335,34 @@ impl ComputeTracer {
 
     /// Trace one whole frame now, in as many row bands as the budget asks, and wait for it.
     pub fn trace(&mut self, params: &FrameParams) -> Result<TraceTiming, GpuError> {
-        let s = params.settings;
+        self.trace_frame(&FrameTrace::whole(*params))
+    }
+
+    /// Trace one whole frame, split or not, as [`Self::trace`] does.
+    pub(crate) fn trace_frame(&mut self, frame: &FrameTrace) -> Result<TraceTiming, GpuError> {
+        let s = frame.params.settings;
         self.set_resolution(s.width, s.height)?;
         if self.scene.is_none() {
             return Err(GpuError::NotReady("no scene was uploaded before tracing"));
         }
-        self.prepare(params)?;
-        let band = self.rows_per_submission(params);
+        self.prepare(frame)?;
+        let band = self.rows_per_submission(frame);
         let slot = self.recorded_slots;
-        let mut timing = TraceTiming { gpu_ms: self.timer.as_ref().map(|_| 0.0), ..Default::default() };
+        let timed = self.timer.is_some();
+        let mut timing = TraceTiming { gpu_ms: timed.then_some(0.0), parts_ms: (timed && frame.split.is_some()).then_some([0.0; 2]), ..Default::default() };
         let start = Instant::now();
         let mut row = 0;
         while row < s.height {
             let rows = Band::rows(row..(row + band).min(s.height), s.width);
-            self.submit_and_wait(|cmd| self.record(cmd, params, &rows, Some(slot)))?;
+            let mut parts = [[false; 2]; 2];
+            self.submit_and_wait(|cmd| parts = self.record(cmd, frame, &rows, Some(slot)))?;
+            let ms = self.timer_ms(slot, parts).map(|m| m.unwrap_or(0.0));
             if let Some(total) = timing.gpu_ms.as_mut() {
-                *total += self.timer_ms(slot).unwrap_or(0.0);
+                *total += ms[0] + ms[1];
+            }
+            if let Some(halves) = timing.parts_ms.as_mut() {
+                halves[0] += ms[0];
+                halves[1] += ms[1];
             }
             timing.submissions += 1;
             row = rows.rows.end;
@@ -312,7 +373,12 @@ impl ComputeTracer {
 
     /// Trace a frame and read back the float image (colour or AOV).
     pub fn render(&mut self, params: &FrameParams) -> Result<(Image, TraceTiming), GpuError> {
-        let timing = self.trace(params)?;
+        self.render_frame(&FrameTrace::whole(*params))
+    }
+
+    /// Trace a frame, split or not, and read back the float image.
+    pub(crate) fn render_frame(&mut self, frame: &FrameTrace) -> Result<(Image, TraceTiming), GpuError> {
+        let timing = self.trace_frame(frame)?;
         Ok((self.read_image()?, timing))
     }
 

@@ -21,7 +21,7 @@ pub(crate) mod timer;
 pub(crate) mod trace_pass;
 pub mod vendor;
 
-pub use compute_tracer::{ComputeTracer, TraceTiming};
-pub use trace_pass::Band;
+pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
+pub use trace_pass::{Band, FrameTrace, SplitTrace};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
 pub use error::GpuError;

@@ -27,14 +27,17 @@ impl GpuTimer {
         Ok(Some(Self { ctx: ctx.clone(), pool, slots }))
     }
 
-    /// Record a reset of `slot` and its begin timestamp (before the work).
-    pub fn begin(&self, cmd: vk::CommandBuffer, slot: u32) {
+    /// Record a reset of `slot` and its begin timestamp (before the work). With
+    /// `after_previous` the timestamp waits for the work recorded before it to finish (the
+    /// second part of a split frame is timed without the first).
+    pub fn begin(&self, cmd: vk::CommandBuffer, slot: u32, after_previous: bool) {
         assert!(slot < self.slots);
+        let stage = if after_previous { vk::PipelineStageFlags::BOTTOM_OF_PIPE } else { vk::PipelineStageFlags::TOP_OF_PIPE };
         // SAFETY: `cmd` is recording (the caller's) and both queries of the slot are in the
         // pool (asserted above).
         unsafe {
             self.ctx.device.cmd_reset_query_pool(cmd, self.pool, slot * 2, 2);
-            self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, slot * 2);
+            self.ctx.device.cmd_write_timestamp(cmd, stage, self.pool, slot * 2);
         }
     }
 

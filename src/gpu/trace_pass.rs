@@ -1,9 +1,8 @@
 //! The trace pass: the compute pipeline running `shaders/trace.comp` (our BVH and brute
 //! force) or `shaders/vendor/query.comp` (the driver's traversal through ray queries), its
 //! descriptor set (scene buffers, output buffers, the driver's structure for ray queries)
-//! and the recording of one frame's dispatches. The layout, the descriptor writes and the
-//! frame's recording order are shared with the vendor's ray tracing pipeline
-//! (`vendor::pipeline_pass`).
+//! and the recording of a band's dispatch. The layout and the descriptor writes are shared
+//! with the vendor's ray tracing pipeline (`vendor::pipeline_pass`).
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -122,21 +121,6 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
     unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
 }
 
-/// The frame's commands for `band`, whatever traces it: the adaptive pre-pass (primary-hit
-/// ids of the whole frame) first when the band is at the frame's first pixel and
-/// `settings.adaptive` is on, then `between` (the pass's barrier from the pre-pass's writes
-/// to the main pass's reads), then the band. `dispatch` records one trace with its push
-/// constants; a band's rows go through the push constants (`misc.y`).
-pub(crate) fn record_frame_band(params: &FrameParams, band: &Band, mut dispatch: impl FnMut(&PushConstants, &Band), between: impl FnOnce()) {
-    let s = &params.settings;
-    if band.rows.start == 0 && band.columns.start == 0 && s.adaptive {
-        let mut pc = params.push_constants(0);
-        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
-        dispatch(&pc, &Band::rows(0..s.height, s.width));
-        between();
-    }
-    dispatch(&params.push_constants(band.rows.start), band);
-}
 
 /// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
 pub const GROUP_SIZE: u32 = super::shader_layout::GROUP_SIZE;
@@ -158,6 +142,51 @@ impl Band {
     /// Pixels in the band.
     pub fn pixels(&self) -> u64 {
         self.rows.len() as u64 * self.columns.len() as u64
+    }
+
+    /// The part of the band in `columns` (None when they do not meet).
+    pub fn within(&self, columns: &Range<u32>) -> Option<Band> {
+        let columns = self.columns.start.max(columns.start)..self.columns.end.min(columns.end);
+        (!columns.is_empty() && !self.rows.is_empty()).then(|| Band { rows: self.rows.clone(), columns })
+    }
+}
+
+/// The right part of a frame split in two (the tool's A/B split view): the columns from
+/// `column` on are traced with `params`, a second set of settings for the same view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitTrace {
+    /// The first column of the right part: a multiple of the work-group size, or the width.
+    pub column: u32,
+    /// The right part's parameters.
+    pub params: FrameParams,
+}
+
+/// How a frame's pixels are traced: all with `params`, or split in two at a column.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameTrace {
+    /// The whole frame's parameters, or the left part's.
+    pub params: FrameParams,
+    /// The right part, if split.
+    pub split: Option<SplitTrace>,
+}
+
+impl FrameTrace {
+    /// The whole frame traced with `params`.
+    pub fn whole(params: FrameParams) -> Self {
+        Self { params, split: None }
+    }
+
+    /// The frame's parts, left to right, each with its parameters and columns (0, 1 or 2
+    /// of them; an empty part is left out). Together they cover every column once.
+    pub fn parts(&self) -> Vec<(usize, &FrameParams, Range<u32>)> {
+        let width = self.params.settings.width;
+        let column = self.split.map_or(width, |s| s.column.min(width));
+        let mut parts = vec![(0, &self.params, 0..column)];
+        if let Some(split) = &self.split {
+            parts.push((1, &split.params, column..width));
+        }
+        parts.retain(|(_, _, columns)| !columns.is_empty());
+        parts
     }
 }
 
@@ -248,18 +277,25 @@ impl TracePass {
         write_set(&self.ctx, self.set, scene, output, tlas);
     }
 
-    /// Record the trace of the pixels in `band`, with the barriers it needs: after the
-    /// last trace wrote (accumulation reads what it wrote) and copies read the outputs, and
-    /// between adaptive sampling's pre-pass and the main pass. The band at the frame's
-    /// first pixel runs the pre-pass (primary-hit ids of the whole frame) when
-    /// `settings.adaptive` is on. The outputs are left as `Access::ComputeWrite`.
+    /// Record the trace of the pixels in `band`, with the barrier it needs first: after
+    /// the last trace wrote (accumulation reads what it wrote; the main pass reads adaptive
+    /// sampling's keys) and copies read the outputs. The outputs are left as
+    /// `Access::ComputeWrite`.
     pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
-        let device = &self.ctx.device;
-        barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
+        barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         // Rows are offset through the push constants, columns through the dispatch base.
-        record_frame_band(params, band, |pc, band| self.dispatch(cmd, pc, band), || {
-            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::ComputeRead])
-        });
+        let pc = params.push_constants(band.rows.start);
+        self.dispatch(cmd, &pc, band);
+    }
+
+    /// Record adaptive sampling's pre-pass over `columns` (all rows): the key of each
+    /// pixel's path (primary hit and mirror bounces), which the main pass compares with the
+    /// neighbours'. Recorded before a frame's first main band, with the same barrier.
+    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+        barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
+        let mut pc = params.push_constants(0);
+        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
+        self.dispatch(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
     }
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {

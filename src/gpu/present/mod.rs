@@ -23,12 +23,11 @@ use image::RgbaImage;
 
 use super::barrier::{self, Access, ImageTransition};
 use super::buffer::GpuBuffer;
-use super::compute_tracer::ComputeTracer;
+use super::compute_tracer::{ComputeTracer, PartTimes, TimedParts};
 use super::context::GpuContext;
 use super::error::VkContext;
 use super::image::GpuImage;
-use super::trace_pass::Band;
-use crate::tracer::frame::FrameParams;
+use super::trace_pass::{Band, FrameTrace};
 use capture::WindowCapture;
 pub use composite::PixelRect;
 use swapchain::{Acquired, Swapchain};
@@ -52,7 +51,7 @@ pub enum Show<'a> {
 pub struct FrameRequest<'a> {
     /// Pixels of a frame to trace in this frame's command buffer (all of them when the
     /// frame fits one submission; a band of a long frame traced over several).
-    pub trace: Option<(FrameParams, Band)>,
+    pub trace: Option<(FrameTrace, Band)>,
     pub show: Show<'a>,
     /// Where the image goes in the window (already letterboxed), physical pixels.
     pub image_rect: PixelRect,
@@ -70,6 +69,8 @@ pub struct FrameOutcome {
     pub presented: bool,
     /// GPU trace milliseconds of an earlier frame whose timestamps are now available.
     pub gpu_ms: Option<f64>,
+    /// The same frame's milliseconds per part (left, right) of a split frame.
+    pub part_ms: PartTimes,
     /// The window as drawn, when asked for.
     pub window_image: Option<Result<RgbaImage, String>>,
 }
@@ -78,8 +79,8 @@ struct FrameSlot {
     cmd: vk::CommandBuffer,
     fence: vk::Fence,
     acquire: vk::Semaphore,
-    /// The tracer's timer slot holds this slot's last trace.
-    timed: bool,
+    /// The parts of this slot's last trace that the tracer's timer slot holds.
+    timed: TimedParts,
 }
 
 /// Everything on the GPU side of the window except the tracer.
@@ -131,7 +132,7 @@ impl Presenter {
             let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED), None) }.during("creating a fence")?;
             // SAFETY: as above.
             let acquire = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.during("creating a semaphore")?;
-            slots.push(FrameSlot { cmd, fence, acquire, timed: false });
+            slots.push(FrameSlot { cmd, fence, acquire, timed: Default::default() });
         }
         let ui_format = if swapchain.is_usable() { swapchain.format.format } else { vk::Format::B8G8R8A8_UNORM };
         let ui = UiPass::new(ctx, ui_format)?;
@@ -234,8 +235,11 @@ impl Presenter {
         let fence = self.slots[f].fence;
         // SAFETY: the fence is ours; waiting has no other requirement.
         unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.during("waiting for a frame")?;
-        if std::mem::take(&mut self.slots[f].timed) {
-            outcome.gpu_ms = tracer.and_then(|t| t.timer_ms(f as u32));
+        let timed = std::mem::take(&mut self.slots[f].timed);
+        if let (true, Some(t)) = (timed.iter().flatten().any(|&p| p), tracer) {
+            outcome.part_ms = t.timer_ms(f as u32, timed);
+            // The frame's time once every part it traced has its timestamps.
+            outcome.gpu_ms = (0..2).filter(|&i| timed[i].contains(&true)).map(|i| outcome.part_ms[i]).sum();
         }
         let index = match self.swapchain.acquire(self.slots[f].acquire)? {
             Acquired::OutOfDate => {
@@ -282,9 +286,8 @@ impl Presenter {
             device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
             device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording a frame")?;
         }
-        if let (Some((params, band)), Some(t)) = (trace, ready) {
-            t.record(cmd, &params, &band, Some(f as u32));
-            self.slots[f].timed = true;
+        if let (Some((frame, band)), Some(t)) = (trace, ready) {
+            self.slots[f].timed = t.record(cmd, &frame, &band, Some(f as u32));
         }
         let swap_image = self.swapchain.images[index as usize];
         match (&self.display, source) {

@@ -8,6 +8,7 @@ pub(crate) mod accel;
 pub(crate) mod pipeline_pass;
 
 use std::fmt;
+use std::ops::Range;
 use std::str::FromStr;
 use std::sync::Arc;
 
@@ -179,29 +180,21 @@ impl VendorTracer {
         }
     }
 
-    /// Whether the next [`Self::record`] has what it needs (after [`Self::prepare`]).
-    pub(crate) fn is_ready(&self) -> bool {
-        self.scene.is_some()
-            && !self.top_stale
-            && match self.kernel {
-                VendorKernel::Query => self.query.is_some(),
-                VendorKernel::Pipeline => self.pipeline.is_some(),
-            }
+    /// Record the trace of `band` with the kernel in use (see `TracePass::record`).
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
+        match (self.kernel, &self.query, &self.pipeline) {
+            (VendorKernel::Query, Some(pass), _) => pass.record(cmd, params, band),
+            (VendorKernel::Pipeline, _, Some(pass)) => pass.record(cmd, params, band),
+            _ => debug_assert!(false, "VendorTracer::prepare comes before a vendor frame"),
+        }
     }
 
-    /// Record the trace of `band` with the kernel in use.
-    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
-        match self.kernel {
-            VendorKernel::Query => {
-                if let Some(pass) = &self.query {
-                    pass.record(cmd, params, band);
-                }
-            }
-            VendorKernel::Pipeline => {
-                if let Some(pass) = &self.pipeline {
-                    pass.record(cmd, params, band);
-                }
-            }
+    /// Record adaptive sampling's pre-pass over `columns` with the kernel in use.
+    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+        match (self.kernel, &self.query, &self.pipeline) {
+            (VendorKernel::Query, Some(pass), _) => pass.record_ids(cmd, params, columns),
+            (VendorKernel::Pipeline, _, Some(pass)) => pass.record_ids(cmd, params, columns),
+            _ => debug_assert!(false, "VendorTracer::prepare comes before a vendor frame"),
         }
     }
 }

@@ -1,8 +1,9 @@
 //! The vendor's ray tracing pipeline (`VK_KHR_ray_tracing_pipeline`): `vendor/raygen.rgen`
 //! runs the shared tracer (`trace.glsl`) per pixel of a band and traces its rays into
 //! `closest.rchit` and `miss.rmiss`; the shader binding table holds the three groups. The
-//! descriptor set and the frame's recording order are the compute trace pass's.
+//! descriptor set is laid out as the compute trace pass's.
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use ash::vk;
@@ -12,7 +13,7 @@ use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::scene_buffers::SceneBuffers;
-use crate::gpu::trace_pass::{allocate_set, create_set_layout, record_frame_band, words, Band, TraceOutput};
+use crate::gpu::trace_pass::{allocate_set, create_set_layout, words, Band, TraceOutput};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 static RAYGEN_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_raygen.spv"));
@@ -59,40 +60,41 @@ impl PipelinePass {
         crate::gpu::trace_pass::write_set(&self.ctx, self.set, scene, output, Some(tlas));
     }
 
-    /// Record the trace of `band` as the compute pass does: after the last trace's writes
-    /// and copies' reads, the adaptive pre-pass at the frame's first band. The outputs are
-    /// left as the compute pass leaves them (`Access::ComputeWrite`): a barrier hands the
-    /// pipeline's writes on to the compute stage, which later barriers start from.
+    /// Record the trace of `band` as the compute pass records its dispatch: after the last
+    /// trace's writes and copies' reads. The outputs are left as the compute pass leaves
+    /// them (`Access::ComputeWrite`): a barrier hands the pipeline's writes on to the
+    /// compute stage, which later barriers start from.
     pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
+        self.trace(cmd, &params.push_constants(band.rows.start), band);
+    }
+
+    /// Record adaptive sampling's pre-pass over `columns` (all rows), as the compute pass does.
+    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+        let mut pc = params.push_constants(0);
+        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
+        self.trace(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
+    }
+
+    fn trace(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
         let rt = vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR;
         let read_write = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
-        // SAFETY (all blocks below): `cmd` is recording; the pipeline, layout, set and table
-        // outlive its execution (the owner waits for the GPU before dropping them).
+        // A launch has no base offset: the band's first column rides in misc.y's high half
+        // (raygen.rgen), beside its first row.
+        let mut pc = *pc;
+        pc.misc[1] = (band.columns.start << 16) | (pc.misc[1] & 0xffff);
+        // SAFETY: `cmd` is recording; the pipeline, layout, set and table outlive its
+        // execution (the owner waits for the GPU before dropping them); the push constants
+        // fit the layout's range.
         unsafe {
             barrier(device, cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::SHADER_WRITE, rt, read_write);
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.layout, 0, &[self.set], &[]);
+            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::RAYGEN_KHR, 0, bytemuck::bytes_of(&pc));
+            let callable = vk::StridedDeviceAddressRegionKHR::default();
+            self.loader.cmd_trace_rays(cmd, &self.raygen, &self.miss, &self.hit, &callable, band.columns.len() as u32, band.rows.len() as u32, 1);
+            barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write);
         }
-        record_frame_band(
-            params,
-            band,
-            |pc, band| {
-                // A launch has no base offset: the band's first column rides in misc.y's high
-                // half (raygen.rgen), beside its first row.
-                let mut pc = *pc;
-                pc.misc[1] = (band.columns.start << 16) | (pc.misc[1] & 0xffff);
-                // SAFETY: as above; the push constants fit the layout's range.
-                unsafe {
-                    device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::RAYGEN_KHR, 0, bytemuck::bytes_of(&pc));
-                    self.loader.cmd_trace_rays(cmd, &self.raygen, &self.miss, &self.hit, &vk::StridedDeviceAddressRegionKHR::default(), band.columns.len() as u32, band.rows.len() as u32, 1);
-                }
-            },
-            // SAFETY: as above.
-            || unsafe { barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, rt, read_write) },
-        );
-        // SAFETY: as above.
-        unsafe { barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write) };
     }
 }
 
