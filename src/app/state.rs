@@ -305,6 +305,8 @@ pub enum KeyAction {
     FrameModel,
     /// Start a benchmark run of the panel's frame count.
     Benchmark,
+    /// Open the file dialog for a model (Ctrl+O).
+    OpenModel,
     Quit,
 }
 
@@ -325,6 +327,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("R", "reset the camera"),
     ("F", "frame the models"),
     ("V", "vsync on / off"),
+    ("Ctrl+O", "open an .obj file (or drop one on the window)"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
     ("Shift+drag, middle drag", "pan the camera"),
@@ -338,6 +341,7 @@ impl Params {
             KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
+            KeyCode::KeyO if ctrl => return KeyAction::OpenModel,
             KeyCode::KeyB => return KeyAction::Benchmark,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
             KeyCode::KeyI => self.hud_visible = !self.hud_visible,
