@@ -131,13 +131,14 @@ mod tests {
         assert!(dialog.is_open());
         let ctx = egui::Context::default();
         let mut picked = None;
-        let _ = ctx.run_ui(egui::RawInput::default(), |ui| picked = dialog.show(ui.ctx()));
+        // No renderer here: the font texture's upload is dropped on purpose.
+        ctx.run_ui(egui::RawInput::default(), |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
         assert_eq!(picked, None);
         assert!(dialog.is_open(), "the dialog closed by itself");
         // Escape is the dialog's cancel key.
         let escape = egui::Event::Key { key: egui::Key::Escape, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE };
         let raw = egui::RawInput { events: vec![escape], ..Default::default() };
-        let _ = ctx.run_ui(raw, |ui| picked = dialog.show(ui.ctx()));
+        ctx.run_ui(raw, |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
         assert_eq!(picked, None);
         assert!(!dialog.is_open(), "Escape did not close the dialog");
     }
