@@ -30,9 +30,10 @@ fn start(x: &Xvfb, dir: &Path) -> (Running, String, PathBuf) {
     (app, window, cube)
 }
 
-/// Press F12 until a trace screenshot of the model `label` appears; returns it.
+/// Press F12 until a trace screenshot of the model `label` appears; returns it. The name
+/// must also say two bounces: a tool key that fired while the dialog showed would not.
 fn f12_of(x: &Xvfb, window: &str, dir: &Path, app: &mut Running, label: &str) -> image::RgbaImage {
-    let infix = format!("_{label}_x1_");
+    let infix = format!("_{label}_x1_96x96_b2_");
     let shot = wait_until(Duration::from_secs(120), &format!("an F12 screenshot of {label}"), || {
         app.assert_alive();
         press(&x.display, window, &["F12"]);
