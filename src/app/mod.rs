@@ -10,7 +10,8 @@
 //!   Presets section, save, load, recent; `perf_panel`: its Performance section);
 //!   `frame_stats`: the frame-time history it plots; `frame_log`: the frame-time CSV
 //!   (`--stats-csv`, Record); `settings`: what is remembered between runs;
-//! - `model_loader`: loading .obj files on a worker thread;
+//! - `model_loader`: loading .obj files on a worker thread; `open_dialog`: the Open
+//!   dialog (Ctrl+O) that picks them;
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
 //!   `aov_view`: the depth, normal, primitive-id and samples views;
@@ -32,6 +33,7 @@ pub(crate) mod frame_log;
 pub(crate) mod frame_stats;
 pub(crate) mod input;
 pub(crate) mod model_loader;
+pub(crate) mod open_dialog;
 pub(crate) mod options;
 pub(crate) mod overlay;
 pub(crate) mod panel;

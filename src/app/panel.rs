@@ -11,6 +11,7 @@ use super::cost_view::heat_color;
 use super::presets_panel::{presets_section, PresetPanel};
 use super::frame_stats::{mrays_per_second, FrameStats};
 use super::perf_panel::{performance_section, PerfPanel};
+use super::open_dialog::Purpose;
 use super::settings::section;
 use super::split_panel::split_section;
 use super::state::{CostMetric, Params, Resolution, ViewMode, PRESETS, SHORTCUTS};
@@ -32,6 +33,10 @@ pub const PANEL_WIDTH: f32 = 300.0;
 #[derive(Clone, Debug, PartialEq)]
 pub enum PanelAction {
     LoadModel(ModelSource),
+    /// Load this .obj exactly as a file dropped on the window (the Open dialog's pick).
+    LoadFile(PathBuf),
+    /// Show the Open dialog for a model or a preset.
+    Open(Purpose),
     ScreenshotTrace,
     ScreenshotWindow,
     /// The traced float output of the view shown, as OpenEXR.
@@ -376,7 +381,12 @@ fn model_section(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info:
                 actions.push(PanelAction::LoadModel(ModelSource::parse(state.path.trim())));
             }
         });
-        ui.label(RichText::new(if state.hovering_file { "drop the file to load it" } else { "or drop an .obj file on the window" }).small().weak());
+        ui.horizontal(|ui| {
+            if ui.button("Open .obj…").on_hover_text("choose an .obj file (Ctrl+O)").clicked() {
+                actions.push(PanelAction::Open(Purpose::Model));
+            }
+            ui.label(RichText::new(if state.hovering_file { "drop the file to load it" } else { "or drop one on the window" }).small().weak());
+        });
         if let Some((label, stage, secs)) = info.loading {
             ui.horizontal(|ui| {
                 ui.spinner();

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use egui::{RichText, Ui};
 
+use super::open_dialog::Purpose;
 use super::panel::{status_line, PanelAction, Status};
 
 /// How many recently used presets the section lists.
@@ -71,6 +72,10 @@ pub fn presets_section(ui: &mut Ui, state: &mut PresetPanel, actions: &mut Vec<P
                 state.confirm = None;
                 // Load what was typed: a PNG or a preset with another extension loads as is.
                 actions.push(PanelAction::LoadPreset(PathBuf::from(state.path.trim())));
+            }
+            if ui.button("Open…").on_hover_text("choose a preset or a PNG to load").clicked() {
+                state.confirm = None;
+                actions.push(PanelAction::Open(Purpose::Preset));
             }
         });
         if let Some(target) = state.confirm.clone() {

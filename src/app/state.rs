@@ -310,6 +310,8 @@ pub enum KeyAction {
     FrameModel,
     /// Start a benchmark run of the panel's frame count.
     Benchmark,
+    /// Open the file dialog for a model (Ctrl+O).
+    OpenModel,
     Quit,
 }
 
@@ -323,7 +325,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("PgUp / PgDn", "bounces + / -"),
     ("[ / ]", "blend - / +"),
     ("+ / -", "model count"),
-    ("A", "brute force / BVH"),
+    ("A", "acceleration: BVH, brute force, vendor in turn"),
     ("C", "colour / cost heat map"),
     ("M", "render resolution: match window / back"),
     ("Space", "pause the light"),
@@ -331,6 +333,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("F", "frame the models"),
     ("V", "vsync on / off"),
     ("S", "A/B split view on / off (drag the line to move it)"),
+    ("Ctrl+O", "open an .obj file (or drop one on the window)"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
     ("Shift+drag, middle drag", "pan the camera"),
@@ -344,6 +347,7 @@ impl Params {
             KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
+            KeyCode::KeyO if ctrl => return KeyAction::OpenModel,
             KeyCode::KeyB => return KeyAction::Benchmark,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
             KeyCode::KeyI => self.hud_visible = !self.hud_visible,

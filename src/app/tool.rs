@@ -30,6 +30,7 @@ use super::progressive::{adapt_groups, Progressive};
 use super::session::Session;
 use super::settings::{self, Store};
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
+use super::open_dialog::{OpenDialog, Purpose};
 use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
@@ -118,6 +119,8 @@ pub struct Tool {
     shader_watch: Option<ShaderWatch>,
     /// The latest GPU time of each half of the split view (left A, right B).
     split_ms: PartTimes,
+    /// The Open dialog (Ctrl+O, the panel's Open buttons).
+    open_dialog: OpenDialog,
 }
 
 impl Tool {
@@ -182,6 +185,7 @@ impl Tool {
             store,
             shader_watch: options.watch_shaders.clone().map(ShaderWatch::new),
             split_ms: [None; 2],
+            open_dialog: OpenDialog::default(),
         })
     }
 
@@ -220,7 +224,11 @@ impl Tool {
             WindowEvent::ModifiersChanged(m) => self.input.modifiers = m.state(),
             WindowEvent::RedrawRequested => return self.redraw(),
             // Synthetic presses (keys held while the window gains focus) are not the user's.
-            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. } if !response.consumed => {
+            // Nor while the Open dialog shows: its keys (Escape, Enter, arrows) are its own,
+            // whether or not one of its text fields has the focus.
+            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. }
+                if !response.consumed && !self.open_dialog.is_open() =>
+            {
                 let m = self.input.modifiers;
                 match self.params.apply_key(*code, m.shift_key(), m.control_key(), &mut self.previous_resolution) {
                     KeyAction::None => {}
@@ -230,15 +238,16 @@ impl Tool {
                     KeyAction::ScreenshotWindow => self.want_window_shot = true,
                     KeyAction::FrameModel => self.frame_model(),
                     KeyAction::Benchmark => self.benchmarks.want(self.panel.benchmark.frames),
+                    KeyAction::OpenModel => self.open(Purpose::Model),
                     KeyAction::Quit => self.script.request_exit(),
                 }
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
                 // A press on the split line moves the line, not the camera.
                 let kind = if self.on_split_line() { Drag::Split } else { Drag::Orbit };
-                self.input.drag_button(*state, kind, self.image_area);
+                self.input.drag_button(*state, kind, self.camera_area());
             }
-            WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => self.input.drag_button(*state, Drag::Pan, self.image_area),
+            WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => self.input.drag_button(*state, Drag::Pan, self.camera_area()),
             WindowEvent::CursorMoved { position, .. } => match self.input.cursor_moved(*position) {
                 Some((Drag::Orbit, dx, dy)) => self.params.drag_camera(dx, dy),
                 Some((Drag::Split, _, _)) => self.move_split(),
@@ -251,7 +260,7 @@ impl Tool {
             },
             WindowEvent::CursorLeft { .. } => self.input.cursor = None,
             WindowEvent::MouseWheel { delta, .. } => {
-                if let Some(steps) = self.input.wheel(*delta, self.image_area) {
+                if let Some(steps) = self.input.wheel(*delta, self.camera_area()) {
                     self.params.zoom_camera(steps);
                 }
             }
@@ -259,12 +268,35 @@ impl Tool {
             WindowEvent::HoveredFileCancelled => self.panel.hovering_file = false,
             WindowEvent::DroppedFile(path) => {
                 self.panel.hovering_file = false;
-                self.panel.path = path.display().to_string();
-                self.session.start_load(crate::scene::paper::ModelSource::File(path.clone()), &self.params, &mut self.panel);
+                self.load_file(path.clone());
             }
             _ => {}
         }
         Ok(true)
+    }
+
+    /// Load an .obj dropped on the window or picked in the Open dialog (one path for both).
+    fn load_file(&mut self, path: std::path::PathBuf) {
+        self.panel.path = path.display().to_string();
+        self.session.start_load(crate::scene::paper::ModelSource::File(path), &self.params, &mut self.panel);
+    }
+
+    /// Show the Open dialog for `purpose`, in the folder of the model or preset in use.
+    fn open(&mut self, purpose: Purpose) {
+        let near = match purpose {
+            Purpose::Model => match self.session.model.as_ref().map(|m| &m.source) {
+                Some(crate::scene::paper::ModelSource::File(p)) => Some(p.clone()),
+                _ => None,
+            },
+            Purpose::Preset => self.panel.presets.recent.first().cloned(),
+        };
+        self.open_dialog.open(purpose, near.as_deref());
+    }
+
+    /// Where a mouse press or the wheel moves the camera: the image, unless the Open dialog
+    /// covers it (then nowhere).
+    fn camera_area(&self) -> PixelRect {
+        if self.open_dialog.is_open() { PixelRect::default() } else { self.image_area }
     }
 
     fn area(&self) -> [u32; 2] {
@@ -322,6 +354,7 @@ impl Tool {
         let notice = self.notice.as_ref();
         let params = &mut self.params;
         let panel_state = &mut self.panel;
+        let open_dialog = &mut self.open_dialog;
         let full = self.egui_ctx.run_ui(raw, |ui| {
             if params.panel_visible {
                 let frame = egui::Frame::side_top_panel(ui.style()).inner_margin(8.0);
@@ -333,6 +366,12 @@ impl Tool {
             }
             central = ui.available_rect_before_wrap();
             overlay::show(ui.ctx(), central, params.hud_visible.then_some(&info), light, split.as_ref(), notice);
+            // Last: the dialog is drawn over the panel and the image.
+            match open_dialog.show(ui.ctx()) {
+                Some((Purpose::Model, path)) => actions.push(PanelAction::LoadFile(path)),
+                Some((Purpose::Preset, path)) => actions.push(PanelAction::LoadPreset(path)),
+                None => {}
+            }
         });
         let ppp = full.pixels_per_point;
         let size = self.window.inner_size();
@@ -480,6 +519,8 @@ impl Tool {
         for action in actions {
             match action {
                 PanelAction::LoadModel(source) => self.session.start_load(source, &self.params, &mut self.panel),
+                PanelAction::LoadFile(path) => self.load_file(path),
+                PanelAction::Open(purpose) => self.open(purpose),
                 PanelAction::ScreenshotTrace => self.want_trace_shot = true,
                 PanelAction::ScreenshotWindow => self.want_window_shot = true,
                 PanelAction::ScreenshotExr => {

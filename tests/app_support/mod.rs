@@ -1,6 +1,9 @@
 //! Helpers for the window tests: a private Xvfb per test, the built binary with the test's
-//! environment, xdotool, temporary folders and image comparison.
+//! environment, xdotool, an XDND drag source (`xdnd`), temporary folders and image
+//! comparison.
 #![allow(dead_code)]
+
+pub mod xdnd;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
