@@ -31,9 +31,10 @@ pub struct BenchArgs {
     /// knots and --obj models at --size): the vendor's comparison.
     #[arg(long)]
     pub(crate) framed: bool,
-    /// Trace every row with our BVH and with the vendor's ray tracing (and brute force where
-    /// it fits the GPU watchdog's budget) on the same scene, camera and rays, and end with a
-    /// table of the ratio ours / vendor, build times and memory of both.
+    /// Trace every row with our BVH and with the vendor's ray tracing (and brute force with
+    /// --accel brute,bvh, where it fits the GPU watchdog's budget) on the same scene, camera
+    /// and rays, and end with a table of the ratio ours / vendor, build times and memory of
+    /// both.
     #[arg(long)]
     pub(crate) compare: bool,
     /// How vendor rows trace the driver's structures: query (ray queries from the compute
@@ -159,8 +160,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
-    // --compare adds the vendor's rows to our BVH's; the framed series is BVH-only otherwise.
-    let accels: Vec<Accel> = if args.compare { args.accel.iter().copied().filter(|a| *a != Accel::Vendor).collect() } else { args.accel.clone() };
+    // --compare adds the vendor's rows to our BVH's (brute force only when asked: on big
+    // meshes its frames take minutes); the framed series is BVH-only otherwise.
+    let accels: Vec<Accel> = match (args.compare, args.given("accel")) {
+        (true, true) => args.accel.iter().copied().filter(|a| *a != Accel::Vendor).collect(),
+        (true, false) => vec![Accel::Bvh],
+        (false, _) => args.accel.clone(),
+    };
     let framed_accels = if args.given("accel") || args.compare { accels.clone() } else { vec![Accel::Bvh] };
     if let Some(path) = &args.preset {
         let (preset_cases, warnings) = args.preset_cases(path)?;
