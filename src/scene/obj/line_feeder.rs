@@ -12,6 +12,10 @@ use std::io::{self, BufRead, Read};
 use super::convert::locate_colour_mismatch;
 use super::{quote, ObjError};
 
+/// An out-of-range index of a face corner: the index as written, and how many of its kind
+/// the file had defined by then.
+type BadIndex = (String, usize);
+
 /// The `BufRead` that tobj reads the text through. tobj reads with `BufRead::lines`, so
 /// every `consume` takes exactly one line: the feeder always knows which line tobj is on.
 /// In OBJ mode it checks each line before tobj parses it: faces (and polylines) when
@@ -201,13 +205,13 @@ impl<'a> LineFeeder<'a> {
     /// name a vertex defined earlier in the file; a texture coordinate or normal index
     /// that names none is returned (the first of each kind, with the count so far), for
     /// the face to go on without them.
-    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(Option<(String, usize)>, Option<(String, usize)>), ObjError> {
+    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(Option<BadIndex>, Option<BadIndex>), ObjError> {
         let kinds = [
             ("vertex", "vertices", self.vertices),
             ("texture coordinate", "texture coordinates", self.texcoords),
             ("normal", "normals", self.normals),
         ];
-        let mut bad: [Option<(String, usize)>; 3] = Default::default();
+        let mut bad: [Option<BadIndex>; 3] = Default::default();
         let mut count = 0;
         for corner in corners {
             count += 1;
