@@ -15,6 +15,7 @@ use gpu_allocator::MemoryLocation;
 use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
+use super::memory_barrier;
 use crate::tracer::packed::{GpuInstance, GpuTriangle};
 
 /// What the last change built, for the panel and `bench --compare`.
@@ -265,15 +266,6 @@ impl VendorScene {
         })?;
         Ok(compact)
     }
-}
-
-/// One global memory barrier.
-///
-/// # Safety
-/// `cmd` is recording on `device`.
-unsafe fn memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer, src: vk::PipelineStageFlags, src_access: vk::AccessFlags, dst: vk::PipelineStageFlags, dst_access: vk::AccessFlags) {
-    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
-    device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &barrier, &[], &[]);
 }
 
 /// After a build or copy: the structure is read by the traces submitted later (ray queries

@@ -84,6 +84,22 @@ pub(crate) fn tracing_stages(support: &VendorSupport) -> vk::PipelineStageFlags 
     stages
 }
 
+/// One global memory barrier (the vendor path's stages and accesses have no `Access` names).
+///
+/// # Safety
+/// `cmd` is recording on `device`.
+pub(crate) unsafe fn memory_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: vk::PipelineStageFlags,
+    src_access: vk::AccessFlags,
+    dst: vk::PipelineStageFlags,
+    dst_access: vk::AccessFlags,
+) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
+    device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+}
+
 /// The vendor path of one tracer: the structures of its scene and the passes built so far.
 pub(crate) struct VendorTracer {
     ctx: Arc<GpuContext>,

@@ -9,6 +9,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::memory_barrier;
 use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
@@ -87,24 +88,15 @@ impl PipelinePass {
         // execution (the owner waits for the GPU before dropping them); the push constants
         // fit the layout's range.
         unsafe {
-            barrier(device, cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::SHADER_WRITE, rt, read_write);
+            memory_barrier(device, cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::SHADER_WRITE, rt, read_write);
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.layout, 0, &[self.set], &[]);
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::RAYGEN_KHR, 0, bytemuck::bytes_of(&pc));
             let callable = vk::StridedDeviceAddressRegionKHR::default();
             self.loader.cmd_trace_rays(cmd, &self.raygen, &self.miss, &self.hit, &callable, band.columns.len() as u32, band.rows.len() as u32, 1);
-            barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write);
+            memory_barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write);
         }
     }
-}
-
-/// One global memory barrier.
-///
-/// # Safety
-/// `cmd` is recording on `device`.
-unsafe fn barrier(device: &ash::Device, cmd: vk::CommandBuffer, src: vk::PipelineStageFlags, src_access: vk::AccessFlags, dst: vk::PipelineStageFlags, dst_access: vk::AccessFlags) {
-    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
-    device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &barrier, &[], &[]);
 }
 
 /// The pipeline: group 0 ray generation, 1 miss, 2 the triangle hit group (closest hit).
