@@ -7,19 +7,6 @@ use std::time::Duration;
 
 use app_support::*;
 
-const SCENE: [&str; 6] = ["--width", "128", "--height", "128", "--bounces", "2"];
-const WINDOW: [&str; 2] = ["--window", "640x480"];
-
-fn view_args(extra: &[&str]) -> Vec<String> {
-    SCENE.iter().chain(WINDOW.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
-}
-
-fn with_bounces(b: &str) -> Vec<&str> {
-    let mut flags = SCENE.to_vec();
-    flags[5] = b;
-    flags
-}
-
 /// Largest per-channel difference between `a` and `b` over the pixel columns `columns`.
 fn columns_diff(a: &image::RgbaImage, b: &image::RgbaImage, columns: std::ops::Range<u32>) -> u8 {
     assert_eq!(a.dimensions(), b.dimensions(), "image sizes differ");

@@ -7,12 +7,6 @@ mod app_support;
 use app_support::*;
 use std::time::Duration;
 
-const SCENE: [&str; 6] = ["--width", "128", "--height", "128", "--bounces", "2"];
-
-fn view_args(extra: &[&str]) -> Vec<String> {
-    SCENE.iter().chain(["--window", "640x480"].iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
-}
-
 /// The `acceleration` column of every frame row of a `--stats-csv` log.
 fn accelerations(csv: &str) -> Vec<String> {
     let mut lines = csv.lines();

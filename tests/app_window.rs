@@ -8,19 +8,6 @@ use std::time::Duration;
 
 use app_support::*;
 
-const SCENE: [&str; 6] = ["--width", "128", "--height", "128", "--bounces", "2"];
-const WINDOW: [&str; 2] = ["--window", "640x480"];
-
-fn view_args(extra: &[&str]) -> Vec<String> {
-    SCENE.iter().chain(WINDOW.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
-}
-
-fn with_bounces(b: &str) -> Vec<&str> {
-    let mut flags = SCENE.to_vec();
-    flags[5] = b;
-    flags
-}
-
 #[test]
 fn scripted_run_writes_trace_and_window_screenshots() {
     let x = Xvfb::start();

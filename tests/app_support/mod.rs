@@ -102,6 +102,23 @@ impl Drop for TempDir {
     }
 }
 
+/// The scene most window tests trace: 128², 2 bounces (small enough for lavapipe).
+pub const SCENE: [&str; 6] = ["--width", "128", "--height", "128", "--bounces", "2"];
+/// The window size most window tests open.
+pub const WINDOW: [&str; 2] = ["--window", "640x480"];
+
+/// `view` flags: [`SCENE`] in a [`WINDOW`], then `extra`.
+pub fn view_args(extra: &[&str]) -> Vec<String> {
+    SCENE.iter().chain(WINDOW.iter()).chain(extra.iter()).map(|s| s.to_string()).collect()
+}
+
+/// [`SCENE`] with `b` bounces.
+pub fn with_bounces(b: &str) -> Vec<&str> {
+    let mut flags = SCENE.to_vec();
+    flags[5] = b;
+    flags
+}
+
 /// The binary, run in `dir` on `display` with validation on.
 pub fn meshtracer(display: &str, dir: &Path) -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
