@@ -10,6 +10,9 @@ use gpu_allocator::MemoryLocation;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 
+/// Largest staging buffer an upload uses; bigger uploads go through it in pieces.
+const UPLOAD_CHUNK: usize = 64 << 20;
+
 /// A Vulkan buffer and its memory; freed on drop.
 pub struct GpuBuffer {
     ctx: Arc<GpuContext>,
@@ -93,23 +96,34 @@ impl GpuBuffer {
         Ok(dst)
     }
 
-    /// Overwrite the start of this (device-local) buffer with `data` through a staging copy.
+    /// Overwrite the start of this (device-local) buffer with `data` through staging copies.
     pub(crate) fn upload(&self, data: &[u8]) -> Result<(), GpuError> {
+        self.upload_in_pieces(data, UPLOAD_CHUNK)
+    }
+
+    /// [`Self::upload`] through a staging buffer of at most `chunk` bytes, refilled: a
+    /// 10M-triangle scene then needs 64 MB of staging memory beside it instead of a copy of
+    /// its largest buffer.
+    fn upload_in_pieces(&self, data: &[u8], chunk: usize) -> Result<(), GpuError> {
         if data.is_empty() {
             return Ok(());
         }
         assert!(data.len() as u64 <= self.size, "upload larger than the buffer");
-        let mut staging = GpuBuffer::new(&self.ctx, data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
-        staging.mapped().expect("staging memory is mapped")[..data.len()].copy_from_slice(data);
-        let device = &self.ctx.device;
-        // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
-        self.ctx.one_shot(|cmd| unsafe {
-            let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
-            device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region);
-            // Make the copy visible to the compute shader that reads the buffer next.
-            let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
-            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
-        })
+        let chunk = chunk.clamp(1, data.len());
+        let mut staging = GpuBuffer::new(&self.ctx, chunk as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
+        for (i, part) in data.chunks(chunk).enumerate() {
+            staging.mapped().expect("staging memory is mapped")[..part.len()].copy_from_slice(part);
+            let device = &self.ctx.device;
+            // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
+            self.ctx.one_shot(|cmd| unsafe {
+                let region = [vk::BufferCopy { src_offset: 0, dst_offset: (i * chunk) as u64, size: part.len() as u64 }];
+                device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region);
+                // Make the copy visible to the compute shader that reads the buffer next.
+                let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
+                device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+            })?;
+        }
+        Ok(())
     }
 
     /// Read `len` bytes back from this (device-local) buffer through a staging copy.
@@ -141,5 +155,25 @@ impl Drop for GpuBuffer {
         // SAFETY: owners drop buffers only after the GPU finished with them (they wait
         // on a fence or for idle first).
         unsafe { self.ctx.device.destroy_buffer(self.buffer, None) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::ContextOptions;
+
+    #[test]
+    fn an_upload_in_pieces_arrives_whole() {
+        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let data: Vec<u8> = (0..10_000u32).map(|i| (i * 7 + i / 256) as u8).collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+        let buffer = GpuBuffer::new(&ctx, data.len() as u64, usage, MemoryLocation::GpuOnly, "pieces").unwrap();
+        // 3,000-byte pieces: three whole ones and a short last one.
+        buffer.upload_in_pieces(&data, 3000).unwrap();
+        assert_eq!(buffer.download(data.len() as u64).unwrap(), data);
+        drop(buffer);
+        let messages = ctx.validation_messages();
+        assert!(messages.is_empty(), "validation: {messages:?}");
     }
 }
