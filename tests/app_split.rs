@@ -72,7 +72,7 @@ fn a_split_frame_traced_in_bands_has_each_half_as_set() {
     cmd.args(view_args(&["--accel", "brute", "--split", "0.3", "--split-b", "bounces=1,spp=4,adaptive=on", "--frames", "2", "--screenshot", "split.png"]));
     assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
     let split = load(&dir.path().join("split.png"));
-    let a_flags: Vec<&str> = SCENE.iter().chain(["--accel", "brute"].iter()).copied().collect();
+    let a_flags = with_accel("brute");
     let a = headless_render(dir.path(), &a_flags, "a.png");
     let b_flags: Vec<&str> = with_bounces("1").into_iter().chain(["--accel", "brute", "--spp", "4", "--adaptive"]).collect();
     let b = headless_render(dir.path(), &b_flags, "b.png");

@@ -37,7 +37,7 @@ fn the_a_key_reaches_the_vendors_tracing_live_and_it_traces_as_render_does() {
         assert!(accels.iter().any(|x| x == a), "no {a} frame in the log: {accels:?}");
     }
     assert_eq!(accels.last().map(String::as_str), Some("vendor"), "the last frames are the vendor's");
-    let flags: Vec<&str> = SCENE.iter().copied().chain(["--accel", "vendor"]).collect();
+    let flags = with_accel("vendor");
     let render = headless_render(dir.path(), &flags, "vendor.png");
     assert!(max_diff(&vendor, &render) <= 1, "the window's vendor frame differs from `render --accel vendor` by {}", max_diff(&vendor, &render));
 }

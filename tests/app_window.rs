@@ -232,7 +232,7 @@ fn a_frame_traced_in_bands_equals_render() {
     cmd.args(view_args(&["--accel", "brute", "--frames", "2", "--screenshot", "banded.png"]));
     assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
     let banded = load(&dir.path().join("banded.png"));
-    let flags: Vec<&str> = SCENE.iter().chain(["--accel", "brute"].iter()).copied().collect();
+    let flags = with_accel("brute");
     let reference = headless_render(dir.path(), &flags, "ref.png");
     assert!(max_diff(&banded, &reference) <= 1, "the banded frame differs from `render` by {}", max_diff(&banded, &reference));
 }

@@ -119,6 +119,11 @@ pub fn with_bounces(b: &str) -> Vec<&str> {
     flags
 }
 
+/// [`SCENE`] traced with acceleration `accel`.
+pub fn with_accel(accel: &str) -> Vec<&str> {
+    SCENE.iter().copied().chain(["--accel", accel]).collect()
+}
+
 /// The binary, run in `dir` on `display` with validation on.
 pub fn meshtracer(display: &str, dir: &Path) -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
