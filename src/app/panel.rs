@@ -162,10 +162,11 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
                     VendorKernel::Query => "ray query",
                     VendorKernel::Pipeline => "RT pipeline",
                 };
-                let hover = match k {
-                    VendorKernel::Query => "the driver's traversal from our compute shader (VK_KHR_ray_query)",
-                    VendorKernel::Pipeline => "a ray tracing pipeline: ray generation, closest-hit and miss shaders (VK_KHR_ray_tracing_pipeline)",
+                let what = match k {
+                    VendorKernel::Query => "the driver's traversal from our compute shader",
+                    VendorKernel::Pipeline => "a ray tracing pipeline: ray generation, closest-hit and miss shaders",
                 };
+                let hover = format!("{what} ({})", k.extension());
                 if ui.radio(vendor.kernel == Some(k), text).on_hover_text(hover).clicked() && vendor.kernel != Some(k) {
                     actions.push(PanelAction::VendorKernel(k));
                 }

@@ -48,7 +48,15 @@ impl VendorKernel {
     /// The default where the device has `support`: ray queries, faster than the pipeline
     /// on lavapipe (docs/BENCHMARKS.md); the pipeline where that is all there is (the H100).
     pub fn preferred(support: &VendorSupport) -> Option<Self> {
-        [VendorKernel::Query, VendorKernel::Pipeline].into_iter().find(|k| k.supported(support))
+        Self::ALL.into_iter().find(|k| k.supported(support))
+    }
+
+    /// The Vulkan extension that provides this kind.
+    pub fn extension(self) -> &'static str {
+        match self {
+            VendorKernel::Query => "VK_KHR_ray_query",
+            VendorKernel::Pipeline => "VK_KHR_ray_tracing_pipeline",
+        }
     }
 }
 
@@ -123,13 +131,11 @@ impl VendorTracer {
     /// Use `kernel` from now on, if the device has it.
     pub(crate) fn set_kernel(&mut self, kernel: VendorKernel) -> Result<(), String> {
         if !kernel.supported(&self.ctx.info.vendor) {
-            return Err(format!("{} does not offer the vendor's {} (VK_KHR_{})", self.ctx.info.name, match kernel {
+            let what = match kernel {
                 VendorKernel::Query => "ray queries",
                 VendorKernel::Pipeline => "ray tracing pipeline",
-            }, match kernel {
-                VendorKernel::Query => "ray_query",
-                VendorKernel::Pipeline => "ray_tracing_pipeline",
-            }));
+            };
+            return Err(format!("{} does not offer the vendor's {what} ({})", self.ctx.info.name, kernel.extension()));
         }
         self.kernel = kernel;
         Ok(())
