@@ -213,6 +213,11 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
                 log::warn!("{w}");
             }
             let tracer = ComputeTracer::with_scene(ctx, &packed)?;
+            if options.verbose && i == 0 {
+                for line in tracer.shader_statistics() {
+                    println!("  trace shader: {line}");
+                }
+            }
             if options.verbose {
                 for line in tracer.describe_memory() {
                     println!("  memory: {line}");
@@ -338,3 +343,4 @@ mod tests {
         assert_eq!(s, Stats { median: 6.0, p10: 2.0, p90: 10.0 });
     }
 }
+

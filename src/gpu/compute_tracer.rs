@@ -184,6 +184,12 @@ impl ComputeTracer {
         self.pass.reload(spirv)
     }
 
+    /// The driver's statistics of the compiled trace shader, one line each (`bench --verbose`;
+    /// empty where the device does not report them).
+    pub fn shader_statistics(&self) -> Vec<String> {
+        self.pass.shader_statistics()
+    }
+
     /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
     pub fn describe_memory(&self) -> Vec<String> {
         self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())

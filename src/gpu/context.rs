@@ -64,6 +64,9 @@ pub struct DeviceInfo {
     pub(crate) device_local_bytes: u64,
     /// The vendor's ray tracing the device offers (`--accel vendor`), enabled when present.
     pub vendor: VendorSupport,
+    /// `VK_KHR_pipeline_executable_properties` is on: the driver reports what it compiled
+    /// the trace shader to (registers, local memory; `bench --verbose`).
+    pub(crate) shader_statistics: bool,
 }
 
 /// What the device offers for tracing with the driver's own acceleration structures.
@@ -338,6 +341,13 @@ impl GpuContext {
             device_extensions.push(ash::khr::ray_tracing_pipeline::NAME.as_ptr());
             device_info = device_info.push_next(&mut pipeline_features);
         }
+        // The driver's own statistics of the compiled shader, where it offers them.
+        let shader_statistics = has_pipeline_statistics(&instance, physical_device);
+        let mut statistics_features = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default().pipeline_executable_info(true);
+        if shader_statistics {
+            device_extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
+            device_info = device_info.push_next(&mut statistics_features);
+        }
         device_info = device_info.enabled_extension_names(&device_extensions);
         // SAFETY: the create info and the queue info, priorities, extension names and
         // features it points to outlive the call.
@@ -356,7 +366,7 @@ impl GpuContext {
         })
         .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
 
-        let info = DeviceInfo { vendor, ..device_info_of(&instance, physical_device, queue_family, &props) };
+        let info = DeviceInfo { vendor, shader_statistics, ..device_info_of(&instance, physical_device, queue_family, &props) };
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
@@ -534,5 +544,20 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,
         device_local_bytes,
         vendor: VendorSupport::default(),
+        shader_statistics: false,
     }
+}
+
+/// Whether `pd` reports compiled pipelines' statistics (`VK_KHR_pipeline_executable_properties`).
+fn has_pipeline_statistics(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    // SAFETY: plain queries of a physical device of this live instance.
+    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    if !extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::khr::pipeline_executable_properties::NAME)) {
+        return false;
+    }
+    let mut statistics = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut statistics);
+    // SAFETY: the feature struct chained to `features` outlives the call.
+    unsafe { instance.get_physical_device_features2(pd, &mut features) };
+    statistics.pipeline_executable_info == vk::TRUE
 }

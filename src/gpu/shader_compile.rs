@@ -113,9 +113,50 @@ pub fn compile(path: &Path, contract: &str) -> Result<CompiledShader, String> {
     let mut spv_options = naga::back::spv::Options::default();
     // Debug info would only grow the binary; bounds checks stay off (we index with validated data).
     spv_options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
-    let spirv = naga::back::spv::write_vec(&module, &info, &spv_options, None)
+    let mut spirv = naga::back::spv::write_vec(&module, &info, &spv_options, None)
         .map_err(|e| format!("SPIR-V generation failed for {}: {e}", path.display()))?;
+    drop_local_array_initializers(&mut spirv);
     Ok(CompiledShader { module, spirv })
+}
+
+/// Remove the zero initializer that naga's SPIR-V writer gives every function-local array
+/// (WGSL's rule; GLSL has none). The traversal stack is such an array: zeroing its 64
+/// entries on every traversal cost 256 bytes of local-memory stores per ray and instance,
+/// for entries that are never read before they are pushed. Other locals keep theirs (the
+/// driver drops dead scalar stores itself).
+fn drop_local_array_initializers(words: &mut Vec<u32>) {
+    const OP_TYPE_ARRAY: u32 = 28;
+    const OP_TYPE_POINTER: u32 = 32;
+    const OP_VARIABLE: u32 = 59;
+    const STORAGE_FUNCTION: u32 = 7;
+    const HEADER_WORDS: usize = 5;
+    let mut arrays = std::collections::HashSet::new();
+    let mut array_pointers = std::collections::HashSet::new();
+    let mut keep = Vec::with_capacity(words.len());
+    keep.extend_from_slice(&words[..HEADER_WORDS.min(words.len())]);
+    let mut at = HEADER_WORDS;
+    while at < words.len() {
+        let count = ((words[at] >> 16) as usize).max(1);
+        let inst = &words[at..(at + count).min(words.len())];
+        at += count;
+        let opcode = inst[0] & 0xffff;
+        match opcode {
+            OP_TYPE_ARRAY if inst.len() >= 2 => {
+                arrays.insert(inst[1]);
+            }
+            OP_TYPE_POINTER if inst.len() >= 4 && arrays.contains(&inst[3]) => {
+                array_pointers.insert(inst[1]);
+            }
+            _ => {}
+        }
+        if opcode == OP_VARIABLE && inst.len() == 5 && inst[3] == STORAGE_FUNCTION && array_pointers.contains(&inst[1]) {
+            keep.push((4 << 16) | OP_VARIABLE);
+            keep.extend_from_slice(&inst[1..4]);
+        } else {
+            keep.extend_from_slice(inst);
+        }
+    }
+    *words = keep;
 }
 
 /// The interface the host relies on, as text: the work-group size, each storage binding
@@ -164,4 +205,56 @@ pub fn shader_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     }
     files.sort();
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// For each function-local array variable in `words`: whether it carries an initializer.
+    fn local_arrays(words: &[u32]) -> Vec<bool> {
+        let (mut arrays, mut pointers, mut found) = (Vec::new(), Vec::new(), Vec::new());
+        let mut at = 5;
+        while at < words.len() {
+            let count = (words[at] >> 16) as usize;
+            let inst = &words[at..at + count];
+            match inst[0] & 0xffff {
+                28 => arrays.push(inst[1]),
+                32 if arrays.contains(&inst[3]) => pointers.push(inst[1]),
+                59 if inst[3] == 7 && pointers.contains(&inst[1]) => found.push(inst.len() == 5),
+                _ => {}
+            }
+            at += count;
+        }
+        found
+    }
+
+    #[test]
+    fn local_arrays_lose_naga_s_zero_initializer_and_nothing_else_changes() {
+        let dir = std::env::temp_dir().join(format!("meshtracer-spv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("stack.comp");
+        let source = "#version 450\nlayout(local_size_x = 1) in;\nlayout(std430, binding = 0) buffer B { uint v[]; };\n\
+                      void main() { uint s[8]; float x = 2.0; for (uint i = 0u; i < 8u; i++) s[i] = v[i]; v[0] = s[v[1] & 7u] + uint(x); }\n";
+        std::fs::write(&path, source).unwrap();
+        let compiled = compile(&path, "").unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        // naga's own output zero-initializes the array; ours does not, one word shorter.
+        let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&compiled.module).unwrap();
+        let mut options = naga::back::spv::Options::default();
+        options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
+        let raw = naga::back::spv::write_vec(&compiled.module, &info, &options, None).unwrap();
+        assert_eq!(local_arrays(&raw), [true]);
+        assert_eq!(local_arrays(&compiled.spirv), [false]);
+        assert_eq!(compiled.spirv.len(), raw.len() - 1);
+    }
+
+    #[test]
+    fn the_built_in_trace_shader_s_stack_is_not_zeroed() {
+        let words = crate::gpu::trace_pass::built_in_trace_spirv();
+        let arrays = local_arrays(&words);
+        assert!(!arrays.is_empty(), "the traversal stack is a local array");
+        assert!(arrays.iter().all(|&init| !init), "{arrays:?}");
+    }
 }

@@ -41,6 +41,12 @@ pub(crate) fn words(bytes: &[u8]) -> Vec<u32> {
     bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
 }
 
+/// The SPIR-V of `trace.comp` that build.rs compiled into the binary.
+#[cfg(test)]
+pub(crate) fn built_in_trace_spirv() -> Vec<u32> {
+    words(TRACE_SPV)
+}
+
 /// The descriptor set layout of the trace shaders: every storage buffer the shader
 /// declares and, for the vendor shaders, the acceleration structure; seen by `stages`.
 pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, with_tlas: bool) -> Result<vk::DescriptorSetLayout, GpuError> {
@@ -254,6 +260,39 @@ impl TracePass {
         Ok(Self { ctx: ctx.clone(), kernel, pipeline, layout, set_layout, pool, set })
     }
 
+    /// What the driver compiled the shader to, one `name: value` per statistic it reports
+    /// (registers, local and shared memory, instructions); empty where the device does not
+    /// offer `VK_KHR_pipeline_executable_properties`.
+    pub fn shader_statistics(&self) -> Vec<String> {
+        if !self.ctx.info.shader_statistics {
+            return Vec::new();
+        }
+        let loader = ash::khr::pipeline_executable_properties::Device::new(&self.ctx.instance, &self.ctx.device);
+        let pipeline = vk::PipelineInfoKHR::default().pipeline(self.pipeline);
+        // SAFETY: the pipeline is live and was created with CAPTURE_STATISTICS.
+        let executables = unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
+        let mut lines = Vec::new();
+        for index in 0..executables.len() as u32 {
+            let info = vk::PipelineExecutableInfoKHR::default().pipeline(self.pipeline).executable_index(index);
+            // SAFETY: as above; `index` is one of the pipeline's executables.
+            let statistics = unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
+            for st in statistics {
+                let name = st.name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                // SAFETY: `format` says which member of the union the driver wrote.
+                let value = unsafe {
+                    match st.format {
+                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => (st.value.b32 == vk::TRUE).to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::INT64 => st.value.i64.to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => st.value.u64.to_string(),
+                        _ => format!("{:.3}", st.value.f64),
+                    }
+                };
+                lines.push(format!("{name}: {value}"));
+            }
+        }
+        lines
+    }
+
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
     /// [`compile_trace_shader`]); on failure the current pipeline stays.
     pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
@@ -323,7 +362,11 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
     let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during("loading the trace shader")?;
     let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
     // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
-    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(vk::PipelineCreateFlags::DISPATCH_BASE)];
+    let mut flags = vk::PipelineCreateFlags::DISPATCH_BASE;
+    if ctx.info.shader_statistics {
+        flags |= vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR;
+    }
+    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
     // SAFETY: the module and the layout are live; the create infos outlive the call.
     let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
     // SAFETY: the pipeline, created or not, no longer needs the module.
