@@ -91,7 +91,8 @@ pub struct BenchArgs {
     /// Turn on the Vulkan validation layer.
     #[arg(long)]
     pub(crate) validation: bool,
-    /// Print where each scene buffer's memory lives (memory flags, dedicated or not).
+    /// Print where each scene buffer's memory lives (memory flags, dedicated or not), the work
+    /// per ray, and what the driver compiled the trace shader to (registers, local memory).
     #[arg(long)]
     pub(crate) verbose: bool,
     /// The flags given on the command line (clap's ids); None: all of them count as given.
