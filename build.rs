@@ -4,8 +4,9 @@
 //! `include_bytes!`, so the binary can never run a stale shader.
 //!
 //! The vendor path's shaders (`shaders/vendor/`: ray queries in a compute shader and the
-//! stages of a ray tracing pipeline) use GLSL extensions naga does not parse; glslang
-//! compiles them, after the same include expansion, to `vendor_<name>.spv`.
+//! stages of a ray tracing pipeline) and the clock probe (`shaders/probe/`) use GLSL
+//! extensions naga does not parse; glslang compiles them, after the same include
+//! expansion, to `vendor_<name>.spv` and `probe_<name>.spv`.
 //!
 //! Two generated files keep the host and the shader from drifting apart:
 //! - `contract.glsl`: the shared constants of `src/tracer/contract.rs` as GLSL, for the
@@ -103,9 +104,9 @@ fn shader_layout(module: &naga::Module, shader: &str) -> String {
     out
 }
 
-/// Compile a vendor-path shader with glslang (SPIR-V 1.4, which ray tracing needs) into
-/// `vendor_<stem>.spv`. Errors name the file and line of the source, as naga's do.
-fn compile_vendor(path: &Path, contract: &str, out_dir: &Path) {
+/// Compile a shader with glslang (SPIR-V 1.4, which ray tracing needs) into
+/// `<prefix>_<stem>.spv`. Errors name the file and line of the source, as naga's do.
+fn compile_glslang(path: &Path, contract: &str, out_dir: &Path, prefix: &str) {
     use glslang::{Compiler, CompilerOptions, ShaderInput, ShaderSource, ShaderStage, SourceLanguage, SpirvVersion, Target, VulkanVersion};
     let stage = match path.extension().and_then(|e| e.to_str()) {
         Some("comp") => ShaderStage::Compute,
@@ -145,7 +146,7 @@ fn compile_vendor(path: &Path, contract: &str, out_dir: &Path) {
     let words = program.compile(stage).unwrap_or_else(|e| panic!("{}: {}", path.display(), located(e.to_string())));
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
     let stem = path.file_stem().unwrap().to_string_lossy();
-    std::fs::write(out_dir.join(format!("vendor_{stem}.spv")), bytes).unwrap();
+    std::fs::write(out_dir.join(format!("{prefix}_{stem}.spv")), bytes).unwrap();
 }
 
 fn main() {
@@ -164,10 +165,12 @@ fn main() {
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }
     }
-    println!("cargo:rerun-if-changed=shaders/vendor");
-    for entry in std::fs::read_dir("shaders/vendor").unwrap() {
-        let path = entry.unwrap().path();
-        println!("cargo:rerun-if-changed={}", path.display());
-        compile_vendor(&path, &contract, &out_dir);
+    for prefix in ["vendor", "probe"] {
+        println!("cargo:rerun-if-changed=shaders/{prefix}");
+        for entry in std::fs::read_dir(format!("shaders/{prefix}")).unwrap() {
+            let path = entry.unwrap().path();
+            println!("cargo:rerun-if-changed={}", path.display());
+            compile_glslang(&path, &contract, &out_dir, prefix);
+        }
     }
 }

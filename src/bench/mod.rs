@@ -3,6 +3,7 @@
 //! reported as GPU time (timestamps around the dispatch) and wall-clock frame time.
 
 pub mod charts;
+pub mod clock_guard;
 pub mod paper_tables;
 pub mod report;
 
@@ -12,7 +13,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::gpu::vendor::VendorKernel;
-use crate::gpu::{ComputeTracer, GpuContext, GpuError};
+use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
+use clock_guard::{ClockGuard, CLOCKED_DOWN};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
@@ -111,6 +113,11 @@ pub struct Row {
     /// (on both rows of the pair).
     #[serde(default)]
     pub ours_over_vendor: Option<f64>,
+    /// The shader clock in MHz measured right after the row's frames ([`ClockProbe`]);
+    /// None where the device has no shader clock. A row far below the run's highest clock
+    /// was measured with the GPU clocked down.
+    #[serde(default)]
+    pub gpu_clock_mhz: Option<f64>,
 }
 
 impl Row {
@@ -143,6 +150,13 @@ pub fn pair_with_vendor(rows: &mut [Row]) {
             rows[i].ours_over_vendor.get_or_insert(ratio);
         }
     }
+}
+
+/// Rows measured at a shader clock below [`CLOCKED_DOWN`] of the run's highest: the GPU's
+/// clock was lowered (and did not come back in time), so their times are not the tracer's.
+pub fn clocked_down(rows: &[Row]) -> Vec<&Row> {
+    let highest = rows.iter().filter_map(|r| r.gpu_clock_mhz).fold(0.0, f64::max);
+    rows.iter().filter(|r| r.gpu_clock_mhz.is_some_and(|mhz| mhz < CLOCKED_DOWN * highest)).collect()
 }
 
 /// Options of a run.
@@ -187,6 +201,7 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
     let mut loaded: Option<Loaded> = None;
     // The uploaded scene is reused while mesh (and so BVH) stays the same.
     let mut current: Option<(String, PackedScene, ComputeTracer)> = None;
+    let mut clock = ClockProbe::new(ctx)?.map(ClockGuard::new).transpose()?;
     for (i, case) in cases.iter().enumerate() {
         let key = match &case.generated {
             Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
@@ -228,14 +243,16 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
         let (_, packed, tracer) = current.as_mut().unwrap();
         packed.set_instances(&scene.instances);
         tracer.set_instances(&packed.instances)?;
-        let row = measure(tracer, packed, &scene, case, options)?;
+        let row = measure(tracer, packed, &scene, case, options, clock.as_mut())?;
         progress(i, &row);
         rows.push(row);
     }
     Ok(rows)
 }
 
-fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions) -> Result<Row, GpuError> {
+/// Trace `case`'s warm-up and measured frames; with a clock guard, the GPU is first kept busy
+/// until its clock is up, and the row reports the lower of the clocks before and after.
+fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions, mut clock: Option<&mut ClockGuard>) -> Result<Row, GpuError> {
     let s = case.spec.settings;
     let triangles = scene.triangle_count() as u64;
     let rays = s.max_rays();
@@ -264,6 +281,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         skipped: None,
         vendor_kernel: None,
         ours_over_vendor: None,
+        gpu_clock_mhz: None,
     };
     if let Some(why) = budget::refusal(&s, triangles) {
         row.skipped = Some(why);
@@ -298,6 +316,10 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     for _ in 0..options.warmup {
         tracer.trace(&params)?;
     }
+    let clock_before = match clock.as_deref_mut() {
+        Some(guard) => Some(guard.settle(|| tracer.trace(&params).map(|_| ()))?),
+        None => None,
+    };
     let mut gpu = Vec::new();
     let mut wall = Vec::new();
     for _ in 0..options.frames.max(1) {
@@ -307,6 +329,9 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         if let Some(g) = t.gpu_ms {
             gpu.push(g);
         }
+    }
+    if let (Some(guard), Some(before)) = (clock, clock_before) {
+        row.gpu_clock_mhz = Some(before.min(guard.read()?));
     }
     row.wall_ms = Stats::of(&wall);
     row.gpu_ms = (!gpu.is_empty()).then(|| Stats::of(&gpu));
@@ -336,6 +361,19 @@ fn work_per_ray(tracer: &mut ComputeTracer, scene: &crate::scene::Scene, s: Rend
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_below_the_share_of_the_highest_clock_are_clocked_down() {
+        let row = |mhz: Option<f64>| Row { gpu_clock_mhz: mhz, ..serde_json::from_str::<Row>(ROW_JSON).unwrap() };
+        let rows = [row(Some(1980.0)), row(Some(600.0)), row(None), row(Some(1800.0))];
+        let low = clocked_down(&rows);
+        assert_eq!(low.len(), 1);
+        assert_eq!(low[0].gpu_clock_mhz, Some(600.0));
+        assert!(clocked_down(&rows[2..3]).is_empty(), "no clock, nothing to flag");
+    }
+
+    /// A row as an older report wrote it (no clock, no vendor fields).
+    const ROW_JSON: &str = r#"{"series":"framed","model":"dragon","models":1,"triangles":202532,"width":1024,"height":1024,"bounces":0,"accel":"bvh","features":"","rays_per_frame":1048576,"gpu_ms":{"median":0.356,"p10":0.355,"p90":0.357},"wall_ms":{"median":0.43,"p10":0.42,"p90":0.44},"mrays_per_s":2945.0,"fps":2325.0,"bvh_build_ms":40.0,"scene_bytes":30283232,"paper_fps":null,"paper_ms":null,"skipped":null}"#;
 
     #[test]
     fn percentiles_of_a_known_series() {

@@ -70,8 +70,9 @@ pub fn format_row(r: &Row) -> String {
     if let (Some(ratio), Accel::Vendor) = (r.ours_over_vendor, r.accel) {
         notes.push_str(&format!(" (ours/vendor {ratio:.2})"));
     }
+    let clock = r.gpu_clock_mhz.map_or("    -".into(), |mhz| format!("{mhz:>5.0}"));
     format!(
-        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} {gpu} {:>9.3} {:>8.1} {:>9.1}   {paper}{}",
+        "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} {gpu} {:>9.3} {:>8.1} {:>9.1} {clock}   {paper}{}",
         r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s, notes
     )
 }
@@ -79,8 +80,8 @@ pub fn format_row(r: &Row) -> String {
 /// The header matching `format_row`.
 pub fn header() -> String {
     format!(
-        "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<6} {:>9} {:>9} {:>8} {:>9}   {}",
-        "series", "model", "n", "triangles", "resolution", "b", "accel", "gpu ms", "frame ms", "fps", "Mrays/s", "paper (GTX 1080 Ti, brute force)"
+        "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<6} {:>9} {:>9} {:>8} {:>9} {:>5}   {}",
+        "series", "model", "n", "triangles", "resolution", "b", "accel", "gpu ms", "frame ms", "fps", "Mrays/s", "MHz", "paper (GTX 1080 Ti, brute force)"
     )
 }
 
@@ -92,17 +93,17 @@ pub fn write_json(path: &Path, report: &Report) -> anyhow::Result<()> {
 
 /// Write the rows as CSV.
 pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result<()> {
-    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,features,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,vendor_kernel,ours_over_vendor,device,driver,date\n");
+    let mut s = String::from("series,model,models,triangles,width,height,bounces,accel,features,rays_per_frame,gpu_ms_median,gpu_ms_p10,gpu_ms_p90,wall_ms_median,wall_ms_p10,wall_ms_p90,mrays_per_s,fps,bvh_build_ms,scene_bytes,paper_fps,paper_ms,skipped,vendor_kernel,ours_over_vendor,gpu_clock_mhz,device,driver,date\n");
     for r in rows {
         let g = r.gpu_ms.unwrap_or_default();
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},\"{}\",\"{}\",{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},\"{}\",\"{}\",{}",
             r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.features, r.rays_per_frame,
             g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
             opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), r.vendor_kernel.clone().unwrap_or_default(),
-            opt(r.ours_over_vendor), env.device, env.driver, env.date
+            opt(r.ours_over_vendor), opt(r.gpu_clock_mhz.map(f64::round)), env.device, env.driver, env.date
         );
     }
     std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))

@@ -224,7 +224,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         .collect();
     let env = bench::environment(&ctx);
     println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
-    println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians)", cases.len(), args.warmup, args.frames);
+    println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians); MHz = the shader clock during the row (the lower of two probes, before and after; each row first waits for the clock to come up)", cases.len(), args.warmup, args.frames);
     println!("{}", report::header());
     let total = cases.len();
     let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
@@ -236,6 +236,17 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
     })?;
     let mut rows = rows;
+    let slow = bench::clocked_down(&rows);
+    if !slow.is_empty() {
+        let highest = rows.iter().filter_map(|r| r.gpu_clock_mhz).fold(0.0, f64::max);
+        let names: Vec<String> = slow.iter().map(|r| format!("{} {} {} ({:.0} MHz)", r.series, r.model, r.accel, r.gpu_clock_mhz.unwrap_or_default())).collect();
+        println!(
+            "\nnote: {} row(s) ran with the GPU clocked below {:.0}% of this run's highest shader clock ({highest:.0} MHz), so their times are the clock's, not the tracer's; run them again: {}",
+            slow.len(),
+            bench::clock_guard::CLOCKED_DOWN * 100.0,
+            names.join(", ")
+        );
+    }
     if args.compare {
         bench::pair_with_vendor(&mut rows);
         println!("\nours (BVH) / vendor, GPU ms medians (below 1: ours is faster):");

@@ -67,6 +67,9 @@ pub struct DeviceInfo {
     /// `VK_KHR_pipeline_executable_properties` is on: the driver reports what it compiled
     /// the trace shader to (registers, local memory; `bench --verbose`).
     pub(crate) shader_statistics: bool,
+    /// `VK_KHR_shader_clock` (subgroup clock) is on: `ClockProbe` can measure the shader
+    /// clock rate (`bench` reports it per row).
+    pub(crate) shader_clock: bool,
 }
 
 /// What the device offers for tracing with the driver's own acceleration structures.
@@ -348,6 +351,13 @@ impl GpuContext {
             device_extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
             device_info = device_info.push_next(&mut statistics_features);
         }
+        // The shader clock, for measuring the GPU's clock rate (the driver may lower it).
+        let shader_clock = has_subgroup_clock(&instance, physical_device);
+        let mut clock_features = vk::PhysicalDeviceShaderClockFeaturesKHR::default().shader_subgroup_clock(true);
+        if shader_clock {
+            device_extensions.push(ash::khr::shader_clock::NAME.as_ptr());
+            device_info = device_info.push_next(&mut clock_features);
+        }
         device_info = device_info.enabled_extension_names(&device_extensions);
         // SAFETY: the create info and the queue info, priorities, extension names and
         // features it points to outlive the call.
@@ -366,7 +376,7 @@ impl GpuContext {
         })
         .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
 
-        let info = DeviceInfo { vendor, shader_statistics, ..device_info_of(&instance, physical_device, queue_family, &props) };
+        let info = DeviceInfo { vendor, shader_statistics, shader_clock, ..device_info_of(&instance, physical_device, queue_family, &props) };
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
@@ -545,14 +555,20 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         device_local_bytes,
         vendor: VendorSupport::default(),
         shader_statistics: false,
+        shader_clock: false,
     }
+}
+
+/// Whether `pd` offers the device extension `name`.
+fn has_extension(instance: &ash::Instance, pd: vk::PhysicalDevice, name: &CStr) -> bool {
+    // SAFETY: a plain query of a physical device of this live instance.
+    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(name))
 }
 
 /// Whether `pd` reports compiled pipelines' statistics (`VK_KHR_pipeline_executable_properties`).
 fn has_pipeline_statistics(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
-    // SAFETY: plain queries of a physical device of this live instance.
-    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
-    if !extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::khr::pipeline_executable_properties::NAME)) {
+    if !has_extension(instance, pd, ash::khr::pipeline_executable_properties::NAME) {
         return false;
     }
     let mut statistics = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
@@ -560,4 +576,16 @@ fn has_pipeline_statistics(instance: &ash::Instance, pd: vk::PhysicalDevice) -> 
     // SAFETY: the feature struct chained to `features` outlives the call.
     unsafe { instance.get_physical_device_features2(pd, &mut features) };
     statistics.pipeline_executable_info == vk::TRUE
+}
+
+/// Whether shaders on `pd` can read their subgroup's clock (`VK_KHR_shader_clock`).
+fn has_subgroup_clock(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    if !has_extension(instance, pd, ash::khr::shader_clock::NAME) {
+        return false;
+    }
+    let mut clock = vk::PhysicalDeviceShaderClockFeaturesKHR::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut clock);
+    // SAFETY: the feature struct chained to `features` outlives the call.
+    unsafe { instance.get_physical_device_features2(pd, &mut features) };
+    clock.shader_subgroup_clock == vk::TRUE
 }

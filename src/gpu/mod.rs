@@ -1,14 +1,15 @@
 //! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
-//! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the scene's device
-//! buffers ([`scene_buffers`]), the trace compute pass (`trace_pass`) with what its
-//! shader declares (`shader_layout`), the compute tracer built from them
-//! (`compute_tracer`), and presentation to a window (`present`: surface, swapchain,
-//! composite, egui pass), and the vendor's ray tracing beside ours (`vendor`: the driver's
-//! acceleration structures, ray queries, a ray tracing pipeline). Nothing outside this
-//! folder calls Vulkan.
+//! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the shader clock rate
+//! ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the trace compute
+//! pass (`trace_pass`) with what its shader declares (`shader_layout`), the compute tracer
+//! built from them (`compute_tracer`), and presentation to a window (`present`: surface,
+//! swapchain, composite, egui pass), and the vendor's ray tracing beside ours (`vendor`:
+//! the driver's acceleration structures, ray queries, a ray tracing pipeline). Nothing
+//! outside this folder calls Vulkan.
 
 pub(crate) mod barrier;
 pub mod buffer;
+pub mod clock_probe;
 pub(crate) mod compute_tracer;
 pub(crate) mod context;
 pub mod error;
@@ -21,6 +22,7 @@ pub(crate) mod timer;
 pub(crate) mod trace_pass;
 pub mod vendor;
 
+pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
 pub use trace_pass::{Band, FrameTrace, SplitTrace};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};

@@ -1,0 +1,179 @@
+//! The clock the GPU's shaders run at, measured: `shaders/probe/clock.comp` counts its
+//! subgroup's clock cycles over a chain of dependent fmas, and timestamps around the
+//! dispatch give the nanoseconds. The NVIDIA driver lowers the clock at times (an H100 at
+//! 555-645 MHz instead of 1980 for the rest of a process), which slows every row 3x;
+//! `bench` reports the clock beside each row so that such rows are seen for what they are.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::barrier::{self, Access};
+use super::buffer::GpuBuffer;
+use super::context::GpuContext;
+use super::error::{GpuError, VkContext};
+use super::timer::GpuTimer;
+use super::trace_pass::words;
+
+static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
+
+/// Fmas in the probe's chain: about a millisecond on a 2 GHz GPU (4-cycle fma latency),
+/// long enough that the dispatch's own microseconds do not matter.
+const ITERATIONS: u32 = 500_000;
+
+/// The probe's push constants (`Probe` in clock.comp).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ProbeConstants {
+    iterations: u32,
+    a: f32,
+    b: f32,
+}
+
+/// One measurement: shader clock cycles over the dispatch's GPU time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClockReading {
+    /// Subgroup clock cycles the fma chain took.
+    pub cycles: u64,
+    /// GPU milliseconds between the timestamps around the dispatch.
+    pub gpu_ms: f64,
+}
+
+impl ClockReading {
+    /// The shader clock rate in MHz (cycles per microsecond).
+    pub fn mhz(&self) -> f64 {
+        self.cycles as f64 / (self.gpu_ms * 1e3)
+    }
+}
+
+/// The probe's pipeline, its result buffer and timestamps.
+pub struct ClockProbe {
+    ctx: Arc<GpuContext>,
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    result: GpuBuffer,
+    timer: GpuTimer,
+}
+
+impl ClockProbe {
+    /// The probe; None where the device has no subgroup clock (`VK_KHR_shader_clock`) or
+    /// no timestamps.
+    pub fn new(ctx: &Arc<GpuContext>) -> Result<Option<Self>, GpuError> {
+        if !ctx.info.shader_clock {
+            return Ok(None);
+        }
+        let Some(timer) = GpuTimer::new(ctx, 1)? else { return Ok(None) };
+        let device = &ctx.device;
+        let result = GpuBuffer::new(ctx, 16, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuToCpu, "clock probe")?;
+        let binding = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)];
+        // SAFETY: plain object creation on the live device; destroyed in Drop (or below on error).
+        let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding), None) }
+            .during("creating the clock probe's descriptor layout")?;
+        let mut probe = Self {
+            ctx: ctx.clone(),
+            pipeline: vk::Pipeline::null(),
+            layout: vk::PipelineLayout::null(),
+            set_layout,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            result,
+            timer,
+        };
+        // From here on Drop destroys whatever was made (null handles are ignored).
+        let push = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).size(std::mem::size_of::<ProbeConstants>() as u32)];
+        let set_layouts = [set_layout];
+        // SAFETY: the set layout is live; the arrays outlive the call.
+        probe.layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
+            .during("creating the clock probe's pipeline layout")?;
+        let code = words(CLOCK_SPV);
+        // SAFETY: the words are SPIR-V that glslang wrote in build.rs.
+        let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the clock probe")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(probe.layout)];
+        // SAFETY: the module and the layout are live; the create infos outlive the call.
+        let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        // SAFETY: the pipeline, created or not, no longer needs the module.
+        unsafe { device.destroy_shader_module(module, None) };
+        probe.pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the clock probe's pipeline", r))?[0];
+        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 }];
+        // SAFETY: plain object creation on the live device.
+        probe.pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
+            .during("creating the clock probe's descriptor pool")?;
+        // SAFETY: the pool holds exactly this one set of this layout.
+        probe.set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(probe.pool).set_layouts(&set_layouts)) }
+            .during("allocating the clock probe's descriptor set")?[0];
+        let buffer_info = [vk::DescriptorBufferInfo { buffer: probe.result.buffer, offset: 0, range: vk::WHOLE_SIZE }];
+        let write = [vk::WriteDescriptorSet::default().dst_set(probe.set).dst_binding(0).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_info)];
+        // SAFETY: the set is not in use; the buffer is live.
+        unsafe { device.update_descriptor_sets(&write, &[]) };
+        Ok(Some(probe))
+    }
+
+    /// Run the probe once and wait for it.
+    pub fn measure(&mut self) -> Result<ClockReading, GpuError> {
+        let device = &self.ctx.device;
+        let constants = ProbeConstants { iterations: ITERATIONS, a: 0.999_999, b: 1e-6 };
+        self.ctx.one_shot(|cmd| {
+            self.timer.begin(cmd, 0, false);
+            // SAFETY: `cmd` is recording; the pipeline, layout and set are live until Drop,
+            // which comes after this waited-for submission; the constants fit the range.
+            unsafe {
+                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+                device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&constants));
+                device.cmd_dispatch(cmd, 1, 1, 1);
+            }
+            self.timer.end(cmd, 0);
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::HostRead]);
+        })?;
+        let gpu_ms = self.timer.read_ms(0).ok_or_else(|| GpuError::vk("reading the clock probe's timestamps", vk::Result::NOT_READY))?;
+        let bytes = self.result.mapped().expect("GpuToCpu memory is mapped");
+        let low = u32::from_le_bytes(bytes[0..4].try_into().unwrap());
+        let high = u32::from_le_bytes(bytes[4..8].try_into().unwrap());
+        Ok(ClockReading { cycles: (u64::from(high) << 32) | u64::from(low), gpu_ms })
+    }
+}
+
+impl Drop for ClockProbe {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        // SAFETY: `measure` waits for its submission, so the GPU uses none of these; null
+        // handles (a `new` that failed part-way) are ignored by the destroy calls.
+        unsafe {
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::ContextOptions;
+
+    /// The probe runs under validation and counts a plausible clock: the chain's 500,000
+    /// dependent fmas take at least one cycle each, and no GPU or CPU clocks above 10 GHz.
+    #[test]
+    fn the_probe_counts_cycles_at_a_plausible_rate() {
+        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let mut probe = ClockProbe::new(&ctx).unwrap().expect("the device offers VK_KHR_shader_clock and timestamps");
+        let first = probe.measure().unwrap();
+        let second = probe.measure().unwrap();
+        for r in [first, second] {
+            assert!(r.cycles >= u64::from(ITERATIONS), "{r:?}: fewer cycles than dependent fmas");
+            assert!(r.gpu_ms > 0.0, "{r:?}");
+            assert!(r.mhz() > 1.0 && r.mhz() < 10_000.0, "{r:?}: {} MHz", r.mhz());
+        }
+        assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+    }
+}
