@@ -6,7 +6,7 @@ use std::io::IsTerminal;
 use anyhow::bail;
 
 use super::args::RenderArgs;
-use crate::gpu::{ContextOptions, GpuContext, ComputeTracer};
+use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::heat_map::heat_map;
 use crate::tracer::image::{save_jpeg, save_png, OutputFormat};
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
@@ -61,11 +61,20 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             tracer.set_vendor_kernel(kernel)?;
         }
         let (image, timing) = tracer.render(&params)?;
+        // One frame straight after the upload, so the GPU's clock may still be down (see
+        // bench::clock_guard): say which clock the time was taken at.
+        let clock = match ClockProbe::new(&ctx)? {
+            Some(mut probe) => {
+                probe.measure()?; // the first dispatch pays for the pipeline's first use
+                format!(" at a {:.0} MHz shader clock", probe.measure()?.mhz())
+            }
+            None => String::new(),
+        };
         let messages = ctx.validation_messages();
         if !messages.is_empty() {
             bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
         }
-        let mut gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms"));
+        let mut gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
         if let (crate::tracer::Accel::Vendor, Ok(kernel), Some(stats)) = (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats()) {
             gpu = format!("vendor {kernel}, structures built in {:.1} ms, {gpu}", stats.bottom_ms + stats.top_ms);
         }
