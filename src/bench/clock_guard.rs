@@ -19,32 +19,45 @@ const SETTLE_STEP: Duration = Duration::from_millis(50);
 /// row is then measured and reported with the clock it had.
 const SETTLE_LIMIT: Duration = Duration::from_secs(3);
 
-/// The probe and the highest clock it has read in this run.
-pub struct ClockGuard {
-    probe: ClockProbe,
-    highest: f64,
+/// Something that reads the GPU's shader clock: [`ClockProbe`], or a scripted clock in tests.
+pub trait ClockSource {
+    /// One reading, in MHz.
+    fn read_mhz(&mut self) -> Result<f64, GpuError>;
 }
 
-impl ClockGuard {
-    /// A guard around `probe`, after a short burst of probes to wake the GPU: the first
+impl ClockSource for ClockProbe {
+    fn read_mhz(&mut self) -> Result<f64, GpuError> {
+        Ok(self.measure()?.mhz())
+    }
+}
+
+/// The clock source and the highest clock it has read in this run.
+pub struct ClockGuard<C: ClockSource = ClockProbe> {
+    probe: C,
+    highest: f64,
+    limit: Duration,
+}
+
+impl<C: ClockSource> ClockGuard<C> {
+    /// A guard around `probe`, after a short burst of readings to wake the GPU: the first
     /// reading of a process may come before the driver raised the clock.
-    pub fn new(mut probe: ClockProbe) -> Result<Self, GpuError> {
+    pub fn new(mut probe: C) -> Result<Self, GpuError> {
         let start = Instant::now();
         let mut highest: f64 = 0.0;
         while start.elapsed() < Duration::from_millis(300) {
-            highest = highest.max(probe.measure()?.mhz());
+            highest = highest.max(probe.read_mhz()?);
         }
-        Ok(Self { probe, highest })
+        Ok(Self { probe, highest, limit: SETTLE_LIMIT })
     }
 
     /// Run `busy` (a frame of the row about to be measured) for [`SETTLE_STEP`] at a time
-    /// until the clock is at least [`CLOCKED_DOWN`] of the highest seen, or [`SETTLE_LIMIT`]
-    /// has passed. Returns the clock reached, in MHz.
+    /// until the clock is at least [`CLOCKED_DOWN`] of the highest seen, or the limit
+    /// ([`SETTLE_LIMIT`]) has passed. Returns the clock reached, in MHz.
     pub fn settle(&mut self, mut busy: impl FnMut() -> Result<(), GpuError>) -> Result<f64, GpuError> {
         let start = Instant::now();
         loop {
             let mhz = self.read()?;
-            if mhz >= CLOCKED_DOWN * self.highest || start.elapsed() >= SETTLE_LIMIT {
+            if mhz >= CLOCKED_DOWN * self.highest || start.elapsed() >= self.limit {
                 return Ok(mhz);
             }
             let step = Instant::now();
@@ -59,8 +72,88 @@ impl ClockGuard {
 
     /// One reading of the clock, in MHz.
     pub fn read(&mut self) -> Result<f64, GpuError> {
-        let mhz = self.probe.measure()?.mhz();
+        let mhz = self.probe.read_mhz()?;
         self.highest = self.highest.max(mhz);
         Ok(mhz)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A GPU whose clock sits at `low` until `busy_steps` frames of work have run, then at
+    /// `high`; each reading is logged.
+    struct ScriptedClock {
+        low: f64,
+        high: f64,
+        busy_steps: u32,
+        busy: std::rc::Rc<std::cell::Cell<u32>>,
+        readings: u32,
+    }
+
+    impl ClockSource for ScriptedClock {
+        fn read_mhz(&mut self) -> Result<f64, GpuError> {
+            self.readings += 1;
+            Ok(if self.busy.get() >= self.busy_steps { self.high } else { self.low })
+        }
+    }
+
+    fn guard(low: f64, busy_steps: u32) -> (ClockGuard<ScriptedClock>, std::rc::Rc<std::cell::Cell<u32>>) {
+        let busy = std::rc::Rc::new(std::cell::Cell::new(0));
+        let clock = ScriptedClock { low, high: 1980.0, busy_steps, busy: busy.clone(), readings: 0 };
+        // Start from a run that has already seen the full clock.
+        (ClockGuard { probe: clock, highest: 1980.0, limit: Duration::from_millis(400) }, busy)
+    }
+
+    #[test]
+    fn a_clock_at_full_speed_is_measured_at_once() {
+        let (mut g, busy) = guard(1980.0, 0);
+        let mhz = g.settle(|| Ok(())).unwrap();
+        assert_eq!(mhz, 1980.0);
+        assert_eq!(g.probe.readings, 1);
+        assert_eq!(busy.get(), 0, "no work needed");
+    }
+
+    #[test]
+    fn a_clocked_down_gpu_is_kept_busy_until_the_clock_is_back() {
+        let (mut g, busy) = guard(345.0, 3);
+        let counter = busy.clone();
+        let mhz = g
+            .settle(|| {
+                counter.set(counter.get() + 1);
+                std::thread::sleep(Duration::from_millis(20));
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(mhz, 1980.0, "settled at full clock");
+        assert!(busy.get() >= 3, "ran {} frames", busy.get());
+        assert!(g.probe.readings >= 2);
+    }
+
+    #[test]
+    fn a_clock_that_stays_down_is_given_up_on_after_the_limit() {
+        let (mut g, busy) = guard(600.0, u32::MAX);
+        let counter = busy.clone();
+        let start = Instant::now();
+        let mhz = g
+            .settle(|| {
+                counter.set(counter.get() + 1);
+                std::thread::sleep(Duration::from_millis(5));
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(mhz, 600.0, "reports the clock it had");
+        assert!(start.elapsed() >= Duration::from_millis(400), "gave up before the limit: {:?}", start.elapsed());
+        assert!(busy.get() > 0);
+        assert_eq!(g.highest, 1980.0, "a low reading does not lower the reference");
+    }
+
+    #[test]
+    fn a_higher_reading_raises_the_reference() {
+        let (mut g, _) = guard(1980.0, 0);
+        g.probe.high = 2100.0;
+        assert_eq!(g.read().unwrap(), 2100.0);
+        assert_eq!(g.highest, 2100.0);
     }
 }

@@ -45,7 +45,9 @@ pub struct BenchArgs {
     /// Measured frames per row.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=100000))]
     pub(crate) frames: u32,
-    /// Discarded warm-up frames per row.
+    /// Discarded warm-up frames per row. After them, each row also waits (tracing its own
+    /// frames) until the GPU's shader clock is back near the run's highest: drivers lower
+    /// the clock while the host builds the next scene.
     #[arg(long, default_value_t = 5)]
     pub(crate) warmup: u32,
     /// Resolutions (square) for --paper, comma-separated.
