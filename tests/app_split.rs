@@ -76,9 +76,12 @@ fn a_split_frame_traced_in_bands_has_each_half_as_set() {
     let a = headless_render(dir.path(), &a_flags, "a.png");
     let b_flags: Vec<&str> = with_bounces("1").into_iter().chain(["--accel", "brute", "--spp", "4", "--adaptive"]).collect();
     let b = headless_render(dir.path(), &b_flags, "b.png");
-    // 0.3 of 128 is column 38.4: the halves meet at column 40 (a multiple of the 8-pixel group).
-    assert!(columns_diff(&split, &a, 0..40) <= 1, "left of the line differs from `render` (A) by {}", columns_diff(&split, &a, 0..40));
-    // Column 40 compares its key with column 39's, traced as A: it may differ.
-    assert!(columns_diff(&split, &b, 41..128) <= 1, "right of the line differs from `render` (B) by {}", columns_diff(&split, &b, 41..128));
-    assert!(columns_diff(&a, &b, 41..128) > 30, "A and B look alike: the test proves nothing");
+    // 0.3 of 128 is column 38.4: the halves meet at the nearest multiple of the group's width
+    // (dispatches start at a group's edge).
+    let group = meshtracer::gpu::GROUP.width;
+    let line = (38.4 / group as f64).round() as u32 * group;
+    assert!(columns_diff(&split, &a, 0..line) <= 1, "left of column {line} differs from `render` (A) by {}", columns_diff(&split, &a, 0..line));
+    // The line's own column compares its key with the column left of it, traced as A: it may differ.
+    assert!(columns_diff(&split, &b, line + 1..128) <= 1, "right of column {line} differs from `render` (B) by {}", columns_diff(&split, &b, line + 1..128));
+    assert!(columns_diff(&a, &b, line + 1..128) > 30, "A and B look alike: the test proves nothing");
 }

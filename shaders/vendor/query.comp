@@ -3,7 +3,8 @@
 // The tracer with the driver's traversal from the compute shader (VK_KHR_ray_query): the
 // same pixels, shading and outputs as trace.comp, only closest_hit differs.
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+// The work group must be trace.comp's: both are recorded by the same dispatch.
+layout(local_size_x = 16, local_size_y = 8, local_size_z = 1) in;
 
 #include "../scene.glsl"
 #include "tlas.glsl"

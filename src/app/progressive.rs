@@ -5,7 +5,7 @@
 //! bands run across the line: each band traces its pixels on both sides, each side with
 //! its own settings.
 
-use crate::gpu::{Band, FrameTrace};
+use crate::gpu::{Band, FrameTrace, GroupSize};
 
 /// GPU milliseconds a band should take, so that the window stays responsive.
 pub const BAND_TARGET_MS: f64 = 40.0;
@@ -15,26 +15,27 @@ pub const BAND_TARGET_MS: f64 = 40.0;
 pub struct Progressive {
     /// The frame's parameters (both halves of a split), fixed when it began.
     pub frame: FrameTrace,
-    /// The first row of the strip not yet finished (a multiple of the group size).
+    /// The first row of the strip not yet finished (a multiple of the group height).
     next_row: u32,
-    /// The first column not yet traced in that strip (a multiple of the group size).
+    /// The first column not yet traced in that strip (a multiple of the group width).
     next_column: u32,
     /// The work-group size: bands start on multiples of it.
-    group: u32,
+    group: GroupSize,
     /// When the frame began, for the time-left estimate.
     started: std::time::Instant,
 }
 
 impl Progressive {
-    /// A frame not yet begun, traced in work groups of `group` x `group` pixels.
-    pub fn new(frame: FrameTrace, group: u32) -> Self {
-        Self { frame, next_row: 0, next_column: 0, group: group.max(1), started: std::time::Instant::now() }
+    /// A frame not yet begun, traced in work groups of `group` pixels.
+    pub fn new(frame: FrameTrace, group: GroupSize) -> Self {
+        let group = GroupSize { width: group.width.max(1), height: group.height.max(1) };
+        Self { frame, next_row: 0, next_column: 0, group, started: std::time::Instant::now() }
     }
 
     /// Share of the frame's pixels traced so far, in [0, 1].
     pub fn progress(&self) -> f32 {
         let s = &self.frame.params.settings;
-        let strip = self.group.min(s.height.saturating_sub(self.next_row));
+        let strip = self.group.height.min(s.height.saturating_sub(self.next_row));
         let done = self.next_row as u64 * s.width as u64 + self.next_column as u64 * strip as u64;
         (done as f64 / (s.width as u64 * s.height as u64).max(1) as f64).min(1.0) as f32
     }
@@ -52,15 +53,15 @@ impl Progressive {
         if self.next_row >= height {
             return None;
         }
-        let per_strip = width.div_ceil(group).max(1);
+        let per_strip = width.div_ceil(group.width).max(1);
         let groups = groups.max(1);
         let band = if self.next_column > 0 || groups < per_strip {
             // Part of one strip: columns from where the last band stopped.
-            let end = (self.next_column + groups * group).min(width);
-            Band { rows: self.next_row..(self.next_row + group).min(height), columns: self.next_column..end }
+            let end = (self.next_column + groups * group.width).min(width);
+            Band { rows: self.next_row..(self.next_row + group.height).min(height), columns: self.next_column..end }
         } else {
             let strips = groups / per_strip;
-            Band::rows(self.next_row..(self.next_row + strips * group).min(height), width)
+            Band::rows(self.next_row..(self.next_row + strips * group.height).min(height), width)
         };
         if band.columns.end >= width {
             self.next_row = band.rows.end;
@@ -100,22 +101,30 @@ mod tests {
     use super::*;
     use crate::tracer::frame::{FrameParams, RenderSettings};
 
-    fn frame(width: u32, height: u32) -> Progressive {
+    const SQUARE: GroupSize = GroupSize { width: 8, height: 8 };
+
+    fn frame_in_groups(width: u32, height: u32, group: GroupSize) -> Progressive {
         let scene = crate::scene::paper::paper_scene(crate::scene::primitives::geosphere(0), 1, Default::default());
         let settings = RenderSettings { width, height, ..RenderSettings::default() };
-        Progressive::new(FrameTrace::whole(FrameParams::new(&scene, settings)), 8)
+        Progressive::new(FrameTrace::whole(FrameParams::new(&scene, settings)), group)
     }
 
-    /// Bands of any size cover every pixel of the frame exactly once.
+    fn frame(width: u32, height: u32) -> Progressive {
+        frame_in_groups(width, height, SQUARE)
+    }
+
+    /// Bands of any size cover every pixel of the frame exactly once, in square groups and
+    /// in oblong ones.
     #[test]
     fn bands_tile_the_frame_exactly_once() {
-        for (w, h) in [(64, 64), (100, 37), (8, 8), (1, 300), (257, 9)] {
+        let groups = [SQUARE, GroupSize { width: 16, height: 8 }, GroupSize { width: 8, height: 16 }];
+        for ((w, h), group) in [(64, 64), (100, 37), (8, 8), (1, 300), (257, 9)].into_iter().flat_map(|s| groups.map(|g| (s, g))) {
             for sizes in [vec![1], vec![3], vec![1, 5, 2, 40, 1000], vec![1000]] {
-                let mut p = frame(w, h);
+                let mut p = frame_in_groups(w, h, group);
                 let mut seen = vec![0u8; (w * h) as usize];
                 let mut i = 0;
                 while let Some(b) = p.next_band(sizes[i % sizes.len()]) {
-                    assert!(b.rows.start % 8 == 0 && b.columns.start % 8 == 0, "{b:?}");
+                    assert!(b.rows.start % group.height == 0 && b.columns.start % group.width == 0, "{b:?} in {group:?}");
                     assert!(b.pixels() > 0);
                     for y in b.rows.clone() {
                         for x in b.columns.clone() {
@@ -125,7 +134,7 @@ mod tests {
                     i += 1;
                 }
                 assert!(p.is_done());
-                assert!(seen.iter().all(|&n| n == 1), "{w}x{h} with {sizes:?}");
+                assert!(seen.iter().all(|&n| n == 1), "{w}x{h} in {group:?} with {sizes:?}");
                 assert_eq!(p.progress(), 1.0);
             }
         }
@@ -150,7 +159,7 @@ mod tests {
     fn a_split_frame_goes_on_unless_a_half_changes() {
         use crate::app::split_view::{SplitB, SplitView};
         let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
-        let p = Progressive::new(split.frame(frame(64, 64).frame.params), 8);
+        let p = Progressive::new(split.frame(frame(64, 64).frame.params), SQUARE);
         let mut moved = p.frame;
         moved.params.light_position += glam::Vec3::X;
         if let Some(s) = &mut moved.split {

@@ -6,7 +6,7 @@
 //! What the whole scene shares (model, copies, box, camera, light, resolution, view) is
 //! never part of B. Presets and screenshots' settings carry A only.
 
-use crate::gpu::trace_pass::GROUP_SIZE;
+use crate::gpu::trace_pass::GROUP;
 use crate::gpu::{FrameTrace, SplitTrace};
 use crate::tracer::frame::{Accel, FrameParams, RenderSettings, MAX_BOUNCES, MAX_SPP};
 
@@ -140,11 +140,11 @@ impl Default for SplitView {
 
 impl SplitView {
     /// The first column traced with B in an image `width` pixels wide: the line's place
-    /// snapped to a multiple of the work-group size (dispatches start there), at most the
+    /// snapped to a multiple of the work-group width (dispatches start there), at most the
     /// width.
     pub fn column(&self, width: u32) -> u32 {
         let x = self.position.clamp(0.0, 1.0) as f64 * width as f64;
-        let column = (x / GROUP_SIZE as f64).round() as u32 * GROUP_SIZE;
+        let column = (x / GROUP.width as f64).round() as u32 * GROUP.width;
         column.min(width)
     }
 
@@ -190,8 +190,8 @@ mod tests {
                 let split = SplitView { enabled: true, position: i as f32 / 40.0, b: SplitB { bounces: Some(0), ..Default::default() } };
                 let frame = split.frame(params(width));
                 let column = frame.split.unwrap().column;
-                assert!(column % GROUP_SIZE == 0 || column == width, "{width}: {column}");
-                assert!(((i as f32 / 40.0) * width as f32 - column as f32).abs() <= GROUP_SIZE as f32 / 2.0 + 1.0, "snapped to the nearest group");
+                assert!(column % GROUP.width == 0 || column == width, "{width}: {column}");
+                assert!(((i as f32 / 40.0) * width as f32 - column as f32).abs() <= GROUP.width as f32 / 2.0 + 1.0, "snapped to the nearest group");
                 let mut seen = vec![0; width as usize];
                 for (part, p, columns) in frame.parts() {
                     assert_eq!(p.settings.bounces, if part == 0 { 2 } else { 0 });

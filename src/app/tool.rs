@@ -35,7 +35,7 @@ use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
-use crate::gpu::trace_pass::GROUP_SIZE;
+use crate::gpu::trace_pass::GROUP;
 use crate::gpu::vendor::VendorKernel;
 use crate::gpu::{Band, ComputeTracer, ContextOptions, FrameTrace, GpuContext, GpuError, PartTimes};
 use crate::scene::spec::SceneSpec;
@@ -459,9 +459,9 @@ impl Tool {
         // A moving light does not restart a long frame: the frame keeps the light it began
         // with; any other change starts afresh.
         if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
-            self.progressive = Some(Progressive::new(params, GROUP_SIZE));
+            self.progressive = Some(Progressive::new(params, GROUP));
         }
-        let most = (self.gpu.tracer.rows_per_submission(&params) / GROUP_SIZE) * width.div_ceil(GROUP_SIZE);
+        let most = (self.gpu.tracer.rows_per_submission(&params) / GROUP.height) * width.div_ceil(GROUP.width);
         self.band_groups = self.band_groups.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
         let params = progressive.frame;

@@ -15,7 +15,7 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::timer::GpuTimer;
-use super::trace_pass::{Band, FrameTrace, Kernel, TraceOutput, TracePass, GROUP_SIZE};
+use super::trace_pass::{Band, FrameTrace, Kernel, TraceOutput, TracePass, GROUP};
 use super::vendor::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
 use crate::tracer::frame::{Accel, FrameParams};
@@ -245,10 +245,10 @@ impl ComputeTracer {
         Ok(())
     }
 
-    /// Rows per submission for `frame`, a multiple of the work-group size: the budget of
+    /// Rows per submission for `frame`, a multiple of the work-group height: the budget of
     /// the costlier part of a split frame, as if it covered the whole width.
     pub(crate) fn rows_per_submission(&self, frame: &FrameTrace) -> u32 {
-        let rows = |p: &FrameParams| budget::rows_per_submission(&p.settings, self.triangle_total, GROUP_SIZE);
+        let rows = |p: &FrameParams| budget::rows_per_submission(&p.settings, self.triangle_total, GROUP.height);
         frame.parts().iter().map(|(_, p, _)| rows(p)).min().unwrap_or_else(|| rows(&frame.params))
     }
 

@@ -24,6 +24,6 @@ pub mod vendor;
 
 pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
-pub use trace_pass::{Band, FrameTrace, SplitTrace};
+pub use trace_pass::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
 pub use error::GpuError;

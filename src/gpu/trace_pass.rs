@@ -128,8 +128,15 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
 }
 
 
+/// The tile of pixels one work group traces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupSize {
+    pub width: u32,
+    pub height: u32,
+}
+
 /// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
-pub const GROUP_SIZE: u32 = super::shader_layout::GROUP_SIZE;
+pub const GROUP: GroupSize = GroupSize { width: super::shader_layout::GROUP_WIDTH, height: super::shader_layout::GROUP_HEIGHT };
 
 /// A rectangle of a frame's pixels traced by one dispatch. Its start row and column are
 /// multiples of the work-group size; its end is one too, or the frame's edge.
@@ -339,10 +346,10 @@ impl TracePass {
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
-        debug_assert!(band.columns.start % GROUP_SIZE == 0, "a band starts at a group boundary");
-        let base_x = band.columns.start / GROUP_SIZE;
-        let groups_x = band.columns.len().div_ceil(GROUP_SIZE as usize) as u32;
-        let groups_y = band.rows.len().div_ceil(GROUP_SIZE as usize) as u32;
+        debug_assert!(band.columns.start % GROUP.width == 0, "a band starts at a group boundary");
+        let base_x = band.columns.start / GROUP.width;
+        let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
+        let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
         // outlive its execution (the owner waits for the GPU before dropping them) and the
         // push constants fit the layout's range.
