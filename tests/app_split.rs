@@ -33,7 +33,8 @@ fn the_split_views_halves_differ_as_set() {
     let half = f12(&x, &window, dir.path(), &mut app);
 
     // With the panel hidden the 128² image fills the window's height: 480² from x = 80, the
-    // line (column 64) at x = 320. A left drag from the line moves it to x = 140: column 16.
+    // line (column 64) at x = 320. A left drag from the line moves it to x = 140: column 16,
+    // which the split snaps to the nearest multiple of the work group's width.
     press(&x.display, &window, &["h"]);
     std::thread::sleep(Duration::from_millis(500));
     let drag = ["mousemove", "--window", &window, "320", "240", "mousedown", "1", "mousemove", "--window", &window, "250", "240", "mousemove", "--window", &window, "140", "240", "mouseup", "1"];
@@ -49,12 +50,15 @@ fn the_split_views_halves_differ_as_set() {
     let a = headless_render(dir.path(), &SCENE, "a.png");
     let b_flags: Vec<&str> = with_bounces("0").into_iter().chain(["--smooth"]).collect();
     let b = headless_render(dir.path(), &b_flags, "b.png");
-    for (name, img, line) in [("at 0.5", &half, 64), ("dragged", &moved, 16)] {
+    let group = meshtracer::gpu::GROUP.width;
+    let dragged = (16.0 / group as f64).round() as u32 * group;
+    assert!(dragged < 64, "the drag must move the line");
+    for (name, img, line) in [("at 0.5", &half, 64), ("dragged", &moved, dragged)] {
         assert!(columns_diff(img, &a, 0..line) <= 1, "split {name}: left of column {line} differs from `render` (A) by {}", columns_diff(img, &a, 0..line));
         assert!(columns_diff(img, &b, line..128) <= 1, "split {name}: right of column {line} differs from `render` (B) by {}", columns_diff(img, &b, line..128));
     }
-    // Columns 16..64 changed sides with the drag: they must tell A from B.
-    for columns in [16..64, 64..128] {
+    // The columns between the two lines changed sides with the drag: they must tell A from B.
+    for columns in [dragged..64, 64..128] {
         assert!(columns_diff(&a, &b, columns.clone()) > 30, "A and B look alike in columns {columns:?}: the test proves nothing");
     }
     assert!(max_diff(&whole, &a) <= 1, "with the split off the frame differs from `render` (A) by {}", max_diff(&whole, &a));

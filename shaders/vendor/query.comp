@@ -4,7 +4,7 @@
 // same pixels, shading and outputs as trace.comp, only closest_hit differs.
 
 // The work group must be trace.comp's: both are recorded by the same dispatch.
-layout(local_size_x = 16, local_size_y = 8, local_size_z = 1) in;
+layout(local_size_x = 32, local_size_y = 4, local_size_z = 1) in;
 
 #include "../scene.glsl"
 #include "tlas.glsl"

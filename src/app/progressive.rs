@@ -159,7 +159,8 @@ mod tests {
     fn a_split_frame_goes_on_unless_a_half_changes() {
         use crate::app::split_view::{SplitB, SplitView};
         let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
-        let p = Progressive::new(split.frame(frame(64, 64).frame.params), SQUARE);
+        // Wide enough that the two lines below snap to different work-group columns.
+        let p = Progressive::new(split.frame(frame(256, 64).frame.params), SQUARE);
         let mut moved = p.frame;
         moved.params.light_position += glam::Vec3::X;
         if let Some(s) = &mut moved.split {
@@ -169,6 +170,7 @@ mod tests {
         let other_b = SplitView { b: SplitB { bounces: Some(1), ..split.b }, ..split }.frame(p.frame.params);
         assert!(!p.continues(&other_b));
         let moved_line = SplitView { position: 0.25, ..split }.frame(p.frame.params);
+        assert_ne!(moved_line.split.unwrap().column, p.frame.split.unwrap().column, "the test must move the line");
         assert!(!p.continues(&moved_line));
         assert!(!p.continues(&FrameTrace::whole(p.frame.params)), "turning the split off is a new frame");
     }
