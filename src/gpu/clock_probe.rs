@@ -14,7 +14,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::timer::GpuTimer;
-use super::trace_pass::words;
+use super::trace_pass::{create_compute_pipeline, words};
 
 static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
 
@@ -93,16 +93,13 @@ impl ClockProbe {
         // SAFETY: the set layout is live; the arrays outlive the call.
         probe.layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
             .during("creating the clock probe's pipeline layout")?;
-        let code = words(CLOCK_SPV);
-        // SAFETY: the words are SPIR-V that glslang wrote in build.rs.
-        let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }.during("loading the clock probe")?;
-        let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(probe.layout)];
-        // SAFETY: the module and the layout are live; the create infos outlive the call.
-        let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-        // SAFETY: the pipeline, created or not, no longer needs the module.
-        unsafe { device.destroy_shader_module(module, None) };
-        probe.pipeline = pipeline.map_err(|(_, r)| GpuError::vk("creating the clock probe's pipeline", r))?[0];
+        probe.pipeline = create_compute_pipeline(
+            ctx,
+            probe.layout,
+            &words(CLOCK_SPV),
+            vk::PipelineCreateFlags::empty(),
+            ["loading the clock probe", "creating the clock probe's pipeline"],
+        )?;
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 }];
         // SAFETY: plain object creation on the live device.
         probe.pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }

@@ -364,21 +364,27 @@ impl TracePass {
 
 /// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
 fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline, GpuError> {
-    let device = &ctx.device;
-    // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
-    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during("loading the trace shader")?;
-    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
     // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
     let mut flags = vk::PipelineCreateFlags::DISPATCH_BASE;
     if ctx.info.shader_statistics {
         flags |= vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR;
     }
+    create_compute_pipeline(ctx, layout, code, flags, ["loading the trace shader", "creating the trace pipeline"])
+}
+
+/// A compute pipeline running `main` of the SPIR-V `code` with `layout`; `what` names the
+/// two steps for errors: loading the shader module, creating the pipeline.
+pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32], flags: vk::PipelineCreateFlags, what: [&'static str; 2]) -> Result<vk::Pipeline, GpuError> {
+    let device = &ctx.device;
+    // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
+    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during(what[0])?;
+    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
     let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
     // SAFETY: the module and the layout are live; the create infos outlive the call.
     let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
     // SAFETY: the pipeline, created or not, no longer needs the module.
     unsafe { device.destroy_shader_module(module, None) };
-    Ok(pipeline.map_err(|(_, r)| GpuError::vk("creating the trace pipeline", r))?[0])
+    Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
 }
 
 /// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`].
