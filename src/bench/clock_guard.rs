@@ -106,6 +106,16 @@ mod tests {
         (ClockGuard { probe: clock, highest: 1980.0, limit: Duration::from_millis(400) }, busy)
     }
 
+    /// A frame of GPU work as the guard sees it: counted in `counter`, `ms` long.
+    fn frame(counter: &std::rc::Rc<std::cell::Cell<u32>>, ms: u64) -> impl FnMut() -> Result<(), GpuError> {
+        let counter = counter.clone();
+        move || {
+            counter.set(counter.get() + 1);
+            std::thread::sleep(Duration::from_millis(ms));
+            Ok(())
+        }
+    }
+
     #[test]
     fn a_clock_at_full_speed_is_measured_at_once() {
         let (mut g, busy) = guard(1980.0, 0);
@@ -118,14 +128,7 @@ mod tests {
     #[test]
     fn a_clocked_down_gpu_is_kept_busy_until_the_clock_is_back() {
         let (mut g, busy) = guard(345.0, 3);
-        let counter = busy.clone();
-        let mhz = g
-            .settle(|| {
-                counter.set(counter.get() + 1);
-                std::thread::sleep(Duration::from_millis(20));
-                Ok(())
-            })
-            .unwrap();
+        let mhz = g.settle(frame(&busy, 20)).unwrap();
         assert_eq!(mhz, 1980.0, "settled at full clock");
         assert!(busy.get() >= 3, "ran {} frames", busy.get());
         assert!(g.probe.readings >= 2);
@@ -134,15 +137,8 @@ mod tests {
     #[test]
     fn a_clock_that_stays_down_is_given_up_on_after_the_limit() {
         let (mut g, busy) = guard(600.0, u32::MAX);
-        let counter = busy.clone();
         let start = Instant::now();
-        let mhz = g
-            .settle(|| {
-                counter.set(counter.get() + 1);
-                std::thread::sleep(Duration::from_millis(5));
-                Ok(())
-            })
-            .unwrap();
+        let mhz = g.settle(frame(&busy, 5)).unwrap();
         assert_eq!(mhz, 600.0, "reports the clock it had");
         assert!(start.elapsed() >= Duration::from_millis(400), "gave up before the limit: {:?}", start.elapsed());
         assert!(busy.get() > 0);
