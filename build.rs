@@ -33,9 +33,10 @@ mod contract {
 
 const CONTRACT_SOURCE: &str = "src/tracer/contract.rs";
 
-fn compile(src_path: &Path, contract: &str, out_dir: &Path) -> naga::Module {
-    let shader = shader_compile::compile(src_path, contract).unwrap_or_else(|e| panic!("{e}"));
-    let name = src_path.file_stem().unwrap().to_string_lossy();
+/// Compile `src_path` with `defines` into `<stem><suffix>.spv`.
+fn compile(src_path: &Path, contract: &str, defines: &[&str], suffix: &str, out_dir: &Path) -> naga::Module {
+    let shader = shader_compile::compile(src_path, contract, defines).unwrap_or_else(|e| panic!("{e}"));
+    let name = format!("{}{suffix}", src_path.file_stem().unwrap().to_string_lossy());
     let bytes: Vec<u8> = shader.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
     std::fs::write(out_dir.join(format!("{name}.spv")), bytes).unwrap();
     shader.module
@@ -160,8 +161,12 @@ fn main() {
         let path = entry.unwrap().path();
         println!("cargo:rerun-if-changed={}", path.display());
         if path.extension().is_some_and(|e| e == "comp") {
-            let module = compile(&path, &contract, &out_dir);
+            let module = compile(&path, &contract, &[], "", &out_dir);
             let stem = path.file_stem().unwrap().to_string_lossy();
+            if stem == "trace" {
+                // The variant for CPU devices: tiles in row order (src/gpu/tile_order.rs).
+                compile(&path, &contract, &[shader_compile::ROW_ORDER], "_rows", &out_dir);
+            }
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }
     }

@@ -61,7 +61,7 @@ layout(push_constant) uniform Frame {
     vec4 cam_origin_eps;     // xyz: camera position, w: ray offset epsilon
     vec4 cam_forward_blend;  // xyz: forward, w: reflection blend ratio
     vec4 cam_right_ambient;  // xyz: right * tan(fov/2) * aspect, w: ambient fraction
-    vec4 cam_up;             // xyz: up * tan(fov/2)
+    vec4 cam_up;             // xyz: up * tan(fov/2), w: trace.comp's tile_base (uint bits)
     vec4 light_pos;          // xyz: point light position
     vec4 light_color;        // rgb: light colour
     uvec4 dims;              // width, height, bounces, flags

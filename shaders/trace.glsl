@@ -151,11 +151,13 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
 }
 
 // Everything the frame asks of pixel `px` (row 0 at the top): the adaptive pre-pass key, or
-// its samples, accumulated and written to the outputs.
-void trace_pixel(uvec2 px) {
+// its samples, accumulated and written to the outputs. Returns what the pixel cost (BVH
+// nodes visited plus triangles tested, at most 2^24; 0 outside the frame and in the
+// pre-pass), which trace.comp's tile order feeds on.
+uint trace_pixel(uvec2 px) {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
-    if (px.x >= width || px.y >= height) return;
+    if (px.x >= width || px.y >= height) return 0u;
     uint pixel = px.y * width + px.x;
     uint flags = frame.dims.w;
     bool use_bvh = (flags & FLAG_BVH) != 0u;
@@ -167,7 +169,7 @@ void trace_pixel(uvec2 px) {
         uint key = 0u;
         trace_sample(vec2(px) + 0.5, AOV_COLOR, use_bvh, unused_cost, key);
         prim_ids[pixel] = key;
-        return;
+        return 0u;
     }
 
     uint frame_index = frame.misc.w;
@@ -218,4 +220,5 @@ void trace_pixel(uvec2 px) {
         out_float[pixel] = value;
         out_rgba8[pixel] = packUnorm4x8(vec4(clamp(abs(value.xyz) * 0.1, 0.0, 1.0), 1.0));
     }
+    return min(cost.x + cost.y, 1u << 24);
 }

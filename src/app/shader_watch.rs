@@ -61,7 +61,7 @@ impl ShaderWatch {
         if !self.changed(stamps.collect()) {
             return None;
         }
-        let result = compile_trace_shader(&self.dir).and_then(|spirv| tracer.reload_shader(&spirv).map_err(|e| format!("{e:#}")));
+        let result = compile_trace_shader(&self.dir, tracer.kernel()).and_then(|spirv| tracer.reload_shader(&spirv).map_err(|e| format!("{e:#}")));
         Some(match result {
             Ok(()) => Status::ok("shaders reloaded"),
             // The first line names file:line; naga's full report goes to the terminal.

@@ -14,6 +14,7 @@ use ash::vk;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
+use super::tile_order::TileRect;
 use super::timer::GpuTimer;
 use super::trace_pass::{Band, FrameTrace, Kernel, TraceOutput, TracePass, GROUP};
 use super::vendor::{AccelStats, VendorKernel, VendorTracer};
@@ -75,7 +76,7 @@ impl ComputeTracer {
     /// A tracer with no scene yet, with `recorded_slots` timestamp slots for frames that
     /// a caller records into its own command buffers (its frames in flight).
     pub(crate) fn new(ctx: &Arc<GpuContext>, recorded_slots: u32) -> Result<Self, GpuError> {
-        let pass = TracePass::new(ctx, Kernel::Ours)?;
+        let pass = TracePass::new(ctx, Kernel::ours_for(&ctx.info))?;
         let timer = GpuTimer::new(ctx, (recorded_slots + 1) * PAIRS_PER_SLOT)?;
         let device = &ctx.device;
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
@@ -158,7 +159,7 @@ impl ComputeTracer {
         }
         self.ctx.wait_idle()?;
         self.output = None;
-        self.output = Some(TraceOutput::new(&self.ctx, width, height)?);
+        self.output = Some(TraceOutput::new(&self.ctx, width, height, self.recorded_slots + 1)?);
         self.rebind();
         Ok(())
     }
@@ -178,6 +179,28 @@ impl ComputeTracer {
         self.scene.as_ref().map_or(0, |s| s.bytes)
     }
 
+    /// Which of our kernels traces (costliest tiles first, or rows on a CPU device).
+    pub fn kernel(&self) -> Kernel {
+        self.pass.kernel()
+    }
+
+    /// The headless slot's tile costs (from its last frame) and order (for its next one).
+    #[cfg(test)]
+    pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
+        let out = self.output.as_ref().expect("a frame was traced");
+        let mut tiles = out.tiles.lock().unwrap();
+        (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots).to_vec())
+    }
+
+    /// Trace with `kernel` (one of ours) from now on: the tests run the GPU's tile order on
+    /// lavapipe with it.
+    pub(crate) fn use_kernel(&mut self, kernel: Kernel) -> Result<(), GpuError> {
+        self.ctx.wait_idle()?;
+        self.pass = TracePass::new(&self.ctx, kernel)?;
+        self.rebind();
+        Ok(())
+    }
+
     /// Swap the trace pipeline for one built from `spirv` (see `trace_pass::compile_trace_shader`);
     /// on failure the current one stays.
     pub fn reload_shader(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
@@ -190,9 +213,15 @@ impl ComputeTracer {
         self.pass.shader_statistics()
     }
 
-    /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
+    /// Where the memory of each scene buffer and of the tile order lives, one line each
+    /// (`bench --verbose`).
     pub fn describe_memory(&self) -> Vec<String> {
-        self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())
+        let mut lines = self.scene.as_ref().map_or_else(Vec::new, |s| s.describe());
+        if let Some(out) = &self.output {
+            let tiles = out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            lines.extend([tiles.order.describe(), tiles.costs.describe()]);
+        }
+        lines
     }
 
     /// Instances on the GPU now.
@@ -267,10 +296,26 @@ impl ComputeTracer {
     /// `recorded_slots`); returns what was timed. The frame's first band (at its first
     /// pixel) runs adaptive sampling's pre-pass of every part that samples adaptively
     /// before any main pass, so that every key is there when a neighbour reads it (across
-    /// a split line, the other part's). The trace pass adds the barriers it needs; the
-    /// outputs are left as `Access::ComputeWrite` for whoever reads them next. Needs
-    /// [`Self::is_ready`].
+    /// a split line, the other part's). Our passes take their tiles costliest first, by
+    /// the costs the slot's last frame recorded (`tile_order.rs`), so the slot's earlier
+    /// commands must be done. The trace pass adds the barriers it needs; the outputs are
+    /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
     pub(crate) fn record(&self, cmd: vk::CommandBuffer, frame: &FrameTrace, band: &Band, timer_slot: Option<u32>) -> TimedParts {
+        let tile_slot = timer_slot.unwrap_or(self.recorded_slots);
+        // Our pass over `band`, its tiles ordered by the slot's last costs: the order's
+        // upload and the costs' copy back are timed with it.
+        let trace = |params: &FrameParams, band: &Band| match &self.output {
+            Some(out) if self.pass.kernel().orders_tiles() => {
+                let mut tiles = out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+                let rect = TileRect::of_band(band);
+                let base = tiles.order(tile_slot, &rect);
+                let device = &self.ctx.device;
+                tiles.record_upload(device, cmd, tile_slot, &rect.rows);
+                self.pass.record(cmd, params, band, base);
+                tiles.record_readback(device, cmd, tile_slot, &rect.rows);
+            }
+            _ => self.pass.record(cmd, params, band, 0),
+        };
         let mut timed = [[false; 2]; 2];
         let mut any = false;
         // Timer pair `part * 2 + pass` of the slot, pass 0 the main pass and 1 the pre-pass.
@@ -301,7 +346,7 @@ impl ComputeTracer {
             if let Some(part_band) = band.within(columns) {
                 match vendor(params) {
                     Some(v) => time(*i, 0, &|| v.record(cmd, params, &part_band)),
-                    None => time(*i, 0, &|| self.pass.record(cmd, params, &part_band)),
+                    None => time(*i, 0, &|| trace(params, &part_band)),
                 }
             }
         }

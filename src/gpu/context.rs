@@ -200,6 +200,13 @@ fn instance_error(r: vk::Result) -> GpuError {
     }
 }
 
+impl DeviceInfo {
+    /// The device is a CPU (lavapipe, SwiftShader).
+    pub fn is_cpu(&self) -> bool {
+        self.device_type == device_type_name(vk::PhysicalDeviceType::CPU)
+    }
+}
+
 fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
     match t {
         vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",

@@ -1,7 +1,8 @@
 //! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
 //! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the shader clock rate
 //! ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the trace compute
-//! pass (`trace_pass`) with what its shader declares (`shader_layout`), the compute tracer
+//! pass (`trace_pass`) with what its shader declares (`shader_layout`) and the order it takes
+//! the frame's tiles in (`tile_order`), the compute tracer
 //! built from them (`compute_tracer`), and presentation to a window (`present`: surface,
 //! swapchain, composite, egui pass), and the vendor's ray tracing beside ours (`vendor`:
 //! the driver's acceleration structures, ray queries, a ray tracing pipeline). Nothing
@@ -18,6 +19,7 @@ pub(crate) mod present;
 pub mod scene_buffers;
 pub(crate) mod shader_compile;
 pub(crate) mod shader_layout;
+pub(crate) mod tile_order;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
 pub mod vendor;

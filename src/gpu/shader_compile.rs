@@ -90,13 +90,18 @@ impl Expanded {
     }
 }
 
-/// Compile the compute shader at `path` (its includes expanded, `contract.glsl` from
+/// Defined for `trace.comp`'s variant that takes its tiles in row order and records no
+/// costs (for CPU devices; see `tile_order.rs`).
+pub const ROW_ORDER: &str = "ROW_ORDER";
+
+/// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.
-pub fn compile(path: &Path, contract: &str) -> Result<CompiledShader, String> {
+pub fn compile(path: &Path, contract: &str, defines: &[&str]) -> Result<CompiledShader, String> {
     let src = expand(path, contract)?;
     let mut frontend = naga::front::glsl::Frontend::default();
-    let options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
+    let mut options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
+    options.defines.extend(defines.iter().map(|d| (d.to_string(), "1".to_string())));
     let module = frontend.parse(&options, &src.text).map_err(|e| {
         let (line, what) = match e.errors.first() {
             Some(first) => (first.meta.location(&src.text).line_number, first.kind.to_string()),
@@ -237,7 +242,7 @@ mod tests {
         let source = "#version 450\nlayout(local_size_x = 1) in;\nlayout(std430, binding = 0) buffer B { uint v[]; };\n\
                       void main() { uint s[8]; float x = 2.0; for (uint i = 0u; i < 8u; i++) s[i] = v[i]; v[0] = s[v[1] & 7u] + uint(x); }\n";
         std::fs::write(&path, source).unwrap();
-        let compiled = compile(&path, "").unwrap();
+        let compiled = compile(&path, "", &[]).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
 
         // naga's own output zero-initializes the array; ours does not, one word shorter.

@@ -61,12 +61,14 @@ pub enum TraceBuffer {
     OutRgba8,
     OutFloat,
     PrimIds,
+    TileOrder,
+    TileCosts,
 }
 
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 11] = [
+    pub const ALL: [TraceBuffer; 13] = [
         Self::Triangles,
         Self::Shading,
         Self::Materials,
@@ -78,6 +80,8 @@ impl TraceBuffer {
         Self::OutRgba8,
         Self::OutFloat,
         Self::PrimIds,
+        Self::TileOrder,
+        Self::TileCosts,
     ];
 
     /// The buffer the shader declares as `block`, or None for a name the host does not know.
@@ -94,6 +98,8 @@ impl TraceBuffer {
             "OutRgba8" => Self::OutRgba8,
             "OutFloat" => Self::OutFloat,
             "PrimIds" => Self::PrimIds,
+            "TileOrder" => Self::TileOrder,
+            "TileCosts" => Self::TileCosts,
             _ => return None,
         })
     }
@@ -132,7 +138,7 @@ mod tests {
     fn only_the_outputs_are_writable() {
         use TraceBuffer::*;
         for b in BINDINGS {
-            let written = matches!(TraceBuffer::of(b), OutRgba8 | OutFloat | PrimIds);
+            let written = matches!(TraceBuffer::of(b), OutRgba8 | OutFloat | PrimIds | TileCosts);
             assert_eq!(b.read_only, !written, "{b:?}");
         }
     }

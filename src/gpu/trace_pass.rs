@@ -5,7 +5,7 @@
 //! with the vendor's ray tracing pipeline (`vendor::pipeline_pass`).
 
 use std::ops::Range;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
@@ -15,10 +15,14 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
+use super::tile_order::TileSchedule;
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
 static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
+
+/// The same with `ROW_ORDER` defined (tiles in row order, no cost record).
+static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows.spv"));
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
 static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
@@ -30,10 +34,26 @@ pub(crate) const TLAS_BINDING: u32 = 11;
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
-    /// `trace.comp`: our BVH or brute force, as the frame's flags say.
+    /// `trace.comp`: our BVH or brute force, as the frame's flags say, the tiles taken
+    /// costliest first (`tile_order.rs`).
     Ours,
+    /// `trace.comp` with `ROW_ORDER`: the same in row order, for CPU devices.
+    OursInRowOrder,
     /// `vendor/query.comp`: the driver's traversal through `VK_KHR_ray_query`.
     RayQuery,
+}
+
+impl Kernel {
+    /// Our tracer's kernel for a device: costliest tiles first on GPUs, row order on CPUs
+    /// (where the order measured 1.4-2x slower on lavapipe).
+    pub fn ours_for(info: &super::context::DeviceInfo) -> Self {
+        if info.is_cpu() { Self::OursInRowOrder } else { Self::Ours }
+    }
+
+    /// Whether the kernel takes its tiles from the tile order (and records their costs).
+    pub fn orders_tiles(self) -> bool {
+        self == Self::Ours
+    }
 }
 
 /// SPIR-V words of embedded bytes.
@@ -92,6 +112,7 @@ pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout
 /// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure.
 /// The GPU must not be using the set.
 pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+    let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
     // Each binding the shader declares, by its block name (see shader_layout).
     let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
         .iter()
@@ -108,8 +129,10 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
                 TraceBuffer::OutRgba8 => &output.rgba8,
                 TraceBuffer::OutFloat => &output.float,
                 TraceBuffer::PrimIds => &output.prim_ids,
+                TraceBuffer::TileOrder => return (b.binding, whole(output.tile_buffers[0])),
+                TraceBuffer::TileCosts => return (b.binding, whole(output.tile_buffers[1])),
             };
-            (b.binding, [vk::DescriptorBufferInfo { buffer: buffer.buffer, offset: 0, range: vk::WHOLE_SIZE }])
+            (b.binding, whole(buffer.buffer))
         })
         .collect();
     let mut writes: Vec<_> = infos
@@ -203,7 +226,8 @@ impl FrameTrace {
     }
 }
 
-/// Output buffers at one resolution: packed 8-bit colour and float RGBA.
+/// Output buffers at one resolution: packed 8-bit colour and float RGBA, and the order the
+/// trace pass takes the tiles in.
 pub struct TraceOutput {
     pub width: u32,
     pub height: u32,
@@ -211,11 +235,17 @@ pub struct TraceOutput {
     pub float: GpuBuffer,
     /// Primary-hit ids of the adaptive-sampling pre-pass.
     pub prim_ids: GpuBuffer,
+    /// The tiles' order and costs per frame slot (the host writes one slot's order while
+    /// another slot's frame may run, hence the lock rather than `&mut`).
+    pub tiles: Mutex<TileSchedule>,
+    /// The schedule's order and cost buffers, for the descriptor set.
+    tile_buffers: [vk::Buffer; 2],
 }
 
 impl TraceOutput {
-    /// Output buffers for `width` x `height` pixels.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32) -> Result<Self, GpuError> {
+    /// Output buffers for `width` x `height` pixels, with a tile order for each of `slots`
+    /// frame slots.
+    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
         let pixels = width as u64 * height as u64;
         let limit = ctx.info.max_storage_buffer_range;
         if pixels * 16 > limit {
@@ -223,12 +253,15 @@ impl TraceOutput {
         }
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let loc = gpu_allocator::MemoryLocation::GpuOnly;
+        let tiles = TileSchedule::new(ctx, width, height, slots)?;
         Ok(Self {
             width,
             height,
             rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
             float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
             prim_ids: GpuBuffer::new(ctx, pixels * 4, usage, loc, "primary ids")?,
+            tile_buffers: [tiles.order.buffer, tiles.costs.buffer],
+            tiles: Mutex::new(tiles),
         })
     }
 }
@@ -260,11 +293,17 @@ impl TracePass {
             .during("creating the trace pipeline layout")?;
         let code = words(match kernel {
             Kernel::Ours => TRACE_SPV,
+            Kernel::OursInRowOrder => TRACE_ROWS_SPV,
             Kernel::RayQuery => QUERY_SPV,
         });
         let pipeline = create_pipeline(ctx, layout, &code)?;
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
         Ok(Self { ctx: ctx.clone(), kernel, pipeline, layout, set_layout, pool, set })
+    }
+
+    /// The kernel the pass runs.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
     }
 
     /// What the driver compiled the shader to, one `name: value` per statistic it reports
@@ -303,7 +342,7 @@ impl TracePass {
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
     /// [`compile_trace_shader`]); on failure the current pipeline stays.
     pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
-        debug_assert_eq!(self.kernel, Kernel::Ours, "only trace.comp is reloaded");
+        debug_assert_ne!(self.kernel, Kernel::RayQuery, "only trace.comp is reloaded");
         let pipeline = create_pipeline(&self.ctx, self.layout, spirv)?;
         // The old pipeline may still be in a submitted command buffer.
         if let Err(e) = self.ctx.wait_idle() {
@@ -326,11 +365,13 @@ impl TracePass {
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
     /// the last trace wrote (accumulation reads what it wrote; the main pass reads adaptive
     /// sampling's keys) and copies read the outputs. The outputs are left as
-    /// `Access::ComputeWrite`.
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
+    /// `Access::ComputeWrite`. `tile_base`: the frame slot's first entry of the tile order
+    /// (`TileSchedule::order`; the vendor's query shader has none and ignores it).
+    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         // Rows are offset through the push constants, columns through the dispatch base.
-        let pc = params.push_constants(band.rows.start);
+        let mut pc = params.push_constants(band.rows.start);
+        pc.cam_up[3] = f32::from_bits(tile_base);
         self.dispatch(cmd, &pc, band);
     }
 
@@ -387,13 +428,15 @@ pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayo
     Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
 }
 
-/// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`].
-/// A shader whose bindings, push constants or work group differ from the built-in one's is
-/// refused: the host's buffers and structs are built for that interface.
-pub fn compile_trace_shader(dir: &std::path::Path) -> Result<Vec<u32>, String> {
+/// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`],
+/// as `kernel` (one of ours) builds it. A shader whose bindings, push constants or work
+/// group differ from the built-in one's is refused: the host's buffers and structs are
+/// built for that interface.
+pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
     use super::shader_compile;
     let contract = shader_compile::contract_glsl(crate::tracer::contract::ALL, "src/tracer/contract.rs");
-    let shader = shader_compile::compile(&dir.join("trace.comp"), &contract)?;
+    let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
+    let shader = shader_compile::compile(&dir.join("trace.comp"), &contract, defines)?;
     let signature = shader_compile::layout_signature(&shader.module)?;
     if let Some((new, old)) = signature.lines().zip(LAYOUT_SIGNATURE.lines()).find(|(a, b)| a != b) {
         return Err(format!("the edited shader changes the interface the host is built for (`{old}` became `{new}`); rebuild meshtracer for that"));
@@ -425,7 +468,7 @@ mod tests {
     #[test]
     fn shipped_shaders_compile_at_run_time_to_the_built_in_interface() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-        let spirv = compile_trace_shader(&dir).unwrap();
+        let spirv = compile_trace_shader(&dir, Kernel::Ours).unwrap();
         // The same assembly and compiler as build.rs: the very same SPIR-V.
         let bytes: Vec<u8> = spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
         assert!(bytes == TRACE_SPV, "run-time SPIR-V differs from build.rs's");
@@ -441,13 +484,13 @@ mod tests {
         }
         let shade = std::fs::read_to_string(dir.join("shade.glsl")).unwrap();
         std::fs::write(dir.join("shade.glsl"), format!("{shade}\nvoid broken( {{\n")).unwrap();
-        let e = compile_trace_shader(&dir).unwrap_err();
+        let e = compile_trace_shader(&dir, Kernel::Ours).unwrap_err();
         let line = shade.lines().count() + 2;
         assert!(e.lines().next().unwrap().contains(&format!("shade.glsl:{line}")), "{e}");
         std::fs::write(dir.join("shade.glsl"), shade).unwrap();
         let scene = std::fs::read_to_string(dir.join("scene.glsl")).unwrap();
         std::fs::write(dir.join("scene.glsl"), scene.replacen("readonly buffer", "buffer", 1)).unwrap();
-        let e = compile_trace_shader(&dir).unwrap_err();
+        let e = compile_trace_shader(&dir, Kernel::Ours).unwrap_err();
         assert!(e.contains("interface"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -185,6 +185,7 @@ pub(crate) struct PushConstants {
     pub cam_origin_eps: [f32; 4],
     pub cam_forward_blend: [f32; 4],
     pub cam_right_ambient: [f32; 4],
+    /// w: the frame slot's first entry of the tile order (u32 bits), set by the trace pass.
     pub cam_up: [f32; 4],
     pub light_pos: [f32; 4],
     pub light_color: [f32; 4],

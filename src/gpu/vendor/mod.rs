@@ -205,7 +205,7 @@ impl VendorTracer {
     /// Record the trace of `band` with the kernel in use (see `TracePass::record`).
     pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
         match (self.kernel, &self.query, &self.pipeline) {
-            (VendorKernel::Query, Some(pass), _) => pass.record(cmd, params, band),
+            (VendorKernel::Query, Some(pass), _) => pass.record(cmd, params, band, 0),
             (VendorKernel::Pipeline, _, Some(pass)) => pass.record(cmd, params, band),
             _ => debug_assert!(false, "VendorTracer::prepare comes before a vendor frame"),
         }
