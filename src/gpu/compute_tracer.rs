@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use ash::vk;
 
+use super::barrier::{self, Access};
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::scene_buffers::SceneBuffers;
@@ -189,11 +190,12 @@ impl ComputeTracer {
     pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
         let out = self.output.as_ref().expect("a frame was traced");
         let mut tiles = out.tiles.lock().unwrap();
-        (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots).to_vec())
+        (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
     }
 
     /// Trace with `kernel` (one of ours) from now on: the tests run the GPU's tile order on
     /// lavapipe with it.
+    #[cfg(test)]
     pub(crate) fn use_kernel(&mut self, kernel: Kernel) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.pass = TracePass::new(&self.ctx, kernel)?;
@@ -302,19 +304,15 @@ impl ComputeTracer {
     /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
     pub(crate) fn record(&self, cmd: vk::CommandBuffer, frame: &FrameTrace, band: &Band, timer_slot: Option<u32>) -> TimedParts {
         let tile_slot = timer_slot.unwrap_or(self.recorded_slots);
-        // Our pass over `band`, its tiles ordered by the slot's last costs: the order's
-        // upload and the costs' copy back are timed with it.
-        let trace = |params: &FrameParams, band: &Band| match &self.output {
-            Some(out) if self.pass.kernel().orders_tiles() => {
-                let mut tiles = out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-                let rect = TileRect::of_band(band);
-                let base = tiles.order(tile_slot, &rect);
-                let device = &self.ctx.device;
-                tiles.record_upload(device, cmd, tile_slot, &rect.rows);
-                self.pass.record(cmd, params, band, base);
-                tiles.record_readback(device, cmd, tile_slot, &rect.rows);
-            }
-            _ => self.pass.record(cmd, params, band, 0),
+        // Our pass over `band`, its tiles ordered by the slot's last costs.
+        let trace = |params: &FrameParams, band: &Band| {
+            let base = match &self.output {
+                Some(out) if self.pass.kernel().orders_tiles() => {
+                    out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).order(tile_slot, &TileRect::of_band(band))
+                }
+                _ => 0,
+            };
+            self.pass.record(cmd, params, band, base);
         };
         let mut timed = [[false; 2]; 2];
         let mut any = false;
@@ -350,6 +348,8 @@ impl ComputeTracer {
                 }
             }
         }
+        // The tiles' costs are read by the host once the slot's fence has signalled.
+        barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite], &[Access::HostRead]);
         timed
     }
 

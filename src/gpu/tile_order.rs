@@ -12,11 +12,12 @@
 //! (docs/BENCHMARKS.md, "Costliest tiles first").
 //!
 //! Each timestamp slot (a frame in flight of the window, and the headless path) has its own
-//! range of the buffers, so the host rewrites one slot's order while another's frame runs.
-//! Both arrays live in device-local memory, which the shader reads at the start of every
-//! group: the order goes up inline in the command buffer (`vkCmdUpdateBuffer`) and the
-//! costs come back through a copy into host-visible memory. (Read straight from
-//! host-visible memory, the order cost the H100 0.04 ms a frame.)
+//! range of both buffers, so the host rewrites one slot's order while another's frame runs.
+//! Both are host-visible: the host writes the order and reads the costs in place.
+//!
+//! What a tile cost is sampled, not summed: the pixel in the middle of each of its rows
+//! records its count, and the host adds the samples up. (Summing all 128 pixels takes a
+//! work-group barrier, which cost the H100 about 0.04 ms a frame.)
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -24,7 +25,6 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
@@ -61,21 +61,15 @@ pub(crate) fn order_costliest_first(costs: &[u32], order: &mut [u32], tiles_x: u
     }
 }
 
-/// Largest `vkCmdUpdateBuffer`.
-const UPDATE_LIMIT: usize = 65536;
-
 /// The tile order and cost record of every slot, at one resolution.
 pub(crate) struct TileSchedule {
     tiles_x: u32,
     tiles: u32,
-    /// The order as the host last wrote it, every slot's.
-    order_words: Vec<u32>,
-    /// Read by the shader: dispatch slot -> tile, `tiles` entries per slot.
+    /// Read by the shader: dispatch slot -> tile, `tiles` entries per slot (host-written).
     pub order: GpuBuffer,
-    /// Written by the shader: each tile's cost in the slot's last frame.
+    /// Written by the shader: one sample per row of each tile (`GROUP.height` per tile) in
+    /// the slot's last frame (host-read).
     pub costs: GpuBuffer,
-    /// The costs copied back for the host.
-    readback: GpuBuffer,
 }
 
 impl TileSchedule {
@@ -83,76 +77,52 @@ impl TileSchedule {
     pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
         let tiles_x = width.div_ceil(GROUP.width);
         let tiles = tiles_x * height.div_ceil(GROUP.height);
-        let order_words: Vec<u32> = (0..slots).flat_map(|_| 0..tiles).collect();
-        let zeros = vec![0u8; order_words.len() * 4];
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let order = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&order_words), storage, "tile order")?;
-        let costs = GpuBuffer::device_local_with(ctx, &zeros, storage | vk::BufferUsageFlags::TRANSFER_SRC, "tile costs")?;
-        let mut readback = GpuBuffer::new(ctx, zeros.len() as u64, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "tile costs readback")?;
-        readback.mapped().expect("readback memory is mapped").fill(0);
-        Ok(Self { tiles_x, tiles, order_words, order, costs, readback })
-    }
-
-    /// Record, before a dispatch of `slot` over tile rows `rows`, the upload of those rows'
-    /// order (after earlier reads and writes of it).
-    pub fn record_upload(&self, device: &ash::Device, cmd: vk::CommandBuffer, slot: u32, rows: &Range<u32>) {
-        let words = self.slot_rows(slot, rows);
-        barrier::buffers(device, cmd, &[Access::ComputeRead, Access::TransferWrite], &[Access::TransferWrite]);
-        for (i, piece) in self.order_words[words.clone()].chunks(UPDATE_LIMIT / 4).enumerate() {
-            let offset = ((words.start + i * UPDATE_LIMIT / 4) * 4) as u64;
-            // SAFETY: `cmd` is recording; the range lies within the buffer (created with
-            // TRANSFER_DST), the data is a multiple of 4 bytes and at most 65536.
-            unsafe { device.cmd_update_buffer(cmd, self.order.buffer, offset, bytemuck::cast_slice(piece)) };
+        let bytes = tiles as u64 * slots as u64 * 4;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let mut order = GpuBuffer::new(ctx, bytes, usage, MemoryLocation::CpuToGpu, "tile order")?;
+        let mut costs = GpuBuffer::new(ctx, bytes * GROUP.height as u64, usage, MemoryLocation::GpuToCpu, "tile costs")?;
+        let identity = (0..slots).flat_map(|_| 0..tiles);
+        for (entry, tile) in order.mapped().expect("tile order is host-visible").chunks_exact_mut(4).zip(identity) {
+            entry.copy_from_slice(&tile.to_le_bytes());
         }
-        barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::ComputeRead]);
+        costs.mapped().expect("tile costs are host-visible").fill(0);
+        Ok(Self { tiles_x, tiles, order, costs })
     }
 
-    /// Record, after a dispatch of `slot` over tile rows `rows`, the copy of their costs to
-    /// where the host reads them once the slot's fence has signalled.
-    pub fn record_readback(&self, device: &ash::Device, cmd: vk::CommandBuffer, slot: u32, rows: &Range<u32>) {
-        let words = self.slot_rows(slot, rows);
-        let bytes = (words.start * 4) as u64;
-        barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferWrite], &[Access::TransferRead, Access::TransferWrite]);
-        let region = [vk::BufferCopy { src_offset: bytes, dst_offset: bytes, size: (words.len() * 4) as u64 }];
-        // SAFETY: `cmd` is recording; both buffers hold the range and have the usages.
-        unsafe { device.cmd_copy_buffer(cmd, self.costs.buffer, self.readback.buffer, &region) };
-        barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::HostRead]);
-    }
-
-    /// The order `slot`'s last dispatches took.
-    #[cfg(test)]
-    pub fn slot_order(&self, slot: u32) -> &[u32] {
-        &self.order_words[self.base(slot) as usize..(self.base(slot) + self.tiles) as usize]
-    }
-
-    /// The word range of `slot`'s tile rows `rows`.
-    fn slot_rows(&self, slot: u32, rows: &Range<u32>) -> Range<usize> {
-        let start = self.base(slot) + rows.start * self.tiles_x;
-        let end = self.base(slot) + (rows.end * self.tiles_x).min(self.tiles);
-        start as usize..end as usize
-    }
-
-    /// The first entry of `slot` in both buffers (the shader's `tile_base`).
+    /// The first entry of `slot` in the order (the shader's `tile_base`).
     pub fn base(&self, slot: u32) -> u32 {
         slot * self.tiles
     }
 
-    /// The costs `slot`'s last frame recorded, one per tile in row order. The slot's
-    /// commands must be done (its fence waited for).
+    /// What each tile cost in `slot`'s last frame (its samples added), in row order. The
+    /// slot's commands must be done (its fence waited for).
     pub fn costs(&mut self, slot: u32) -> Vec<u32> {
-        let range = self.base(slot) as usize..(self.base(slot) + self.tiles) as usize;
-        let bytes = self.readback.mapped().expect("readback memory is mapped");
-        bytemuck::cast_slice::<u8, u32>(bytes)[range].to_vec()
+        let rows = GROUP.height as usize;
+        let range = self.base(slot) as usize * rows..(self.base(slot) + self.tiles) as usize * rows;
+        let bytes = self.costs.mapped().expect("tile costs are host-visible");
+        let samples: &[u32] = &bytemuck::cast_slice(bytes)[range];
+        samples.chunks_exact(rows).map(|tile| tile.iter().fold(0u32, |a, &c| a.saturating_add(c))).collect()
     }
 
     /// Order `rect`'s tiles for the next dispatch of `slot` by what they cost in its last
-    /// frame (on the host; [`Self::record_upload`] sends it); returns the slot's base. The
-    /// slot's commands must be done.
+    /// frame; returns the slot's base. The slot's commands must be done.
     pub fn order(&mut self, slot: u32, rect: &TileRect) -> u32 {
         let costs = self.costs(slot);
-        let range = self.base(slot) as usize..(self.base(slot) + self.tiles) as usize;
-        order_costliest_first(&costs, &mut self.order_words[range], self.tiles_x, rect);
+        let tiles_x = self.tiles_x;
+        order_costliest_first(&costs, self.slot_order_mut(slot), tiles_x, rect);
         self.base(slot)
+    }
+
+    /// The order `slot`'s last dispatches took.
+    #[cfg(test)]
+    pub fn slot_order(&mut self, slot: u32) -> Vec<u32> {
+        self.slot_order_mut(slot).to_vec()
+    }
+
+    fn slot_order_mut(&mut self, slot: u32) -> &mut [u32] {
+        let range = self.base(slot) as usize..(self.base(slot) + self.tiles) as usize;
+        let bytes = self.order.mapped().expect("tile order is host-visible");
+        &mut bytemuck::cast_slice_mut(bytes)[range]
     }
 }
 
@@ -242,10 +212,13 @@ mod tests {
             let (cost, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..settings() })).unwrap();
             let (costs, order) = tracer.headless_tiles();
             let tiles_x = 80u32.div_ceil(GROUP.width);
+            // Each tile's rows sampled in their middle pixel (none past the frame's edge).
             let mut sums = vec![0u32; costs.len()];
             for (i, p) in cost.pixels.iter().enumerate() {
                 let (x, y) = (i as u32 % 80, i as u32 / 80);
-                sums[((y / GROUP.height) * tiles_x + x / GROUP.width) as usize] += (p[0] + p[1]) as u32;
+                if x % GROUP.width == GROUP.width / 2 {
+                    sums[((y / GROUP.height) * tiles_x + x / GROUP.width) as usize] += (p[0] + p[1]) as u32;
+                }
             }
             assert_eq!(costs, sums);
             assert!(costs.iter().any(|&c| c != costs[0]), "some tiles cost more than others: {costs:?}");
