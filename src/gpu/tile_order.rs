@@ -3,13 +3,15 @@
 //!
 //! A GPU starts work groups roughly in the order of their index, and a frame lasts until
 //! its slowest tile is done. Traced in rows, a model's costly tiles may come last and run
-//! alone at the end while the rest of the GPU idles. So each frame the trace shader adds up
-//! what every tile cost (BVH nodes visited plus triangles tested, the cost AOV's counts)
-//! and the next frame of the same slot dispatches its tiles in falling order of that cost
+//! alone at the end while the rest of the GPU idles. So each frame the trace shader records
+//! what every tile cost (BVH nodes visited plus triangles tested, the cost AOV's counts,
+//! sampled as below) and the next frame of the same slot dispatches its tiles in falling order of that cost
 //! (longest-processing-time-first scheduling). Only the order changes, never a pixel: a
 //! stale or empty record (a new resolution, a moved camera) costs speed, not correctness.
-//! On the H100 this took 10-31% off the mirror box and 16-20% off framed big meshes
-//! (docs/BENCHMARKS.md, "Costliest tiles first").
+//! On the H100 this took 10-17% off primary rays into 1M-10M-triangle meshes, 11-24% off
+//! the mirror box with them or the dragon, for 0-6% more on the paper's small scenes
+//! (docs/BENCHMARKS.md, "Costliest tiles first"). CPU devices keep row order
+//! (`Kernel::OursInRowOrder`): lavapipe traced 1.4-2x slower in cost order.
 //!
 //! Each timestamp slot (a frame in flight of the window, and the headless path) has its own
 //! range of both buffers, so the host rewrites one slot's order while another's frame runs.
@@ -47,16 +49,46 @@ impl TileRect {
     }
 }
 
+/// Cost classes: 0 for nothing, then four per octave (quarter-octave steps, ~19% apart).
+pub(crate) const COST_CLASSES: usize = 1 + 32 * 4;
+
+/// The class of a cost: tiles are ordered by class, which is as good a schedule as the
+/// exact cost and lets the host sort in linear time: 8,192 tiles (1024²) in 0.035 ms on
+/// this project's 2-core machine, where a comparison sort took 0.13 ms a frame.
+pub(crate) fn cost_class(cost: u32) -> usize {
+    if cost == 0 {
+        return 0;
+    }
+    let octave = 31 - cost.leading_zeros();
+    // The two bits after the leading one.
+    let quarter = if octave >= 2 { (cost >> (octave - 2)) & 3 } else { (cost << (2 - octave)) & 3 };
+    1 + (octave * 4 + quarter) as usize
+}
+
 /// Fill `order` for the tiles of `rect`: the dispatch slot that would trace tile `t` in row
-/// order (`order[t]`, for each `t` in `rect`) gets the rect's tiles by falling `costs`, ties
-/// in row order. Entries outside `rect` are left alone. `costs` and `order` hold one entry
-/// per tile of a frame `tiles_x` tiles wide.
+/// order (`order[t]`, for each `t` in `rect`) gets the rect's tiles by falling
+/// [`cost_class`], ties in row order. Entries outside `rect` are left alone. `costs` and
+/// `order` hold one entry per tile of a frame `tiles_x` tiles wide.
 pub(crate) fn order_costliest_first(costs: &[u32], order: &mut [u32], tiles_x: u32, rect: &TileRect) {
     let row_major = |r: u32| rect.columns.clone().map(move |c| r * tiles_x + c);
-    let mut tiles: Vec<u32> = rect.rows.clone().flat_map(row_major).collect();
-    // Stable: equal costs (a first frame's zeros) keep row order.
-    tiles.sort_by_key(|&t| std::cmp::Reverse(costs[t as usize]));
-    for (slot, tile) in rect.rows.clone().flat_map(row_major).zip(tiles) {
+    let class = |t: u32| cost_class(costs[t as usize]);
+    // A counting sort, costliest class first; stable, so equal classes (a first frame's
+    // zeros) keep row order.
+    let mut start = [0usize; COST_CLASSES + 1];
+    for t in rect.rows.clone().flat_map(row_major) {
+        start[COST_CLASSES - class(t)] += 1;
+    }
+    let mut next = 0;
+    for entry in start.iter_mut() {
+        (*entry, next) = (next, next + *entry);
+    }
+    let mut sorted = vec![0u32; next];
+    for t in rect.rows.clone().flat_map(row_major) {
+        let at = &mut start[COST_CLASSES - class(t)];
+        sorted[*at] = t;
+        *at += 1;
+    }
+    for (slot, tile) in rect.rows.clone().flat_map(row_major).zip(sorted) {
         order[slot as usize] = tile;
     }
 }
@@ -163,7 +195,19 @@ mod tests {
         let mut sorted = dispatched.clone();
         sorted.sort_unstable();
         assert_eq!(sorted, inside);
-        assert!(dispatched.windows(2).all(|w| costs[w[0] as usize] >= costs[w[1] as usize]), "{dispatched:?}");
+        let class = |t: u32| cost_class(costs[t as usize]);
+        assert!(dispatched.windows(2).all(|w| class(w[0]) > class(w[1]) || (class(w[0]) == class(w[1]) && w[0] < w[1])), "{dispatched:?}");
+    }
+
+    #[test]
+    fn cost_classes_are_quarter_octaves_in_order() {
+        assert_eq!([0, 1, 2, 3, 4, 5, 6, 7, 8].map(cost_class), [0, 1, 5, 7, 9, 10, 11, 12, 13]);
+        assert_eq!(cost_class(u32::MAX), COST_CLASSES - 1);
+        let classes: Vec<usize> = (0..100_000u32).map(cost_class).collect();
+        assert!(classes.windows(2).all(|w| w[0] <= w[1]), "classes never fall as the cost grows");
+        // Costs in one class are within a quarter octave.
+        assert_eq!(cost_class(1000), cost_class(1023));
+        assert!(cost_class(1000) < cost_class(1200));
     }
 
     #[test]
@@ -179,6 +223,7 @@ mod tests {
     mod on_the_gpu {
         use crate::gpu::trace_pass::{FrameTrace, Kernel, SplitTrace};
         use crate::gpu::GROUP;
+        use super::super::cost_class;
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
         use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
         use crate::scene::primitives::PaperModel;
@@ -226,7 +271,7 @@ mod tests {
             // tiles by the first one's, costliest first.
             assert_eq!(first_costs, costs);
             assert_ne!(order, row_order, "the order changed once costs were known");
-            assert!(order.windows(2).all(|w| costs[w[0] as usize] >= costs[w[1] as usize]), "costliest first: {order:?}");
+            assert!(order.windows(2).all(|w| cost_class(costs[w[0] as usize]) >= cost_class(costs[w[1] as usize])), "costliest first: {order:?}");
             let (ordered, _) = tracer.render(&params).unwrap();
             assert_eq!(ordered.pixels, first.pixels, "the order changes no pixel");
             drop(tracer);
