@@ -238,6 +238,21 @@ fn a_frame_traced_in_bands_equals_render() {
 }
 
 #[test]
+fn the_window_in_costliest_tile_order_equals_render() {
+    // lavapipe traces in row order; forced to the GPUs' order, the window's frames in
+    // flight each take their tiles by their own last costs, here also in small bands.
+    let x = Xvfb::start();
+    let dir = TempDir::new("tile-order");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.env("MESHTRACER_TILE_ORDER", "costliest").env("MESHTRACER_TESTS_PER_SUBMISSION", "20000");
+    cmd.args(view_args(&["--frames", "4", "--screenshot", "ordered.png"]));
+    assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
+    let ordered = load(&dir.path().join("ordered.png"));
+    let reference = headless_render(dir.path(), &SCENE, "ref.png");
+    assert!(max_diff(&ordered, &reference) <= 1, "the window in tile order differs from `render` by {}", max_diff(&ordered, &reference));
+}
+
+#[test]
 fn a_frame_that_takes_minutes_leaves_the_window_answering() {
     // Brute force on a 100k-triangle knot at 256²: minutes per frame on lavapipe. The
     // window traces it in bands, so keys land while it fills in: F12 saves what is there,

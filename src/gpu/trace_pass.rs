@@ -45,9 +45,15 @@ pub enum Kernel {
 
 impl Kernel {
     /// Our tracer's kernel for a device: costliest tiles first on GPUs, row order on CPUs
-    /// (where the order measured 1.4-2x slower on lavapipe).
+    /// (where the order measured 1.4-2x slower on lavapipe). `MESHTRACER_TILE_ORDER=rows`
+    /// or `=costliest` overrides it (the window tests trace the GPU's order on lavapipe).
     pub fn ours_for(info: &super::context::DeviceInfo) -> Self {
-        if info.is_cpu() { Self::OursInRowOrder } else { Self::Ours }
+        match std::env::var("MESHTRACER_TILE_ORDER").as_deref() {
+            Ok("rows") => Self::OursInRowOrder,
+            Ok("costliest") => Self::Ours,
+            _ if info.is_cpu() => Self::OursInRowOrder,
+            _ => Self::Ours,
+        }
     }
 
     /// Whether the kernel takes its tiles from the tile order (and records their costs).
