@@ -215,15 +215,9 @@ impl ComputeTracer {
         self.pass.shader_statistics()
     }
 
-    /// Where the memory of each scene buffer and of the tile order lives, one line each
-    /// (`bench --verbose`).
+    /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
     pub fn describe_memory(&self) -> Vec<String> {
-        let mut lines = self.scene.as_ref().map_or_else(Vec::new, |s| s.describe());
-        if let Some(out) = &self.output {
-            let tiles = out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-            lines.extend([tiles.order.describe(), tiles.costs.describe()]);
-        }
-        lines
+        self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())
     }
 
     /// Instances on the GPU now.

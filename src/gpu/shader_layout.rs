@@ -150,6 +150,15 @@ mod tests {
     }
 
     #[test]
+    fn the_tracers_tile_is_its_work_group() {
+        // trace.comp maps groups to tiles with a constant of its own (naga's SPIR-V for
+        // gl_WorkGroupSize does not validate), which must stay the work group's size.
+        let trace = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/trace.comp")).unwrap();
+        let line = format!("const uvec2 TILE = uvec2({GROUP_WIDTH}u, {GROUP_HEIGHT}u);");
+        assert!(trace.contains(&line), "trace.comp must declare {line}");
+    }
+
+    #[test]
     fn the_vendor_query_shader_has_the_tracers_work_group() {
         // Both pipelines are recorded by the same dispatch, which tiles the frame with GROUP.
         let query = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/vendor/query.comp")).unwrap();

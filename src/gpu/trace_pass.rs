@@ -119,6 +119,7 @@ pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout
 /// The GPU must not be using the set.
 pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
+    let tiles = output.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     // Each binding the shader declares, by its block name (see shader_layout).
     let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
         .iter()
@@ -135,8 +136,8 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
                 TraceBuffer::OutRgba8 => &output.rgba8,
                 TraceBuffer::OutFloat => &output.float,
                 TraceBuffer::PrimIds => &output.prim_ids,
-                TraceBuffer::TileOrder => return (b.binding, whole(output.tile_buffers[0])),
-                TraceBuffer::TileCosts => return (b.binding, whole(output.tile_buffers[1])),
+                TraceBuffer::TileOrder => &tiles.order,
+                TraceBuffer::TileCosts => &tiles.costs,
             };
             (b.binding, whole(buffer.buffer))
         })
@@ -244,8 +245,6 @@ pub struct TraceOutput {
     /// The tiles' order and costs per frame slot (the host writes one slot's order while
     /// another slot's frame may run, hence the lock rather than `&mut`).
     pub tiles: Mutex<TileSchedule>,
-    /// The schedule's order and cost buffers, for the descriptor set.
-    tile_buffers: [vk::Buffer; 2],
 }
 
 impl TraceOutput {
@@ -266,7 +265,6 @@ impl TraceOutput {
             rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
             float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
             prim_ids: GpuBuffer::new(ctx, pixels * 4, usage, loc, "primary ids")?,
-            tile_buffers: [tiles.order.buffer, tiles.costs.buffer],
             tiles: Mutex::new(tiles),
         })
     }
