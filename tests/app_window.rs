@@ -43,7 +43,14 @@ fn scripted_run_writes_trace_and_window_screenshots() {
     let bright = left.iter().filter(|p| p.0[0] > 120 && p.0[1] > 120 && p.0[2] > 120).count();
     assert!(bright > 200, "no text on the panel ({bright} bright pixels)");
 
+    assert_window_shows(&b, &a);
+}
+
+/// The 640x480 window screenshot `b` shows the traced image `a` right of the panel,
+/// square, scaled up, and as traced (within a small mean difference).
+fn assert_window_shows(b: &image::RgbaImage, a: &image::RgbaImage) {
     // The panel ends where the columns stop being mostly panel-grey.
+    let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;
     let gray_share = |x: u32| (0..480).filter(|&y| panel_gray(b.get_pixel(x, y))).count() as f64 / 480.0;
     let panel_end = (100..640).find(|&x| (x..(x + 4).min(640)).all(|c| gray_share(c) < 0.1)).expect("the panel fills the window");
     assert!((200..500).contains(&panel_end), "the panel ends at x = {panel_end}");
@@ -64,8 +71,8 @@ fn scripted_run_writes_trace_and_window_screenshots() {
     let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
     assert!(w.abs_diff(h) <= 2, "the image is not square in the window: {w}x{h}");
     assert!(w > 200, "the image is small in the window: {w}x{h}");
-    let region = image::imageops::crop_imm(&b, x0, y0, w, h).to_image();
-    let scaled = image::imageops::resize(&a, w, h, image::imageops::FilterType::Nearest);
+    let region = image::imageops::crop_imm(b, x0, y0, w, h).to_image();
+    let scaled = image::imageops::resize(a, w, h, image::imageops::FilterType::Nearest);
     let mean: f64 = region.as_raw().iter().zip(scaled.as_raw()).map(|(p, q)| p.abs_diff(*q) as f64).sum::<f64>() / region.as_raw().len() as f64;
     assert!(mean < 12.0, "the window shows something else than the trace (mean difference {mean:.1})");
 }
@@ -250,6 +257,27 @@ fn the_window_in_costliest_tile_order_equals_render() {
     let ordered = load(&dir.path().join("ordered.png"));
     let reference = headless_render(dir.path(), &SCENE, "ref.png");
     assert!(max_diff(&ordered, &reference) <= 1, "the window in tile order differs from `render` by {}", max_diff(&ordered, &reference));
+}
+
+#[test]
+fn a_window_traced_on_another_device_context_shows_what_render_makes() {
+    // `--trace-device`: a GPU that cannot present traces, another device shows its frames.
+    // Here both are lavapipe, in two contexts: each frame is traced in the tracing one, read
+    // back and drawn through the window's. Then in small bands over several frames.
+    let x = Xvfb::start();
+    let dir = TempDir::new("trace-device");
+    let reference = headless_render(dir.path(), &SCENE, "ref.png");
+    for (bands, tests_per_submission) in [(false, None), (true, Some("20000"))] {
+        let mut cmd = meshtracer(&x.display, dir.path());
+        if let Some(n) = tests_per_submission {
+            cmd.env("MESHTRACER_TESTS_PER_SUBMISSION", n);
+        }
+        cmd.args(view_args(&["--trace-device", "0", "--frames", "4", "--screenshot", "traced.png", "--screenshot-ui", "window.png", "--no-hud"]));
+        assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
+        let traced = load(&dir.path().join("traced.png"));
+        assert!(max_diff(&traced, &reference) <= 1, "traced elsewhere (bands: {bands}), the image differs from `render` by {}", max_diff(&traced, &reference));
+        assert_window_shows(&load(&dir.path().join("window.png")), &traced);
+    }
 }
 
 #[test]

@@ -14,6 +14,9 @@ pub struct ViewOptions {
     pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index; None picks the fastest kind present.
     pub(crate) device: Option<usize>,
+    /// Trace on this device and show its frames through the window's device (`--device`,
+    /// or the one picked); None: the window's device traces.
+    pub(crate) trace_device: Option<usize>,
     /// Quit after this many traced frames (scripts and tests); the light starts paused.
     pub(crate) frames: Option<u64>,
     /// Write the traced image (render resolution) to this PNG at exit.

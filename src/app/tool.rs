@@ -12,6 +12,7 @@ use winit::event_loop::ActiveEventLoop;
 use winit::keyboard::PhysicalKey;
 use winit::window::Window;
 
+mod devices;
 mod files;
 mod split;
 
@@ -33,18 +34,18 @@ use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
 use super::open_dialog::{OpenDialog, Purpose};
 use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
-use crate::gpu::present::surface::context_for_window;
-use crate::gpu::present::{FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
+use crate::gpu::present::{FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP;
 use crate::gpu::vendor::VendorKernel;
-use crate::gpu::{Band, ComputeTracer, ContextOptions, FrameTrace, GpuContext, GpuError, PartTimes};
+use crate::gpu::{Band, ComputeTracer, FrameTrace, GpuContext, GpuError, PartTimes};
 use crate::scene::spec::SceneSpec;
 use crate::tracer::budget;
 use crate::tracer::frame::{Accel, RenderSettings};
 
-/// The picture of a view other than colour (cost heat map, depth, ...): its pixels (for
+/// A picture made or read back on the CPU: a view other than colour (cost heat map,
+/// depth, ...), or the colour traced on a device other than the window's. Its pixels (for
 /// F12) and its legend.
-struct HeatShown {
+struct Picture {
     width: u32,
     height: u32,
     rgba: Vec<u8>,
@@ -60,8 +61,8 @@ enum Shown {
     Nothing,
     /// The tracer's colour output.
     Output,
-    /// The heat map in `Tool::heat`.
-    Heat,
+    /// The pixels in `Tool::picture`.
+    Picture,
 }
 
 /// What one display frame traces and shows.
@@ -77,11 +78,22 @@ struct Prepared {
     completes: bool,
 }
 
-/// The GPU side: declared in drop order (before the context, the window's surface last).
+/// The GPU side: declared in drop order (before the contexts, the window's surface last).
 struct Gpu {
-    presenter: Presenter,
+    presenter: crate::gpu::present::Presenter,
     tracer: ComputeTracer,
+    /// The device that presents.
     ctx: Arc<GpuContext>,
+    /// The device that traces: `ctx` itself, or another one (see `devices.rs`).
+    trace_ctx: Arc<GpuContext>,
+}
+
+impl Gpu {
+    /// The tracer is on a device other than the window's: each frame is traced and read
+    /// back before it is drawn, instead of recorded into the frame's commands.
+    fn traces_elsewhere(&self) -> bool {
+        !Arc::ptr_eq(&self.ctx, &self.trace_ctx)
+    }
 }
 
 pub struct Tool {
@@ -97,7 +109,7 @@ pub struct Tool {
     script: ScriptedRun,
     stats: FrameStats,
     panel: PanelState,
-    heat: Option<HeatShown>,
+    picture: Option<Picture>,
     /// The long frame being traced in bands, if any.
     progressive: Option<Progressive>,
     /// A short notice over the image (a screenshot written).
@@ -134,16 +146,15 @@ impl Tool {
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| headless_error("cannot open a window", e))?);
         let display = window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
         let window_handle = window.window_handle().map_err(|e| headless_error("no window handle", e))?.as_raw();
-        let context_options = ContextOptions { validation: options.validation, device_index: options.device, ..Default::default() };
-        // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
-        // owning it is dropped first (see `shut_down`).
-        let (ctx, surface) = unsafe { context_for_window(&context_options, display, window_handle) }.map_err(|e| headless_error("no Vulkan device for the window", e))?;
         let mut params = Params::new(&options.spec, options.scripted());
         params.hud_visible = options.hud;
         params.split = options.split;
         let physical = window.inner_size();
-        let presenter = Presenter::new(&ctx, surface, [physical.width, physical.height], params.vsync)?;
-        let tracer = ComputeTracer::new(&ctx, FRAMES_IN_FLIGHT as u32)?;
+        // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
+        // owning it is dropped first (see `shut_down`).
+        let devices = unsafe { devices::open(options, display, window_handle, [physical.width, physical.height], params.vsync) }?;
+        let devices::WindowDevices { presenter, ctx, trace_ctx } = devices;
+        let tracer = ComputeTracer::new(&trace_ctx, FRAMES_IN_FLIGHT as u32)?;
 
         let egui_ctx = egui::Context::default();
         egui_ctx.set_theme(egui::ThemePreference::Dark);
@@ -159,7 +170,7 @@ impl Tool {
         session.start_load(options.spec.model.clone(), &params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
         Ok(Self {
-            gpu: Gpu { presenter, tracer, ctx },
+            gpu: Gpu { presenter, tracer, ctx, trace_ctx },
             egui_state,
             egui_ctx,
             window,
@@ -170,7 +181,7 @@ impl Tool {
             script: ScriptedRun::new(options.frames, options.screenshot.clone(), options.screenshot_ui.clone()),
             stats: FrameStats::default(),
             panel,
-            heat: None,
+            picture: None,
             progressive: None,
             band_groups: 1,
             notice: None,
@@ -200,13 +211,19 @@ impl Tool {
     /// Free everything in order; returns the validation messages seen.
     pub fn shut_down(mut self) -> Vec<String> {
         self.remember();
-        let Tool { gpu: Gpu { presenter, tracer, ctx }, egui_state, window, .. } = self;
+        let separate = self.gpu.traces_elsewhere();
+        let Tool { gpu: Gpu { presenter, tracer, ctx, trace_ctx }, egui_state, window, .. } = self;
         let _ = ctx.wait_idle();
+        let _ = trace_ctx.wait_idle();
         drop(presenter);
         drop(tracer);
         drop(egui_state);
         drop(window);
-        ctx.validation_messages()
+        let mut messages = ctx.validation_messages();
+        if separate {
+            messages.extend(trace_ctx.validation_messages());
+        }
+        messages
     }
 
     /// A raw mouse button from winit's device events (see [`Input::raw_button`]).
@@ -324,8 +341,7 @@ impl Tool {
         let dir_text = std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
         let (triangles, vertices) = self.session.counts();
         let vendor = self.vendor_info();
-        let ctx = &self.gpu.ctx;
-        let device = format!("{} ({}){}", ctx.info.name, ctx.info.device_type, if ctx.validation_enabled() { ", validation on" } else { "" });
+        let device = devices::describe(&self.gpu.ctx, &self.gpu.trace_ctx);
         let info = PanelInfo {
             device: &device,
             model: self.session.model.as_ref().map(|m| &m.source),
@@ -336,8 +352,8 @@ impl Tool {
             loading: self.session.loader.status(),
             present_mode: self.gpu.presenter.present_mode_name(),
             vsync_off_available: self.gpu.presenter.can_disable_vsync(),
-            heat: self.heat.as_ref().and_then(|h| h.stats),
-            view_note: self.heat.as_ref().and_then(|h| h.note.as_deref()),
+            heat: self.picture.as_ref().and_then(|h| h.stats),
+            view_note: self.picture.as_ref().and_then(|h| h.note.as_deref()),
             accumulated_frames: self.session.accumulation.frames,
             progress: self.progressive.as_ref().map(|p| (p.progress(), p.seconds_left())),
             brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::tracer::Accel::Brute, ..settings }, triangles),
@@ -386,7 +402,7 @@ impl Tool {
     /// The vendor path as the panel shows it.
     fn vendor_info(&self) -> VendorInfo {
         let tracer = &self.gpu.tracer;
-        let support = &self.gpu.ctx.info.vendor;
+        let support = &self.gpu.trace_ctx.info.vendor;
         VendorInfo {
             unavailable: tracer.vendor_kernel().err().map(str::to_string),
             kernel: tracer.vendor_kernel().ok(),
@@ -420,7 +436,8 @@ impl Tool {
     /// Decide what this display frame traces and shows. A frame that fits one submission
     /// is traced whole in the frame's command buffer; a longer one (brute force on a big
     /// mesh) is traced in row bands, one per display frame, so the window keeps drawing
-    /// and answering input while the image fills in, and any change starts it afresh.
+    /// and answering input while the image fills in, and any change starts it afresh. A
+    /// tracer on another device than the window's traces here and its picture is read back.
     fn prepare_image(&mut self, params: Option<FrameTrace>) -> anyhow::Result<Prepared> {
         let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else {
             self.progressive = None;
@@ -449,10 +466,15 @@ impl Tool {
             self.progressive = None;
             if let Some(view) = cost {
                 let (image, timing) = self.gpu.tracer.render_frame(&params)?;
-                self.set_heat(&image, view);
-                return Ok(Prepared { trace: None, show: Shown::Heat, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+                self.set_picture(&image, view);
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
             }
-            self.heat = None;
+            if self.gpu.traces_elsewhere() {
+                let timing = self.gpu.tracer.trace_frame(&params)?;
+                self.read_back_colour()?;
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+            }
+            self.picture = None;
             let whole = Band::rows(0..height, width);
             return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true });
         }
@@ -470,26 +492,50 @@ impl Tool {
         if completes {
             self.progressive = None;
         }
+        if self.gpu.traces_elsewhere() {
+            let ms = self.gpu.tracer.trace_band(&params, &band)?;
+            let total: f64 = ms.iter().flatten().sum();
+            self.band_groups = adapt_groups(self.band_groups, total, u32::MAX);
+            match cost {
+                None => self.read_back_colour()?,
+                Some(view) if completes => {
+                    let image = self.gpu.tracer.read_image()?;
+                    self.set_picture(&image, view);
+                }
+                Some(_) => {}
+            }
+            let show = if self.picture.is_some() { Shown::Picture } else { Shown::Nothing };
+            let part_ms = params.split.is_some().then(|| ms.map(|m| m.unwrap_or(0.0)));
+            return Ok(Prepared { trace: None, show, gpu_ms: Some(total), part_ms, completes });
+        }
         let show = match cost {
-            Some(_) if self.heat.is_some() => Shown::Heat,
+            Some(_) if self.picture.is_some() => Shown::Picture,
             Some(_) => Shown::Nothing,
             None => {
-                self.heat = None;
+                self.picture = None;
                 Shown::Output
             }
         };
         Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes })
     }
 
+    /// Show the tracer's colour output as it is now, read back from the tracing device.
+    fn read_back_colour(&mut self) -> anyhow::Result<()> {
+        let image = self.gpu.tracer.read_rgba8()?;
+        let (width, height) = image.dimensions();
+        self.picture = Some(Picture { width, height, rgba: image.into_raw(), stats: None, note: None });
+        Ok(())
+    }
+
     /// Make the picture of a view other than colour, traced into `image`, the one shown.
-    fn set_heat(&mut self, image: &crate::tracer::Image, view: ViewMode) {
+    fn set_picture(&mut self, image: &crate::tracer::Image, view: ViewMode) {
         let (width, height) = (image.width, image.height);
-        self.heat = match (view, aov_view::picture(image, view)) {
+        self.picture = match (view, aov_view::picture(image, view)) {
             (ViewMode::Cost(metric), _) => {
                 let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
-                Some(HeatShown { width, height, rgba: map.rgba, stats: Some((map.scale_max, map.max, map.mean)), note: None })
+                Some(Picture { width, height, rgba: map.rgba, stats: Some((map.scale_max, map.max, map.mean)), note: None })
             }
-            (_, Some(p)) => Some(HeatShown { width, height, rgba: p.rgba, stats: p.heat, note: p.note }),
+            (_, Some(p)) => Some(Picture { width, height, rgba: p.rgba, stats: p.heat, note: p.note }),
             (_, None) => None,
         };
     }
@@ -559,17 +605,19 @@ impl Tool {
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
         let banded = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
-        let show = match (prepared.show, &self.heat) {
+        let show = match (prepared.show, &self.picture) {
             (Shown::Output, _) => Show::Output,
-            (Shown::Heat, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
+            (Shown::Picture, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
             _ => Show::Nothing,
         };
         let request = FrameRequest { trace: prepared.trace.clone(), show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
-        let outcome = self.gpu.presenter.draw(Some(&self.gpu.tracer), &request)?;
+        // A tracer on another device has traced already; its buffers are not the window's.
+        let recording = Some(&self.gpu.tracer).filter(|_| !self.gpu.traces_elsewhere());
+        let outcome = self.gpu.presenter.draw(recording, &request)?;
         if banded && prepared.completes && self.params.view != ViewMode::Color {
             // The last band of a long frame of another view: its picture replaces the last.
             let image = self.gpu.tracer.read_image()?;
-            self.set_heat(&image, self.params.view);
+            self.set_picture(&image, self.params.view);
         }
         if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
             self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);
@@ -598,7 +646,7 @@ impl Tool {
             self.last_frame = None;
         }
         self.benchmarks.after_frame(t, outcome.presented && traced, banded, outcome.gpu_ms);
-        let (session, ctx) = (&self.session, &self.gpu.ctx);
+        let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
         let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
         if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark, workload, || crate::bench::environment(ctx))? {
             self.script.request_exit();

@@ -265,6 +265,12 @@ pub struct ViewArgs {
     /// Quit after this many frames (for scripts and tests).
     #[arg(long, conflicts_with = "benchmark")]
     pub(crate) frames: Option<u64>,
+    /// Trace on this Vulkan device (see `meshtracer devices`) and show its frames through
+    /// the window's device (--device, or the best one that can present): for a GPU that
+    /// cannot present, such as a compute GPU on a server reached through VNC. Happens by
+    /// itself when the device picked for the window cannot show it.
+    #[arg(long, value_name = "INDEX")]
+    pub(crate) trace_device: Option<usize>,
     /// Run the benchmark (the camera orbits once in N frames at the given settings), print
     /// its summary, append it to --benchmark-json, and quit: 0 on success, 1 on a failure.
     #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "120", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
@@ -324,6 +330,7 @@ impl ViewArgs {
             spec,
             preset: self.scene.preset.clone(),
             device: self.scene.device,
+            trace_device: self.trace_device,
             frames: self.frames,
             screenshot: self.screenshot.clone(),
             screenshot_ui: self.screenshot_ui.clone(),

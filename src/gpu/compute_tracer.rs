@@ -392,16 +392,13 @@ impl ComputeTracer {
         }
         self.prepare(frame)?;
         let band = self.rows_per_submission(frame);
-        let slot = self.recorded_slots;
         let timed = self.timer.is_some();
         let mut timing = TraceTiming { gpu_ms: timed.then_some(0.0), parts_ms: (timed && frame.split.is_some()).then_some([0.0; 2]), ..Default::default() };
         let start = Instant::now();
         let mut row = 0;
         while row < s.height {
             let rows = Band::rows(row..(row + band).min(s.height), s.width);
-            let mut parts = [[false; 2]; 2];
-            self.submit_and_wait(|cmd| parts = self.record(cmd, frame, &rows, Some(slot)))?;
-            let ms = self.timer_ms(slot, parts).map(|m| m.unwrap_or(0.0));
+            let ms = self.trace_band(frame, &rows)?.map(|m| m.unwrap_or(0.0));
             if let Some(total) = timing.gpu_ms.as_mut() {
                 *total += ms[0] + ms[1];
             }
@@ -414,6 +411,16 @@ impl ComputeTracer {
         }
         timing.wall_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(timing)
+    }
+
+    /// Trace `band` of a frame now in one submission and wait for it; the milliseconds of
+    /// each part it traced. The frame's resolution must be set and the tracer prepared
+    /// for it ([`Self::prepare`]).
+    pub(crate) fn trace_band(&self, frame: &FrameTrace, band: &Band) -> Result<PartTimes, GpuError> {
+        let slot = self.recorded_slots;
+        let mut parts = [[false; 2]; 2];
+        self.submit_and_wait(|cmd| parts = self.record(cmd, frame, band, Some(slot)))?;
+        Ok(self.timer_ms(slot, parts))
     }
 
     /// Trace a frame and read back the float image (colour or AOV).

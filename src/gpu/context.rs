@@ -48,6 +48,8 @@ impl ContextOptions {
 #[derive(Clone, Debug)]
 pub struct DeviceInfo {
     pub name: String,
+    /// The device's index in the instance's list (`meshtracer devices`, `--device`).
+    pub(crate) index: usize,
     pub(crate) device_type: String,
     /// Driver name and version as the driver reports them.
     pub driver: String,
@@ -302,10 +304,10 @@ impl GpuContext {
                 None => None,
             };
             let surface_loader = ash::khr::surface::Instance::new(&entry, &instance);
-            let (physical_device, queue_family) = pick_device(&instance, options.device_index, surface.map(|s| (&surface_loader, s)))?;
-            Ok::<_, GpuError>((surface, physical_device, queue_family))
+            let picked = pick_device(&instance, options.device_index, surface.map(|s| (&surface_loader, s)))?;
+            Ok::<_, GpuError>((surface, picked))
         })();
-        let (surface, physical_device, queue_family) = match result {
+        let (surface, (physical_device, queue_family, index)) = match result {
             Ok(v) => v,
             Err(e) => {
                 // SAFETY: the messenger and the instance were made above and nothing else
@@ -383,7 +385,7 @@ impl GpuContext {
         })
         .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
 
-        let info = DeviceInfo { vendor, shader_statistics, shader_clock, ..device_info_of(&instance, physical_device, queue_family, &props) };
+        let info = DeviceInfo { index, vendor, shader_statistics, shader_clock, ..device_info_of(&instance, physical_device, queue_family, &props) };
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
         let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
@@ -494,7 +496,7 @@ fn pick_device(
     instance: &ash::Instance,
     index: Option<usize>,
     surface: Option<(&ash::khr::surface::Instance, vk::SurfaceKHR)>,
-) -> Result<(vk::PhysicalDevice, u32), GpuError> {
+) -> Result<(vk::PhysicalDevice, u32, usize), GpuError> {
     // SAFETY: a plain query of the live instance.
     let devices = unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
     if devices.is_empty() {
@@ -516,7 +518,7 @@ fn pick_device(
     };
     if let Some(i) = index {
         let pd = *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
-        return queue_for(pd).map(|q| (pd, q)).ok_or(GpuError::NoDevice);
+        return queue_for(pd).map(|q| (pd, q, i)).ok_or(GpuError::NoDevice);
     }
     // SAFETY: a query on a physical device of this instance.
     let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }.device_type {
@@ -526,10 +528,10 @@ fn pick_device(
         vk::PhysicalDeviceType::CPU => 3,
         _ => 4,
     };
-    let mut candidates: Vec<(i32, vk::PhysicalDevice, u32)> =
-        devices.iter().filter_map(|&pd| queue_for(pd).map(|q| (rank(pd), pd, q))).collect();
+    let mut candidates: Vec<(i32, vk::PhysicalDevice, u32, usize)> =
+        devices.iter().enumerate().filter_map(|(i, &pd)| queue_for(pd).map(|q| (rank(pd), pd, q, i))).collect();
     candidates.sort_by_key(|c| c.0);
-    candidates.first().map(|&(_, pd, q)| (pd, q)).ok_or(GpuError::NoDevice)
+    candidates.first().map(|&(_, pd, q, i)| (pd, q, i)).ok_or(GpuError::NoDevice)
 }
 
 fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
@@ -551,6 +553,7 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         .unwrap_or(0);
     let v = props.api_version;
     DeviceInfo {
+        index: 0,
         name: props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned(),
         device_type: device_type_name(props.device_type).into(),
         driver: format!("{driver_name} {driver_info}").trim().to_string(),

@@ -87,7 +87,7 @@ impl Tool {
         if !self.traced {
             return Ok(None);
         }
-        if let Some(h) = &self.heat {
+        if let Some(h) = &self.picture {
             return Ok(image::RgbaImage::from_raw(h.width, h.height, h.rgba.clone()));
         }
         Ok(Some(self.gpu.tracer.read_rgba8()?))
