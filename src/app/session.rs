@@ -155,7 +155,9 @@ impl Session {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
-        let mut frame = params.split.frame(FrameParams::new(&model.scene, params.settings_for(area)));
+        let mesh_bounds: Vec<_> = model.packed.meshes.iter().map(|m| m.bounds).collect();
+        let bounds = model.scene.bounds_with(&mesh_bounds);
+        let mut frame = params.split.frame(FrameParams::with_bounds(&model.scene, params.settings_for(area), bounds));
         // Average frames while nothing changes; any change starts afresh.
         let acc = &mut self.accumulation;
         let still = params.accumulate && frame.params.settings.aov == Aov::Color && acc.last == Some(frame);

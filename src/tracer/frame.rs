@@ -196,7 +196,12 @@ pub(crate) struct PushConstants {
 impl FrameParams {
     /// Parameters for `scene` rendered with `settings`.
     pub fn new(scene: &Scene, settings: RenderSettings) -> Self {
-        let extent = scene.bounds().extent().max_element();
+        Self::with_bounds(scene, settings, scene.bounds())
+    }
+
+    /// [`Self::new`] with the scene's world bounds already known (they set the ray offset).
+    pub(crate) fn with_bounds(scene: &Scene, settings: RenderSettings, bounds: crate::geometry::Aabb) -> Self {
+        let extent = bounds.extent().max_element();
         Self {
             settings,
             camera: scene.camera.basis(settings.width, settings.height),

@@ -302,4 +302,19 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     }
+
+    #[test]
+    fn the_mesh_tables_boxes_give_the_scenes_bounds() {
+        // The window takes the world bounds (the ray offset) from the mesh table each frame.
+        use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+        use crate::scene::primitives::PaperModel;
+        let mut mesh = PaperModel::TorusKnot.mesh();
+        prepare_model(&mut mesh);
+        let mut scene = paper_scene(mesh, 3, LightOrbit::default());
+        scene.instances[1].translation.x += 7.5;
+        let packed = PackedScene::new(&scene);
+        let boxes: Vec<_> = packed.meshes.iter().map(|m| m.bounds).collect();
+        assert_eq!(scene.bounds_with(&boxes), scene.bounds());
+        assert!(scene.bounds().max.x > 7.5, "the moved copy counts");
+    }
 }
