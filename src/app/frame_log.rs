@@ -5,11 +5,14 @@
 //! Every row has the same columns; `row` says which kind it is:
 //!
 //! ```text
-//! row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,parameter,change
-//! frame,41,0.684,1.902,16.671,512x512,2,1,bvh,20480,786432,,
-//! change,42,0.701,,,,,,,,,bounces,2->3
-//! frame,42,0.701,2.514,16.669,512x512,3,1,bvh,20480,1048576,,
+//! row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change
+//! frame,41,0.684,1.902,16.671,512x512,2,1,bvh,20480,786432,1980,,
+//! change,42,0.701,,,,,,,,,,bounces,2->3
+//! frame,42,0.701,2.514,16.669,512x512,3,1,bvh,20480,1048576,1980,,
 //! ```
+//!
+//! `gpu_clock_mhz` is the tracing GPU's shader clock as last read (`gpu_clock`; empty on CPU
+//! devices): a GPU that idles between frames is clocked down and traces slower.
 //!
 //! A change row comes just before the first frame traced with the new value. A value that
 //! moves over several frames (a slider or the camera dragged) gives one row once it holds
@@ -26,7 +29,7 @@ use super::state::{Params, Resolution};
 use crate::tracer::frame::{Accel, RenderSettings};
 
 /// The CSV header line.
-pub const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,parameter,change";
+pub const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change";
 
 /// One traced frame's numbers.
 #[derive(Clone, Debug, PartialEq)]
@@ -49,6 +52,8 @@ pub struct FrameRow {
     pub triangles: u64,
     /// Rays the frame traces at most (every pixel, sample and bounce).
     pub rays: u64,
+    /// The tracing GPU's shader clock as last read, MHz.
+    pub gpu_clock_mhz: Option<f64>,
 }
 
 /// A watched parameter and its value as text.
@@ -136,7 +141,7 @@ fn ms(v: Option<f64>) -> String {
 /// The CSV line of frame `index`, `time_s` after the log's first frame.
 pub fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
     format!(
-        "frame,{index},{time_s:.3},{},{},{}x{},{},{},{},{},{},,",
+        "frame,{index},{time_s:.3},{},{},{}x{},{},{},{},{},{},{},,",
         ms(r.gpu_ms),
         ms(r.frame_ms),
         r.size[0],
@@ -145,13 +150,14 @@ pub fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
         r.spp,
         r.accel,
         r.triangles,
-        r.rays
+        r.rays,
+        r.gpu_clock_mhz.map_or(String::new(), |m| format!("{m:.0}"))
     )
 }
 
 /// The CSV line of a change that takes effect at frame `index`.
 pub fn change_line(index: u64, time_s: f64, c: &Change) -> String {
-    format!("change,{index},{time_s:.3},,,,,,,,,{},{}", field(c.name), field(&format!("{}->{}", c.from, c.to)))
+    format!("change,{index},{time_s:.3},,,,,,,,,,{},{}", field(c.name), field(&format!("{}->{}", c.from, c.to)))
 }
 
 /// The log being written: the CSV output and what it needs to place change rows.
@@ -260,7 +266,7 @@ impl Recording {
 
 impl FrameRow {
     /// The row of a frame traced with `settings` at `time_s`: the latest times of `stats`.
-    pub fn new(time_s: f64, stats: &FrameStats, settings: &RenderSettings, triangles: u64) -> Self {
+    pub fn new(time_s: f64, stats: &FrameStats, settings: &RenderSettings, triangles: u64, gpu_clock_mhz: Option<f64>) -> Self {
         Self {
             time_s,
             gpu_ms: stats.gpu.samples.back().map(|s| s.1),
@@ -272,6 +278,7 @@ impl FrameRow {
             accel: settings.accel,
             triangles,
             rays: settings.max_rays(),
+            gpu_clock_mhz,
         }
     }
 }
@@ -370,7 +377,7 @@ mod tests {
     use crate::scene::spec::SceneSpec;
 
     fn row(t: f64, bounces: u32) -> FrameRow {
-        FrameRow { time_s: t, gpu_ms: Some(1.5), frame_ms: Some(16.6667), size: [512, 256], bounces, spp: 1, accel: Accel::Bvh, triangles: 20480, rays: 512 * 256 * (bounces as u64 + 1) }
+        FrameRow { time_s: t, gpu_ms: Some(1.5), frame_ms: Some(16.6667), size: [512, 256], bounces, spp: 1, accel: Accel::Bvh, triangles: 20480, rays: 512 * 256 * (bounces as u64 + 1), gpu_clock_mhz: Some(1980.4) }
     }
 
     fn params() -> Params {
@@ -385,10 +392,10 @@ mod tests {
     fn rows_have_the_header_columns() {
         let columns = HEADER.split(',').count();
         let f = frame_line(3, 0.25, &row(10.0, 2));
-        assert_eq!(f, "frame,3,0.250,1.500,16.667,512x256,2,1,bvh,20480,393216,,");
+        assert_eq!(f, "frame,3,0.250,1.500,16.667,512x256,2,1,bvh,20480,393216,1980,,");
         let c = change_line(4, 0.5, &Change { name: "camera", from: "a,b".into(), to: "c".into() });
-        assert_eq!(c, "change,4,0.500,,,,,,,,,camera,\"a,b->c\"");
-        let unknown = frame_line(0, 0.0, &FrameRow { gpu_ms: None, frame_ms: None, ..row(0.0, 2) });
+        assert_eq!(c, "change,4,0.500,,,,,,,,,,camera,\"a,b->c\"");
+        let unknown = frame_line(0, 0.0, &FrameRow { gpu_ms: None, frame_ms: None, gpu_clock_mhz: None, ..row(0.0, 2) });
         assert!(unknown.starts_with("frame,0,0.000,,,512x256,"), "{unknown}");
         for line in [f, unknown, change_line(0, 0.0, &Change { name: "bounces", from: "2".into(), to: "3".into() })] {
             assert_eq!(line.split(',').count(), columns, "{line}");
@@ -425,7 +432,7 @@ mod tests {
         let lines = lines(log);
         assert_eq!(lines[0], HEADER);
         assert!(lines[1].starts_with("frame,0,0.000,"), "{}", lines[1]);
-        assert_eq!(lines[2], "change,1,0.100,,,,,,,,,bounces,2->3");
+        assert_eq!(lines[2], "change,1,0.100,,,,,,,,,,bounces,2->3");
         assert!(lines[3].starts_with("frame,1,0.100,") && lines[3].contains(",3,1,bvh,"), "{}", lines[3]);
         assert!(lines[4].starts_with("frame,2,"));
         assert_eq!(lines.len(), 5);
@@ -441,7 +448,7 @@ mod tests {
         }
         let lines = lines(log);
         let changes: Vec<&String> = lines.iter().filter(|l| l.starts_with("change")).collect();
-        assert_eq!(changes, ["change,3,3.000,,,,,,,,,blend,0.50->0.80"]);
+        assert_eq!(changes, ["change,3,3.000,,,,,,,,,,blend,0.50->0.80"]);
         // Placed before frame 3, the first traced at 0.8.
         let at = lines.iter().position(|l| l.starts_with("change")).unwrap();
         assert!(lines[at + 1].starts_with("frame,3,"));
@@ -456,7 +463,7 @@ mod tests {
         p.settings.spp = 4;
         log.frame(row(0.1, 2), watched(&p, "m")).unwrap();
         let lines = lines(log);
-        assert_eq!(lines[2], "change,1,0.100,,,,,,,,,spp,1->4");
+        assert_eq!(lines[2], "change,1,0.100,,,,,,,,,,spp,1->4");
         assert!(lines[3].starts_with("frame,1,"));
     }
 

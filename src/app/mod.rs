@@ -9,7 +9,8 @@
 //! - `panel`: the egui panel (`camera_panel`: its camera section; `presets_panel`: its
 //!   Presets section, save, load, recent; `perf_panel`: its Performance section);
 //!   `frame_stats`: the frame-time history it plots; `frame_log`: the frame-time CSV
-//!   (`--stats-csv`, Record); `settings`: what is remembered between runs;
+//!   (`--stats-csv`, Record); `gpu_clock`: the GPU's shader clock beside the times;
+//!   `settings`: what is remembered between runs;
 //! - `model_loader`: loading .obj files on a worker thread; `open_dialog`: the Open
 //!   dialog (Ctrl+O) that picks them;
 //! - `progressive`: long frames traced in bands over several display frames;
@@ -31,6 +32,7 @@ pub(crate) mod camera_panel;
 pub(crate) mod cost_view;
 pub(crate) mod frame_log;
 pub(crate) mod frame_stats;
+pub(crate) mod gpu_clock;
 pub(crate) mod input;
 pub(crate) mod model_loader;
 pub(crate) mod open_dialog;

@@ -118,6 +118,8 @@ pub struct PanelState {
 /// Read-only facts the panel shows.
 pub struct PanelInfo<'a> {
     pub device: &'a str,
+    /// The tracing GPU's shader clock in MHz: the latest reading and the highest seen.
+    pub clock_mhz: Option<(f64, f64)>,
     pub model: Option<&'a ModelSource>,
     pub triangles: u64,
     pub vertices: u64,

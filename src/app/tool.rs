@@ -21,6 +21,7 @@ use super::benchmark::{Runs, Workload};
 use super::cost_view::heat_map;
 use super::frame_log::{watched, FrameRow, Recorder};
 use super::frame_stats::FrameStats;
+use super::gpu_clock::ClockWatch;
 use super::input::{Drag, Input};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
 use super::screenshot::{self, Kind};
@@ -82,6 +83,8 @@ struct Prepared {
 struct Gpu {
     presenter: crate::gpu::present::Presenter,
     tracer: ComputeTracer,
+    /// The tracing device's shader clock.
+    clock: ClockWatch,
     /// The device that presents.
     ctx: Arc<GpuContext>,
     /// The device that traces: `ctx` itself, or another one (see `devices.rs`).
@@ -155,6 +158,7 @@ impl Tool {
         let devices = unsafe { devices::open(options, display, window_handle, [physical.width, physical.height], params.vsync) }?;
         let devices::WindowDevices { presenter, ctx, trace_ctx } = devices;
         let tracer = ComputeTracer::new(&trace_ctx, FRAMES_IN_FLIGHT as u32)?;
+        let clock = ClockWatch::new(&trace_ctx);
 
         let egui_ctx = egui::Context::default();
         egui_ctx.set_theme(egui::ThemePreference::Dark);
@@ -170,7 +174,7 @@ impl Tool {
         session.start_load(options.spec.model.clone(), &params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
         Ok(Self {
-            gpu: Gpu { presenter, tracer, ctx, trace_ctx },
+            gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx },
             egui_state,
             egui_ctx,
             window,
@@ -212,11 +216,12 @@ impl Tool {
     pub fn shut_down(mut self) -> Vec<String> {
         self.remember();
         let separate = self.gpu.traces_elsewhere();
-        let Tool { gpu: Gpu { presenter, tracer, ctx, trace_ctx }, egui_state, window, .. } = self;
+        let Tool { gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx }, egui_state, window, .. } = self;
         let _ = ctx.wait_idle();
         let _ = trace_ctx.wait_idle();
         drop(presenter);
         drop(tracer);
+        drop(clock);
         drop(egui_state);
         drop(window);
         let mut messages = ctx.validation_messages();
@@ -364,6 +369,7 @@ impl Tool {
             settings_file: self.store.path.as_deref(),
             vendor: &vendor,
             split_ms: self.split_ms,
+            clock_mhz: self.gpu.clock.latest.zip(self.gpu.clock.highest),
         };
         let light = self.light_marker();
         let split = self.split_overlay();
@@ -622,6 +628,7 @@ impl Tool {
         if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
             self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);
         }
+        self.gpu.clock.poll(now);
         let traced_ms = prepared.gpu_ms;
         self.note_split_times(prepared.part_ms, &outcome);
         let t = now.duration_since(self.start).as_secs_f64();
@@ -636,8 +643,8 @@ impl Tool {
             self.last_frame = Some(now);
             if traced {
                 self.script.frames += 1;
-                let (stats, params, session) = (&self.stats, &self.params, &self.session);
-                let row = || (FrameRow::new(t, stats, &frame_settings.unwrap_or_default(), session.counts().0), watched(params, &session.model_label()));
+                let (stats, params, session, clock) = (&self.stats, &self.params, &self.session, self.gpu.clock.latest);
+                let row = || (FrameRow::new(t, stats, &frame_settings.unwrap_or_default(), session.counts().0, clock), watched(params, &session.model_label()));
                 if let Some(status) = self.recorder.frame(row) {
                     self.panel.perf.status = Some(status);
                 }
