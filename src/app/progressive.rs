@@ -5,7 +5,8 @@
 //! bands run across the line: each band traces its pixels on both sides, each side with
 //! its own settings.
 
-use crate::gpu::{Band, FrameTrace, GroupSize};
+use crate::gpu::present::BandTag;
+use crate::gpu::{Band, FrameTrace, GroupSize, PartTimes};
 
 /// GPU milliseconds a band should take, so that the window stays responsive.
 pub const BAND_TARGET_MS: f64 = 40.0;
@@ -96,10 +97,57 @@ pub fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
     (scaled.round() as u32).clamp(1, most.max(1))
 }
 
+/// A traced frame's GPU time, added up from its bands' times as they arrive (a frame or two
+/// after their bands, in the window's frames in flight): the time the frame took, as
+/// `bench` and `render` count it, rather than its last band's.
+#[derive(Debug, Default)]
+pub struct BandTimes {
+    /// The frame being added up, its milliseconds so far, and per part of a split frame
+    /// (None for a part no band has timed yet).
+    open: Option<(u64, f64, PartTimes)>,
+}
+
+impl BandTimes {
+    /// Add the time of a band of `tag`'s frame (`parts`: per part of a split frame); the
+    /// frame's total and parts once its last band is in. A band of another frame drops a
+    /// frame left unfinished (restarted by a change).
+    pub fn add(&mut self, tag: BandTag, ms: f64, parts: PartTimes) -> Option<(f64, PartTimes)> {
+        let (frame, total, sums) = match self.open.take() {
+            Some(open) if open.0 == tag.frame => open,
+            _ => (tag.frame, 0.0, [None; 2]),
+        };
+        let sums = [0, 1].map(|i| match (sums[i], parts[i]) {
+            (Some(a), Some(b)) => Some(a + b),
+            (a, b) => a.or(b),
+        });
+        if tag.last {
+            return Some((total + ms, sums));
+        }
+        self.open = Some((frame, total + ms, sums));
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::tracer::frame::{FrameParams, RenderSettings};
+
+    #[test]
+    fn a_frames_time_is_the_sum_of_its_bands() {
+        let mut times = BandTimes::default();
+        let band = |frame, last| BandTag { frame, last };
+        // A whole frame: its one band's time.
+        assert_eq!(times.add(band(0, true), 1.5, [Some(1.5), None]), Some((1.5, [Some(1.5), None])));
+        // Three bands of a split frame (the first on the right of the line only).
+        assert_eq!(times.add(band(1, false), 2.0, [None, Some(2.0)]), None);
+        assert_eq!(times.add(band(1, false), 3.0, [Some(2.0), Some(1.0)]), None);
+        assert_eq!(times.add(band(1, true), 1.0, [Some(0.5), Some(0.5)]), Some((6.0, [Some(2.5), Some(3.5)])));
+        // A frame restarted part-way: the next frame's bands count alone.
+        assert_eq!(times.add(band(2, false), 9.0, [Some(9.0), None]), None);
+        assert_eq!(times.add(band(3, false), 2.0, [Some(2.0), None]), None);
+        assert_eq!(times.add(band(3, true), 2.0, [Some(2.0), None]), Some((4.0, [Some(4.0), None])));
+    }
 
     const SQUARE: GroupSize = GroupSize { width: 8, height: 8 };
 

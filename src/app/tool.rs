@@ -28,14 +28,14 @@ use super::screenshot::{self, Kind};
 use super::script::ScriptedRun;
 use super::shader_watch::ShaderWatch;
 use super::overlay::{self, Notice};
-use super::progressive::{adapt_groups, Progressive};
+use super::progressive::{adapt_groups, BandTimes, Progressive};
 use super::session::Session;
 use super::settings::{self, Store};
 use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
 use super::open_dialog::{OpenDialog, Purpose};
 use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
-use crate::gpu::present::{FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
+use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP;
 use crate::gpu::vendor::VendorKernel;
 use crate::gpu::{Band, ComputeTracer, FrameTrace, GpuContext, GpuError, PartTimes};
@@ -77,6 +77,9 @@ struct Prepared {
     part_ms: Option<[f64; 2]>,
     /// This display frame finishes a traced frame (the last or only band).
     completes: bool,
+    /// A band of a long frame was traced before this display frame (a tracer on another
+    /// device); a band recorded into the frame shows in `trace`.
+    banded: bool,
 }
 
 /// The GPU side: declared in drop order (before the contexts, the window's surface last).
@@ -119,6 +122,10 @@ pub struct Tool {
     notice: Option<Notice>,
     /// Work groups per band of a long frame (adapted to the GPU's speed).
     band_groups: u32,
+    /// Frames traced to their last pixel so far (the number a band's time comes back with).
+    traced_frames: u64,
+    /// The GPU time of the frame whose bands are being timed.
+    band_times: BandTimes,
     /// A frame has been traced: F12 has something to save.
     traced: bool,
     start: Instant,
@@ -188,6 +195,8 @@ impl Tool {
             picture: None,
             progressive: None,
             band_groups: 1,
+            traced_frames: 0,
+            band_times: BandTimes::default(),
             notice: None,
             traced: false,
             start: Instant::now(),
@@ -447,7 +456,7 @@ impl Tool {
     fn prepare_image(&mut self, params: Option<FrameTrace>) -> anyhow::Result<Prepared> {
         let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else {
             self.progressive = None;
-            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
+            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false, banded: false });
         };
         let (width, height) = (params.params.settings.width, params.params.settings.height);
         self.traced = true;
@@ -462,7 +471,7 @@ impl Tool {
                 if self.params.split.b.accel == Some(Accel::Vendor) {
                     self.params.split.b.accel = Some(Accel::Bvh);
                 }
-                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
+                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false, banded: false });
             }
             return Err(e.into());
         }
@@ -473,16 +482,16 @@ impl Tool {
             if let Some(view) = cost {
                 let (image, timing) = self.gpu.tracer.render_frame(&params)?;
                 self.set_picture(&image, view);
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true, banded: false });
             }
             if self.gpu.traces_elsewhere() {
                 let timing = self.gpu.tracer.trace_frame(&params)?;
                 self.read_back_colour()?;
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true, banded: false });
             }
             self.picture = None;
             let whole = Band::rows(0..height, width);
-            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true });
+            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true, banded: false });
         }
         // A moving light does not restart a long frame: the frame keeps the light it began
         // with; any other change starts afresh.
@@ -512,7 +521,7 @@ impl Tool {
             }
             let show = if self.picture.is_some() { Shown::Picture } else { Shown::Nothing };
             let part_ms = params.split.is_some().then(|| ms.map(|m| m.unwrap_or(0.0)));
-            return Ok(Prepared { trace: None, show, gpu_ms: Some(total), part_ms, completes });
+            return Ok(Prepared { trace: None, show, gpu_ms: Some(total), part_ms, completes, banded: true });
         }
         let show = match cost {
             Some(_) if self.picture.is_some() => Shown::Picture,
@@ -522,7 +531,7 @@ impl Tool {
                 Shown::Output
             }
         };
-        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes })
+        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes, banded: false })
     }
 
     /// Show the tracer's colour output as it is now, read back from the tracing device.
@@ -610,30 +619,44 @@ impl Tool {
         let final_frame = self.script.is_final_frame(traced);
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
-        let banded = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
+        let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
+        let banded = prepared.banded || recorded_band;
+        let tag = BandTag { frame: self.traced_frames, last: prepared.completes };
         let show = match (prepared.show, &self.picture) {
             (Shown::Output, _) => Show::Output,
             (Shown::Picture, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
             _ => Show::Nothing,
         };
-        let request = FrameRequest { trace: prepared.trace.clone(), show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
+        let request = FrameRequest { trace: prepared.trace.clone(), tag, show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
         // A tracer on another device has traced already; its buffers are not the window's.
         let recording = Some(&self.gpu.tracer).filter(|_| !self.gpu.traces_elsewhere());
         let outcome = self.gpu.presenter.draw(recording, &request)?;
-        if banded && prepared.completes && self.params.view != ViewMode::Color {
+        if recorded_band && prepared.completes && self.params.view != ViewMode::Color {
             // The last band of a long frame of another view: its picture replaces the last.
             let image = self.gpu.tracer.read_image()?;
             self.set_picture(&image, self.params.view);
         }
-        if let (true, Some(ms)) = (banded, outcome.gpu_ms) {
+        if let (true, Some(ms)) = (recorded_band, outcome.gpu_ms) {
             self.band_groups = adapt_groups(self.band_groups, ms, u32::MAX);
         }
         self.gpu.clock.poll(now);
-        let traced_ms = prepared.gpu_ms;
-        self.note_split_times(prepared.part_ms, &outcome);
+        // A traced frame's GPU time: its bands' times added up, from a trace done before
+        // this frame or recorded into an earlier one and timed now.
+        let mut frame_time = None;
+        if let Some(ms) = prepared.gpu_ms {
+            let parts = prepared.part_ms.map_or([None; 2], |p| p.map(Some));
+            frame_time = self.band_times.add(tag, ms, parts);
+        }
+        if let (Some(ms), Some(band)) = (outcome.gpu_ms, outcome.tag) {
+            frame_time = self.band_times.add(band, ms, outcome.part_ms).or(frame_time);
+        }
+        if prepared.completes {
+            self.traced_frames += 1;
+        }
+        self.note_split_times(frame_time.map(|(_, parts)| parts));
         let t = now.duration_since(self.start).as_secs_f64();
         // Before the frame is logged: its row carries the latest GPU time.
-        if let Some(ms) = traced_ms.or(outcome.gpu_ms) {
+        if let Some((ms, _)) = frame_time {
             self.stats.push_gpu(t, ms);
         }
         if outcome.presented {
@@ -652,7 +675,7 @@ impl Tool {
         } else if !self.can_draw() {
             self.last_frame = None;
         }
-        self.benchmarks.after_frame(t, outcome.presented && traced, banded, outcome.gpu_ms);
+        self.benchmarks.after_frame(t, outcome.presented && traced, banded, frame_time.map(|(ms, _)| ms));
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
         let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
         if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark, workload, || crate::bench::environment(ctx))? {

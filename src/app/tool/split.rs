@@ -5,7 +5,8 @@ use super::super::overlay::SplitOverlay;
 use super::super::split_view::GRAB_PIXELS;
 use super::super::state::fit_rect;
 use super::Tool;
-use crate::gpu::present::{FrameOutcome, PixelRect};
+use crate::gpu::present::PixelRect;
+use crate::gpu::PartTimes;
 
 impl Tool {
     /// The image as shown (letterboxed) and the line's x there, physical pixels; None
@@ -51,15 +52,13 @@ impl Tool {
         })
     }
 
-    /// Keep each half's latest GPU time: from this frame's synchronous trace (`traced`),
-    /// or from the earlier frame whose timestamps `outcome` brought.
-    pub(super) fn note_split_times(&mut self, traced: Option<[f64; 2]>, outcome: &FrameOutcome) {
+    /// Keep each half's latest GPU time: that of the last frame whose time is in (its
+    /// bands added up).
+    pub(super) fn note_split_times(&mut self, frame_parts: Option<PartTimes>) {
         if !self.params.split.enabled {
             self.split_ms = [None; 2];
-        } else if let Some([a, b]) = traced {
-            self.split_ms = [Some(a), Some(b)];
-        } else if outcome.gpu_ms.is_some() {
-            self.split_ms = outcome.part_ms;
+        } else if let Some(parts) = frame_parts {
+            self.split_ms = parts;
         }
     }
 

@@ -47,11 +47,23 @@ pub enum Show<'a> {
     Pixels { rgba: &'a [u8], width: u32, height: u32 },
 }
 
+/// Which traced frame a band belongs to, and whether it is the frame's last band: handed
+/// back with the band's GPU time, which arrives a frame or two later.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BandTag {
+    /// The traced frame's number (the caller's count).
+    pub frame: u64,
+    /// The band completes its frame.
+    pub last: bool,
+}
+
 /// One frame to draw.
 pub struct FrameRequest<'a> {
     /// Pixels of a frame to trace in this frame's command buffer (all of them when the
     /// frame fits one submission; a band of a long frame traced over several).
     pub trace: Option<(FrameTrace, Band)>,
+    /// What `trace` is a band of, returned with its time.
+    pub tag: BandTag,
     pub show: Show<'a>,
     /// Where the image goes in the window (already letterboxed), physical pixels.
     pub image_rect: PixelRect,
@@ -71,6 +83,8 @@ pub struct FrameOutcome {
     pub gpu_ms: Option<f64>,
     /// The same frame's milliseconds per part (left, right) of a split frame.
     pub part_ms: PartTimes,
+    /// The tag of the band those times are of.
+    pub tag: Option<BandTag>,
     /// The window as drawn, when asked for.
     pub window_image: Option<Result<RgbaImage, String>>,
 }
@@ -81,6 +95,8 @@ struct FrameSlot {
     acquire: vk::Semaphore,
     /// The parts of this slot's last trace that the tracer's timer slot holds.
     timed: TimedParts,
+    /// What that trace was a band of.
+    tag: BandTag,
 }
 
 /// Everything on the GPU side of the window except the tracer.
@@ -132,7 +148,7 @@ impl Presenter {
             let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED), None) }.during("creating a fence")?;
             // SAFETY: as above.
             let acquire = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.during("creating a semaphore")?;
-            slots.push(FrameSlot { cmd, fence, acquire, timed: Default::default() });
+            slots.push(FrameSlot { cmd, fence, acquire, timed: Default::default(), tag: BandTag::default() });
         }
         let ui_format = if swapchain.is_usable() { swapchain.format.format } else { vk::Format::B8G8R8A8_UNORM };
         let ui = UiPass::new(ctx, ui_format)?;
@@ -240,6 +256,7 @@ impl Presenter {
             outcome.part_ms = t.timer_ms(f as u32, timed);
             // The frame's time once every part it traced has its timestamps.
             outcome.gpu_ms = (0..2).filter(|&i| timed[i].contains(&true)).map(|i| outcome.part_ms[i]).sum();
+            outcome.tag = Some(self.slots[f].tag);
         }
         let index = match self.swapchain.acquire(self.slots[f].acquire)? {
             Acquired::OutOfDate => {
@@ -288,6 +305,7 @@ impl Presenter {
         }
         if let (Some((frame, band)), Some(t)) = (trace, ready) {
             self.slots[f].timed = t.record(cmd, &frame, &band, Some(f as u32));
+            self.slots[f].tag = req.tag;
         }
         let swap_image = self.swapchain.images[index as usize];
         match (&self.display, source) {
