@@ -51,8 +51,9 @@ impl Notice {
 /// Draw the overlays over `image` (the image area, in points).
 pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, split: Option<&SplitOverlay>, notice: Option<&Notice>) {
     if let Some(info) = hud {
-        // Top-left of the image area: the panel never covers it.
-        egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).show(ctx, |ui| {
+        // Top-left of the image area: the panel never covers it. No fade-in: the numbers
+        // are there in full from their first frame (and in a screenshot taken then).
+        egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).fade_in(false).show(ctx, |ui| {
             egui::Frame::new().fill(Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| panel::hud(ui, info));
         });
     }

@@ -14,7 +14,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 use super::timer::GpuTimer;
-use super::trace_pass::{create_compute_pipeline, words};
+use super::trace_pass::{create_compute_pipeline, destroy_pipeline_objects, words};
 
 static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
 
@@ -145,10 +145,7 @@ impl Drop for ClockProbe {
         // SAFETY: `measure` waits for its submission, so the GPU uses none of these; null
         // handles (a `new` that failed part-way) are ignored by the destroy calls.
         unsafe {
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
+            destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
     }
 }

@@ -451,16 +451,29 @@ pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec
     Ok(shader.spirv)
 }
 
+/// Destroy a compute pass's Vulkan objects: its descriptor pool (and sets), pipeline,
+/// pipeline layout and set layout; null handles (a constructor that failed part-way) are
+/// ignored.
+///
+/// # Safety
+/// The GPU must be done with all of them (the owner waited for it).
+pub(crate) unsafe fn destroy_pipeline_objects(d: &ash::Device, pool: vk::DescriptorPool, pipeline: vk::Pipeline, layout: vk::PipelineLayout, set_layout: vk::DescriptorSetLayout) {
+    // SAFETY: the caller promises the GPU no longer uses these objects.
+    unsafe {
+        d.destroy_descriptor_pool(pool, None);
+        d.destroy_pipeline(pipeline, None);
+        d.destroy_pipeline_layout(layout, None);
+        d.destroy_descriptor_set_layout(set_layout, None);
+    }
+}
+
 impl Drop for TracePass {
     fn drop(&mut self) {
         let d = &self.ctx.device;
         // SAFETY: the owner (`ComputeTracer`) waits for the GPU before dropping the pass,
         // so nothing uses these objects.
         unsafe {
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
+            destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
     }
 }

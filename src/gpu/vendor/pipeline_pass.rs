@@ -14,7 +14,7 @@ use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::scene_buffers::SceneBuffers;
-use crate::gpu::trace_pass::{allocate_set, create_set_layout, words, Band, TraceOutput};
+use crate::gpu::trace_pass::{allocate_set, create_set_layout, destroy_pipeline_objects, words, Band, TraceOutput};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 static RAYGEN_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_raygen.spv"));
@@ -186,10 +186,7 @@ impl Drop for PipelinePass {
         let d = &self.ctx.device;
         // SAFETY: the owner waits for the GPU before dropping the pass.
         unsafe {
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
+            destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
     }
 }
