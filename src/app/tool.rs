@@ -35,7 +35,7 @@ use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
 use super::open_dialog::{OpenDialog, Purpose};
 use super::options::DEFAULT_WINDOW;
 use super::{headless_error, ViewOptions};
-use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
+use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP;
 use crate::gpu::vendor::VendorKernel;
 use crate::gpu::{Band, ComputeTracer, FrameTrace, GpuContext, GpuError, PartTimes};
@@ -84,7 +84,7 @@ struct Prepared {
 
 /// The GPU side: declared in drop order (before the contexts, the window's surface last).
 struct Gpu {
-    presenter: crate::gpu::present::Presenter,
+    presenter: Presenter,
     tracer: ComputeTracer,
     /// The tracing device's shader clock.
     clock: ClockWatch,
