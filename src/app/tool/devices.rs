@@ -42,23 +42,36 @@ pub(super) unsafe fn open(options: &ViewOptions, display: RawDisplayHandle, wind
             Err(e) => Err((Some(ctx.info.index), e.context(format!("{} cannot show the window", ctx.info.name)))),
         }
     };
-    let (ctx, presenter, unpresentable) = match present_on(options.device) {
-        Ok((ctx, presenter)) => (ctx, presenter, None),
-        // A device picked by us that cannot present: another device shows its frames.
-        Err((Some(failed), error)) if options.device.is_none() => {
-            let count = list_devices().map(|d| d.len()).unwrap_or(0);
-            let other = (0..count).filter(|&i| i != failed).find_map(|i| present_on(Some(i)).ok());
-            let Some((ctx, presenter)) = other else { return Err(error) };
-            log::warn!("{error:#}; it traces and {} shows its frames", ctx.info.name);
-            (ctx, presenter, Some(failed))
-        }
-        Err((_, error)) => return Err(error),
-    };
+    let count = || list_devices().map(|d| d.len()).unwrap_or(0);
+    let ((ctx, presenter), fallback) = choose_presenter(options.device, count, present_on)?;
+    let unpresentable = fallback.map(|(failed, why)| {
+        log::warn!("{why:#}; it traces and {} shows its frames", ctx.info.name);
+        failed
+    });
     let trace_ctx = match options.trace_device.or(unpresentable) {
-        Some(index) => GpuContext::new(&ContextOptions { device_index: Some(index), ..base }).map_err(|e| anyhow::anyhow!("--trace-device {index}: {e}"))?,
+        Some(index) => GpuContext::new(&ContextOptions { device_index: Some(index), ..base }).map_err(|e| anyhow::anyhow!("tracing on device {index}: {e}"))?,
         None => ctx.clone(),
     };
     Ok(WindowDevices { presenter, ctx, trace_ctx })
+}
+
+/// The presenting side: the device `wanted` (`--device`) or the one picked, or, when a
+/// picked device fails to present, the first of the other `count()` devices that can; then
+/// also the failed device's index and why it failed (it traces). `present_on` tries one
+/// device (None: let the context pick), failing with the index of the device it tried.
+fn choose_presenter<P>(
+    wanted: Option<usize>,
+    count: impl FnOnce() -> usize,
+    mut present_on: impl FnMut(Option<usize>) -> Result<P, (Option<usize>, anyhow::Error)>,
+) -> anyhow::Result<(P, Option<(usize, anyhow::Error)>)> {
+    match present_on(wanted) {
+        Ok(p) => Ok((p, None)),
+        Err((Some(failed), why)) if wanted.is_none() => match (0..count()).filter(|&i| i != failed).find_map(|i| present_on(Some(i)).ok()) {
+            Some(p) => Ok((p, Some((failed, why)))),
+            None => Err(why),
+        },
+        Err((_, why)) => Err(why),
+    }
 }
 
 /// The panel's device line: the tracing device, and the presenting one where it differs.
@@ -69,5 +82,45 @@ pub(super) fn describe(ctx: &GpuContext, trace_ctx: &GpuContext) -> String {
         traced
     } else {
         format!("{traced}; shown through {} ({})", ctx.info.name, ctx.info.device_type)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Devices `0..count` where those in `broken` fail to present; None picks device 0.
+    fn presenting(broken: &'static [usize]) -> impl FnMut(Option<usize>) -> Result<usize, (Option<usize>, anyhow::Error)> {
+        move |index| {
+            let i = index.unwrap_or(0);
+            if broken.contains(&i) { Err((Some(i), anyhow::anyhow!("device {i} cannot show the window"))) } else { Ok(i) }
+        }
+    }
+
+    #[test]
+    fn a_picked_device_that_cannot_present_traces_for_another() {
+        // One device does both.
+        let (p, fallback) = choose_presenter(None, || 2, presenting(&[])).unwrap();
+        assert_eq!((p, fallback.is_none()), (0, true));
+        // The picked GPU cannot present: device 1 shows, device 0 traces.
+        let (p, fallback) = choose_presenter(None, || 2, presenting(&[0])).unwrap();
+        let (failed, why) = fallback.unwrap();
+        assert_eq!((p, failed), (1, 0));
+        assert_eq!(why.to_string(), "device 0 cannot show the window");
+        // The next that can, skipping the failed one.
+        assert_eq!(choose_presenter(None, || 3, presenting(&[0, 1])).unwrap().0, 2);
+    }
+
+    #[test]
+    fn a_device_asked_for_or_no_other_is_an_error() {
+        // `--device 0` is the user's choice: no quiet fallback.
+        let e = choose_presenter(Some(0), || 2, presenting(&[0])).unwrap_err();
+        assert_eq!(e.to_string(), "device 0 cannot show the window");
+        // Nothing else presents: the first device's reason.
+        let e = choose_presenter(None, || 2, presenting(&[0, 1])).unwrap_err();
+        assert_eq!(e.to_string(), "device 0 cannot show the window");
+        // No device found at all (no index to exclude): that error as it is.
+        let e = choose_presenter(None, || 2, |_| Err::<usize, _>((None, anyhow::anyhow!("no Vulkan device")))).unwrap_err();
+        assert_eq!(e.to_string(), "no Vulkan device");
     }
 }
