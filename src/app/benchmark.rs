@@ -79,9 +79,13 @@ pub struct BenchmarkSummary {
     pub frames: u32,
     /// Traced frame to traced frame on the CPU clock (what the user waits for).
     pub frame_ms: Timing,
-    /// GPU timestamps around each frame's trace; None without timestamps, or when frames
-    /// were traced in bands (a band's time is not a frame's).
+    /// GPU timestamps around each frame's trace (a frame traced in bands: its bands added
+    /// up); None without timestamps.
     pub gpu_ms: Option<Timing>,
+    /// The lowest and highest shader clock read during the run, MHz (None on CPU devices):
+    /// a GPU clocked down between frames traces slower than `bench` shows.
+    #[serde(default)]
+    pub gpu_clock_mhz: Option<[f64; 2]>,
     /// Frames per second from the mean frame time.
     pub fps: f64,
     /// Million rays per second from the mean GPU time (the mean frame time without one).
@@ -101,7 +105,11 @@ impl BenchmarkSummary {
             format!("  frame ms: {}  ({:.1} fps)", t(&self.frame_ms), self.fps),
             match &self.gpu_ms {
                 Some(g) => format!("  gpu ms:   {}", t(g)),
-                None => "  gpu ms:   - (no timestamps, or frames traced in bands)".into(),
+                None => "  gpu ms:   - (no timestamps)".into(),
+            },
+            match self.gpu_clock_mhz {
+                Some([lo, hi]) => format!("  gpu clock: {lo:.0}-{hi:.0} MHz (read every 2 s; clocked down, a GPU traces slower than `meshtracer bench` shows)"),
+                None => "  gpu clock: - (not read on this device)".into(),
             },
             format!("  {:.1} Mrays/s on {} ({}), driver {}, Vulkan {}", self.mrays_per_s, e.device, e.device_type, e.driver, e.vulkan),
         ]
@@ -136,7 +144,8 @@ pub struct Benchmark {
     last: Option<f64>,
     frame_ms: Vec<f64>,
     gpu_ms: Vec<f64>,
-    banded: bool,
+    /// Lowest and highest shader clock read while measuring, MHz.
+    clock_mhz: Option<[f64; 2]>,
 }
 
 impl Benchmark {
@@ -156,7 +165,7 @@ impl Benchmark {
             last: None,
             frame_ms: Vec::new(),
             gpu_ms: Vec::new(),
-            banded: false,
+            clock_mhz: None,
         };
         run.hold(params);
         run
@@ -187,14 +196,13 @@ impl Benchmark {
         c
     }
 
-    /// A traced frame was presented at time `t` seconds (`banded`: it came in bands).
-    pub fn frame_traced(&mut self, t: f64, banded: bool) {
+    /// A traced frame was presented at time `t` seconds.
+    pub fn frame_traced(&mut self, t: f64) {
         if self.warmup_left > 0 {
             self.warmup_left -= 1;
         } else if self.frame_ms.len() < self.frames as usize {
             if let Some(last) = self.last {
                 self.frame_ms.push((t - last) * 1e3);
-                self.banded |= banded;
             }
         } else {
             self.drained += 1;
@@ -208,6 +216,13 @@ impl Benchmark {
         // run's own settings, so times read while measuring all count.
         if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.gpu_ms.len() < self.frames as usize {
             self.gpu_ms.push(ms);
+        }
+    }
+
+    /// The shader clock as last read, MHz (kept while measuring).
+    pub fn clock_reading(&mut self, mhz: f64) {
+        if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.frame_ms.len() < self.frames as usize {
+            self.clock_mhz = Some(self.clock_mhz.map_or([mhz, mhz], |[lo, hi]| [lo.min(mhz), hi.max(mhz)]));
         }
     }
 
@@ -233,8 +248,8 @@ impl Benchmark {
     pub fn summary(&self, workload: Workload, environment: Environment) -> BenchmarkSummary {
         let s = &self.settings;
         let frame_ms = Timing::of(&self.frame_ms).unwrap_or_default();
-        // Band times are not frame times; a short run may also lack some GPU times.
-        let gpu_ms = Timing::of(&self.gpu_ms).filter(|_| !self.banded);
+        // A short run may lack some GPU times.
+        let gpu_ms = Timing::of(&self.gpu_ms);
         let rays = s.max_rays();
         let fps = if frame_ms.mean > 0.0 { 1e3 / frame_ms.mean } else { 0.0 };
         BenchmarkSummary {
@@ -252,6 +267,7 @@ impl Benchmark {
             frames: self.frame_ms.len() as u32,
             frame_ms,
             gpu_ms,
+            gpu_clock_mhz: self.clock_mhz,
             fps,
             mrays_per_s: mrays(rays, gpu_ms.map_or(frame_ms.mean, |g| g.mean)),
         }
@@ -319,15 +335,18 @@ impl Runs {
         Ok(())
     }
 
-    /// After a frame: `traced` when it presented a whole traced frame at `t` seconds
-    /// (`banded`: in bands); `gpu_ms` when a GPU time arrived.
-    pub fn after_frame(&mut self, t: f64, traced: bool, banded: bool, gpu_ms: Option<f64>) {
+    /// After a frame: `traced` when it presented a whole traced frame at `t` seconds;
+    /// `gpu_ms` when a frame's GPU time arrived; `clock_mhz` the shader clock as last read.
+    pub fn after_frame(&mut self, t: f64, traced: bool, gpu_ms: Option<f64>, clock_mhz: Option<f64>) {
         if let Some(run) = &mut self.run {
             if traced {
-                run.frame_traced(t, banded);
+                run.frame_traced(t);
             }
             if let Some(ms) = gpu_ms {
                 run.gpu_time(ms);
+            }
+            if let Some(mhz) = clock_mhz {
+                run.clock_reading(mhz);
             }
         }
     }
@@ -411,7 +430,7 @@ mod tests {
             if b.warmup_left == 0 && b.frame_ms.len() < frames as usize {
                 i += 1;
             }
-            b.frame_traced(t, false);
+            b.frame_traced(t);
             if let Some(g) = gpu {
                 b.gpu_time(g);
             }
@@ -453,15 +472,21 @@ mod tests {
     }
 
     #[test]
-    fn banded_frames_have_no_gpu_frame_time() {
+    fn the_clock_read_while_measuring_is_reported() {
         let mut params = Params::new(&SceneSpec::default(), false);
-        let mut b = Benchmark::begin(2, &mut params, [800, 600]);
-        for i in 0..20 {
-            b.frame_traced(i as f64, true);
+        let mut b = Benchmark::begin(4, &mut params, [800, 600]);
+        // Warm-up readings do not count; those while measuring give the range.
+        for (i, mhz) in [100.0, 100.0, 100.0, 1980.0, 345.0, 1500.0, 1980.0, 90.0].into_iter().enumerate() {
+            b.frame_traced(i as f64);
             b.gpu_time(1.0);
+            b.clock_reading(mhz);
         }
-        assert!(b.is_finished());
-        assert_eq!(b.summary(workload(), environment()).gpu_ms, None);
+        let s = b.summary(workload(), environment());
+        assert_eq!(s.gpu_clock_mhz, Some([345.0, 1980.0]));
+        assert!(s.lines().iter().any(|l| l.contains("345-1980 MHz")), "{:?}", s.lines());
+        // A run without readings says so.
+        let (b, _) = run(4, &[8.0], Some(1.0));
+        assert!(b.summary(workload(), environment()).lines().iter().any(|l| l.contains("gpu clock: -")));
     }
 
     #[test]
@@ -482,7 +507,7 @@ mod tests {
             assert!(((c.position - c.target).length() - dist).abs() < 1e-3, "the orbit keeps its distance");
             assert!((c.position.y - home.position.y).abs() < 1e-3, "the orbit keeps its height");
             angles.push((c.position - c.target).z.atan2((c.position - c.target).x));
-            b.frame_traced(i as f64, false);
+            b.frame_traced(i as f64);
         }
         // Eight evenly spaced angles: 45° apart, all different.
         let mut distinct: Vec<f32> = angles.iter().map(|a| (a.to_degrees().rem_euclid(360.0) / 45.0).round() % 8.0).collect();

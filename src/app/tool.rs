@@ -77,9 +77,6 @@ struct Prepared {
     part_ms: Option<[f64; 2]>,
     /// This display frame finishes a traced frame (the last or only band).
     completes: bool,
-    /// A band of a long frame was traced before this display frame (a tracer on another
-    /// device); a band recorded into the frame shows in `trace`.
-    banded: bool,
 }
 
 /// The GPU side: declared in drop order (before the contexts, the window's surface last).
@@ -456,7 +453,7 @@ impl Tool {
     fn prepare_image(&mut self, params: Option<FrameTrace>) -> anyhow::Result<Prepared> {
         let Some(params) = params.filter(|_| self.gpu.tracer.is_ready()) else {
             self.progressive = None;
-            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false, banded: false });
+            return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
         };
         let (width, height) = (params.params.settings.width, params.params.settings.height);
         self.traced = true;
@@ -471,7 +468,7 @@ impl Tool {
                 if self.params.split.b.accel == Some(Accel::Vendor) {
                     self.params.split.b.accel = Some(Accel::Bvh);
                 }
-                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false, banded: false });
+                return Ok(Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false });
             }
             return Err(e.into());
         }
@@ -482,16 +479,16 @@ impl Tool {
             if let Some(view) = cost {
                 let (image, timing) = self.gpu.tracer.render_frame(&params)?;
                 self.set_picture(&image, view);
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true, banded: false });
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
             }
             if self.gpu.traces_elsewhere() {
                 let timing = self.gpu.tracer.trace_frame(&params)?;
                 self.read_back_colour()?;
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true, banded: false });
+                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
             }
             self.picture = None;
             let whole = Band::rows(0..height, width);
-            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true, banded: false });
+            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true });
         }
         // A moving light does not restart a long frame: the frame keeps the light it began
         // with; any other change starts afresh.
@@ -521,7 +518,7 @@ impl Tool {
             }
             let show = if self.picture.is_some() { Shown::Picture } else { Shown::Nothing };
             let part_ms = params.split.is_some().then(|| ms.map(|m| m.unwrap_or(0.0)));
-            return Ok(Prepared { trace: None, show, gpu_ms: Some(total), part_ms, completes, banded: true });
+            return Ok(Prepared { trace: None, show, gpu_ms: Some(total), part_ms, completes });
         }
         let show = match cost {
             Some(_) if self.picture.is_some() => Shown::Picture,
@@ -531,7 +528,7 @@ impl Tool {
                 Shown::Output
             }
         };
-        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes, banded: false })
+        Ok(Prepared { trace: Some((params, band)), show, gpu_ms: None, part_ms: None, completes })
     }
 
     /// Show the tracer's colour output as it is now, read back from the tracing device.
@@ -620,7 +617,6 @@ impl Tool {
         let capture = self.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.image_area);
         let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
-        let banded = prepared.banded || recorded_band;
         let tag = BandTag { frame: self.traced_frames, last: prepared.completes };
         let show = match (prepared.show, &self.picture) {
             (Shown::Output, _) => Show::Output,
@@ -675,7 +671,7 @@ impl Tool {
         } else if !self.can_draw() {
             self.last_frame = None;
         }
-        self.benchmarks.after_frame(t, outcome.presented && traced, banded, frame_time.map(|(ms, _)| ms));
+        self.benchmarks.after_frame(t, outcome.presented && traced, frame_time.map(|(ms, _)| ms), self.gpu.clock.latest);
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
         let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
         if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark, workload, || crate::bench::environment(ctx))? {
