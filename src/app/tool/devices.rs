@@ -68,7 +68,9 @@ fn choose_presenter<P>(
         Ok(p) => Ok((p, None)),
         Err((Some(failed), why)) if wanted.is_none() => match (0..count()).filter(|&i| i != failed).find_map(|i| present_on(Some(i)).ok()) {
             Some(p) => Ok((p, Some((failed, why)))),
-            None => Err(why),
+            None => Err(anyhow::anyhow!(
+                "{why:#}, and no other Vulkan device can (with Mesa's lavapipe installed, `mesa-vulkan-drivers`, this GPU would trace and lavapipe show its frames)"
+            )),
         },
         Err((_, why)) => Err(why),
     }
@@ -116,9 +118,9 @@ mod tests {
         // `--device 0` is the user's choice: no quiet fallback.
         let e = choose_presenter(Some(0), || 2, presenting(&[0])).unwrap_err();
         assert_eq!(e.to_string(), "device 0 cannot show the window");
-        // Nothing else presents: the first device's reason.
-        let e = choose_presenter(None, || 2, presenting(&[0, 1])).unwrap_err();
-        assert_eq!(e.to_string(), "device 0 cannot show the window");
+        // Nothing else presents: the first device's reason, and what would help.
+        let e = choose_presenter(None, || 2, presenting(&[0, 1])).unwrap_err().to_string();
+        assert!(e.starts_with("device 0 cannot show the window, and no other Vulkan device can") && e.contains("lavapipe"), "{e}");
         // No device found at all (no index to exclude): that error as it is.
         let e = choose_presenter(None, || 2, |_| Err::<usize, _>((None, anyhow::anyhow!("no Vulkan device")))).unwrap_err();
         assert_eq!(e.to_string(), "no Vulkan device");
