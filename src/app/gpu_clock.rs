@@ -1,4 +1,4 @@
-//! The tracing GPU's shader clock, read every few seconds in the window. A GPU that idles
+//! The tracing GPU's shader clock, read twice a second in the window. A GPU that idles
 //! between frames (vsync at 60 Hz, or frames shown through a slow presenting device) is
 //! clocked down by its driver and traces that much slower than `bench`, which keeps it busy
 //! (docs/BENCHMARKS.md, "the slow mode is the GPU's clock"): the panel and the frame log
@@ -9,8 +9,10 @@ use std::time::{Duration, Instant};
 
 use crate::gpu::{ClockProbe, GpuContext};
 
-/// How often the clock is read (each reading waits for about a millisecond of GPU work).
-pub const INTERVAL: Duration = Duration::from_secs(2);
+/// How often the clock is read. The H100's clock falls within a second of idling, so
+/// readings seconds apart missed it; each reading waits for about a millisecond of GPU
+/// work at full clock (six at the idle clock), a fraction of a percent at this interval.
+pub const INTERVAL: Duration = Duration::from_millis(500);
 
 /// The probe and its readings.
 #[derive(Default)]

@@ -84,7 +84,7 @@ pub fn performance_section(ui: &mut Ui, state: &mut PerfPanel, info: &PanelInfo,
             ui.label(gpu_now.map_or("-".into(), |ms| format!("{:.1}", mrays_per_second(info.rays, ms))));
             ui.end_row();
             if let Some((now, highest)) = info.clock_mhz {
-                let why = "the tracing GPU's shader clock, read every 2 s. A GPU that idles between frames (vsync, a slow window) is clocked down by its driver and traces slower than `meshtracer bench` shows";
+                let why = "the tracing GPU's shader clock, read twice a second. A GPU that idles between frames (vsync, a slow window) is clocked down by its driver and traces slower than `meshtracer bench` shows";
                 ui.label("GPU clock").on_hover_text(why);
                 ui.label(format!("{now:.0} MHz (highest {highest:.0})")).on_hover_text(why);
                 ui.end_row();
