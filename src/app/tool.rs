@@ -22,7 +22,7 @@ use super::cost_view::heat_map;
 use super::frame_log::{watched, FrameRow, Recorder};
 use super::frame_stats::FrameStats;
 use super::gpu_clock::ClockWatch;
-use super::input::{Drag, Input};
+use super::input::{Drag, Input, KeyPress};
 use super::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
 use super::screenshot::{self, Kind};
 use super::script::ScriptedRun;
@@ -244,7 +244,9 @@ impl Tool {
 
     /// Handle one window event; Ok(false) quits.
     pub fn window_event(&mut self, event: &WindowEvent) -> anyhow::Result<bool> {
-        let response = self.egui_state.on_window_event(&self.window, event);
+        // Its `consumed` is not used: for a key it comes from the focus before the clicks
+        // that egui has not run yet (keys wait for the frame, `Input::frame_keys`).
+        let _ = self.egui_state.on_window_event(&self.window, event);
         match event {
             WindowEvent::CloseRequested => self.script.request_exit(),
             WindowEvent::Resized(size) => self.gpu.presenter.resize(size.width, size.height),
@@ -252,23 +254,9 @@ impl Tool {
             WindowEvent::ModifiersChanged(m) => self.input.modifiers = m.state(),
             WindowEvent::RedrawRequested => return self.redraw(),
             // Synthetic presses (keys held while the window gains focus) are not the user's.
-            // Nor while the Open dialog shows: its keys (Escape, Enter, arrows) are its own,
-            // whether or not one of its text fields has the focus.
-            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. }
-                if !response.consumed && !self.open_dialog.is_open() =>
-            {
-                let m = self.input.modifiers;
-                match self.params.apply_key(*code, m.shift_key(), m.control_key(), &mut self.previous_resolution) {
-                    KeyAction::None => {}
-                    // A held key steps a parameter again and again; it does not repeat actions.
-                    _ if *repeat => {}
-                    KeyAction::ScreenshotTrace => self.want_trace_shot = true,
-                    KeyAction::ScreenshotWindow => self.want_window_shot = true,
-                    KeyAction::FrameModel => self.frame_model(),
-                    KeyAction::Benchmark => self.benchmarks.want(self.panel.benchmark.frames),
-                    KeyAction::OpenModel => self.open(Purpose::Model),
-                    KeyAction::Quit => self.script.request_exit(),
-                }
+            // A press waits for the frame, which decides whether it is a shortcut (`input.rs`).
+            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. } => {
+                self.input.key_pressed(*code, *repeat, self.egui_state.egui_input().events.len());
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
                 // A press on the split line moves the line, not the camera.
@@ -344,7 +332,20 @@ impl Tool {
     /// Run egui for this frame; returns its output and the actions the panel asked for,
     /// and updates the image area.
     fn run_ui(&mut self) -> (egui::FullOutput, Vec<PanelAction>) {
-        let raw = self.egui_state.take_egui_input(&self.window);
+        let mut raw = self.egui_state.take_egui_input(&self.window);
+        let (keys, held) = self.input.frame_keys(&mut raw.events);
+        if !held.is_empty() {
+            self.egui_state.egui_input_mut().events = held;
+            self.window.request_redraw();
+        }
+        // The keys are the tool's unless egui wants the keyboard (as it did at the end of the
+        // last frame, which is how it will see them) or the Open dialog shows (its keys,
+        // Escape, Enter and arrows, are its own whether or not a text field has the focus).
+        if !self.egui_ctx.egui_wants_keyboard_input() && !self.open_dialog.is_open() {
+            for key in keys {
+                self.shortcut(key);
+            }
+        }
         let mut actions = Vec::new();
         let mut central = egui::Rect::NOTHING;
         let settings: RenderSettings = self.params.settings_for(self.area());
@@ -409,6 +410,21 @@ impl Tool {
         let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
         self.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
         (full, actions)
+    }
+
+    /// Act on a key press that egui did not want.
+    fn shortcut(&mut self, key: KeyPress) {
+        match self.params.apply_key(key.code, key.shift, key.ctrl, &mut self.previous_resolution) {
+            KeyAction::None => {}
+            // A held key steps a parameter again and again; it does not repeat actions.
+            _ if key.repeat => {}
+            KeyAction::ScreenshotTrace => self.want_trace_shot = true,
+            KeyAction::ScreenshotWindow => self.want_window_shot = true,
+            KeyAction::FrameModel => self.frame_model(),
+            KeyAction::Benchmark => self.benchmarks.want(self.panel.benchmark.frames),
+            KeyAction::OpenModel => self.open(Purpose::Model),
+            KeyAction::Quit => self.script.request_exit(),
+        }
     }
 
     /// The vendor path as the panel shows it.
