@@ -376,6 +376,14 @@ fn scroll_panel_to_end(display: &str, window: &str) {
     std::thread::sleep(Duration::from_millis(500));
 }
 
+/// Open the Presets section of a 900x700 window's panel and leave the panel scrolled to
+/// its end (the section's name field at (100, 640), Save at (42, 662)).
+fn open_presets(display: &str, window: &str) {
+    scroll_panel_to_end(display, window);
+    click_at(display, window, 45, 662);
+    scroll_panel_to_end(display, window);
+}
+
 /// The bounces a preset file holds.
 fn preset_bounces(path: &std::path::Path) -> u32 {
     meshtracer::scene::preset::read(path).unwrap().spec.settings.bounces
@@ -394,9 +402,7 @@ fn a_preset_saved_in_the_panel_renders_headless_as_the_window_traced_it() {
     let start = f12(&x, &window, dir.path(), &mut app);
 
     // Open Presets, name the file, save.
-    scroll_panel_to_end(&x.display, &window);
-    click_at(&x.display, &window, 45, 662);
-    scroll_panel_to_end(&x.display, &window);
+    open_presets(&x.display, &window);
     click_at(&x.display, &window, 100, 640);
     assert!(xdotool(&x.display, &["type", "--delay", "40", "look"]).status.success());
     click_at(&x.display, &window, 42, 662);
@@ -440,9 +446,7 @@ fn a_name_typed_straight_after_the_click_into_its_field_goes_into_the_field() {
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
     let start = f12(&x, &window, dir.path(), &mut app);
-    scroll_panel_to_end(&x.display, &window);
-    click_at(&x.display, &window, 45, 662);
-    scroll_panel_to_end(&x.display, &window);
+    open_presets(&x.display, &window);
     click_at(&x.display, &window, 600, 300);
     assert!(xdotool(&x.display, &["mousemove", "--window", &window, "100", "640"]).status.success());
     std::thread::sleep(Duration::from_millis(400));
