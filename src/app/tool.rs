@@ -340,9 +340,11 @@ impl Tool {
         }
         // The keys are the tool's unless egui wants the keyboard (as it did at the end of the
         // last frame, which is how it will see them) or the Open dialog shows (its keys,
-        // Escape, Enter and arrows, are its own whether or not a text field has the focus).
-        if !self.egui_ctx.egui_wants_keyboard_input() && !self.open_dialog.is_open() {
-            for key in keys {
+        // Escape, Enter and arrows, are its own whether or not a text field has the focus;
+        // Ctrl+O among the keys opens it for those after).
+        let egui_wants_keys = self.egui_ctx.egui_wants_keyboard_input();
+        for key in keys {
+            if !egui_wants_keys && !self.open_dialog.is_open() {
                 self.shortcut(key);
             }
         }
