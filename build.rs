@@ -9,7 +9,7 @@
 //! expansion, to `vendor_<name>.spv` and `probe_<name>.spv`.
 //!
 //! Two generated files keep the host and the shader from drifting apart:
-//! - `contract.glsl`: the shared constants of `src/tracer/contract.rs` as GLSL, for the
+//! - `contract.glsl`: the shared constants of `src/contract.rs` as GLSL, for the
 //!   shaders to `#include` (supplied by `src/gpu/shader_compile.rs`, which assembles and
 //!   compiles the sources for both the build and `view --watch-shaders`);
 //! - `trace_layout.rs`: what the compiled `trace.comp` declares, read back from naga's
@@ -28,10 +28,10 @@ mod shader_compile;
 /// The shared constants (`ALL`), compiled into the build script too.
 #[allow(dead_code)]
 mod contract {
-    include!("src/tracer/contract.rs");
+    include!("src/contract.rs");
 }
 
-const CONTRACT_SOURCE: &str = "src/tracer/contract.rs";
+const CONTRACT_SOURCE: &str = "src/contract.rs";
 
 /// Compile `src_path` with `defines` into `<stem><suffix>.spv`.
 fn compile(src_path: &Path, contract: &str, defines: &[&str], suffix: &str, out_dir: &Path) -> naga::Module {

@@ -2,7 +2,7 @@
 // structs; the tests compare their layouts with the compiled shader's). All buffers are
 // std430.
 
-// EMPTY, the flag bits and the AOV codes: generated from src/tracer/contract.rs.
+// EMPTY, the flag bits and the AOV codes: generated from src/contract.rs.
 #include "contract.glsl"
 
 struct Triangle {

@@ -8,9 +8,14 @@
 //!   trace pass that runs `shaders/trace.comp`.
 //! - [`app`]: the interactive egui tool on top; [`cli`]: the thin command line.
 
+/// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
+/// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
+pub(crate) mod contract;
 pub(crate) mod bench;
 pub mod bvh;
+pub(crate) mod files;
 pub mod geometry;
+pub mod render_settings;
 pub mod scene;
 pub mod gpu;
 pub mod tracer;

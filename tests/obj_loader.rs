@@ -486,7 +486,7 @@ fn non_finite_coordinates_name_the_line() {
         ("v nan 0 0", 2, "vertex position"),
         ("v 0 1e39 0", 2, "vertex position"), // overflows f32 to infinity
         ("v 0 0 inf", 2, "vertex position"),
-        ("v 1 1 1 1e-45", 2, "vertex position"), // w divides to infinity
+        ("v 0 inf 0 1", 2, "vertex position"), // w is ignored, x, y, z still checked
     ] {
         let text = format!("v 0 0 0\n{bad}\nv 0 1 0\nf 1 2 3\n");
         let e = load_err(&text);
@@ -533,6 +533,16 @@ fn a_truncated_last_line_is_reported_as_such() {
 }
 
 #[test]
+fn a_vertex_weight_is_ignored() {
+    // `v x y z w`: w weighs a rational curve's control point; a mesh keeps x, y, z (#29:
+    // tinyobjloader's cube-vertex-w-component.obj drew a spike when divided by it).
+    let plain = load_obj_from_str("v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n", "a.obj", None).unwrap();
+    let weighted = load_obj_from_str("v 0 0 0 0\nv 2 0 0 0.5\nv 0 2 0 1e-45\nf 1 2 3\n", "b.obj", None).unwrap();
+    assert_eq!(plain.mesh.positions, weighted.mesh.positions);
+    assert!(weighted.warnings.is_empty(), "{:?}", weighted.warnings);
+}
+
+#[test]
 fn malformed_lines_in_the_middle_are_parse_errors() {
     for (bad, reason) in [
         ("v 1 x 3", "vertex position"),
@@ -542,7 +552,7 @@ fn malformed_lines_in_the_middle_are_parse_errors() {
         ("f 1 2 a", "not a face corner"),
         ("f 1//// 2 3", "more than three indices"),
         ("f /1 2 3", "not a face corner"),
-        ("v 1 2 3 0", "w is zero"),
+        ("v 1 2 3 w", "vertex position"),
     ] {
         let text = format!("{SQUARE}{bad}\nf 1 2 3\n");
         let e = load_err(&text);

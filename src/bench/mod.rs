@@ -215,7 +215,13 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
                     prepare_model(&mut m);
                     m
                 }
-                None => case.spec.load_model()?.0,
+                None => {
+                    let (mesh, warnings) = case.spec.load_model()?;
+                    for w in &warnings {
+                        log::warn!("{w}");
+                    }
+                    mesh
+                }
             };
             loaded = Some(Loaded { key: key.clone(), mesh });
         }

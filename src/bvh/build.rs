@@ -14,11 +14,13 @@
 //! stitched together in depth-first order at the end.
 
 mod bins;
+mod prim;
 
-use glam::{Vec3, Vec3A};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use self::bins::{Bin, BinGrid, BinSet};
+use self::prim::{Bounds, Prim, MAX_BINS};
 use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
 use crate::geometry::Aabb;
 
@@ -55,8 +57,6 @@ impl BuildOptions {
     }
 }
 
-const MAX_BINS: usize = 32;
-
 /// Subtrees at least this big are split off onto the other thread; below it the fork
 /// overhead outweighs the gain.
 const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
@@ -88,73 +88,6 @@ impl Bvh {
             })
             .collect();
         build_from_prims(prims, options)
-    }
-}
-
-/// One primitive's box and original index: the unit that the build sorts in place
-/// (32 bytes, so a partition swap moves half a cache line).
-#[derive(Clone, Copy)]
-#[repr(C, align(16))]
-struct Prim {
-    min: Vec3,
-    index: u32,
-    max: Vec3,
-    _pad: u32,
-}
-
-impl Prim {
-    fn new(min: Vec3, max: Vec3, index: u32) -> Self {
-        Self { min, index, max, _pad: 0 }
-    }
-
-    #[inline(always)]
-    fn bounds_min(&self) -> Vec3A {
-        self.min.into()
-    }
-
-    #[inline(always)]
-    fn bounds_max(&self) -> Vec3A {
-        self.max.into()
-    }
-
-    /// Box centre; halves first so that huge coordinates cannot overflow.
-    #[inline(always)]
-    fn centroid(&self) -> Vec3A {
-        self.bounds_min() * 0.5 + self.bounds_max() * 0.5
-    }
-}
-
-/// A box in SIMD registers, for the hot loops (`Aabb` is the public, 12-byte-vector one).
-#[derive(Clone, Copy, Debug)]
-struct Bounds {
-    min: Vec3A,
-    max: Vec3A,
-}
-
-impl Bounds {
-    const EMPTY: Bounds = Bounds { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
-
-    #[inline(always)]
-    fn grow(&mut self, min: Vec3A, max: Vec3A) {
-        self.min = self.min.min(min);
-        self.max = self.max.max(max);
-    }
-
-    #[inline(always)]
-    fn union(self, o: Bounds) -> Bounds {
-        Bounds { min: self.min.min(o.min), max: self.max.max(o.max) }
-    }
-
-    /// Half the surface area of the box scaled by `scale`, plus a tiny floor on each edge
-    /// so that boxes flat in two axes (collinear primitives) still weigh by length.
-    #[inline(always)]
-    fn half_area(&self, scale: f32) -> f32 {
-        let e = (self.max - self.min).max(Vec3A::ZERO) * scale + Vec3A::splat(1e-6);
-        e.x * e.y + e.y * e.z + e.z * e.x
-    }
-
-    fn to_aabb(self) -> Aabb {
-        Aabb { min: self.min.into(), max: self.max.into() }
     }
 }
 

@@ -19,7 +19,7 @@ pub(crate) use traverse::closest_hit;
 use bytemuck::{Pod, Zeroable};
 
 use crate::geometry::Aabb;
-use crate::tracer::contract;
+use crate::contract;
 
 /// Marks an absent child (its box must not be tested); the shader's `EMPTY`.
 pub(crate) const EMPTY: u32 = contract::EMPTY;

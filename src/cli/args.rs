@@ -11,7 +11,7 @@ use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-use crate::tracer::frame::{Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+use crate::render_settings::{self as knobs, Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -40,7 +40,7 @@ pub enum Command {
 
 fn parse_unit(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
-    if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(format!("{s} is out of range (0..=1)")) }
+    knobs::BLEND.check(v as f64, s).map(|()| v)
 }
 
 fn parse_finite(s: &str) -> Result<f32, String> {
@@ -61,22 +61,22 @@ pub(crate) struct SceneArgs {
     #[arg(long, value_name = "DEG", value_parser = parse_crease_angle, allow_hyphen_values = true)]
     pub crease_angle: Option<f32>,
     /// Number of identical models, laid out along the axes as in the paper's Table 2.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_MODELS as i64))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_MODELS as i64), allow_negative_numbers = true)]
     pub models: u32,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64), allow_negative_numbers = true)]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64), allow_negative_numbers = true)]
     pub height: u32,
     /// Mirror bounces after the primary hit (the paper used 2).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64))]
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64), allow_negative_numbers = true)]
     pub bounces: u32,
     /// Reflection blend ratio: 0 = no reflections, 1 = pure mirrors.
-    #[arg(long, default_value_t = 0.5, value_parser = parse_unit)]
+    #[arg(long, default_value_t = 0.5, value_parser = parse_unit, allow_negative_numbers = true)]
     pub blend: f32,
     /// Position of the light on its orbit, in degrees.
-    #[arg(long, default_value_t = 45.0, value_parser = parse_finite)]
+    #[arg(long, default_value_t = 45.0, value_parser = parse_finite, allow_negative_numbers = true)]
     pub light_angle: f32,
     /// Acceleration: bvh, brute (the paper's every-ray-against-every-triangle), or vendor
     /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
@@ -96,7 +96,7 @@ pub(crate) struct SceneArgs {
     #[arg(long, default_value = "none")]
     pub env: String,
     /// Jittered samples per pixel (anti-aliasing); 1 = one ray through the pixel centre.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64), allow_negative_numbers = true)]
     pub spp: u32,
     /// Spend the --spp samples only on pixels at edges (seen directly or in the mirrors), one elsewhere.
     #[arg(long)]
@@ -124,7 +124,7 @@ pub(crate) struct SceneArgs {
 
 fn parse_crease_angle(s: &str) -> Result<f32, String> {
     let v = parse_finite(s)?;
-    if (0.0..=180.0).contains(&v) { Ok(v) } else { Err(format!("{s} is out of range (0..=180 degrees)")) }
+    knobs::CREASE_ANGLE_DEGREES.check(v as f64, s).map(|()| v)
 }
 
 fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
@@ -133,7 +133,7 @@ fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
 
 fn parse_fov(s: &str) -> Result<f32, String> {
     let v = parse_finite(s)?;
-    if v > 1.0 && v < 179.0 { Ok(v) } else { Err(format!("{s} is out of range (1..179 degrees)")) }
+    knobs::FOV_DEGREES.check(v as f64, s).map(|()| v)
 }
 
 impl SceneArgs {
@@ -273,7 +273,7 @@ pub struct ViewArgs {
     pub(crate) trace_device: Option<usize>,
     /// Run the benchmark (the camera orbits once in N frames at the given settings), print
     /// its summary, append it to --benchmark-json, and quit: 0 on success, 1 on a failure.
-    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "120", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "120", value_parser = clap::value_parser!(u32).range(1..=1_000_000), allow_negative_numbers = true)]
     pub(crate) benchmark: Option<u32>,
     /// Append each benchmark's summary (this run's, or the panel's) to this file as one
     /// line of JSON [default: meshtracer_benchmark.jsonl in the screenshot folder].
@@ -318,13 +318,27 @@ pub struct ViewArgs {
     pub(crate) split_b: Option<String>,
 }
 
+/// A screenshot is written as PNG (with its preset): the path must say so, and its folder
+/// must take the file, before the session rather than at its end.
+fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        anyhow::bail!("{flag} {}: screenshots are written as PNG; give a path ending in .png", path.display());
+    }
+    crate::files::check_writable(path)
+}
+
 impl ViewArgs {
     /// The tool's options: the CLI sits on top of the app, not the other way round.
     pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
         let window = self.window.as_deref().map(crate::app::parse_window_size).transpose().map_err(anyhow::Error::msg)?;
+        for (flag, path) in [("--screenshot", &self.screenshot), ("--screenshot-ui", &self.screenshot_ui)] {
+            if let Some(path) = path {
+                check_png_output(flag, path)?;
+            }
+        }
         let (spec, warnings) = self.scene.resolve(Aov::Color, true)?;
         for w in &warnings {
-            eprintln!("warning: {w}");
+            log::warn!("{w}");
         }
         Ok(crate::app::ViewOptions {
             spec,
@@ -452,6 +466,26 @@ mod tests {
         for bad in ["-1", "180.5", "nan", "sharp"] {
             let e = render_args(&["--crease-angle", bad]).unwrap_err().to_string();
             assert!(e.contains("--crease-angle") && e.contains(bad), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_negative_number_is_out_of_range_not_an_unknown_flag() {
+        for (flag, range) in [("--bounces", "0..=8"), ("--width", "1..=8192"), ("--spp", "1..=64"), ("--models", "1..=")] {
+            let e = render_args(&[flag, "-1"]).unwrap_err().to_string();
+            assert!(e.contains(flag) && e.contains(range) && !e.contains("unexpected argument"), "{flag}: {e}");
+        }
+        let e = render_args(&["--blend", "-0.5"]).unwrap_err().to_string();
+        assert!(e.contains("out of range (0..=1)"), "{e}");
+    }
+
+    #[test]
+    fn a_screenshot_path_must_be_a_png() {
+        for flag in ["--screenshot", "--screenshot-ui"] {
+            let e = view_args(&[flag, "shot.bmp"]).unwrap().options().unwrap_err().to_string();
+            assert!(e.starts_with(&format!("{flag} shot.bmp: screenshots are written as PNG")), "{e}");
+            let e = view_args(&[flag, "/no/such/folder/x.png"]).unwrap().options().unwrap_err().to_string();
+            assert!(e.contains("cannot write /no/such/folder/x.png"), "{e}");
         }
     }
 }

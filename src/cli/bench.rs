@@ -174,7 +174,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.preset {
         let (preset_cases, warnings) = args.preset_cases(path)?;
         for w in &warnings {
-            eprintln!("warning: {w}");
+            log::warn!("{w}");
         }
         cases.extend(preset_cases);
     } else if args.paper || !(args.scaling || args.features || args.framed) {

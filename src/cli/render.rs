@@ -8,15 +8,17 @@ use anyhow::bail;
 use super::args::RenderArgs;
 use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::heat_map::heat_map;
-use crate::tracer::image::{save_jpeg, save_png, OutputFormat};
+use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
 use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let format = OutputFormat::from_path(&args.output).map_err(anyhow::Error::msg)?;
+    // Before the work, not after it: a long render must not be lost to a typo in the path.
+    crate::files::check_writable(&args.output)?;
     let (spec, preset_warnings) = args.spec()?;
     for w in &preset_warnings {
-        eprintln!("warning: {w}");
+        log::warn!("{w}");
     }
     let aov = spec.settings.aov;
     // Colour is PNG, JPEG or EXR; every AOV is float EXR; cost and samples may also be a
@@ -45,7 +47,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }
     for w in warnings.iter().chain(&packed.warnings) {
-        eprintln!("warning: {w}");
+        log::warn!("{w}");
     }
     let params = FrameParams::new(&scene, settings);
 
@@ -101,7 +103,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         image.save(&args.output, aov, Some(&preset_text))?;
     }
     println!(
-        "wrote {} ({}x{}, {} x{}, {} triangles, {} bounces, {}; {how})",
+        "wrote {} ({}x{}, {} x{}, {} triangles, {} bounce{}, {}; {how})",
         args.output.display(),
         settings.width,
         settings.height,
@@ -109,6 +111,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         spec.models,
         scene.triangle_count(),
         settings.bounces,
+        if settings.bounces == 1 { "" } else { "s" },
         settings.accel,
     );
     Ok(())

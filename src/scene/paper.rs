@@ -47,7 +47,8 @@ impl ModelSource {
     pub fn label(&self) -> String {
         match self {
             ModelSource::Paper(m) => m.name().to_string(),
-            ModelSource::Generated(n) => format!("torusknot-{n}"),
+            // Named by what it has: `torusknot:1` makes 512 triangles.
+            ModelSource::Generated(n) => format!("torusknot-{}", super::primitives::large_torus_knot_triangles(*n)),
             ModelSource::File(p) => p.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned()),
         }
     }
@@ -271,6 +272,10 @@ mod tests {
     fn generated_models_parse_with_suffixes() {
         assert_eq!(ModelSource::parse("torusknot:4M"), ModelSource::Generated(4_000_000));
         assert_eq!(ModelSource::parse("torusknot:250k"), ModelSource::Generated(250_000));
+        for n in [1, 1000, 250_000] {
+            let label = ModelSource::Generated(n).label();
+            assert_eq!(label, format!("torusknot-{}", super::super::primitives::large_torus_knot(n).triangle_count()), "the name counts what is made");
+        }
         assert_eq!(ModelSource::parse("torusknot"), ModelSource::Paper(PaperModel::TorusKnot));
         // Out of range or not a number: taken as a file name (which then fails to open).
         assert!(matches!(ModelSource::parse("torusknot:0"), ModelSource::File(_)));

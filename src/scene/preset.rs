@@ -18,7 +18,7 @@ use super::obj::LoadOptions;
 use super::paper::{LightOrbit, ModelSource, MAX_MODELS};
 use super::spec::{CameraSpec, SceneSpec};
 use super::EnvironmentSource;
-use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+use crate::render_settings::{self as knobs, Accel, Aov, RenderSettings};
 
 /// The format version this build writes and reads (`version = 1`).
 pub(crate) const VERSION: u32 = 1;
@@ -96,9 +96,9 @@ struct ShadingPart {
 struct LightPart {
     #[serde(deserialize_with = "de_finite")]
     angle: f32,
-    #[serde(deserialize_with = "de_finite")]
+    #[serde(deserialize_with = "de_light_radius")]
     radius: f32,
-    #[serde(deserialize_with = "de_finite")]
+    #[serde(deserialize_with = "de_light_height")]
     height: f32,
 }
 
@@ -209,9 +209,28 @@ fn de_env<'de, D: Deserializer<'de>>(d: D) -> Result<Option<EnvironmentSource>, 
     Ok(EnvironmentSource::parse(text.trim()))
 }
 
-fn de_in_range<'de, D: Deserializer<'de>>(d: D, lo: u32, hi: u32) -> Result<u32, D::Error> {
+fn de_in_range<'de, D: Deserializer<'de>>(d: D, range: knobs::Range) -> Result<u32, D::Error> {
     let n = i64::deserialize(d)?;
-    if (lo as i64..=hi as i64).contains(&n) { Ok(n as u32) } else { Err(D::Error::custom(format!("{n} is out of range ({lo}..={hi})"))) }
+    range.check(n as f64, n).map_err(D::Error::custom)?;
+    Ok(n as u32)
+}
+
+fn de_finite_in<'de, D: Deserializer<'de>>(d: D, range: knobs::Range) -> Result<f32, D::Error> {
+    let v = f64::deserialize(d)?;
+    if !v.is_finite() {
+        return Err(D::Error::custom(format!("{v} is not a finite number")));
+    }
+    // In range before narrowing: 1e308 is out of range, not "inf".
+    range.check(v, number_text(v)).map_err(D::Error::custom)?;
+    Ok(v as f32)
+}
+
+fn de_light_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    de_finite_in(d, knobs::LIGHT_RADIUS)
+}
+
+fn de_light_height<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    de_finite_in(d, knobs::LIGHT_HEIGHT)
 }
 
 fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -220,39 +239,48 @@ fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 fn de_copies<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, 1, MAX_MODELS)
+    de_in_range(d, knobs::Range::closed(1.0, MAX_MODELS as f64, ""))
 }
 
 fn de_side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, 1, MAX_RESOLUTION)
+    de_in_range(d, knobs::RESOLUTION)
 }
 
 fn de_bounces<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, 0, MAX_BOUNCES)
+    de_in_range(d, knobs::BOUNCES)
 }
 
 fn de_spp<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, 1, MAX_SPP)
+    de_in_range(d, knobs::SPP)
 }
 
 fn de_crease_angle<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f32>, D::Error> {
-    let v = de_finite(d)?;
-    if (0.0..=180.0).contains(&v) { Ok(Some(v)) } else { Err(D::Error::custom(format!("{v} is out of range (0..=180 degrees)"))) }
+    de_finite_in(d, knobs::CREASE_ANGLE_DEGREES).map(Some)
 }
 
 fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    let v = f32::deserialize(d)?;
-    if v.is_finite() { Ok(v) } else { Err(D::Error::custom(format!("{v} is not a finite number"))) }
+    let v = f64::deserialize(d)?;
+    let narrow = v as f32;
+    if !v.is_finite() {
+        Err(D::Error::custom(format!("{v} is not a finite number")))
+    } else if !narrow.is_finite() {
+        Err(D::Error::custom(format!("{} is too large (at most about 3.4e38)", number_text(v))))
+    } else {
+        Ok(narrow)
+    }
+}
+
+/// A number as a message shows it: 1e308 as "1e308", not three hundred digits.
+fn number_text(v: f64) -> String {
+    if v.abs() >= 1e9 { format!("{v:e}") } else { v.to_string() }
 }
 
 fn de_blend<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    let v = de_finite(d)?;
-    if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(D::Error::custom(format!("{v} is out of range (0..=1)"))) }
+    de_finite_in(d, knobs::BLEND)
 }
 
 fn de_fov<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    let v = de_finite(d)?;
-    if v > 1.0 && v < 179.0 { Ok(v) } else { Err(D::Error::custom(format!("{v} is out of range (1..179 degrees)"))) }
+    de_finite_in(d, knobs::FOV_DEGREES)
 }
 
 fn de_point<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
@@ -396,6 +424,14 @@ fn unknown_keys(doc: &toml::de::DeTable, known: &toml::Table, prefix: &str, foun
     }
 }
 
+impl SceneSpec {
+    /// This spec as preset text (see [`crate::scene::preset`]): what preset files hold and the
+    /// PNGs the program writes carry.
+    pub fn to_preset_text(&self) -> String {
+        to_text(self)
+    }
+}
+
 /// A preset read from a file: the spec and warnings for keys that were ignored.
 #[derive(Clone, Debug)]
 pub struct Loaded {
@@ -405,13 +441,24 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
+/// The largest TOML preset read.
+const MAX_TEXT_BYTES: u64 = 1 << 20;
+/// The largest PNG read for its preset (an 8192² screenshot with little compression).
+const MAX_PNG_BYTES: u64 = 512 << 20;
+
 /// Read a preset file: TOML, or a PNG this program wrote (its `meshtracer` chunk). The
 /// error is one line naming the file (and the key and the line, for a bad value).
 pub fn read(path: &Path) -> Result<Loaded, String> {
     let shown = path.display();
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the preset {shown}: {e}"))?;
-    let text = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        match crate::tracer::image::png_settings(&bytes) {
+    // A PNG preset is a screenshot (big); a TOML preset is a page of text. Either way the
+    // read is bounded, and only a regular file is opened (not a FIFO or /dev/zero).
+    let bytes = crate::files::read_capped(path, "the preset", MAX_PNG_BYTES)?;
+    let png = bytes.starts_with(b"\x89PNG\r\n\x1a\n");
+    if !png && bytes.len() as u64 > MAX_TEXT_BYTES {
+        return Err(format!("cannot read the preset {shown}: larger than 1 MiB (a preset is a page of text, or a PNG this program wrote)"));
+    }
+    let text = if png {
+        match crate::files::image_files::png_settings(&bytes) {
             Ok(Some(text)) => text,
             Ok(None) => return Err(format!("preset {shown}: the PNG has no meshtracer settings (only PNGs this program wrote carry them)")),
             Err(e) => return Err(format!("preset {shown}: not a readable PNG: {e}")),
@@ -478,19 +525,14 @@ impl std::fmt::Display for SaveError {
     }
 }
 
-/// Write `spec` as a preset to `path`: into a temporary file beside it, then renamed, so
-/// a reader never sees half a preset. An existing file is replaced only with `overwrite`.
+/// Write `spec` as a preset to `path` (through `files::write_atomic`: a reader never sees
+/// half a preset, and a failed write keeps the file that was there). An existing file is replaced only with `overwrite`.
 pub fn save(spec: &SceneSpec, path: &Path, overwrite: bool) -> Result<(), SaveError> {
     if !overwrite && path.exists() {
         return Err(SaveError::Exists(path.to_path_buf()));
     }
-    let name = path.file_name().map_or_else(|| "preset".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = std::fs::write(&tmp, to_text(&absolute_paths(spec))).and_then(|()| std::fs::rename(&tmp, path));
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        SaveError::Io(format!("could not write the preset {}: {e}", path.display()))
-    })
+    crate::files::write_bytes_atomic(path, to_text(&absolute_paths(spec)).as_bytes())
+        .map_err(|e| SaveError::Io(format!("could not write the preset {}: {}", path.display(), e.root_cause())))
 }
 
 #[cfg(test)]

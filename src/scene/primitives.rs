@@ -228,16 +228,27 @@ pub(crate) fn torus_knot(p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
 /// The trefoil again, with rings spaced so that the quads are close to square (good
 /// triangles for a BVH); 10 million triangles take a fraction of a second.
 pub fn large_torus_knot(min_triangles: usize) -> Mesh {
-    // The trefoil below is about 8 times longer than its tube's circumference.
-    const LENGTH_OVER_CIRCUMFERENCE: f64 = 8.0;
-    let quads = min_triangles.div_ceil(2).max(1) as f64;
-    let sides = (quads / LENGTH_OVER_CIRCUMFERENCE).sqrt().ceil().max(8.0);
-    let segments = (quads / sides).ceil().max(32.0);
-    let (sides, segments) = (sides as u32, segments as u32);
+    let (segments, sides) = large_knot_rings(min_triangles);
     let mut mesh = tube_knot("torusknot", 2, 3, segments, sides);
     let name = format!("torusknot-{}", mesh.triangle_count());
     name_mesh(&mut mesh, &name);
     mesh
+}
+
+/// Rings along the knot and quads around its tube for at least `min_triangles`.
+fn large_knot_rings(min_triangles: usize) -> (u32, u32) {
+    // The trefoil is about 8 times longer than its tube's circumference.
+    const LENGTH_OVER_CIRCUMFERENCE: f64 = 8.0;
+    let quads = min_triangles.div_ceil(2).max(1) as f64;
+    let sides = (quads / LENGTH_OVER_CIRCUMFERENCE).sqrt().ceil().max(8.0);
+    let segments = (quads / sides).ceil().max(32.0);
+    (segments as u32, sides as u32)
+}
+
+/// How many triangles [`large_torus_knot`] makes for `min_triangles`, without making them.
+pub fn large_torus_knot_triangles(min_triangles: usize) -> usize {
+    let (segments, sides) = large_knot_rings(min_triangles);
+    2 * segments as usize * sides as usize
 }
 
 /// Radius of the torus the knot lies on, radius of the knot's swing around that torus's

@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::obj::{LoadOptions, ObjError};
 use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
-use crate::tracer::frame::RenderSettings;
+use crate::render_settings::{RenderSettings, CREASE_ANGLE_DEGREES};
 
 /// Where the camera is: the scene's default view with optional overrides, or framed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -94,10 +94,10 @@ impl Default for SceneSpec {
 
 impl SceneSpec {
     /// Check the settings and the camera; the error is one sentence naming the knob.
-    pub(crate) fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
-        if let Some(angle) = self.load_options.crease_angle.filter(|a| !(0.0..=180.0).contains(a)) {
-            return Err(format!("the crease angle {angle} is out of range (0..=180 degrees)"));
+        if let Some(angle) = self.load_options.crease_angle {
+            CREASE_ANGLE_DEGREES.check(angle as f64, format!("the crease angle {angle}"))?;
         }
         let camera = self.camera.camera();
         if camera.position.distance(camera.target) < 1e-6 {
@@ -109,7 +109,7 @@ impl SceneSpec {
     /// Read the environment file now, so a bad one fails before any other work.
     pub(crate) fn check_environment(&self) -> anyhow::Result<()> {
         if let Some(EnvironmentSource::File(p)) = &self.environment {
-            crate::tracer::textures::load_environment(p)?;
+            crate::files::read_image(p, "environment map").map_err(anyhow::Error::msg)?;
         }
         Ok(())
     }
@@ -123,12 +123,6 @@ impl SceneSpec {
         scene.camera = self.camera.camera();
         scene.environment = self.environment.clone();
         scene
-    }
-
-    /// This spec as preset text (see [`super::preset`]): what preset files hold and the
-    /// PNGs the program writes carry.
-    pub fn to_preset_text(&self) -> String {
-        super::preset::to_text(self)
     }
 
     /// Load (or generate) the model and build the scene; the loader's warnings are returned.

@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::contract;
+use crate::contract;
 use super::frame::{Accel, Aov, FrameParams, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};

@@ -3,9 +3,8 @@
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
 pub(crate) mod budget;
-/// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
-/// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
-pub(crate) mod contract;
+// Transitional: the contract moved to the crate root; old paths still name it here.
+pub(crate) use crate::contract;
 pub mod cpu;
 pub mod frame;
 pub(crate) mod heat_map;

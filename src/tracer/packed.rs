@@ -92,12 +92,12 @@ impl GpuMaterial {
 
     /// True when the texture clamps at its edges instead of repeating.
     pub(crate) fn texture_clamps(&self) -> bool {
-        self.texture_flags & super::contract::TEXTURE_CLAMP != 0
+        self.texture_flags & crate::contract::TEXTURE_CLAMP != 0
     }
 }
 
 /// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
-pub(crate) const NO_TEXTURE: u32 = super::contract::EMPTY;
+pub(crate) const NO_TEXTURE: u32 = crate::contract::EMPTY;
 
 /// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
 #[repr(C)]
@@ -207,7 +207,7 @@ impl PackedScene {
                 specular: m.specular.to_array(),
                 shininess: m.shininess,
                 texture: texture_of(m),
-                texture_flags: if m.texture_transform.clamp { super::contract::TEXTURE_CLAMP } else { 0 },
+                texture_flags: if m.texture_transform.clamp { crate::contract::TEXTURE_CLAMP } else { 0 },
                 _pad: [0; 2],
                 uv_scale: m.texture_transform.scale.to_array(),
                 uv_offset: m.texture_transform.offset.to_array(),

@@ -62,13 +62,13 @@ fn decode_textures(scene: &Scene) -> (Vec<(PathBuf, RgbaImage)>, Vec<String>) {
         .collect();
     paths.sort();
     paths.dedup();
-    let decoded: Vec<_> = paths.par_iter().map(|p| (p.to_path_buf(), image::open(p).map(|i| i.to_rgba8()))).collect();
+    let decoded: Vec<_> = paths.par_iter().map(|p| (p.to_path_buf(), crate::files::read_image(p, "texture").map(|i| i.to_rgba8()))).collect();
     let mut textures = Vec::new();
     let mut warnings = Vec::new();
     for (path, result) in decoded {
         match result {
             Ok(img) => textures.push((path, img)),
-            Err(e) => warnings.push(format!("cannot read texture {}: {e}; using the material's Kd instead", path.display())),
+            Err(e) => warnings.push(format!("{}; using the material's Kd instead", crate::files::shown(&e, 2 * crate::files::MAX_QUOTED_NAME))),
         }
     }
     (textures, warnings)

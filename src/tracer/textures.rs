@@ -239,7 +239,7 @@ impl EnvironmentMap {
 /// EXR as their linear floating-point values (brighter than 1 stays brighter; see
 /// [`EnvironmentMap`]).
 pub(crate) fn load_environment(path: &Path) -> anyhow::Result<EnvironmentMap> {
-    let img = image::open(path).map_err(|e| anyhow::anyhow!("cannot read environment map {}: {e}", path.display()))?;
+    let img = crate::files::read_image(path, "environment map").map_err(anyhow::Error::msg)?;
     Ok(match img {
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => EnvironmentMap::from_rgba32f(&img.to_rgba32f()),
         _ => EnvironmentMap::from_rgba8(&img.to_rgba8()),

@@ -11,7 +11,7 @@ use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
 use super::axes::{count_label, log_range, log_ticks, pixels_label, short_number, snap_125};
-use super::{Chart, Line, Marker, XAxis, GREY_};
+use super::chart::{Chart, Line, Marker, XAxis, GREY_};
 
 /// DejaVu Sans 2.37 (Bitstream Vera licence, see assets/fonts/LICENSE-DejaVu.txt).
 const FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
@@ -51,7 +51,7 @@ pub(super) fn render(chart: &Chart, path: &Path) -> anyhow::Result<()> {
         root.present().map_err(err)?;
     }
     let image = image::RgbImage::from_raw(WIDTH, HEIGHT, buffer).ok_or_else(|| anyhow!("bad image buffer"))?;
-    image.save(path)?;
+    crate::files::write_atomic(path, |out| Ok(image.write_to(out, image::ImageFormat::Png)?))?;
     Ok(())
 }
 

@@ -13,6 +13,7 @@
 //! system font is needed.
 
 mod axes;
+mod chart;
 mod draw;
 
 use std::path::{Path, PathBuf};
@@ -21,6 +22,7 @@ use anyhow::Context;
 use plotters::style::{RGBColor, BLACK};
 use serde::Deserialize;
 
+use self::chart::{Chart, Line, Marker, Series, XAxis, GREY_};
 use self::draw::render;
 use super::paper_tables::{TABLE1, TABLE2};
 use super::{Environment, Row};
@@ -59,84 +61,9 @@ pub fn write_charts(dir: &Path, environments: &[Environment], rows: &[Row]) -> a
     Ok(written)
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Marker {
-    Circle,
-    Square,
-    Triangle,
-    Diamond,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Line {
-    /// Points only.
-    None,
-    Solid,
-    Dashed,
-}
-
-#[derive(Clone, Debug)]
-struct Series {
-    label: String,
-    color: RGBColor,
-    line: Line,
-    marker: Marker,
-    /// (x, y), sorted by x when drawn.
-    points: Vec<(f64, f64)>,
-    /// A name written beside each point (empty: none).
-    point_labels: Vec<String>,
-}
-
-impl Series {
-    fn new(label: String, color: RGBColor, line: Line, marker: Marker) -> Self {
-        Self { label, color, line, marker, points: Vec::new(), point_labels: Vec::new() }
-    }
-
-    /// Add a point unless one at the same x is there already (a row measured twice, e.g.
-    /// in the scaling series and in Table 1, is drawn once).
-    fn push(&mut self, x: f64, y: f64, label: Option<String>) {
-        if self.points.iter().any(|p| p.0 == x) {
-            return;
-        }
-        self.points.push((x, y));
-        if let Some(l) = label {
-            self.point_labels.resize(self.points.len() - 1, String::new());
-            self.point_labels.push(l);
-        }
-    }
-
-    fn sorted(&self) -> Vec<(f64, f64, String)> {
-        let mut v: Vec<_> = self.points.iter().enumerate().map(|(i, p)| (p.0, p.1, self.point_labels.get(i).cloned().unwrap_or_default())).collect();
-        v.sort_by(|a, b| a.0.total_cmp(&b.0));
-        v
-    }
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum XAxis {
-    /// Triangle counts: decades labelled 100, 1k, 1M.
-    Count,
-    /// Pixels per frame: ticks at the resolutions drawn, labelled 512².
-    Pixels,
-    /// Model copies: ticks at the counts drawn.
-    Copies,
-}
-
-struct Chart {
-    title: String,
-    subtitle: String,
-    x_desc: String,
-    y_desc: String,
-    x_axis: XAxis,
-    series: Vec<Series>,
-    /// Horizontal reference lines: (y, label).
-    hlines: Vec<(f64, String)>,
-}
-
 const BLUE_: RGBColor = RGBColor(31, 100, 180);
 const RED_: RGBColor = RGBColor(205, 40, 40);
 const PURPLE_: RGBColor = RGBColor(130, 60, 170);
-const GREY_: RGBColor = RGBColor(110, 110, 110);
 const BVH_SHADES: [RGBColor; 4] = [BLUE_, RGBColor(0, 150, 150), RGBColor(90, 140, 230), RGBColor(20, 50, 110)];
 const BRUTE_SHADES: [RGBColor; 4] = [RED_, RGBColor(230, 130, 0), RGBColor(240, 110, 110), RGBColor(120, 30, 30)];
 const VENDOR_SHADES: [RGBColor; 4] = [RGBColor(40, 150, 60), RGBColor(120, 170, 40), RGBColor(60, 200, 120), RGBColor(20, 90, 40)];

@@ -4,7 +4,7 @@
 
 use glam::{UVec3, Vec3A};
 
-use super::{Bounds, Prim, MAX_BINS};
+use super::prim::{Bounds, Prim, MAX_BINS};
 
 #[derive(Clone, Copy)]
 pub(super) struct Bin {

@@ -315,6 +315,18 @@ fn without_attributes(line: &str, drop_vt: bool, drop_vn: bool) -> String {
     out
 }
 
+/// A `v` line of exactly four numbers without its fourth (the weight w), or None for
+/// any other line (three numbers, or six with a colour, go to tobj as written).
+fn without_weight(line: &str) -> Option<String> {
+    let mut words = line.split_whitespace();
+    let (v, x, y, z, w) = (words.next()?, words.next()?, words.next()?, words.next()?, words.next()?);
+    // A w that is no number stays for tobj to refuse, with its line.
+    if v != "v" || words.next().is_some() || w.parse::<f32>().is_err() {
+        return None;
+    }
+    Some(format!("v {x} {y} {z}\n"))
+}
+
 /// The fast check of an ASCII face's corners (the text after `f`) against the element
 /// counts so far: true when [`LineFeeder::check_face`] would accept them.
 fn face_is_valid(corners: &[u8], counts: [u64; 3]) -> bool {
@@ -401,6 +413,16 @@ impl BufRead for LineFeeder<'_> {
                 "f" => {
                     self.advance(line_end(self.rest));
                     self.prepare_face();
+                }
+                "v" => {
+                    // `v x y z w`: w is a rational curve's weight, which tobj would divide
+                    // the position by; a mesh keeps x, y, z (as other loaders do).
+                    let end = line_end(self.rest);
+                    if let Some(without_w) = without_weight(&self.rest[..end]) {
+                        self.advance(end);
+                        self.vertices += 1;
+                        self.pending = Some(Cow::Owned(without_w));
+                    }
                 }
                 _ => {}
             }

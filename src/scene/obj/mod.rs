@@ -50,7 +50,7 @@ pub struct LoadOptions {
 pub struct LoadedObj {
     /// All objects and groups of the file merged into one mesh, triangles in file order.
     pub mesh: Mesh,
-    /// One sentence per problem that was worked around (each also went to `log::warn!`).
+    /// One sentence per problem that was worked around (not logged here: the caller shows them).
     pub warnings: Vec<String>,
 }
 
@@ -190,7 +190,7 @@ pub fn load_obj_from_str_with(text: &str, name: &str, base_dir: Option<&Path>, o
     for missing in usemtl_names.iter().filter(|n| !known.contains(*n)) {
         warn(
             &mut warnings,
-            format!("{name}: `usemtl {missing}` names no material of the loaded libraries; its faces use the default material"),
+            format!("{name}: `usemtl {}` names no material of the loaded libraries; its faces use the default material", quote_name(missing)),
         );
     }
 
@@ -218,31 +218,33 @@ fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind:
     );
 }
 
-/// The bytes of a regular file. Devices and pipes are refused: `/dev/zero` would never end.
+/// The bytes of a regular file. Devices and pipes are refused before they are opened:
+/// `/dev/zero` would never end, and opening a FIFO waits for a writer.
 fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
-    let mut file = std::fs::File::open(path)?;
-    let meta = file.metadata()?;
+    let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
         return Err(io::Error::new(io::ErrorKind::InvalidInput, format!("it is {what}")));
     }
+    let mut file = std::fs::File::open(path)?;
     let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0).saturating_add(1));
     file.read_to_end(&mut bytes)?;
     Ok(bytes)
 }
 
-/// Record a warning and pass it on to the log.
+/// Record a warning for the caller, who shows it once (the log on the command line, the
+/// panel in the window).
 fn warn(warnings: &mut Vec<String>, message: String) {
-    log::warn!("{message}");
     warnings.push(message);
 }
 
-/// A line for quoting in a message: trimmed, and shortened if long.
+/// A line for quoting in a message: trimmed, shortened if long, control characters
+/// escaped (a file's text must not drive the user's terminal).
 fn quote(line: &str) -> String {
-    const MAX: usize = 60;
-    let line = line.trim();
-    match line.char_indices().nth(MAX) {
-        Some((cut, _)) => format!("`{}...`", &line[..cut]),
-        None => format!("`{line}`"),
-    }
+    format!("`{}`", crate::files::shown(line.trim(), 60))
+}
+
+/// A name read from a file (a material, a library) for a message: see [`quote`].
+fn quote_name(name: &str) -> String {
+    crate::files::shown(name, crate::files::MAX_QUOTED_NAME)
 }

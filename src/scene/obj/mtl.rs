@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::line_feeder::LineFeeder;
-use super::{quote, read_regular_file, warn};
+use super::{quote, quote_name, read_regular_file, warn};
 use crate::scene::{Material, TextureTransform};
 
 /// The `mtllib` loader handed to tobj: reads libraries relative to the OBJ's folder and
@@ -33,7 +33,7 @@ impl MaterialLibraries<'_> {
             self.warn(format!(
                 "{}: `mtllib {}` ignored (the OBJ was not loaded from a folder); using the default material",
                 self.obj_name,
-                mtllib.display()
+                quote_name(&mtllib.to_string_lossy())
             ));
             return Err(tobj::LoadError::OpenFileFailed);
         };
@@ -70,14 +70,14 @@ impl MaterialLibraries<'_> {
                 self.warn(format!(
                     "{}: material library {} cannot be read ({e}); using the default material",
                     self.obj_name,
-                    path.display()
+                    quote_name(&path.to_string_lossy())
                 ));
                 return Err(tobj::LoadError::OpenFileFailed);
             }
         };
         // Material names and texture paths are often Latin-1: keep going rather than fail.
         let text = String::from_utf8_lossy(&bytes);
-        let mtl_name = path.display().to_string();
+        let mtl_name = quote_name(&path.display().to_string());
         let text = sanitize_mtl(&text, &mtl_name, &mut self.warnings.borrow_mut());
         let mut feeder = LineFeeder::new(&text, &mtl_name, false);
         match tobj::load_mtl_buf(&mut feeder) {
@@ -176,17 +176,17 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
     };
     if let Some(raw) = &m.diffuse_texture {
         let dir = library.and_then(Path::parent).unwrap_or(Path::new(""));
-        let library = library.map_or_else(|| "a material library".to_owned(), |p| p.display().to_string());
+        let library = library.map_or_else(|| "a material library".to_owned(), |p| quote_name(&p.display().to_string()));
         let map = texture_map(dir, raw);
         out.diffuse_texture = map.path;
         out.texture_transform = map.transform;
         if !map.ignored.is_empty() {
             let options = map.ignored.join(", ");
             let plural = if map.ignored.len() == 1 { "option" } else { "options" };
-            warn(warnings, format!("{library}: material {}: `map_Kd` {plural} {options} not supported; ignored", m.name));
+            warn(warnings, format!("{library}: material {}: `map_Kd` {plural} {} not supported; ignored", quote_name(&m.name), quote_name(&options)));
         }
         if out.diffuse_texture.is_none() {
-            warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", map.file, m.name));
+            warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", quote_name(&map.file), quote_name(&m.name)));
         }
         // Exporters write `Kd 0 0 0` when the map supplies the colour (all of Sponza does).
         // Taken literally that is black whatever the renderer does with textures: white

@@ -1,0 +1,76 @@
+//! The build's unit of work: one primitive's box and index ([`Prim`]), boxes in SIMD
+//! registers for the hot loops ([`Bounds`]), and the most SAH bins per axis.
+
+use glam::{Vec3, Vec3A};
+
+use crate::geometry::Aabb;
+
+/// Most SAH bins per axis (`BuildOptions::bins` is clamped to it).
+pub(super) const MAX_BINS: usize = 32;
+
+/// One primitive's box and original index: the unit that the build sorts in place
+/// (32 bytes, so a partition swap moves half a cache line).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+pub(super) struct Prim {
+    pub(super) min: Vec3,
+    pub(super) index: u32,
+    pub(super) max: Vec3,
+    _pad: u32,
+}
+
+impl Prim {
+    pub(super) fn new(min: Vec3, max: Vec3, index: u32) -> Self {
+        Self { min, index, max, _pad: 0 }
+    }
+
+    #[inline(always)]
+    pub(super) fn bounds_min(&self) -> Vec3A {
+        self.min.into()
+    }
+
+    #[inline(always)]
+    pub(super) fn bounds_max(&self) -> Vec3A {
+        self.max.into()
+    }
+
+    /// Box centre; halves first so that huge coordinates cannot overflow.
+    #[inline(always)]
+    pub(super) fn centroid(&self) -> Vec3A {
+        self.bounds_min() * 0.5 + self.bounds_max() * 0.5
+    }
+}
+
+/// A box in SIMD registers, for the hot loops (`Aabb` is the public, 12-byte-vector one).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Bounds {
+    pub(super) min: Vec3A,
+    pub(super) max: Vec3A,
+}
+
+impl Bounds {
+    pub(super) const EMPTY: Bounds = Bounds { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+
+    #[inline(always)]
+    pub(super) fn grow(&mut self, min: Vec3A, max: Vec3A) {
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
+    }
+
+    #[inline(always)]
+    pub(super) fn union(self, o: Bounds) -> Bounds {
+        Bounds { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Half the surface area of the box scaled by `scale`, plus a tiny floor on each edge
+    /// so that boxes flat in two axes (collinear primitives) still weigh by length.
+    #[inline(always)]
+    pub(super) fn half_area(&self, scale: f32) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO) * scale + Vec3A::splat(1e-6);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
+    pub(super) fn to_aabb(self) -> Aabb {
+        Aabb { min: self.min.into(), max: self.max.into() }
+    }
+}

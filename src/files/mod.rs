@@ -1,0 +1,220 @@
+//! The one place a file is read or written: the files a user gives us (models, MTL,
+//! textures, presets, environment maps) are read through [`read_capped`] and
+//! [`read_image`], and every file we write goes through [`write_atomic`], so that a failed
+//! write never leaves a half-written file or costs the user the one that was there.
+//!
+//! A leaf of the crate: it imports nothing of ours.
+
+pub mod image_files;
+
+use std::fs::{self, File};
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+/// The size of `path` if it is a regular file (links followed); otherwise one sentence
+/// naming `what` and why it cannot be read. Checked before opening: opening a FIFO or a
+/// device for reading can block or never end.
+pub(crate) fn regular_file_size(path: &Path, what: &str) -> Result<u64, String> {
+    let meta = fs::metadata(path).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    if !meta.is_file() {
+        return Err(format!("cannot read {what} {}: not a regular file", path.display()));
+    }
+    Ok(meta.len())
+}
+
+/// The whole of a regular file of at most `cap` bytes; a bigger one, or anything that is
+/// not a regular file, is one sentence naming `what`.
+pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, String> {
+    let size = regular_file_size(path, what)?;
+    let too_big = || format!("cannot read {what} {}: larger than {} (a {what} is at most that)", path.display(), bytes_text(cap));
+    if size > cap {
+        return Err(too_big());
+    }
+    let file = File::open(path).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    // The size may change between the check and the read: read one byte past the cap.
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(cap + 1).read_to_end(&mut bytes).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    if bytes.len() as u64 > cap {
+        return Err(too_big());
+    }
+    Ok(bytes)
+}
+
+/// Decode the image file at `path` (PNG, JPEG, TGA, HDR, EXR, DDS), refusing what is not a
+/// regular file before opening it.
+pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage, String> {
+    regular_file_size(path, what)?;
+    image::open(path).map_err(|e| format!("cannot read {what} {}: {e}", path.display()))
+}
+
+/// Write `path` through `write`: into a temporary file beside it, synced, then renamed
+/// over `path`. On any failure `path` is left as it was and the temporary is removed; the
+/// error says "cannot write PATH: why".
+pub(crate) fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    let path_shown = path.display().to_string();
+    // A link is written through (the link stays, its file is replaced); a device, FIFO
+    // or folder under the name is refused rather than replaced or written into.
+    let path = &match fs::metadata(path) {
+        Ok(meta) if !meta.is_file() => anyhow::bail!("cannot write {path_shown}: it is not a regular file"),
+        Ok(_) => fs::canonicalize(path).with_context(|| format!("cannot write {path_shown}"))?,
+        Err(_) => path.to_path_buf(),
+    };
+    let tmp = temporary_beside(path);
+    let result = (|| -> anyhow::Result<()> {
+        let mut out = BufWriter::new(File::create(&tmp)?);
+        write(&mut out)?;
+        let file = out.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        fs::rename(&tmp, path)?;
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("cannot write {path_shown}"))
+}
+
+/// Check, before a long render, that `path` can be written: its folder exists and takes a
+/// new file (one is made and removed), and `path` is not a folder.
+pub(crate) fn check_writable(path: &Path) -> anyhow::Result<()> {
+    let check = || -> std::io::Result<()> {
+        if path.is_dir() {
+            return Err(std::io::Error::new(std::io::ErrorKind::IsADirectory, "it is a folder"));
+        }
+        let tmp = temporary_beside(path);
+        File::create(&tmp)?;
+        fs::remove_file(&tmp)
+    };
+    check().map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), io_reason(&e)))
+}
+
+/// Write `bytes` to `path` as [`write_atomic`] does.
+pub(crate) fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    write_atomic(path, |out| Ok(out.write_all(bytes)?))
+}
+
+/// Text quoted from a file, made safe for a terminal or the panel: control characters
+/// (escape sequences, bells, carriage returns) written as `\u{1b}`, and anything past
+/// `max` characters cut to "...".
+pub(crate) fn shown(text: &str, max: usize) -> String {
+    let mut out = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i == max {
+            out.push_str("...");
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_unicode());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The longest name (a material, a file named inside a file) quoted in a message.
+pub(crate) const MAX_QUOTED_NAME: usize = 200;
+
+/// A hidden name in `path`'s folder, unique to this process and call.
+fn temporary_beside(path: &Path) -> PathBuf {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    let name = path.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let unique = format!(".{name}.{}-{}.tmp", std::process::id(), NEXT.fetch_add(1, Ordering::Relaxed));
+    path.with_file_name(unique)
+}
+
+/// An I/O error's reason without Rust's "(os error 2)" suffix.
+fn io_reason(e: &std::io::Error) -> String {
+    let text = e.to_string();
+    match text.find(" (os error") {
+        Some(i) => text[..i].to_lowercase(),
+        None => text,
+    }
+}
+
+/// "1 MiB", "512 KiB", "300 bytes".
+fn bytes_text(n: u64) -> String {
+    match n {
+        n if n >= 1 << 20 && n % (1 << 20) == 0 => format!("{} MiB", n >> 20),
+        n if n >= 1 << 10 && n % (1 << 10) == 0 => format!("{} KiB", n >> 10),
+        n => format!("{n} bytes"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("meshtracer-files-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_failed_write_keeps_the_old_file_and_leaves_no_temporary() {
+        let dir = temp_dir("atomic");
+        let path = dir.join("x.txt");
+        fs::write(&path, b"old").unwrap();
+        let err = write_atomic(&path, |out| {
+            out.write_all(b"half")?;
+            anyhow::bail!("disk full")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").starts_with(&format!("cannot write {}: disk full", path.display())), "{err:#}");
+        assert_eq!(fs::read(&path).unwrap(), b"old");
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 1, "no temporary left behind");
+        write_bytes_atomic(&path, b"new").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"new");
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
+        // Through a link: the link stays and its file changes; a device is refused.
+        let link = dir.join("link.txt");
+        std::os::unix::fs::symlink(&path, &link).unwrap();
+        write_bytes_atomic(&link, b"via link").unwrap();
+        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(fs::read(&path).unwrap(), b"via link");
+        let full = dir.join("full.exr");
+        std::os::unix::fs::symlink("/dev/full", &full).unwrap();
+        let err = write_bytes_atomic(&full, b"x").unwrap_err().to_string();
+        assert!(err.ends_with("it is not a regular file"), "{err}");
+        assert!(fs::symlink_metadata(&full).unwrap().file_type().is_symlink(), "the link is kept");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn quoted_text_is_cut_and_its_control_characters_escaped() {
+        assert_eq!(shown("a\x1b]0;title\x07b", 100), "a\\u{1b}]0;title\\u{7}b");
+        assert_eq!(shown(&"x".repeat(1000), 5), "xxxxx...");
+        assert_eq!(shown("ünïcode", 100), "ünïcode");
+    }
+
+    #[test]
+    fn an_unwritable_output_is_found_before_the_work() {
+        let dir = temp_dir("writable");
+        assert!(check_writable(&dir.join("x.png")).is_ok());
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 0, "the probe is removed");
+        let e = check_writable(&dir.join("missing/x.png")).unwrap_err().to_string();
+        assert!(e.contains("missing/x.png") && e.ends_with("no such file or directory"), "{e}");
+        assert!(check_writable(&dir).unwrap_err().to_string().ends_with("it is a folder"));
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reads_are_capped_and_only_of_regular_files() {
+        let dir = temp_dir("capped");
+        let path = dir.join("p.toml");
+        fs::write(&path, vec![b'a'; 100]).unwrap();
+        assert_eq!(read_capped(&path, "preset", 100).unwrap().len(), 100);
+        let err = read_capped(&path, "preset", 99).unwrap_err();
+        assert!(err.contains("larger than 99 bytes"), "{err}");
+        let err = read_capped(&dir, "preset", 1 << 20).unwrap_err();
+        assert!(err.ends_with("not a regular file"), "{err}");
+        let err = read_capped(&dir.join("none"), "preset", 1 << 20).unwrap_err();
+        assert!(err.ends_with("no such file or directory"), "{err}");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+}
