@@ -69,6 +69,8 @@ pub const SPP: Range = Range::closed(1.0, MAX_SPP as f64, "");
 pub const BLEND: Range = Range::closed(0.0, 1.0, "");
 /// The vertical field of view.
 pub const FOV_DEGREES: Range = Range::open(1.0, 179.0, " degrees");
+/// Frames averaged into one image (progressive accumulation).
+pub const ACCUMULATE: Range = Range::closed(1.0, 65536.0, "");
 /// The light's distance from the vertical axis its orbit turns around (the box reaches 4).
 pub const LIGHT_RADIUS: Range = Range::closed(0.0, 100.0, "");
 /// The light's height above the floor plane's centre.

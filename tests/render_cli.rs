@@ -216,3 +216,22 @@ fn other_extensions_get_one_line_listing_the_formats() {
         assert!(!dir.join(name).exists(), "{name} was written anyway");
     }
 }
+
+#[test]
+fn an_accumulated_image_carries_its_frame_count_and_renders_again() {
+    let dir = Scratch::new("accumulate");
+    render(&dir.0, &["--width", "48", "--height", "32", "--accumulate", "6", "-o", "acc.png"]);
+    let text = settings_of(&dir.join("acc.png"));
+    assert!(text.contains("accumulate = 6"), "{text}");
+    assert_eq!(preset::from_text(&text).unwrap().0.accumulate, 6);
+    // The preset alone traces the same six frames; the CPU reference averages the same jitter.
+    render(&dir.0, &["--preset", "acc.png", "-o", "again.png"]);
+    render(&dir.0, &["--preset", "acc.png", "--cpu", "-o", "cpu.png"]);
+    render(&dir.0, &["--width", "48", "--height", "32", "-o", "one.png"]);
+    let load = |n: &str| image::open(dir.join(n)).unwrap().to_rgba8();
+    let (acc, again, cpu, one) = (load("acc.png"), load("again.png"), load("cpu.png"), load("one.png"));
+    assert!(acc == again, "render --preset of an accumulated image traces another image");
+    let off = |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2)).count();
+    assert!(off(&acc, &cpu) <= acc.len() / 4 / 100, "GPU vs CPU accumulation: {} pixels off", off(&acc, &cpu));
+    assert!(off(&acc, &one) > 0, "six jittered frames average to the one centred frame: the test proves nothing");
+}

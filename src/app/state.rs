@@ -295,6 +295,7 @@ impl Params {
             camera: CameraSpec { eye: Some(self.camera.position), target: Some(self.camera.target), fov: Some(self.camera.vfov_deg), framed: false },
             environment: self.environment.clone(),
             settings,
+            accumulate: 1,
         }
     }
 }

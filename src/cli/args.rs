@@ -400,13 +400,21 @@ pub struct RenderArgs {
     /// shader (query) or a ray tracing pipeline (pipeline). Default: the device's preferred.
     #[arg(long)]
     pub(crate) vendor_kernel: Option<crate::gpu::vendor::VendorKernel>,
+    /// Average N frames, each with its own camera jitter, as the window's accumulation
+    /// does (a screenshot taken after accumulating carries its N) [default: 1, or the preset's].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536), allow_negative_numbers = true)]
+    pub(crate) accumulate: Option<u32>,
 }
 
 impl RenderArgs {
     /// The scene spec to render: the `--preset` (if any) with the flags given beside it,
     /// and the preset's warnings.
     pub fn spec(&self) -> anyhow::Result<(SceneSpec, Vec<String>)> {
-        self.scene.resolve(self.aov, self.scene.given("aov"))
+        let (mut spec, warnings) = self.scene.resolve(self.aov, self.scene.given("aov"))?;
+        if let Some(n) = self.accumulate {
+            spec.accumulate = n;
+        }
+        Ok((spec, warnings))
     }
 }
 

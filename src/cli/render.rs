@@ -53,7 +53,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let (image, how) = if args.cpu {
         let start = std::time::Instant::now();
-        let image = cpu::render(&packed, &params);
+        let mut image = cpu::render(&packed, &params);
+        for frame_index in 1..spec.accumulate {
+            cpu::accumulate(&packed, &FrameParams { frame_index, ..params }, &mut image);
+        }
         (image, format!("CPU reference, {:.1} ms", start.elapsed().as_secs_f64() * 1e3))
     } else {
         let options = ContextOptions { validation: args.validation, device_index: args.scene.device, ..Default::default() };
@@ -67,7 +70,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             // takes its tiles costliest first, as every later frame of `view` and `bench` does.
             tracer.trace(&params)?;
         }
-        let (image, timing) = tracer.render(&params)?;
+        // Accumulation: every frame but the last folds into the output, the last is read
+        // back (and timed).
+        for frame_index in 0..spec.accumulate - 1 {
+            tracer.trace(&FrameParams { frame_index, ..params })?;
+        }
+        let (image, timing) = tracer.render(&FrameParams { frame_index: spec.accumulate - 1, ..params })?;
         // One frame straight after the upload, so the GPU's clock may still be down (see
         // bench::clock_guard): say which clock the time was taken at.
         // A CPU device (lavapipe) has no shader clock worth naming: its "clock" is the

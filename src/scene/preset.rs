@@ -86,6 +86,9 @@ struct ShadingPart {
     #[serde(deserialize_with = "de_spp")]
     spp: u32,
     adaptive: bool,
+    /// Frames averaged (a screenshot after accumulation); written only when over 1.
+    #[serde(skip_serializing_if = "is_one", deserialize_with = "de_accumulate")]
+    accumulate: u32,
     /// `--env` spelling: none, sky or an image path.
     #[serde(serialize_with = "ser_env", deserialize_with = "de_env")]
     environment: Option<EnvironmentSource>,
@@ -124,7 +127,7 @@ impl File {
             model: ModelPart { source: spec.model.clone(), crease_angle: spec.load_options.crease_angle, copies: spec.models, mirror_box: spec.mirror_box },
             image: ImagePart { width: s.width, height: s.height, aov: s.aov },
             tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel },
-            shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, environment: spec.environment.clone() },
+            shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, accumulate: spec.accumulate, environment: spec.environment.clone() },
             light: LightPart { angle: spec.light.angle_deg, radius: spec.light.radius, height: spec.light.height },
             camera: CameraPart { eye: camera.position.to_array(), target: camera.target.to_array(), fov: camera.vfov_deg },
         }
@@ -152,6 +155,7 @@ impl File {
                 spp: shading.spp,
                 adaptive: shading.adaptive,
             },
+            accumulate: shading.accumulate,
         }
     }
 }
@@ -248,6 +252,14 @@ fn de_side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 
 fn de_bounces<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     de_in_range(d, knobs::BOUNCES)
+}
+
+fn is_one(n: &u32) -> bool {
+    *n == 1
+}
+
+fn de_accumulate<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, knobs::ACCUMULATE)
 }
 
 fn de_spp<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -371,6 +383,7 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     // Every key the format has: the default file with the optional keys set.
     let mut all = File::default();
     all.model.crease_angle = Some(0.0);
+    all.shading.accumulate = 2;
     let known = toml::Table::try_from(all).expect("a preset always serializes");
     let mut unknown = Vec::new();
     unknown_keys(doc.get_ref(), &known, "", &mut |key, span| unknown.push(UnknownKey { key, line: line_of(span.start) }));

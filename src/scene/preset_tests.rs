@@ -24,6 +24,7 @@ fn rich_spec() -> SceneSpec {
             spp: 16,
             adaptive: true,
         },
+        accumulate: 40,
     }
 }
 

@@ -75,6 +75,10 @@ pub struct SceneSpec {
     pub environment: Option<EnvironmentSource>,
     /// Resolution, bounces, blend, acceleration, shading features, AOV.
     pub settings: RenderSettings,
+    /// Frames averaged into the image, each with its own camera jitter, as the window's
+    /// accumulation averages them (1: one frame). A screenshot taken after accumulating
+    /// carries its count, so `render --preset` traces the same image.
+    pub accumulate: u32,
 }
 
 impl Default for SceneSpec {
@@ -88,6 +92,7 @@ impl Default for SceneSpec {
             camera: CameraSpec::default(),
             environment: None,
             settings: RenderSettings::default(),
+            accumulate: 1,
         }
     }
 }
@@ -96,6 +101,7 @@ impl SceneSpec {
     /// Check the settings and the camera; the error is one sentence naming the knob.
     pub fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
+        crate::render_settings::ACCUMULATE.check(self.accumulate as f64, format!("accumulate {}", self.accumulate))?;
         if let Some(angle) = self.load_options.crease_angle {
             CREASE_ANGLE_DEGREES.check(angle as f64, format!("the crease angle {angle}"))?;
         }
