@@ -12,9 +12,9 @@ use gpu_allocator::MemoryLocation;
 use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::error::{GpuError, VkContext};
+use super::error::GpuError;
 use super::timer::GpuTimer;
-use super::trace_pass::{create_compute_pipeline, destroy_pipeline_objects, words};
+use super::pipeline::{allocate_one_set, create_compute_pipeline, create_layout, create_set_layout, destroy_pipeline_objects, words};
 
 static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
 
@@ -74,9 +74,8 @@ impl ClockProbe {
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .descriptor_count(1)
             .stage_flags(vk::ShaderStageFlags::COMPUTE)];
-        // SAFETY: plain object creation on the live device; destroyed in Drop (or below on error).
-        let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding), None) }
-            .during("creating the clock probe's descriptor layout")?;
+        // Destroyed in Drop (or below on error).
+        let set_layout = create_set_layout(ctx, &binding, "creating the clock probe's descriptor layout")?;
         let mut probe = Self {
             ctx: ctx.clone(),
             pipeline: vk::Pipeline::null(),
@@ -88,11 +87,7 @@ impl ClockProbe {
             timer,
         };
         // From here on Drop destroys whatever was made (null handles are ignored).
-        let push = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).size(std::mem::size_of::<ProbeConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout is live; the arrays outlive the call.
-        probe.layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the clock probe's pipeline layout")?;
+        probe.layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<ProbeConstants>(), "creating the clock probe's pipeline layout")?;
         probe.pipeline = create_compute_pipeline(
             ctx,
             probe.layout,
@@ -101,12 +96,7 @@ impl ClockProbe {
             ["loading the clock probe", "creating the clock probe's pipeline"],
         )?;
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 }];
-        // SAFETY: plain object creation on the live device.
-        probe.pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
-            .during("creating the clock probe's descriptor pool")?;
-        // SAFETY: the pool holds exactly this one set of this layout.
-        probe.set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(probe.pool).set_layouts(&set_layouts)) }
-            .during("allocating the clock probe's descriptor set")?[0];
+        (probe.pool, probe.set) = allocate_one_set(ctx, set_layout, &sizes, ["creating the clock probe's descriptor pool", "allocating the clock probe's descriptor set"])?;
         let buffer_info = [vk::DescriptorBufferInfo { buffer: probe.result.buffer, offset: 0, range: vk::WHOLE_SIZE }];
         let write = [vk::WriteDescriptorSet::default().dst_set(probe.set).dst_binding(0).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_info)];
         // SAFETY: the set is not in use; the buffer is live.

@@ -1,8 +1,10 @@
 //! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
-//! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the shader clock rate
-//! ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the trace compute
-//! pass (`trace_pass`) with what its shader declares (`shader_layout`) and the order it takes
-//! the frame's tiles in (`tile_order`), the compute tracer
+//! named pipeline barriers (`barrier`), the objects a pass is made of (`pipeline`: set
+//! layouts, pools, pipeline layouts, compute pipelines), GPU timestamps (`timer`), the
+//! shader clock rate ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the
+//! shapes a trace is dispatched in (`dispatch`: work group, band, split frame), the trace
+//! compute pass (`trace_pass`) with what its shader declares (`shader_layout`) and the
+//! order it takes the frame's tiles in (`tile_order`), the compute tracer
 //! built from them (`compute_tracer`), and presentation to a window (`present`: surface,
 //! swapchain, composite, egui pass), and the vendor's ray tracing beside ours (`vendor`:
 //! the driver's acceleration structures, ray queries, a ray tracing pipeline). Nothing
@@ -13,8 +15,10 @@ pub mod buffer;
 pub mod clock_probe;
 pub(crate) mod compute_tracer;
 pub(crate) mod context;
+pub(crate) mod dispatch;
 pub mod error;
 pub(crate) mod image;
+pub(crate) mod pipeline;
 pub(crate) mod present;
 pub mod scene_buffers;
 pub(crate) mod shader_compile;
@@ -26,6 +30,6 @@ pub mod vendor;
 
 pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
-pub use trace_pass::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
+pub use dispatch::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
 pub use error::GpuError;

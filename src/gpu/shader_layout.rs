@@ -146,7 +146,7 @@ mod tests {
     #[test]
     fn work_group_is_flat_and_the_host_tiles_with_it() {
         assert_eq!(WORKGROUP_SIZE, [GROUP_WIDTH, GROUP_HEIGHT, 1]);
-        assert_eq!(crate::gpu::trace_pass::GROUP, crate::gpu::trace_pass::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT });
+        assert_eq!(crate::gpu::dispatch::GROUP, crate::gpu::dispatch::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT });
     }
 
     #[test]

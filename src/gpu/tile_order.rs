@@ -30,7 +30,7 @@ use gpu_allocator::MemoryLocation;
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
-use super::trace_pass::{Band, GROUP};
+use super::dispatch::{Band, GROUP};
 
 /// A rectangle of tiles (in tile units) that one dispatch covers.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -282,7 +282,8 @@ mod tests {
     }
 
     mod on_the_gpu {
-        use crate::gpu::trace_pass::{FrameTrace, Kernel, SplitTrace};
+        use crate::gpu::dispatch::{FrameTrace, SplitTrace};
+        use crate::gpu::trace_pass::Kernel;
         use crate::gpu::GROUP;
         use super::super::cost_class;
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};

@@ -12,7 +12,9 @@ use ash::vk;
 use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::error::{GpuError, VkContext};
+use super::dispatch::Band;
+use super::error::GpuError;
+use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_layout, destroy_pipeline_objects, words};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
@@ -30,6 +32,10 @@ static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query
 /// Binding of the driver's top-level acceleration structure in the vendor shaders
 /// (`shaders/vendor/tlas.glsl`), after the storage buffers.
 pub(crate) const TLAS_BINDING: u32 = 11;
+
+/// The work-group size's old path, kept for `src/app/` until it imports `crate::gpu::GROUP`
+/// (issue #26: removed after the merge).
+pub(crate) use super::dispatch::GROUP;
 
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,11 +68,6 @@ impl Kernel {
     }
 }
 
-/// SPIR-V words of embedded bytes.
-pub(crate) fn words(bytes: &[u8]) -> Vec<u32> {
-    bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
-}
-
 /// The SPIR-V of `trace.comp` that build.rs compiled into the binary.
 #[cfg(test)]
 pub(crate) fn built_in_trace_spirv() -> Vec<u32> {
@@ -89,8 +90,7 @@ pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, 
                 .stage_flags(stages),
         );
     }
-    // SAFETY: the bindings outlive the call; the caller destroys the layout.
-    unsafe { ctx.device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }.during("creating the trace descriptor layout")
+    pipeline::create_set_layout(ctx, &bindings, "creating the trace descriptor layout")
 }
 
 /// A pool holding one set of [`create_set_layout`]'s layout, and that set.
@@ -99,20 +99,7 @@ pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout
     if with_tlas {
         sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 1 });
     }
-    // SAFETY: plain object creation on the live device; the caller destroys the pool.
-    let pool = unsafe { ctx.device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
-        .during("creating the trace descriptor pool")?;
-    let set_layouts = [set_layout];
-    // SAFETY: the pool holds exactly this one set of this layout.
-    let set = unsafe { ctx.device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) };
-    match set {
-        Ok(set) => Ok((pool, set[0])),
-        Err(r) => {
-            // SAFETY: the pool was just made and holds nothing.
-            unsafe { ctx.device.destroy_descriptor_pool(pool, None) };
-            Err(GpuError::vk("allocating the trace descriptor set", r))
-        }
-    }
+    allocate_one_set(ctx, set_layout, &sizes, ["creating the trace descriptor pool", "allocating the trace descriptor set"])
 }
 
 /// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure.
@@ -157,81 +144,6 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
     unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
 }
 
-
-/// The tile of pixels one work group traces.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct GroupSize {
-    pub width: u32,
-    pub height: u32,
-}
-
-/// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
-pub const GROUP: GroupSize = GroupSize { width: super::shader_layout::GROUP_WIDTH, height: super::shader_layout::GROUP_HEIGHT };
-
-/// A rectangle of a frame's pixels traced by one dispatch. Its start row and column are
-/// multiples of the work-group size; its end is one too, or the frame's edge.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Band {
-    pub rows: Range<u32>,
-    pub columns: Range<u32>,
-}
-
-impl Band {
-    /// Whole rows `rows` of a frame `width` pixels wide.
-    pub fn rows(rows: Range<u32>, width: u32) -> Self {
-        Self { rows, columns: 0..width }
-    }
-
-    /// Pixels in the band.
-    pub fn pixels(&self) -> u64 {
-        self.rows.len() as u64 * self.columns.len() as u64
-    }
-
-    /// The part of the band in `columns` (None when they do not meet).
-    pub fn within(&self, columns: &Range<u32>) -> Option<Band> {
-        let columns = self.columns.start.max(columns.start)..self.columns.end.min(columns.end);
-        (!columns.is_empty() && !self.rows.is_empty()).then(|| Band { rows: self.rows.clone(), columns })
-    }
-}
-
-/// The right part of a frame split in two (the tool's A/B split view): the columns from
-/// `column` on are traced with `params`, a second set of settings for the same view.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SplitTrace {
-    /// The first column of the right part: a multiple of the work-group size, or the width.
-    pub column: u32,
-    /// The right part's parameters.
-    pub params: FrameParams,
-}
-
-/// How a frame's pixels are traced: all with `params`, or split in two at a column.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameTrace {
-    /// The whole frame's parameters, or the left part's.
-    pub params: FrameParams,
-    /// The right part, if split.
-    pub split: Option<SplitTrace>,
-}
-
-impl FrameTrace {
-    /// The whole frame traced with `params`.
-    pub fn whole(params: FrameParams) -> Self {
-        Self { params, split: None }
-    }
-
-    /// The frame's parts, left to right, each with its parameters and columns (0, 1 or 2
-    /// of them; an empty part is left out). Together they cover every column once.
-    pub fn parts(&self) -> Vec<(usize, &FrameParams, Range<u32>)> {
-        let width = self.params.settings.width;
-        let column = self.split.map_or(width, |s| s.column.min(width));
-        let mut parts = vec![(0, &self.params, 0..column)];
-        if let Some(split) = &self.split {
-            parts.push((1, &split.params, column..width));
-        }
-        parts.retain(|(_, _, columns)| !columns.is_empty());
-        parts
-    }
-}
 
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA, and the order the
 /// trace pass takes the tiles in.
@@ -285,16 +197,9 @@ impl TracePass {
     /// Create the pipeline of `kernel` (ray queries need the device's support, see
     /// `DeviceInfo::vendor`).
     pub fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
-        let device = &ctx.device;
         let with_tlas = kernel == Kernel::RayQuery;
         let set_layout = create_set_layout(ctx, vk::ShaderStageFlags::COMPUTE, with_tlas)?;
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .size(std::mem::size_of::<PushConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout was just created; the arrays outlive the call.
-        let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the trace pipeline layout")?;
+        let layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<PushConstants>(), "creating the trace pipeline layout")?;
         let code = words(match kernel {
             Kernel::Ours => TRACE_SPV,
             Kernel::OursInRowOrder => TRACE_ROWS_SPV,
@@ -417,21 +322,6 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
     create_compute_pipeline(ctx, layout, code, flags, ["loading the trace shader", "creating the trace pipeline"])
 }
 
-/// A compute pipeline running `main` of the SPIR-V `code` with `layout`; `what` names the
-/// two steps for errors: loading the shader module, creating the pipeline.
-pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32], flags: vk::PipelineCreateFlags, what: [&'static str; 2]) -> Result<vk::Pipeline, GpuError> {
-    let device = &ctx.device;
-    // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
-    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during(what[0])?;
-    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
-    // SAFETY: the module and the layout are live; the create infos outlive the call.
-    let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-    // SAFETY: the pipeline, created or not, no longer needs the module.
-    unsafe { device.destroy_shader_module(module, None) };
-    Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
-}
-
 /// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`],
 /// as `kernel` (one of ours) builds it. A shader whose bindings, push constants or work
 /// group differ from the built-in one's is refused: the host's buffers and structs are
@@ -449,22 +339,6 @@ pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec
         return Err("the edited shader adds or removes a buffer binding or the push constants; rebuild meshtracer for that".into());
     }
     Ok(shader.spirv)
-}
-
-/// Destroy a compute pass's Vulkan objects: its descriptor pool (and sets), pipeline,
-/// pipeline layout and set layout; null handles (a constructor that failed part-way) are
-/// ignored.
-///
-/// # Safety
-/// The GPU must be done with all of them (the owner waited for it).
-pub(crate) unsafe fn destroy_pipeline_objects(d: &ash::Device, pool: vk::DescriptorPool, pipeline: vk::Pipeline, layout: vk::PipelineLayout, set_layout: vk::DescriptorSetLayout) {
-    // SAFETY: the caller promises the GPU no longer uses these objects.
-    unsafe {
-        d.destroy_descriptor_pool(pool, None);
-        d.destroy_pipeline(pipeline, None);
-        d.destroy_pipeline_layout(layout, None);
-        d.destroy_descriptor_set_layout(set_layout, None);
-    }
 }
 
 impl Drop for TracePass {

@@ -27,7 +27,7 @@ use super::compute_tracer::{ComputeTracer, PartTimes, TimedParts};
 use super::context::GpuContext;
 use super::error::VkContext;
 use super::image::GpuImage;
-use super::trace_pass::{Band, FrameTrace};
+use super::dispatch::{Band, FrameTrace};
 use capture::WindowCapture;
 pub use composite::PixelRect;
 use swapchain::{Acquired, Swapchain};

@@ -14,7 +14,9 @@ use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::scene_buffers::SceneBuffers;
-use crate::gpu::trace_pass::{allocate_set, create_set_layout, destroy_pipeline_objects, words, Band, TraceOutput};
+use crate::gpu::dispatch::Band;
+use crate::gpu::pipeline::{create_layout, destroy_pipeline_objects, words};
+use crate::gpu::trace_pass::{allocate_set, create_set_layout, TraceOutput};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 static RAYGEN_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_raygen.spv"));
@@ -44,11 +46,7 @@ impl PipelinePass {
         let loader = ash::khr::ray_tracing_pipeline::Device::new(&ctx.instance, device);
         let stages = vk::ShaderStageFlags::RAYGEN_KHR;
         let set_layout = create_set_layout(ctx, stages, true)?;
-        let push = [vk::PushConstantRange::default().stage_flags(stages).size(std::mem::size_of::<PushConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout was just created; the arrays outlive the call.
-        let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the ray tracing pipeline layout")?;
+        let layout = create_layout(ctx, set_layout, stages, std::mem::size_of::<PushConstants>(), "creating the ray tracing pipeline layout")?;
         let pipeline = create_pipeline(ctx, &loader, layout)?;
         let (pool, set) = allocate_set(ctx, set_layout, true)?;
         let (table, raygen, miss, hit) = binding_table(ctx, &loader, pipeline)?;
