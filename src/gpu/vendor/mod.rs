@@ -14,6 +14,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::barrier::Access;
 use super::context::{GpuContext, VendorSupport};
 use super::error::GpuError;
 use super::scene_buffers::SceneBuffers;
@@ -81,32 +82,17 @@ impl FromStr for VendorKernel {
     }
 }
 
-/// The pipeline stages that read the driver's structures on a device with `support`.
-pub(crate) fn tracing_stages(support: &VendorSupport) -> vk::PipelineStageFlags {
-    let mut stages = vk::PipelineStageFlags::empty();
+/// How the traces read the driver's structures on a device with `support`: ray queries
+/// from compute shaders, the ray tracing pipeline's shaders, or both.
+pub(crate) fn structure_reads(support: &VendorSupport) -> Vec<Access> {
+    let mut reads = Vec::with_capacity(2);
     if support.ray_query {
-        stages |= vk::PipelineStageFlags::COMPUTE_SHADER;
+        reads.push(Access::RayQueryAccelRead);
     }
     if support.pipeline {
-        stages |= vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR;
+        reads.push(Access::RayTracingAccelRead);
     }
-    stages
-}
-
-/// One global memory barrier (the vendor path's stages and accesses have no `Access` names).
-///
-/// # Safety
-/// `cmd` is recording on `device`.
-pub(crate) unsafe fn memory_barrier(
-    device: &ash::Device,
-    cmd: vk::CommandBuffer,
-    src: vk::PipelineStageFlags,
-    src_access: vk::AccessFlags,
-    dst: vk::PipelineStageFlags,
-    dst_access: vk::AccessFlags,
-) {
-    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
-    device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+    reads
 }
 
 /// The vendor path of one tracer: the structures of its scene and the passes built so far.

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::memory_barrier;
+use crate::gpu::barrier::{self, Access};
 use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
@@ -76,24 +76,24 @@ impl PipelinePass {
 
     fn trace(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
-        let rt = vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR;
-        let read_write = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
         // A launch has no base offset: the band's first column rides in misc.y's high half
         // (raygen.rgen), beside its first row.
         let mut pc = *pc;
         pc.misc[1] = (band.columns.start << 16) | (pc.misc[1] & 0xffff);
+        // After the last trace's writes and copies' reads, as the compute pass's dispatch.
+        barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::RayTracingRead, Access::RayTracingWrite]);
         // SAFETY: `cmd` is recording; the pipeline, layout, set and table outlive its
         // execution (the owner waits for the GPU before dropping them); the push constants
         // fit the layout's range.
         unsafe {
-            memory_barrier(device, cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::SHADER_WRITE, rt, read_write);
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.layout, 0, &[self.set], &[]);
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::RAYGEN_KHR, 0, bytemuck::bytes_of(&pc));
             let callable = vk::StridedDeviceAddressRegionKHR::default();
             self.loader.cmd_trace_rays(cmd, &self.raygen, &self.miss, &self.hit, &callable, band.columns.len() as u32, band.rows.len() as u32, 1);
-            memory_barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write);
         }
+        // Handed on to the compute stage, where later barriers start from.
+        barrier::buffers(device, cmd, &[Access::RayTracingWrite], &[Access::ComputeRead, Access::ComputeWrite]);
     }
 }
 
