@@ -4,7 +4,7 @@
 //! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
 //! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
 //! `Accel::Vendor` frames (or parts of a split frame) go to the vendor path
-//! ([`super::vendor`]), built on first use.
+//! ([`super::khr_rt`]), built on first use.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -19,7 +19,7 @@ use super::tile_order::TileRect;
 use super::timer::GpuTimer;
 use super::dispatch::{Band, FrameTrace, GROUP};
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
-use super::vendor::{AccelStats, VendorKernel, VendorTracer};
+use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
 use crate::tracer::frame::{Accel, FrameParams};
 use crate::tracer::image::Image;

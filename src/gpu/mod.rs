@@ -6,9 +6,9 @@
 //! compute pass (`trace_pass`) with what its shader declares (`shader_layout`) and the
 //! order it takes the frame's tiles in (`tile_order`), the compute tracer
 //! built from them (`compute_tracer`), and presentation to a window (`present`: surface,
-//! swapchain, composite, egui pass), and the vendor's ray tracing beside ours (`vendor`:
-//! the driver's acceleration structures, ray queries, a ray tracing pipeline). Nothing
-//! outside this folder calls Vulkan.
+//! swapchain, composite, egui pass), and the vendor's ray tracing beside ours through the
+//! driver's Vulkan KHR ray tracing (`khr_rt`: the driver's acceleration structures, ray
+//! queries, a ray tracing pipeline). Nothing outside this folder calls Vulkan.
 
 pub(crate) mod barrier;
 pub mod buffer;
@@ -26,10 +26,13 @@ pub(crate) mod shader_layout;
 pub(crate) mod tile_order;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
-pub mod vendor;
+pub mod khr_rt;
 
 pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
 pub use dispatch::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
 pub use error::GpuError;
+/// `khr_rt`'s old path, kept for `src/app/`, `src/bench/`, `src/cli/` and `tests/` until they
+/// import `gpu::khr_rt` (issue #26: removed after the merge).
+pub use self::khr_rt as vendor;

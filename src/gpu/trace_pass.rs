@@ -2,7 +2,7 @@
 //! force) or `shaders/vendor/query.comp` (the driver's traversal through ray queries), its
 //! descriptor set (scene buffers, output buffers, the driver's structure for ray queries)
 //! and the recording of a band's dispatch. The layout and the descriptor writes are shared
-//! with the vendor's ray tracing pipeline (`vendor::pipeline_pass`).
+//! with the vendor's ray tracing pipeline (`khr_rt::pipeline_pass`).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex};

@@ -1,5 +1,6 @@
-//! The vendor's ray tracing beside ours (`--accel vendor`): the driver's acceleration
-//! structures (`accel`) traced either from the compute shader with ray queries (the trace
+//! The vendor's ray tracing beside ours (`--accel vendor`), through the driver's Vulkan KHR
+//! ray tracing (hence `khr_rt`; users and the tables still call it "vendor"): the driver's
+//! acceleration structures (`accel`) traced either from the compute shader with ray queries (the trace
 //! pass with `Kernel::RayQuery`) or through a ray tracing pipeline (`pipeline_pass`). Both
 //! run the same shading source as our tracer (`shaders/trace.glsl`); only the closest-hit
 //! query differs. Built on first use, so a user who never picks it pays nothing.
