@@ -14,6 +14,7 @@ use ash::vk;
 use super::barrier::{self, Access};
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
+use super::lock::lock;
 use super::scene_buffers::SceneBuffers;
 use super::tile_order::TileRect;
 use super::timer::GpuTimer;
@@ -190,7 +191,7 @@ impl ComputeTracer {
     #[cfg(test)]
     pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
         let out = self.output.as_ref().expect("a frame was traced");
-        let mut tiles = out.tiles.lock().unwrap();
+        let mut tiles = lock(&out.tiles);
         (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
     }
 
@@ -303,7 +304,7 @@ impl ComputeTracer {
         let trace = |params: &FrameParams, band: &Band| {
             let base = match &self.output {
                 Some(out) if self.pass.kernel().orders_tiles() => {
-                    out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).order(tile_slot, &TileRect::of_band(band))
+                    lock(&out.tiles).order(tile_slot, &TileRect::of_band(band))
                 }
                 _ => 0,
             };

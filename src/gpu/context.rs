@@ -10,6 +10,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::error::{GpuError, VkContext};
+use super::lock::lock;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -136,7 +137,7 @@ pub struct ValidationLog {
 impl ValidationLog {
     /// Messages of warning or error severity so far.
     pub fn messages(&self) -> Vec<String> {
-        self.messages.lock().unwrap().clone()
+        lock(&self.messages).clone()
     }
 }
 
@@ -159,7 +160,7 @@ unsafe extern "system" fn debug_callback(
         log::error!("Vulkan validation: {message}");
         if !user.is_null() {
             let log = &*(user as *const ValidationLog);
-            log.messages.lock().unwrap().push(message);
+            lock(&log.messages).push(message);
         }
     } else {
         log::debug!("Vulkan: {message}");
@@ -411,7 +412,7 @@ impl GpuContext {
 
     /// The memory allocator (buffers and images lock it briefly to allocate or free).
     pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
-        self.allocator.lock().unwrap()
+        lock(&self.allocator)
     }
 
     /// Validation messages (warnings and errors) seen so far; empty without validation.
@@ -426,7 +427,7 @@ impl GpuContext {
 
     /// Submit to the queue (under the queue lock).
     pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
-        let _guard = self.queue_lock.lock().unwrap();
+        let _guard = lock(&self.queue_lock);
         // SAFETY: the queue lock is held, as Vulkan requires of queue use; the submits and
         // the fence belong to this device.
         unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
@@ -434,12 +435,12 @@ impl GpuContext {
 
     /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
     pub(crate) fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
-        self.queue_lock.lock().unwrap()
+        lock(&self.queue_lock)
     }
 
     /// Record commands with `record`, submit them and wait for completion.
     pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
-        let pool = self.one_shot_pool.lock().unwrap();
+        let pool = lock(&self.one_shot_pool);
         let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
         // SAFETY: the pool lock is held, so no other thread uses the pool.
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
@@ -468,7 +469,7 @@ impl GpuContext {
     /// Wait until the GPU is idle (before freeing resources it may still use). Holds the
     /// queue lock: `vkDeviceWaitIdle` needs every queue externally synchronized.
     pub(crate) fn wait_idle(&self) -> Result<(), GpuError> {
-        let _guard = self.queue_lock.lock().unwrap();
+        let _guard = lock(&self.queue_lock);
         // SAFETY: the queue lock is held, so no other thread uses the queue meanwhile.
         unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
     }

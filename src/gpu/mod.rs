@@ -18,6 +18,8 @@ pub(crate) mod context;
 pub(crate) mod dispatch;
 pub mod error;
 pub(crate) mod image;
+pub mod khr_rt;
+pub(crate) mod lock;
 pub(crate) mod pipeline;
 pub(crate) mod present;
 pub mod scene_buffers;
@@ -26,7 +28,6 @@ pub(crate) mod shader_layout;
 pub(crate) mod tile_order;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
-pub mod khr_rt;
 
 pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};

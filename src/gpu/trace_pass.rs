@@ -14,6 +14,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::dispatch::Band;
 use super::error::GpuError;
+use super::lock::lock;
 use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_layout, destroy_pipeline_objects, words};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
@@ -106,7 +107,7 @@ pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout
 /// The GPU must not be using the set.
 pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
-    let tiles = output.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let tiles = lock(&output.tiles);
     // Each binding the shader declares, by its block name (see shader_layout).
     let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
         .iter()
