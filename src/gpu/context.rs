@@ -1,7 +1,7 @@
 //! Vulkan instance, validation, device selection and the memory allocator: the one place
 //! that owns the Vulkan objects everything else borrows.
 
-use std::ffi::{c_char, c_void, CStr};
+use std::ffi::{c_char, CStr};
 use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
 
@@ -11,8 +11,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::error::{GpuError, VkContext};
 use super::lock::lock;
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+use super::validation::{self, ValidationLog, VALIDATION_LAYER};
 
 /// How to create the context.
 #[derive(Clone, Debug, Default)]
@@ -126,46 +125,6 @@ fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::
     missing(format!(
         "{name} does not offer the vendor's ray tracing (VK_KHR_acceleration_structure with VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline); on a CPU, Mesa 25's lavapipe has them"
     ))
-}
-
-/// Validation messages collected by the debug messenger.
-#[derive(Default)]
-pub struct ValidationLog {
-    messages: Mutex<Vec<String>>,
-}
-
-impl ValidationLog {
-    /// Messages of warning or error severity so far.
-    pub fn messages(&self) -> Vec<String> {
-        lock(&self.messages).clone()
-    }
-}
-
-// SAFETY (for the body's dereferences): Vulkan passes `data` null or valid for the call,
-// and `user` is null or the `ValidationLog` that the context keeps (an Arc) until it
-// destroys the messenger.
-unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    kind: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    let message = if data.is_null() || (*data).p_message.is_null() {
-        "(no message)".to_string()
-    } else {
-        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
-    };
-    let serious = severity.intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR);
-    if serious && kind.intersects(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE) {
-        log::error!("Vulkan validation: {message}");
-        if !user.is_null() {
-            let log = &*(user as *const ValidationLog);
-            lock(&log.messages).push(message);
-        }
-    } else {
-        log::debug!("Vulkan: {message}");
-    }
-    vk::FALSE
 }
 
 /// The Vulkan instance, device, queue and allocator.
@@ -283,13 +242,7 @@ impl GpuContext {
 
         let debug = if validation {
             let loader = debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-                )
-                .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(Arc::as_ptr(&validation_log) as *mut c_void);
+            let info = validation::messenger_info(&validation_log);
             // SAFETY: the instance is live; the user data is the `ValidationLog` the
             // context keeps until it destroys the messenger.
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;

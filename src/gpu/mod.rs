@@ -1,4 +1,5 @@
-//! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
+//! The Vulkan backend: instance and device (`context`) with the validation layer's messages
+//! (`validation`) and the one way a lock is taken (`lock`), memory and buffers ([`buffer`]),
 //! named pipeline barriers (`barrier`), the objects a pass is made of (`pipeline`: set
 //! layouts, pools, pipeline layouts, compute pipelines), GPU timestamps (`timer`), the
 //! shader clock rate ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the
@@ -28,6 +29,7 @@ pub(crate) mod shader_layout;
 pub(crate) mod tile_order;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
+pub(crate) mod validation;
 
 pub use clock_probe::{ClockProbe, ClockReading};
 pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
