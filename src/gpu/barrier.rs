@@ -10,7 +10,7 @@ use super::image::color_range;
 
 /// One way a resource is used by the commands before or after a barrier.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Access {
+pub(crate) enum Access {
     /// Not used (an image's contents are discarded, or nothing waits on it).
     Nothing,
     /// The swapchain image just acquired: the submission waits for it at the transfer
@@ -116,7 +116,7 @@ fn reads_and_writes(accesses: &[Access]) -> vk::AccessFlags {
 
 /// A layout transition of a whole single-level colour image.
 #[derive(Clone, Copy, Debug)]
-pub struct ImageTransition {
+pub(crate) struct ImageTransition {
     pub image: vk::Image,
     pub before: Access,
     pub after: Access,
@@ -126,7 +126,7 @@ pub struct ImageTransition {
 
 /// Record one barrier: buffers (global memory) used as `before` are next used as `after`,
 /// and each image of `images` goes through its transition.
-pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access], images: &[ImageTransition]) {
+pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access], images: &[ImageTransition]) {
     let mut src = stages(before, vk::PipelineStageFlags::empty());
     let mut dst = stages(after, vk::PipelineStageFlags::empty());
     let image_barriers: Vec<_> = images
@@ -158,7 +158,7 @@ pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], a
 }
 
 /// Record a global memory barrier between buffer uses.
-pub fn buffers(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access]) {
+pub(crate) fn buffers(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access]) {
     record(device, cmd, before, after, &[]);
 }
 

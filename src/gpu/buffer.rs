@@ -63,7 +63,7 @@ impl GpuBuffer {
 
     /// Where the memory lives, for `bench --verbose`: name, size, memory flags, dedicated
     /// or sub-allocated, offset in its memory object.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match &self.allocation {
             Some(a) => format!(
                 "{}: {:.1} MB, {:?}, {}, offset {}",

@@ -33,22 +33,22 @@ struct ProbeConstants {
 
 /// One measurement: shader clock cycles over the dispatch's GPU time.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClockReading {
+pub(crate) struct ClockReading {
     /// Subgroup clock cycles the fma chain took.
-    pub cycles: u64,
+    pub(crate) cycles: u64,
     /// GPU milliseconds between the timestamps around the dispatch.
-    pub gpu_ms: f64,
+    pub(crate) gpu_ms: f64,
 }
 
 impl ClockReading {
     /// The shader clock rate in MHz (cycles per microsecond).
-    pub fn mhz(&self) -> f64 {
+    pub(crate) fn mhz(&self) -> f64 {
         self.cycles as f64 / (self.gpu_ms * 1e3)
     }
 }
 
 /// The probe's pipeline, its result buffer and timestamps.
-pub struct ClockProbe {
+pub(crate) struct ClockProbe {
     ctx: Arc<GpuContext>,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
@@ -62,7 +62,7 @@ pub struct ClockProbe {
 impl ClockProbe {
     /// The probe; None where the device has no subgroup clock (`VK_KHR_shader_clock`) or
     /// no timestamps.
-    pub fn new(ctx: &Arc<GpuContext>) -> Result<Option<Self>, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Option<Self>, GpuError> {
         if !ctx.info.shader_clock {
             return Ok(None);
         }
@@ -105,7 +105,7 @@ impl ClockProbe {
     }
 
     /// Run the probe once and wait for it.
-    pub fn measure(&mut self) -> Result<ClockReading, GpuError> {
+    pub(crate) fn measure(&mut self) -> Result<ClockReading, GpuError> {
         let device = &self.ctx.device;
         let constants = ProbeConstants { iterations: ITERATIONS, a: 0.999_999, b: 1e-6 };
         self.ctx.one_shot(|cmd| {

@@ -94,7 +94,7 @@ impl VendorSupport {
 
 /// Set to 1, the tool leaves the vendor's ray tracing off even where the device has it (to
 /// see the tool as it is on a device without it).
-pub const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
+pub(crate) const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
 
 /// Which ray tracing extensions and features `pd` offers, all of them needed together.
 fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::PhysicalDeviceProperties) -> VendorSupport {
@@ -147,7 +147,7 @@ pub struct GpuContext {
 }
 
 /// A surface-creating callback, run between instance and device creation.
-pub type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
+pub(crate) type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
 
 fn load_entry() -> Result<ash::Entry, GpuError> {
     // SAFETY: loading the system's Vulkan loader library; no other invariants.
@@ -164,7 +164,7 @@ fn instance_error(r: vk::Result) -> GpuError {
 
 impl DeviceInfo {
     /// The device is a CPU (lavapipe, SwiftShader).
-    pub fn is_cpu(&self) -> bool {
+    pub(crate) fn is_cpu(&self) -> bool {
         self.device_type == device_type_name(vk::PhysicalDeviceType::CPU)
     }
 }
@@ -180,7 +180,7 @@ fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
 }
 
 /// Names of the Vulkan devices present, in `device_index` order.
-pub fn list_devices() -> Result<Vec<String>, GpuError> {
+pub(crate) fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
     // SAFETY: the create info and the application info it points to outlive the call.

@@ -23,26 +23,26 @@ pub const GROUP: GroupSize = GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGH
 /// A rectangle of a frame's pixels traced by one dispatch. Its start row and column are
 /// multiples of the work-group size; its end is one too, or the frame's edge.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Band {
+pub(crate) struct Band {
     /// The frame's rows in the band.
-    pub rows: Range<u32>,
+    pub(crate) rows: Range<u32>,
     /// The frame's columns in the band.
-    pub columns: Range<u32>,
+    pub(crate) columns: Range<u32>,
 }
 
 impl Band {
     /// Whole rows `rows` of a frame `width` pixels wide.
-    pub fn rows(rows: Range<u32>, width: u32) -> Self {
+    pub(crate) fn rows(rows: Range<u32>, width: u32) -> Self {
         Self { rows, columns: 0..width }
     }
 
     /// Pixels in the band.
-    pub fn pixels(&self) -> u64 {
+    pub(crate) fn pixels(&self) -> u64 {
         self.rows.len() as u64 * self.columns.len() as u64
     }
 
     /// The part of the band in `columns` (None when they do not meet).
-    pub fn within(&self, columns: &Range<u32>) -> Option<Band> {
+    pub(crate) fn within(&self, columns: &Range<u32>) -> Option<Band> {
         let columns = self.columns.start.max(columns.start)..self.columns.end.min(columns.end);
         (!columns.is_empty() && !self.rows.is_empty()).then(|| Band { rows: self.rows.clone(), columns })
     }

@@ -2,7 +2,7 @@
 //! (`validation`) and the one way a lock is taken (`lock`), memory and buffers ([`buffer`]),
 //! named pipeline barriers (`barrier`), the objects a pass is made of (`pipeline`: set
 //! layouts, pools, pipeline layouts, compute pipelines), GPU timestamps (`timer`), the
-//! shader clock rate ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the
+//! shader clock rate (`clock_probe`), the scene's device buffers ([`scene_buffers`]), the
 //! shapes a trace is dispatched in (`dispatch`: work group, band, split frame), the trace
 //! compute pass (`trace_pass`) with what its shader declares (`shader_layout`) and the
 //! order it takes the frame's tiles in (`tile_order`), the compute tracer
@@ -13,7 +13,7 @@
 
 pub(crate) mod barrier;
 pub mod buffer;
-pub mod clock_probe;
+pub(crate) mod clock_probe;
 pub(crate) mod compute_tracer;
 pub(crate) mod context;
 pub(crate) mod dispatch;
@@ -31,10 +31,12 @@ pub(crate) mod timer;
 pub(crate) mod trace_pass;
 pub(crate) mod validation;
 
-pub use clock_probe::{ClockProbe, ClockReading};
-pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
+pub(crate) use clock_probe::ClockProbe;
+pub use compute_tracer::{ComputeTracer, TraceTiming};
+pub(crate) use compute_tracer::PartTimes;
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
-pub use dispatch::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
+pub use dispatch::{FrameTrace, GroupSize, SplitTrace, GROUP};
+pub(crate) use dispatch::Band;
 pub use error::GpuError;
 /// `khr_rt`'s old path, kept for `src/app/`, `src/bench/`, `src/cli/` and `tests/` until they
 /// import `gpu::khr_rt` (issue #26: removed after the merge).

@@ -40,7 +40,7 @@ pub(crate) use super::dispatch::GROUP;
 
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kernel {
+pub(crate) enum Kernel {
     /// `trace.comp`: our BVH or brute force, as the frame's flags say, the tiles taken
     /// costliest first (`tile_order.rs`).
     Ours,
@@ -54,7 +54,7 @@ impl Kernel {
     /// Our tracer's kernel for a device: costliest tiles first on GPUs, row order on CPUs
     /// (where the order measured 1.4-2x slower on lavapipe). `MESHTRACER_TILE_ORDER=rows`
     /// or `=costliest` overrides it (the window tests trace the GPU's order on lavapipe).
-    pub fn ours_for(info: &super::context::DeviceInfo) -> Self {
+    pub(crate) fn ours_for(info: &super::context::DeviceInfo) -> Self {
         match std::env::var("MESHTRACER_TILE_ORDER").as_deref() {
             Ok("rows") => Self::OursInRowOrder,
             Ok("costliest") => Self::Ours,
@@ -64,7 +64,7 @@ impl Kernel {
     }
 
     /// Whether the kernel takes its tiles from the tile order (and records their costs).
-    pub fn orders_tiles(self) -> bool {
+    pub(crate) fn orders_tiles(self) -> bool {
         self == Self::Ours
     }
 }
@@ -148,7 +148,7 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
 
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA, and the order the
 /// trace pass takes the tiles in.
-pub struct TraceOutput {
+pub(crate) struct TraceOutput {
     pub width: u32,
     pub height: u32,
     pub rgba8: GpuBuffer,
@@ -163,7 +163,7 @@ pub struct TraceOutput {
 impl TraceOutput {
     /// Output buffers for `width` x `height` pixels, with a tile order for each of `slots`
     /// frame slots.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
         let pixels = width as u64 * height as u64;
         let limit = ctx.info.max_storage_buffer_range;
         if pixels * 16 > limit {
@@ -184,7 +184,7 @@ impl TraceOutput {
 }
 
 /// The compute pipeline and its one descriptor set.
-pub struct TracePass {
+pub(crate) struct TracePass {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     pipeline: vk::Pipeline,
@@ -197,7 +197,7 @@ pub struct TracePass {
 impl TracePass {
     /// Create the pipeline of `kernel` (ray queries need the device's support, see
     /// `DeviceInfo::vendor`).
-    pub fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
         let with_tlas = kernel == Kernel::RayQuery;
         let set_layout = create_set_layout(ctx, vk::ShaderStageFlags::COMPUTE, with_tlas)?;
         let layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<PushConstants>(), "creating the trace pipeline layout")?;
@@ -212,14 +212,14 @@ impl TracePass {
     }
 
     /// The kernel the pass runs.
-    pub fn kernel(&self) -> Kernel {
+    pub(crate) fn kernel(&self) -> Kernel {
         self.kernel
     }
 
     /// What the driver compiled the shader to, one `name: value` per statistic it reports
     /// (registers, local and shared memory, instructions); empty where the device does not
     /// offer `VK_KHR_pipeline_executable_properties`.
-    pub fn shader_statistics(&self) -> Vec<String> {
+    pub(crate) fn shader_statistics(&self) -> Vec<String> {
         if !self.ctx.info.shader_statistics {
             return Vec::new();
         }
@@ -251,7 +251,7 @@ impl TracePass {
 
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
     /// [`compile_trace_shader`]); on failure the current pipeline stays.
-    pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+    pub(crate) fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
         debug_assert_ne!(self.kernel, Kernel::RayQuery, "only trace.comp is reloaded");
         let pipeline = create_pipeline(&self.ctx, self.layout, spirv)?;
         // The old pipeline may still be in a submitted command buffer.
@@ -267,7 +267,7 @@ impl TracePass {
 
     /// Point the descriptor set at a scene, an output and (ray queries) the top-level
     /// structure; the GPU must not be using the set.
-    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
         debug_assert_eq!(tlas.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
         write_set(&self.ctx, self.set, scene, output, tlas);
     }
@@ -277,7 +277,7 @@ impl TracePass {
     /// sampling's keys) and copies read the outputs. The outputs are left as
     /// `Access::ComputeWrite`. `tile_base`: the frame slot's first entry of the tile order
     /// (`TileSchedule::order`; the vendor's query shader has none and ignores it).
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         // Rows are offset through the push constants, columns through the dispatch base.
         let mut pc = params.push_constants(band.rows.start);
@@ -288,7 +288,7 @@ impl TracePass {
     /// Record adaptive sampling's pre-pass over `columns` (all rows): the key of each
     /// pixel's path (primary hit and mirror bounces), which the main pass compares with the
     /// neighbours'. Recorded before a frame's first main band, with the same barrier.
-    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
@@ -327,7 +327,7 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
 /// as `kernel` (one of ours) builds it. A shader whose bindings, push constants or work
 /// group differ from the built-in one's is refused: the host's buffers and structs are
 /// built for that interface.
-pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
+pub(crate) fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
     use super::shader_compile;
     let contract = shader_compile::contract_glsl(crate::tracer::contract::ALL, "src/tracer/contract.rs");
     let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };

@@ -76,7 +76,7 @@ struct InstanceRecord {
 }
 
 /// The scene's structures on one device.
-pub struct VendorScene {
+pub(crate) struct VendorScene {
     ctx: Arc<GpuContext>,
     loader: ash::khr::acceleration_structure::Device,
     scratch_alignment: u64,
@@ -91,7 +91,7 @@ impl VendorScene {
     /// Bottom levels for every mesh (first triangle, count) of the triangles in `triangles`
     /// (the scene's device buffer, read back: the tracer keeps no host copy), and the top
     /// level over `instances`.
-    pub fn build(ctx: &Arc<GpuContext>, triangles: &GpuBuffer, meshes: &[(u32, u32)], instances: &[GpuInstance]) -> Result<Self, GpuError> {
+    pub(crate) fn build(ctx: &Arc<GpuContext>, triangles: &GpuBuffer, meshes: &[(u32, u32)], instances: &[GpuInstance]) -> Result<Self, GpuError> {
         let loader = ash::khr::acceleration_structure::Device::new(&ctx.instance, &ctx.device);
         let mut properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut properties);
@@ -117,12 +117,12 @@ impl VendorScene {
     }
 
     /// The top level, for the descriptor sets.
-    pub fn top(&self) -> Option<vk::AccelerationStructureKHR> {
+    pub(crate) fn top(&self) -> Option<vk::AccelerationStructureKHR> {
         self.top.as_ref().map(|t| t.handle)
     }
 
     /// Rebuild the top level over `instances` (the bottom levels stay).
-    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+    pub(crate) fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
         let start = Instant::now();
         self.top = None;
         let records: Vec<InstanceRecord> = instances

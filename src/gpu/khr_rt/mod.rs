@@ -50,7 +50,7 @@ impl VendorKernel {
 
     /// The default where the device has `support`: ray queries, faster than the pipeline
     /// on lavapipe (docs/BENCHMARKS.md); the pipeline where that is all there is (the H100).
-    pub fn preferred(support: &VendorSupport) -> Option<Self> {
+    pub(crate) fn preferred(support: &VendorSupport) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.supported(support))
     }
 

@@ -24,7 +24,7 @@ static CLOSEST_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_clo
 static MISS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_miss.spv"));
 
 /// The ray tracing pipeline, its descriptor set and shader binding table.
-pub struct PipelinePass {
+pub(crate) struct PipelinePass {
     ctx: Arc<GpuContext>,
     loader: ash::khr::ray_tracing_pipeline::Device,
     pipeline: vk::Pipeline,
@@ -41,7 +41,7 @@ pub struct PipelinePass {
 
 impl PipelinePass {
     /// Create the pipeline (the device must offer `VK_KHR_ray_tracing_pipeline`).
-    pub fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let loader = ash::khr::ray_tracing_pipeline::Device::new(&ctx.instance, device);
         let stages = vk::ShaderStageFlags::RAYGEN_KHR;
@@ -55,7 +55,7 @@ impl PipelinePass {
 
     /// Point the descriptor set at a scene, an output and the top level; the GPU must not
     /// be using the set.
-    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR) {
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR) {
         crate::gpu::trace_pass::write_set(&self.ctx, self.set, scene, output, Some(tlas));
     }
 
@@ -63,12 +63,12 @@ impl PipelinePass {
     /// trace's writes and copies' reads. The outputs are left as the compute pass leaves
     /// them (`Access::ComputeWrite`): a barrier hands the pipeline's writes on to the
     /// compute stage, which later barriers start from.
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
         self.trace(cmd, &params.push_constants(band.rows.start), band);
     }
 
     /// Record adaptive sampling's pre-pass over `columns` (all rows), as the compute pass does.
-    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
         self.trace(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
