@@ -1,6 +1,8 @@
 //! Pipeline barriers named by what the commands on either side do (after kajiya's
 //! `barrier.rs`): `Access::ComputeWrite -> Access::TransferRead` instead of stage masks,
 //! access masks and layouts spelled out at every use, so they are written once, here.
+//! Every pipeline barrier of the backend is recorded here, the vendor path's
+//! (acceleration-structure builds, the ray tracing pipeline) included.
 
 use ash::vk;
 
@@ -8,7 +10,7 @@ use super::image::color_range;
 
 /// One way a resource is used by the commands before or after a barrier.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Access {
+pub(crate) enum Access {
     /// Not used (an image's contents are discarded, or nothing waits on it).
     Nothing,
     /// The swapchain image just acquired: the submission waits for it at the transfer
@@ -26,6 +28,23 @@ pub enum Access {
     ColorAttachment,
     /// Read by the host after the submission's fence.
     HostRead,
+    /// Written by the host (mapped memory) before the submission.
+    HostWrite,
+    /// A build's inputs (vertices, instances) read by an acceleration-structure build.
+    AccelBuildInput,
+    /// An acceleration structure read by a build (the top level reads the bottom ones), a
+    /// copy or a query of its properties.
+    AccelBuildRead,
+    /// An acceleration structure written by a build or copy.
+    AccelBuildWrite,
+    /// An acceleration structure read by ray queries from a compute shader.
+    RayQueryAccelRead,
+    /// An acceleration structure read by the ray tracing pipeline's shaders.
+    RayTracingAccelRead,
+    /// Read by the ray tracing pipeline's shaders.
+    RayTracingRead,
+    /// Written by the ray tracing pipeline's shaders.
+    RayTracingWrite,
     /// Handed to the presentation engine.
     Present,
 }
@@ -36,9 +55,11 @@ impl Access {
         match self {
             Access::Nothing => S::TOP_OF_PIPE,
             Access::SwapchainAcquired | Access::TransferRead | Access::TransferWrite => S::TRANSFER,
-            Access::ComputeRead | Access::ComputeWrite => S::COMPUTE_SHADER,
+            Access::ComputeRead | Access::ComputeWrite | Access::RayQueryAccelRead => S::COMPUTE_SHADER,
             Access::ColorAttachment => S::COLOR_ATTACHMENT_OUTPUT,
-            Access::HostRead => S::HOST,
+            Access::HostRead | Access::HostWrite => S::HOST,
+            Access::AccelBuildInput | Access::AccelBuildRead | Access::AccelBuildWrite => S::ACCELERATION_STRUCTURE_BUILD_KHR,
+            Access::RayTracingAccelRead | Access::RayTracingRead | Access::RayTracingWrite => S::RAY_TRACING_SHADER_KHR,
             Access::Present => S::BOTTOM_OF_PIPE,
         }
     }
@@ -47,21 +68,27 @@ impl Access {
         use vk::AccessFlags as A;
         match self {
             Access::Nothing | Access::SwapchainAcquired | Access::Present => A::empty(),
-            Access::ComputeRead => A::SHADER_READ,
-            Access::ComputeWrite => A::SHADER_WRITE,
+            Access::ComputeRead | Access::RayTracingRead | Access::AccelBuildInput => A::SHADER_READ,
+            Access::ComputeWrite | Access::RayTracingWrite => A::SHADER_WRITE,
             Access::TransferRead => A::TRANSFER_READ,
             Access::TransferWrite => A::TRANSFER_WRITE,
             Access::ColorAttachment => A::COLOR_ATTACHMENT_READ | A::COLOR_ATTACHMENT_WRITE,
             Access::HostRead => A::HOST_READ,
+            Access::HostWrite => A::HOST_WRITE,
+            Access::AccelBuildRead | Access::RayQueryAccelRead | Access::RayTracingAccelRead => A::ACCELERATION_STRUCTURE_READ_KHR,
+            Access::AccelBuildWrite => A::ACCELERATION_STRUCTURE_WRITE_KHR,
         }
     }
 
-    /// The image layout this access needs.
+    /// The image layout this access needs (the vendor path's accesses are of buffers and
+    /// structures only: GENERAL).
     fn layout(self) -> vk::ImageLayout {
         use vk::ImageLayout as L;
         match self {
             Access::Nothing | Access::SwapchainAcquired => L::UNDEFINED,
-            Access::ComputeRead | Access::ComputeWrite | Access::HostRead => L::GENERAL,
+            Access::ComputeRead | Access::ComputeWrite | Access::HostRead | Access::HostWrite => L::GENERAL,
+            Access::AccelBuildInput | Access::AccelBuildRead | Access::AccelBuildWrite => L::GENERAL,
+            Access::RayQueryAccelRead | Access::RayTracingAccelRead | Access::RayTracingRead | Access::RayTracingWrite => L::GENERAL,
             Access::TransferRead => L::TRANSFER_SRC_OPTIMAL,
             Access::TransferWrite => L::TRANSFER_DST_OPTIMAL,
             Access::ColorAttachment => L::COLOR_ATTACHMENT_OPTIMAL,
@@ -78,7 +105,8 @@ fn stages(accesses: &[Access], empty: vk::PipelineStageFlags) -> vk::PipelineSta
 /// Only writes need to be made available; reads before a barrier need only its execution
 /// dependency.
 fn writes(accesses: &[Access]) -> vk::AccessFlags {
-    let write = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::COLOR_ATTACHMENT_WRITE;
+    use vk::AccessFlags as A;
+    let write = A::SHADER_WRITE | A::TRANSFER_WRITE | A::COLOR_ATTACHMENT_WRITE | A::HOST_WRITE | A::ACCELERATION_STRUCTURE_WRITE_KHR;
     accesses.iter().fold(vk::AccessFlags::empty(), |s, a| s | a.access()) & write
 }
 
@@ -88,7 +116,7 @@ fn reads_and_writes(accesses: &[Access]) -> vk::AccessFlags {
 
 /// A layout transition of a whole single-level colour image.
 #[derive(Clone, Copy, Debug)]
-pub struct ImageTransition {
+pub(crate) struct ImageTransition {
     pub image: vk::Image,
     pub before: Access,
     pub after: Access,
@@ -98,7 +126,7 @@ pub struct ImageTransition {
 
 /// Record one barrier: buffers (global memory) used as `before` are next used as `after`,
 /// and each image of `images` goes through its transition.
-pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access], images: &[ImageTransition]) {
+pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access], images: &[ImageTransition]) {
     let mut src = stages(before, vk::PipelineStageFlags::empty());
     let mut dst = stages(after, vk::PipelineStageFlags::empty());
     let image_barriers: Vec<_> = images
@@ -130,7 +158,7 @@ pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], a
 }
 
 /// Record a global memory barrier between buffer uses.
-pub fn buffers(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access]) {
+pub(crate) fn buffers(device: &ash::Device, cmd: vk::CommandBuffer, before: &[Access], after: &[Access]) {
     record(device, cmd, before, after, &[]);
 }
 
@@ -150,5 +178,37 @@ mod tests {
         assert_eq!(stages(&[Access::ComputeWrite, Access::TransferRead], vk::PipelineStageFlags::empty()), vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER);
         assert_eq!(Access::Present.layout(), vk::ImageLayout::PRESENT_SRC_KHR);
         assert_eq!(Access::SwapchainAcquired.stage(), vk::PipelineStageFlags::TRANSFER, "chains from the acquire wait");
+    }
+
+    /// The vendor path's barriers, named, keep the masks they were first written with.
+    #[test]
+    fn the_vendor_paths_accesses_keep_their_masks() {
+        use vk::AccessFlags as A;
+        use vk::PipelineStageFlags as S;
+        let masks = |before: &[Access], after: &[Access]| (stages(before, S::empty()), writes(before), stages(after, S::empty()), reads_and_writes(after));
+        // A build's inputs, uploaded or written by the host.
+        assert_eq!(
+            masks(&[Access::TransferWrite, Access::HostWrite], &[Access::AccelBuildInput, Access::AccelBuildRead]),
+            (S::TRANSFER | S::HOST, A::TRANSFER_WRITE | A::HOST_WRITE, S::ACCELERATION_STRUCTURE_BUILD_KHR, A::ACCELERATION_STRUCTURE_READ_KHR | A::SHADER_READ)
+        );
+        // A build before the query of its compacted size.
+        let build = S::ACCELERATION_STRUCTURE_BUILD_KHR;
+        assert_eq!(masks(&[Access::AccelBuildWrite], &[Access::AccelBuildRead]), (build, A::ACCELERATION_STRUCTURE_WRITE_KHR, build, A::ACCELERATION_STRUCTURE_READ_KHR));
+        // A built structure, read by later builds and both kinds of trace.
+        assert_eq!(
+            masks(&[Access::AccelBuildWrite], &[Access::AccelBuildRead, Access::RayQueryAccelRead, Access::RayTracingAccelRead]),
+            (build, A::ACCELERATION_STRUCTURE_WRITE_KHR, build | S::COMPUTE_SHADER | S::RAY_TRACING_SHADER_KHR, A::ACCELERATION_STRUCTURE_READ_KHR)
+        );
+        // Around the ray tracing pipeline's launch.
+        let rt = S::RAY_TRACING_SHADER_KHR;
+        assert_eq!(
+            masks(&[Access::ComputeWrite, Access::TransferRead], &[Access::RayTracingRead, Access::RayTracingWrite]),
+            (S::COMPUTE_SHADER | S::TRANSFER, A::SHADER_WRITE, rt, A::SHADER_READ | A::SHADER_WRITE)
+        );
+        assert_eq!(masks(&[Access::RayTracingWrite], &[Access::ComputeRead, Access::ComputeWrite]), (rt, A::SHADER_WRITE, S::COMPUTE_SHADER, A::SHADER_READ | A::SHADER_WRITE));
+        // The upload and readback copies.
+        assert_eq!(masks(&[Access::TransferWrite], &[Access::ComputeRead]), (S::TRANSFER, A::TRANSFER_WRITE, S::COMPUTE_SHADER, A::SHADER_READ));
+        assert_eq!(masks(&[Access::ComputeWrite], &[Access::TransferRead]), (S::COMPUTE_SHADER, A::SHADER_WRITE, S::TRANSFER, A::TRANSFER_READ));
+        assert_eq!(masks(&[Access::TransferWrite], &[Access::HostRead]), (S::TRANSFER, A::TRANSFER_WRITE, S::HOST, A::HOST_READ));
     }
 }

@@ -7,6 +7,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use super::barrier::{self, Access};
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 
@@ -62,7 +63,7 @@ impl GpuBuffer {
 
     /// Where the memory lives, for `bench --verbose`: name, size, memory flags, dedicated
     /// or sub-allocated, offset in its memory object.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match &self.allocation {
             Some(a) => format!(
                 "{}: {:.1} MB, {:?}, {}, offset {}",
@@ -114,13 +115,12 @@ impl GpuBuffer {
         for (i, part) in data.chunks(chunk).enumerate() {
             staging.mapped().expect("staging memory is mapped")[..part.len()].copy_from_slice(part);
             let device = &self.ctx.device;
-            // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
-            self.ctx.one_shot(|cmd| unsafe {
+            self.ctx.one_shot(|cmd| {
                 let region = [vk::BufferCopy { src_offset: 0, dst_offset: (i * chunk) as u64, size: part.len() as u64 }];
-                device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region);
+                // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
+                unsafe { device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region) };
                 // Make the copy visible to the compute shader that reads the buffer next.
-                let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::SHADER_READ)];
-                device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+                barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::ComputeRead]);
             })?;
         }
         Ok(())
@@ -135,13 +135,11 @@ impl GpuBuffer {
     pub(crate) fn download_range(&self, offset: u64, len: u64) -> Result<Vec<u8>, GpuError> {
         let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
         let device = &self.ctx.device;
-        // SAFETY: as in `upload`.
-        self.ctx.one_shot(|cmd| unsafe {
-            let before = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
-            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::COMPUTE_SHADER, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &before, &[], &[]);
-            device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }]);
-            let after = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ)];
-            device.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::HOST, vk::DependencyFlags::empty(), &after, &[], &[]);
+        self.ctx.one_shot(|cmd| {
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::TransferRead]);
+            // SAFETY: as in `upload`.
+            unsafe { device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }]) };
+            barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::HostRead]);
         })?;
         Ok(staging.mapped().expect("readback memory is mapped")[..len as usize].to_vec())
     }

@@ -12,9 +12,9 @@ use gpu_allocator::MemoryLocation;
 use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::error::{GpuError, VkContext};
+use super::error::GpuError;
 use super::timer::GpuTimer;
-use super::trace_pass::{create_compute_pipeline, destroy_pipeline_objects, words};
+use super::pipeline::{allocate_one_set, create_compute_pipeline, create_layout, create_set_layout, destroy_pipeline_objects, words};
 
 static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
 
@@ -33,22 +33,22 @@ struct ProbeConstants {
 
 /// One measurement: shader clock cycles over the dispatch's GPU time.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClockReading {
+pub(crate) struct ClockReading {
     /// Subgroup clock cycles the fma chain took.
-    pub cycles: u64,
+    pub(crate) cycles: u64,
     /// GPU milliseconds between the timestamps around the dispatch.
-    pub gpu_ms: f64,
+    pub(crate) gpu_ms: f64,
 }
 
 impl ClockReading {
     /// The shader clock rate in MHz (cycles per microsecond).
-    pub fn mhz(&self) -> f64 {
+    pub(crate) fn mhz(&self) -> f64 {
         self.cycles as f64 / (self.gpu_ms * 1e3)
     }
 }
 
 /// The probe's pipeline, its result buffer and timestamps.
-pub struct ClockProbe {
+pub(crate) struct ClockProbe {
     ctx: Arc<GpuContext>,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
@@ -62,7 +62,7 @@ pub struct ClockProbe {
 impl ClockProbe {
     /// The probe; None where the device has no subgroup clock (`VK_KHR_shader_clock`) or
     /// no timestamps.
-    pub fn new(ctx: &Arc<GpuContext>) -> Result<Option<Self>, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Option<Self>, GpuError> {
         if !ctx.info.shader_clock {
             return Ok(None);
         }
@@ -74,9 +74,8 @@ impl ClockProbe {
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .descriptor_count(1)
             .stage_flags(vk::ShaderStageFlags::COMPUTE)];
-        // SAFETY: plain object creation on the live device; destroyed in Drop (or below on error).
-        let set_layout = unsafe { device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding), None) }
-            .during("creating the clock probe's descriptor layout")?;
+        // Destroyed in Drop (or below on error).
+        let set_layout = create_set_layout(ctx, &binding, "creating the clock probe's descriptor layout")?;
         let mut probe = Self {
             ctx: ctx.clone(),
             pipeline: vk::Pipeline::null(),
@@ -88,11 +87,7 @@ impl ClockProbe {
             timer,
         };
         // From here on Drop destroys whatever was made (null handles are ignored).
-        let push = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).size(std::mem::size_of::<ProbeConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout is live; the arrays outlive the call.
-        probe.layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the clock probe's pipeline layout")?;
+        probe.layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<ProbeConstants>(), "creating the clock probe's pipeline layout")?;
         probe.pipeline = create_compute_pipeline(
             ctx,
             probe.layout,
@@ -101,12 +96,7 @@ impl ClockProbe {
             ["loading the clock probe", "creating the clock probe's pipeline"],
         )?;
         let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 }];
-        // SAFETY: plain object creation on the live device.
-        probe.pool = unsafe { device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
-            .during("creating the clock probe's descriptor pool")?;
-        // SAFETY: the pool holds exactly this one set of this layout.
-        probe.set = unsafe { device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(probe.pool).set_layouts(&set_layouts)) }
-            .during("allocating the clock probe's descriptor set")?[0];
+        (probe.pool, probe.set) = allocate_one_set(ctx, set_layout, &sizes, ["creating the clock probe's descriptor pool", "allocating the clock probe's descriptor set"])?;
         let buffer_info = [vk::DescriptorBufferInfo { buffer: probe.result.buffer, offset: 0, range: vk::WHOLE_SIZE }];
         let write = [vk::WriteDescriptorSet::default().dst_set(probe.set).dst_binding(0).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_info)];
         // SAFETY: the set is not in use; the buffer is live.
@@ -115,7 +105,7 @@ impl ClockProbe {
     }
 
     /// Run the probe once and wait for it.
-    pub fn measure(&mut self) -> Result<ClockReading, GpuError> {
+    pub(crate) fn measure(&mut self) -> Result<ClockReading, GpuError> {
         let device = &self.ctx.device;
         let constants = ProbeConstants { iterations: ITERATIONS, a: 0.999_999, b: 1e-6 };
         self.ctx.one_shot(|cmd| {

@@ -4,7 +4,7 @@
 //! the headless callers trace whole frames with [`ComputeTracer::trace`], which splits a
 //! frame too big for one submission into row bands (see [`crate::tracer::budget`]).
 //! `Accel::Vendor` frames (or parts of a split frame) go to the vendor path
-//! ([`super::vendor`]), built on first use.
+//! ([`super::khr_rt`]), built on first use.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -14,11 +14,13 @@ use ash::vk;
 use super::barrier::{self, Access};
 use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
+use super::lock::lock;
 use super::scene_buffers::SceneBuffers;
 use super::tile_order::TileRect;
 use super::timer::GpuTimer;
-use super::trace_pass::{Band, FrameTrace, Kernel, TraceOutput, TracePass, GROUP};
-use super::vendor::{AccelStats, VendorKernel, VendorTracer};
+use super::dispatch::{Band, FrameTrace, GROUP};
+use super::trace_pass::{Kernel, TraceOutput, TracePass};
+use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
 use crate::tracer::frame::{Accel, FrameParams};
 use crate::tracer::image::Image;
@@ -39,11 +41,11 @@ pub struct TraceTiming {
 
 /// GPU milliseconds of each part of a recorded frame (left, right), None where that part
 /// was not traced or its timestamps are not there.
-pub type PartTimes = [Option<f64>; 2];
+pub(crate) type PartTimes = [Option<f64>; 2];
 
 /// Which passes of which parts a recording timed: `[part][pass]`, part 0 left and 1
 /// right, pass 0 the main pass and 1 adaptive sampling's pre-pass.
-pub type TimedParts = [[bool; 2]; 2];
+pub(crate) type TimedParts = [[bool; 2]; 2];
 
 /// Timer pairs per timestamp slot: a main pass and a pre-pass for each of two parts.
 const PAIRS_PER_SLOT: u32 = 4;
@@ -181,7 +183,7 @@ impl ComputeTracer {
     }
 
     /// Which of our kernels traces (costliest tiles first, or rows on a CPU device).
-    pub fn kernel(&self) -> Kernel {
+    pub(crate) fn kernel(&self) -> Kernel {
         self.pass.kernel()
     }
 
@@ -189,7 +191,7 @@ impl ComputeTracer {
     #[cfg(test)]
     pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
         let out = self.output.as_ref().expect("a frame was traced");
-        let mut tiles = out.tiles.lock().unwrap();
+        let mut tiles = lock(&out.tiles);
         (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
     }
 
@@ -205,18 +207,18 @@ impl ComputeTracer {
 
     /// Swap the trace pipeline for one built from `spirv` (see `trace_pass::compile_trace_shader`);
     /// on failure the current one stays.
-    pub fn reload_shader(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+    pub(crate) fn reload_shader(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
         self.pass.reload(spirv)
     }
 
     /// The driver's statistics of the compiled trace shader, one line each (`bench --verbose`;
     /// empty where the device does not report them).
-    pub fn shader_statistics(&self) -> Vec<String> {
+    pub(crate) fn shader_statistics(&self) -> Vec<String> {
         self.pass.shader_statistics()
     }
 
     /// Where each scene buffer's memory lives, one line each (`bench --verbose`).
-    pub fn describe_memory(&self) -> Vec<String> {
+    pub(crate) fn describe_memory(&self) -> Vec<String> {
         self.scene.as_ref().map_or_else(Vec::new, |s| s.describe())
     }
 
@@ -240,7 +242,7 @@ impl ComputeTracer {
     }
 
     /// The vendor kernel in use, or why the device has no vendor path (one sentence).
-    pub fn vendor_kernel(&self) -> Result<VendorKernel, &str> {
+    pub(crate) fn vendor_kernel(&self) -> Result<VendorKernel, &str> {
         self.vendor.as_ref().map(|v| v.kernel).map_err(String::as_str)
     }
 
@@ -259,7 +261,7 @@ impl ComputeTracer {
     /// `Accel::Vendor`, the driver's structures of the scene and the kernel's pipeline
     /// (waits for the GPU when it builds). Our tracer needs nothing. An error says why the
     /// vendor path cannot run here.
-    pub fn prepare(&mut self, frame: &FrameTrace) -> Result<(), GpuError> {
+    pub(crate) fn prepare(&mut self, frame: &FrameTrace) -> Result<(), GpuError> {
         if !frame.parts().iter().any(|(_, p, _)| p.settings.accel == Accel::Vendor) {
             return Ok(());
         }
@@ -302,7 +304,7 @@ impl ComputeTracer {
         let trace = |params: &FrameParams, band: &Band| {
             let base = match &self.output {
                 Some(out) if self.pass.kernel().orders_tiles() => {
-                    out.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).order(tile_slot, &TileRect::of_band(band))
+                    lock(&out.tiles).order(tile_slot, &TileRect::of_band(band))
                 }
                 _ => 0,
             };

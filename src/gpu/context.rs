@@ -1,7 +1,7 @@
 //! Vulkan instance, validation, device selection and the memory allocator: the one place
 //! that owns the Vulkan objects everything else borrows.
 
-use std::ffi::{c_char, c_void, CStr};
+use std::ffi::{c_char, CStr};
 use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
 
@@ -10,8 +10,8 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::error::{GpuError, VkContext};
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+use super::lock::lock;
+use super::validation::{self, ValidationLog, VALIDATION_LAYER};
 
 /// How to create the context.
 #[derive(Clone, Debug, Default)]
@@ -94,7 +94,7 @@ impl VendorSupport {
 
 /// Set to 1, the tool leaves the vendor's ray tracing off even where the device has it (to
 /// see the tool as it is on a device without it).
-pub const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
+pub(crate) const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
 
 /// Which ray tracing extensions and features `pd` offers, all of them needed together.
 fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::PhysicalDeviceProperties) -> VendorSupport {
@@ -127,46 +127,6 @@ fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::
     ))
 }
 
-/// Validation messages collected by the debug messenger.
-#[derive(Default)]
-pub struct ValidationLog {
-    messages: Mutex<Vec<String>>,
-}
-
-impl ValidationLog {
-    /// Messages of warning or error severity so far.
-    pub fn messages(&self) -> Vec<String> {
-        self.messages.lock().unwrap().clone()
-    }
-}
-
-// SAFETY (for the body's dereferences): Vulkan passes `data` null or valid for the call,
-// and `user` is null or the `ValidationLog` that the context keeps (an Arc) until it
-// destroys the messenger.
-unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    kind: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    let message = if data.is_null() || (*data).p_message.is_null() {
-        "(no message)".to_string()
-    } else {
-        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
-    };
-    let serious = severity.intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR);
-    if serious && kind.intersects(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE) {
-        log::error!("Vulkan validation: {message}");
-        if !user.is_null() {
-            let log = &*(user as *const ValidationLog);
-            log.messages.lock().unwrap().push(message);
-        }
-    } else {
-        log::debug!("Vulkan: {message}");
-    }
-    vk::FALSE
-}
-
 /// The Vulkan instance, device, queue and allocator.
 pub struct GpuContext {
     pub(crate) entry: ash::Entry,
@@ -187,7 +147,7 @@ pub struct GpuContext {
 }
 
 /// A surface-creating callback, run between instance and device creation.
-pub type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
+pub(crate) type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
 
 fn load_entry() -> Result<ash::Entry, GpuError> {
     // SAFETY: loading the system's Vulkan loader library; no other invariants.
@@ -204,7 +164,7 @@ fn instance_error(r: vk::Result) -> GpuError {
 
 impl DeviceInfo {
     /// The device is a CPU (lavapipe, SwiftShader).
-    pub fn is_cpu(&self) -> bool {
+    pub(crate) fn is_cpu(&self) -> bool {
         self.device_type == device_type_name(vk::PhysicalDeviceType::CPU)
     }
 }
@@ -220,7 +180,7 @@ fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
 }
 
 /// Names of the Vulkan devices present, in `device_index` order.
-pub fn list_devices() -> Result<Vec<String>, GpuError> {
+pub(crate) fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
     // SAFETY: the create info and the application info it points to outlive the call.
@@ -282,13 +242,7 @@ impl GpuContext {
 
         let debug = if validation {
             let loader = debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-                )
-                .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE)
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(Arc::as_ptr(&validation_log) as *mut c_void);
+            let info = validation::messenger_info(&validation_log);
             // SAFETY: the instance is live; the user data is the `ValidationLog` the
             // context keeps until it destroys the messenger.
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;
@@ -411,7 +365,7 @@ impl GpuContext {
 
     /// The memory allocator (buffers and images lock it briefly to allocate or free).
     pub fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
-        self.allocator.lock().unwrap()
+        lock(&self.allocator)
     }
 
     /// Validation messages (warnings and errors) seen so far; empty without validation.
@@ -426,7 +380,7 @@ impl GpuContext {
 
     /// Submit to the queue (under the queue lock).
     pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
-        let _guard = self.queue_lock.lock().unwrap();
+        let _guard = lock(&self.queue_lock);
         // SAFETY: the queue lock is held, as Vulkan requires of queue use; the submits and
         // the fence belong to this device.
         unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
@@ -434,12 +388,12 @@ impl GpuContext {
 
     /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
     pub(crate) fn lock_queue(&self) -> std::sync::MutexGuard<'_, ()> {
-        self.queue_lock.lock().unwrap()
+        lock(&self.queue_lock)
     }
 
     /// Record commands with `record`, submit them and wait for completion.
     pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
-        let pool = self.one_shot_pool.lock().unwrap();
+        let pool = lock(&self.one_shot_pool);
         let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
         // SAFETY: the pool lock is held, so no other thread uses the pool.
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
@@ -468,7 +422,7 @@ impl GpuContext {
     /// Wait until the GPU is idle (before freeing resources it may still use). Holds the
     /// queue lock: `vkDeviceWaitIdle` needs every queue externally synchronized.
     pub(crate) fn wait_idle(&self) -> Result<(), GpuError> {
-        let _guard = self.queue_lock.lock().unwrap();
+        let _guard = lock(&self.queue_lock);
         // SAFETY: the queue lock is held, so no other thread uses the queue meanwhile.
         unsafe { self.device.device_wait_idle() }.during("waiting for the GPU to finish")
     }

@@ -11,17 +11,17 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 
 /// The whole colour subresource of a single-level 2D image.
-pub fn color_range() -> vk::ImageSubresourceRange {
+pub(crate) fn color_range() -> vk::ImageSubresourceRange {
     vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 }
 }
 
 /// The colour layer of a single-level 2D image, for copies and blits.
-pub fn color_layers() -> vk::ImageSubresourceLayers {
+pub(crate) fn color_layers() -> vk::ImageSubresourceLayers {
     vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 }
 }
 
 /// A device-local 2D image with one mip level; freed on drop.
-pub struct GpuImage {
+pub(crate) struct GpuImage {
     ctx: Arc<GpuContext>,
     pub image: vk::Image,
     allocation: Option<Allocation>,
@@ -31,7 +31,7 @@ pub struct GpuImage {
 
 impl GpuImage {
     /// Create a `width` x `height` image of `format` with optimal tiling.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags, name: &'static str) -> Result<Self, GpuError> {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)

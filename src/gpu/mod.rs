@@ -1,20 +1,27 @@
-//! The Vulkan backend: instance and device (`context`), memory and buffers ([`buffer`]),
-//! named pipeline barriers (`barrier`), GPU timestamps (`timer`), the shader clock rate
-//! ([`clock_probe`]), the scene's device buffers ([`scene_buffers`]), the trace compute
-//! pass (`trace_pass`) with what its shader declares (`shader_layout`) and the order it takes
-//! the frame's tiles in (`tile_order`), the compute tracer
+//! The Vulkan backend: instance and device (`context`) with the validation layer's messages
+//! (`validation`) and the one way a lock is taken (`lock`), memory and buffers ([`buffer`]),
+//! named pipeline barriers (`barrier`), the objects a pass is made of (`pipeline`: set
+//! layouts, pools, pipeline layouts, compute pipelines), GPU timestamps (`timer`), the
+//! shader clock rate (`clock_probe`), the scene's device buffers ([`scene_buffers`]), the
+//! shapes a trace is dispatched in (`dispatch`: work group, band, split frame), the trace
+//! compute pass (`trace_pass`) with what its shader declares (`shader_layout`) and the
+//! order it takes the frame's tiles in (`tile_order`), the compute tracer
 //! built from them (`compute_tracer`), and presentation to a window (`present`: surface,
-//! swapchain, composite, egui pass), and the vendor's ray tracing beside ours (`vendor`:
-//! the driver's acceleration structures, ray queries, a ray tracing pipeline). Nothing
-//! outside this folder calls Vulkan.
+//! swapchain, composite, egui pass), and the vendor's ray tracing beside ours through the
+//! driver's Vulkan KHR ray tracing (`khr_rt`: the driver's acceleration structures, ray
+//! queries, a ray tracing pipeline). Nothing outside this folder calls Vulkan.
 
 pub(crate) mod barrier;
 pub mod buffer;
-pub mod clock_probe;
+pub(crate) mod clock_probe;
 pub(crate) mod compute_tracer;
 pub(crate) mod context;
+pub(crate) mod dispatch;
 pub mod error;
 pub(crate) mod image;
+pub mod khr_rt;
+pub(crate) mod lock;
+pub(crate) mod pipeline;
 pub(crate) mod present;
 pub mod scene_buffers;
 pub(crate) mod shader_compile;
@@ -22,10 +29,15 @@ pub(crate) mod shader_layout;
 pub(crate) mod tile_order;
 pub(crate) mod timer;
 pub(crate) mod trace_pass;
-pub mod vendor;
+pub(crate) mod validation;
 
-pub use clock_probe::{ClockProbe, ClockReading};
-pub use compute_tracer::{ComputeTracer, PartTimes, TraceTiming};
-pub use trace_pass::{Band, FrameTrace, GroupSize, SplitTrace, GROUP};
+pub(crate) use clock_probe::ClockProbe;
+pub use compute_tracer::{ComputeTracer, TraceTiming};
+pub(crate) use compute_tracer::PartTimes;
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
+pub use dispatch::{FrameTrace, GroupSize, SplitTrace, GROUP};
+pub(crate) use dispatch::Band;
 pub use error::GpuError;
+/// `khr_rt`'s old path, kept for `src/app/`, `src/bench/`, `src/cli/` and `tests/` until they
+/// import `gpu::khr_rt` (issue #26: removed after the merge).
+pub use self::khr_rt as vendor;

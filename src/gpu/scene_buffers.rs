@@ -68,7 +68,7 @@ impl SceneBuffers {
     }
 
     /// One line per buffer: where its memory lives (`bench --verbose`).
-    pub fn describe(&self) -> Vec<String> {
+    pub(crate) fn describe(&self) -> Vec<String> {
         [&self.triangles, &self.shading, &self.materials, &self.nodes, &self.instances, &self.texels, &self.texture_infos, &self.environment].iter().map(|b| b.describe()).collect()
     }
 

@@ -6,10 +6,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The generated header that shaders `#include` for the host's shared constants.
-pub const CONTRACT_HEADER: &str = "contract.glsl";
+pub(crate) const CONTRACT_HEADER: &str = "contract.glsl";
 
 /// A compiled shader: naga's module (for reflection) and its SPIR-V words.
-pub struct CompiledShader {
+pub(crate) struct CompiledShader {
     /// The validated module.
     pub module: naga::Module,
     /// SPIR-V words, debug info left out.
@@ -18,7 +18,7 @@ pub struct CompiledShader {
 
 /// `contract.glsl` from the contract's `(name, value, doc)` list: one `const uint` per
 /// constant, its doc as a comment; `source` names the Rust file in the header line.
-pub fn contract_glsl(all: &[(&str, u32, &str)], source: &str) -> String {
+pub(crate) fn contract_glsl(all: &[(&str, u32, &str)], source: &str) -> String {
     let mut out = format!("// Generated from {source} by build.rs: do not edit.\n\n");
     for (name, value, doc) in all {
         for line in doc.lines() {
@@ -32,7 +32,7 @@ pub fn contract_glsl(all: &[(&str, u32, &str)], source: &str) -> String {
 
 /// GLSL source with its `#include`s expanded, and where each of its lines came from (so an
 /// error in the expanded text can name the file and line the user edits).
-pub struct Expanded {
+pub(crate) struct Expanded {
     /// The source with every include in place.
     pub text: String,
     origin: Vec<(PathBuf, usize)>,
@@ -40,7 +40,7 @@ pub struct Expanded {
 
 /// The shader at `path` with its includes expanded (`contract.glsl` from `contract` unless
 /// one lies beside it): for naga here, and for glslang in build.rs (the vendor shaders).
-pub fn expand(path: &Path, contract: &str) -> Result<Expanded, String> {
+pub(crate) fn expand(path: &Path, contract: &str) -> Result<Expanded, String> {
     let mut src = Expanded { text: String::new(), origin: Vec::new() };
     src.include(path, contract, 0)?;
     Ok(src)
@@ -48,7 +48,7 @@ pub fn expand(path: &Path, contract: &str) -> Result<Expanded, String> {
 
 impl Expanded {
     /// `file:line` of the 1-based line of the expanded text.
-    pub fn locate(&self, line: u32) -> String {
+    pub(crate) fn locate(&self, line: u32) -> String {
         match self.origin.get((line as usize).saturating_sub(1)) {
             Some((path, n)) => format!("{}:{n}", path.display()),
             None => format!("line {line}"),
@@ -92,12 +92,12 @@ impl Expanded {
 
 /// Defined for `trace.comp`'s variant that takes its tiles in row order and records no
 /// costs (for CPU devices; see `tile_order.rs`).
-pub const ROW_ORDER: &str = "ROW_ORDER";
+pub(crate) const ROW_ORDER: &str = "ROW_ORDER";
 
 /// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.
-pub fn compile(path: &Path, contract: &str, defines: &[&str]) -> Result<CompiledShader, String> {
+pub(crate) fn compile(path: &Path, contract: &str, defines: &[&str]) -> Result<CompiledShader, String> {
     let src = expand(path, contract)?;
     let mut frontend = naga::front::glsl::Frontend::default();
     let mut options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
@@ -167,7 +167,7 @@ fn drop_local_array_initializers(words: &mut Vec<u32>) {
 /// The interface the host relies on, as text: the work-group size, each storage binding
 /// (number, block name, read-only) and the push-constant block's members with their offsets
 /// and sizes. Two shaders with the same text fit the same pipeline layout and host structs.
-pub fn layout_signature(module: &naga::Module) -> Result<String, String> {
+pub(crate) fn layout_signature(module: &naga::Module) -> Result<String, String> {
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).map_err(|e| format!("cannot lay out the shader's types: {e}"))?;
     let [entry] = module.entry_points.as_slice() else { return Err("the shader must have exactly one entry point".into()) };
@@ -200,7 +200,7 @@ pub fn layout_signature(module: &naga::Module) -> Result<String, String> {
 }
 
 /// Every file a shader build reads from `dir` (the `.comp` and `.glsl` files), sorted.
-pub fn shader_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+pub(crate) fn shader_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir)? {
         let path = entry?.path();

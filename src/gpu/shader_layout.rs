@@ -6,7 +6,7 @@
 
 /// One storage-buffer binding of descriptor set 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ShaderBinding {
+pub(crate) struct ShaderBinding {
     /// The binding number.
     pub binding: u32,
     /// The GLSL block name (`Triangles` of `buffer Triangles { ... }`).
@@ -40,16 +40,16 @@ pub struct ShaderStruct {
 include!(concat!(env!("OUT_DIR"), "/trace_layout.rs"));
 
 /// Width of the work group's tile of pixels (`local_size_x`).
-pub const GROUP_WIDTH: u32 = WORKGROUP_SIZE[0];
+pub(crate) const GROUP_WIDTH: u32 = WORKGROUP_SIZE[0];
 /// Height of the work group's tile of pixels (`local_size_y`).
-pub const GROUP_HEIGHT: u32 = WORKGROUP_SIZE[1];
+pub(crate) const GROUP_HEIGHT: u32 = WORKGROUP_SIZE[1];
 
 // Dispatches cover the frame in GROUP_WIDTH x GROUP_HEIGHT tiles.
 const _: () = assert!(WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT > 0, "trace.comp's work group must be flat");
 
 /// A buffer that the trace pass binds; `TracePass::bind` says which GPU buffer each is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TraceBuffer {
+pub(crate) enum TraceBuffer {
     Triangles,
     Shading,
     Materials,
@@ -85,7 +85,7 @@ impl TraceBuffer {
     ];
 
     /// The buffer the shader declares as `block`, or None for a name the host does not know.
-    pub fn from_block(block: &str) -> Option<Self> {
+    pub(crate) fn from_block(block: &str) -> Option<Self> {
         Some(match block {
             "Triangles" => Self::Triangles,
             "Shading" => Self::Shading,
@@ -106,7 +106,7 @@ impl TraceBuffer {
 
     /// The buffer of a reflected binding; a name unknown to [`from_block`](Self::from_block)
     /// is a shader/host mismatch, which the tests catch before any GPU runs.
-    pub fn of(binding: &ShaderBinding) -> Self {
+    pub(crate) fn of(binding: &ShaderBinding) -> Self {
         Self::from_block(binding.block)
             .unwrap_or_else(|| panic!("trace.comp binds a buffer block `{}` that the host does not know", binding.block))
     }
@@ -146,7 +146,7 @@ mod tests {
     #[test]
     fn work_group_is_flat_and_the_host_tiles_with_it() {
         assert_eq!(WORKGROUP_SIZE, [GROUP_WIDTH, GROUP_HEIGHT, 1]);
-        assert_eq!(crate::gpu::trace_pass::GROUP, crate::gpu::trace_pass::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT });
+        assert_eq!(crate::gpu::dispatch::GROUP, crate::gpu::dispatch::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT });
     }
 
     #[test]

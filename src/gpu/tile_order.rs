@@ -30,7 +30,7 @@ use gpu_allocator::MemoryLocation;
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
-use super::trace_pass::{Band, GROUP};
+use super::dispatch::{Band, GROUP};
 
 /// A rectangle of tiles (in tile units) that one dispatch covers.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -47,7 +47,7 @@ impl TileRect {
     }
 
     /// The tiles of a band of pixels (whose start is on a tile boundary).
-    pub fn of_band(band: &Band) -> Self {
+    pub(crate) fn of_band(band: &Band) -> Self {
         Self {
             columns: band.columns.start / GROUP.width..band.columns.end.div_ceil(GROUP.width),
             rows: band.rows.start / GROUP.height..band.rows.end.div_ceil(GROUP.height),
@@ -151,7 +151,7 @@ pub(crate) struct TileSchedule {
 
 impl TileSchedule {
     /// Row order and no costs for `slots` slots of a `width` x `height` frame.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
         let tiles_x = width.div_ceil(GROUP.width);
         let tiles = tiles_x * height.div_ceil(GROUP.height);
         let bytes = tiles as u64 * slots as u64 * 4;
@@ -167,7 +167,7 @@ impl TileSchedule {
     }
 
     /// The first entry of `slot` in the order (the shader's `tile_base`).
-    pub fn base(&self, slot: u32) -> u32 {
+    pub(crate) fn base(&self, slot: u32) -> u32 {
         slot * self.tiles
     }
 
@@ -192,7 +192,7 @@ impl TileSchedule {
     /// frame; returns the slot's base. The slot's commands must be done. When the costs
     /// rank the tiles as they did for the order in place, that order stays: the sort and
     /// its writes were half of the ~0.08 ms this took per frame on the H100's host.
-    pub fn order(&mut self, slot: u32, rect: &TileRect) -> u32 {
+    pub(crate) fn order(&mut self, slot: u32, rect: &TileRect) -> u32 {
         let tiles_x = self.tiles_x;
         let samples = self.samples(slot);
         let ranks = ranks(rect, |t| tile_cost(samples, t), tiles_x);
@@ -282,7 +282,8 @@ mod tests {
     }
 
     mod on_the_gpu {
-        use crate::gpu::trace_pass::{FrameTrace, Kernel, SplitTrace};
+        use crate::gpu::dispatch::{FrameTrace, SplitTrace};
+        use crate::gpu::trace_pass::Kernel;
         use crate::gpu::GROUP;
         use super::super::cost_class;
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};

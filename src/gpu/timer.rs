@@ -9,7 +9,7 @@ use super::context::GpuContext;
 use super::error::{GpuError, VkContext};
 
 /// Timestamp query pairs, read back in milliseconds.
-pub struct GpuTimer {
+pub(crate) struct GpuTimer {
     ctx: Arc<GpuContext>,
     pool: vk::QueryPool,
     slots: u32,
@@ -17,7 +17,7 @@ pub struct GpuTimer {
 
 impl GpuTimer {
     /// A timer with `slots` independent begin/end pairs; None when the queue has no timestamps.
-    pub fn new(ctx: &Arc<GpuContext>, slots: u32) -> Result<Option<Self>, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, slots: u32) -> Result<Option<Self>, GpuError> {
         if ctx.info.timestamp_valid_bits == 0 {
             return Ok(None);
         }
@@ -30,7 +30,7 @@ impl GpuTimer {
     /// Record a reset of `slot` and its begin timestamp (before the work). With
     /// `after_previous` the timestamp waits for the work recorded before it to finish (the
     /// second part of a split frame is timed without the first).
-    pub fn begin(&self, cmd: vk::CommandBuffer, slot: u32, after_previous: bool) {
+    pub(crate) fn begin(&self, cmd: vk::CommandBuffer, slot: u32, after_previous: bool) {
         assert!(slot < self.slots);
         let stage = if after_previous { vk::PipelineStageFlags::BOTTOM_OF_PIPE } else { vk::PipelineStageFlags::TOP_OF_PIPE };
         // SAFETY: `cmd` is recording (the caller's) and both queries of the slot are in the
@@ -42,14 +42,14 @@ impl GpuTimer {
     }
 
     /// Record the end timestamp of `slot` (after the work).
-    pub fn end(&self, cmd: vk::CommandBuffer, slot: u32) {
+    pub(crate) fn end(&self, cmd: vk::CommandBuffer, slot: u32) {
         assert!(slot < self.slots);
         // SAFETY: as in `begin`.
         unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, slot * 2 + 1) };
     }
 
     /// Milliseconds between begin and end of `slot`, once the GPU has finished it (None if not yet).
-    pub fn read_ms(&self, slot: u32) -> Option<f64> {
+    pub(crate) fn read_ms(&self, slot: u32) -> Option<f64> {
         assert!(slot < self.slots);
         let mut data = [[0u64; 2]; 2];
         let flags = vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY;

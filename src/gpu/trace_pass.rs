@@ -2,7 +2,7 @@
 //! force) or `shaders/vendor/query.comp` (the driver's traversal through ray queries), its
 //! descriptor set (scene buffers, output buffers, the driver's structure for ray queries)
 //! and the recording of a band's dispatch. The layout and the descriptor writes are shared
-//! with the vendor's ray tracing pipeline (`vendor::pipeline_pass`).
+//! with the vendor's ray tracing pipeline (`khr_rt::pipeline_pass`).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
@@ -12,7 +12,10 @@ use ash::vk;
 use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::error::{GpuError, VkContext};
+use super::dispatch::Band;
+use super::error::GpuError;
+use super::lock::lock;
+use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_layout, destroy_pipeline_objects, words};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
@@ -31,9 +34,13 @@ static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query
 /// (`shaders/vendor/tlas.glsl`), after the storage buffers.
 pub(crate) const TLAS_BINDING: u32 = 11;
 
+/// The work-group size's old path, kept for `src/app/` until it imports `crate::gpu::GROUP`
+/// (issue #26: removed after the merge).
+pub(crate) use super::dispatch::GROUP;
+
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kernel {
+pub(crate) enum Kernel {
     /// `trace.comp`: our BVH or brute force, as the frame's flags say, the tiles taken
     /// costliest first (`tile_order.rs`).
     Ours,
@@ -47,7 +54,7 @@ impl Kernel {
     /// Our tracer's kernel for a device: costliest tiles first on GPUs, row order on CPUs
     /// (where the order measured 1.4-2x slower on lavapipe). `MESHTRACER_TILE_ORDER=rows`
     /// or `=costliest` overrides it (the window tests trace the GPU's order on lavapipe).
-    pub fn ours_for(info: &super::context::DeviceInfo) -> Self {
+    pub(crate) fn ours_for(info: &super::context::DeviceInfo) -> Self {
         match std::env::var("MESHTRACER_TILE_ORDER").as_deref() {
             Ok("rows") => Self::OursInRowOrder,
             Ok("costliest") => Self::Ours,
@@ -57,14 +64,9 @@ impl Kernel {
     }
 
     /// Whether the kernel takes its tiles from the tile order (and records their costs).
-    pub fn orders_tiles(self) -> bool {
+    pub(crate) fn orders_tiles(self) -> bool {
         self == Self::Ours
     }
-}
-
-/// SPIR-V words of embedded bytes.
-pub(crate) fn words(bytes: &[u8]) -> Vec<u32> {
-    bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
 }
 
 /// The SPIR-V of `trace.comp` that build.rs compiled into the binary.
@@ -89,8 +91,7 @@ pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, 
                 .stage_flags(stages),
         );
     }
-    // SAFETY: the bindings outlive the call; the caller destroys the layout.
-    unsafe { ctx.device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }.during("creating the trace descriptor layout")
+    pipeline::create_set_layout(ctx, &bindings, "creating the trace descriptor layout")
 }
 
 /// A pool holding one set of [`create_set_layout`]'s layout, and that set.
@@ -99,27 +100,14 @@ pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout
     if with_tlas {
         sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 1 });
     }
-    // SAFETY: plain object creation on the live device; the caller destroys the pool.
-    let pool = unsafe { ctx.device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }
-        .during("creating the trace descriptor pool")?;
-    let set_layouts = [set_layout];
-    // SAFETY: the pool holds exactly this one set of this layout.
-    let set = unsafe { ctx.device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) };
-    match set {
-        Ok(set) => Ok((pool, set[0])),
-        Err(r) => {
-            // SAFETY: the pool was just made and holds nothing.
-            unsafe { ctx.device.destroy_descriptor_pool(pool, None) };
-            Err(GpuError::vk("allocating the trace descriptor set", r))
-        }
-    }
+    allocate_one_set(ctx, set_layout, &sizes, ["creating the trace descriptor pool", "allocating the trace descriptor set"])
 }
 
 /// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure.
 /// The GPU must not be using the set.
 pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
-    let tiles = output.tiles.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let tiles = lock(&output.tiles);
     // Each binding the shader declares, by its block name (see shader_layout).
     let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
         .iter()
@@ -158,84 +146,9 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
 }
 
 
-/// The tile of pixels one work group traces.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct GroupSize {
-    pub width: u32,
-    pub height: u32,
-}
-
-/// Work-group size of the shader (`local_size_x/y`), reflected from the compiled shader.
-pub const GROUP: GroupSize = GroupSize { width: super::shader_layout::GROUP_WIDTH, height: super::shader_layout::GROUP_HEIGHT };
-
-/// A rectangle of a frame's pixels traced by one dispatch. Its start row and column are
-/// multiples of the work-group size; its end is one too, or the frame's edge.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Band {
-    pub rows: Range<u32>,
-    pub columns: Range<u32>,
-}
-
-impl Band {
-    /// Whole rows `rows` of a frame `width` pixels wide.
-    pub fn rows(rows: Range<u32>, width: u32) -> Self {
-        Self { rows, columns: 0..width }
-    }
-
-    /// Pixels in the band.
-    pub fn pixels(&self) -> u64 {
-        self.rows.len() as u64 * self.columns.len() as u64
-    }
-
-    /// The part of the band in `columns` (None when they do not meet).
-    pub fn within(&self, columns: &Range<u32>) -> Option<Band> {
-        let columns = self.columns.start.max(columns.start)..self.columns.end.min(columns.end);
-        (!columns.is_empty() && !self.rows.is_empty()).then(|| Band { rows: self.rows.clone(), columns })
-    }
-}
-
-/// The right part of a frame split in two (the tool's A/B split view): the columns from
-/// `column` on are traced with `params`, a second set of settings for the same view.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SplitTrace {
-    /// The first column of the right part: a multiple of the work-group size, or the width.
-    pub column: u32,
-    /// The right part's parameters.
-    pub params: FrameParams,
-}
-
-/// How a frame's pixels are traced: all with `params`, or split in two at a column.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameTrace {
-    /// The whole frame's parameters, or the left part's.
-    pub params: FrameParams,
-    /// The right part, if split.
-    pub split: Option<SplitTrace>,
-}
-
-impl FrameTrace {
-    /// The whole frame traced with `params`.
-    pub fn whole(params: FrameParams) -> Self {
-        Self { params, split: None }
-    }
-
-    /// The frame's parts, left to right, each with its parameters and columns (0, 1 or 2
-    /// of them; an empty part is left out). Together they cover every column once.
-    pub fn parts(&self) -> Vec<(usize, &FrameParams, Range<u32>)> {
-        let width = self.params.settings.width;
-        let column = self.split.map_or(width, |s| s.column.min(width));
-        let mut parts = vec![(0, &self.params, 0..column)];
-        if let Some(split) = &self.split {
-            parts.push((1, &split.params, column..width));
-        }
-        parts.retain(|(_, _, columns)| !columns.is_empty());
-        parts
-    }
-}
-
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA, and the order the
 /// trace pass takes the tiles in.
-pub struct TraceOutput {
+pub(crate) struct TraceOutput {
     pub width: u32,
     pub height: u32,
     pub rgba8: GpuBuffer,
@@ -250,7 +163,7 @@ pub struct TraceOutput {
 impl TraceOutput {
     /// Output buffers for `width` x `height` pixels, with a tile order for each of `slots`
     /// frame slots.
-    pub fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
         let pixels = width as u64 * height as u64;
         let limit = ctx.info.max_storage_buffer_range;
         if pixels * 16 > limit {
@@ -271,7 +184,7 @@ impl TraceOutput {
 }
 
 /// The compute pipeline and its one descriptor set.
-pub struct TracePass {
+pub(crate) struct TracePass {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     pipeline: vk::Pipeline,
@@ -284,17 +197,10 @@ pub struct TracePass {
 impl TracePass {
     /// Create the pipeline of `kernel` (ray queries need the device's support, see
     /// `DeviceInfo::vendor`).
-    pub fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
-        let device = &ctx.device;
+    pub(crate) fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
         let with_tlas = kernel == Kernel::RayQuery;
         let set_layout = create_set_layout(ctx, vk::ShaderStageFlags::COMPUTE, with_tlas)?;
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .size(std::mem::size_of::<PushConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout was just created; the arrays outlive the call.
-        let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the trace pipeline layout")?;
+        let layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<PushConstants>(), "creating the trace pipeline layout")?;
         let code = words(match kernel {
             Kernel::Ours => TRACE_SPV,
             Kernel::OursInRowOrder => TRACE_ROWS_SPV,
@@ -306,14 +212,14 @@ impl TracePass {
     }
 
     /// The kernel the pass runs.
-    pub fn kernel(&self) -> Kernel {
+    pub(crate) fn kernel(&self) -> Kernel {
         self.kernel
     }
 
     /// What the driver compiled the shader to, one `name: value` per statistic it reports
     /// (registers, local and shared memory, instructions); empty where the device does not
     /// offer `VK_KHR_pipeline_executable_properties`.
-    pub fn shader_statistics(&self) -> Vec<String> {
+    pub(crate) fn shader_statistics(&self) -> Vec<String> {
         if !self.ctx.info.shader_statistics {
             return Vec::new();
         }
@@ -345,7 +251,7 @@ impl TracePass {
 
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
     /// [`compile_trace_shader`]); on failure the current pipeline stays.
-    pub fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
+    pub(crate) fn reload(&mut self, spirv: &[u32]) -> Result<(), GpuError> {
         debug_assert_ne!(self.kernel, Kernel::RayQuery, "only trace.comp is reloaded");
         let pipeline = create_pipeline(&self.ctx, self.layout, spirv)?;
         // The old pipeline may still be in a submitted command buffer.
@@ -361,7 +267,7 @@ impl TracePass {
 
     /// Point the descriptor set at a scene, an output and (ray queries) the top-level
     /// structure; the GPU must not be using the set.
-    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
         debug_assert_eq!(tlas.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
         write_set(&self.ctx, self.set, scene, output, tlas);
     }
@@ -371,7 +277,7 @@ impl TracePass {
     /// sampling's keys) and copies read the outputs. The outputs are left as
     /// `Access::ComputeWrite`. `tile_base`: the frame slot's first entry of the tile order
     /// (`TileSchedule::order`; the vendor's query shader has none and ignores it).
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         // Rows are offset through the push constants, columns through the dispatch base.
         let mut pc = params.push_constants(band.rows.start);
@@ -382,7 +288,7 @@ impl TracePass {
     /// Record adaptive sampling's pre-pass over `columns` (all rows): the key of each
     /// pixel's path (primary hit and mirror bounces), which the main pass compares with the
     /// neighbours'. Recorded before a frame's first main band, with the same barrier.
-    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
@@ -417,26 +323,11 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
     create_compute_pipeline(ctx, layout, code, flags, ["loading the trace shader", "creating the trace pipeline"])
 }
 
-/// A compute pipeline running `main` of the SPIR-V `code` with `layout`; `what` names the
-/// two steps for errors: loading the shader module, creating the pipeline.
-pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32], flags: vk::PipelineCreateFlags, what: [&'static str; 2]) -> Result<vk::Pipeline, GpuError> {
-    let device = &ctx.device;
-    // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
-    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during(what[0])?;
-    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
-    // SAFETY: the module and the layout are live; the create infos outlive the call.
-    let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-    // SAFETY: the pipeline, created or not, no longer needs the module.
-    unsafe { device.destroy_shader_module(module, None) };
-    Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
-}
-
 /// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`],
 /// as `kernel` (one of ours) builds it. A shader whose bindings, push constants or work
 /// group differ from the built-in one's is refused: the host's buffers and structs are
 /// built for that interface.
-pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
+pub(crate) fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
     use super::shader_compile;
     let contract = shader_compile::contract_glsl(crate::tracer::contract::ALL, "src/tracer/contract.rs");
     let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
@@ -449,22 +340,6 @@ pub fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec
         return Err("the edited shader adds or removes a buffer binding or the push constants; rebuild meshtracer for that".into());
     }
     Ok(shader.spirv)
-}
-
-/// Destroy a compute pass's Vulkan objects: its descriptor pool (and sets), pipeline,
-/// pipeline layout and set layout; null handles (a constructor that failed part-way) are
-/// ignored.
-///
-/// # Safety
-/// The GPU must be done with all of them (the owner waited for it).
-pub(crate) unsafe fn destroy_pipeline_objects(d: &ash::Device, pool: vk::DescriptorPool, pipeline: vk::Pipeline, layout: vk::PipelineLayout, set_layout: vk::DescriptorSetLayout) {
-    // SAFETY: the caller promises the GPU no longer uses these objects.
-    unsafe {
-        d.destroy_descriptor_pool(pool, None);
-        d.destroy_pipeline(pipeline, None);
-        d.destroy_pipeline_layout(layout, None);
-        d.destroy_descriptor_set_layout(set_layout, None);
-    }
 }
 
 impl Drop for TracePass {

@@ -14,13 +14,13 @@ use crate::gpu::error::GpuError;
 
 /// The readback buffer, grown to the largest window captured.
 #[derive(Default)]
-pub struct WindowCapture {
+pub(crate) struct WindowCapture {
     buffer: Option<GpuBuffer>,
 }
 
 impl WindowCapture {
     /// Make room for a `extent` capture.
-    pub fn reserve(&mut self, ctx: &Arc<GpuContext>, extent: vk::Extent2D) -> Result<(), GpuError> {
+    pub(crate) fn reserve(&mut self, ctx: &Arc<GpuContext>, extent: vk::Extent2D) -> Result<(), GpuError> {
         let bytes = extent.width as u64 * extent.height as u64 * 4;
         if self.buffer.as_ref().is_none_or(|b| b.size < bytes) {
             self.buffer = Some(GpuBuffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "window readback")?);
@@ -29,13 +29,13 @@ impl WindowCapture {
     }
 
     /// Forget the buffer (the swapchain was recreated).
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.buffer = None;
     }
 
     /// Record the copy of `swap_image` (drawn as a colour attachment) into the buffer and
     /// its hand-over to the presentation engine. Needs [`Self::reserve`] first.
-    pub fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image, extent: vk::Extent2D) {
+    pub(crate) fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image, extent: vk::Extent2D) {
         let Some(buf) = &self.buffer else { return };
         barrier::record(device, cmd, &[], &[], &[ImageTransition { image: swap_image, before: Access::ColorAttachment, after: Access::TransferRead, discard: false }]);
         // SAFETY: `cmd` is recording, the image is in TRANSFER_SRC layout and the buffer
@@ -45,7 +45,7 @@ impl WindowCapture {
     }
 
     /// The captured window, after the frame's fence signalled.
-    pub fn read(&mut self, extent: vk::Extent2D, bgra: bool) -> Result<RgbaImage, String> {
+    pub(crate) fn read(&mut self, extent: vk::Extent2D, bgra: bool) -> Result<RgbaImage, String> {
         let len = extent.width as usize * extent.height as usize * 4;
         let bytes = self.buffer.as_mut().and_then(|b| b.mapped()).ok_or("the window readback memory is not mapped")?[..len].to_vec();
         window_image(bytes, extent.width, extent.height, bgra).ok_or_else(|| "the window readback has the wrong size".to_string())
@@ -53,7 +53,7 @@ impl WindowCapture {
 }
 
 /// Turn a window readback (tightly packed, BGRA when `bgra`) into an opaque RGBA image.
-pub fn window_image(mut bytes: Vec<u8>, width: u32, height: u32, bgra: bool) -> Option<RgbaImage> {
+pub(crate) fn window_image(mut bytes: Vec<u8>, width: u32, height: u32, bgra: bool) -> Option<RgbaImage> {
     bytes.truncate(width as usize * height as usize * 4);
     for px in bytes.chunks_exact_mut(4) {
         if bgra {

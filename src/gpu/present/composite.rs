@@ -20,7 +20,7 @@ pub struct PixelRect {
 }
 
 /// A copy between a tightly packed buffer and a whole `width` x `height` colour image.
-pub fn whole_image_copy(width: u32, height: u32) -> vk::BufferImageCopy {
+pub(crate) fn whole_image_copy(width: u32, height: u32) -> vk::BufferImageCopy {
     vk::BufferImageCopy {
         buffer_offset: 0,
         buffer_row_length: 0,
@@ -58,7 +58,7 @@ fn acquired(swap_image: vk::Image) -> ImageTransition {
 }
 
 /// Record a frame with no picture: the swapchain image is cleared, ready for egui.
-pub fn record_clear(device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image) {
+pub(crate) fn record_clear(device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image) {
     barrier::record(device, cmd, &[], &[], &[acquired(swap_image)]);
     clear(device, cmd, swap_image);
     to_attachment(device, cmd, swap_image);
@@ -66,7 +66,7 @@ pub fn record_clear(device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk
 
 /// Record the composite: `source` (packed RGBA8 the size of `display`, last written as
 /// `source_access`) goes through `display` into `rect` of `swap_image`.
-pub fn record(device: &ash::Device, cmd: vk::CommandBuffer, source: (vk::Buffer, Access), display: &GpuImage, swap_image: vk::Image, extent: vk::Extent2D, rect: PixelRect) {
+pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, source: (vk::Buffer, Access), display: &GpuImage, swap_image: vk::Image, extent: vk::Extent2D, rect: PixelRect) {
     let (buffer, source_access) = source;
     let acquired = acquired(swap_image);
     let display_dst = ImageTransition { image: display.image, before: Access::Nothing, after: Access::TransferWrite, discard: true };

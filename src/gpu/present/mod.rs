@@ -7,11 +7,11 @@
 //! trace is recorded into the frame by the shared [`ComputeTracer`], so the window traces
 //! exactly as `render` and `bench` do.
 
-pub mod capture;
-pub mod composite;
-pub mod surface;
-pub mod swapchain;
-pub mod ui_pass;
+pub(crate) mod capture;
+pub(crate) mod composite;
+pub(crate) mod surface;
+pub(crate) mod swapchain;
+pub(crate) mod ui_pass;
 
 use std::sync::Arc;
 
@@ -27,18 +27,18 @@ use super::compute_tracer::{ComputeTracer, PartTimes, TimedParts};
 use super::context::GpuContext;
 use super::error::VkContext;
 use super::image::GpuImage;
-use super::trace_pass::{Band, FrameTrace};
+use super::dispatch::{Band, FrameTrace};
 use capture::WindowCapture;
 pub use composite::PixelRect;
 use swapchain::{Acquired, Swapchain};
 use ui_pass::UiPass;
 
 /// Frames the CPU may record ahead of the GPU.
-pub const FRAMES_IN_FLIGHT: usize = 2;
+pub(crate) const FRAMES_IN_FLIGHT: usize = 2;
 
 /// What the image area shows this frame.
 #[derive(Clone, Copy, Debug)]
-pub enum Show<'a> {
+pub(crate) enum Show<'a> {
     /// Nothing yet (no model loaded): the panel alone.
     Nothing,
     /// The tracer's colour output, after this frame's trace if it has one.
@@ -50,7 +50,7 @@ pub enum Show<'a> {
 /// Which traced frame a band belongs to, and whether it is the frame's last band: handed
 /// back with the band's GPU time, which arrives a frame or two later.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct BandTag {
+pub(crate) struct BandTag {
     /// The traced frame's number (the caller's count).
     pub frame: u64,
     /// The band completes its frame.
@@ -58,7 +58,7 @@ pub struct BandTag {
 }
 
 /// One frame to draw.
-pub struct FrameRequest<'a> {
+pub(crate) struct FrameRequest<'a> {
     /// Pixels of a frame to trace in this frame's command buffer (all of them when the
     /// frame fits one submission; a band of a long frame traced over several).
     pub trace: Option<(FrameTrace, Band)>,
@@ -76,7 +76,7 @@ pub struct FrameRequest<'a> {
 
 /// What drawing a frame produced.
 #[derive(Default)]
-pub struct FrameOutcome {
+pub(crate) struct FrameOutcome {
     /// A frame was submitted and presented (false: minimized or out of date, skipped).
     pub presented: bool,
     /// GPU trace milliseconds of an earlier frame whose timestamps are now available.
@@ -100,7 +100,7 @@ struct FrameSlot {
 }
 
 /// Everything on the GPU side of the window except the tracer.
-pub struct Presenter {
+pub(crate) struct Presenter {
     swapchain: Swapchain,
     swapchain_dirty: bool,
     window_extent: vk::Extent2D,
@@ -121,7 +121,7 @@ pub struct Presenter {
 impl Presenter {
     /// Set up the swapchain for `surface` (owned from here on) and the frame resources;
     /// `extent` is the window's size in physical pixels.
-    pub fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: [u32; 2], vsync: bool) -> anyhow::Result<Self> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: [u32; 2], vsync: bool) -> anyhow::Result<Self> {
         let extent = vk::Extent2D { width: extent[0], height: extent[1] };
         let swapchain = Swapchain::new(ctx, surface, extent, vsync)?;
         let device = &ctx.device;
@@ -169,17 +169,17 @@ impl Presenter {
     }
 
     /// The present mode in use, for the panel ("Fifo", "Mailbox", ...).
-    pub fn present_mode_name(&self) -> String {
+    pub(crate) fn present_mode_name(&self) -> String {
         format!("{:?}", self.swapchain.present_mode)
     }
 
     /// The surface offers a present mode without vsync.
-    pub fn can_disable_vsync(&self) -> bool {
+    pub(crate) fn can_disable_vsync(&self) -> bool {
         self.swapchain.present_modes.iter().any(|m| *m != vk::PresentModeKHR::FIFO && *m != vk::PresentModeKHR::FIFO_RELAXED)
     }
 
     /// The window now has this many physical pixels.
-    pub fn resize(&mut self, width: u32, height: u32) {
+    pub(crate) fn resize(&mut self, width: u32, height: u32) {
         let extent = vk::Extent2D { width, height };
         if extent != self.window_extent {
             self.window_extent = extent;
@@ -188,7 +188,7 @@ impl Presenter {
     }
 
     /// Switch vsync (FIFO) on or off (MAILBOX/IMMEDIATE where offered).
-    pub fn set_vsync(&mut self, vsync: bool) {
+    pub(crate) fn set_vsync(&mut self, vsync: bool) {
         if vsync != self.vsync {
             self.vsync = vsync;
             self.swapchain_dirty = true;
@@ -196,7 +196,7 @@ impl Presenter {
     }
 
     /// Apply egui's texture changes before drawing the frame that uses them.
-    pub fn update_textures(&mut self, delta: &mut TexturesDelta) -> anyhow::Result<()> {
+    pub(crate) fn update_textures(&mut self, delta: &mut TexturesDelta) -> anyhow::Result<()> {
         self.ui.update_textures(delta)
     }
 
@@ -241,7 +241,7 @@ impl Presenter {
     }
 
     /// Draw and present one frame; `tracer` traces or holds the picture asked for.
-    pub fn draw(&mut self, tracer: Option<&ComputeTracer>, req: &FrameRequest) -> anyhow::Result<FrameOutcome> {
+    pub(crate) fn draw(&mut self, tracer: Option<&ComputeTracer>, req: &FrameRequest) -> anyhow::Result<FrameOutcome> {
         let mut outcome = FrameOutcome::default();
         if !self.ensure_swapchain()? {
             return Ok(outcome);

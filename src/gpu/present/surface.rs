@@ -11,7 +11,7 @@ use crate::gpu::error::GpuError;
 /// Why the window cannot get a Vulkan context: the window system lacks surface support,
 /// or no device can present to it.
 #[derive(Debug, thiserror::Error)]
-pub enum SurfaceError {
+pub(crate) enum SurfaceError {
     #[error("this window system has no Vulkan surface support ({0})")]
     Unsupported(vk::Result),
     #[error("{0}")]
@@ -24,7 +24,7 @@ pub enum SurfaceError {
 /// # Safety
 /// The handles must belong to a live window that outlives the returned surface (whoever
 /// owns the surface must be dropped before the window).
-pub unsafe fn context_for_window(options: &ContextOptions, display: RawDisplayHandle, window: RawWindowHandle) -> Result<(Arc<GpuContext>, vk::SurfaceKHR), SurfaceError> {
+pub(crate) unsafe fn context_for_window(options: &ContextOptions, display: RawDisplayHandle, window: RawWindowHandle) -> Result<(Arc<GpuContext>, vk::SurfaceKHR), SurfaceError> {
     let extensions = ash_window::enumerate_required_extensions(display).map_err(SurfaceError::Unsupported)?;
     let options = ContextOptions { instance_extensions: extensions.to_vec(), presentation: true, ..options.clone() };
     let make_surface = |entry: &ash::Entry, instance: &ash::Instance| {

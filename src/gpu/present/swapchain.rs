@@ -12,11 +12,11 @@ use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::image::color_range;
 
 /// Surface formats the traced pixels can be copied into unchanged (no sRGB encode).
-pub const UNORM_FORMATS: [vk::Format; 2] = [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM];
+pub(crate) const UNORM_FORMATS: [vk::Format; 2] = [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM];
 
 /// What `acquire` found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Acquired {
+pub(crate) enum Acquired {
     /// An image to draw into; `suboptimal` asks for a recreate after presenting.
     Image { index: u32, suboptimal: bool },
     /// The swapchain no longer matches the surface: recreate it and try again.
@@ -24,7 +24,7 @@ pub enum Acquired {
 }
 
 /// A surface and its swapchain.
-pub struct Swapchain {
+pub(crate) struct Swapchain {
     ctx: Arc<GpuContext>,
     surface_loader: ash::khr::surface::Instance,
     loader: ash::khr::swapchain::Device,
@@ -44,7 +44,7 @@ pub struct Swapchain {
 }
 
 /// FIFO for vsync; otherwise MAILBOX, then IMMEDIATE, where offered.
-pub fn choose_present_mode(available: &[vk::PresentModeKHR], vsync: bool) -> vk::PresentModeKHR {
+pub(crate) fn choose_present_mode(available: &[vk::PresentModeKHR], vsync: bool) -> vk::PresentModeKHR {
     if !vsync {
         for mode in [vk::PresentModeKHR::MAILBOX, vk::PresentModeKHR::IMMEDIATE] {
             if available.contains(&mode) {
@@ -56,7 +56,7 @@ pub fn choose_present_mode(available: &[vk::PresentModeKHR], vsync: bool) -> vk:
 }
 
 /// A UNORM 8-bit format if offered (traced pixels then land unchanged), else the first one.
-pub fn choose_format(available: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR> {
+pub(crate) fn choose_format(available: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR> {
     UNORM_FORMATS
         .iter()
         .find_map(|f| available.iter().find(|a| a.format == *f && a.color_space == vk::ColorSpaceKHR::SRGB_NONLINEAR))
@@ -67,7 +67,7 @@ pub fn choose_format(available: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFo
 impl Swapchain {
     /// Take ownership of `surface` (destroyed with the swapchain, also on error) and create
     /// a swapchain of about `extent` pixels.
-    pub fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: vk::Extent2D, vsync: bool) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: vk::Extent2D, vsync: bool) -> Result<Self, GpuError> {
         let mut s = Self {
             ctx: ctx.clone(),
             surface_loader: ash::khr::surface::Instance::new(&ctx.entry, &ctx.instance),
@@ -88,19 +88,19 @@ impl Swapchain {
     }
 
     /// True when the swapchain exists (the window had a non-zero size when last (re)created).
-    pub fn is_usable(&self) -> bool {
+    pub(crate) fn is_usable(&self) -> bool {
         self.handle != vk::SwapchainKHR::null()
     }
 
     /// True for B8G8R8A8 formats (window screenshots swap red and blue).
-    pub fn is_bgra(&self) -> bool {
+    pub(crate) fn is_bgra(&self) -> bool {
         matches!(self.format.format, vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB)
     }
 
     /// Rebuild for the window's current size and the wanted present mode. The GPU must be
     /// idle. Returns false (and leaves no swapchain) when the surface has zero extent
     /// (a minimized window): skip drawing until the next resize.
-    pub fn recreate(&mut self, want: vk::Extent2D, vsync: bool) -> Result<bool, GpuError> {
+    pub(crate) fn recreate(&mut self, want: vk::Extent2D, vsync: bool) -> Result<bool, GpuError> {
         let pd = self.ctx.physical_device;
         // SAFETY: the surface and the physical device belong to this context's instance.
         let caps = unsafe { self.surface_loader.get_physical_device_surface_capabilities(pd, self.surface) }.during("querying the window surface")?;
@@ -208,7 +208,7 @@ impl Swapchain {
     }
 
     /// Acquire the next image, signalling `semaphore` when it may be written.
-    pub fn acquire(&self, semaphore: vk::Semaphore) -> Result<Acquired, GpuError> {
+    pub(crate) fn acquire(&self, semaphore: vk::Semaphore) -> Result<Acquired, GpuError> {
         // SAFETY: `Presenter::draw` acquires only from a usable swapchain, with its frame
         // slot's
         // semaphore, unsignalled once the slot's fence has been waited for.
@@ -221,7 +221,7 @@ impl Swapchain {
 
     /// Present image `index` once its render-finished semaphore is signalled. Returns true
     /// when the swapchain should be recreated (out of date or suboptimal).
-    pub fn present(&self, index: u32) -> Result<bool, GpuError> {
+    pub(crate) fn present(&self, index: u32) -> Result<bool, GpuError> {
         let waits = [self.render_finished[index as usize]];
         let swapchains = [self.handle];
         let indices = [index];

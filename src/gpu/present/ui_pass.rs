@@ -14,7 +14,7 @@ use crate::gpu::context::GpuContext;
 use crate::gpu::error::VkContext;
 
 /// egui's renderer and what it needs to reuse its per-frame vertex buffers safely.
-pub struct UiPass {
+pub(crate) struct UiPass {
     egui: egui_ash_renderer::Renderer<DefaultAllocator>,
     format: vk::Format,
     /// Frame number that last used each of egui's per-frame vertex buffers.
@@ -31,7 +31,7 @@ fn render_mode(format: vk::Format) -> RenderMode {
 
 impl UiPass {
     /// egui drawing into images of `format`.
-    pub fn new(ctx: &Arc<GpuContext>, format: vk::Format) -> anyhow::Result<Self> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>, format: vk::Format) -> anyhow::Result<Self> {
         let egui = egui_ash_renderer::Renderer::with_default_allocator(
             &ctx.instance,
             ctx.physical_device,
@@ -48,7 +48,7 @@ impl UiPass {
     }
 
     /// Draw into images of `format` from now on (the swapchain's format changed).
-    pub fn set_format(&mut self, format: vk::Format) -> anyhow::Result<()> {
+    pub(crate) fn set_format(&mut self, format: vk::Format) -> anyhow::Result<()> {
         if format != self.format {
             self.format = format;
             self.egui.set_render_mode(render_mode(format)).context("rebuilding the egui pipeline")?;
@@ -58,7 +58,7 @@ impl UiPass {
 
     /// Apply egui's texture changes (before drawing the frame that uses them); the delta
     /// is emptied even on failure.
-    pub fn update_textures(&mut self, delta: &mut TexturesDelta) -> anyhow::Result<()> {
+    pub(crate) fn update_textures(&mut self, delta: &mut TexturesDelta) -> anyhow::Result<()> {
         let set: Vec<_> = delta.set.drain().collect();
         let free: Vec<_> = delta.free.drain().collect();
         if !self.pending_free.is_empty() || !set.is_empty() {
@@ -79,7 +79,7 @@ impl UiPass {
 
     /// egui rotates its vertex buffers per draw call: the frame number whose slot must be
     /// finished before frame `frame` draws, if any (a different slot than `frame`'s own).
-    pub fn claim_buffers(&mut self, frame: u64) -> Option<u64> {
+    pub(crate) fn claim_buffers(&mut self, frame: u64) -> Option<u64> {
         let k = (self.draws % FRAMES_IN_FLIGHT as u64) as usize;
         let previous = self.mesh_frame[k].replace(frame);
         self.draws += 1;
@@ -87,7 +87,7 @@ impl UiPass {
     }
 
     /// Record egui's draw into `view` (COLOR_ATTACHMENT_OPTIMAL) of size `extent`.
-    pub fn record(&mut self, cmd: vk::CommandBuffer, view: vk::ImageView, extent: vk::Extent2D, pixels_per_point: f32, ui: &[ClippedPrimitive]) -> anyhow::Result<()> {
+    pub(crate) fn record(&mut self, cmd: vk::CommandBuffer, view: vk::ImageView, extent: vk::Extent2D, pixels_per_point: f32, ui: &[ClippedPrimitive]) -> anyhow::Result<()> {
         let attachment = [vk::RenderingAttachmentInfo::default()
             .image_view(view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)

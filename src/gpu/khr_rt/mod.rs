@@ -1,5 +1,6 @@
-//! The vendor's ray tracing beside ours (`--accel vendor`): the driver's acceleration
-//! structures (`accel`) traced either from the compute shader with ray queries (the trace
+//! The vendor's ray tracing beside ours (`--accel vendor`), through the driver's Vulkan KHR
+//! ray tracing (hence `khr_rt`; users and the tables still call it "vendor"): the driver's
+//! acceleration structures (`accel`) traced either from the compute shader with ray queries (the trace
 //! pass with `Kernel::RayQuery`) or through a ray tracing pipeline (`pipeline_pass`). Both
 //! run the same shading source as our tracer (`shaders/trace.glsl`); only the closest-hit
 //! query differs. Built on first use, so a user who never picks it pays nothing.
@@ -14,10 +15,12 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::barrier::Access;
 use super::context::{GpuContext, VendorSupport};
 use super::error::GpuError;
 use super::scene_buffers::SceneBuffers;
-use super::trace_pass::{Band, Kernel, TraceOutput, TracePass};
+use super::dispatch::Band;
+use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::GpuInstance;
 pub use accel::AccelStats;
@@ -47,7 +50,7 @@ impl VendorKernel {
 
     /// The default where the device has `support`: ray queries, faster than the pipeline
     /// on lavapipe (docs/BENCHMARKS.md); the pipeline where that is all there is (the H100).
-    pub fn preferred(support: &VendorSupport) -> Option<Self> {
+    pub(crate) fn preferred(support: &VendorSupport) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.supported(support))
     }
 
@@ -80,32 +83,17 @@ impl FromStr for VendorKernel {
     }
 }
 
-/// The pipeline stages that read the driver's structures on a device with `support`.
-pub(crate) fn tracing_stages(support: &VendorSupport) -> vk::PipelineStageFlags {
-    let mut stages = vk::PipelineStageFlags::empty();
+/// How the traces read the driver's structures on a device with `support`: ray queries
+/// from compute shaders, the ray tracing pipeline's shaders, or both.
+pub(crate) fn structure_reads(support: &VendorSupport) -> Vec<Access> {
+    let mut reads = Vec::with_capacity(2);
     if support.ray_query {
-        stages |= vk::PipelineStageFlags::COMPUTE_SHADER;
+        reads.push(Access::RayQueryAccelRead);
     }
     if support.pipeline {
-        stages |= vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR;
+        reads.push(Access::RayTracingAccelRead);
     }
-    stages
-}
-
-/// One global memory barrier (the vendor path's stages and accesses have no `Access` names).
-///
-/// # Safety
-/// `cmd` is recording on `device`.
-pub(crate) unsafe fn memory_barrier(
-    device: &ash::Device,
-    cmd: vk::CommandBuffer,
-    src: vk::PipelineStageFlags,
-    src_access: vk::AccessFlags,
-    dst: vk::PipelineStageFlags,
-    dst_access: vk::AccessFlags,
-) {
-    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
-    device.cmd_pipeline_barrier(cmd, src, dst, vk::DependencyFlags::empty(), &barrier, &[], &[]);
+    reads
 }
 
 /// The vendor path of one tracer: the structures of its scene and the passes built so far.

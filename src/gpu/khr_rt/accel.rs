@@ -12,10 +12,10 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
+use crate::gpu::barrier::{self, Access};
 use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
-use super::memory_barrier;
 use crate::tracer::packed::{GpuInstance, GpuTriangle};
 
 /// What the last change built, for the panel and `bench --compare`.
@@ -76,7 +76,7 @@ struct InstanceRecord {
 }
 
 /// The scene's structures on one device.
-pub struct VendorScene {
+pub(crate) struct VendorScene {
     ctx: Arc<GpuContext>,
     loader: ash::khr::acceleration_structure::Device,
     scratch_alignment: u64,
@@ -91,7 +91,7 @@ impl VendorScene {
     /// Bottom levels for every mesh (first triangle, count) of the triangles in `triangles`
     /// (the scene's device buffer, read back: the tracer keeps no host copy), and the top
     /// level over `instances`.
-    pub fn build(ctx: &Arc<GpuContext>, triangles: &GpuBuffer, meshes: &[(u32, u32)], instances: &[GpuInstance]) -> Result<Self, GpuError> {
+    pub(crate) fn build(ctx: &Arc<GpuContext>, triangles: &GpuBuffer, meshes: &[(u32, u32)], instances: &[GpuInstance]) -> Result<Self, GpuError> {
         let loader = ash::khr::acceleration_structure::Device::new(&ctx.instance, &ctx.device);
         let mut properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut properties);
@@ -117,12 +117,12 @@ impl VendorScene {
     }
 
     /// The top level, for the descriptor sets.
-    pub fn top(&self) -> Option<vk::AccelerationStructureKHR> {
+    pub(crate) fn top(&self) -> Option<vk::AccelerationStructureKHR> {
         self.top.as_ref().map(|t| t.handle)
     }
 
     /// Rebuild the top level over `instances` (the bottom levels stay).
-    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+    pub(crate) fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
         let start = Instant::now();
         self.top = None;
         let records: Vec<InstanceRecord> = instances
@@ -226,12 +226,10 @@ impl VendorScene {
         // one_shot has waited for them.
         let built = self.ctx.one_shot(|cmd| unsafe {
             // Inputs uploaded or written before this submission, read by the build.
-            memory_barrier(device, cmd, vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::HOST, vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::HOST_WRITE,
-                vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::SHADER_READ);
+            barrier::buffers(device, cmd, &[Access::TransferWrite, Access::HostWrite], &[Access::AccelBuildInput, Access::AccelBuildRead]);
             self.loader.cmd_build_acceleration_structures(cmd, &[info], &[&ranges]);
             if let Some(pool) = query_pool {
-                memory_barrier(device, cmd, vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-                    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR, vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR);
+                barrier::buffers(device, cmd, &[Access::AccelBuildWrite], &[Access::AccelBuildRead]);
                 device.cmd_reset_query_pool(cmd, pool, 0, 1);
                 self.loader.cmd_write_acceleration_structures_properties(cmd, &[structure.handle], vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR, pool, 0);
             }
@@ -270,17 +268,9 @@ impl VendorScene {
 
 /// After a build or copy: the structure is read by the traces submitted later (ray queries
 /// from compute shaders, or the ray tracing pipeline) and by later builds (the top level
-/// refers to the bottom ones).
-///
-/// # Safety
-/// `cmd` is recording on `ctx`'s device.
-unsafe fn built_for_tracing(ctx: &GpuContext, cmd: vk::CommandBuffer) {
-    memory_barrier(
-        &ctx.device,
-        cmd,
-        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-        vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR | super::tracing_stages(&ctx.info.vendor),
-        vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR,
-    );
+/// refers to the bottom ones). `cmd` is recording on `ctx`'s device.
+fn built_for_tracing(ctx: &GpuContext, cmd: vk::CommandBuffer) {
+    let mut after = vec![Access::AccelBuildRead];
+    after.extend(super::structure_reads(&ctx.info.vendor));
+    barrier::buffers(&ctx.device, cmd, &[Access::AccelBuildWrite], &after);
 }

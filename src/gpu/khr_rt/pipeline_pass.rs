@@ -9,12 +9,14 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::memory_barrier;
+use crate::gpu::barrier::{self, Access};
 use crate::gpu::buffer::GpuBuffer;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::scene_buffers::SceneBuffers;
-use crate::gpu::trace_pass::{allocate_set, create_set_layout, destroy_pipeline_objects, words, Band, TraceOutput};
+use crate::gpu::dispatch::Band;
+use crate::gpu::pipeline::{create_layout, destroy_pipeline_objects, words};
+use crate::gpu::trace_pass::{allocate_set, create_set_layout, TraceOutput};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 static RAYGEN_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_raygen.spv"));
@@ -22,7 +24,7 @@ static CLOSEST_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_clo
 static MISS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_miss.spv"));
 
 /// The ray tracing pipeline, its descriptor set and shader binding table.
-pub struct PipelinePass {
+pub(crate) struct PipelinePass {
     ctx: Arc<GpuContext>,
     loader: ash::khr::ray_tracing_pipeline::Device,
     pipeline: vk::Pipeline,
@@ -39,16 +41,12 @@ pub struct PipelinePass {
 
 impl PipelinePass {
     /// Create the pipeline (the device must offer `VK_KHR_ray_tracing_pipeline`).
-    pub fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let loader = ash::khr::ray_tracing_pipeline::Device::new(&ctx.instance, device);
         let stages = vk::ShaderStageFlags::RAYGEN_KHR;
         let set_layout = create_set_layout(ctx, stages, true)?;
-        let push = [vk::PushConstantRange::default().stage_flags(stages).size(std::mem::size_of::<PushConstants>() as u32)];
-        let set_layouts = [set_layout];
-        // SAFETY: the set layout was just created; the arrays outlive the call.
-        let layout = unsafe { device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }
-            .during("creating the ray tracing pipeline layout")?;
+        let layout = create_layout(ctx, set_layout, stages, std::mem::size_of::<PushConstants>(), "creating the ray tracing pipeline layout")?;
         let pipeline = create_pipeline(ctx, &loader, layout)?;
         let (pool, set) = allocate_set(ctx, set_layout, true)?;
         let (table, raygen, miss, hit) = binding_table(ctx, &loader, pipeline)?;
@@ -57,7 +55,7 @@ impl PipelinePass {
 
     /// Point the descriptor set at a scene, an output and the top level; the GPU must not
     /// be using the set.
-    pub fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR) {
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR) {
         crate::gpu::trace_pass::write_set(&self.ctx, self.set, scene, output, Some(tlas));
     }
 
@@ -65,12 +63,12 @@ impl PipelinePass {
     /// trace's writes and copies' reads. The outputs are left as the compute pass leaves
     /// them (`Access::ComputeWrite`): a barrier hands the pipeline's writes on to the
     /// compute stage, which later barriers start from.
-    pub fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
+    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
         self.trace(cmd, &params.push_constants(band.rows.start), band);
     }
 
     /// Record adaptive sampling's pre-pass over `columns` (all rows), as the compute pass does.
-    pub fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
         self.trace(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
@@ -78,24 +76,24 @@ impl PipelinePass {
 
     fn trace(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
-        let rt = vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR;
-        let read_write = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
         // A launch has no base offset: the band's first column rides in misc.y's high half
         // (raygen.rgen), beside its first row.
         let mut pc = *pc;
         pc.misc[1] = (band.columns.start << 16) | (pc.misc[1] & 0xffff);
+        // After the last trace's writes and copies' reads, as the compute pass's dispatch.
+        barrier::buffers(device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::RayTracingRead, Access::RayTracingWrite]);
         // SAFETY: `cmd` is recording; the pipeline, layout, set and table outlive its
         // execution (the owner waits for the GPU before dropping them); the push constants
         // fit the layout's range.
         unsafe {
-            memory_barrier(device, cmd, vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::SHADER_WRITE, rt, read_write);
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::RAY_TRACING_KHR, self.layout, 0, &[self.set], &[]);
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::RAYGEN_KHR, 0, bytemuck::bytes_of(&pc));
             let callable = vk::StridedDeviceAddressRegionKHR::default();
             self.loader.cmd_trace_rays(cmd, &self.raygen, &self.miss, &self.hit, &callable, band.columns.len() as u32, band.rows.len() as u32, 1);
-            memory_barrier(device, cmd, rt, vk::AccessFlags::SHADER_WRITE, vk::PipelineStageFlags::COMPUTE_SHADER, read_write);
         }
+        // Handed on to the compute stage, where later barriers start from.
+        barrier::buffers(device, cmd, &[Access::RayTracingWrite], &[Access::ComputeRead, Access::ComputeWrite]);
     }
 }
 
