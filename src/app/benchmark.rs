@@ -9,9 +9,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::benchmark_panel::BenchmarkPanel;
-use super::panel::Status;
-use super::state::{Params, ViewMode};
+use crate::app::panel::widgets::Status;
+use crate::app::state::{Params, ViewMode};
 use crate::bench::Environment;
 use crate::scene::camera::Camera;
 use crate::tracer::frame::{Accel, RenderSettings};
@@ -121,6 +120,15 @@ impl BenchmarkSummary {
 /// Million rays per second for `rays` rays in `ms` milliseconds (0 without a time).
 fn mrays(rays: u64, ms: f64) -> f64 {
     if ms > 0.0 { rays as f64 / (ms * 1e-3) / 1e6 } else { 0.0 }
+}
+
+/// What the last run said, as the panel's Benchmark section shows it.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Outcome {
+    /// The last finished run's summary lines.
+    pub(crate) lines: Vec<String>,
+    /// Where the last summary went, or why a run failed or stopped.
+    pub(crate) status: Option<Status>,
 }
 
 /// What a run changed in the parameters, given back when it ends.
@@ -306,16 +314,16 @@ impl Runs {
 
     /// Before a frame: begin a run asked for, or keep the one in progress on its orbit and
     /// settings (a change of settings stops it).
-    pub fn before_frame(&mut self, params: &mut Params, area: [u32; 2], panel: &mut BenchmarkPanel) -> anyhow::Result<()> {
+    pub fn before_frame(&mut self, params: &mut Params, area: [u32; 2], outcome: &mut Outcome) -> anyhow::Result<()> {
         if let Some(frames) = self.wanted.take() {
             if let Some(old) = self.run.take() {
                 old.restore(params);
             }
             self.run = Some(Benchmark::begin(frames, params, area));
-            panel.status = Some(Status::ok(format!("running {frames} frames ...")));
+            outcome.status = Some(Status::ok(format!("running {frames} frames ...")));
         }
         match &mut self.run {
-            Some(run) if run.settings_changed(&params.settings_for(area)) => self.stop("the benchmark stopped: the settings changed during the run", params, panel),
+            Some(run) if run.settings_changed(&params.settings_for(area)) => self.stop("the benchmark stopped: the settings changed during the run", params, outcome),
             Some(run) => {
                 run.hold(params);
                 Ok(())
@@ -325,7 +333,7 @@ impl Runs {
     }
 
     /// End the run in progress without a summary, saying `why` (an error under `--benchmark`).
-    pub fn stop(&mut self, why: &str, params: &mut Params, panel: &mut BenchmarkPanel) -> anyhow::Result<()> {
+    pub fn stop(&mut self, why: &str, params: &mut Params, outcome: &mut Outcome) -> anyhow::Result<()> {
         let Some(run) = self.run.take() else { return Ok(()) };
         run.restore(params);
         let (done, total) = run.progress();
@@ -333,7 +341,7 @@ impl Runs {
         if self.quit_after {
             anyhow::bail!("{text}");
         }
-        panel.status = Some(Status::error(text));
+        outcome.status = Some(Status::error(text));
         Ok(())
     }
 
@@ -355,7 +363,7 @@ impl Runs {
 
     /// A finished run's summary printed, shown and appended to the JSON file; true when
     /// the tool should quit now (`--benchmark`, where a file not written is an error).
-    pub fn finish(&mut self, params: &mut Params, panel: &mut BenchmarkPanel, workload: impl FnOnce(&Params) -> Workload, environment: impl FnOnce() -> Environment) -> anyhow::Result<bool> {
+    pub fn finish(&mut self, params: &mut Params, outcome: &mut Outcome, workload: impl FnOnce(&Params) -> Workload, environment: impl FnOnce() -> Environment) -> anyhow::Result<bool> {
         let Some(run) = self.run.take_if(|r| r.is_finished()) else { return Ok(false) };
         run.restore(params);
         let summary = run.summary(workload(params), environment());
@@ -363,10 +371,10 @@ impl Runs {
         for line in &lines {
             println!("{line}");
         }
-        let path = json_path(self.json.as_deref(), &super::screenshot::screenshot_dir());
+        let path = json_path(self.json.as_deref(), &crate::app::screenshot::screenshot_dir());
         let written = append_json(&path, &summary);
-        panel.lines = lines;
-        panel.status = Some(match &written {
+        outcome.lines = lines;
+        outcome.status = Some(match &written {
             Ok(()) => {
                 println!("appended to {}", path.display());
                 Status::ok(format!("appended to {}", std::fs::canonicalize(&path).unwrap_or(path).display()))

@@ -2,7 +2,7 @@
 //! tested, summed over the pixel's rays) as a heat map, with the library's colour scale
 //! (`tracer::heat_map`, shared with `render --aov cost -o cost.png`).
 
-use super::state::CostMetric;
+use crate::app::state::CostMetric;
 pub use crate::tracer::heat_map::{heat_color, HeatMap};
 
 /// Map the float output (RGBA f32 per pixel) to heat colours for `metric`.

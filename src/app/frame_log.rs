@@ -23,9 +23,9 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use super::frame_stats::FrameStats;
-use super::panel::Status;
-use super::state::{Params, Resolution};
+use crate::app::frame_stats::FrameStats;
+use crate::app::panel::widgets::Status;
+use crate::app::state::{Params, Resolution};
 use crate::tracer::frame::{Accel, RenderSettings};
 
 /// The CSV header line.
@@ -361,7 +361,7 @@ impl Recorder {
 
 /// A fresh file name in `dir` for a log recorded from the panel.
 pub fn new_path(dir: &Path) -> PathBuf {
-    let stamp = super::screenshot::timestamp();
+    let stamp = crate::app::screenshot::timestamp();
     let mut path = dir.join(format!("meshtracer_frames_{stamp}.csv"));
     let mut n = 2;
     while path.exists() {

@@ -6,8 +6,9 @@
 //!   `input` (mouse and keys), `session` (model, loader, what the tracer holds) and
 //!   `script` (`--frames` runs and exiting);
 //! - `state`: the parameters and the keyboard shortcuts;
-//! - `panel`: the egui panel (`camera_panel`: its camera section; `presets_panel`: its
-//!   Presets section, save, load, recent; `perf_panel`: its Performance section);
+//! - `panel`: the egui panel, one file per section (`panel/camera.rs`, `panel/presets.rs`,
+//!   `panel/performance.rs`, ...) over its shared widgets; `overlay`: what is drawn over
+//!   the image (the HUD's numbers, the light marker, the split line, notices);
 //!   `frame_stats`: the frame-time history it plots; `frame_log`: the frame-time CSV
 //!   (`--stats-csv`, Record); `gpu_clock`: the GPU's shader clock beside the times;
 //!   `settings`: what is remembered between runs;
@@ -16,9 +17,8 @@
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
 //!   `aov_view`: the depth, normal, primitive-id and samples views;
-//! - `split_view`: the A/B split (two settings side by side); `split_panel`: its section;
-//! - `benchmark`: the benchmark run (a camera orbit at fixed settings and its summary);
-//!   `benchmark_panel`: its panel section.
+//! - `split_view`: the A/B split (two settings side by side);
+//! - `benchmark`: the benchmark run (a camera orbit at fixed settings and its summary).
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!
@@ -27,8 +27,6 @@
 
 pub(crate) mod aov_view;
 pub(crate) mod benchmark;
-pub(crate) mod benchmark_panel;
-pub(crate) mod camera_panel;
 pub(crate) mod cost_view;
 pub(crate) mod frame_log;
 pub(crate) mod frame_stats;
@@ -39,15 +37,12 @@ pub(crate) mod open_dialog;
 pub(crate) mod options;
 pub(crate) mod overlay;
 pub(crate) mod panel;
-pub(crate) mod perf_panel;
-pub(crate) mod presets_panel;
 pub(crate) mod progressive;
 pub(crate) mod screenshot;
 pub(crate) mod script;
 pub(crate) mod session;
 pub(crate) mod settings;
 pub(crate) mod shader_watch;
-pub(crate) mod split_panel;
 pub(crate) mod split_view;
 pub(crate) mod state;
 pub(crate) mod tool;

@@ -4,9 +4,11 @@
 
 use std::time::{Duration, Instant};
 
-use egui::{Color32, Pos2, Rect, RichText, Stroke};
+use egui::{Color32, Pos2, Rect, RichText, Stroke, Ui};
 
-use super::panel::{self, PanelInfo};
+use crate::app::frame_stats::mrays_per_second;
+use crate::app::panel::info::PanelInfo;
+use crate::app::panel::widgets::{duration, group, FRAME_COLOR, GPU_COLOR};
 
 /// How long a screenshot notice stays.
 const NOTICE_TIME: Duration = Duration::from_millis(2500);
@@ -15,46 +17,46 @@ const NOTICE_TIME: Duration = Duration::from_millis(2500);
 const LIGHT_COLOR: Color32 = Color32::from_rgb(255, 230, 120);
 
 /// The split view's line over the image and its labels (points).
-pub struct SplitOverlay {
+pub(crate) struct SplitOverlay {
     /// The line's x, where the halves meet.
-    pub x: f32,
+    pub(crate) x: f32,
     /// The image's top: the line spans the image.
-    pub top: f32,
+    pub(crate) top: f32,
     /// The image's bottom, where the labels sit.
-    pub bottom: f32,
+    pub(crate) bottom: f32,
     /// The left half's label ("A 12.3 ms").
-    pub a: String,
+    pub(crate) a: String,
     /// The right half's label ("B 20.1 ms").
-    pub b: String,
+    pub(crate) b: String,
     /// What B changes ("bounces 0, smooth off").
-    pub b_changes: String,
+    pub(crate) b_changes: String,
 }
 
 /// A notice shown for a short while over the image.
-pub struct Notice {
+pub(crate) struct Notice {
     text: String,
     since: Instant,
 }
 
 impl Notice {
     /// A notice starting now.
-    pub fn new(text: impl Into<String>) -> Self {
+    pub(crate) fn new(text: impl Into<String>) -> Self {
         Self { text: text.into(), since: Instant::now() }
     }
 
     /// Still worth showing.
-    pub fn is_current(&self) -> bool {
+    pub(crate) fn is_current(&self) -> bool {
         self.since.elapsed() < NOTICE_TIME
     }
 }
 
 /// Draw the overlays over `image` (the image area, in points).
-pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, split: Option<&SplitOverlay>, notice: Option<&Notice>) {
+pub(crate) fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, split: Option<&SplitOverlay>, notice: Option<&Notice>) {
     if let Some(info) = hud {
         // Top-left of the image area: the panel never covers it. No fade-in: the numbers
         // are there in full from their first frame (and in a screenshot taken then).
         egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).fade_in(false).show(ctx, |ui| {
-            egui::Frame::new().fill(Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| panel::hud(ui, info));
+            egui::Frame::new().fill(Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| hud_numbers(ui, info));
         });
     }
     if let Some(p) = light.filter(|p| image.contains(*p)) {
@@ -74,6 +76,33 @@ pub fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Op
                 ui.add(egui::Label::new(RichText::new(&n.text).color(Color32::WHITE)).truncate());
             });
         });
+    }
+}
+
+/// The compact numbers drawn over a corner of the image (the HUD): visible at any window
+/// size, whether the panel is shown or scrolled.
+fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
+    let gpu = info.stats.gpu.summary().map(|s| s.current);
+    let frame = info.stats.frame.summary().map(|s| s.current);
+    let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
+    let lines = [
+        format!("{:.1} fps", info.stats.fps()),
+        format!("GPU {} ms", ms(gpu)),
+        format!("frame {} ms", ms(frame)),
+        format!("{} Mrays/s", gpu.map_or("-".into(), |g| format!("{:.0}", mrays_per_second(info.rays, g)))),
+        format!("{} triangles", group(info.triangles)),
+    ];
+    let banded = info.progress.map(|(p, left)| match left {
+        Some(s) => format!("tracing in bands: {:.0}%, {} left", p * 100.0, duration(s)),
+        None => format!("tracing in bands: {:.0}%", p * 100.0),
+    });
+    for (i, line) in lines.iter().chain(banded.iter()).enumerate() {
+        let color = match i {
+            1 => GPU_COLOR,
+            2 => FRAME_COLOR,
+            _ => Color32::from_gray(230),
+        };
+        ui.add(egui::Label::new(RichText::new(line).monospace().color(color)).wrap_mode(egui::TextWrapMode::Extend));
     }
 }
 

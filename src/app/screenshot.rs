@@ -94,13 +94,13 @@ pub fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), St
 }
 
 /// The panel's line for a file written (its full path) or not (why).
-pub fn status(result: Result<(), String>, path: &Path) -> super::panel::Status {
+pub fn status(result: Result<(), String>, path: &Path) -> crate::app::panel::widgets::Status {
     match result {
         Ok(()) => {
             let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-            super::panel::Status::ok(format!("wrote {}", shown.display()))
+            crate::app::panel::widgets::Status::ok(format!("wrote {}", shown.display()))
         }
-        Err(e) => super::panel::Status::error(e),
+        Err(e) => crate::app::panel::widgets::Status::error(e),
     }
 }
 

@@ -9,9 +9,10 @@ use crate::tracer::frame::{Aov, FrameParams};
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
-use super::model_loader::{LoadedModel, ModelLoader, Poll};
-use super::panel::{group, PanelState, Status};
-use super::state::{Params, Resolution};
+use crate::app::model_loader::{LoadedModel, ModelLoader, Poll};
+use crate::app::panel::widgets::{group, Status};
+use crate::app::panel::PanelState;
+use crate::app::state::{Params, Resolution};
 
 /// The current model on the CPU side.
 pub struct Model {
@@ -53,8 +54,8 @@ pub struct Session {
 impl Session {
     /// Start loading `source` (the current model stays until it is ready).
     pub fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
-        panel.model_status = None;
-        panel.model_warnings.clear();
+        panel.model.status = None;
+        panel.model.warnings.clear();
         self.loader.start(source, params.load_options, params.model_count, params.light);
     }
 
@@ -71,7 +72,7 @@ impl Session {
             Err(e) if first => Err(anyhow::anyhow!("{e}")),
             Err(e) => {
                 let keeping = self.model.as_ref().map_or(String::new(), |m| m.source.label());
-                panel.model_status = Some(Status::error(format!("{e}; keeping {keeping}")));
+                panel.model.status = Some(Status::error(format!("{e}; keeping {keeping}")));
                 Ok(None)
             }
         }
@@ -86,11 +87,11 @@ impl Session {
         packed.shading = Vec::new();
         packed.nodes = Vec::new();
         let text = format!("loaded {} ({} triangles) in {seconds:.2} s", source.label(), group(scene.meshes[0].triangle_count() as u64));
-        panel.model_status = Some(match warnings.first() {
+        panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
             None => Status::ok(text),
         });
-        panel.model_warnings = warnings;
+        panel.model.warnings = warnings;
         let title = format!("meshtracer — {}", source.label());
         // The new scene's instance list and environment are the loader's defaults: apply ours.
         self.applied.instances = None;
@@ -106,11 +107,11 @@ impl Session {
         let size = params.render_size(area);
         if self.applied.resolution != Some(size) {
             match tracer.set_resolution(size[0], size[1]) {
-                Ok(()) => panel.render_status = None,
+                Ok(()) => panel.render.status = None,
                 Err(e) => {
                     // Too big for this device: say so and go back to what worked.
                     let [w, h] = size;
-                    panel.render_status = Some(Status::error(format!("{w} x {h} failed: {e:#}")));
+                    panel.render.status = Some(Status::error(format!("{w} x {h} failed: {e:#}")));
                     params.resolution = Resolution::Custom;
                     params.custom = self.applied.resolution.unwrap_or([256, 256]);
                     tracer.set_resolution(params.custom[0], params.custom[1])?;
@@ -138,7 +139,7 @@ impl Session {
         if self.applied.environment.as_ref() != Some(&upload) {
             let (map, warning) = EnvironmentMap::from_source(upload.as_ref());
             if let Some(w) = warning {
-                panel.render_status = Some(Status::error(w));
+                panel.render.status = Some(Status::error(w));
             }
             model.packed.set_environment(map);
             tracer.set_environment(&model.packed)?;

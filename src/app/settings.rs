@@ -11,7 +11,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::panel::PanelState;
+use crate::app::panel::widgets::Sections;
+use crate::app::panel::PanelState;
 
 /// The environment variable naming the folder of `settings.toml` (tests point it at a
 /// temporary folder so they never touch the user's).
@@ -133,33 +134,6 @@ impl Store {
     }
 }
 
-/// The id under which the panel keeps its [`Sections`] in egui's memory.
-fn sections_id() -> egui::Id {
-    egui::Id::new("meshtracer remembered sections")
-}
-
-/// Which panel sections are open, as the panel draws them (kept in egui's memory so that
-/// every section function can take part without being handed it).
-#[derive(Clone, Debug, Default)]
-pub struct Sections {
-    /// Title to open.
-    pub open: BTreeMap<String, bool>,
-    /// "Reset settings" was pressed: sections not drawn since go back to their defaults.
-    pub reset: bool,
-}
-
-impl Sections {
-    /// The sections of `ctx`.
-    pub fn get(ctx: &egui::Context) -> Sections {
-        ctx.data(|d| d.get_temp::<Sections>(sections_id())).unwrap_or_default()
-    }
-
-    /// Replace the sections of `ctx`.
-    pub fn set(ctx: &egui::Context, sections: Sections) {
-        ctx.data_mut(|d| d.insert_temp(sections_id(), sections));
-    }
-}
-
 /// Put the remembered settings into the panel and egui's memory.
 pub fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
     for p in settings.recent_presets.iter().rev() {
@@ -187,24 +161,6 @@ pub fn reset_panel(panel: &mut PanelState, ctx: &egui::Context) {
     panel.presets.recent.clear();
     panel.perf.set_seconds(None);
     Sections::set(ctx, Sections { open: BTreeMap::new(), reset: true });
-}
-
-/// A collapsible panel section titled `title` that opens as it was last left (or as
-/// `default_open` says the first time), and remembers whether it is open.
-pub fn section<R>(ui: &mut egui::Ui, title: &str, default_open: bool, add: impl FnOnce(&mut egui::Ui) -> R) -> Option<R> {
-    let id = sections_id();
-    let (remembered, reset) = ui.ctx().data(|d| d.get_temp::<Sections>(id).map(|s| (s.open.get(title).copied(), s.reset))).unwrap_or((None, false));
-    let mut header = egui::CollapsingHeader::new(title).default_open(remembered.unwrap_or(default_open));
-    // After a reset the map is empty: each section is put back once, then left to the user.
-    if reset && remembered.is_none() {
-        header = header.open(Some(default_open));
-    }
-    let response = header.show(ui, add);
-    let open = response.openness > 0.5;
-    ui.ctx().data_mut(|d| {
-        d.get_temp_mut_or_default::<Sections>(id).open.insert(title.to_string(), open);
-    });
-    response.body_returned
 }
 
 #[cfg(test)]

@@ -11,7 +11,8 @@ use crate::gpu::shader_compile::shader_files;
 use crate::gpu::trace_pass::compile_trace_shader;
 use crate::gpu::ComputeTracer;
 
-use super::panel::{PanelState, Status};
+use crate::app::panel::widgets::Status;
+use crate::app::panel::PanelState;
 
 /// How often the files' modification times are read.
 const POLL_EVERY: Duration = Duration::from_millis(500);
@@ -37,7 +38,7 @@ impl ShaderWatch {
         match self.check(tracer) {
             Some(status) => {
                 let reloaded = !status.error;
-                panel.shader_status = Some(status);
+                panel.render.shader_status = Some(status);
                 reloaded
             }
             None => false,

@@ -16,25 +16,25 @@ mod devices;
 mod files;
 mod split;
 
-use super::aov_view;
-use super::benchmark::{Runs, Workload};
-use super::cost_view::heat_map;
-use super::frame_log::{watched, FrameRow, Recorder};
-use super::frame_stats::FrameStats;
-use super::gpu_clock::ClockWatch;
-use super::input::{Drag, Input, KeyPress};
-use super::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
-use super::screenshot::{self, Kind};
-use super::script::ScriptedRun;
-use super::shader_watch::ShaderWatch;
-use super::overlay::{self, Notice};
-use super::progressive::{adapt_groups, BandTimes, Progressive};
-use super::session::Session;
-use super::settings::{self, Store};
-use super::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
-use super::open_dialog::{OpenDialog, Purpose};
-use super::options::DEFAULT_WINDOW;
-use super::{headless_error, ViewOptions};
+use crate::app::aov_view;
+use crate::app::benchmark::{Runs, Workload};
+use crate::app::cost_view::heat_map;
+use crate::app::frame_log::{watched, FrameRow, Recorder};
+use crate::app::frame_stats::FrameStats;
+use crate::app::gpu_clock::ClockWatch;
+use crate::app::input::{Drag, Input, KeyPress};
+use crate::app::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
+use crate::app::screenshot::{self, Kind};
+use crate::app::script::ScriptedRun;
+use crate::app::shader_watch::ShaderWatch;
+use crate::app::overlay::{self, Notice};
+use crate::app::progressive::{adapt_groups, BandTimes, Progressive};
+use crate::app::session::Session;
+use crate::app::settings::{self, Store};
+use crate::app::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
+use crate::app::open_dialog::{OpenDialog, Purpose};
+use crate::app::options::DEFAULT_WINDOW;
+use crate::app::{headless_error, ViewOptions};
 use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::trace_pass::GROUP;
 use crate::gpu::vendor::VendorKernel;
@@ -280,10 +280,10 @@ impl Tool {
                     self.params.zoom_camera(steps);
                 }
             }
-            WindowEvent::HoveredFile(_) => self.panel.hovering_file = true,
-            WindowEvent::HoveredFileCancelled => self.panel.hovering_file = false,
+            WindowEvent::HoveredFile(_) => self.panel.model.hovering_file = true,
+            WindowEvent::HoveredFileCancelled => self.panel.model.hovering_file = false,
             WindowEvent::DroppedFile(path) => {
-                self.panel.hovering_file = false;
+                self.panel.model.hovering_file = false;
                 self.load_file(path.clone());
             }
             _ => {}
@@ -293,7 +293,7 @@ impl Tool {
 
     /// Load an .obj dropped on the window or picked in the Open dialog (one path for both).
     fn load_file(&mut self, path: std::path::PathBuf) {
-        self.panel.path = path.display().to_string();
+        self.panel.model.path = path.display().to_string();
         self.session.start_load(crate::scene::paper::ModelSource::File(path), &self.params, &mut self.panel);
     }
 
@@ -479,7 +479,7 @@ impl Tool {
             // A preset or the A key asked for the vendor's ray tracing where the device has
             // none: say why and trace with our BVH from the next frame on.
             if let GpuError::VendorUnavailable(why) = &e {
-                self.panel.render_status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
+                self.panel.render.status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
                 if self.params.settings.accel == Accel::Vendor {
                     self.params.settings.accel = Accel::Bvh;
                 }
@@ -601,19 +601,19 @@ impl Tool {
                 PanelAction::ScreenshotWindow => self.want_window_shot = true,
                 PanelAction::ScreenshotExr => {
                     let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts()).with_extension("exr");
-                    self.panel.screenshot_status = Some(self.save_exr(&path));
+                    self.panel.screenshot.status = Some(self.save_exr(&path));
                     self.notice_screenshot();
                 }
                 PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
                 PanelAction::LoadPreset(path) => self.load_preset(&path),
                 PanelAction::Benchmark(frames) => self.benchmarks.want(frames),
-                PanelAction::CancelBenchmark => self.benchmarks.stop("the benchmark was cancelled", &mut self.params, &mut self.panel.benchmark)?,
+                PanelAction::CancelBenchmark => self.benchmarks.stop("the benchmark was cancelled", &mut self.params, &mut self.panel.benchmark.outcome)?,
                 PanelAction::Record => self.panel.perf.status = self.recorder.start(&screenshot::screenshot_dir()),
                 PanelAction::StopRecording => self.panel.perf.status = self.recorder.stop(),
                 PanelAction::ResetSettings => self.reset_settings(),
                 PanelAction::VendorKernel(kernel) => {
                     if let Err(e) = self.gpu.tracer.set_vendor_kernel(kernel) {
-                        self.panel.render_status = Some(Status::error(e.to_string()));
+                        self.panel.render.status = Some(Status::error(e.to_string()));
                     }
                 }
             }
@@ -622,7 +622,7 @@ impl Tool {
         let area = self.area();
         self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.panel)?;
         self.gpu.presenter.set_vsync(self.params.vsync);
-        self.benchmarks.before_frame(&mut self.params, area, &mut self.panel.benchmark)?;
+        self.benchmarks.before_frame(&mut self.params, area, &mut self.panel.benchmark.outcome)?;
         let primitives = self.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
 
         // A frame being traced in bands keeps its parameters (accumulation waits for it).
@@ -692,21 +692,21 @@ impl Tool {
         self.benchmarks.after_frame(t, outcome.presented && traced, frame_time.map(|(ms, _)| ms), self.gpu.clock.latest);
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
         let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
-        if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark, workload, || crate::bench::environment(ctx))? {
+        if self.benchmarks.finish(&mut self.params, &mut self.panel.benchmark.outcome, workload, || crate::bench::environment(ctx))? {
             self.script.request_exit();
         }
 
         if self.want_trace_shot {
             self.want_trace_shot = false;
             let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts());
-            self.panel.screenshot_status = Some(self.save_trace(&path));
+            self.panel.screenshot.status = Some(self.save_trace(&path));
             self.notice_screenshot();
         }
         if self.want_window_shot && outcome.presented {
             self.want_window_shot = false;
             if let Some(image) = outcome.window_image.as_ref().filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
                 let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
-                self.panel.screenshot_status = Some(match image {
+                self.panel.screenshot.status = Some(match image {
                     Ok(img) => screenshot::status(screenshot::save_png(img, &self.settings_text(), &path), &path),
                     Err(e) => Status::error(e.clone()),
                 });

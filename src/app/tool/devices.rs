@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
-use super::super::{headless_error, ViewOptions};
+use crate::app::{headless_error, ViewOptions};
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::Presenter;
 use crate::gpu::context::list_devices;

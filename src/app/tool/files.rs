@@ -7,12 +7,12 @@ use anyhow::{anyhow, Context as _};
 
 use winit::dpi::LogicalSize;
 
-use super::super::options::DEFAULT_WINDOW;
-use super::super::overlay::Notice;
-use super::super::panel::Status;
-use super::super::settings;
-use super::super::screenshot::{self, NameParts};
-use super::Tool;
+use crate::app::options::DEFAULT_WINDOW;
+use crate::app::overlay::Notice;
+use crate::app::panel::widgets::Status;
+use crate::app::settings;
+use crate::app::screenshot::{self, NameParts};
+use crate::app::tool::Tool;
 use crate::scene::preset::{self, Loaded, SaveError};
 
 impl Tool {
@@ -66,7 +66,7 @@ impl Tool {
 
     /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).
     pub(super) fn notice_screenshot(&mut self) {
-        if let Some(s) = &self.panel.screenshot_status {
+        if let Some(s) = &self.panel.screenshot.status {
             self.notice = Some(Notice::new(s.text.clone()));
         }
     }
@@ -133,7 +133,7 @@ impl Tool {
         settings::reset_panel(&mut self.panel, &self.egui_ctx);
         let [w, h] = DEFAULT_WINDOW;
         let _ = self.window.request_inner_size(LogicalSize::new(w, h));
-        self.panel.settings_status = Some(match self.store.reset() {
+        self.panel.display.settings_status = Some(match self.store.reset() {
             Ok(()) => Status::ok("settings reset; the current ones are remembered again at exit"),
             Err(e) => Status::error(e),
         });

@@ -5,30 +5,31 @@ use std::path::{Path, PathBuf};
 
 use egui::{RichText, Ui};
 
-use super::open_dialog::Purpose;
-use super::panel::{status_line, PanelAction, Status};
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::{status_line, Status};
+use crate::app::open_dialog::Purpose;
 
 /// How many recently used presets the section lists.
 const RECENT: usize = 8;
 
 /// The section's state between frames.
 #[derive(Default)]
-pub struct PresetPanel {
+pub(crate) struct PresetPanel {
     /// The path field.
-    pub path: String,
+    pub(crate) path: String,
     /// A save that would replace this file, waiting for the user's yes or no.
-    pub confirm: Option<PathBuf>,
+    pub(crate) confirm: Option<PathBuf>,
     /// Presets saved or loaded this session, the latest first.
-    pub recent: Vec<PathBuf>,
+    pub(crate) recent: Vec<PathBuf>,
     /// The last save's or load's outcome.
-    pub status: Option<Status>,
+    pub(crate) status: Option<Status>,
     /// Every warning of the last load (unknown keys).
-    pub warnings: Vec<String>,
+    pub(crate) warnings: Vec<String>,
 }
 
 impl PresetPanel {
     /// Put `path` first in the recent list (once) and in the path field.
-    pub fn used(&mut self, path: &Path) {
+    pub(crate) fn used(&mut self, path: &Path) {
         self.recent.retain(|p| p != path);
         self.recent.insert(0, path.to_path_buf());
         self.recent.truncate(RECENT);
@@ -38,7 +39,7 @@ impl PresetPanel {
 
 /// The file the path field names: as typed, with `.toml` added when it has no extension
 /// (so "look" saves a preset that `--preset look.toml` finds).
-pub fn preset_path(typed: &str) -> Option<PathBuf> {
+pub(crate) fn preset_path(typed: &str) -> Option<PathBuf> {
     let typed = typed.trim();
     if typed.is_empty() {
         return None;
@@ -52,9 +53,17 @@ fn is_image(path: &Path) -> bool {
     path.extension().is_some_and(|e| ["png", "jpg", "jpeg", "exr", "hdr"].iter().any(|i| e.eq_ignore_ascii_case(i)))
 }
 
-/// Show the section; saving and loading are asked of the tool through `actions`.
-pub fn presets_section(ui: &mut Ui, state: &mut PresetPanel, actions: &mut Vec<PanelAction>) {
-    super::settings::section(ui, "Presets", false, |ui| {
+impl Section for PresetPanel {
+    fn title(&self) -> &'static str {
+        "Presets"
+    }
+
+    fn default_open(&self) -> bool {
+        false
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (state, actions) = (self, &mut *cx.actions);
         ui.label(RichText::new("everything tunable, as TOML; meshtracer render --preset FILE renders it headless").small().weak());
         ui.add(egui::TextEdit::singleline(&mut state.path).hint_text("look.toml").desired_width(ui.available_width()))
             .on_hover_text("a preset file to save to or load from (a PNG this program wrote loads too)");
@@ -107,7 +116,7 @@ pub fn presets_section(ui: &mut Ui, state: &mut PresetPanel, actions: &mut Vec<P
                 }
             }
         }
-    });
+    }
 }
 
 #[cfg(test)]

@@ -3,15 +3,28 @@
 
 use egui::{RichText, Ui};
 
-use super::panel::GPU_COLOR;
-use super::settings::section;
-use super::split_view::SplitView;
-use crate::gpu::PartTimes;
-use crate::tracer::frame::{Accel, RenderSettings, MAX_BOUNCES, MAX_SPP};
+use crate::app::panel::section::{Cx, Section};
+use crate::app::panel::widgets::GPU_COLOR;
+use crate::app::split_view::SplitView;
+use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_SPP};
 
-/// The section; `a` is A's settings (what B follows where it does not differ).
-pub fn split_section(ui: &mut Ui, split: &mut SplitView, a: &RenderSettings, a_environment: bool, times: PartTimes) {
-    section(ui, "A/B split", false, |ui| {
+/// The section (it keeps nothing between frames: the split is a parameter).
+#[derive(Default)]
+pub(crate) struct SplitPanel;
+
+impl Section for SplitPanel {
+    fn title(&self) -> &'static str {
+        "A/B split"
+    }
+
+    fn default_open(&self) -> bool {
+        false
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let params = &mut *cx.params;
+        let (a, a_environment, times) = (params.settings, params.environment.is_some(), cx.info.split_ms);
+        let (a, split) = (&a, &mut params.split);
         ui.checkbox(&mut split.enabled, "Split view (S)")
             .on_hover_text("left of the line: the settings above (A); right of it: B, the same with the parameters ticked below changed; drag the line to move it");
         ui.add_enabled_ui(split.enabled, |ui| {
@@ -49,7 +62,7 @@ pub fn split_section(ui: &mut Ui, split: &mut SplitView, a: &RenderSettings, a_e
             });
             ui.label(RichText::new(format!("GPU {}", SplitView::times_text(times))).color(GPU_COLOR).monospace());
         });
-    });
+    }
 }
 
 /// One row: a tick that makes B's `value` differ (starting from A's), and its editor.

@@ -1,30 +1,37 @@
-//! The panel's benchmark section: the frame count, the button that starts a run (or
+//! The panel's Benchmark section: the frame count, the button that starts a run (or
 //! cancels the one in progress), its progress, and the last run's summary.
 
 use egui::{RichText, Ui};
 
-use super::benchmark::DEFAULT_FRAMES;
-use super::panel::{status_line, PanelAction, Status};
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::status_line;
+use crate::app::benchmark::{Outcome, DEFAULT_FRAMES};
 
 /// What the section keeps between frames.
-pub struct BenchmarkPanel {
+pub(crate) struct BenchmarkPanel {
     /// Frames in the next run.
-    pub frames: u32,
-    /// The last finished run's summary lines.
-    pub lines: Vec<String>,
-    /// Where the last summary went, or why a run failed or stopped.
-    pub status: Option<Status>,
+    pub(crate) frames: u32,
+    /// What the last run said (the run writes it).
+    pub(crate) outcome: Outcome,
 }
 
 impl Default for BenchmarkPanel {
     fn default() -> Self {
-        Self { frames: DEFAULT_FRAMES, lines: Vec::new(), status: None }
+        Self { frames: DEFAULT_FRAMES, outcome: Outcome::default() }
     }
 }
 
-/// The section; `progress` is (measured, total) frames of the run in progress.
-pub fn benchmark_section(ui: &mut Ui, state: &mut BenchmarkPanel, progress: Option<(u32, u32)>, actions: &mut Vec<PanelAction>) {
-    super::settings::section(ui, "Benchmark", false, |ui| {
+impl Section for BenchmarkPanel {
+    fn title(&self) -> &'static str {
+        "Benchmark"
+    }
+
+    fn default_open(&self) -> bool {
+        false
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (state, progress, actions) = (self, cx.info.benchmark, &mut *cx.actions);
         ui.horizontal(|ui| {
             match progress {
                 Some((done, total)) => {
@@ -41,11 +48,11 @@ pub fn benchmark_section(ui: &mut Ui, state: &mut BenchmarkPanel, progress: Opti
                 }
             }
         });
-        for line in &state.lines {
+        for line in &state.outcome.lines {
             ui.add(egui::Label::new(RichText::new(line.trim()).small().monospace()).wrap());
         }
-        if let Some(s) = &state.status {
+        if let Some(s) = &state.outcome.status {
             status_line(ui, s);
         }
-    });
+    }
 }

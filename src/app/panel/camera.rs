@@ -1,20 +1,22 @@
-//! The panel's camera section: the field of view, the eye and target typed in (applied on
+//! The panel's Camera section: the field of view, the eye and target typed in (applied on
 //! Enter, following the view while not being edited), and the camera as command-line flags
 //! that `render`/`view` take.
 
 use egui::{RichText, Ui};
 use glam::Vec3;
 
-use super::panel::{status_line, Status};
-use super::state::Params;
+use crate::app::panel::section::{Cx, Section};
+use crate::app::panel::widgets::{status_line, Status};
+use crate::app::state::Params;
 use crate::scene::camera::{parse_point, Camera};
 
 /// Narrowest and widest field of view the slider offers, in degrees.
-pub const FOV_RANGE: std::ops::RangeInclusive<f32> = 10.0..=120.0;
+pub(crate) const FOV_RANGE: std::ops::RangeInclusive<f32> = 10.0..=120.0;
 
-/// The text in the eye and target fields, and the outcome of the last edit.
+/// The section's state: the text in the eye and target fields, and the outcome of the
+/// last edit.
 #[derive(Default)]
-pub struct CameraFields {
+pub(crate) struct CameraPanel {
     eye: String,
     target: String,
     status: Option<Status>,
@@ -26,13 +28,21 @@ fn point_text(p: Vec3) -> String {
 }
 
 /// The camera as `--eye`, `--target` and `--fov` flags.
-pub fn camera_flags(c: &Camera) -> String {
+pub(crate) fn camera_flags(c: &Camera) -> String {
     format!("--eye {} --target {} --fov {:.1}", point_text(c.position), point_text(c.target), c.vfov_deg)
 }
 
-/// Draw the camera section.
-pub fn camera_section(ui: &mut Ui, params: &mut Params, fields: &mut CameraFields) {
-    super::settings::section(ui, "Camera", false, |ui| {
+impl Section for CameraPanel {
+    fn title(&self) -> &'static str {
+        "Camera"
+    }
+
+    fn default_open(&self) -> bool {
+        false
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (params, fields) = (&mut *cx.params, self);
         ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
         egui::Grid::new("camera grid").num_columns(2).show(ui, |ui| {
             ui.label("Field of view");
@@ -62,7 +72,7 @@ pub fn camera_section(ui: &mut Ui, params: &mut Params, fields: &mut CameraField
                 fields.status = Some(Status::ok("copied the camera flags"));
             }
         });
-    });
+    }
 }
 
 /// One `X,Y,Z` row. While not being edited it shows `current`; returns whether Enter was

@@ -5,22 +5,23 @@
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
 
-use super::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
-use super::panel::{group, status_line, PanelAction, PanelInfo, Status, FRAME_COLOR, GPU_COLOR};
-use super::settings::section;
+use crate::app::panel::info::PanelInfo;
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
+use crate::app::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
 
 /// The graph's window lengths, in seconds.
-pub const WINDOWS: [f64; 4] = [5.0, 10.0, 30.0, HISTORY_SECONDS];
+pub(crate) const WINDOWS: [f64; 4] = [5.0, 10.0, 30.0, HISTORY_SECONDS];
 
 /// The window the graph opens with.
-pub const DEFAULT_WINDOW: f64 = 10.0;
+pub(crate) const DEFAULT_WINDOW: f64 = 10.0;
 
 /// The section's state between frames.
-pub struct PerfPanel {
+pub(crate) struct PerfPanel {
     /// Seconds of history the graph and the min/mean/max show.
-    pub seconds: f64,
+    pub(crate) seconds: f64,
     /// The frame-time log's last outcome (written, or failed).
-    pub status: Option<Status>,
+    pub(crate) status: Option<Status>,
 }
 
 impl Default for PerfPanel {
@@ -31,7 +32,7 @@ impl Default for PerfPanel {
 
 impl PerfPanel {
     /// A window length from the remembered settings, if it is one the graph offers.
-    pub fn set_seconds(&mut self, seconds: Option<f64>) {
+    pub(crate) fn set_seconds(&mut self, seconds: Option<f64>) {
         self.seconds = seconds.filter(|s| WINDOWS.contains(s)).unwrap_or(DEFAULT_WINDOW);
     }
 }
@@ -53,9 +54,17 @@ fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
     ui.end_row();
 }
 
-/// Show the section; recording is asked of the tool through `actions`.
-pub fn performance_section(ui: &mut Ui, state: &mut PerfPanel, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
-    section(ui, "Performance", true, |ui| {
+impl Section for PerfPanel {
+    fn title(&self) -> &'static str {
+        "Performance"
+    }
+
+    fn default_open(&self) -> bool {
+        true
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (state, info, actions) = (self, cx.info, &mut *cx.actions);
         frame_graph(ui, info.stats, state.seconds);
         ui.horizontal(|ui| {
             ui.label(RichText::new("last").small());
@@ -91,7 +100,7 @@ pub fn performance_section(ui: &mut Ui, state: &mut PerfPanel, info: &PanelInfo,
             }
         });
         log_controls(ui, state, info, actions);
-    });
+    }
 }
 
 /// Record / Stop of the frame-time log, and what it is writing or wrote.
