@@ -5,7 +5,7 @@ use glam::Vec3;
 use winit::keyboard::KeyCode;
 
 pub use crate::gpu::present::PixelRect;
-use crate::app::split_view::SplitView;
+use crate::app::views::split::SplitView;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};

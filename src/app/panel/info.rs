@@ -1,7 +1,7 @@
 //! The read-only facts the panel (and the HUD over the image) show, gathered by the tool
 //! once a frame. A leaf: it knows no section.
 
-use crate::app::frame_stats::FrameStats;
+use crate::app::measure::frame_stats::FrameStats;
 use crate::gpu::vendor::{AccelStats, VendorKernel};
 use crate::scene::paper::ModelSource;
 

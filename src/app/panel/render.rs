@@ -7,7 +7,7 @@ use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::info::VendorInfo;
 use crate::app::panel::widgets::status_line;
 use crate::app::panel::widgets::Status;
-use crate::app::cost_view::heat_color;
+use crate::app::views::cost::heat_color;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::gpu::vendor::VendorKernel;
 use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};

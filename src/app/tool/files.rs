@@ -8,10 +8,10 @@ use anyhow::{anyhow, Context as _};
 use winit::dpi::LogicalSize;
 
 use crate::app::options::DEFAULT_WINDOW;
-use crate::app::overlay::Notice;
+use crate::app::views::overlay::Notice;
 use crate::app::panel::widgets::Status;
-use crate::app::settings;
-use crate::app::screenshot::{self, NameParts};
+use crate::app::files::settings;
+use crate::app::files::screenshot::{self, NameParts};
 use crate::app::tool::Tool;
 use crate::scene::preset::{self, Loaded, SaveError};
 

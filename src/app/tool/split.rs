@@ -1,8 +1,8 @@
 //! The tool's side of the A/B split view: where its line is in the window, grabbing and
 //! moving it with the mouse, what the overlay draws, and each half's GPU time.
 
-use crate::app::overlay::SplitOverlay;
-use crate::app::split_view::GRAB_PIXELS;
+use crate::app::views::overlay::SplitOverlay;
+use crate::app::views::split::GRAB_PIXELS;
 use crate::app::state::fit_rect;
 use crate::app::tool::Tool;
 use crate::gpu::present::PixelRect;

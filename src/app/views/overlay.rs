@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Rect, RichText, Stroke, Ui};
 
-use crate::app::frame_stats::mrays_per_second;
+use crate::app::measure::frame_stats::mrays_per_second;
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::widgets::{duration, group, FRAME_COLOR, GPU_COLOR};
 

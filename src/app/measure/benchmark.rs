@@ -371,7 +371,7 @@ impl Runs {
         for line in &lines {
             println!("{line}");
         }
-        let path = json_path(self.json.as_deref(), &crate::app::screenshot::screenshot_dir());
+        let path = json_path(self.json.as_deref(), &crate::app::files::screenshot::screenshot_dir());
         let written = append_json(&path, &summary);
         outcome.lines = lines;
         outcome.status = Some(match &written {

@@ -205,7 +205,7 @@ mod tests {
     /// A split frame goes on while only the light moves; a change to either half restarts it.
     #[test]
     fn a_split_frame_goes_on_unless_a_half_changes() {
-        use crate::app::split_view::{SplitB, SplitView};
+        use crate::app::views::split::{SplitB, SplitView};
         let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
         // Wide enough that the two lines below snap to different work-group columns.
         let p = Progressive::new(split.frame(frame(256, 64).frame.params), SQUARE);

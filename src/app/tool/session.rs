@@ -9,7 +9,7 @@ use crate::tracer::frame::{Aov, FrameParams};
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
-use crate::app::model_loader::{LoadedModel, ModelLoader, Poll};
+use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
 use crate::app::panel::widgets::{group, Status};
 use crate::app::panel::PanelState;
 use crate::app::state::{Params, Resolution};

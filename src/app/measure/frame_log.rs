@@ -23,7 +23,7 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::app::frame_stats::FrameStats;
+use crate::app::measure::frame_stats::FrameStats;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, Resolution};
 use crate::tracer::frame::{Accel, RenderSettings};
@@ -361,7 +361,7 @@ impl Recorder {
 
 /// A fresh file name in `dir` for a log recorded from the panel.
 pub fn new_path(dir: &Path) -> PathBuf {
-    let stamp = crate::app::screenshot::timestamp();
+    let stamp = crate::app::files::screenshot::timestamp();
     let mut path = dir.join(format!("meshtracer_frames_{stamp}.csv"));
     let mut n = 2;
     while path.exists() {

@@ -1,6 +1,12 @@
 //! The tool: a window, the GPU side (presenter and the shared compute tracer), egui, and
 //! the three parts of the tool's state: [`Input`], the [`Session`] (model, loader, what
 //! the tracer holds) and the [`ScriptedRun`]. One `redraw` per displayed frame.
+//!
+//! - `input`: mouse and keys between events; `script`: `--frames` runs and exiting;
+//! - `session`: the model, its loader and what the tracer holds;
+//! - `progressive`: long frames traced in bands over several display frames;
+//! - `devices`: the presenting and tracing devices; `files`: presets, screenshots and the
+//!   files written at exit; `split`: the split line under the mouse.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -14,25 +20,29 @@ use winit::window::Window;
 
 mod devices;
 mod files;
+pub(crate) mod input;
+pub(crate) mod progressive;
+pub(crate) mod script;
+pub(crate) mod session;
 mod split;
 
-use crate::app::aov_view;
-use crate::app::benchmark::{Runs, Workload};
-use crate::app::cost_view::heat_map;
-use crate::app::frame_log::{watched, FrameRow, Recorder};
-use crate::app::frame_stats::FrameStats;
-use crate::app::gpu_clock::ClockWatch;
-use crate::app::input::{Drag, Input, KeyPress};
+use crate::app::views::aov;
+use crate::app::measure::benchmark::{Runs, Workload};
+use crate::app::views::cost::heat_map;
+use crate::app::measure::frame_log::{watched, FrameRow, Recorder};
+use crate::app::measure::frame_stats::FrameStats;
+use crate::app::measure::gpu_clock::ClockWatch;
+use crate::app::tool::input::{Drag, Input, KeyPress};
 use crate::app::panel::{self, PanelAction, PanelInfo, PanelState, Status, VendorInfo};
-use crate::app::screenshot::{self, Kind};
-use crate::app::script::ScriptedRun;
-use crate::app::shader_watch::ShaderWatch;
-use crate::app::overlay::{self, Notice};
-use crate::app::progressive::{adapt_groups, BandTimes, Progressive};
-use crate::app::session::Session;
-use crate::app::settings::{self, Store};
+use crate::app::files::screenshot::{self, Kind};
+use crate::app::tool::script::ScriptedRun;
+use crate::app::files::shader_watch::ShaderWatch;
+use crate::app::views::overlay::{self, Notice};
+use crate::app::tool::progressive::{adapt_groups, BandTimes, Progressive};
+use crate::app::tool::session::Session;
+use crate::app::files::settings::{self, Store};
 use crate::app::state::{fit_rect, KeyAction, Params, Resolution, ViewMode};
-use crate::app::open_dialog::{OpenDialog, Purpose};
+use crate::app::files::open_dialog::{OpenDialog, Purpose};
 use crate::app::options::DEFAULT_WINDOW;
 use crate::app::{headless_error, ViewOptions};
 use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Presenter, Show, FRAMES_IN_FLIGHT};
@@ -560,7 +570,7 @@ impl Tool {
     /// Make the picture of a view other than colour, traced into `image`, the one shown.
     fn set_picture(&mut self, image: &crate::tracer::Image, view: ViewMode) {
         let (width, height) = (image.width, image.height);
-        self.picture = match (view, aov_view::picture(image, view)) {
+        self.picture = match (view, aov::picture(image, view)) {
             (ViewMode::Cost(metric), _) => {
                 let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
                 Some(Picture { width, height, rgba: map.rgba, stats: Some((map.scale_max, map.max, map.mean)), note: None })

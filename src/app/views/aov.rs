@@ -1,5 +1,5 @@
 //! The depth, normal, primitive-id and samples views: the tracer's float output made into
-//! a picture with a line saying what its colours mean (the cost view is `cost_view`).
+//! a picture with a line saying what its colours mean (the cost view is `views::cost`).
 
 use crate::app::state::ViewMode;
 use crate::tracer::heat_map::heat_map;
