@@ -1,5 +1,8 @@
-//! The tool's files: presets saved and loaded from the panel, screenshots, the files a
-//! scripted run writes at exit, the frame-time log and the remembered settings.
+//! What the tool saves and reads besides the frame: screenshots (as [`Captures`] asks),
+//! presets saved and loaded from the panel, the files a scripted run writes at exit, the
+//! frame-time log and the remembered settings.
+//!
+//! [`Captures`]: super::captures::Captures
 
 use std::path::Path;
 
@@ -11,7 +14,7 @@ use crate::app::options::DEFAULT_WINDOW;
 use crate::app::views::overlay::Notice;
 use crate::app::panel::widgets::Status;
 use crate::app::files::settings;
-use crate::app::files::screenshot::{self, NameParts};
+use crate::app::files::screenshot::{self, Kind, NameParts};
 use crate::app::tool::Tool;
 use crate::scene::preset::{self, Loaded, SaveError};
 
@@ -24,7 +27,7 @@ impl Tool {
     /// Save the look as a preset; an existing file is replaced only once the user agreed.
     pub(super) fn save_preset(&mut self, path: &Path, overwrite: bool) {
         let result = preset::save(&self.scene_spec(), path, overwrite);
-        let presets = &mut self.panel.presets;
+        let presets = &mut self.ui.panel.presets;
         presets.warnings.clear();
         match result {
             Ok(()) => {
@@ -48,14 +51,14 @@ impl Tool {
                 // Another model, or the same read another way (--crease-angle): load it.
                 let shown = self.session.model.as_ref().map(|m| &m.source);
                 if shown != Some(&spec.model) || self.params.load_options != options {
-                    self.session.start_load(spec.model.clone(), &self.params, &mut self.panel);
+                    self.session.start_load(spec.model.clone(), &self.params, &mut self.ui.panel);
                 }
-                let presets = &mut self.panel.presets;
+                let presets = &mut self.ui.panel.presets;
                 presets.status = Some(Status::ok(format!("loaded {}{}", path.display(), if warnings.is_empty() { String::new() } else { format!("; {} warning(s):", warnings.len()) })));
                 presets.warnings = warnings;
                 presets.used(path);
             }
-            Err(e) => self.panel.presets.status = Some(Status::error(e)),
+            Err(e) => self.ui.panel.presets.status = Some(Status::error(e)),
         }
     }
 
@@ -66,14 +69,14 @@ impl Tool {
 
     /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).
     pub(super) fn notice_screenshot(&mut self) {
-        if let Some(s) = &self.panel.screenshot.status {
-            self.notice = Some(Notice::new(s.text.clone()));
+        if let Some(s) = &self.ui.panel.screenshot.status {
+            self.captures.notice = Some(Notice::new(s.text.clone()));
         }
     }
 
     /// Write the float output of the last traced frame (the view's AOV) as OpenEXR.
     pub(super) fn save_exr(&self, path: &Path) -> Status {
-        if !self.traced {
+        if !self.frame.traced {
             return Status::error("nothing traced yet: no EXR written");
         }
         match self.gpu.tracer.read_image() {
@@ -84,10 +87,10 @@ impl Tool {
 
     /// The traced image as shown (the heat map in the cost view); None before the first frame.
     pub(super) fn read_trace(&self) -> anyhow::Result<Option<image::RgbaImage>> {
-        if !self.traced {
+        if !self.frame.traced {
             return Ok(None);
         }
-        if let Some(h) = &self.picture {
+        if let Some(h) = &self.frame.picture {
             return Ok(image::RgbaImage::from_raw(h.width, h.height, h.rgba.clone()));
         }
         Ok(Some(self.gpu.tracer.read_rgba8()?))
@@ -103,7 +106,7 @@ impl Tool {
 
     /// `--screenshot` / `--screenshot-ui` at exit; failures end the run with an error.
     pub(super) fn write_exit_files(&mut self, window_image: Option<Result<image::RgbaImage, String>>) -> anyhow::Result<()> {
-        if let Some(line) = self.recorder.finish().map_err(anyhow::Error::msg)? {
+        if let Some(line) = self.timing.recorder.finish().map_err(anyhow::Error::msg)? {
             println!("{line}");
         }
         if let Some(path) = &self.script.screenshot {
@@ -122,20 +125,42 @@ impl Tool {
     /// Remember the window's size, the panel's sections and the recent presets (unless the
     /// run does not persist), and close a frame-time log still open.
     pub(super) fn remember(&mut self) {
-        let _ = self.recorder.finish();
+        let _ = self.timing.recorder.finish();
         let size = self.window.inner_size().to_logical::<u32>(self.window.scale_factor());
         let window = (size.width > 0 && size.height > 0).then_some([size.width, size.height]);
-        self.store.save(&settings::snapshot(window, &self.panel, &self.egui_ctx));
+        self.store.save(&settings::snapshot(window, &self.ui.panel, &self.ui.egui_ctx));
     }
 
     /// "Reset settings": forget the file, and put the window and the panel back as a first run opens.
     pub(super) fn reset_settings(&mut self) {
-        settings::reset_panel(&mut self.panel, &self.egui_ctx);
+        settings::reset_panel(&mut self.ui.panel, &self.ui.egui_ctx);
         let [w, h] = DEFAULT_WINDOW;
         let _ = self.window.request_inner_size(LogicalSize::new(w, h));
-        self.panel.display.settings_status = Some(match self.store.reset() {
+        self.ui.panel.display.settings_status = Some(match self.store.reset() {
             Ok(()) => Status::ok("settings reset; the current ones are remembered again at exit"),
             Err(e) => Status::error(e),
         });
+    }
+
+    /// The screenshots asked for this frame: the traced image now, the window once a frame
+    /// was presented (`window_image`, unless the scripted run's last frame takes it).
+    pub(super) fn take_screenshots(&mut self, presented: bool, window_image: Option<&Result<image::RgbaImage, String>>, final_frame: bool) {
+        if self.captures.want_trace_shot {
+            self.captures.want_trace_shot = false;
+            let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts());
+            self.ui.panel.screenshot.status = Some(self.save_trace(&path));
+            self.notice_screenshot();
+        }
+        if self.captures.want_window_shot && presented {
+            self.captures.want_window_shot = false;
+            if let Some(image) = window_image.filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
+                let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
+                self.ui.panel.screenshot.status = Some(match image {
+                    Ok(img) => screenshot::status(screenshot::save_png(img, &self.settings_text(), &path), &path),
+                    Err(e) => Status::error(e.clone()),
+                });
+                self.notice_screenshot();
+            }
+        }
     }
 }
