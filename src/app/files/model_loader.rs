@@ -12,12 +12,12 @@ use crate::scene::Scene;
 use crate::tracer::packed::PackedScene;
 
 /// A loaded model, ready to upload.
-pub struct LoadedModel {
-    pub source: ModelSource,
-    pub scene: Scene,
-    pub packed: PackedScene,
-    pub warnings: Vec<String>,
-    pub seconds: f64,
+pub(crate) struct LoadedModel {
+    pub(crate) source: ModelSource,
+    pub(crate) scene: Scene,
+    pub(crate) packed: PackedScene,
+    pub(crate) warnings: Vec<String>,
+    pub(crate) seconds: f64,
 }
 
 enum Message {
@@ -26,7 +26,7 @@ enum Message {
 }
 
 /// What a poll of the loader found.
-pub enum Poll {
+pub(crate) enum Poll {
     /// Nothing running.
     Idle,
     /// Still working.
@@ -37,7 +37,7 @@ pub enum Poll {
 
 /// A running load, if any.
 #[derive(Default)]
-pub struct ModelLoader {
+pub(crate) struct ModelLoader {
     job: Option<Job>,
 }
 
@@ -51,7 +51,7 @@ struct Job {
 impl ModelLoader {
     /// Start loading `source` (a file with `options`) for `model_count` copies; a load
     /// already running is abandoned (its thread finishes on its own and its result is dropped).
-    pub fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit) {
+    pub(crate) fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit) {
         let (tx, rx) = channel();
         let label = source.label();
         let first_stage = match &source {
@@ -91,17 +91,17 @@ impl ModelLoader {
 
     /// True while a load runs (the tests' check; the tool polls).
     #[cfg(test)]
-    pub fn busy(&self) -> bool {
+    pub(crate) fn busy(&self) -> bool {
         self.job.is_some()
     }
 
     /// The model being loaded, its current stage and seconds so far.
-    pub fn status(&self) -> Option<(&str, &str, f64)> {
+    pub(crate) fn status(&self) -> Option<(&str, &str, f64)> {
         self.job.as_ref().map(|j| (j.label.as_str(), j.stage.as_str(), j.started.elapsed().as_secs_f64()))
     }
 
     /// Take any progress and the result when it is there.
-    pub fn poll(&mut self) -> Poll {
+    pub(crate) fn poll(&mut self) -> Poll {
         let Some(job) = self.job.as_mut() else { return Poll::Idle };
         loop {
             match job.rx.try_recv() {
@@ -121,7 +121,7 @@ impl ModelLoader {
 
     /// Block until the running load finishes (for the tests; the tool polls each frame).
     #[cfg(test)]
-    pub fn wait(&mut self) -> Poll {
+    pub(crate) fn wait(&mut self) -> Poll {
         loop {
             match self.poll() {
                 Poll::Busy => thread::sleep(std::time::Duration::from_millis(5)),

@@ -9,7 +9,7 @@ use egui_file_dialog::{DialogState, FileDialog, Filter};
 
 /// What the file picked is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Purpose {
+pub(crate) enum Purpose {
     /// A model (.obj), loaded as if dropped on the window.
     Model,
     /// A preset (.toml, or a PNG the program wrote), loaded as the Presets section's Load.
@@ -22,14 +22,14 @@ const PRESET_FILTER: &str = "Presets (.toml, .png)";
 
 /// The dialog, when one is open, and what it is for.
 #[derive(Default)]
-pub struct OpenDialog {
+pub(crate) struct OpenDialog {
     open: Option<(Purpose, FileDialog)>,
 }
 
 impl OpenDialog {
     /// Open the dialog for `purpose` in the folder of `near` (the model or preset in use),
     /// or in the current folder; one already open is replaced.
-    pub fn open(&mut self, purpose: Purpose, near: Option<&Path>) {
+    pub(crate) fn open(&mut self, purpose: Purpose, near: Option<&Path>) {
         let dialog = FileDialog::new()
             .title(match purpose {
                 Purpose::Model => "Open a model",
@@ -51,12 +51,12 @@ impl OpenDialog {
 
     /// The dialog is showing: the tool's shortcuts and camera controls wait until it closes
     /// (its own keys, Escape and Enter among them, are its own).
-    pub fn is_open(&self) -> bool {
+    pub(crate) fn is_open(&self) -> bool {
         self.open.is_some()
     }
 
     /// Draw the dialog for this frame; returns the file picked, once, with its purpose.
-    pub fn show(&mut self, ctx: &egui::Context) -> Option<(Purpose, PathBuf)> {
+    pub(crate) fn show(&mut self, ctx: &egui::Context) -> Option<(Purpose, PathBuf)> {
         let (purpose, dialog) = self.open.as_mut()?;
         let purpose = *purpose;
         dialog.update(ctx);
@@ -89,7 +89,7 @@ fn has_extension(path: &Path, names: &[&str]) -> bool {
 
 /// The folder the dialog starts in: that of `near` when it names a file or folder that
 /// exists (a relative path is taken from the current folder), else the current folder.
-pub fn start_folder(near: Option<&Path>) -> PathBuf {
+pub(crate) fn start_folder(near: Option<&Path>) -> PathBuf {
     let current = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
     let Some(near) = near else { return current };
     let near = current.join(near);

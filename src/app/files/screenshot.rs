@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use image::RgbaImage;
 
 /// Environment variable naming the screenshot folder (default: the current directory).
-pub const DIR_VAR: &str = "MESHTRACER_SCREENSHOT_DIR";
+pub(crate) const DIR_VAR: &str = "MESHTRACER_SCREENSHOT_DIR";
 
 /// Which picture a screenshot holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
+pub(crate) enum Kind {
     /// The traced image at render resolution.
     Trace,
     /// The window as seen, panel included.
@@ -19,17 +19,17 @@ pub enum Kind {
 
 /// The parameters a file name carries.
 #[derive(Clone, Debug, PartialEq)]
-pub struct NameParts {
-    pub model: String,
-    pub models: u32,
-    pub width: u32,
-    pub height: u32,
-    pub bounces: u32,
-    pub blend: f32,
+pub(crate) struct NameParts {
+    pub(crate) model: String,
+    pub(crate) models: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) bounces: u32,
+    pub(crate) blend: f32,
 }
 
 /// The folder screenshots go to.
-pub fn screenshot_dir() -> PathBuf {
+pub(crate) fn screenshot_dir() -> PathBuf {
     std::env::var_os(DIR_VAR).filter(|v| !v.is_empty()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
 }
 
@@ -43,7 +43,7 @@ fn sanitize(s: &str) -> String {
 }
 
 /// `meshtracer_20250102-030405-678_geosphere_x1_512x512_b2_blend0.50[_window].png`
-pub fn file_name(kind: Kind, parts: &NameParts, stamp: &str) -> String {
+pub(crate) fn file_name(kind: Kind, parts: &NameParts, stamp: &str) -> String {
     let suffix = match kind {
         Kind::Trace => "",
         Kind::Window => "_window",
@@ -60,12 +60,12 @@ pub fn file_name(kind: Kind, parts: &NameParts, stamp: &str) -> String {
 }
 
 /// The local time as used in file names.
-pub fn timestamp() -> String {
+pub(crate) fn timestamp() -> String {
     chrono::Local::now().format("%Y%m%d-%H%M%S-%3f").to_string()
 }
 
 /// A fresh path in `dir` for a screenshot of `kind` (a counter is added if the name exists).
-pub fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
+pub(crate) fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
     let name = file_name(kind, parts, &timestamp());
     let mut path = dir.join(&name);
     let mut n = 2;
@@ -79,7 +79,7 @@ pub fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
 /// Write `image` as PNG to `path` with `settings` (`SceneSpec::to_preset_text`) in its
 /// `meshtracer` text chunk, through a temporary file, so a watcher never sees half a file.
 /// The error is one sentence.
-pub fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
+pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
@@ -94,7 +94,7 @@ pub fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), St
 }
 
 /// The panel's line for a file written (its full path) or not (why).
-pub fn status(result: Result<(), String>, path: &Path) -> crate::app::panel::widgets::Status {
+pub(crate) fn status(result: Result<(), String>, path: &Path) -> crate::app::panel::widgets::Status {
     match result {
         Ok(()) => {
             let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());

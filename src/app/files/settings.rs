@@ -16,25 +16,25 @@ use crate::app::panel::PanelState;
 
 /// The environment variable naming the folder of `settings.toml` (tests point it at a
 /// temporary folder so they never touch the user's).
-pub const DIR_VAR: &str = "MESHTRACER_CONFIG_DIR";
+pub(crate) const DIR_VAR: &str = "MESHTRACER_CONFIG_DIR";
 
 /// The file's format version; a file with a newer one is left alone.
-pub const FORMAT: u32 = 1;
+pub(crate) const FORMAT: u32 = 1;
 
 /// What is remembered.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
-pub struct Settings {
+pub(crate) struct Settings {
     /// The file's format version ([`FORMAT`]).
-    pub version: u32,
+    pub(crate) version: u32,
     /// The window's inner size in logical pixels when it was last closed.
-    pub window: Option<[u32; 2]>,
+    pub(crate) window: Option<[u32; 2]>,
     /// Panel sections by title: open (true) or closed.
-    pub sections: BTreeMap<String, bool>,
+    pub(crate) sections: BTreeMap<String, bool>,
     /// Presets saved or loaded, the latest first.
-    pub recent_presets: Vec<PathBuf>,
+    pub(crate) recent_presets: Vec<PathBuf>,
     /// Seconds of history the frame-time graph shows.
-    pub graph_seconds: Option<f64>,
+    pub(crate) graph_seconds: Option<f64>,
 }
 
 impl Default for Settings {
@@ -44,7 +44,7 @@ impl Default for Settings {
 }
 
 /// Parse the text of a settings file; the error is one sentence.
-pub fn parse(text: &str) -> Result<Settings, String> {
+pub(crate) fn parse(text: &str) -> Result<Settings, String> {
     let settings: Settings = toml::from_str(text).map_err(|e| e.message().trim().trim_end_matches('.').replace('\n', " "))?;
     if settings.version > FORMAT {
         return Err(format!("format version {} is newer than this meshtracer's {FORMAT}", settings.version));
@@ -54,7 +54,7 @@ pub fn parse(text: &str) -> Result<Settings, String> {
 
 /// Read `path`: the settings, and a warning when the file exists but is not usable (then
 /// the defaults). A missing file is no warning: it is the first run.
-pub fn read(path: &Path) -> (Settings, Option<String>) {
+pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Settings::default(), None),
@@ -68,7 +68,7 @@ pub fn read(path: &Path) -> (Settings, Option<String>) {
 
 /// Write `settings` to `path` through a temporary file renamed over it, so a crash never
 /// leaves half a file; creates the folder.
-pub fn write(path: &Path, settings: &Settings) -> Result<(), String> {
+pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
     let fail = |e: &dyn std::fmt::Display| format!("cannot remember the settings in {} ({e})", path.display());
     let text = toml::to_string(settings).map_err(|e| fail(&e))?;
     if let Some(dir) = path.parent() {
@@ -84,14 +84,14 @@ pub fn write(path: &Path, settings: &Settings) -> Result<(), String> {
 
 /// Where the settings live, or nowhere (`--no-persist`, scripted runs, no home folder).
 #[derive(Clone, Debug, Default)]
-pub struct Store {
+pub(crate) struct Store {
     /// The settings file; None: nothing is read or written.
-    pub path: Option<PathBuf>,
+    pub(crate) path: Option<PathBuf>,
 }
 
 impl Store {
     /// The store of a run: the config folder's `settings.toml` when `persist`.
-    pub fn new(persist: bool) -> Self {
+    pub(crate) fn new(persist: bool) -> Self {
         if !persist {
             return Self { path: None };
         }
@@ -103,7 +103,7 @@ impl Store {
     }
 
     /// The remembered settings (defaults when none); a bad file is one warning line.
-    pub fn load(&self) -> Settings {
+    pub(crate) fn load(&self) -> Settings {
         let Some(path) = &self.path else { return Settings::default() };
         let (settings, warning) = read(path);
         if let Some(w) = warning {
@@ -113,7 +113,7 @@ impl Store {
     }
 
     /// Remember `settings`; a failure is one warning line.
-    pub fn save(&self, settings: &Settings) {
+    pub(crate) fn save(&self, settings: &Settings) {
         if let Some(path) = &self.path {
             if let Err(e) = write(path, settings) {
                 eprintln!("warning: {e}");
@@ -122,7 +122,7 @@ impl Store {
     }
 
     /// Forget everything remembered: the file is removed.
-    pub fn reset(&self) -> Result<(), String> {
+    pub(crate) fn reset(&self) -> Result<(), String> {
         match &self.path {
             Some(path) => match std::fs::remove_file(path) {
                 Ok(()) => Ok(()),
@@ -135,7 +135,7 @@ impl Store {
 }
 
 /// Put the remembered settings into the panel and egui's memory.
-pub fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
+pub(crate) fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
     for p in settings.recent_presets.iter().rev() {
         panel.presets.used(p);
     }
@@ -144,7 +144,7 @@ pub fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context)
 }
 
 /// What to remember of the run now, with the window's logical size (None when minimized).
-pub fn snapshot(window: Option<[u32; 2]>, panel: &PanelState, ctx: &egui::Context) -> Settings {
+pub(crate) fn snapshot(window: Option<[u32; 2]>, panel: &PanelState, ctx: &egui::Context) -> Settings {
     Settings {
         version: FORMAT,
         window: window.filter(|&[w, h]| w >= 64 && h >= 64),
@@ -157,7 +157,7 @@ pub fn snapshot(window: Option<[u32; 2]>, panel: &PanelState, ctx: &egui::Contex
 
 /// Forget the panel's remembered state: sections, recent presets and the graph's window
 /// go back to how a first run opens.
-pub fn reset_panel(panel: &mut PanelState, ctx: &egui::Context) {
+pub(crate) fn reset_panel(panel: &mut PanelState, ctx: &egui::Context) {
     panel.presets.recent.clear();
     panel.perf.set_seconds(None);
     Sections::set(ctx, Sections { open: BTreeMap::new(), reset: true });

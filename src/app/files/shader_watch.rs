@@ -18,7 +18,7 @@ use crate::app::panel::PanelState;
 const POLL_EVERY: Duration = Duration::from_millis(500);
 
 /// The watched folder and what it looked like at the last compile.
-pub struct ShaderWatch {
+pub(crate) struct ShaderWatch {
     dir: PathBuf,
     /// (file, modified) of every shader file at the last look; None before the first.
     seen: Option<Vec<(PathBuf, Option<SystemTime>)>>,
@@ -28,13 +28,13 @@ pub struct ShaderWatch {
 impl ShaderWatch {
     /// Watch `dir`; its current shaders are compiled on the first poll (so a folder that
     /// differs from the built-in shaders takes effect at once).
-    pub fn new(dir: PathBuf) -> Self {
+    pub(crate) fn new(dir: PathBuf) -> Self {
         Self { dir, seen: None, next_poll: Instant::now() }
     }
 
     /// Reload the shader if a file changed since the last look, and put the outcome in the
     /// panel; true when a new shader now traces. Never fails: errors become the status.
-    pub fn poll(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> bool {
+    pub(crate) fn poll(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> bool {
         match self.check(tracer) {
             Some(status) => {
                 let reloaded = !status.error;

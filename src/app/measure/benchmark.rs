@@ -16,7 +16,7 @@ use crate::scene::camera::Camera;
 use crate::tracer::frame::{Accel, RenderSettings};
 
 /// Frames in a run when `--benchmark` is given without a number.
-pub const DEFAULT_FRAMES: u32 = 120;
+pub(crate) const DEFAULT_FRAMES: u32 = 120;
 /// Traced frames at the start angle before measuring: the first frame after a change pays
 /// for uploads, and GPU times arrive a few frames late (frames in flight), so those read
 /// while measuring are all the run's own.
@@ -24,21 +24,21 @@ const WARMUP_FRAMES: u32 = 3;
 /// Traced frames after the last measured one, waiting for its late GPU times.
 const DRAIN_FRAMES: u32 = 4;
 /// The file in the screenshot folder that runs are appended to without `--benchmark-json`.
-pub const DEFAULT_JSON_NAME: &str = "meshtracer_benchmark.jsonl";
+pub(crate) const DEFAULT_JSON_NAME: &str = "meshtracer_benchmark.jsonl";
 
 /// Min, mean, max and 90th percentile of a series of milliseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Timing {
-    pub min: f64,
-    pub mean: f64,
-    pub max: f64,
+pub(crate) struct Timing {
+    pub(crate) min: f64,
+    pub(crate) mean: f64,
+    pub(crate) max: f64,
     /// Nearest rank, as `bench` computes its percentiles.
-    pub p90: f64,
+    pub(crate) p90: f64,
 }
 
 impl Timing {
     /// The statistics of `samples`; None when there are none.
-    pub fn of(samples: &[f64]) -> Option<Self> {
+    pub(crate) fn of(samples: &[f64]) -> Option<Self> {
         if samples.is_empty() {
             return None;
         }
@@ -51,49 +51,49 @@ impl Timing {
 
 /// What was traced, besides the timings: filled by the tool when the run ends.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Workload {
-    pub model: String,
-    pub models: u32,
-    pub triangles: u64,
+pub(crate) struct Workload {
+    pub(crate) model: String,
+    pub(crate) models: u32,
+    pub(crate) triangles: u64,
 }
 
 /// The outcome of a run, as printed, shown and appended to the JSON file.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct BenchmarkSummary {
+pub(crate) struct BenchmarkSummary {
     /// Device, type, driver, Vulkan version and date, as `bench --json` writes them.
-    pub environment: Environment,
-    pub model: String,
-    pub models: u32,
-    pub triangles: u64,
-    pub width: u32,
-    pub height: u32,
-    pub bounces: u32,
+    pub(crate) environment: Environment,
+    pub(crate) model: String,
+    pub(crate) models: u32,
+    pub(crate) triangles: u64,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) bounces: u32,
     /// Saved as "bvh" or "brute".
-    pub accel: Accel,
-    pub spp: u32,
-    pub smooth: bool,
+    pub(crate) accel: Accel,
+    pub(crate) spp: u32,
+    pub(crate) smooth: bool,
     /// Rays per frame at most (primary plus one per bounce, times spp), as `bench` counts them.
-    pub rays_per_frame: u64,
+    pub(crate) rays_per_frame: u64,
     /// Measured frames (one orbit).
-    pub frames: u32,
+    pub(crate) frames: u32,
     /// Traced frame to traced frame on the CPU clock (what the user waits for).
-    pub frame_ms: Timing,
+    pub(crate) frame_ms: Timing,
     /// GPU timestamps around each frame's trace (a frame traced in bands: its bands added
     /// up); None without timestamps.
-    pub gpu_ms: Option<Timing>,
+    pub(crate) gpu_ms: Option<Timing>,
     /// The lowest and highest shader clock read during the run, MHz (None on CPU devices):
     /// a GPU clocked down between frames traces slower than `bench` shows.
     #[serde(default)]
-    pub gpu_clock_mhz: Option<[f64; 2]>,
+    pub(crate) gpu_clock_mhz: Option<[f64; 2]>,
     /// Frames per second from the mean frame time.
-    pub fps: f64,
+    pub(crate) fps: f64,
     /// Million rays per second from the mean GPU time (the mean frame time without one).
-    pub mrays_per_s: f64,
+    pub(crate) mrays_per_s: f64,
 }
 
 impl BenchmarkSummary {
     /// The summary as a few lines of text, for the terminal and the panel.
-    pub fn lines(&self) -> Vec<String> {
+    pub(crate) fn lines(&self) -> Vec<String> {
         let t = |t: &Timing| format!("min {:.2}  mean {:.2}  p90 {:.2}  max {:.2}", t.min, t.mean, t.p90, t.max);
         let e = &self.environment;
         vec![
@@ -142,7 +142,7 @@ struct Saved {
 
 /// A run in progress.
 #[derive(Clone, Debug)]
-pub struct Benchmark {
+pub(crate) struct Benchmark {
     frames: u32,
     start: Camera,
     /// The settings it measures: any change cancels the run.
@@ -162,7 +162,7 @@ impl Benchmark {
     /// Begin a run of `frames` traced frames (at least 1): the camera goes back to where
     /// the scene opens, the light stops, accumulation and other views are switched off;
     /// `area` is the image area (for the render size).
-    pub fn begin(frames: u32, params: &mut Params, area: [u32; 2]) -> Self {
+    pub(crate) fn begin(frames: u32, params: &mut Params, area: [u32; 2]) -> Self {
         let saved = Saved { camera: params.camera, light_paused: params.light_paused, accumulate: params.accumulate, view: params.view };
         params.view = ViewMode::Color;
         let mut run = Self {
@@ -183,19 +183,19 @@ impl Benchmark {
 
     /// Keep the run's fixed settings and put the camera where the next frame needs it
     /// (before each frame: keys and drags would move them).
-    pub fn hold(&mut self, params: &mut Params) {
+    pub(crate) fn hold(&mut self, params: &mut Params) {
         params.light_paused = true;
         params.accumulate = false;
         params.camera = self.camera();
     }
 
     /// The parameters changed under the run (another resolution, bounces, view ...).
-    pub fn settings_changed(&self, now: &RenderSettings) -> bool {
+    pub(crate) fn settings_changed(&self, now: &RenderSettings) -> bool {
         *now != self.settings
     }
 
     /// The camera of the next traced frame: the start orbited by 360°/N per measured frame.
-    pub fn camera(&self) -> Camera {
+    pub(crate) fn camera(&self) -> Camera {
         let mut c = self.start;
         let done = self.frame_ms.len().min(self.frames as usize);
         // From the start each time, so the orbit does not drift with rounding; the first
@@ -207,7 +207,7 @@ impl Benchmark {
     }
 
     /// A traced frame was presented at time `t` seconds.
-    pub fn frame_traced(&mut self, t: f64) {
+    pub(crate) fn frame_traced(&mut self, t: f64) {
         if self.warmup_left > 0 {
             self.warmup_left -= 1;
         } else if self.frame_ms.len() < self.frames as usize {
@@ -221,7 +221,7 @@ impl Benchmark {
     }
 
     /// A GPU trace time arrived (it belongs to a frame traced a few frames ago).
-    pub fn gpu_time(&mut self, ms: f64) {
+    pub(crate) fn gpu_time(&mut self, ms: f64) {
         // Before measuring, times may be of frames before the run; warm-up frames are the
         // run's own settings, so times read while measuring all count.
         if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.gpu_ms.len() < self.frames as usize {
@@ -230,24 +230,24 @@ impl Benchmark {
     }
 
     /// The shader clock as last read, MHz (kept while measuring).
-    pub fn clock_reading(&mut self, mhz: f64) {
+    pub(crate) fn clock_reading(&mut self, mhz: f64) {
         if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.frame_ms.len() < self.frames as usize {
             self.clock_mhz = Some(self.clock_mhz.map_or([mhz, mhz], |[lo, hi]| [lo.min(mhz), hi.max(mhz)]));
         }
     }
 
     /// Measured frames so far and the run's length, for the panel.
-    pub fn progress(&self) -> (u32, u32) {
+    pub(crate) fn progress(&self) -> (u32, u32) {
         (self.frame_ms.len() as u32, self.frames)
     }
 
     /// Every frame is measured and its GPU time has arrived (or will not).
-    pub fn is_finished(&self) -> bool {
+    pub(crate) fn is_finished(&self) -> bool {
         self.frame_ms.len() >= self.frames as usize && (self.gpu_ms.len() >= self.frames as usize || self.drained >= DRAIN_FRAMES)
     }
 
     /// Give the parameters back as they were before the run.
-    pub fn restore(&self, params: &mut Params) {
+    pub(crate) fn restore(&self, params: &mut Params) {
         params.camera = self.saved.camera;
         params.light_paused = self.saved.light_paused;
         params.accumulate = self.saved.accumulate;
@@ -255,7 +255,7 @@ impl Benchmark {
     }
 
     /// The summary of a finished run on `environment`'s device.
-    pub fn summary(&self, workload: Workload, environment: Environment) -> BenchmarkSummary {
+    pub(crate) fn summary(&self, workload: Workload, environment: Environment) -> BenchmarkSummary {
         let s = &self.settings;
         let frame_ms = Timing::of(&self.frame_ms).unwrap_or_default();
         // A short run may lack some GPU times.
@@ -287,7 +287,7 @@ impl Benchmark {
 /// The tool's benchmark runs: the one in progress, one asked for (begun at the next
 /// frame, when the image area is known), and what `--benchmark` asked.
 #[derive(Default)]
-pub struct Runs {
+pub(crate) struct Runs {
     run: Option<Benchmark>,
     wanted: Option<u32>,
     /// `--benchmark`: quit when the run ends; an unfinished run is an error.
@@ -298,23 +298,23 @@ pub struct Runs {
 
 impl Runs {
     /// Runs as the command line asks: `frames` starts one at once and quits after it.
-    pub fn new(frames: Option<u32>, json: Option<PathBuf>) -> Self {
+    pub(crate) fn new(frames: Option<u32>, json: Option<PathBuf>) -> Self {
         Self { run: None, wanted: frames, quit_after: frames.is_some(), json }
     }
 
     /// Start a run of `frames` at the next frame (replacing one in progress).
-    pub fn want(&mut self, frames: u32) {
+    pub(crate) fn want(&mut self, frames: u32) {
         self.wanted = Some(frames);
     }
 
     /// (measured, total) frames of the run in progress.
-    pub fn progress(&self) -> Option<(u32, u32)> {
+    pub(crate) fn progress(&self) -> Option<(u32, u32)> {
         self.run.as_ref().map(Benchmark::progress)
     }
 
     /// Before a frame: begin a run asked for, or keep the one in progress on its orbit and
     /// settings (a change of settings stops it).
-    pub fn before_frame(&mut self, params: &mut Params, area: [u32; 2], outcome: &mut Outcome) -> anyhow::Result<()> {
+    pub(crate) fn before_frame(&mut self, params: &mut Params, area: [u32; 2], outcome: &mut Outcome) -> anyhow::Result<()> {
         if let Some(frames) = self.wanted.take() {
             if let Some(old) = self.run.take() {
                 old.restore(params);
@@ -333,7 +333,7 @@ impl Runs {
     }
 
     /// End the run in progress without a summary, saying `why` (an error under `--benchmark`).
-    pub fn stop(&mut self, why: &str, params: &mut Params, outcome: &mut Outcome) -> anyhow::Result<()> {
+    pub(crate) fn stop(&mut self, why: &str, params: &mut Params, outcome: &mut Outcome) -> anyhow::Result<()> {
         let Some(run) = self.run.take() else { return Ok(()) };
         run.restore(params);
         let (done, total) = run.progress();
@@ -347,7 +347,7 @@ impl Runs {
 
     /// After a frame: `traced` when it presented a whole traced frame at `t` seconds;
     /// `gpu_ms` when a frame's GPU time arrived; `clock_mhz` the shader clock as last read.
-    pub fn after_frame(&mut self, t: f64, traced: bool, gpu_ms: Option<f64>, clock_mhz: Option<f64>) {
+    pub(crate) fn after_frame(&mut self, t: f64, traced: bool, gpu_ms: Option<f64>, clock_mhz: Option<f64>) {
         if let Some(run) = &mut self.run {
             if traced {
                 run.frame_traced(t);
@@ -363,7 +363,7 @@ impl Runs {
 
     /// A finished run's summary printed, shown and appended to the JSON file; true when
     /// the tool should quit now (`--benchmark`, where a file not written is an error).
-    pub fn finish(&mut self, params: &mut Params, outcome: &mut Outcome, workload: impl FnOnce(&Params) -> Workload, environment: impl FnOnce() -> Environment) -> anyhow::Result<bool> {
+    pub(crate) fn finish(&mut self, params: &mut Params, outcome: &mut Outcome, workload: impl FnOnce(&Params) -> Workload, environment: impl FnOnce() -> Environment) -> anyhow::Result<bool> {
         let Some(run) = self.run.take_if(|r| r.is_finished()) else { return Ok(false) };
         run.restore(params);
         let summary = run.summary(workload(params), environment());
@@ -388,7 +388,7 @@ impl Runs {
     }
 
     /// At exit: under `--benchmark`, a run not finished is an error.
-    pub fn check_exit(&self) -> anyhow::Result<()> {
+    pub(crate) fn check_exit(&self) -> anyhow::Result<()> {
         match (&self.run, self.quit_after) {
             (Some(run), true) => {
                 let (done, total) = run.progress();
@@ -400,12 +400,12 @@ impl Runs {
 }
 
 /// Where a run's JSON line goes: `--benchmark-json`, or a file in the screenshot folder.
-pub fn json_path(given: Option<&Path>, screenshot_dir: &Path) -> PathBuf {
+pub(crate) fn json_path(given: Option<&Path>, screenshot_dir: &Path) -> PathBuf {
     given.map_or_else(|| screenshot_dir.join(DEFAULT_JSON_NAME), Path::to_path_buf)
 }
 
 /// Append the summary to `path` as one line of JSON (JSON Lines: runs accumulate).
-pub fn append_json(path: &Path, summary: &BenchmarkSummary) -> Result<(), String> {
+pub(crate) fn append_json(path: &Path, summary: &BenchmarkSummary) -> Result<(), String> {
     let line = serde_json::to_string(summary).map_err(|e| format!("cannot write the benchmark as JSON ({e})"))?;
     std::fs::OpenOptions::new()
         .create(true)

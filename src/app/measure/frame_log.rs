@@ -29,51 +29,51 @@ use crate::app::state::{Params, Resolution};
 use crate::tracer::frame::{Accel, RenderSettings};
 
 /// The CSV header line.
-pub const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change";
+pub(crate) const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change";
 
 /// One traced frame's numbers.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FrameRow {
+pub(crate) struct FrameRow {
     /// Seconds since the tool started (the log writes them from its first frame).
-    pub time_s: f64,
+    pub(crate) time_s: f64,
     /// The latest GPU trace time measured (timestamps arrive a frame or two late).
-    pub gpu_ms: Option<f64>,
+    pub(crate) gpu_ms: Option<f64>,
     /// Time since the previous displayed frame began.
-    pub frame_ms: Option<f64>,
+    pub(crate) frame_ms: Option<f64>,
     /// Traced width and height.
-    pub size: [u32; 2],
+    pub(crate) size: [u32; 2],
     /// Mirror bounces after the primary hit.
-    pub bounces: u32,
+    pub(crate) bounces: u32,
     /// Camera samples per pixel.
-    pub spp: u32,
+    pub(crate) spp: u32,
     /// BVH or brute force.
-    pub accel: Accel,
+    pub(crate) accel: Accel,
     /// Triangles in the scene (all copies).
-    pub triangles: u64,
+    pub(crate) triangles: u64,
     /// Rays the frame traces at most (every pixel, sample and bounce).
-    pub rays: u64,
+    pub(crate) rays: u64,
     /// The tracing GPU's shader clock as last read, MHz.
-    pub gpu_clock_mhz: Option<f64>,
+    pub(crate) gpu_clock_mhz: Option<f64>,
 }
 
 /// A watched parameter and its value as text.
-pub type Watched = (&'static str, String);
+pub(crate) type Watched = (&'static str, String);
 
 /// A parameter that changed: its name, the old and the new value.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Change {
+pub(crate) struct Change {
     /// The parameter, named as in the panel.
-    pub name: &'static str,
+    pub(crate) name: &'static str,
     /// Its value before.
-    pub from: String,
+    pub(crate) from: String,
     /// Its value after.
-    pub to: String,
+    pub(crate) to: String,
 }
 
 /// The parameters the log watches, named as in the panel, with their values as text.
 /// The light's position is watched only while it is paused: an orbiting light moves every
 /// frame, which would be a change row per frame.
-pub fn watched(p: &Params, model: &str) -> Vec<Watched> {
+pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
     let s = &p.settings;
     let on = |b: bool| if b { "on" } else { "off" }.to_string();
     let v = |x: glam::Vec3| format!("{:.3} {:.3} {:.3}", x.x, x.y, x.z);
@@ -115,7 +115,7 @@ pub fn watched(p: &Params, model: &str) -> Vec<Watched> {
 }
 
 /// The watched values that differ between `before` and `after` (two [`watched`] lists).
-pub fn diff(before: &[Watched], after: &[Watched]) -> Vec<Change> {
+pub(crate) fn diff(before: &[Watched], after: &[Watched]) -> Vec<Change> {
     after
         .iter()
         .filter_map(|(name, to)| {
@@ -139,7 +139,7 @@ fn ms(v: Option<f64>) -> String {
 }
 
 /// The CSV line of frame `index`, `time_s` after the log's first frame.
-pub fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
+pub(crate) fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
     format!(
         "frame,{index},{time_s:.3},{},{},{}x{},{},{},{},{},{},{},,",
         ms(r.gpu_ms),
@@ -156,12 +156,12 @@ pub fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
 }
 
 /// The CSV line of a change that takes effect at frame `index`.
-pub fn change_line(index: u64, time_s: f64, c: &Change) -> String {
+pub(crate) fn change_line(index: u64, time_s: f64, c: &Change) -> String {
     format!("change,{index},{time_s:.3},,,,,,,,,,{},{}", field(c.name), field(&format!("{}->{}", c.from, c.to)))
 }
 
 /// The log being written: the CSV output and what it needs to place change rows.
-pub struct FrameLog<W: Write> {
+pub(crate) struct FrameLog<W: Write> {
     out: W,
     /// Frames logged so far (the next frame's index).
     frames: u64,
@@ -177,18 +177,18 @@ pub struct FrameLog<W: Write> {
 
 impl<W: Write> FrameLog<W> {
     /// Start a log on `out`, writing the header.
-    pub fn new(mut out: W) -> io::Result<Self> {
+    pub(crate) fn new(mut out: W) -> io::Result<Self> {
         writeln!(out, "{HEADER}")?;
         Ok(Self { out, frames: 0, t0: None, last: Vec::new(), moving: Vec::new(), held: None })
     }
 
     /// Frames logged so far.
-    pub fn frames(&self) -> u64 {
+    pub(crate) fn frames(&self) -> u64 {
         self.frames
     }
 
     /// Log a traced frame and the parameters it was traced with.
-    pub fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> io::Result<()> {
+    pub(crate) fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> io::Result<()> {
         let changed = diff(&self.last, &now);
         // Moves that did not go on into this frame ended on the held frame.
         let (ended, still): (Vec<Watched>, Vec<Watched>) = std::mem::take(&mut self.moving).into_iter().partition(|(name, _)| !changed.iter().any(|c| c.name == *name));
@@ -221,7 +221,7 @@ impl<W: Write> FrameLog<W> {
     }
 
     /// Write what is held back and flush; returns the output.
-    pub fn finish(mut self) -> io::Result<W> {
+    pub(crate) fn finish(mut self) -> io::Result<W> {
         let ended = std::mem::take(&mut self.moving);
         self.write_held(&ended)?;
         self.out.flush()?;
@@ -230,32 +230,32 @@ impl<W: Write> FrameLog<W> {
 }
 
 /// The tool's recording: a log on a file, started by `--stats-csv` or the panel.
-pub struct Recording {
+pub(crate) struct Recording {
     /// The file written.
-    pub path: PathBuf,
+    pub(crate) path: PathBuf,
     log: FrameLog<BufWriter<File>>,
 }
 
 impl Recording {
     /// Create (or replace) `path` and write the header.
-    pub fn create(path: &Path) -> Result<Self, String> {
+    pub(crate) fn create(path: &Path) -> Result<Self, String> {
         let fail = |e: io::Error| format!("cannot write the frame log {}: {e}", path.display());
         let file = File::create(path).map_err(fail)?;
         Ok(Self { path: path.to_path_buf(), log: FrameLog::new(BufWriter::new(file)).map_err(fail)? })
     }
 
     /// Frames logged so far.
-    pub fn frames(&self) -> u64 {
+    pub(crate) fn frames(&self) -> u64 {
         self.log.frames()
     }
 
     /// Log a traced frame; the error is one sentence naming the file.
-    pub fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> Result<(), String> {
+    pub(crate) fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> Result<(), String> {
         self.log.frame(row, now).map_err(|e| format!("writing the frame log {} failed: {e}", self.path.display()))
     }
 
     /// Close the file; returns what to tell the user.
-    pub fn finish(self) -> Result<String, String> {
+    pub(crate) fn finish(self) -> Result<String, String> {
         let frames = self.log.frames();
         match self.log.finish() {
             Ok(_) => Ok(format!("wrote {frames} frames to {}", self.path.display())),
@@ -266,7 +266,7 @@ impl Recording {
 
 impl FrameRow {
     /// The row of a frame traced with `settings` at `time_s`: the latest times of `stats`.
-    pub fn new(time_s: f64, stats: &FrameStats, settings: &RenderSettings, triangles: u64, gpu_clock_mhz: Option<f64>) -> Self {
+    pub(crate) fn new(time_s: f64, stats: &FrameStats, settings: &RenderSettings, triangles: u64, gpu_clock_mhz: Option<f64>) -> Self {
         Self {
             time_s,
             gpu_ms: stats.gpu.samples.back().map(|s| s.1),
@@ -286,7 +286,7 @@ impl FrameRow {
 /// The tool's frame-time log: at most one recording at a time, from `--stats-csv` or the
 /// panel's Record, and what became of the last one.
 #[derive(Default)]
-pub struct Recorder {
+pub(crate) struct Recorder {
     recording: Option<Recording>,
     /// A write failure of `--stats-csv`'s log, reported again at exit (a script must see it).
     failure: Option<String>,
@@ -296,18 +296,18 @@ pub struct Recorder {
 
 impl Recorder {
     /// Start `--stats-csv`'s log; a file that cannot be created stops the tool.
-    pub fn from_flag(path: Option<&Path>) -> Result<Self, String> {
+    pub(crate) fn from_flag(path: Option<&Path>) -> Result<Self, String> {
         let recording = path.map(Recording::create).transpose()?;
         Ok(Self { from_flag: recording.is_some(), recording, failure: None })
     }
 
     /// The file being written and its frames so far.
-    pub fn info(&self) -> Option<(&Path, u64)> {
+    pub(crate) fn info(&self) -> Option<(&Path, u64)> {
         self.recording.as_ref().map(|r| (r.path.as_path(), r.frames()))
     }
 
     /// Start a log from the panel in `dir`.
-    pub fn start(&mut self, dir: &Path) -> Option<Status> {
+    pub(crate) fn start(&mut self, dir: &Path) -> Option<Status> {
         if self.recording.is_some() {
             return None;
         }
@@ -322,7 +322,7 @@ impl Recorder {
     }
 
     /// Close the log; what to tell the user.
-    pub fn stop(&mut self) -> Option<Status> {
+    pub(crate) fn stop(&mut self) -> Option<Status> {
         let finished = self.recording.take()?.finish();
         Some(self.outcome(finished))
     }
@@ -340,7 +340,7 @@ impl Recorder {
     }
 
     /// Log a traced frame; a write failure ends the log and is returned.
-    pub fn frame(&mut self, row: impl FnOnce() -> (FrameRow, Vec<Watched>)) -> Option<Status> {
+    pub(crate) fn frame(&mut self, row: impl FnOnce() -> (FrameRow, Vec<Watched>)) -> Option<Status> {
         let recording = self.recording.as_mut()?;
         let (row, now) = row();
         let e = recording.frame(row, now).err()?;
@@ -350,7 +350,7 @@ impl Recorder {
 
     /// Close the log at exit; returns the line to print. `--stats-csv`'s failures are
     /// the run's error; the panel's were shown in the panel.
-    pub fn finish(&mut self) -> Result<Option<String>, String> {
+    pub(crate) fn finish(&mut self) -> Result<Option<String>, String> {
         let status = self.stop();
         match self.failure.take() {
             Some(e) => Err(e),
@@ -360,7 +360,7 @@ impl Recorder {
 }
 
 /// A fresh file name in `dir` for a log recorded from the panel.
-pub fn new_path(dir: &Path) -> PathBuf {
+pub(crate) fn new_path(dir: &Path) -> PathBuf {
     let stamp = crate::app::files::screenshot::timestamp();
     let mut path = dir.join(format!("meshtracer_frames_{stamp}.csv"));
     let mut n = 2;

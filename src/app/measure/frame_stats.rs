@@ -5,21 +5,21 @@
 use std::collections::VecDeque;
 
 /// Seconds of history kept: the longest window the graph offers.
-pub const HISTORY_SECONDS: f64 = 60.0;
+pub(crate) const HISTORY_SECONDS: f64 = 60.0;
 
 /// One series of (time in seconds, milliseconds) samples.
 #[derive(Clone, Debug, Default)]
-pub struct Series {
-    pub samples: VecDeque<(f64, f64)>,
+pub(crate) struct Series {
+    pub(crate) samples: VecDeque<(f64, f64)>,
 }
 
 /// Current, min, mean and max of a series.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Summary {
-    pub current: f64,
-    pub min: f64,
-    pub mean: f64,
-    pub max: f64,
+pub(crate) struct Summary {
+    pub(crate) current: f64,
+    pub(crate) min: f64,
+    pub(crate) mean: f64,
+    pub(crate) max: f64,
 }
 
 impl Series {
@@ -31,12 +31,12 @@ impl Series {
     }
 
     /// Statistics over the kept history; None when empty.
-    pub fn summary(&self) -> Option<Summary> {
+    pub(crate) fn summary(&self) -> Option<Summary> {
         self.summary_over(HISTORY_SECONDS)
     }
 
     /// Statistics over the last `seconds` of history; None when empty.
-    pub fn summary_over(&self, seconds: f64) -> Option<Summary> {
+    pub(crate) fn summary_over(&self, seconds: f64) -> Option<Summary> {
         let &(last, current) = self.samples.back()?;
         let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0);
         for &(_, v) in self.samples.iter().rev().take_while(|&&(t, _)| last - t <= seconds) {
@@ -49,38 +49,38 @@ impl Series {
     }
 
     /// The samples of the last `seconds`, as (seconds before the latest sample of `now`, ms).
-    pub fn recent(&self, seconds: f64, now: f64) -> impl Iterator<Item = [f64; 2]> + '_ {
+    pub(crate) fn recent(&self, seconds: f64, now: f64) -> impl Iterator<Item = [f64; 2]> + '_ {
         self.samples.iter().filter(move |&&(t, _)| now - t <= seconds).map(move |&(t, ms)| [t - now, ms])
     }
 }
 
 /// The two series the panel plots.
 #[derive(Clone, Debug, Default)]
-pub struct FrameStats {
+pub(crate) struct FrameStats {
     /// GPU time of the trace dispatch per frame.
-    pub gpu: Series,
+    pub(crate) gpu: Series,
     /// Frame-to-frame time on the CPU clock.
-    pub frame: Series,
+    pub(crate) frame: Series,
 }
 
 impl FrameStats {
     /// Record a frame that started `ms` after the previous one, at time `t` seconds.
-    pub fn push_frame(&mut self, t: f64, ms: f64) {
+    pub(crate) fn push_frame(&mut self, t: f64, ms: f64) {
         self.frame.push(t, ms);
     }
 
     /// Record a GPU trace time that became available at time `t`.
-    pub fn push_gpu(&mut self, t: f64, ms: f64) {
+    pub(crate) fn push_gpu(&mut self, t: f64, ms: f64) {
         self.gpu.push(t, ms);
     }
 
     /// Time of the latest sample of either series (0 before any).
-    pub fn latest(&self) -> f64 {
+    pub(crate) fn latest(&self) -> f64 {
         [&self.gpu, &self.frame].iter().filter_map(|s| s.samples.back().map(|v| v.0)).fold(0.0, f64::max)
     }
 
     /// Frames per second over the last second of history.
-    pub fn fps(&self) -> f64 {
+    pub(crate) fn fps(&self) -> f64 {
         let Some(&(last, _)) = self.frame.samples.back() else { return 0.0 };
         let recent: Vec<f64> = self.frame.samples.iter().filter(|s| last - s.0 < 1.0).map(|s| s.1).collect();
         let total: f64 = recent.iter().sum();
@@ -93,7 +93,7 @@ impl FrameStats {
 }
 
 /// Million rays per second for `rays` rays traced in `ms` milliseconds.
-pub fn mrays_per_second(rays: u64, ms: f64) -> f64 {
+pub(crate) fn mrays_per_second(rays: u64, ms: f64) -> f64 {
     if ms > 0.0 {
         rays as f64 / (ms * 1e-3) / 1e6
     } else {

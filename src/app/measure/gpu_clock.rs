@@ -12,30 +12,30 @@ use crate::gpu::{ClockProbe, GpuContext};
 /// How often the clock is read. The H100's clock falls within a second of idling, so
 /// readings seconds apart missed it; each reading waits for about a millisecond of GPU
 /// work at full clock (six at the idle clock), a fraction of a percent at this interval.
-pub const INTERVAL: Duration = Duration::from_millis(500);
+pub(crate) const INTERVAL: Duration = Duration::from_millis(500);
 
 /// The probe and its readings.
 #[derive(Default)]
-pub struct ClockWatch {
+pub(crate) struct ClockWatch {
     probe: Option<ClockProbe>,
     last: Option<Instant>,
     /// The latest reading, MHz.
-    pub latest: Option<f64>,
+    pub(crate) latest: Option<f64>,
     /// The highest reading so far, MHz.
-    pub highest: Option<f64>,
+    pub(crate) highest: Option<f64>,
 }
 
 impl ClockWatch {
     /// A watch on `ctx`'s device; it reads nothing on CPU devices (the host's clock, and a
     /// probe there would hold up the frames) or where the device has no shader clock.
-    pub fn new(ctx: &Arc<GpuContext>) -> Self {
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Self {
         let probe = if ctx.info.is_cpu() { None } else { ClockProbe::new(ctx).ok().flatten() };
         Self { probe, ..Default::default() }
     }
 
     /// Read the clock if [`INTERVAL`] has passed since the last reading. A probe that fails
     /// is dropped with a warning: the clock is a read-out, not worth stopping the tool.
-    pub fn poll(&mut self, now: Instant) {
+    pub(crate) fn poll(&mut self, now: Instant) {
         let Some(probe) = self.probe.as_mut() else { return };
         if self.last.is_some_and(|t| now.duration_since(t) < INTERVAL) {
             return;

@@ -19,11 +19,11 @@ use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
 
 /// The presenting side and the tracing context (the same context when one device does both).
 pub(super) struct WindowDevices {
-    pub presenter: Presenter,
+    pub(crate) presenter: Presenter,
     /// The device that presents.
-    pub ctx: Arc<GpuContext>,
+    pub(crate) ctx: Arc<GpuContext>,
     /// The device that traces.
-    pub trace_ctx: Arc<GpuContext>,
+    pub(crate) trace_ctx: Arc<GpuContext>,
 }
 
 /// Open the presenter on the device `options` ask for (or the best one that presents), and

@@ -20,7 +20,7 @@ const PIXELS_PER_NOTCH: f64 = 40.0;
 
 /// What a mouse drag over the image does to the camera.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Drag {
+pub(crate) enum Drag {
     /// Left button: turn around the target.
     Orbit,
     /// Middle button, or Shift with the left: slide the view.
@@ -31,26 +31,26 @@ pub enum Drag {
 
 /// A key press as winit reported it, waiting for the frame that decides who gets it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct KeyPress {
-    pub code: KeyCode,
-    pub shift: bool,
-    pub ctrl: bool,
+pub(crate) struct KeyPress {
+    pub(crate) code: KeyCode,
+    pub(crate) shift: bool,
+    pub(crate) ctrl: bool,
     /// A held key's auto-repeat.
-    pub repeat: bool,
+    pub(crate) repeat: bool,
     /// How many of egui's events of the frame came before or with it.
     at: usize,
 }
 
 /// The input state the window events leave behind.
 #[derive(Default)]
-pub struct Input {
+pub(crate) struct Input {
     /// A drag that began over the image, moving the camera.
-    pub drag: Option<Drag>,
+    pub(crate) drag: Option<Drag>,
     /// The cursor of the latest cursor event, physical pixels; None outside the window.
-    pub cursor: Option<PhysicalPosition<f64>>,
-    pub modifiers: ModifiersState,
+    pub(crate) cursor: Option<PhysicalPosition<f64>>,
+    pub(crate) modifiers: ModifiersState,
     /// The window is hidden or minimized: nothing is drawn.
-    pub occluded: bool,
+    pub(crate) occluded: bool,
     /// The next wheel event echoes the release of a wheel button (see [`Input::raw_button`]).
     wheel_release_echo: bool,
     /// Key presses since the last frame took its own, in order.
@@ -59,7 +59,7 @@ pub struct Input {
 
 impl Input {
     /// The cursor is over the traced image (not over the panel, not outside the window).
-    pub fn over_image(&self, image_area: PixelRect) -> bool {
+    pub(crate) fn over_image(&self, image_area: PixelRect) -> bool {
         self.cursor.is_some_and(|c| {
             let (x, y) = (c.x, c.y);
             x >= image_area.x as f64 && y >= image_area.y as f64 && x < image_area.x as f64 + image_area.width as f64 && y < image_area.y as f64 + image_area.height as f64
@@ -68,13 +68,13 @@ impl Input {
 
     /// A press or release of the button that starts `kind` of drag; a drag starts only over
     /// the image (Shift turns a left-button orbit into a pan).
-    pub fn drag_button(&mut self, state: ElementState, kind: Drag, image_area: PixelRect) {
+    pub(crate) fn drag_button(&mut self, state: ElementState, kind: Drag, image_area: PixelRect) {
         let kind = if kind == Drag::Orbit && self.modifiers.shift_key() { Drag::Pan } else { kind };
         self.drag = (state == ElementState::Pressed && self.over_image(image_area)).then_some(kind);
     }
 
     /// The cursor moved: returns the drag and its motion in pixels, if dragging.
-    pub fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(Drag, f32, f32)> {
+    pub(crate) fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(Drag, f32, f32)> {
         let drag = match (self.drag, self.cursor) {
             (Some(kind), Some(last)) => Some((kind, (position.x - last.x) as f32, (position.y - last.y) as f32)),
             _ => None,
@@ -88,7 +88,7 @@ impl Input {
     /// of button 4-7, and winit turns both into a wheel event: one notch, two steps. The raw
     /// release comes just before its echo, so that echo is dropped. Smooth-scrolling mice send
     /// no raw wheel buttons (theirs are flagged emulated and not reported), nor does Wayland.
-    pub fn raw_button(&mut self, button: u32, state: ElementState) {
+    pub(crate) fn raw_button(&mut self, button: u32, state: ElementState) {
         if (4..=7).contains(&button) {
             self.wheel_release_echo = state == ElementState::Released;
         }
@@ -96,7 +96,7 @@ impl Input {
 
     /// A key was pressed; `egui_events` is the number of events egui's input holds after
     /// it (egui-winit has just added the press's own).
-    pub fn key_pressed(&mut self, code: KeyCode, repeat: bool, egui_events: usize) {
+    pub(crate) fn key_pressed(&mut self, code: KeyCode, repeat: bool, egui_events: usize) {
         let (shift, ctrl) = (self.modifiers.shift_key(), self.modifiers.control_key());
         self.keys.push(KeyPress { code, shift, ctrl, repeat, at: egui_events });
     }
@@ -105,7 +105,7 @@ impl Input {
     /// pointer release that has a key or text event after it. The events after that
     /// release are taken out of `events` and returned, to go first into the next frame's
     /// input; the presses among them wait for that frame.
-    pub fn frame_keys(&mut self, events: &mut Vec<egui::Event>) -> (Vec<KeyPress>, Vec<egui::Event>) {
+    pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>) -> (Vec<KeyPress>, Vec<egui::Event>) {
         let is_release = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
         let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
         let cut = events.iter().position(is_release).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
@@ -123,7 +123,7 @@ impl Input {
     }
 
     /// Wheel notches to zoom by (positive = closer), when the wheel turned over the image.
-    pub fn wheel(&mut self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
+    pub(crate) fn wheel(&mut self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
         if std::mem::take(&mut self.wheel_release_echo) && matches!(delta, MouseScrollDelta::LineDelta(..)) {
             return None;
         }

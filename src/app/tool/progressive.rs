@@ -9,13 +9,13 @@ use crate::gpu::present::BandTag;
 use crate::gpu::{Band, FrameTrace, GroupSize, PartTimes};
 
 /// GPU milliseconds a band should take, so that the window stays responsive.
-pub const BAND_TARGET_MS: f64 = 40.0;
+pub(crate) const BAND_TARGET_MS: f64 = 40.0;
 
 /// A long frame being traced band by band.
 #[derive(Clone, Debug)]
-pub struct Progressive {
+pub(crate) struct Progressive {
     /// The frame's parameters (both halves of a split), fixed when it began.
-    pub frame: FrameTrace,
+    pub(crate) frame: FrameTrace,
     /// The first row of the strip not yet finished (a multiple of the group height).
     next_row: u32,
     /// The first column not yet traced in that strip (a multiple of the group width).
@@ -28,13 +28,13 @@ pub struct Progressive {
 
 impl Progressive {
     /// A frame not yet begun, traced in work groups of `group` pixels.
-    pub fn new(frame: FrameTrace, group: GroupSize) -> Self {
+    pub(crate) fn new(frame: FrameTrace, group: GroupSize) -> Self {
         let group = GroupSize { width: group.width.max(1), height: group.height.max(1) };
         Self { frame, next_row: 0, next_column: 0, group, started: std::time::Instant::now() }
     }
 
     /// Share of the frame's pixels traced so far, in [0, 1].
-    pub fn progress(&self) -> f32 {
+    pub(crate) fn progress(&self) -> f32 {
         let s = &self.frame.params.settings;
         let strip = self.group.height.min(s.height.saturating_sub(self.next_row));
         let done = self.next_row as u64 * s.width as u64 + self.next_column as u64 * strip as u64;
@@ -42,13 +42,13 @@ impl Progressive {
     }
 
     /// Seconds the frame still needs at the pace so far (None before any progress).
-    pub fn seconds_left(&self) -> Option<f64> {
+    pub(crate) fn seconds_left(&self) -> Option<f64> {
         let p = self.progress() as f64;
         (p > 0.0).then(|| self.started.elapsed().as_secs_f64() * (1.0 - p) / p)
     }
 
     /// Take the next band of about `groups` work groups; `None` once the frame is done.
-    pub fn next_band(&mut self, groups: u32) -> Option<Band> {
+    pub(crate) fn next_band(&mut self, groups: u32) -> Option<Band> {
         let group = self.group;
         let (width, height) = (self.frame.params.settings.width, self.frame.params.settings.height);
         if self.next_row >= height {
@@ -75,7 +75,7 @@ impl Progressive {
 
     /// `frame` is this frame's: a moving light does not restart a long frame (it would
     /// never finish), so the light is not compared; any other change is a new frame.
-    pub fn continues(&self, frame: &FrameTrace) -> bool {
+    pub(crate) fn continues(&self, frame: &FrameTrace) -> bool {
         let mut other = *frame;
         other.params.light_position = self.frame.params.light_position;
         if let (Some(theirs), Some(ours)) = (&mut other.split, &self.frame.split) {
@@ -85,14 +85,14 @@ impl Progressive {
     }
 
     /// The frame is traced to its last pixel.
-    pub fn is_done(&self) -> bool {
+    pub(crate) fn is_done(&self) -> bool {
         self.next_row >= self.frame.params.settings.height
     }
 }
 
 /// The next band's size in groups, from the last band's size and GPU time: about
 /// [`BAND_TARGET_MS`] per band, changing by at most 4x a step, within `1..=most`.
-pub fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
+pub(crate) fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
     let scaled = if gpu_ms > 0.0 { groups as f64 * (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0) } else { groups as f64 };
     (scaled.round() as u32).clamp(1, most.max(1))
 }
@@ -101,7 +101,7 @@ pub fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
 /// after their bands, in the window's frames in flight): the time the frame took, as
 /// `bench` and `render` count it, rather than its last band's.
 #[derive(Debug, Default)]
-pub struct BandTimes {
+pub(crate) struct BandTimes {
     /// The frame being added up, its milliseconds so far, and per part of a split frame
     /// (None for a part no band has timed yet).
     open: Option<(u64, f64, PartTimes)>,
@@ -111,7 +111,7 @@ impl BandTimes {
     /// Add the time of a band of `tag`'s frame (`parts`: per part of a split frame); the
     /// frame's total and parts once its last band is in. A band of another frame drops a
     /// frame left unfinished (restarted by a change).
-    pub fn add(&mut self, tag: BandTag, ms: f64, parts: PartTimes) -> Option<(f64, PartTimes)> {
+    pub(crate) fn add(&mut self, tag: BandTag, ms: f64, parts: PartTimes) -> Option<(f64, PartTimes)> {
         let (frame, total, sums) = match self.open.take() {
             Some(open) if open.0 == tag.frame => open,
             _ => (tag.frame, 0.0, [None; 2]),

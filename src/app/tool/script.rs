@@ -12,15 +12,15 @@ enum Exit {
 }
 
 /// The scripted part of a run: its frame budget, the files to write at exit, the exit state.
-pub struct ScriptedRun {
+pub(crate) struct ScriptedRun {
     /// Quit after this many traced frames.
-    pub frame_limit: Option<u64>,
+    pub(crate) frame_limit: Option<u64>,
     /// Frames presented with a traced scene (what `--frames` counts).
-    pub frames: u64,
+    pub(crate) frames: u64,
     /// The traced image at exit.
-    pub screenshot: Option<PathBuf>,
+    pub(crate) screenshot: Option<PathBuf>,
     /// The window as seen at exit.
-    pub screenshot_ui: Option<PathBuf>,
+    pub(crate) screenshot_ui: Option<PathBuf>,
     exit: Exit,
     /// Tries at drawing the final frame (a skipped frame is retried a few times).
     exit_attempts: u32,
@@ -28,23 +28,23 @@ pub struct ScriptedRun {
 
 impl ScriptedRun {
     /// A run ending after `frame_limit` traced frames (never, without one).
-    pub fn new(frame_limit: Option<u64>, screenshot: Option<PathBuf>, screenshot_ui: Option<PathBuf>) -> Self {
+    pub(crate) fn new(frame_limit: Option<u64>, screenshot: Option<PathBuf>, screenshot_ui: Option<PathBuf>) -> Self {
         Self { frame_limit, frames: 0, screenshot, screenshot_ui, exit: Exit::Running, exit_attempts: 0 }
     }
 
     /// Quit after the next frame (window closed, Ctrl+Q).
-    pub fn request_exit(&mut self) {
+    pub(crate) fn request_exit(&mut self) {
         self.exit = Exit::Requested;
     }
 
     /// The frame about to be drawn is the last one (`traced`: it traces the scene).
-    pub fn is_final_frame(&self, traced: bool) -> bool {
+    pub(crate) fn is_final_frame(&self, traced: bool) -> bool {
         let scripted_last = traced && self.frame_limit.is_some_and(|n| self.frames + 1 >= n);
         scripted_last || self.exit == Exit::Requested
     }
 
     /// The final frame was drawn (or could not be, `gave_up`): true when the run ends now.
-    pub fn finish_attempt(&mut self, presented: bool, cannot_draw: bool) -> bool {
+    pub(crate) fn finish_attempt(&mut self, presented: bool, cannot_draw: bool) -> bool {
         if presented || cannot_draw || self.exit_attempts >= 10 {
             return true;
         }

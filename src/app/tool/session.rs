@@ -15,12 +15,12 @@ use crate::app::panel::PanelState;
 use crate::app::state::{Params, Resolution};
 
 /// The current model on the CPU side.
-pub struct Model {
-    pub source: ModelSource,
-    pub scene: Scene,
+pub(crate) struct Model {
+    pub(crate) source: ModelSource,
+    pub(crate) scene: Scene,
     /// The packed scene with its geometry arrays emptied after upload: the mesh table
     /// stays for instance rebuilds, the environment for its changes.
-    pub packed: PackedScene,
+    pub(crate) packed: PackedScene,
 }
 
 /// What the tracer holds now; None = not applied yet (or to be applied again).
@@ -36,24 +36,24 @@ struct Applied {
 /// frames have been averaged into the output since anything changed (either half of a
 /// split frame, or the line).
 #[derive(Default)]
-pub struct Accumulation {
+pub(crate) struct Accumulation {
     last: Option<FrameTrace>,
     /// Frames averaged into the image shown.
-    pub frames: u32,
+    pub(crate) frames: u32,
 }
 
 /// The model, the loader and the tracer's state.
 #[derive(Default)]
-pub struct Session {
-    pub model: Option<Model>,
-    pub loader: ModelLoader,
+pub(crate) struct Session {
+    pub(crate) model: Option<Model>,
+    pub(crate) loader: ModelLoader,
     applied: Applied,
-    pub accumulation: Accumulation,
+    pub(crate) accumulation: Accumulation,
 }
 
 impl Session {
     /// Start loading `source` (the current model stays until it is ready).
-    pub fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
+    pub(crate) fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
         panel.model.status = None;
         panel.model.warnings.clear();
         self.loader.start(source, params.load_options, params.model_count, params.light);
@@ -61,7 +61,7 @@ impl Session {
 
     /// Take a finished load: upload it, or keep the old model and say why not. With no
     /// model to fall back on, a failed load ends the run (the error is returned).
-    pub fn poll_loader(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<Option<String>> {
+    pub(crate) fn poll_loader(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<Option<String>> {
         let result = match self.loader.poll() {
             Poll::Idle | Poll::Busy => return Ok(None),
             Poll::Done(result) => *result,
@@ -103,7 +103,7 @@ impl Session {
 
     /// Push parameter changes to the tracer (each takes effect this frame); `area` is the
     /// image area in physical pixels.
-    pub fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
+    pub(crate) fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
         let size = params.render_size(area);
         if self.applied.resolution != Some(size) {
             match tracer.set_resolution(size[0], size[1]) {
@@ -152,7 +152,7 @@ impl Session {
     /// This frame's parameters (None without a model), split or not, counting accumulated
     /// frames; with `hold`, an unchanged frame keeps its index (a long frame still being
     /// traced).
-    pub fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameTrace> {
+    pub(crate) fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameTrace> {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
@@ -173,12 +173,12 @@ impl Session {
     }
 
     /// The model's label, for file names ("none" before the first load).
-    pub fn model_label(&self) -> String {
+    pub(crate) fn model_label(&self) -> String {
         self.model.as_ref().map_or("none".into(), |m| m.source.label())
     }
 
     /// Triangles and vertices in the world (all instances).
-    pub fn counts(&self) -> (u64, u64) {
+    pub(crate) fn counts(&self) -> (u64, u64) {
         self.model.as_ref().map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
     }
 }

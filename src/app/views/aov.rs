@@ -7,14 +7,14 @@ use crate::tracer::Image;
 
 /// A view's picture: RGBA8 pixels, the heat scale (top, max, mean) where it is a heat map,
 /// and what the colours mean otherwise.
-pub struct ViewPicture {
-    pub rgba: Vec<u8>,
-    pub heat: Option<(f32, f32, f32)>,
-    pub note: Option<String>,
+pub(crate) struct ViewPicture {
+    pub(crate) rgba: Vec<u8>,
+    pub(crate) heat: Option<(f32, f32, f32)>,
+    pub(crate) note: Option<String>,
 }
 
 /// The picture of `image`, traced for `view` (not the colour or cost view: None for those).
-pub fn picture(image: &Image, view: ViewMode) -> Option<ViewPicture> {
+pub(crate) fn picture(image: &Image, view: ViewMode) -> Option<ViewPicture> {
     let px = &image.pixels;
     let rgba = |f: &dyn Fn(&[f32; 4]) -> [u8; 3]| px.iter().flat_map(|p| { let [r, g, b] = f(p); [r, g, b, 255] }).collect::<Vec<u8>>();
     match view {

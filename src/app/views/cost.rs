@@ -3,10 +3,10 @@
 //! (`tracer::heat_map`, shared with `render --aov cost -o cost.png`).
 
 use crate::app::state::CostMetric;
-pub use crate::tracer::heat_map::{heat_color, HeatMap};
+pub(crate) use crate::tracer::heat_map::{heat_color, HeatMap};
 
 /// Map the float output (RGBA f32 per pixel) to heat colours for `metric`.
-pub fn heat_map(floats: &[f32], metric: CostMetric) -> HeatMap {
+pub(crate) fn heat_map(floats: &[f32], metric: CostMetric) -> HeatMap {
     let channel = match metric {
         CostMetric::Nodes => 0,
         CostMetric::Triangles => 1,

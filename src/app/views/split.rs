@@ -11,7 +11,7 @@ use crate::gpu::{FrameTrace, SplitTrace};
 use crate::tracer::frame::{Accel, FrameParams, RenderSettings, MAX_BOUNCES, MAX_SPP};
 
 /// How close to the line (physical pixels) a left press grabs it instead of orbiting.
-pub const GRAB_PIXELS: f64 = 8.0;
+pub(crate) const GRAB_PIXELS: f64 = 8.0;
 
 /// The parameters in which B differs from A: each None follows A.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -35,11 +35,11 @@ pub struct SplitB {
 }
 
 /// The names `--split-b` takes, in the order [`SplitB::describe`] lists them.
-pub const KEYS: [&str; 8] = ["accel", "bounces", "blend", "spp", "adaptive", "smooth", "textures", "env"];
+pub(crate) const KEYS: [&str; 8] = ["accel", "bounces", "blend", "spp", "adaptive", "smooth", "textures", "env"];
 
 impl SplitB {
     /// B's settings: A's with the differing parameters replaced.
-    pub fn settings(&self, a: &RenderSettings) -> RenderSettings {
+    pub(crate) fn settings(&self, a: &RenderSettings) -> RenderSettings {
         RenderSettings {
             accel: self.accel.unwrap_or(a.accel),
             bounces: self.bounces.unwrap_or(a.bounces),
@@ -53,18 +53,18 @@ impl SplitB {
     }
 
     /// Whether B's misses see the environment, A's being `a`.
-    pub fn environment(&self, a: bool) -> bool {
+    pub(crate) fn environment(&self, a: bool) -> bool {
         self.environment.unwrap_or(a)
     }
 
     /// B asks for an environment whatever A has (the sky is uploaded when A has none).
-    pub fn wants_environment(&self) -> bool {
+    pub(crate) fn wants_environment(&self) -> bool {
         self.environment == Some(true)
     }
 
     /// Parse `--split-b`: comma-separated `name=value` pairs, e.g. `bounces=0,smooth=off`.
     /// The error is one line naming the pair and what was expected.
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub(crate) fn parse(text: &str) -> Result<Self, String> {
         let mut b = SplitB::default();
         for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let (name, value) = pair.split_once('=').ok_or_else(|| format!("--split-b '{pair}' is not name=value (names: {})", KEYS.join(", ")))?;
@@ -101,7 +101,7 @@ impl SplitB {
     }
 
     /// What B changes, short ("bounces 0, smooth off"), or "same as A".
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         let on = |v: bool| if v { "on" } else { "off" };
         let parts: Vec<String> = [
             self.accel.map(|a| format!("{a}")),
@@ -142,21 +142,21 @@ impl SplitView {
     /// The first column traced with B in an image `width` pixels wide: the line's place
     /// snapped to a multiple of the work-group width (dispatches start there), at most the
     /// width.
-    pub fn column(&self, width: u32) -> u32 {
+    pub(crate) fn column(&self, width: u32) -> u32 {
         let x = self.position.clamp(0.0, 1.0) as f64 * width as f64;
         let column = (x / GROUP.width as f64).round() as u32 * GROUP.width;
         column.min(width)
     }
 
     /// Move the line to `x`, a share of the image width (clamped to the image).
-    pub fn move_to(&mut self, x: f32) {
+    pub(crate) fn move_to(&mut self, x: f32) {
         if x.is_finite() {
             self.position = x.clamp(0.0, 1.0);
         }
     }
 
     /// The frame to trace: `a` all over, or A left of the line and B right of it.
-    pub fn frame(&self, a: FrameParams) -> FrameTrace {
+    pub(crate) fn frame(&self, a: FrameParams) -> FrameTrace {
         if !self.enabled {
             return FrameTrace::whole(a);
         }
@@ -166,7 +166,7 @@ impl SplitView {
     }
 
     /// The per-half GPU times as the overlay writes them ("A 12.3 ms | B 20.1 ms").
-    pub fn times_text(ms: crate::gpu::PartTimes) -> String {
+    pub(crate) fn times_text(ms: crate::gpu::PartTimes) -> String {
         let t = |m: Option<f64>| m.map_or("–".into(), |m| format!("{m:.1} ms"));
         format!("A {} | B {}", t(ms[0]), t(ms[1]))
     }
