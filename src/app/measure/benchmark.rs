@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
+use crate::bench::timing::{mrays_per_second, Spread};
 use crate::bench::Environment;
 use crate::scene::camera::Camera;
 use crate::tracer::frame::{Accel, RenderSettings};
@@ -39,12 +40,7 @@ pub(crate) struct Timing {
 impl Timing {
     /// The statistics of `samples`; None when there are none.
     pub(crate) fn of(samples: &[f64]) -> Option<Self> {
-        if samples.is_empty() {
-            return None;
-        }
-        let min = samples.iter().copied().fold(f64::INFINITY, f64::min);
-        let max = samples.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let mean = samples.iter().sum::<f64>() / samples.len() as f64;
+        let Spread { min, mean, max } = Spread::of(samples.iter().copied())?;
         Some(Self { min, mean, max, p90: crate::bench::Stats::of(samples).p90 })
     }
 }
@@ -115,11 +111,6 @@ impl BenchmarkSummary {
             format!("  {:.1} Mrays/s on {} ({}), driver {}, Vulkan {}", self.mrays_per_s, e.device, e.device_type, e.driver, e.vulkan),
         ]
     }
-}
-
-/// Million rays per second for `rays` rays in `ms` milliseconds (0 without a time).
-fn mrays(rays: u64, ms: f64) -> f64 {
-    if ms > 0.0 { rays as f64 / (ms * 1e-3) / 1e6 } else { 0.0 }
 }
 
 /// What the last run said, as the panel's Benchmark section shows it.
@@ -279,7 +270,7 @@ impl Benchmark {
             gpu_ms,
             gpu_clock_mhz: self.clock_mhz,
             fps,
-            mrays_per_s: mrays(rays, gpu_ms.map_or(frame_ms.mean, |g| g.mean)),
+            mrays_per_s: mrays_per_second(rays, gpu_ms.map_or(frame_ms.mean, |g| g.mean)),
         }
     }
 }

@@ -4,6 +4,8 @@
 
 use std::collections::VecDeque;
 
+use crate::bench::timing::Spread;
+
 /// Seconds of history kept: the longest window the graph offers.
 pub(crate) const HISTORY_SECONDS: f64 = 60.0;
 
@@ -13,7 +15,7 @@ pub(crate) struct Series {
     pub(crate) samples: VecDeque<(f64, f64)>,
 }
 
-/// Current, min, mean and max of a series.
+/// Current, min, mean and max of a series (the spread is [`Spread`]'s).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Summary {
     pub(crate) current: f64,
@@ -38,14 +40,9 @@ impl Series {
     /// Statistics over the last `seconds` of history; None when empty.
     pub(crate) fn summary_over(&self, seconds: f64) -> Option<Summary> {
         let &(last, current) = self.samples.back()?;
-        let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0);
-        for &(_, v) in self.samples.iter().rev().take_while(|&&(t, _)| last - t <= seconds) {
-            min = min.min(v);
-            max = max.max(v);
-            sum += v;
-            n += 1;
-        }
-        Some(Summary { current, min, mean: sum / n as f64, max })
+        let recent = self.samples.iter().rev().take_while(|&&(t, _)| last - t <= seconds).map(|&(_, v)| v);
+        let Spread { min, mean, max } = Spread::of(recent)?;
+        Some(Summary { current, min, mean, max })
     }
 
     /// The samples of the last `seconds`, as (seconds before the latest sample of `now`, ms).
@@ -92,14 +89,8 @@ impl FrameStats {
     }
 }
 
-/// Million rays per second for `rays` rays traced in `ms` milliseconds.
-pub(crate) fn mrays_per_second(rays: u64, ms: f64) -> f64 {
-    if ms > 0.0 {
-        rays as f64 / (ms * 1e-3) / 1e6
-    } else {
-        0.0
-    }
-}
+/// The one Mrays/s formula, `bench`'s.
+pub(crate) use crate::bench::timing::mrays_per_second;
 
 #[cfg(test)]
 mod tests {
