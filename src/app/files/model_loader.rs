@@ -6,9 +6,9 @@ use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 use std::time::Instant;
 
+use crate::scene::Scene;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
-use crate::scene::Scene;
 use crate::tracer::packed::PackedScene;
 
 /// A loaded model, ready to upload.

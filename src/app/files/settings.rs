@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::app::panel::widgets::Sections;
 use crate::app::panel::PanelState;
+use crate::app::panel::widgets::Sections;
 
 /// The environment variable naming the folder of `settings.toml` (tests point it at a
 /// temporary folder so they never touch the user's).

@@ -7,12 +7,12 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime};
 
+use crate::gpu::ComputeTracer;
 use crate::gpu::shader_compile::shader_files;
 use crate::gpu::trace_pass::compile_trace_shader;
-use crate::gpu::ComputeTracer;
 
-use crate::app::panel::widgets::Status;
 use crate::app::panel::PanelState;
+use crate::app::panel::widgets::Status;
 
 /// How often the files' modification times are read.
 const POLL_EVERY: Duration = Duration::from_millis(500);

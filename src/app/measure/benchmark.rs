@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
-use crate::bench::timing::{mrays_per_second, Spread};
 use crate::bench::Environment;
+use crate::bench::timing::{mrays_per_second, Spread};
 use crate::scene::camera::Camera;
 use crate::tracer::frame::{Accel, RenderSettings};
 

@@ -3,9 +3,9 @@
 
 use egui::{RichText, Ui};
 
+use crate::app::measure::benchmark::{Outcome, DEFAULT_FRAMES};
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::status_line;
-use crate::app::measure::benchmark::{Outcome, DEFAULT_FRAMES};
 
 /// What the section keeps between frames.
 pub(crate) struct BenchmarkPanel {

@@ -3,9 +3,9 @@
 
 use egui::{RichText, Ui};
 
+use crate::app::files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
-use crate::app::files::open_dialog::Purpose;
 use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
 

@@ -5,10 +5,10 @@
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
 
+use crate::app::measure::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
-use crate::app::measure::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
 
 /// The graph's window lengths, in seconds.
 pub(crate) const WINDOWS: [f64; 4] = [5.0, 10.0, 30.0, HISTORY_SECONDS];

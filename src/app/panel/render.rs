@@ -3,12 +3,12 @@
 
 use egui::{Color32, RichText, Sense, Ui};
 
-use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::info::VendorInfo;
-use crate::app::panel::widgets::status_line;
+use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::Status;
-use crate::app::views::cost::heat_color;
+use crate::app::panel::widgets::status_line;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
+use crate::app::views::cost::heat_color;
 use crate::gpu::vendor::VendorKernel;
 use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
 

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use egui::Ui;
 
-use crate::app::panel::info::PanelInfo;
 use crate::app::files::open_dialog::Purpose;
+use crate::app::panel::info::PanelInfo;
 use crate::app::state::Params;
 use crate::gpu::vendor::VendorKernel;
 use crate::scene::paper::ModelSource;

@@ -10,11 +10,11 @@ use std::sync::Arc;
 
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
-use crate::app::{headless_error, ViewOptions};
-use crate::gpu::present::surface::context_for_window;
-use crate::gpu::present::Presenter;
-use crate::gpu::context::list_devices;
 use crate::app::measure::gpu_clock::ClockWatch;
+use crate::app::{headless_error, ViewOptions};
+use crate::gpu::context::list_devices;
+use crate::gpu::present::Presenter;
+use crate::gpu::present::surface::context_for_window;
 use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
 
 /// The presenting side and the tracing context (the same context when one device does both).

@@ -6,8 +6,8 @@ use winit::keyboard::PhysicalKey;
 
 use crate::app::files::open_dialog::Purpose;
 use crate::app::state::{fit_rect, KeyAction};
-use crate::app::tool::input::{Drag, KeyPress};
 use crate::app::tool::Tool;
+use crate::app::tool::input::{Drag, KeyPress};
 use crate::gpu::present::PixelRect;
 
 impl Tool {

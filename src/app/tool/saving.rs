@@ -10,12 +10,12 @@ use anyhow::{anyhow, Context as _};
 
 use winit::dpi::LogicalSize;
 
-use crate::app::options::DEFAULT_WINDOW;
-use crate::app::views::overlay::Notice;
-use crate::app::panel::widgets::Status;
-use crate::app::files::settings;
 use crate::app::files::screenshot::{self, Kind, NameParts};
+use crate::app::files::settings;
+use crate::app::options::DEFAULT_WINDOW;
+use crate::app::panel::widgets::Status;
 use crate::app::tool::Tool;
+use crate::app::views::overlay::Notice;
 use crate::scene::preset::{self, Loaded, SaveError};
 
 impl Tool {

@@ -10,8 +10,8 @@ use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
 use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
-use crate::app::panel::widgets::{group, Status};
 use crate::app::panel::PanelState;
+use crate::app::panel::widgets::{group, Status};
 use crate::app::state::{Params, Resolution};
 
 /// The current model on the CPU side.

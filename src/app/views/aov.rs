@@ -2,8 +2,8 @@
 //! a picture with a line saying what its colours mean (the cost view is `views::cost`).
 
 use crate::app::state::ViewMode;
-use crate::tracer::heat_map::heat_map;
 use crate::tracer::Image;
+use crate::tracer::heat_map::heat_map;
 
 /// A view's picture: RGBA8 pixels, the heat scale (top, max, mean) where it is a heat map,
 /// and what the colours mean otherwise.
