@@ -1,56 +1,32 @@
 //! The interactive tool: a winit window with a Vulkan swapchain showing the traced image,
 //! and the egui tuning panel on top.
 //!
-//! - `options`: what the tool is started with (the CLI fills it);
-//! - `tool`: the window, GPU side and egui, and one redraw per displayed frame, over
-//!   `input` (mouse and keys), `session` (model, loader, what the tracer holds) and
-//!   `script` (`--frames` runs and exiting);
-//! - `state`: the parameters and the keyboard shortcuts;
-//! - `panel`: the egui panel (`camera_panel`: its camera section; `presets_panel`: its
-//!   Presets section, save, load, recent; `perf_panel`: its Performance section);
-//!   `frame_stats`: the frame-time history it plots; `frame_log`: the frame-time CSV
-//!   (`--stats-csv`, Record); `gpu_clock`: the GPU's shader clock beside the times;
-//!   `settings`: what is remembered between runs;
-//! - `model_loader`: loading .obj files on a worker thread; `open_dialog`: the Open
-//!   dialog (Ctrl+O) that picks them;
-//! - `progressive`: long frames traced in bands over several display frames;
-//! - `screenshot`: screenshot names and files; `cost_view`: the cost heat map;
-//!   `aov_view`: the depth, normal, primitive-id and samples views;
-//! - `split_view`: the A/B split (two settings side by side); `split_panel`: its section;
-//! - `benchmark`: the benchmark run (a camera orbit at fixed settings and its summary);
-//!   `benchmark_panel`: its panel section.
+//! - `options`: what the tool is started with (the CLI fills it); `state`: the parameters
+//!   and the keyboard shortcuts;
+//! - `tool/`: the window, GPU side and egui, one redraw per displayed frame, with its
+//!   input, session (model, loader, what the tracer holds), scripted runs and bands;
+//! - `panel/`: the egui side panel, one file per section;
+//! - `views/`: the cost, AOV and split views, and the overlay over the image (the HUD);
+//! - `measure/`: frame-time history, GPU clock, the frame-time log and the benchmark run;
+//! - `files/`: model loading, the Open dialog, screenshots, remembered settings, shader
+//!   reloads.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!
 //! A scripted run (`--frames N`) starts with the light paused at `--light-angle` so that
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
-pub(crate) mod aov_view;
-pub(crate) mod benchmark;
-pub(crate) mod benchmark_panel;
-pub(crate) mod camera_panel;
-pub(crate) mod cost_view;
-pub(crate) mod frame_log;
-pub(crate) mod frame_stats;
-pub(crate) mod gpu_clock;
-pub(crate) mod input;
-pub(crate) mod model_loader;
-pub(crate) mod open_dialog;
+pub(crate) mod files;
+pub(crate) mod measure;
 pub(crate) mod options;
-pub(crate) mod overlay;
 pub(crate) mod panel;
-pub(crate) mod perf_panel;
-pub(crate) mod presets_panel;
-pub(crate) mod progressive;
-pub(crate) mod screenshot;
-pub(crate) mod script;
-pub(crate) mod session;
-pub(crate) mod settings;
-pub(crate) mod shader_watch;
-pub(crate) mod split_panel;
-pub(crate) mod split_view;
 pub(crate) mod state;
 pub(crate) mod tool;
+pub(crate) mod views;
+
+/// The in-window benchmark where the command line's tests name it.
+#[cfg(test)]
+pub(crate) use measure::benchmark;
 
 use std::time::{Duration, Instant};
 
@@ -63,7 +39,7 @@ use winit::window::WindowId;
 use tool::Tool;
 
 pub use options::ViewOptions;
-pub use split_view::{SplitB, SplitView};
+pub use views::split::{SplitB, SplitView};
 pub(crate) use options::parse_window_size;
 
 /// The hint every "cannot open the tool" error carries.

@@ -41,7 +41,7 @@ pub struct ViewOptions {
     /// Neither read nor write the remembered settings (scripted runs never do).
     pub(crate) no_persist: bool,
     /// The A/B split view at the start (`--split`, `--split-b`).
-    pub(crate) split: super::split_view::SplitView,
+    pub(crate) split: crate::app::views::split::SplitView,
 }
 
 impl ViewOptions {
@@ -58,10 +58,10 @@ impl ViewOptions {
 }
 
 /// The window's size in logical pixels when neither `--window` nor a remembered size says.
-pub const DEFAULT_WINDOW: [u32; 2] = [1280, 800];
+pub(crate) const DEFAULT_WINDOW: [u32; 2] = [1280, 800];
 
 /// Parse `--window WIDTHxHEIGHT`.
-pub fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
+pub(crate) fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
     let bad = || format!("--window '{s}' is not WIDTHxHEIGHT (e.g. 1280x800)");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;

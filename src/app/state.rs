@@ -4,8 +4,8 @@
 use glam::Vec3;
 use winit::keyboard::KeyCode;
 
-pub use crate::gpu::present::PixelRect;
-use super::split_view::SplitView;
+pub(crate) use crate::gpu::present::PixelRect;
+use crate::app::views::split::SplitView;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
@@ -13,11 +13,11 @@ use crate::scene::{Camera, EnvironmentSource};
 use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// Square render-resolution presets.
-pub const PRESETS: [u32; 4] = [256, 512, 1024, 2048];
+pub(crate) const PRESETS: [u32; 4] = [256, 512, 1024, 2048];
 
 /// How the render resolution is chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Resolution {
+pub(crate) enum Resolution {
     /// A square preset (one of [`PRESETS`]).
     Square(u32),
     /// The image area of the window, in physical pixels.
@@ -28,7 +28,7 @@ pub enum Resolution {
 
 /// What the image area shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ViewMode {
+pub(crate) enum ViewMode {
     /// The shaded colour.
     Color,
     /// A heat map of the per-pixel traversal cost.
@@ -45,10 +45,10 @@ pub enum ViewMode {
 
 impl ViewMode {
     /// Every view, in the panel's order (the cost view with the BVH-node counter).
-    pub const ALL: [ViewMode; 6] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples];
+    pub(crate) const ALL: [ViewMode; 6] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples];
 
     /// The output the tracer writes for this view.
-    pub fn aov(self) -> Aov {
+    pub(crate) fn aov(self) -> Aov {
         match self {
             ViewMode::Color => Aov::Color,
             ViewMode::Cost(_) => Aov::Cost,
@@ -60,7 +60,7 @@ impl ViewMode {
     }
 
     /// The name the panel shows.
-    pub fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             ViewMode::Color => "colour",
             ViewMode::Cost(_) => "cost heat map",
@@ -72,14 +72,14 @@ impl ViewMode {
     }
 
     /// Same view, whatever the cost counter.
-    pub fn same_kind(self, other: ViewMode) -> bool {
+    pub(crate) fn same_kind(self, other: ViewMode) -> bool {
         std::mem::discriminant(&self) == std::mem::discriminant(&other)
     }
 }
 
 /// Which traversal counter the heat map shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CostMetric {
+pub(crate) enum CostMetric {
     /// BVH nodes visited by all rays of the pixel.
     Nodes,
     /// Ray-triangle tests by all rays of the pixel.
@@ -87,7 +87,7 @@ pub enum CostMetric {
 }
 
 impl CostMetric {
-    pub fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             CostMetric::Nodes => "BVH nodes visited",
             CostMetric::Triangles => "triangles tested",
@@ -97,44 +97,44 @@ impl CostMetric {
 
 /// Everything the user can change.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Params {
-    pub resolution: Resolution,
-    pub custom: [u32; 2],
+pub(crate) struct Params {
+    pub(crate) resolution: Resolution,
+    pub(crate) custom: [u32; 2],
     /// Bounces, blend, acceleration and the shading features (smooth, textures, spp,
     /// adaptive): the one copy of each. Width, height and AOV come from `resolution` and
     /// `view` when a frame is made ([`Params::settings_for`]).
-    pub settings: RenderSettings,
-    pub view: ViewMode,
-    pub model_count: u32,
+    pub(crate) settings: RenderSettings,
+    pub(crate) view: ViewMode,
+    pub(crate) model_count: u32,
     /// How .obj files are read, for every model loaded in the session (`--crease-angle`).
-    pub load_options: LoadOptions,
-    pub light: LightOrbit,
+    pub(crate) load_options: LoadOptions,
+    pub(crate) light: LightOrbit,
     /// Degrees per second along the orbit.
-    pub light_speed: f32,
-    pub light_paused: bool,
-    pub camera: Camera,
-    pub vsync: bool,
-    pub panel_visible: bool,
+    pub(crate) light_speed: f32,
+    pub(crate) light_paused: bool,
+    pub(crate) camera: Camera,
+    pub(crate) vsync: bool,
+    pub(crate) panel_visible: bool,
     /// The frame numbers over the image's corner (the HUD).
-    pub hud_visible: bool,
+    pub(crate) hud_visible: bool,
     /// What misses see: None (black, the paper), the generated sky, or a file.
-    pub environment: Option<EnvironmentSource>,
+    pub(crate) environment: Option<EnvironmentSource>,
     /// The environment file given with `--env`, offered in the panel.
-    pub environment_file: Option<EnvironmentSource>,
+    pub(crate) environment_file: Option<EnvironmentSource>,
     /// Average successive frames while nothing changes (progressive anti-aliasing).
-    pub accumulate: bool,
+    pub(crate) accumulate: bool,
     /// Where the camera starts and `reset` returns to.
-    pub home_camera: Camera,
+    pub(crate) home_camera: Camera,
     /// The paper's six mirror planes around the models.
-    pub mirror_box: bool,
+    pub(crate) mirror_box: bool,
     /// The A/B split view (S): off, or A left of a line and B right of it.
-    pub split: SplitView,
+    pub(crate) split: SplitView,
 }
 
 impl Params {
     /// The starting parameters from the scene spec. A scripted run (`--frames`) starts
     /// with the light paused at `--light-angle`, so its screenshots match `render`.
-    pub fn new(spec: &SceneSpec, scripted: bool) -> Self {
+    pub(crate) fn new(spec: &SceneSpec, scripted: bool) -> Self {
         let s = &spec.settings;
         let resolution = if s.width == s.height && PRESETS.contains(&s.width) { Resolution::Square(s.width) } else { Resolution::Custom };
         let settings = RenderSettings { bounces: s.bounces.min(MAX_BOUNCES), blend: s.blend.clamp(0.0, 1.0), aov: Aov::Color, ..*s };
@@ -162,7 +162,7 @@ impl Params {
     }
 
     /// Render width and height for an image area of `area` physical pixels.
-    pub fn render_size(&self, area: [u32; 2]) -> [u32; 2] {
+    pub(crate) fn render_size(&self, area: [u32; 2]) -> [u32; 2] {
         let clamp = |v: u32| v.clamp(1, MAX_RESOLUTION);
         match self.resolution {
             Resolution::Square(n) => [n, n],
@@ -172,25 +172,25 @@ impl Params {
     }
 
     /// The frame settings for an image area of `area` physical pixels.
-    pub fn settings_for(&self, area: [u32; 2]) -> RenderSettings {
+    pub(crate) fn settings_for(&self, area: [u32; 2]) -> RenderSettings {
         let [width, height] = self.render_size(area);
         RenderSettings { width, height, aov: self.view.aov(), ..self.settings }
     }
 
     /// Move the light along its orbit by `dt` seconds (unless paused).
-    pub fn advance_light(&mut self, dt: f32) {
+    pub(crate) fn advance_light(&mut self, dt: f32) {
         if !self.light_paused {
             self.light.angle_deg = (self.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
         }
     }
 
     /// Put the camera back where the scene opens.
-    pub fn reset_camera(&mut self) {
+    pub(crate) fn reset_camera(&mut self) {
         self.camera = self.home_camera;
     }
 
     /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.
-    pub fn drag_camera(&mut self, dx: f32, dy: f32) {
+    pub(crate) fn drag_camera(&mut self, dx: f32, dy: f32) {
         const RADIANS_PER_PIXEL: f32 = 0.008;
         self.camera.orbit(dx * RADIANS_PER_PIXEL, dy * RADIANS_PER_PIXEL, 1.0);
         self.keep_camera_in_view();
@@ -198,7 +198,7 @@ impl Params {
 
     /// Pan by a drag of (`dx`, `dy`) physical pixels over an image `height` pixels high:
     /// the scene follows the cursor.
-    pub fn pan_camera(&mut self, dx: f32, dy: f32, height: f32) {
+    pub(crate) fn pan_camera(&mut self, dx: f32, dy: f32, height: f32) {
         let h = height.max(1.0);
         self.camera.pan(dx / h, dy / h);
         self.keep_camera_in_view();
@@ -206,28 +206,28 @@ impl Params {
 
     /// Look at the models from the current direction, at the distance where a sphere of
     /// `radius` around `centre` fills the view.
-    pub fn frame_model(&mut self, centre: Vec3, radius: f32) {
+    pub(crate) fn frame_model(&mut self, centre: Vec3, radius: f32) {
         self.camera.target = centre;
         self.camera = self.camera.framing(radius, 0.9);
         self.keep_camera_in_view();
     }
 
     /// Zoom by `steps` wheel notches (positive = closer), staying where the scene can be seen.
-    pub fn zoom_camera(&mut self, steps: f32) {
+    pub(crate) fn zoom_camera(&mut self, steps: f32) {
         self.camera.orbit(0.0, 0.0, 0.9f32.powf(steps));
         self.keep_camera_in_view();
     }
 
     /// The farthest the eye may be from the origin: inside the mirror box when it is on
     /// (outside, the user sees the box's back faces or black), a few box sizes otherwise.
-    pub fn max_eye_distance(&self) -> f32 {
+    pub(crate) fn max_eye_distance(&self) -> f32 {
         if self.mirror_box { BOX_HALF_SIZE * 0.95 } else { BOX_HALF_SIZE * 4.0 }
     }
 
     /// Pull the eye back towards the target until it is within [`Self::max_eye_distance`]
     /// of the origin on every axis (the box is a cube), and no closer to the target than a
     /// hundredth of the model's radius.
-    pub fn keep_camera_in_view(&mut self) {
+    pub(crate) fn keep_camera_in_view(&mut self) {
         let limit = self.max_eye_distance();
         let c = &mut self.camera;
         let offset = c.position - c.target;
@@ -248,14 +248,14 @@ impl Params {
     }
 
     /// Brute force visits no BVH nodes: the cost view counts triangles there.
-    pub fn fit_cost_metric(&mut self) {
+    pub(crate) fn fit_cost_metric(&mut self) {
         if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.settings.accel) {
             *metric = CostMetric::Triangles;
         }
     }
 
     /// The light's position now.
-    pub fn light_position(&self) -> Vec3 {
+    pub(crate) fn light_position(&self) -> Vec3 {
         self.light.position()
     }
 
@@ -264,7 +264,7 @@ impl Params {
     /// which also becomes where R returns. The light is paused at the preset's angle, as
     /// it was saved; what a preset does not hold (view, vsync, panel, light speed, the
     /// split view) stays.
-    pub fn apply_preset(&mut self, spec: &SceneSpec) {
+    pub(crate) fn apply_preset(&mut self, spec: &SceneSpec) {
         let fresh = Params::new(spec, true);
         self.resolution = fresh.resolution;
         self.custom = fresh.custom;
@@ -285,7 +285,7 @@ impl Params {
 
     /// The scene spec of what is shown now (`model`, traced with `settings`): what the
     /// screenshots carry as their preset, so `render --preset` repeats it.
-    pub fn scene_spec(&self, model: ModelSource, settings: RenderSettings) -> SceneSpec {
+    pub(crate) fn scene_spec(&self, model: ModelSource, settings: RenderSettings) -> SceneSpec {
         SceneSpec {
             model,
             load_options: self.load_options,
@@ -302,7 +302,7 @@ impl Params {
 
 /// Something a key asks for besides a parameter change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum KeyAction {
+pub(crate) enum KeyAction {
     /// The parameters changed (or nothing happened).
     None,
     ScreenshotTrace,
@@ -317,7 +317,7 @@ pub enum KeyAction {
 }
 
 /// The keyboard shortcuts, for the panel's help.
-pub const SHORTCUTS: &[(&str, &str)] = &[
+pub(crate) const SHORTCUTS: &[(&str, &str)] = &[
     ("H / F1", "hide or show the panel"),
     ("I", "hide or show the numbers over the image"),
     ("F12", "screenshot of the traced image"),
@@ -343,7 +343,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
 impl Params {
     /// Apply a key press (egui did not want the keyboard). `previous` remembers the
     /// resolution to go back to when `M` leaves "match window".
-    pub fn apply_key(&mut self, key: KeyCode, shift: bool, ctrl: bool, previous: &mut Resolution) -> KeyAction {
+    pub(crate) fn apply_key(&mut self, key: KeyCode, shift: bool, ctrl: bool, previous: &mut Resolution) -> KeyAction {
         match key {
             KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
@@ -392,7 +392,7 @@ impl Params {
 }
 
 /// The largest rectangle of the image's aspect centred in `area` (letterbox).
-pub fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
+pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
     if image[0] == 0 || image[1] == 0 || area.width == 0 || area.height == 0 {
         return PixelRect { x: area.x, y: area.y, width: 0, height: 0 };
     }

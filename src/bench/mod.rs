@@ -6,6 +6,7 @@ pub mod charts;
 pub mod clock_guard;
 pub mod paper_tables;
 pub mod report;
+pub mod timing;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -342,7 +343,8 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     row.wall_ms = Stats::of(&wall);
     row.gpu_ms = (!gpu.is_empty()).then(|| Stats::of(&gpu));
     let ms = row.gpu_ms.map_or(row.wall_ms.median, |g| g.median);
-    row.mrays_per_s = rays as f64 / (ms * 1e-3) / 1e6;
+    // A measured frame always took time: the rate is never the zero-time fallback.
+    row.mrays_per_s = timing::mrays_per_second(rays, ms);
     row.fps = 1e3 / row.wall_ms.median;
     Ok(row)
 }

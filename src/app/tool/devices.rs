@@ -10,19 +10,20 @@ use std::sync::Arc;
 
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
-use super::super::{headless_error, ViewOptions};
-use crate::gpu::present::surface::context_for_window;
-use crate::gpu::present::Presenter;
+use crate::app::measure::gpu_clock::ClockWatch;
+use crate::app::{headless_error, ViewOptions};
 use crate::gpu::context::list_devices;
-use crate::gpu::{ContextOptions, GpuContext};
+use crate::gpu::present::Presenter;
+use crate::gpu::present::surface::context_for_window;
+use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
 
 /// The presenting side and the tracing context (the same context when one device does both).
 pub(super) struct WindowDevices {
-    pub presenter: Presenter,
+    pub(crate) presenter: Presenter,
     /// The device that presents.
-    pub ctx: Arc<GpuContext>,
+    pub(crate) ctx: Arc<GpuContext>,
     /// The device that traces.
-    pub trace_ctx: Arc<GpuContext>,
+    pub(crate) trace_ctx: Arc<GpuContext>,
 }
 
 /// Open the presenter on the device `options` ask for (or the best one that presents), and
@@ -84,6 +85,26 @@ pub(super) fn describe(ctx: &GpuContext, trace_ctx: &GpuContext) -> String {
         traced
     } else {
         format!("{traced}; shown through {} ({})", ctx.info.name, ctx.info.device_type)
+    }
+}
+
+/// The GPU side: declared in drop order (before the contexts, the window's surface last).
+pub(super) struct Gpu {
+    pub(super) presenter: Presenter,
+    pub(super) tracer: ComputeTracer,
+    /// The tracing device's shader clock.
+    pub(super) clock: ClockWatch,
+    /// The device that presents.
+    pub(super) ctx: Arc<GpuContext>,
+    /// The device that traces: `ctx` itself, or another one (see [`open`]).
+    pub(super) trace_ctx: Arc<GpuContext>,
+}
+
+impl Gpu {
+    /// The tracer is on a device other than the window's: each frame is traced and read
+    /// back before it is drawn, instead of recorded into the frame's commands.
+    pub(super) fn traces_elsewhere(&self) -> bool {
+        !Arc::ptr_eq(&self.ctx, &self.trace_ctx)
     }
 }
 

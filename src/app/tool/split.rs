@@ -1,12 +1,12 @@
 //! The tool's side of the A/B split view: where its line is in the window, grabbing and
 //! moving it with the mouse, what the overlay draws, and each half's GPU time.
 
-use super::super::overlay::SplitOverlay;
-use super::super::split_view::GRAB_PIXELS;
-use super::super::state::fit_rect;
-use super::Tool;
-use crate::gpu::present::PixelRect;
+use crate::app::state::fit_rect;
+use crate::app::tool::Tool;
+use crate::app::views::overlay::SplitOverlay;
+use crate::app::views::split::GRAB_PIXELS;
 use crate::gpu::PartTimes;
+use crate::gpu::present::PixelRect;
 
 impl Tool {
     /// The image as shown (letterboxed) and the line's x there, physical pixels; None
@@ -14,7 +14,7 @@ impl Tool {
     fn split_line(&self) -> Option<(PixelRect, f64)> {
         let split = &self.params.split;
         let size = self.gpu.tracer.resolution().filter(|_| split.enabled && self.session.model.is_some())?;
-        let shown = fit_rect(size, self.image_area);
+        let shown = fit_rect(size, self.ui.image_area);
         let w = size[0];
         if shown.width == 0 {
             return None;
@@ -40,7 +40,7 @@ impl Tool {
     pub(super) fn split_overlay(&self) -> Option<SplitOverlay> {
         let (shown, x) = self.split_line()?;
         let ppp = self.window.scale_factor() as f32;
-        let [a, b] = self.split_ms;
+        let [a, b] = self.timing.split_ms;
         let ms = |m: Option<f64>| m.map_or(String::new(), |m| format!(" {m:.1} ms"));
         Some(SplitOverlay {
             x: x as f32 / ppp,
@@ -56,9 +56,9 @@ impl Tool {
     /// bands added up).
     pub(super) fn note_split_times(&mut self, frame_parts: Option<PartTimes>) {
         if !self.params.split.enabled {
-            self.split_ms = [None; 2];
+            self.timing.split_ms = [None; 2];
         } else if let Some(parts) = frame_parts {
-            self.split_ms = parts;
+            self.timing.split_ms = parts;
         }
     }
 

@@ -1,0 +1,145 @@
+//! The Open dialog (Ctrl+O, the Model section's "Open .obj…", the Presets section's
+//! "Open…"): egui-file-dialog, drawn by egui in the tool's own window, so it works under a
+//! bare X11 session with no desktop portal, GTK or zenity. It only picks a path; the tool
+//! loads it exactly as a dropped file or a typed path.
+
+use std::path::{Path, PathBuf};
+
+use egui_file_dialog::{DialogState, FileDialog, Filter};
+
+/// What the file picked is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Purpose {
+    /// A model (.obj), loaded as if dropped on the window.
+    Model,
+    /// A preset (.toml, or a PNG the program wrote), loaded as the Presets section's Load.
+    Preset,
+}
+
+/// The name of the filter the dialog opens with, for each purpose.
+const MODEL_FILTER: &str = "Wavefront OBJ (.obj)";
+const PRESET_FILTER: &str = "Presets (.toml, .png)";
+
+/// The dialog, when one is open, and what it is for.
+#[derive(Default)]
+pub(crate) struct OpenDialog {
+    open: Option<(Purpose, FileDialog)>,
+}
+
+impl OpenDialog {
+    /// Open the dialog for `purpose` in the folder of `near` (the model or preset in use),
+    /// or in the current folder; one already open is replaced.
+    pub(crate) fn open(&mut self, purpose: Purpose, near: Option<&Path>) {
+        let dialog = FileDialog::new()
+            .title(match purpose {
+                Purpose::Model => "Open a model",
+                Purpose::Preset => "Open a preset",
+            })
+            .initial_directory(start_folder(near))
+            .add_file_filter(MODEL_FILTER, extensions(&["obj"]))
+            .add_file_filter(PRESET_FILTER, extensions(&["toml", "png"]))
+            .default_file_filter(match purpose {
+                Purpose::Model => MODEL_FILTER,
+                Purpose::Preset => PRESET_FILTER,
+            })
+            // "All files" stays in the filter list: an .obj under another name still loads.
+            .show_all_files_filter(true);
+        let mut dialog = dialog;
+        dialog.pick_file();
+        self.open = Some((purpose, dialog));
+    }
+
+    /// The dialog is showing: the tool's shortcuts and camera controls wait until it closes
+    /// (its own keys, Escape and Enter among them, are its own).
+    pub(crate) fn is_open(&self) -> bool {
+        self.open.is_some()
+    }
+
+    /// Draw the dialog for this frame; returns the file picked, once, with its purpose.
+    pub(crate) fn show(&mut self, ctx: &egui::Context) -> Option<(Purpose, PathBuf)> {
+        let (purpose, dialog) = self.open.as_mut()?;
+        let purpose = *purpose;
+        dialog.update(ctx);
+        match dialog.state() {
+            DialogState::Open => None,
+            DialogState::Picked(_) => {
+                let picked = dialog.take_picked();
+                self.open = None;
+                picked.map(|p| (purpose, p))
+            }
+            // Cancelled, closed, or a multiple pick (not asked for): nothing to load.
+            _ => {
+                self.open = None;
+                None
+            }
+        }
+    }
+}
+
+/// A filter for files with one of `names` as extension, in any case (the crate's own
+/// extension filter would miss MODEL.OBJ).
+fn extensions(names: &'static [&'static str]) -> Filter<Path> {
+    Filter::new(move |p: &Path| has_extension(p, names))
+}
+
+/// Whether `path`'s extension is one of `names`, ignoring case.
+fn has_extension(path: &Path, names: &[&str]) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| names.iter().any(|n| e.eq_ignore_ascii_case(n)))
+}
+
+/// The folder the dialog starts in: that of `near` when it names a file or folder that
+/// exists (a relative path is taken from the current folder), else the current folder.
+pub(crate) fn start_folder(near: Option<&Path>) -> PathBuf {
+    let current = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+    let Some(near) = near else { return current };
+    let near = current.join(near);
+    let folder = if near.is_dir() { Some(near.as_path()) } else { near.parent() };
+    folder.filter(|f| f.is_dir()).map_or(current.clone(), Path::to_path_buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_dialog_starts_beside_the_file_in_use_or_in_the_current_folder() {
+        let here = std::env::current_dir().unwrap();
+        assert_eq!(start_folder(None), here);
+        let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+        assert_eq!(start_folder(Some(&manifest.join("Cargo.toml"))), manifest);
+        assert_eq!(start_folder(Some(&manifest.join("src"))), manifest.join("src"));
+        // A file that is gone opens its folder; a folder that is gone, the current one.
+        assert_eq!(start_folder(Some(&manifest.join("gone.obj"))), manifest);
+        assert_eq!(start_folder(Some(Path::new("/nonexistent/folder/model.obj"))), here);
+        // Relative to the current folder (the tests run in the package root).
+        assert_eq!(start_folder(Some(Path::new("src/main.rs"))), here.join("src"));
+    }
+
+    #[test]
+    fn the_filters_ignore_case() {
+        assert!(has_extension(Path::new("a/MODEL.OBJ"), &["obj"]));
+        assert!(has_extension(Path::new("look.toml"), &["toml", "png"]));
+        assert!(!has_extension(Path::new("model.obj.bak"), &["obj"]));
+        assert!(!has_extension(Path::new("obj"), &["obj"]));
+    }
+
+    #[test]
+    fn opening_shows_until_cancelled_and_picks_nothing() {
+        let mut dialog = OpenDialog::default();
+        assert!(!dialog.is_open());
+        dialog.open(Purpose::Model, None);
+        assert!(dialog.is_open());
+        let ctx = egui::Context::default();
+        let mut picked = None;
+        // No renderer here: the font texture's upload is dropped on purpose.
+        ctx.run_ui(egui::RawInput::default(), |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
+        assert_eq!(picked, None);
+        assert!(dialog.is_open(), "the dialog closed by itself");
+        // Escape is the dialog's cancel key.
+        let escape = egui::Event::Key { key: egui::Key::Escape, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE };
+        let raw = egui::RawInput { events: vec![escape], ..Default::default() };
+        ctx.run_ui(raw, |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
+        assert_eq!(picked, None);
+        assert!(!dialog.is_open(), "Escape did not close the dialog");
+    }
+}

@@ -1,0 +1,221 @@
+//! Remembered settings: the window's size, which panel sections are open, the presets
+//! used lately and the graph's window, kept between runs in `settings.toml` in the
+//! platform's config folder (`MESHTRACER_CONFIG_DIR` overrides it). `--no-persist` and
+//! scripted runs neither read nor write it, so a script sees the same tool every time.
+//!
+//! The file is a convenience: a file that cannot be read gives one warning line and the
+//! defaults, and one that cannot be written one warning line; neither stops the tool.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::app::panel::PanelState;
+use crate::app::panel::widgets::Sections;
+
+/// The environment variable naming the folder of `settings.toml` (tests point it at a
+/// temporary folder so they never touch the user's).
+pub(crate) const DIR_VAR: &str = "MESHTRACER_CONFIG_DIR";
+
+/// The file's format version; a file with a newer one is left alone.
+pub(crate) const FORMAT: u32 = 1;
+
+/// What is remembered.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub(crate) struct Settings {
+    /// The file's format version ([`FORMAT`]).
+    pub(crate) version: u32,
+    /// The window's inner size in logical pixels when it was last closed.
+    pub(crate) window: Option<[u32; 2]>,
+    /// Panel sections by title: open (true) or closed.
+    pub(crate) sections: BTreeMap<String, bool>,
+    /// Presets saved or loaded, the latest first.
+    pub(crate) recent_presets: Vec<PathBuf>,
+    /// Seconds of history the frame-time graph shows.
+    pub(crate) graph_seconds: Option<f64>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self { version: FORMAT, window: None, sections: BTreeMap::new(), recent_presets: Vec::new(), graph_seconds: None }
+    }
+}
+
+/// Parse the text of a settings file; the error is one sentence.
+pub(crate) fn parse(text: &str) -> Result<Settings, String> {
+    let settings: Settings = toml::from_str(text).map_err(|e| e.message().trim().trim_end_matches('.').replace('\n', " "))?;
+    if settings.version > FORMAT {
+        return Err(format!("format version {} is newer than this meshtracer's {FORMAT}", settings.version));
+    }
+    Ok(settings)
+}
+
+/// Read `path`: the settings, and a warning when the file exists but is not usable (then
+/// the defaults). A missing file is no warning: it is the first run.
+pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
+    let text = match std::fs::read_to_string(path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Settings::default(), None),
+        Err(e) => return (Settings::default(), Some(format!("cannot read the remembered settings {} ({e}); using the defaults", path.display()))),
+    };
+    match parse(&text) {
+        Ok(settings) => (settings, None),
+        Err(e) => (Settings::default(), Some(format!("ignoring the remembered settings {} ({e}); using the defaults", path.display()))),
+    }
+}
+
+/// Write `settings` to `path` through a temporary file renamed over it, so a crash never
+/// leaves half a file; creates the folder.
+pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
+    let fail = |e: &dyn std::fmt::Display| format!("cannot remember the settings in {} ({e})", path.display());
+    let text = toml::to_string(settings).map_err(|e| fail(&e))?;
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
+    }
+    let tmp = path.with_extension("toml.tmp");
+    std::fs::write(&tmp, text).map_err(|e| fail(&e))?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        fail(&e)
+    })
+}
+
+/// Where the settings live, or nowhere (`--no-persist`, scripted runs, no home folder).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Store {
+    /// The settings file; None: nothing is read or written.
+    pub(crate) path: Option<PathBuf>,
+}
+
+impl Store {
+    /// The store of a run: the config folder's `settings.toml` when `persist`.
+    pub(crate) fn new(persist: bool) -> Self {
+        if !persist {
+            return Self { path: None };
+        }
+        let dir = std::env::var_os(DIR_VAR)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+            .or_else(|| directories::ProjectDirs::from("", "", "meshtracer").map(|d| d.config_dir().to_path_buf()));
+        Self { path: dir.map(|d| d.join("settings.toml")) }
+    }
+
+    /// The remembered settings (defaults when none); a bad file is one warning line.
+    pub(crate) fn load(&self) -> Settings {
+        let Some(path) = &self.path else { return Settings::default() };
+        let (settings, warning) = read(path);
+        if let Some(w) = warning {
+            eprintln!("warning: {w}");
+        }
+        settings
+    }
+
+    /// Remember `settings`; a failure is one warning line.
+    pub(crate) fn save(&self, settings: &Settings) {
+        if let Some(path) = &self.path {
+            if let Err(e) = write(path, settings) {
+                eprintln!("warning: {e}");
+            }
+        }
+    }
+
+    /// Forget everything remembered: the file is removed.
+    pub(crate) fn reset(&self) -> Result<(), String> {
+        match &self.path {
+            Some(path) => match std::fs::remove_file(path) {
+                Ok(()) => Ok(()),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+                Err(e) => Err(format!("cannot remove {} ({e})", path.display())),
+            },
+            None => Ok(()),
+        }
+    }
+}
+
+/// Put the remembered settings into the panel and egui's memory.
+pub(crate) fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
+    for p in settings.recent_presets.iter().rev() {
+        panel.presets.used(p);
+    }
+    panel.perf.set_seconds(settings.graph_seconds);
+    Sections::set(ctx, Sections { open: settings.sections.clone(), reset: false });
+}
+
+/// What to remember of the run now, with the window's logical size (None when minimized).
+pub(crate) fn snapshot(window: Option<[u32; 2]>, panel: &PanelState, ctx: &egui::Context) -> Settings {
+    Settings {
+        version: FORMAT,
+        window: window.filter(|&[w, h]| w >= 64 && h >= 64),
+        sections: Sections::get(ctx).open,
+        // Absolute: the next run may start in another folder.
+        recent_presets: panel.presets.recent.iter().map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone())).collect(),
+        graph_seconds: Some(panel.perf.seconds),
+    }
+}
+
+/// Forget the panel's remembered state: sections, recent presets and the graph's window
+/// go back to how a first run opens.
+pub(crate) fn reset_panel(panel: &mut PanelState, ctx: &egui::Context) {
+    panel.presets.recent.clear();
+    panel.perf.set_seconds(None);
+    Sections::set(ctx, Sections { open: BTreeMap::new(), reset: true });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("meshtracer-settings-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    #[test]
+    fn settings_round_trip_through_the_file() {
+        let dir = temp("round-trip");
+        let path = dir.join("nested").join("settings.toml");
+        let mut s = Settings { window: Some([900, 600]), recent_presets: vec![PathBuf::from("/tmp/look.toml")], graph_seconds: Some(30.0), ..Default::default() };
+        s.sections.insert("Performance".into(), true);
+        s.sections.insert("Light".into(), false);
+        write(&path, &s).unwrap();
+        assert_eq!(read(&path), (s, None));
+        assert!(!path.with_extension("toml.tmp").exists(), "the temporary file is renamed");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_missing_file_is_the_defaults_without_a_warning() {
+        assert_eq!(read(&temp("missing").join("settings.toml")), (Settings::default(), None));
+    }
+
+    #[test]
+    fn a_corrupt_file_is_one_warning_and_the_defaults() {
+        let dir = temp("corrupt");
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("settings.toml");
+        for text in ["window = [900, \"wide\"]", "this is not toml", "\u{0}\u{1}", "version = 99"] {
+            std::fs::write(&path, text).unwrap();
+            let (s, warning) = read(&path);
+            assert_eq!(s, Settings::default(), "{text}");
+            let warning = warning.unwrap_or_else(|| panic!("no warning for {text:?}"));
+            assert!(warning.contains(&path.display().to_string()) && warning.ends_with("using the defaults"), "{warning}");
+            assert!(!warning.contains('\n'), "{warning}");
+        }
+        // Unknown keys (a newer release's) are no reason to forget the rest.
+        std::fs::write(&path, "window = [800, 600]\nsomething_new = 1\n").unwrap();
+        assert_eq!(read(&path).0.window, Some([800, 600]));
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn no_persist_reads_and_writes_nothing() {
+        let store = Store::new(false);
+        assert!(store.path.is_none());
+        assert_eq!(store.load(), Settings::default());
+        store.save(&Settings { window: Some([1, 1]), ..Default::default() });
+        assert!(store.reset().is_ok());
+    }
+}

@@ -1,0 +1,117 @@
+//! The panel's Camera section: the field of view, the eye and target typed in (applied on
+//! Enter, following the view while not being edited), and the camera as command-line flags
+//! that `render`/`view` take.
+
+use egui::{RichText, Ui};
+use glam::Vec3;
+
+use crate::app::panel::section::{Cx, Section};
+use crate::app::panel::widgets::{status_line, Status};
+use crate::app::state::Params;
+use crate::scene::camera::{parse_point, Camera};
+
+/// Narrowest and widest field of view the slider offers, in degrees.
+pub(crate) const FOV_RANGE: std::ops::RangeInclusive<f32> = 10.0..=120.0;
+
+/// The section's state: the text in the eye and target fields, and the outcome of the
+/// last edit.
+#[derive(Default)]
+pub(crate) struct CameraPanel {
+    eye: String,
+    target: String,
+    status: Option<Status>,
+}
+
+/// `X,Y,Z` with two decimals: what the fields show and the flags carry.
+fn point_text(p: Vec3) -> String {
+    format!("{:.2},{:.2},{:.2}", p.x, p.y, p.z)
+}
+
+/// The camera as `--eye`, `--target` and `--fov` flags.
+pub(crate) fn camera_flags(c: &Camera) -> String {
+    format!("--eye {} --target {} --fov {:.1}", point_text(c.position), point_text(c.target), c.vfov_deg)
+}
+
+impl Section for CameraPanel {
+    fn title(&self) -> &'static str {
+        "Camera"
+    }
+
+    fn default_open(&self) -> bool {
+        false
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (params, fields) = (&mut *cx.params, self);
+        ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
+        egui::Grid::new("camera grid").num_columns(2).show(ui, |ui| {
+            ui.label("Field of view");
+            ui.add(egui::Slider::new(&mut params.camera.vfov_deg, FOV_RANGE).suffix("°").fixed_decimals(1));
+            ui.end_row();
+            let eye = point_field(ui, "Eye", &mut fields.eye, params.camera.position);
+            let target = point_field(ui, "Target", &mut fields.target, params.camera.target);
+            if eye || target {
+                fields.status = Some(match apply(params, &fields.eye, &fields.target) {
+                    Ok(()) => Status::ok(format!("camera at {}", point_text(params.camera.position))),
+                    Err(e) => Status::error(e),
+                });
+            }
+        });
+        let distance = (params.camera.position - params.camera.target).length();
+        ui.label(RichText::new(format!("distance {distance:.2}")).small());
+        if let Some(s) = &fields.status {
+            status_line(ui, s);
+        }
+        ui.horizontal(|ui| {
+            if ui.button("Reset camera (R)").clicked() {
+                params.reset_camera();
+                fields.status = None;
+            }
+            if ui.button("Copy as flags").on_hover_text(camera_flags(&params.camera)).clicked() {
+                ui.ctx().copy_text(camera_flags(&params.camera));
+                fields.status = Some(Status::ok("copied the camera flags"));
+            }
+        });
+    }
+}
+
+/// One `X,Y,Z` row. While not being edited it shows `current`; returns whether Enter was
+/// pressed in it (the text is read by [`apply`]).
+fn point_field(ui: &mut Ui, name: &str, text: &mut String, current: Vec3) -> bool {
+    ui.label(name);
+    let id = ui.make_persistent_id(("camera field", name));
+    if !ui.memory(|m| m.has_focus(id)) {
+        *text = point_text(current);
+    }
+    let response = ui.add(egui::TextEdit::singleline(text).id(id).desired_width(150.0)).on_hover_text("X,Y,Z, applied on Enter");
+    ui.end_row();
+    response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter))
+}
+
+/// Put the camera at the typed eye and target, kept inside the scene's bounds.
+fn apply(params: &mut Params, eye: &str, target: &str) -> Result<(), String> {
+    let eye = parse_point(eye).map_err(|e| format!("Eye: {e}"))?;
+    let target = parse_point(target).map_err(|e| format!("Target: {e}"))?;
+    if (eye - target).length() < 1e-3 {
+        return Err("the eye and the target are the same point".into());
+    }
+    params.camera.position = eye;
+    params.camera.target = target;
+    params.keep_camera_in_view();
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_read_back_as_the_same_camera() {
+        let c = Camera { position: Vec3::new(1.0, -2.5, 3.25), target: Vec3::new(0.0, 0.5, 0.0), up: Vec3::Y, vfov_deg: 42.5 };
+        let flags = camera_flags(&c);
+        assert_eq!(flags, "--eye 1.00,-2.50,3.25 --target 0.00,0.50,0.00 --fov 42.5");
+        let words: Vec<&str> = flags.split(' ').collect();
+        assert_eq!(parse_point(words[1]), Ok(c.position));
+        assert_eq!(parse_point(words[3]), Ok(c.target));
+    }
+}

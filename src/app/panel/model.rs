@@ -1,0 +1,89 @@
+//! The panel's Model section: the built-in models, the path field and Open dialog, a
+//! load in progress and its outcome, and the number of copies.
+
+use egui::{RichText, Ui};
+
+use crate::app::files::open_dialog::Purpose;
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::{group, status_line, Status};
+use crate::scene::paper::{ModelSource, MAX_MODELS};
+use crate::scene::primitives::PaperModel;
+
+/// The section's state between frames.
+#[derive(Default)]
+pub(crate) struct ModelPanel {
+    /// The .obj path field.
+    pub(crate) path: String,
+    /// The last model load's outcome.
+    pub(crate) status: Option<Status>,
+    /// Every warning of the last model load (the status line names the first).
+    pub(crate) warnings: Vec<String>,
+    /// A file is being dragged over the window.
+    pub(crate) hovering_file: bool,
+}
+
+impl Section for ModelPanel {
+    fn title(&self) -> &'static str {
+        "Model"
+    }
+
+    fn default_open(&self) -> bool {
+        true
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
+        let current = info.model.map_or("(none)".to_string(), |m| m.label());
+        ui.horizontal(|ui| {
+            ui.label("Model");
+            egui::ComboBox::new("model", "").selected_text(current).width(ui.available_width() - 24.0).truncate().show_ui(ui, |ui| {
+                for m in PaperModel::ALL {
+                    let selected = info.model == Some(&ModelSource::Paper(m));
+                    if ui.selectable_label(selected, m.name()).clicked() && !selected {
+                        // The path field no longer names what is shown.
+                        self.path.clear();
+                        actions.push(PanelAction::LoadModel(ModelSource::Paper(m)));
+                    }
+                }
+            });
+        });
+        ui.horizontal(|ui| {
+            let field = ui
+                .add(egui::TextEdit::singleline(&mut self.path).hint_text("model.obj or torusknot:1M").desired_width(ui.available_width() - 52.0))
+                .on_hover_text("an .obj path, a model name (geosphere, torusknot, sphere, cylinder) or torusknot:N, a generated knot of N triangles");
+            let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            let clicked = ui.add_enabled(!self.path.trim().is_empty(), egui::Button::new("Load")).clicked();
+            if (clicked || enter) && !self.path.trim().is_empty() {
+                // The same names as --model: built-ins and generated knots too.
+                actions.push(PanelAction::LoadModel(ModelSource::parse(self.path.trim())));
+            }
+        });
+        ui.horizontal(|ui| {
+            if ui.button("Open .obj…").on_hover_text("choose an .obj file (Ctrl+O)").clicked() {
+                actions.push(PanelAction::Open(Purpose::Model));
+            }
+            ui.label(RichText::new(if self.hovering_file { "drop the file to load it" } else { "or drop one on the window" }).small().weak());
+        });
+        if let Some((label, stage, secs)) = info.loading {
+            ui.horizontal(|ui| {
+                ui.spinner();
+                // Elided: a long path must not widen the panel.
+                ui.add(egui::Label::new(format!("{label}: {stage} ({secs:.1} s)")).truncate());
+            });
+        } else if let Some(s) = &self.status {
+            status_line(ui, s);
+            if self.warnings.len() > 1 {
+                egui::CollapsingHeader::new(format!("{} warnings", self.warnings.len())).id_salt("model warnings").default_open(false).show(ui, |ui| {
+                    for w in &self.warnings {
+                        ui.add(egui::Label::new(RichText::new(w).small()).wrap());
+                    }
+                });
+            }
+        }
+        ui.horizontal(|ui| {
+            ui.label("Copies");
+            ui.add(egui::Slider::new(&mut params.model_count, 1..=MAX_MODELS));
+        });
+        ui.label(RichText::new(format!("{} triangles, {} vertices in the scene", group(info.triangles), group(info.vertices))).small());
+    }
+}

@@ -1,0 +1,159 @@
+//! The panel's Performance section: the frame-time graph (egui_plot: a legend, hover
+//! read-outs, zoom and a selectable window), the numbers, and the frame-time log's
+//! Record / Stop.
+
+use egui::{Color32, RichText, Ui};
+use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
+
+use crate::app::measure::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
+use crate::app::panel::info::PanelInfo;
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
+
+/// The graph's window lengths, in seconds.
+pub(crate) const WINDOWS: [f64; 4] = [5.0, 10.0, 30.0, HISTORY_SECONDS];
+
+/// The window the graph opens with.
+pub(crate) const DEFAULT_WINDOW: f64 = 10.0;
+
+/// The section's state between frames.
+pub(crate) struct PerfPanel {
+    /// Seconds of history the graph and the min/mean/max show.
+    pub(crate) seconds: f64,
+    /// The frame-time log's last outcome (written, or failed).
+    pub(crate) status: Option<Status>,
+}
+
+impl Default for PerfPanel {
+    fn default() -> Self {
+        Self { seconds: DEFAULT_WINDOW, status: None }
+    }
+}
+
+impl PerfPanel {
+    /// A window length from the remembered settings, if it is one the graph offers.
+    pub(crate) fn set_seconds(&mut self, seconds: Option<f64>) {
+        self.seconds = seconds.filter(|s| WINDOWS.contains(s)).unwrap_or(DEFAULT_WINDOW);
+    }
+}
+
+fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
+    ui.label(RichText::new(name).color(color));
+    match s {
+        Some(s) => {
+            for v in [s.current, s.min, s.mean, s.max] {
+                ui.label(RichText::new(format!("{v:.2}")).monospace());
+            }
+        }
+        None => {
+            for _ in 0..4 {
+                ui.label("-");
+            }
+        }
+    }
+    ui.end_row();
+}
+
+impl Section for PerfPanel {
+    fn title(&self) -> &'static str {
+        "Performance"
+    }
+
+    fn default_open(&self) -> bool {
+        true
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (state, info, actions) = (self, cx.info, &mut *cx.actions);
+        frame_graph(ui, info.stats, state.seconds);
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("last").small());
+            for s in WINDOWS {
+                ui.selectable_value(&mut state.seconds, s, RichText::new(format!("{s:.0} s")).small());
+            }
+        });
+        egui::Grid::new("times").num_columns(5).spacing([10.0, 2.0]).striped(true).show(ui, |ui| {
+            ui.label("ms");
+            for h in ["now", "min", "mean", "max"] {
+                ui.label(RichText::new(h).small().weak());
+            }
+            ui.end_row();
+            summary_row(ui, "GPU trace", GPU_COLOR, info.stats.gpu.summary_over(state.seconds));
+            summary_row(ui, "frame", FRAME_COLOR, info.stats.frame.summary_over(state.seconds));
+        });
+        let gpu_now = info.stats.gpu.samples.back().map(|s| s.1);
+        egui::Grid::new("counts").num_columns(2).show(ui, |ui| {
+            ui.label("fps");
+            ui.label(format!("{:.1}", info.stats.fps()));
+            ui.end_row();
+            ui.label("rays / frame");
+            ui.label(format!("{} (at most)", group(info.rays)));
+            ui.end_row();
+            ui.label("Mrays/s");
+            ui.label(gpu_now.map_or("-".into(), |ms| format!("{:.1}", mrays_per_second(info.rays, ms))));
+            ui.end_row();
+            if let Some((now, highest)) = info.clock_mhz {
+                let why = "the tracing GPU's shader clock, read twice a second. A GPU that idles between frames (vsync, a slow window) is clocked down by its driver and traces slower than `meshtracer bench` shows";
+                ui.label("GPU clock").on_hover_text(why);
+                ui.label(format!("{now:.0} MHz (highest {highest:.0})")).on_hover_text(why);
+                ui.end_row();
+            }
+        });
+        log_controls(ui, state, info, actions);
+    }
+}
+
+/// Record / Stop of the frame-time log, and what it is writing or wrote.
+fn log_controls(ui: &mut Ui, state: &PerfPanel, info: &PanelInfo, actions: &mut Vec<PanelAction>) {
+    ui.horizontal(|ui| {
+        match info.recording {
+            Some(_) => {
+                if ui.button("Stop").on_hover_text("close the frame-time log").clicked() {
+                    actions.push(PanelAction::StopRecording);
+                }
+            }
+            None => {
+                let what = "write a CSV row per frame (times, resolution, bounces, spp, acceleration, triangles, rays) and a row per parameter change, to compare settings";
+                if ui.button("Record").on_hover_text(what).clicked() {
+                    actions.push(PanelAction::Record);
+                }
+            }
+        }
+        if let Some((path, frames)) = info.recording {
+            let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+            ui.add(egui::Label::new(RichText::new(format!("recording: {} frames to {name}", group(frames))).small()).truncate()).on_hover_text(path.display().to_string());
+        }
+    });
+    if info.recording.is_none() {
+        if let Some(s) = &state.status {
+            status_line(ui, s);
+        }
+    }
+}
+
+/// The last `seconds` of both series, seconds before now on x: the lines scroll, and a
+/// zoomed view (wheel with Ctrl, or a drag) stays on the same stretch before now until a
+/// double click returns to the whole window.
+fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64) {
+    let now = stats.latest();
+    let gpu: PlotPoints = stats.gpu.recent(seconds, now).collect();
+    let frame: PlotPoints = stats.frame.recent(seconds, now).collect();
+    Plot::new("frame times")
+        .height(120.0)
+        .legend(Legend::default().position(Corner::LeftTop).background_alpha(0.6))
+        .include_x(-seconds)
+        .include_x(0.0)
+        .include_y(0.0)
+        .allow_scroll(false)
+        .y_axis_min_width(18.0)
+        .x_axis_formatter(|mark, _| format!("{:.0} s", mark.value))
+        .y_axis_formatter(|mark, _| format!("{:.0}", mark.value))
+        .label_formatter(|pos| match pos {
+            egui_plot::HoverPosition::NearDataPoint { plot_name, position, .. } => Some(format!("{plot_name}: {:.2} ms\n{:.1} s ago", position.y, -position.x)),
+            egui_plot::HoverPosition::Elsewhere { position } => Some(format!("{:.1} ms", position.y)),
+        })
+        .show(ui, |plot| {
+            plot.line(Line::new("frame ms", frame).color(FRAME_COLOR).width(1.5));
+            plot.line(Line::new("GPU ms", gpu).color(GPU_COLOR).width(1.5));
+        });
+}

@@ -1,0 +1,195 @@
+//! The panel's Render section: resolution, bounces, blend, the acceleration (and the
+//! vendor's kind and structures), the view and its legend, and the render's status lines.
+
+use egui::{Color32, RichText, Sense, Ui};
+
+use crate::app::panel::info::VendorInfo;
+use crate::app::panel::section::{Cx, PanelAction, Section};
+use crate::app::panel::widgets::Status;
+use crate::app::panel::widgets::status_line;
+use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
+use crate::app::views::cost::heat_color;
+use crate::gpu::vendor::VendorKernel;
+use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
+
+/// The section's state: the outcome of render changes and shader reloads.
+#[derive(Default)]
+pub(crate) struct RenderPanel {
+    /// A render setting that could not be applied.
+    pub(crate) status: Option<Status>,
+    /// The last shader reload's outcome (`--watch-shaders`).
+    pub(crate) shader_status: Option<Status>,
+}
+
+impl Section for RenderPanel {
+    fn title(&self) -> &'static str {
+        "Render"
+    }
+
+    fn default_open(&self) -> bool {
+        true
+    }
+
+    fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
+        let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
+        egui::Grid::new("render").num_columns(2).show(ui, |ui| {
+            ui.label("Resolution");
+            egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
+                for n in PRESETS {
+                    ui.selectable_value(&mut params.resolution, Resolution::Square(n), format!("{n} x {n}"));
+                }
+                ui.selectable_value(&mut params.resolution, Resolution::MatchWindow, "match window");
+                ui.selectable_value(&mut params.resolution, Resolution::Custom, "custom");
+            })
+            .response
+            .on_hover_text("pixels traced per frame, scaled into the window; M matches the window");
+            ui.end_row();
+            if params.resolution == Resolution::Custom {
+                ui.label("");
+                ui.horizontal(|ui| {
+                    ui.add(egui::DragValue::new(&mut params.custom[0]).range(1..=MAX_RESOLUTION).speed(4));
+                    ui.label("x");
+                    ui.add(egui::DragValue::new(&mut params.custom[1]).range(1..=MAX_RESOLUTION).speed(4));
+                });
+                ui.end_row();
+            }
+            ui.label("");
+            ui.label(RichText::new(format!("tracing {} x {}", info.render_size[0], info.render_size[1])).small().weak());
+            ui.end_row();
+            ui.label("Bounces");
+            ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES))
+                .on_hover_text("mirror bounces after the primary hit (the paper's §3.3 used 2); PgUp / PgDn");
+            ui.end_row();
+            ui.label("Blend");
+            ui.add(egui::Slider::new(&mut params.settings.blend, 0.0..=1.0).fixed_decimals(2))
+                .on_hover_text("reflection blend ratio (§3.3): 0 = the surface's own colour, 1 = pure mirror; [ and ]");
+            ui.end_row();
+            ui.label("Acceleration");
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
+                let estimate = format!("the paper's method (§3.3): {:.1e} ray-triangle tests per frame", info.brute_tests);
+                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
+                let why = info.vendor.unavailable.clone().unwrap_or_default();
+                ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.settings.accel, Accel::Vendor, "vendor"))
+                    .response
+                    .on_hover_text("the GPU driver's own acceleration structures and traversal (Vulkan ray tracing), on the same scene and shading")
+                    .on_disabled_hover_text(&why);
+            });
+            ui.end_row();
+            if params.settings.accel == Accel::Vendor {
+                vendor_rows(ui, info.vendor, actions);
+            }
+            ui.label("View");
+            egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {
+                for view in ViewMode::ALL {
+                    let current = params.view.same_kind(view);
+                    if ui.selectable_label(current, view.label()).clicked() && !current {
+                        params.view = view;
+                        params.fit_cost_metric();
+                    }
+                }
+            })
+            .response
+            .on_hover_text("what the image shows: the shaded colour, or one of the tracer's other outputs; C toggles the cost view");
+            ui.end_row();
+            if let ViewMode::Cost(metric) = &mut params.view {
+                ui.label("Counter");
+                // Brute force visits no nodes: only the triangle counter means something.
+                let bvh = params.settings.accel == Accel::Bvh;
+                ui.horizontal(|ui| {
+                    ui.add_enabled_ui(bvh, |ui| ui.radio_value(metric, CostMetric::Nodes, "nodes")).response.on_disabled_hover_text("brute force visits no BVH nodes");
+                    ui.radio_value(metric, CostMetric::Triangles, "triangles");
+                });
+                ui.end_row();
+            }
+        });
+        if params.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
+            ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
+        }
+        if params.settings.accel == Accel::Brute && info.brute_tests > crate::tracer::budget::tests_per_submission() {
+            // Said before the wait, not after: the frame is long and comes in bands.
+            let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
+            ui.add(egui::Label::new(RichText::new(text).small()).wrap());
+        }
+        for s in [&self.status, &self.shader_status].into_iter().flatten() {
+            status_line(ui, s);
+        }
+        match (params.view, info.heat) {
+            (ViewMode::Cost(metric), Some((top, max, mean))) => heat_legend(ui, &format!("{} per pixel, all rays", metric.label()), top, max, mean),
+            (ViewMode::Samples, Some((top, max, mean))) => heat_legend(ui, "camera samples per pixel", top, max, mean),
+            _ => {}
+        }
+        if let Some(note) = info.view_note {
+            ui.label(RichText::new(note).small());
+        }
+    }
+}
+
+/// The resolution as the combo box names it.
+fn resolution_label(r: Resolution, custom: [u32; 2]) -> String {
+    match r {
+        Resolution::Square(n) => format!("{n} x {n}"),
+        Resolution::MatchWindow => "match window".into(),
+        Resolution::Custom => format!("custom ({} x {})", custom[0], custom[1]),
+    }
+}
+
+/// The vendor path's kind (when the device has both) and what its last change built.
+fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>) {
+    if vendor.kernels.len() > 1 {
+        ui.label("Vendor");
+        ui.horizontal(|ui| {
+            for &k in &vendor.kernels {
+                let text = match k {
+                    VendorKernel::Query => "ray query",
+                    VendorKernel::Pipeline => "RT pipeline",
+                };
+                let what = match k {
+                    VendorKernel::Query => "the driver's traversal from our compute shader",
+                    VendorKernel::Pipeline => "a ray tracing pipeline: ray generation, closest-hit and miss shaders",
+                };
+                let hover = format!("{what} ({})", k.extension());
+                if ui.radio(vendor.kernel == Some(k), text).on_hover_text(hover).clicked() && vendor.kernel != Some(k) {
+                    actions.push(PanelAction::VendorKernel(k));
+                }
+            }
+        });
+        ui.end_row();
+    }
+    if let Some(s) = &vendor.stats {
+        ui.label("Structures");
+        ui.label(RichText::new(format!(
+            "{} bottom levels {:.1} ms, top level {:.1} ms, {:.1} MB; last change rebuilt the {}",
+            s.bottom_count,
+            s.bottom_ms,
+            s.top_ms,
+            s.bytes as f64 / 1e6,
+            s.rebuilt
+        ))
+        .small())
+        .on_hover_text("a new model rebuilds both levels, a new model count only the top level, the light nothing");
+        ui.end_row();
+    }
+}
+
+/// The heat map's colour scale from 0 to `top`, with the mean and max under it.
+fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
+    ui.label(RichText::new(what).small());
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
+    let steps = 64;
+    for i in 0..steps {
+        let t0 = i as f32 / steps as f32;
+        let t1 = (i + 1) as f32 / steps as f32;
+        let [r, g, b] = heat_color((t0 + t1) * 0.5);
+        let x0 = rect.left() + rect.width() * t0;
+        let x1 = rect.left() + rect.width() * t1;
+        ui.painter().rect_filled(egui::Rect::from_x_y_ranges(x0..=x1 + 0.5, rect.y_range()), 0.0, Color32::from_rgb(r, g, b));
+    }
+    ui.horizontal(|ui| {
+        ui.label(RichText::new("0").small());
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            ui.label(RichText::new(format!("{top:.0} (99th pct.)")).small());
+        });
+    });
+    ui.label(RichText::new(format!("mean {mean:.1}, max {max:.0}")).small().weak());
+}

@@ -1,0 +1,192 @@
+//! The tool's session: the model on the CPU side, what has been pushed to the GPU tracer,
+//! progressive accumulation, and the model loader. Parameter changes reach the tracer
+//! here, each on the next frame.
+
+use crate::gpu::{ComputeTracer, FrameTrace};
+use crate::scene::paper::{instances, ModelSource};
+use crate::scene::{EnvironmentSource, Scene};
+use crate::tracer::frame::{Aov, FrameParams};
+use crate::tracer::packed::PackedScene;
+use crate::tracer::textures::EnvironmentMap;
+
+use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
+use crate::app::panel::PanelState;
+use crate::app::panel::widgets::{group, Status};
+use crate::app::state::{Params, Resolution};
+
+/// The current model on the CPU side.
+pub(crate) struct Model {
+    pub(crate) source: ModelSource,
+    pub(crate) scene: Scene,
+    /// The packed scene with its geometry arrays emptied after upload: the mesh table
+    /// stays for instance rebuilds, the environment for its changes.
+    pub(crate) packed: PackedScene,
+}
+
+/// What the tracer holds now; None = not applied yet (or to be applied again).
+#[derive(Default)]
+struct Applied {
+    /// (model count, mirror box) of the instance list.
+    instances: Option<(u32, bool)>,
+    resolution: Option<[u32; 2]>,
+    environment: Option<Option<EnvironmentSource>>,
+}
+
+/// Progressive accumulation: the frame last traced (with `frame_index` 0) and how many
+/// frames have been averaged into the output since anything changed (either half of a
+/// split frame, or the line).
+#[derive(Default)]
+pub(crate) struct Accumulation {
+    last: Option<FrameTrace>,
+    /// Frames averaged into the image shown.
+    pub(crate) frames: u32,
+}
+
+/// The model, the loader and the tracer's state.
+#[derive(Default)]
+pub(crate) struct Session {
+    pub(crate) model: Option<Model>,
+    pub(crate) loader: ModelLoader,
+    applied: Applied,
+    pub(crate) accumulation: Accumulation,
+}
+
+impl Session {
+    /// Start loading `source` (the current model stays until it is ready).
+    pub(crate) fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
+        panel.model.status = None;
+        panel.model.warnings.clear();
+        self.loader.start(source, params.load_options, params.model_count, params.light);
+    }
+
+    /// Take a finished load: upload it, or keep the old model and say why not. With no
+    /// model to fall back on, a failed load ends the run (the error is returned).
+    pub(crate) fn poll_loader(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<Option<String>> {
+        let result = match self.loader.poll() {
+            Poll::Idle | Poll::Busy => return Ok(None),
+            Poll::Done(result) => *result,
+        };
+        let first = self.model.is_none();
+        match result.and_then(|loaded| self.install(loaded, tracer, panel).map_err(|e| format!("{e:#}"))) {
+            Ok(title) => Ok(Some(title)),
+            Err(e) if first => Err(anyhow::anyhow!("{e}")),
+            Err(e) => {
+                let keeping = self.model.as_ref().map_or(String::new(), |m| m.source.label());
+                panel.model.status = Some(Status::error(format!("{e}; keeping {keeping}")));
+                Ok(None)
+            }
+        }
+    }
+
+    /// Upload a loaded model; returns the window title it asks for.
+    fn install(&mut self, loaded: LoadedModel, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<String> {
+        let LoadedModel { source, scene, mut packed, warnings, seconds } = loaded;
+        tracer.set_scene(&packed)?;
+        // The GPU has the geometry now; keep only what instance and environment changes need.
+        packed.triangles = Vec::new();
+        packed.shading = Vec::new();
+        packed.nodes = Vec::new();
+        let text = format!("loaded {} ({} triangles) in {seconds:.2} s", source.label(), group(scene.meshes[0].triangle_count() as u64));
+        panel.model.status = Some(match warnings.first() {
+            Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
+            None => Status::ok(text),
+        });
+        panel.model.warnings = warnings;
+        let title = format!("meshtracer — {}", source.label());
+        // The new scene's instance list and environment are the loader's defaults: apply ours.
+        self.applied.instances = None;
+        self.applied.environment = None;
+        self.accumulation = Accumulation::default();
+        self.model = Some(Model { source, scene, packed });
+        Ok(title)
+    }
+
+    /// Push parameter changes to the tracer (each takes effect this frame); `area` is the
+    /// image area in physical pixels.
+    pub(crate) fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
+        let size = params.render_size(area);
+        if self.applied.resolution != Some(size) {
+            match tracer.set_resolution(size[0], size[1]) {
+                Ok(()) => panel.render.status = None,
+                Err(e) => {
+                    // Too big for this device: say so and go back to what worked.
+                    let [w, h] = size;
+                    panel.render.status = Some(Status::error(format!("{w} x {h} failed: {e:#}")));
+                    params.resolution = Resolution::Custom;
+                    params.custom = self.applied.resolution.unwrap_or([256, 256]);
+                    tracer.set_resolution(params.custom[0], params.custom[1])?;
+                }
+            }
+            self.applied.resolution = tracer.resolution();
+        }
+        let Some(model) = &mut self.model else { return Ok(()) };
+        let want = (params.model_count, params.mirror_box);
+        if self.applied.instances != Some(want) {
+            model.scene.instances = instances(params.model_count);
+            if !params.mirror_box {
+                model.scene.remove_box();
+            }
+            model.packed.set_instances(&model.scene.instances);
+            tracer.set_instances(&model.packed.instances)?;
+            self.applied.instances = Some(want);
+            self.accumulation = Accumulation::default();
+        }
+        // A's misses see `params.environment`; the split's B may ask for one when A has
+        // none: the sky is uploaded then (A's frames do not sample it).
+        model.scene.environment = params.environment.clone();
+        let b_sky = params.split.enabled && params.split.b.wants_environment();
+        let upload = params.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
+        if self.applied.environment.as_ref() != Some(&upload) {
+            let (map, warning) = EnvironmentMap::from_source(upload.as_ref());
+            if let Some(w) = warning {
+                panel.render.status = Some(Status::error(w));
+            }
+            model.packed.set_environment(map);
+            tracer.set_environment(&model.packed)?;
+            self.applied.environment = Some(upload);
+            self.accumulation = Accumulation::default();
+        }
+        Ok(())
+    }
+
+    /// This frame's parameters (None without a model), split or not, counting accumulated
+    /// frames; with `hold`, an unchanged frame keeps its index (a long frame still being
+    /// traced).
+    pub(crate) fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameTrace> {
+        let model = self.model.as_mut()?;
+        model.scene.camera = params.camera;
+        model.scene.light.position = params.light_position();
+        let mesh_bounds: Vec<_> = model.packed.meshes.iter().map(|m| m.bounds).collect();
+        let bounds = model.scene.bounds_with(&mesh_bounds);
+        let mut frame = params.split.frame(FrameParams::with_bounds(&model.scene, params.settings_for(area), bounds));
+        // Average frames while nothing changes; any change starts afresh.
+        let acc = &mut self.accumulation;
+        let still = params.accumulate && frame.params.settings.aov == Aov::Color && acc.last == Some(frame);
+        if hold && acc.last == Some(frame) {
+            set_index(&mut frame, acc.frames.max(1) - 1);
+            return Some(frame);
+        }
+        acc.frames = if still { acc.frames.saturating_add(1).min(1 << 20) } else { 1 };
+        acc.last = Some(frame);
+        set_index(&mut frame, acc.frames - 1);
+        Some(frame)
+    }
+
+    /// The model's label, for file names ("none" before the first load).
+    pub(crate) fn model_label(&self) -> String {
+        self.model.as_ref().map_or("none".into(), |m| m.source.label())
+    }
+
+    /// Triangles and vertices in the world (all instances).
+    pub(crate) fn counts(&self) -> (u64, u64) {
+        self.model.as_ref().map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
+    }
+}
+
+/// Both halves of a frame accumulate in step: each pixel's running mean is its own half's.
+fn set_index(frame: &mut FrameTrace, index: u32) {
+    frame.params.frame_index = index;
+    if let Some(split) = &mut frame.split {
+        split.params.frame_index = index;
+    }
+}
