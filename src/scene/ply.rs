@@ -236,11 +236,13 @@ impl Body<'_> {
     fn next(&mut self, kind: Scalar) -> Result<f64, String> {
         match self {
             Body::Ascii { text, pos, line } => {
+                // The line moves on only when a value follows: a cut file is named by its last line.
+                let mut newlines = 0;
                 while let Some(&b) = text.get(*pos) {
                     if !b.is_ascii_whitespace() {
                         break;
                     }
-                    *line += usize::from(b == b'\n');
+                    newlines += usize::from(b == b'\n');
                     *pos += 1;
                 }
                 let start = *pos;
@@ -250,6 +252,7 @@ impl Body<'_> {
                 if start == *pos {
                     return Err("the file ends here: it seems to be cut short".to_owned());
                 }
+                *line += newlines;
                 let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
                 let value = if kind.is_integer() { word.parse::<i64>().ok().map(|v| v as f64) } else { word.parse::<f64>().ok() };
                 let in_range = |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
