@@ -23,6 +23,9 @@ const MAX_DEPTH: usize = 64;
 /// The most node visits (a node may be the child of many): a bound on instancing blow-up.
 const MAX_NODE_VISITS: usize = 1 << 20;
 
+/// The most vertices placed (nodes may instance a mesh many times): 3 GiB of positions.
+const MAX_VERTICES: usize = 1 << 28;
+
 /// Load a `.gltf` or `.glb` file; buffers and textures are found relative to its folder.
 pub fn load_gltf(path: &Path) -> Result<LoadedObj, ObjError> {
     let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
@@ -35,13 +38,30 @@ pub fn load_gltf(path: &Path) -> Result<LoadedObj, ObjError> {
 pub fn load_gltf_from_bytes(bytes: &[u8], name: &str, base_dir: Option<&Path>) -> Result<LoadedObj, ObjError> {
     let invalid = |reason: String| ObjError::Invalid { name: name.to_owned(), reason };
     let (json, blob) = if bytes.starts_with(b"glTF") { split_glb(bytes).map_err(invalid)? } else { (bytes, None) };
-    let document = ::gltf::Gltf::from_slice(json)
-        .map_err(|e| invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string()))))?
-        .document;
+    let not_gltf = |e: &dyn std::fmt::Display| invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string())));
+    let root = ::gltf::json::Root::from_slice(json).map_err(|e| not_gltf(&e))?;
+    check_position_indices(&root).map_err(invalid)?;
+    let document = Document::from_json(root).map_err(|e| not_gltf(&e))?;
     let buffers = read_buffers(&document, blob, base_dir).map_err(invalid)?;
     let mut warnings = Vec::new();
     let mesh = build_mesh(&document, &buffers, name, base_dir, &mut warnings).map_err(invalid)?;
     Ok(LoadedObj { mesh, warnings })
+}
+
+/// gltf-json 1.4's validation looks up each primitive's POSITION accessor before it checks
+/// that the index exists (and panics where it does not): that one is checked first here.
+fn check_position_indices(root: &::gltf::json::Root) -> Result<(), String> {
+    use ::gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = prim.attributes.get(&Checked::Valid(Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                let count = root.accessors.len();
+                return Err(format!("mesh {m} primitive {p}: POSITION is accessor {}, but the file has {count} accessors", index.value()));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The JSON chunk and the optional BIN chunk of a binary glTF, every length checked.
@@ -183,7 +203,7 @@ fn world_nodes<'a>(document: &'a Document) -> Result<Vec<(Node<'a>, Mat4)>, Stri
     let mut out = Vec::new();
     let mut stack: Vec<(Node, Mat4, usize)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
-        if depth > MAX_DEPTH || out.len() >= MAX_NODE_VISITS {
+        if depth > MAX_DEPTH || out.len() + stack.len() + node.children().len() >= MAX_NODE_VISITS {
             return Err(format!("the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node instances (a cycle?)"));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
@@ -218,8 +238,8 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
             let p = read_accessor(&position, buffers, "POSITION", Dimensions::Vec3)?;
             let count = p.len() / 3;
             let base = mesh.positions.len();
-            if base + count > u32::MAX as usize {
-                return Err("more than 2^32 vertices".to_owned());
+            if base + count > MAX_VERTICES {
+                return Err(format!("the scene places more than {MAX_VERTICES} vertices"));
             }
             mesh.positions.extend(p.chunks_exact(3).map(|c| world.transform_point3(Vec3::from_slice(c))));
             match prim.get(&Semantic::Normals) {
