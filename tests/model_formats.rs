@@ -253,6 +253,31 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
     assert_same_geometry(&twin, &from_glb, "two.glb");
 }
 
+#[test]
+fn gltf_base_colour_textures_are_paths_beside_the_file() {
+    let dir = TempDir::new("gltf-tex");
+    let (bin, _) = gltf_bin();
+    dir.write("quad.bin", &bin);
+    dir.write("wood grain.png", b"not decoded by the loader");
+    let textured = |uri: &str| {
+        gltf_json("quad.bin", "VEC3").replace(
+            r#""materials": [{"name": "red", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.1, 0.1, 1]}}],"#,
+            &format!(r#""materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}}], "textures": [{{"source": 0}}], "images": [{{"uri": "{uri}"}}],"#),
+        )
+    };
+    let loaded = load_model_file(&dir.write("tex.gltf", textured("wood%20grain.png")), &LoadOptions::default()).unwrap();
+    let material = &loaded.mesh.materials[0];
+    assert_eq!(material.diffuse_texture.as_deref(), Some(dir.0.join("wood grain.png").as_path()));
+    assert_eq!((material.name.as_str(), material.diffuse), ("material 0", Vec3::ONE));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+
+    for (name, uri, warning) in [("missing.gltf", "nowhere.png", "texture `nowhere.png` of material 0 not found"), ("embedded.gltf", "data:image/png;base64,AAAA", "embedded texture")] {
+        let loaded = load_model_file(&dir.write(name, textured(uri)), &LoadOptions::default()).unwrap();
+        assert_eq!(loaded.mesh.materials[0].diffuse_texture, None);
+        assert!(loaded.warnings.len() == 1 && loaded.warnings[0].contains(name) && loaded.warnings[0].contains(warning), "{:?}", loaded.warnings);
+    }
+}
+
 fn glb_bytes(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut json = json.as_bytes().to_vec();
     while json.len() % 4 != 0 {

@@ -66,7 +66,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=8))]
     pub(crate) bounces: u32,
     /// Extra model files (OBJ, PLY, glTF) for the triangle series.
-    #[arg(long = "model", alias = "obj")]
+    #[arg(long = "model", alias = "obj", value_name = "FILE")]
     pub(crate) objs: Vec<PathBuf>,
     /// Write all rows as JSON here.
     #[arg(long)]
