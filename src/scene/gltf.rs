@@ -213,6 +213,7 @@ fn world_nodes<'a>(document: &'a Document) -> Result<Vec<(Node<'a>, Mat4)>, Stri
     Ok(out)
 }
 
+/// Every triangle primitive of the placed nodes, in world space, as one mesh.
 fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Option<&Path>, warnings: &mut Vec<String>) -> Result<Mesh, String> {
     let mut mesh = Mesh { name: name.to_owned(), ..Default::default() };
     let mut normals: Vec<Vec3> = Vec::new();

@@ -93,17 +93,33 @@ impl Scalar {
         }
     }
 
+    /// The type as the header spells it, for messages.
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+
     fn is_integer(self) -> bool {
         !matches!(self, Scalar::F32 | Scalar::F64)
     }
 }
 
+/// A property of an element: one value, or a list with its count type and item type.
 #[derive(Clone, Debug)]
 enum Property {
     Scalar(Scalar),
     List { count: Scalar, item: Scalar },
 }
 
+/// An `element` line and its properties: `count` records of them follow in the body.
 #[derive(Debug)]
 struct Element {
     name: String,
@@ -112,6 +128,7 @@ struct Element {
 }
 
 impl Element {
+    /// The position of the first scalar property called any of `names`.
     fn find(&self, names: &[&str]) -> Option<usize> {
         self.properties.iter().position(|(n, p)| names.contains(&n.as_str()) && matches!(p, Property::Scalar(_)))
     }
@@ -123,6 +140,7 @@ enum Format {
     Binary { big_endian: bool },
 }
 
+/// What the header says: the encoding, the elements in body order, where the body starts.
 struct Header {
     format: Format,
     elements: Vec<Element>,
@@ -131,6 +149,7 @@ struct Header {
     body_line: usize,
 }
 
+/// Read the header up to `end_header`; any line we do not know is an error naming it.
 fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
@@ -256,7 +275,7 @@ impl Body<'_> {
                 let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
                 let value = if kind.is_integer() { word.parse::<i64>().ok().map(|v| v as f64) } else { word.parse::<f64>().ok() };
                 let in_range = |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
-                value.filter(|&v| in_range(v)).ok_or_else(|| format!("{} is not a valid {kind:?} value", quote(word)))
+                value.filter(|&v| in_range(v)).ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
             }
             Body::Binary { data, pos, big_endian } => {
                 let size = kind.size();
@@ -329,6 +348,7 @@ fn int_max(kind: Scalar) -> f64 {
     }
 }
 
+/// Read every element in order: vertices and faces into the mesh, the rest skipped.
 fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
     let vertex_count = header.elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
     let capacity = |n: u64| (n as usize).min(MAX_INITIAL_CAPACITY);
