@@ -52,7 +52,8 @@ fn parse_finite(s: &str) -> Result<f32, String> {
 #[derive(Args, Debug, Clone)]
 pub(crate) struct SceneArgs {
     /// Model: geosphere, torusknot, sphere, cylinder (the paper's four), torusknot:N (a
-    /// generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file.
+    /// generated knot of N triangles, e.g. torusknot:4M), or a path to an OBJ, PLY or glTF
+    /// (.gltf/.glb) file.
     #[arg(long, default_value = "geosphere")]
     pub model: String,
     /// For .obj files with neither normals nor smoothing groups: faces meeting at a corner

@@ -24,11 +24,11 @@ pub struct BenchArgs {
     /// Frame time against triangles, resolution, bounces and model count.
     #[arg(long)]
     pub(crate) scaling: bool,
-    /// The cost of each shading feature (smooth, env, spp, adaptive; textures on the first --obj).
+    /// The cost of each shading feature (smooth, env, spp, adaptive; textures on the first --model).
     #[arg(long)]
     pub(crate) features: bool,
     /// Primary rays with the camera moved in until the model fills the frame (--triangles
-    /// knots and --obj models at --size): the vendor's comparison.
+    /// knots and --model files at --size): the vendor's comparison.
     #[arg(long)]
     pub(crate) framed: bool,
     /// Trace every row with our BVH and with the vendor's ray tracing (and brute force with
@@ -65,8 +65,8 @@ pub struct BenchArgs {
     /// Bounces in the triangle series (the paper's 2; 0 = primary rays only).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=8))]
     pub(crate) bounces: u32,
-    /// Extra .obj files for the triangle series.
-    #[arg(long = "obj")]
+    /// Extra model files (OBJ, PLY, glTF) for the triangle series.
+    #[arg(long = "model", alias = "obj", value_name = "FILE")]
     pub(crate) objs: Vec<PathBuf>,
     /// Write all rows as JSON here.
     #[arg(long)]

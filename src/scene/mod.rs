@@ -1,9 +1,11 @@
-//! What is traced: meshes (from .obj files or the paper's generators), their materials,
+//! What is traced: meshes (from OBJ, PLY or glTF files or the paper's generators), their materials,
 //! instances of them placed in the world, the camera and the light.
 
 pub mod camera;
+pub mod gltf;
 pub mod obj;
 pub mod paper;
+pub mod ply;
 pub mod preset;
 pub mod primitives;
 pub mod spec;

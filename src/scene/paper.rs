@@ -2,11 +2,11 @@
 //! planes, optional identical copies along the x, y and z axes at a fixed spacing, and a
 //! point light orbiting inside the box. Every entry point opens on this scene.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::obj::{load_obj_with, LoadOptions, ObjError};
+use super::obj::{load_obj_with, LoadOptions, LoadedObj, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
 
@@ -20,7 +20,8 @@ pub(crate) const MODEL_SPACING: f32 = 2.5;
 /// edges and corners.
 pub const MAX_MODELS: u32 = 27;
 
-/// Where the model comes from: one of the paper's generated primitives or an .obj file.
+/// Where the model comes from: one of the paper's generated primitives or a model file
+/// (OBJ, PLY or glTF).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ModelSource {
     Paper(PaperModel),
@@ -64,12 +65,30 @@ impl ModelSource {
             ModelSource::Paper(m) => (m.mesh(), Vec::new()),
             ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
             ModelSource::File(p) => {
-                let loaded = load_obj_with(p, options)?;
+                let loaded = load_model_file(p, options)?;
                 (loaded.mesh, loaded.warnings)
             }
         };
         prepare_model(&mut mesh);
         Ok((mesh, warnings))
+    }
+}
+
+/// The model formats read, by extension, for messages and file dialogs.
+pub const MODEL_EXTENSIONS: [&str; 4] = ["obj", "ply", "gltf", "glb"];
+
+/// Load a model file by its extension (any case): OBJ, PLY or glTF 2.0 (`.gltf`/`.glb`).
+/// `options` apply to OBJ files.
+pub fn load_model_file(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("obj") => load_obj_with(path, options),
+        Some("ply") => super::ply::load_ply(path),
+        Some("gltf" | "glb") => super::gltf::load_gltf(path),
+        _ => Err(ObjError::Invalid {
+            name: path.display().to_string(),
+            reason: "unknown model format; expected an OBJ (.obj), PLY (.ply) or glTF 2.0 (.gltf, .glb) file".to_owned(),
+        }),
     }
 }
 

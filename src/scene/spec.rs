@@ -148,7 +148,7 @@ impl SceneSpec {
 }
 
 /// The model names `--model` and the panel accept, for messages.
-pub const MODEL_NAMES: &str = "geosphere, torusknot, sphere, cylinder, torusknot:N (a generated knot of N triangles, e.g. torusknot:4M), or a path to an .obj file";
+pub const MODEL_NAMES: &str = "geosphere, torusknot, sphere, cylinder, torusknot:N (a generated knot of N triangles, e.g. torusknot:4M), or a path to an OBJ, PLY or glTF (.gltf/.glb) file";
 
 impl ModelSource {
     /// A file that does not exist and does not look like a path was probably meant as a

@@ -220,7 +220,7 @@ fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind:
 
 /// The bytes of a regular file. Devices and pipes are refused before they are opened:
 /// `/dev/zero` would never end, and opening a FIFO waits for a writer.
-fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
+pub(crate) fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         let what = if meta.is_dir() { "a directory" } else { "not a regular file" };

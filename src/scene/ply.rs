@@ -1,0 +1,496 @@
+//! Stanford PLY loading: ASCII, binary little- and big-endian, read by our own parser.
+//!
+//! The header says what the body holds; nothing is allocated on its word alone. A binary
+//! body's smallest possible size follows from the header and is checked against the bytes
+//! present before anything is read (an ASCII body against its length in the same way),
+//! and vectors start at a capped capacity. From `element vertex` we keep x/y/z, nx/ny/nz
+//! and u/v (or s/t); colours and anything else are skipped by their declared type, as are
+//! elements other than `vertex` and `face`. Faces (`vertex_indices` or `vertex_index`, any
+//! count and index type) are split as the OBJ loader splits them: quads as the paper
+//! does, larger polygons into fans. Errors name the file and the line (ASCII) or the
+//! element (binary).
+
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use super::obj::{read_regular_file, LoadedObj, ObjError};
+use super::{Material, Mesh};
+
+/// The most vertices or triangles reserved up front; beyond this vectors grow as they fill.
+const MAX_INITIAL_CAPACITY: usize = 1 << 20;
+/// The longest header read (comments included) before the body must begin.
+const MAX_HEADER_BYTES: usize = 1 << 20;
+
+/// Load a PLY file (ASCII or binary). Devices and FIFOs are refused before opening.
+pub fn load_ply(path: &Path) -> Result<LoadedObj, ObjError> {
+    let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    load_ply_from_bytes(&bytes, &path.display().to_string())
+}
+
+/// Load a PLY from bytes already in memory (`name` is used in messages). Used by tests and the fuzzer.
+pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjError> {
+    let fail = |location: Location, reason: String| match location {
+        Location::Line(line) => ObjError::Parse { name: name.to_owned(), line, reason },
+        Location::Element(what) => ObjError::Invalid { name: name.to_owned(), reason: format!("{what}: {reason}") },
+        Location::File => ObjError::Invalid { name: name.to_owned(), reason },
+    };
+    let header = parse_header(bytes).map_err(|(l, r)| fail(l, r))?;
+    let body = &bytes[header.body_start..];
+    check_body_size(&header, body).map_err(|r| fail(Location::File, r))?;
+    let mut reader = match header.format {
+        Format::Ascii => Body::Ascii { text: body, pos: 0, line: header.body_line },
+        Format::Binary { big_endian } => Body::Binary { data: body, pos: 0, big_endian },
+    };
+    let mut warnings = Vec::new();
+    let mesh = read_body(&header, &mut reader, name, &mut warnings).map_err(|(l, r)| fail(l, r))?;
+    Ok(LoadedObj { mesh, warnings })
+}
+
+/// Where a problem is: a line of an ASCII file, an element of a binary one, or the whole file.
+enum Location {
+    Line(usize),
+    Element(String),
+    File,
+}
+
+type Failure = (Location, String);
+
+/// A scalar type of the PLY format.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(word: &str) -> Option<Self> {
+        Some(match word {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    /// The type as the header spells it, for messages.
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+}
+
+/// A property of an element: one value, or a list with its count type and item type.
+#[derive(Clone, Debug)]
+enum Property {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+/// An `element` line and its properties: `count` records of them follow in the body.
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: u64,
+    properties: Vec<(String, Property)>,
+}
+
+impl Element {
+    /// The position of the first scalar property called any of `names`.
+    fn find(&self, names: &[&str]) -> Option<usize> {
+        self.properties.iter().position(|(n, p)| names.contains(&n.as_str()) && matches!(p, Property::Scalar(_)))
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Format {
+    Ascii,
+    Binary { big_endian: bool },
+}
+
+/// What the header says: the encoding, the elements in body order, where the body starts.
+struct Header {
+    format: Format,
+    elements: Vec<Element>,
+    body_start: usize,
+    /// The line the body starts on (ASCII).
+    body_line: usize,
+}
+
+/// Read the header up to `end_header`; any line we do not know is an error naming it.
+fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut pos = 0;
+    let mut line_no = 0;
+    loop {
+        line_no += 1;
+        if pos >= bytes.len() || pos > MAX_HEADER_BYTES {
+            let why = if pos >= bytes.len() { "the file ends" } else { "more than 1 MiB passes" };
+            return Err((Location::File, format!("{why} before the header's `end_header`")));
+        }
+        let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
+        let raw = &bytes[pos..end];
+        pos = (end + 1).min(bytes.len());
+        let line = std::str::from_utf8(raw).map_err(|_| (Location::Line(line_no), "the header is not text".to_owned()))?;
+        let words: Vec<&str> = line.split_ascii_whitespace().collect();
+        let bad = |reason: String| (Location::Line(line_no), reason);
+        if line_no == 1 {
+            if line.trim_end_matches('\r') != "ply" {
+                return Err((Location::File, "not a PLY file (it does not begin with `ply`)".to_owned()));
+            }
+            continue;
+        }
+        match words.as_slice() {
+            [] => {}
+            ["comment" | "obj_info", ..] => {}
+            ["format", kind, version] => {
+                format = Some(match *kind {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Binary { big_endian: false },
+                    "binary_big_endian" => Format::Binary { big_endian: true },
+                    _ => return Err(bad(format!("unknown format {} (ascii, binary_little_endian or binary_big_endian)", quote(kind)))),
+                });
+                if !version.starts_with('1') {
+                    return Err(bad(format!("unknown format version {}", quote(version))));
+                }
+            }
+            ["element", elem, count] => {
+                let count = count.parse::<u64>().map_err(|_| bad(format!("element count {} is not a number", quote(count))))?;
+                elements.push(Element { name: elem.to_string(), count, properties: Vec::new() });
+            }
+            ["property", rest @ ..] => {
+                let element = elements.last_mut().ok_or_else(|| bad("a property before any element".to_owned()))?;
+                let scalar = |w: &str| Scalar::parse(w).ok_or_else(|| bad(format!("unknown property type {}", quote(w))));
+                let property = match rest {
+                    ["list", count, item, pname] => {
+                        let count = scalar(count)?;
+                        if !count.is_integer() {
+                            return Err(bad(format!("list {} has a count type that is not an integer", quote(pname))));
+                        }
+                        (pname.to_string(), Property::List { count, item: scalar(item)? })
+                    }
+                    [kind, pname] => (pname.to_string(), Property::Scalar(scalar(kind)?)),
+                    _ => return Err(bad(format!("malformed property {}", quote(line)))),
+                };
+                element.properties.push(property);
+            }
+            ["end_header"] => break,
+            _ => return Err(bad(format!("unknown header line {}", quote(line)))),
+        }
+    }
+    let format = format.ok_or((Location::File, "the header has no `format` line".to_owned()))?;
+    Ok(Header { format, elements, body_start: pos, body_line: line_no + 1 })
+}
+
+/// The body must hold at least what the header claims before anything is allocated: every
+/// scalar and list count takes its size in bytes (binary) or a number and a space (ASCII).
+fn check_body_size(header: &Header, body: &[u8]) -> Result<(), String> {
+    let mut least: u128 = 0;
+    for e in &header.elements {
+        let per: u128 = e
+            .properties
+            .iter()
+            .map(|(_, p)| match (header.format, p) {
+                (Format::Ascii, _) => 2,
+                (Format::Binary { .. }, Property::Scalar(s)) => s.size() as u128,
+                (Format::Binary { .. }, Property::List { count, .. }) => count.size() as u128,
+            })
+            .sum();
+        least += per * e.count as u128;
+    }
+    // The last ASCII number needs no separator after it.
+    let least = if header.format == Format::Ascii { least.saturating_sub(1) } else { least };
+    if least > body.len() as u128 {
+        let claims: Vec<String> = header.elements.iter().map(|e| format!("{} {}", e.count, quote(&e.name))).collect();
+        return Err(format!(
+            "the header claims {} elements (at least {least} bytes), but the body holds only {} bytes: the file is cut short or its header is wrong",
+            claims.join(" and "),
+            body.len()
+        ));
+    }
+    Ok(())
+}
+
+/// The body: numbers in text, or packed binary values.
+enum Body<'a> {
+    Ascii { text: &'a [u8], pos: usize, line: usize },
+    Binary { data: &'a [u8], pos: usize, big_endian: bool },
+}
+
+impl Body<'_> {
+    /// The next value as `kind`, widened to f64 (every PLY type fits it exactly).
+    fn next(&mut self, kind: Scalar) -> Result<f64, String> {
+        match self {
+            Body::Ascii { text, pos, line } => {
+                // The line moves on only when a value follows: a cut file is named by its last line.
+                let mut newlines = 0;
+                while let Some(&b) = text.get(*pos) {
+                    if !b.is_ascii_whitespace() {
+                        break;
+                    }
+                    newlines += usize::from(b == b'\n');
+                    *pos += 1;
+                }
+                let start = *pos;
+                while text.get(*pos).is_some_and(|b| !b.is_ascii_whitespace()) {
+                    *pos += 1;
+                }
+                if start == *pos {
+                    return Err("the file ends here: it seems to be cut short".to_owned());
+                }
+                *line += newlines;
+                let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
+                let value = if kind.is_integer() { word.parse::<i64>().ok().map(|v| v as f64) } else { word.parse::<f64>().ok() };
+                let in_range = |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
+                value.filter(|&v| in_range(v)).ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
+            }
+            Body::Binary { data, pos, big_endian } => {
+                let size = kind.size();
+                let Some(raw) = data.get(*pos..*pos + size) else {
+                    return Err("the file ends here: it seems to be cut short".to_owned());
+                };
+                *pos += size;
+                let mut b = [0u8; 8];
+                b[..size].copy_from_slice(raw);
+                if *big_endian {
+                    b[..size].reverse();
+                }
+                Ok(match kind {
+                    Scalar::I8 => b[0] as i8 as f64,
+                    Scalar::U8 => b[0] as f64,
+                    Scalar::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+                    Scalar::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+                    Scalar::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::F64 => f64::from_le_bytes(b),
+                })
+            }
+        }
+    }
+
+    /// Where the reader is, for a message about element `index` of `element`.
+    fn location(&self, element: &str, index: u64) -> Location {
+        match self {
+            Body::Ascii { line, .. } => Location::Line(*line),
+            Body::Binary { .. } => Location::Element(format!("{element} {index}")),
+        }
+    }
+
+    /// Read one property, calling `item` with each value of a list (none for a scalar).
+    fn property(&mut self, p: &Property, mut item: impl FnMut(f64)) -> Result<Option<f64>, String> {
+        match *p {
+            Property::Scalar(s) => self.next(s).map(Some),
+            Property::List { count, item: kind } => {
+                let n = self.next(count)?;
+                if n < 0.0 {
+                    return Err(format!("a list has a negative length ({n})"));
+                }
+                for _ in 0..n as u64 {
+                    item(self.next(kind)?);
+                }
+                Ok(None)
+            }
+        }
+    }
+}
+
+fn int_min(kind: Scalar) -> f64 {
+    match kind {
+        Scalar::I8 => i8::MIN as f64,
+        Scalar::I16 => i16::MIN as f64,
+        Scalar::I32 => i32::MIN as f64,
+        _ => 0.0,
+    }
+}
+
+fn int_max(kind: Scalar) -> f64 {
+    match kind {
+        Scalar::I8 => i8::MAX as f64,
+        Scalar::U8 => u8::MAX as f64,
+        Scalar::I16 => i16::MAX as f64,
+        Scalar::U16 => u16::MAX as f64,
+        Scalar::I32 => i32::MAX as f64,
+        _ => u32::MAX as f64,
+    }
+}
+
+/// Read every element in order: vertices and faces into the mesh, the rest skipped.
+fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
+    let vertex_count = header.elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
+    let capacity = |n: u64| (n as usize).min(MAX_INITIAL_CAPACITY);
+    let mut mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], ..Default::default() };
+    let mut normals = Vec::new();
+    let mut texcoords = Vec::new();
+    let mut saw_vertices = false;
+    for e in &header.elements {
+        match e.name.as_str() {
+            "vertex" if !saw_vertices => {
+                saw_vertices = true;
+                let missing = |axis: &str| (Location::File, format!("`element vertex` has no scalar property {axis}"));
+                let xyz = [e.find(&["x"]).ok_or_else(|| missing("x"))?, e.find(&["y"]).ok_or_else(|| missing("y"))?, e.find(&["z"]).ok_or_else(|| missing("z"))?];
+                let n = [e.find(&["nx"]), e.find(&["ny"]), e.find(&["nz"])];
+                let n = if let [Some(a), Some(b), Some(c)] = n { Some([a, b, c]) } else { None };
+                let uv = match (e.find(&["u", "s", "texture_u", "texture_s"]), e.find(&["v", "t", "texture_v", "texture_t"])) {
+                    (Some(a), Some(b)) => Some([a, b]),
+                    _ => None,
+                };
+                mesh.positions.reserve(capacity(e.count));
+                let mut values = vec![0.0f64; e.properties.len()];
+                for i in 0..e.count {
+                    for (k, (_, p)) in e.properties.iter().enumerate() {
+                        values[k] = body.property(p, |_| {}).map_err(|r| (body.location("vertex", i), r))?.unwrap_or(0.0);
+                    }
+                    let p = Vec3::from(xyz.map(|k| values[k] as f32));
+                    if !p.is_finite() {
+                        return Err((body.location("vertex", i), "a vertex position has a coordinate that is not a finite number (NaN, infinity or beyond f32)".to_owned()));
+                    }
+                    mesh.positions.push(p);
+                    if let Some(n) = n {
+                        normals.push(Vec3::from(n.map(|k| values[k] as f32)));
+                    }
+                    if let Some(uv) = uv {
+                        texcoords.push(Vec2::from(uv.map(|k| values[k] as f32)));
+                    }
+                }
+            }
+            "face" if mesh.triangles.is_empty() => {
+                let list = e
+                    .properties
+                    .iter()
+                    .position(|(n, p)| (n == "vertex_indices" || n == "vertex_index") && matches!(p, Property::List { .. }))
+                    .ok_or((Location::File, "`element face` has no list property vertex_indices".to_owned()))?;
+                mesh.triangles.reserve(capacity(e.count));
+                let mut corners: Vec<f64> = Vec::new();
+                for i in 0..e.count {
+                    for (k, (_, p)) in e.properties.iter().enumerate() {
+                        let keep = k == list;
+                        if keep {
+                            corners.clear();
+                        }
+                        body.property(p, |v| {
+                            if keep {
+                                corners.push(v)
+                            }
+                        })
+                        .map_err(|r| (body.location("face", i), r))?;
+                    }
+                    let at = || body.location("face", i);
+                    if corners.len() < 3 {
+                        return Err((at(), format!("a face has {} corners; at least 3 are needed", corners.len())));
+                    }
+                    if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
+                        return Err((at(), format!("face vertex index {bad} is out of range (the file has {vertex_count} vertices)")));
+                    }
+                    let c = |k: usize| corners[k] as u32;
+                    match corners.len() {
+                        3 => mesh.triangles.push([c(0), c(1), c(2)]),
+                        4 => mesh.triangles.extend([[c(0), c(1), c(3)], [c(1), c(2), c(3)]]),
+                        n => mesh.triangles.extend((1..n - 1).map(|k| [c(0), c(k), c(k + 1)])),
+                    }
+                }
+            }
+            _ => {
+                // Another element (or a second vertex/face one): skipped by its layout.
+                if e.properties.is_empty() {
+                    continue;
+                }
+                for i in 0..e.count {
+                    for (_, p) in &e.properties {
+                        body.property(p, |_| {}).map_err(|r| (body.location(&e.name, i), r))?;
+                    }
+                }
+            }
+        }
+    }
+    if mesh.triangles.is_empty() {
+        return Err((Location::File, "the file has no faces, so there is nothing to trace".to_owned()));
+    }
+    if header.elements.iter().filter(|e| e.name != "vertex" && e.name != "face").any(|e| e.count > 0) {
+        let skipped: Vec<String> = header.elements.iter().filter(|e| e.name != "vertex" && e.name != "face").map(|e| quote(&e.name)).collect();
+        warnings.push(format!("{name}: elements {} are not used", skipped.join(", ")));
+    }
+    mesh.triangle_materials = vec![0; mesh.triangles.len()];
+    if !texcoords.iter().all(|t| t.is_finite()) {
+        warnings.push(format!("{name}: a texture coordinate is not a finite number; the model is drawn without texture coordinates"));
+    } else {
+        mesh.texcoords = texcoords;
+    }
+    if !normals.is_empty() && normals.iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
+        mesh.normals = normals.into_iter().map(Vec3::normalize).collect();
+        mesh.has_file_normals = true;
+    } else {
+        mesh.compute_vertex_normals();
+    }
+    Ok(mesh)
+}
+
+/// A word from the file for a message, cut and escaped (see `files::shown`).
+fn quote(word: &str) -> String {
+    format!("`{}`", crate::files::shown(word.trim(), 60))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_ascii_quad_splits_as_the_paper_does() {
+        let text = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n\
+                    element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n4 0 1 2 3\n";
+        let mesh = load_ply_from_bytes(text.as_bytes(), "q.ply").unwrap().mesh;
+        assert_eq!(mesh.triangles, vec![[0, 1, 3], [1, 2, 3]]);
+        assert_eq!(mesh.normals.len(), 4);
+        assert!(!mesh.has_file_normals);
+    }
+
+    #[test]
+    fn bad_headers_and_bodies_are_one_line_naming_the_file() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        for (text, expected) in [
+            (format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"), "t.ply line 13: face vertex index 7 is out of range"),
+            (format!("{head}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "t.ply line 13: a face has 2 corners"),
+            (format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "t.ply line 13: the file ends here"),
+            (head.replace("ascii", "utf16"), "t.ply line 2: unknown format `utf16`"),
+            (head.replace("float x", "half x"), "t.ply line 4: unknown property type `half`"),
+            (head.replace("vertex 3", "vertex 3000000000"), "t.ply: the header claims 3000000000 `vertex`"),
+        ] {
+            let e = load_ply_from_bytes(text.as_bytes(), "t.ply").unwrap_err().to_string();
+            assert!(e.starts_with(expected), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
+    }
+}
