@@ -8,7 +8,8 @@
 
 use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
-use meshtracer::tracer::{Aov, FrameParams, Image, PackedScene, RenderSettings};
+use meshtracer::render_settings::{Aov, RenderSettings};
+use meshtracer::tracer::{FrameParams, Image, PackedScene};
 
 fn rmse(a: &Image, b: &Image) -> f64 {
     let sum: f64 = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (0..3).map(|c| ((p[c] - q[c]) as f64).powi(2)).sum::<f64>()).sum();

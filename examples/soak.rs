@@ -21,7 +21,8 @@ use clap::Parser;
 use meshtracer::gpu::buffer::GpuBuffer;
 use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{instances, load_paper_scene, LightOrbit, ModelSource, MAX_MODELS};
-use meshtracer::tracer::{FrameParams, PackedScene, RenderSettings};
+use meshtracer::render_settings::RenderSettings;
+use meshtracer::tracer::{FrameParams, PackedScene};
 
 #[derive(Parser, Debug)]
 #[command(about = "Trace frames for a long time; fail if memory or GPU allocations grow")]

@@ -16,7 +16,8 @@ use std::path::Path;
 use glam::Vec3;
 use meshtracer::scene::obj::{load_obj_from_str, ObjError};
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
-use meshtracer::tracer::{cpu, FrameParams, PackedScene, RenderSettings};
+use meshtracer::render_settings::RenderSettings;
+use meshtracer::tracer::{cpu, FrameParams, PackedScene};
 
 /// Inputs longer than this are ignored, so that every run stays fast.
 pub const MAX_INPUT: usize = 64 * 1024;

@@ -13,7 +13,7 @@
 pub(crate) mod contract;
 pub(crate) mod bench;
 pub mod bvh;
-pub(crate) mod files;
+pub mod files;
 pub mod geometry;
 pub mod render_settings;
 pub mod scene;

@@ -26,7 +26,7 @@ fn scripted_run_writes_trace_and_window_screenshots() {
 
     // Both carry the preset of the trace in their `meshtracer` text chunk.
     for name in ["a.png", "b.png"] {
-        let text = meshtracer::tracer::image::png_settings(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
+        let text = meshtracer::files::image_files::png_settings(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
         let text = text.unwrap_or_else(|| panic!("{name} has no settings chunk"));
         let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
         assert_eq!((spec.settings.width, spec.settings.height, spec.settings.bounces), (128, 128, 2), "{name}: {text}");
@@ -352,7 +352,7 @@ fn view_preset_with_a_flag_over_it_matches_render() {
     assert_eq!(shot.dimensions(), (128, 96));
     let reference = headless_render(dir.path(), &["--preset", "look.toml", "--bounces", "3"], "ref.png");
     assert!(max_diff(&shot, &reference) <= 1, "window differs from `render --preset` by {}", max_diff(&shot, &reference));
-    let text = meshtracer::tracer::image::png_settings(&std::fs::read(dir.path().join("s.png")).unwrap()).unwrap().expect("the screenshot carries its preset");
+    let text = meshtracer::files::image_files::png_settings(&std::fs::read(dir.path().join("s.png")).unwrap()).unwrap().expect("the screenshot carries its preset");
     let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
     assert_eq!((spec.settings.bounces, spec.settings.smooth, spec.light.angle_deg), (3, true, 200.0));
 }

@@ -12,7 +12,8 @@ use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
 use meshtracer::scene::{Camera, EnvironmentSource, Instance, Material, PointLight, Scene};
 use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
-use meshtracer::tracer::{cpu, Aov, FrameParams, Image, PackedScene, RenderSettings};
+use meshtracer::render_settings::{Aov, RenderSettings};
+use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 fn settings(size: u32) -> RenderSettings {
     RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() }

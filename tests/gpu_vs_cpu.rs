@@ -13,7 +13,7 @@ use common::*;
 use glam::Vec3;
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::Material;
-use meshtracer::tracer::{Accel, Aov, RenderSettings};
+use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 
 const THRESHOLD: f32 = 1e-4;
 

@@ -24,8 +24,9 @@ use meshtracer::gpu::scene_buffers::{check_fits, SceneBuffers};
 use meshtracer::gpu::{ContextOptions, GpuContext, GpuError, ComputeTracer};
 use meshtracer::tracer::packed::{GpuTriangle, GpuTriangleShading};
 use meshtracer::scene::primitives::PaperModel;
-use meshtracer::tracer::frame::MAX_RESOLUTION;
-use meshtracer::tracer::{FrameParams, PackedScene, RenderSettings};
+use meshtracer::render_settings::MAX_RESOLUTION;
+use meshtracer::render_settings::RenderSettings;
+use meshtracer::tracer::{FrameParams, PackedScene};
 
 // --- helpers ---------------------------------------------------------------------------
 

@@ -14,7 +14,8 @@ use meshtracer::scene::obj::load_obj_from_str;
 use meshtracer::scene::paper::{model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::cpu::{CpuScene, SceneHit};
-use meshtracer::tracer::{Accel, PackedScene};
+use meshtracer::render_settings::Accel;
+use meshtracer::tracer::PackedScene;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 

@@ -13,7 +13,8 @@ use common::*;
 use glam::Vec3;
 use meshtracer::scene::obj::load_obj;
 use meshtracer::scene::{Camera, Instance, Mesh, PointLight, Scene};
-use meshtracer::tracer::{Aov, Image, RenderSettings};
+use meshtracer::render_settings::{Aov, RenderSettings};
+use meshtracer::tracer::Image;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj").join(name)

@@ -8,7 +8,7 @@ use std::process::Command;
 use meshtracer::cli::{Cli, Command as Cmd};
 use meshtracer::scene::preset;
 use meshtracer::scene::spec::SceneSpec;
-use meshtracer::tracer::image::png_settings;
+use meshtracer::files::image_files::png_settings;
 
 /// A fresh scratch folder, removed again when dropped.
 struct Scratch(PathBuf);
@@ -73,7 +73,7 @@ fn a_png_carries_its_preset_and_preset_renders_it_again() {
     render(&dir.0, &["--preset", "first.png", "--bounces", "0", "-o", "flat.png"]);
     let (changed, _) = preset::from_text(&settings_of(&dir.join("flat.png"))).unwrap();
     assert_eq!(changed.settings.bounces, 0);
-    assert_eq!(SceneSpec { settings: meshtracer::tracer::RenderSettings { bounces: 3, ..changed.settings }, ..changed }, spec);
+    assert_eq!(SceneSpec { settings: meshtracer::render_settings::RenderSettings { bounces: 3, ..changed.settings }, ..changed }, spec);
     assert!(image::open(dir.join("flat.png")).unwrap().to_rgba8() != a, "--bounces 0 over the preset changed nothing");
 
     // The text as a preset file is the same preset.

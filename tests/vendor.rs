@@ -15,13 +15,14 @@ use std::path::Path;
 use std::process::Command;
 
 use common::*;
-use meshtracer::gpu::vendor::VendorKernel;
+use meshtracer::gpu::khr_rt::VendorKernel;
 use meshtracer::gpu::{ComputeTracer, GpuContext};
 use meshtracer::scene::obj::load_obj;
 use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{EnvironmentSource, Scene};
-use meshtracer::tracer::{Accel, Aov, FrameParams, Image, PackedScene, RenderSettings};
+use meshtracer::render_settings::{Accel, Aov, RenderSettings};
+use meshtracer::tracer::{FrameParams, Image, PackedScene};
 
 const THRESHOLD: f32 = 1e-3;
 

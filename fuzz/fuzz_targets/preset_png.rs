@@ -5,7 +5,7 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(Some(text)) = meshtracer::tracer::image::png_settings(data) {
+    if let Ok(Some(text)) = meshtracer::files::image_files::png_settings(data) {
         assert!(text.len() <= 1 << 20, "settings text over the 1 MiB bound");
         let _ = meshtracer::scene::preset::from_text(&text);
     }

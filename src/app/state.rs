@@ -10,7 +10,7 @@ use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::{Camera, EnvironmentSource};
-use crate::tracer::frame::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::render_settings::{Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, RenderSettings};
 
 /// Square render-resolution presets.
 pub(crate) const PRESETS: [u32; 4] = [256, 512, 1024, 2048];

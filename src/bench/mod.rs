@@ -13,13 +13,14 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::gpu::vendor::VendorKernel;
+use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
-use crate::tracer::{budget, Accel, Aov, FrameParams, PackedScene, RenderSettings};
+use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::tracer::{budget, FrameParams, PackedScene};
 
 /// One benchmark configuration: a scene spec and how to report it.
 #[derive(Clone, Debug)]

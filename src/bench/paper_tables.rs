@@ -7,7 +7,7 @@ use super::Case;
 use crate::scene::paper::ModelSource;
 use crate::scene::EnvironmentSource;
 use crate::scene::primitives::{large_torus_knot, PaperModel};
-use crate::tracer::{Accel, Aov, RenderSettings};
+use crate::render_settings::{Accel, Aov, RenderSettings};
 
 /// Table 1: (model, [(fps, ms) at 512x512, (fps, ms) at 1024x1024]).
 pub const TABLE1: [(PaperModel, [(f64, f64); 2]); 4] = [

@@ -8,7 +8,7 @@ use anyhow::Context;
 use serde::Serialize;
 
 use super::{Environment, Row};
-use crate::tracer::Accel;
+use crate::render_settings::Accel;
 
 /// `bench --compare`'s closing table: per pair of rows, both GPU times, the ratio (ours over
 /// the vendor's: below 1 we are faster), and the build time and memory of both structures.

@@ -400,7 +400,7 @@ pub struct RenderArgs {
     /// With --accel vendor: trace the driver's structures with ray queries from the compute
     /// shader (query) or a ray tracing pipeline (pipeline). Default: the device's preferred.
     #[arg(long)]
-    pub(crate) vendor_kernel: Option<crate::gpu::vendor::VendorKernel>,
+    pub(crate) vendor_kernel: Option<crate::gpu::khr_rt::VendorKernel>,
     /// Average N frames, each with its own camera jitter, as the window's accumulation
     /// does (a screenshot taken after accumulating carries its N) [default: 1, or the preset's].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536), allow_negative_numbers = true)]

@@ -8,12 +8,12 @@ use clap::Args;
 
 use crate::bench::report::{self, Report};
 use crate::bench::{self, charts, paper_tables, Case, RunOptions};
-use crate::gpu::vendor::VendorKernel;
+use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
-use crate::tracer::{Accel, Aov, RenderSettings};
+use crate::render_settings::{Accel, Aov, RenderSettings};
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]

@@ -9,7 +9,8 @@ use super::args::RenderArgs;
 use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::heat_map::heat_map;
 use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
-use crate::tracer::{cpu, Aov, FrameParams, PackedScene};
+use crate::render_settings::Aov;
+use crate::tracer::{cpu, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
@@ -65,7 +66,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if let Some(kernel) = args.vendor_kernel {
             tracer.set_vendor_kernel(kernel)?;
         }
-        if tracer.kernel().orders_tiles() && settings.accel != crate::tracer::Accel::Vendor {
+        if tracer.kernel().orders_tiles() && settings.accel != crate::render_settings::Accel::Vendor {
             // A first frame records what each tile costs, so that the frame kept (and timed)
             // takes its tiles costliest first, as every later frame of `view` and `bench` does.
             tracer.trace(&params)?;
@@ -93,14 +94,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
         }
         let mut gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
-        if let (crate::tracer::Accel::Vendor, Ok(kernel), Some(stats)) = (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats()) {
+        if let (crate::render_settings::Accel::Vendor, Ok(kernel), Some(stats)) = (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats()) {
             gpu = format!("vendor {kernel}, structures built in {:.1} ms, {gpu}", stats.bottom_ms + stats.top_ms);
         }
         (image, format!("{}, {gpu}", ctx.info.name))
     };
     if heat_map_image {
         // Cost: nodes visited with the BVH, triangles tested with brute force.
-        let channel = usize::from(aov == Aov::Cost && settings.accel == crate::tracer::Accel::Brute);
+        let channel = usize::from(aov == Aov::Cost && settings.accel == crate::render_settings::Accel::Brute);
         let values: Vec<f32> = image.pixels.iter().map(|p| p[channel]).collect();
         let map = heat_map(&values);
         let rgba = image::RgbaImage::from_raw(image.width, image.height, map.rgba).expect("size matches");

@@ -22,7 +22,8 @@ use super::dispatch::{Band, FrameTrace, GROUP};
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
-use crate::tracer::frame::{Accel, FrameParams};
+use crate::render_settings::Accel;
+use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
 use crate::tracer::packed::{GpuInstance, PackedScene};
 

@@ -38,6 +38,3 @@ pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
 pub use dispatch::{FrameTrace, GroupSize, SplitTrace, GROUP};
 pub(crate) use dispatch::Band;
 pub use error::GpuError;
-/// `khr_rt`'s old path, kept for `src/app/`, `src/bench/`, `src/cli/` and `tests/` until they
-/// import `gpu::khr_rt` (issue #26: removed after the merge).
-pub use self::khr_rt as vendor;

@@ -289,7 +289,8 @@ mod tests {
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
         use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
         use crate::scene::primitives::PaperModel;
-        use crate::tracer::{Aov, FrameParams, PackedScene, RenderSettings};
+        use crate::render_settings::{Aov, RenderSettings};
+use crate::tracer::{FrameParams, PackedScene};
 
         /// The paper's box around its torus knot, at a size that is no whole number of tiles.
         fn knot_in_the_box() -> (crate::scene::Scene, PackedScene) {

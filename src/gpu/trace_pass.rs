@@ -12,7 +12,7 @@ use ash::vk;
 use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::dispatch::Band;
+use super::dispatch::{Band, GROUP};
 use super::error::GpuError;
 use super::lock::lock;
 use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_layout, destroy_pipeline_objects, words};
@@ -36,7 +36,6 @@ pub(crate) const TLAS_BINDING: u32 = 11;
 
 /// The work-group size's old path, kept for `src/app/` until it imports `crate::gpu::GROUP`
 /// (issue #26: removed after the merge).
-pub(crate) use super::dispatch::GROUP;
 
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -291,7 +290,7 @@ impl TracePass {
     pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
         let mut pc = params.push_constants(0);
-        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
+        pc.dims[3] |= crate::contract::FLAG_ID_PASS;
         self.dispatch(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
     }
 
@@ -329,7 +328,7 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
 /// built for that interface.
 pub(crate) fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
     use super::shader_compile;
-    let contract = shader_compile::contract_glsl(crate::tracer::contract::ALL, "src/tracer/contract.rs");
+    let contract = shader_compile::contract_glsl(crate::contract::ALL, "src/tracer/contract.rs");
     let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
     let shader = shader_compile::compile(&dir.join("trace.comp"), &contract, defines)?;
     let signature = shader_compile::layout_signature(&shader.module)?;

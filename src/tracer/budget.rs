@@ -4,7 +4,7 @@
 //! driver's watchdog (brute force on big meshes); a frame over [`MAX_TESTS_PER_FRAME`] is
 //! refused, since it would take minutes on any GPU.
 
-use super::frame::{Accel, RenderSettings};
+use crate::render_settings::{Accel, RenderSettings};
 
 /// Most ray-triangle tests one submission may ask for (well under a second on a fast GPU).
 pub const TESTS_PER_SUBMISSION: f64 = 4.0e9;

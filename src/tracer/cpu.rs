@@ -6,7 +6,8 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::contract;
-use super::frame::{Accel, Aov, FrameParams, RenderSettings};
+use super::frame::FrameParams;
+use crate::render_settings::{Accel, Aov, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};

@@ -5,9 +5,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::contract;
-// Transitional: the settings moved to `crate::render_settings`; old paths still name them here.
-pub use crate::render_settings::{Accel, Aov, RenderSettings, MAX_RESOLUTION};
-pub(crate) use crate::render_settings::{MAX_BOUNCES, MAX_SPP};
+use crate::render_settings::{Accel, RenderSettings};
 use crate::scene::camera::CameraBasis;
 use crate::scene::Scene;
 

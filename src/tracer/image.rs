@@ -4,11 +4,7 @@
 
 use std::path::Path;
 
-
-use crate::files::image_files::{save_exr_depth, save_exr_rgba, save_jpeg, OutputFormat};
-// Transitional: the image files moved to `crate::files::image_files`; old paths name them here.
-pub use crate::files::image_files::png_settings;
-pub(crate) use crate::files::image_files::save_png;
+use crate::files::image_files::{save_exr_depth, save_exr_rgba, save_jpeg, save_png, OutputFormat};
 use crate::render_settings::Aov;
 
 /// A traced image, row 0 at the top.

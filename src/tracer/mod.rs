@@ -3,8 +3,6 @@
 //! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
 
 pub(crate) mod budget;
-// Transitional: the contract moved to the crate root; old paths still name it here.
-pub(crate) use crate::contract;
 pub mod cpu;
 pub mod frame;
 pub(crate) mod heat_map;
@@ -14,6 +12,6 @@ pub(crate) mod prepare;
 pub(crate) mod shading;
 pub mod textures;
 
-pub use frame::{Accel, Aov, FrameParams, RenderSettings};
+pub use frame::FrameParams;
 pub use image::Image;
 pub use packed::PackedScene;

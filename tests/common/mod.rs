@@ -8,7 +8,8 @@ use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
-use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene, RenderSettings};
+use meshtracer::render_settings::RenderSettings;
+use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 /// The Vulkan context every GPU test uses: validation (with synchronization validation)
 /// on. There is no skip: a machine without Vulkan fails these tests.

@@ -83,7 +83,7 @@ pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
-    let result = crate::tracer::image::save_png(image, Some(settings), &tmp)
+    let result = crate::files::image_files::save_png(image, Some(settings), &tmp)
         .map_err(|e| e.root_cause().to_string())
         .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
     if let Err(e) = result {
@@ -126,7 +126,7 @@ mod tests {
         let path = dir.join("shot.png");
         let spec = crate::scene::spec::SceneSpec::default();
         save_png(&RgbaImage::new(3, 2), &spec.to_preset_text(), &path).unwrap();
-        let text = crate::tracer::image::png_settings(&std::fs::read(&path).unwrap()).unwrap().unwrap();
+        let text = crate::files::image_files::png_settings(&std::fs::read(&path).unwrap()).unwrap().unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert_eq!(text, spec.to_preset_text());
     }

@@ -14,7 +14,7 @@ use crate::app::state::{Params, ViewMode};
 use crate::bench::Environment;
 use crate::bench::timing::{mrays_per_second, Spread};
 use crate::scene::camera::Camera;
-use crate::tracer::frame::{Accel, RenderSettings};
+use crate::render_settings::{Accel, RenderSettings};
 
 /// Frames in a run when `--benchmark` is given without a number.
 pub(crate) const DEFAULT_FRAMES: u32 = 120;

@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 use crate::app::measure::frame_stats::FrameStats;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, Resolution};
-use crate::tracer::frame::{Accel, RenderSettings};
+use crate::render_settings::{Accel, RenderSettings};
 
 /// The CSV header line.
 pub(crate) const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change";

@@ -2,7 +2,7 @@
 //! once a frame. A leaf: it knows no section.
 
 use crate::app::measure::frame_stats::FrameStats;
-use crate::gpu::vendor::{AccelStats, VendorKernel};
+use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::scene::paper::ModelSource;
 
 /// The vendor path as the panel shows it.

@@ -9,8 +9,8 @@ use crate::app::panel::widgets::Status;
 use crate::app::panel::widgets::status_line;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::app::views::cost::heat_color;
-use crate::gpu::vendor::VendorKernel;
-use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::gpu::khr_rt::VendorKernel;
+use crate::render_settings::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// The section's state: the outcome of render changes and shader reloads.
 #[derive(Default)]

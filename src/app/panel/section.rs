@@ -9,7 +9,7 @@ use egui::Ui;
 use crate::app::files::open_dialog::Purpose;
 use crate::app::panel::info::PanelInfo;
 use crate::app::state::Params;
-use crate::gpu::vendor::VendorKernel;
+use crate::gpu::khr_rt::VendorKernel;
 use crate::scene::paper::ModelSource;
 
 /// What the panel asks the tool to do beyond changing parameters.

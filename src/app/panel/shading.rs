@@ -7,7 +7,7 @@ use egui::{RichText, Ui};
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::group;
 use crate::scene::EnvironmentSource;
-use crate::tracer::frame::MAX_SPP;
+use crate::render_settings::MAX_SPP;
 
 /// The section (it keeps nothing between frames).
 #[derive(Default)]

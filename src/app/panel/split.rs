@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::GPU_COLOR;
 use crate::app::views::split::SplitView;
-use crate::tracer::frame::{Accel, MAX_BOUNCES, MAX_SPP};
+use crate::render_settings::{Accel, MAX_BOUNCES, MAX_SPP};
 
 /// The section (it keeps nothing between frames: the split is a parameter).
 #[derive(Default)]

@@ -7,7 +7,7 @@ use crate::app::tool::devices::Gpu;
 use crate::app::tool::progressive::{adapt_groups, BandTimes, Progressive};
 use crate::app::views::aov;
 use crate::app::views::cost::heat_map;
-use crate::gpu::trace_pass::GROUP;
+use crate::gpu::dispatch::GROUP;
 use crate::gpu::{Band, ComputeTracer, FrameTrace};
 
 /// A picture made or read back on the CPU: a view other than colour (cost heat map,

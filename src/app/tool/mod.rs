@@ -56,7 +56,7 @@ use crate::app::{headless_error, ViewOptions};
 use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::{ComputeTracer, FrameTrace, GpuError};
 use crate::scene::spec::SceneSpec;
-use crate::tracer::frame::Accel;
+use crate::render_settings::Accel;
 
 /// The tool: the window and its GPU side, the parameters and session, and the parts each
 /// frame goes through (the UI pass, the frame and its bands, captures, timing).

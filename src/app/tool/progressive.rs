@@ -131,7 +131,8 @@ impl BandTimes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tracer::frame::{FrameParams, RenderSettings};
+    use crate::render_settings::RenderSettings;
+use crate::tracer::frame::FrameParams;
 
     #[test]
     fn a_frames_time_is_the_sum_of_its_bands() {

@@ -5,7 +5,8 @@
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
-use crate::tracer::frame::{Aov, FrameParams};
+use crate::render_settings::Aov;
+use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 

@@ -10,9 +10,9 @@ use crate::app::tool::Tool;
 use crate::app::tool::devices;
 use crate::app::views::overlay;
 use crate::gpu::present::PixelRect;
-use crate::gpu::vendor::VendorKernel;
+use crate::gpu::khr_rt::VendorKernel;
 use crate::tracer::budget;
-use crate::tracer::frame::RenderSettings;
+use crate::render_settings::RenderSettings;
 
 impl Tool {
     /// Run egui for this frame; returns its output and the actions the panel asked for,
@@ -56,7 +56,7 @@ impl Tool {
             view_note: self.frame.picture.as_ref().and_then(|h| h.note.as_deref()),
             accumulated_frames: self.session.accumulation.frames,
             progress: self.frame.progressive.as_ref().map(|p| (p.progress(), p.seconds_left())),
-            brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::tracer::Accel::Brute, ..settings }, triangles),
+            brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..settings }, triangles),
             screenshot_dir: dir_text,
             stats: &self.timing.stats,
             benchmark: self.timing.benchmarks.progress(),

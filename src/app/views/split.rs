@@ -6,9 +6,10 @@
 //! What the whole scene shares (model, copies, box, camera, light, resolution, view) is
 //! never part of B. Presets and screenshots' settings carry A only.
 
-use crate::gpu::trace_pass::GROUP;
+use crate::gpu::dispatch::GROUP;
 use crate::gpu::{FrameTrace, SplitTrace};
-use crate::tracer::frame::{Accel, FrameParams, RenderSettings, MAX_BOUNCES, MAX_SPP};
+use crate::render_settings::{Accel, MAX_BOUNCES, MAX_SPP, RenderSettings};
+use crate::tracer::frame::FrameParams;
 
 /// How close to the line (physical pixels) a left press grabs it instead of orbiting.
 pub(crate) const GRAB_PIXELS: f64 = 8.0;

@@ -27,7 +27,7 @@ use self::draw::render;
 use super::paper_tables::{TABLE1, TABLE2};
 use super::{Environment, Row};
 use crate::scene::primitives::PaperModel;
-use crate::tracer::Accel;
+use crate::render_settings::Accel;
 
 /// The files [`write_charts`] writes, in order.
 pub const CHART_FILES: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];

@@ -70,7 +70,7 @@ impl PipelinePass {
     /// Record adaptive sampling's pre-pass over `columns` (all rows), as the compute pass does.
     pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
         let mut pc = params.push_constants(0);
-        pc.dims[3] |= crate::tracer::contract::FLAG_ID_PASS;
+        pc.dims[3] |= crate::contract::FLAG_ID_PASS;
         self.trace(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
     }
 
