@@ -334,7 +334,7 @@ pub(crate) const SHORTCUTS: &[(&str, &str)] = &[
     ("F", "frame the models"),
     ("V", "vsync on / off"),
     ("S", "A/B split view on / off (drag the line to move it)"),
-    ("Ctrl+O", "open an .obj file (or drop one on the window)"),
+    ("Ctrl+O", "open a model: OBJ, PLY or glTF (or drop one on the window)"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
     ("Shift+drag, middle drag", "pan the camera"),

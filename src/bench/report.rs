@@ -88,7 +88,7 @@ pub fn header() -> String {
 /// Write the run as pretty JSON.
 pub fn write_json(path: &Path, report: &Report) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(report)?;
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    crate::files::write_bytes_atomic(path, text.as_bytes())
 }
 
 /// Write the rows as CSV.
@@ -106,5 +106,5 @@ pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result
             opt(r.ours_over_vendor), opt(r.gpu_clock_mhz.map(f64::round)), env.device, env.driver, env.date
         );
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::files::write_bytes_atomic(path, s.as_bytes())
 }

@@ -71,8 +71,12 @@ impl ModelLoader {
                     }
                     let scene = paper_scene(mesh, model_count, light);
                     let mut packed = PackedScene::new(&scene);
-                    // Textures that could not be read join the loader's warnings in the panel.
-                    let warnings = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
+                    // Textures that could not be read join the loader's warnings in the panel,
+                    // and each is printed once on the terminal.
+                    let warnings: Vec<String> = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
+                    for w in &warnings {
+                        log::warn!("{w}");
+                    }
                     Ok(LoadedModel { source, scene, packed, warnings, seconds: started.elapsed().as_secs_f64() })
                 });
                 let _ = tx.send(Message::Done(Box::new(result)));

@@ -1,4 +1,4 @@
-//! The Open dialog (Ctrl+O, the Model section's "Open .obj…", the Presets section's
+//! The Open dialog (Ctrl+O, the Model section's "Open model…", the Presets section's
 //! "Open…"): egui-file-dialog, drawn by egui in the tool's own window, so it works under a
 //! bare X11 session with no desktop portal, GTK or zenity. It only picks a path; the tool
 //! loads it exactly as a dropped file or a typed path.
@@ -10,14 +10,14 @@ use egui_file_dialog::{DialogState, FileDialog, Filter};
 /// What the file picked is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Purpose {
-    /// A model (.obj), loaded as if dropped on the window.
+    /// A model (OBJ, PLY or glTF), loaded as if dropped on the window.
     Model,
     /// A preset (.toml, or a PNG the program wrote), loaded as the Presets section's Load.
     Preset,
 }
 
 /// The name of the filter the dialog opens with, for each purpose.
-const MODEL_FILTER: &str = "Wavefront OBJ (.obj)";
+const MODEL_FILTER: &str = "Models (.obj, .ply, .gltf, .glb)";
 const PRESET_FILTER: &str = "Presets (.toml, .png)";
 
 /// The dialog, when one is open, and what it is for.
@@ -36,13 +36,13 @@ impl OpenDialog {
                 Purpose::Preset => "Open a preset",
             })
             .initial_directory(start_folder(near))
-            .add_file_filter(MODEL_FILTER, extensions(&["obj"]))
+            .add_file_filter(MODEL_FILTER, extensions(&crate::scene::paper::MODEL_EXTENSIONS))
             .add_file_filter(PRESET_FILTER, extensions(&["toml", "png"]))
             .default_file_filter(match purpose {
                 Purpose::Model => MODEL_FILTER,
                 Purpose::Preset => PRESET_FILTER,
             })
-            // "All files" stays in the filter list: an .obj under another name still loads.
+            // "All files" stays in the filter list, to see what else the folder holds.
             .show_all_files_filter(true);
         let mut dialog = dialog;
         dialog.pick_file();

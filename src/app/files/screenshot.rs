@@ -77,20 +77,10 @@ pub(crate) fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
 }
 
 /// Write `image` as PNG to `path` with `settings` (`SceneSpec::to_preset_text`) in its
-/// `meshtracer` text chunk, through a temporary file, so a watcher never sees half a file.
-/// The error is one sentence.
+/// `meshtracer` text chunk (through `files::write_atomic`: a watcher never sees half a file,
+/// a failed write keeps the old one). The error is one sentence.
 pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    let result = crate::files::image_files::save_png(image, Some(settings), &tmp)
-        .map_err(|e| e.root_cause().to_string())
-        .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(format!("could not write {}: {e}", path.display()));
-    }
-    Ok(())
+    crate::files::image_files::save_png(image, Some(settings), path).map_err(|e| format!("could not write {}: {}", path.display(), e.root_cause()))
 }
 
 /// The panel's line for a file written (its full path) or not (why).

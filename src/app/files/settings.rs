@@ -74,12 +74,7 @@ pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
     }
-    let tmp = path.with_extension("toml.tmp");
-    std::fs::write(&tmp, text).map_err(|e| fail(&e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        fail(&e)
-    })
+    crate::files::write_bytes_atomic(path, text.as_bytes()).map_err(|e| fail(&e.root_cause()))
 }
 
 /// Where the settings live, or nowhere (`--no-persist`, scripted runs, no home folder).

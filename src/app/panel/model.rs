@@ -12,7 +12,7 @@ use crate::scene::primitives::PaperModel;
 /// The section's state between frames.
 #[derive(Default)]
 pub(crate) struct ModelPanel {
-    /// The .obj path field.
+    /// The model path field.
     pub(crate) path: String,
     /// The last model load's outcome.
     pub(crate) status: Option<Status>,
@@ -49,8 +49,8 @@ impl Section for ModelPanel {
         });
         ui.horizontal(|ui| {
             let field = ui
-                .add(egui::TextEdit::singleline(&mut self.path).hint_text("model.obj or torusknot:1M").desired_width(ui.available_width() - 52.0))
-                .on_hover_text("an .obj path, a model name (geosphere, torusknot, sphere, cylinder) or torusknot:N, a generated knot of N triangles");
+                .add(egui::TextEdit::singleline(&mut self.path).hint_text("model.obj|ply|glb or torusknot:1M").desired_width(ui.available_width() - 52.0))
+                .on_hover_text("an OBJ, PLY or glTF path, a model name (geosphere, torusknot, sphere, cylinder) or torusknot:N, a generated knot of N triangles");
             let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
             let clicked = ui.add_enabled(!self.path.trim().is_empty(), egui::Button::new("Load")).clicked();
             if (clicked || enter) && !self.path.trim().is_empty() {
@@ -59,7 +59,7 @@ impl Section for ModelPanel {
             }
         });
         ui.horizontal(|ui| {
-            if ui.button("Open .obj…").on_hover_text("choose an .obj file (Ctrl+O)").clicked() {
+            if ui.button("Open model…").on_hover_text("choose an OBJ, PLY or glTF file (Ctrl+O)").clicked() {
                 actions.push(PanelAction::Open(Purpose::Model));
             }
             ui.label(RichText::new(if self.hovering_file { "drop the file to load it" } else { "or drop one on the window" }).small().weak());

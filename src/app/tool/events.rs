@@ -65,7 +65,7 @@ impl Tool {
         Ok(true)
     }
 
-    /// Load an .obj dropped on the window or picked in the Open dialog (one path for both).
+    /// Load a model file dropped on the window or picked in the Open dialog (one path for both).
     pub(super) fn load_file(&mut self, path: std::path::PathBuf) {
         self.ui.panel.model.path = path.display().to_string();
         self.session.start_load(crate::scene::paper::ModelSource::File(path), &self.params, &mut self.ui.panel);

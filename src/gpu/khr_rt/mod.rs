@@ -162,6 +162,15 @@ impl VendorTracer {
             self.top_stale = false;
             changed = true;
         }
+        // A kernel's first use rebinds both passes' sets below, and the other kernel's set
+        // may belong to frames still in flight (the window switching kernels): wait first.
+        let new_pass = match self.kernel {
+            VendorKernel::Query => self.query.is_none(),
+            VendorKernel::Pipeline => self.pipeline.is_none(),
+        };
+        if new_pass && !changed {
+            self.ctx.wait_idle()?;
+        }
         match self.kernel {
             VendorKernel::Query if self.query.is_none() => {
                 self.query = Some(TracePass::new(&self.ctx, Kernel::RayQuery)?);
@@ -208,3 +217,7 @@ impl VendorTracer {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "kernel_switch_test.rs"]
+mod kernel_switch_test;
