@@ -19,9 +19,13 @@ use crate::app::views::overlay::Notice;
 use crate::scene::preset::{self, Loaded, SaveError};
 
 impl Tool {
-    /// The preset of the traced image, for the screenshots' text chunk.
+    /// The preset of the traced image, for the screenshots' text chunk: with the frames
+    /// accumulated into it, so that `render --preset shot.png` traces the same image (a
+    /// saved preset leaves them out: they say how long the view was still, not its look).
     pub(super) fn settings_text(&self) -> String {
-        self.scene_spec().to_preset_text()
+        let mut spec = self.scene_spec();
+        spec.accumulate = self.session.accumulation.frames.clamp(1, crate::render_settings::ACCUMULATE.hi as u32);
+        spec.to_preset_text()
     }
 
     /// Save the look as a preset; an existing file is replaced only once the user agreed.
