@@ -235,3 +235,15 @@ fn an_accumulated_image_carries_its_frame_count_and_renders_again() {
     assert!(off(&acc, &cpu) <= acc.len() / 4 / 100, "GPU vs CPU accumulation: {} pixels off", off(&acc, &cpu));
     assert!(off(&acc, &one) > 0, "six jittered frames average to the one centred frame: the test proves nothing");
 }
+
+#[test]
+fn devices_name_their_driver_and_its_version() {
+    // Two lavapipes (Mesa 22 and 25) have one device name: the driver tells them apart (#30).
+    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer")).arg("devices").output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && !stdout.trim().is_empty(), "{stdout}");
+    for line in stdout.lines() {
+        let driver = line.rsplit_once("; ").map(|(_, d)| d.trim_end_matches(')')).unwrap_or("");
+        assert!(driver.chars().any(|c| c.is_ascii_digit()), "no driver version in {line:?}");
+    }
+}

@@ -192,7 +192,9 @@ pub(crate) fn list_devices() -> Result<Vec<String>, GpuError> {
             .iter()
             .map(|&d| {
                 let p = instance.get_physical_device_properties(d);
-                format!("{} ({})", p.device_name_as_c_str().unwrap_or(c"?").to_string_lossy(), device_type_name(p.device_type))
+                // The driver and its version: two lavapipes (Mesa 22 and 25) share one name.
+                let name = p.device_name_as_c_str().unwrap_or(c"?").to_string_lossy();
+                format!("{name} ({}; {})", device_type_name(p.device_type), driver_of(&instance, d))
             })
             .collect()
     };
@@ -488,13 +490,18 @@ fn pick_device(
     candidates.first().map(|&(_, pd, q, i)| (pd, q, i)).ok_or(GpuError::NoDevice)
 }
 
-fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
+/// The driver's name and version as it reports them ("llvmpipe Mesa 25.0.7 (LLVM 15.0.6)").
+fn driver_of(instance: &ash::Instance, pd: vk::PhysicalDevice) -> String {
     let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
     // SAFETY: `props2` and the driver properties chained to it outlive the call.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
     let driver_name = driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let driver_info = driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    format!("{driver_name} {driver_info}").trim().to_string()
+}
+
+fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
     // SAFETY: queries on a physical device of this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     // SAFETY: as above.
@@ -510,7 +517,7 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         index: 0,
         name: props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned(),
         device_type: device_type_name(props.device_type).into(),
-        driver: format!("{driver_name} {driver_info}").trim().to_string(),
+        driver: driver_of(instance, pd),
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
