@@ -158,7 +158,8 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
     }
     if let Some(s) = &vendor.stats {
         ui.label("Structures");
-        ui.label(RichText::new(format!(
+        // Wrapped to the panel: a long line would widen the panel and shrink the image.
+        ui.add(egui::Label::new(RichText::new(format!(
             "{} bottom levels {:.1} ms, top level {:.1} ms, {:.1} MB; last change rebuilt the {}",
             s.bottom_count,
             s.bottom_ms,
@@ -167,6 +168,7 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
             s.rebuilt
         ))
         .small())
+        .wrap())
         .on_hover_text("a new model rebuilds both levels, a new model count only the top level, the light nothing");
         ui.end_row();
     }
@@ -174,7 +176,7 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
 
 /// The heat map's colour scale from 0 to `top`, with the mean and max under it.
 fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
-    ui.label(RichText::new(what).small());
+    ui.add(egui::Label::new(RichText::new(what).small()).wrap());
     let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
     let steps = 64;
     for i in 0..steps {

@@ -24,6 +24,8 @@ impl Section for SplitPanel {
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let params = &mut *cx.params;
         let (a, a_environment, times) = (params.settings, params.environment.is_some(), cx.info.split_ms);
+        // B offers the vendor only where A does: greyed out with the same reason.
+        let vendor_missing = cx.info.vendor.unavailable.clone();
         let (a, split) = (&a, &mut params.split);
         ui.checkbox(&mut split.enabled, "Split view (S)")
             .on_hover_text("left of the line: the settings above (A); right of it: B, the same with the parameters ticked below changed; drag the line to move it");
@@ -38,7 +40,8 @@ impl Section for SplitPanel {
                 differs(ui, "Acceleration", &mut b.accel, a.accel, |ui, v| {
                     ui.radio_value(v, Accel::Bvh, "BVH");
                     ui.radio_value(v, Accel::Brute, "brute");
-                    ui.radio_value(v, Accel::Vendor, "vendor");
+                    let why = vendor_missing.clone().unwrap_or_default();
+                    ui.add_enabled_ui(vendor_missing.is_none(), |ui| ui.radio_value(v, Accel::Vendor, "vendor")).response.on_disabled_hover_text(why);
                 });
                 differs(ui, "Bounces", &mut b.bounces, a.bounces, |ui, v| {
                     ui.add(egui::Slider::new(v, 0..=MAX_BOUNCES));
