@@ -20,6 +20,18 @@ pub(crate) struct CameraPanel {
     eye: String,
     target: String,
     status: Option<Status>,
+    /// The camera (eye, target) the status was written for: once the camera moves (a valid
+    /// edit, R, a drag), the line no longer says anything true and goes.
+    status_camera: (Vec3, Vec3),
+}
+
+impl CameraPanel {
+    /// Drop the status line once the camera has moved from where it was written.
+    fn forget_stale_status(&mut self, camera_now: (Vec3, Vec3)) {
+        if self.status.is_some() && self.status_camera != camera_now {
+            self.status = None;
+        }
+    }
 }
 
 /// `X,Y,Z` with two decimals: what the fields show and the flags carry.
@@ -43,6 +55,7 @@ impl Section for CameraPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (params, fields) = (&mut *cx.params, self);
+        fields.forget_stale_status((params.camera.position, params.camera.target));
         ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
         egui::Grid::new("camera grid").num_columns(2).show(ui, |ui| {
             ui.label("Field of view");
@@ -55,6 +68,7 @@ impl Section for CameraPanel {
                     Ok(()) => Status::ok(format!("camera at {}", point_text(params.camera.position))),
                     Err(e) => Status::error(e),
                 });
+                fields.status_camera = (params.camera.position, params.camera.target);
             }
         });
         let distance = (params.camera.position - params.camera.target).length();
@@ -70,6 +84,7 @@ impl Section for CameraPanel {
             if ui.button("Copy as flags").on_hover_text(camera_flags(&params.camera)).clicked() {
                 ui.ctx().copy_text(camera_flags(&params.camera));
                 fields.status = Some(Status::ok("copied the camera flags"));
+                fields.status_camera = (params.camera.position, params.camera.target);
             }
         });
     }
@@ -104,6 +119,17 @@ fn apply(params: &mut Params, eye: &str, target: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_error_line_goes_once_the_camera_moves() {
+        // "the eye and the target are the same point" stayed red after R or a valid edit (#30).
+        let here = (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
+        let mut panel = CameraPanel { status: Some(Status::error("the eye and the target are the same point")), status_camera: here, ..Default::default() };
+        panel.forget_stale_status(here);
+        assert!(panel.status.is_some(), "the camera has not moved: the line still holds");
+        panel.forget_stale_status((Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO));
+        assert!(panel.status.is_none(), "the camera moved: the line went");
+    }
 
     #[test]
     fn flags_read_back_as_the_same_camera() {
