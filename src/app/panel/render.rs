@@ -19,6 +19,18 @@ pub(crate) struct RenderPanel {
     pub(crate) status: Option<Status>,
     /// The last shader reload's outcome (`--watch-shaders`).
     pub(crate) shader_status: Option<Status>,
+    /// The acceleration `status` was written under (the vendor's fallback to the BVH):
+    /// once another is chosen the line no longer holds and goes.
+    pub(crate) status_accel: Option<Accel>,
+}
+
+impl RenderPanel {
+    /// Drop a status written under another acceleration than `accel`.
+    pub(crate) fn forget_stale_status(&mut self, accel: Accel) {
+        if self.status_accel.is_some_and(|a| a != accel) {
+            (self.status, self.status_accel) = (None, None);
+        }
+    }
 }
 
 impl Section for RenderPanel {
@@ -32,6 +44,7 @@ impl Section for RenderPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
+        self.forget_stale_status(params.settings.accel);
         egui::Grid::new("render").num_columns(2).show(ui, |ui| {
             ui.label("Resolution");
             egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
@@ -194,4 +207,19 @@ fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
         });
     });
     ui.label(RichText::new(format!("mean {mean:.1}, max {max:.0}")).small().weak());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_vendor_fallback_line_goes_when_another_acceleration_is_chosen() {
+        // The red "tracing with the BVH" line stayed after A chose brute force (#30).
+        let mut panel = RenderPanel { status: Some(Status::error("vendor ray tracing: none here; tracing with the BVH")), status_accel: Some(Accel::Bvh), ..Default::default() };
+        panel.forget_stale_status(Accel::Bvh);
+        assert!(panel.status.is_some(), "still tracing with the BVH: the line holds");
+        panel.forget_stale_status(Accel::Brute);
+        assert!(panel.status.is_none() && panel.status_accel.is_none());
+    }
 }

@@ -192,6 +192,7 @@ impl Tool {
             // none: say why and trace with our BVH from the next frame on.
             if let GpuError::VendorUnavailable(why) = &e {
                 self.ui.panel.render.status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
+                self.ui.panel.render.status_accel = Some(Accel::Bvh);
                 if self.params.settings.accel == Accel::Vendor {
                     self.params.settings.accel = Accel::Bvh;
                 }
