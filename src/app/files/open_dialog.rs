@@ -59,7 +59,14 @@ impl OpenDialog {
     pub(crate) fn show(&mut self, ctx: &egui::Context) -> Option<(Purpose, PathBuf)> {
         let (purpose, dialog) = self.open.as_mut()?;
         let purpose = *purpose;
+        let focused = ctx.memory(|m| m.focused());
         dialog.update(ctx);
+        // `/` opened the path field holding the current folder: select it all, so a typed
+        // path (the `/` itself first, in the next frame's input) replaces it.
+        let now = ctx.memory(|m| m.focused());
+        if let Some(field) = now.filter(|&id| Some(id) != focused && ctx.input(|i| i.key_pressed(egui::Key::Slash))) {
+            select_all(ctx, field);
+        }
         match dialog.state() {
             DialogState::Open => None,
             DialogState::Picked(_) => {
@@ -73,6 +80,16 @@ impl OpenDialog {
                 None
             }
         }
+    }
+}
+
+/// Select all the text of the text field `id`.
+fn select_all(ctx: &egui::Context, id: egui::Id) {
+    use egui::text::{CCursor, CCursorRange};
+    if let Some(mut state) = egui::TextEdit::load_state(ctx, id) {
+        // The end is clamped to the text's length when the field next runs.
+        state.cursor.set_char_range(Some(CCursorRange::two(CCursor::new(0), CCursor::new(usize::MAX))));
+        state.store(ctx, id);
     }
 }
 
@@ -141,5 +158,28 @@ mod tests {
         ctx.run_ui(raw, |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
         assert_eq!(picked, None);
         assert!(!dialog.is_open(), "Escape did not close the dialog");
+    }
+
+    #[test]
+    fn slash_opens_the_path_field_so_that_a_typed_absolute_path_replaces_the_folder() {
+        let dir = std::env::temp_dir().join(format!("meshtracer-open-dialog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let model = dir.join("cube.obj");
+        std::fs::write(&model, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let expected = model.canonicalize().unwrap();
+        let mut dialog = OpenDialog::default();
+        // Opened in the manifest's folder: the field would hold it, and the path appended.
+        dialog.open(Purpose::Model, Some(Path::new(env!("CARGO_MANIFEST_DIR"))));
+        let ctx = egui::Context::default();
+        let key = |key| egui::Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE };
+        let mut picked = None;
+        // Frames as the tool cuts them: "/" ends its frame, its text and the path follow.
+        let frames = [vec![], vec![key(egui::Key::Slash)], vec![egui::Event::Text("/".into()), egui::Event::Text(model.to_str().unwrap()[1..].into())], vec![key(egui::Key::Enter)]];
+        for events in frames {
+            let raw = egui::RawInput { events, ..Default::default() };
+            ctx.run_ui(raw, |ui| picked = picked.take().or(dialog.show(ui.ctx()))).textures_delta.clear();
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(picked, Some((Purpose::Model, expected)), "the path typed after / was not the one picked");
     }
 }

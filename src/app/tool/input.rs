@@ -8,6 +8,9 @@
 //! when it runs. So each press is queued with its place among egui's events, and a frame
 //! takes the presses up to the first click that has keys after it; egui's events after
 //! that click are held back for the next frame, so the field focused by it gets them.
+//! A key that moves the focus is cut after the same way (the caller says which: Ctrl+O
+//! opening the Open dialog, `/` opening the dialog's path field), so the keys typed after
+//! it in one burst reach the dialog and its field, not a frame that had neither.
 
 use winit::dpi::PhysicalPosition;
 use winit::event::{ElementState, MouseScrollDelta};
@@ -102,19 +105,20 @@ impl Input {
     }
 
     /// The key presses of the frame whose egui input is `events`: those up to the first
-    /// pointer release that has a key or text event after it. The events after that
-    /// release are taken out of `events` and returned, to go first into the next frame's
-    /// input; the presses among them wait for that frame.
-    pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>) -> (Vec<KeyPress>, Vec<egui::Event>) {
-        let is_release = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
+    /// pointer release, or event that `moves_focus`, that has a key or text event after it.
+    /// The events after it are taken out of `events` and returned, to go first into the
+    /// next frame's input; the presses among them wait for that frame.
+    pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>, moves_focus: impl Fn(&egui::Event) -> bool) -> (Vec<KeyPress>, Vec<egui::Event>) {
+        let is_cut = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. }) || moves_focus(e);
         let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
-        let cut = events.iter().position(is_release).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+        let cut = events.iter().position(is_cut).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
         let Some(cut) = cut else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
         log::debug!("{} input events after a click wait for the next frame", held.len());
-        let later = self.keys.iter().position(|k| k.at >= cut).unwrap_or(self.keys.len());
+        // A press whose events end at the cut is this frame's (the key that moved the focus).
+        let later = self.keys.iter().position(|k| k.at > cut).unwrap_or(self.keys.len());
         let mut waiting = self.keys.split_off(later);
         for key in &mut waiting {
             key.at -= cut;
@@ -155,6 +159,50 @@ mod tests {
         }
     }
 
+    fn no_key(_: &egui::Event) -> bool {
+        false
+    }
+
+    fn key(key: egui::Key, modifiers: egui::Modifiers) -> egui::Event {
+        egui::Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers }
+    }
+
+    /// Feed keys as winit and egui-winit would: the key's event, then its text if any.
+    fn press_keys(input: &mut Input, events: &mut Vec<egui::Event>, typed: &[(KeyCode, egui::Key, egui::Modifiers, &str)]) {
+        for &(code, k, modifiers, text) in typed {
+            events.push(key(k, modifiers));
+            if !text.is_empty() {
+                events.push(egui::Event::Text(text.into()));
+            }
+            input.key_pressed(code, false, events.len());
+        }
+    }
+
+    #[test]
+    fn a_key_that_moves_the_focus_keeps_its_text_and_the_keys_after_for_the_next_frame() {
+        let mut input = Input::default();
+        let mut events = Vec::new();
+        let none = egui::Modifiers::NONE;
+        let ctrl = egui::Modifiers::CTRL;
+        press_keys(&mut input, &mut events, &[(KeyCode::KeyO, egui::Key::O, ctrl, ""), (KeyCode::Slash, egui::Key::Slash, none, "/"), (KeyCode::KeyT, egui::Key::T, none, "t")]);
+        let opens_dialog = |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::O, modifiers, .. } if modifiers.ctrl);
+        let opens_field = |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::Slash, .. });
+
+        // Ctrl+O is this frame's; "/" and "t" wait for the frame that shows the dialog.
+        let (keys, mut held) = input.frame_keys(&mut events, opens_dialog);
+        assert_eq!(codes(&keys), [KeyCode::KeyO]);
+        assert_eq!(events, [key(egui::Key::O, ctrl)]);
+        // "/" opens the field: its text and the "t" after wait for the field's frame.
+        let (keys, rest) = input.frame_keys(&mut held, opens_field);
+        assert_eq!(held, [key(egui::Key::Slash, none)]);
+        assert!(keys.is_empty(), "the press of / ends with its text, which waits");
+        assert_eq!(rest, [egui::Event::Text("/".into()), key(egui::Key::T, none), egui::Event::Text("t".into())]);
+        let mut rest = rest;
+        let (keys, held) = input.frame_keys(&mut rest, opens_field);
+        assert_eq!(codes(&keys), [KeyCode::Slash, KeyCode::KeyT]);
+        assert!(held.is_empty() && rest.len() == 3);
+    }
+
     fn codes(keys: &[KeyPress]) -> Vec<KeyCode> {
         keys.iter().map(|k| k.code).collect()
     }
@@ -167,7 +215,7 @@ mod tests {
         events.extend([button(true), button(false)]);
         type_keys(&mut input, &mut events, &[(KeyCode::KeyM, "m"), (KeyCode::Minus, "-")]);
 
-        let (keys, held) = input.frame_keys(&mut events);
+        let (keys, held) = input.frame_keys(&mut events, no_key);
         assert_eq!(codes(&keys), [KeyCode::Equal], "only the key before the click is this frame's");
         assert_eq!(events.len(), 3, "this frame's egui input ends with the click");
         assert_eq!(held, [egui::Event::Text("m".into()), egui::Event::Text("-".into())]);
@@ -175,7 +223,7 @@ mod tests {
         // The next frame's input starts with what was held; a key pressed meanwhile follows.
         let mut next = held;
         type_keys(&mut input, &mut next, &[(KeyCode::KeyS, "s")]);
-        let (keys, held) = input.frame_keys(&mut next);
+        let (keys, held) = input.frame_keys(&mut next, no_key);
         assert_eq!(codes(&keys), [KeyCode::KeyM, KeyCode::Minus, KeyCode::KeyS]);
         assert!(held.is_empty() && next.len() == 3);
     }
@@ -184,13 +232,13 @@ mod tests {
     fn a_frame_without_typing_after_a_click_takes_everything() {
         let mut input = Input::default();
         let mut events = vec![button(true), button(false), egui::Event::PointerMoved(egui::pos2(1.0, 2.0))];
-        let (keys, held) = input.frame_keys(&mut events);
+        let (keys, held) = input.frame_keys(&mut events, no_key);
         assert!(keys.is_empty() && held.is_empty() && events.len() == 3);
 
         // Keys and no click: all this frame's, in order.
         let mut events = Vec::new();
         type_keys(&mut input, &mut events, &[(KeyCode::PageUp, ""), (KeyCode::KeyC, "c")]);
-        let (keys, held) = input.frame_keys(&mut events);
+        let (keys, held) = input.frame_keys(&mut events, no_key);
         assert_eq!(codes(&keys), [KeyCode::PageUp, KeyCode::KeyC]);
         assert!(held.is_empty());
     }
@@ -203,13 +251,13 @@ mod tests {
         events.extend([button(true), button(false)]);
         type_keys(&mut input, &mut events, &[(KeyCode::KeyB, "b")]);
 
-        let (keys, mut held) = input.frame_keys(&mut events);
+        let (keys, mut held) = input.frame_keys(&mut events, no_key);
         assert!(keys.is_empty() && events.len() == 2);
-        let (keys, rest) = input.frame_keys(&mut held);
+        let (keys, rest) = input.frame_keys(&mut held, no_key);
         assert_eq!(codes(&keys), [KeyCode::KeyA]);
         assert_eq!(held.len(), 3, "the first held frame ends with the second click");
         let mut rest = rest;
-        let (keys, held) = input.frame_keys(&mut rest);
+        let (keys, held) = input.frame_keys(&mut rest, no_key);
         assert_eq!(codes(&keys), [KeyCode::KeyB]);
         assert!(held.is_empty());
     }

@@ -19,16 +19,25 @@ impl Tool {
     /// and updates the image area.
     pub(super) fn run_ui(&mut self) -> (egui::FullOutput, Vec<PanelAction>) {
         let mut raw = self.ui.egui_state.take_egui_input(&self.window);
-        let (keys, held) = self.input.frame_keys(&mut raw.events);
-        if !held.is_empty() {
-            self.ui.egui_state.egui_input_mut().events = held;
-            self.window.request_redraw();
-        }
         // The keys are the tool's unless egui wants the keyboard (as it did at the end of the
         // last frame, which is how it will see them) or the Open dialog shows (its keys,
         // Escape, Enter and arrows, are its own whether or not a text field has the focus;
         // Ctrl+O among the keys opens it for those after).
         let egui_wants_keys = self.ui.egui_ctx.egui_wants_keyboard_input();
+        // Keys that move the focus end the frame's input when typing follows them: Ctrl+O
+        // (the dialog shows from the next frame on) and, in the dialog with no field focused,
+        // `/` (its path field takes the focus at the end of the frame, after the field ran).
+        let dialog_open = self.ui.open_dialog.is_open();
+        let moves_focus = |e: &egui::Event| match e {
+            egui::Event::Key { key: egui::Key::O, pressed: true, modifiers, .. } => modifiers.ctrl && !dialog_open && !egui_wants_keys,
+            egui::Event::Key { key: egui::Key::Slash, pressed: true, .. } => dialog_open && !egui_wants_keys,
+            _ => false,
+        };
+        let (keys, held) = self.input.frame_keys(&mut raw.events, moves_focus);
+        if !held.is_empty() {
+            self.ui.egui_state.egui_input_mut().events = held;
+            self.window.request_redraw();
+        }
         for key in keys {
             if !egui_wants_keys && !self.ui.open_dialog.is_open() {
                 self.shortcut(key);
