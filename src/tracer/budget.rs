@@ -14,12 +14,14 @@ pub const TESTS_PER_SUBMISSION: f64 = 4.0e9;
 /// Most ray-triangle tests one submission may ask of a CPU device (lavapipe). The budget
 /// follows the device's kind rather than measured times: it is known before the first
 /// frame, so `render` and `bench` band exactly as the window does and a GPU's budget (and
-/// its `bench` figures) stays as it was, while the window still sizes the bands of a long
-/// frame from their measured times (`app::tool::progressive`). On 2 cores lavapipe
-/// runs 0.6e9 to 0.9e9 estimated tests a second (a 1024², 8-bounce BVH frame of 2.4e9
-/// estimated tests: 2.7 s for armadillo, 4.2 s for a 300k-triangle knot with other work
-/// running), so a submission (24 rows of that frame) takes 60 to 100 ms.
-pub const CPU_TESTS_PER_SUBMISSION: f64 = 5.0e7;
+/// its `bench` figures) stays as it was. It decides which frames are banded at all; the
+/// window then sizes each band of a long frame from its measured time (about 40 ms,
+/// `app::tool::progressive`). On 2 cores lavapipe runs 0.6e9 to 0.9e9 estimated tests a
+/// second (a 1024², 8-bounce BVH frame of 2.4e9: 2.7 s for armadillo, 4.2 s for a
+/// 300k-triangle knot with other work running), so a submission takes 0.3 to 0.4 s. Set
+/// just above the default 512², 2-bounce BVH view (2.0e8), which stays one submission
+/// (a few hundred ms, drawn whole as before); anything longer is banded.
+pub const CPU_TESTS_PER_SUBMISSION: f64 = 2.5e8;
 
 /// The kind of device a budget is for (the tracer cannot see the GPU module's types).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,7 +110,7 @@ mod tests {
     }
 
     /// Issue #30: a 1024², 8-bounce BVH frame takes seconds on lavapipe, so a CPU device
-    /// bands it into submissions of about 100 ms while a GPU traces it in one, as before.
+    /// bands it (submissions of a few hundred ms) while a GPU traces it in one, as before.
     #[test]
     fn a_cpu_device_bands_a_long_bvh_frame_and_a_gpu_does_not() {
         let s = RenderSettings { width: 1024, height: 1024, bounces: 8, ..Default::default() };
@@ -123,8 +125,8 @@ mod tests {
         let brute = RenderSettings { accel: Accel::Brute, ..s };
         let gpu_rows = rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Gpu));
         assert!(gpu_rows < 1024 && rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Cpu)) <= gpu_rows);
-        // A small frame still fits one submission on a CPU device.
-        let small = RenderSettings { width: 256, height: 256, bounces: 2, ..Default::default() };
-        assert_eq!(rows_per_submission(&small, 345_944, 8, default_budget(DeviceKind::Cpu)), 256);
+        // The default 512², 2-bounce view still fits one submission on a CPU device.
+        let view = RenderSettings { width: 512, height: 512, bounces: 2, ..Default::default() };
+        assert_eq!(rows_per_submission(&view, 345_944, 8, default_budget(DeviceKind::Cpu)), 512);
     }
 }
