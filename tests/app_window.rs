@@ -309,6 +309,36 @@ fn a_frame_that_takes_minutes_leaves_the_window_answering() {
     assert!(quit < Duration::from_secs(15), "Ctrl+Q waited {quit:?} for the long frame");
 }
 
+#[test]
+fn a_long_bvh_frame_on_a_cpu_device_is_banded_and_ctrl_q_quits_at_once() {
+    // Issue #30: a 1024², 8-bounce BVH frame of a 300k-triangle knot takes seconds on
+    // lavapipe; it used to fit the GPU's budget, so every key waited for a whole frame. A
+    // CPU device's budget bands it, so Ctrl+Q ends the app in a fraction of one frame's time
+    // (measured here by `render`, which traces the same frame, in submissions of its own).
+    let flags = ["--model", "torusknot:300k", "--width", "1024", "--height", "1024", "--bounces", "8"];
+    let x = Xvfb::start();
+    let dir = TempDir::new("long-bvh");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_meshtracer")).current_dir(dir.path()).arg("render").args(flags).args(["-o", "ref.png"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "render failed: {}", String::from_utf8_lossy(&out.stderr));
+    let frame_ms: f64 = text.split("trace ").nth(1).and_then(|t| t.split(" ms").next()).and_then(|t| t.parse().ok()).unwrap_or_else(|| panic!("no trace time in {text}"));
+    assert!(text.contains("llvmpipe") || text.contains("lavapipe"), "this test needs a CPU device: {text}");
+    assert!(frame_ms > 1500.0, "the frame is not long enough to show anything ({frame_ms} ms)");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(flags).args(WINDOW);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    // Let a few bands go by, then quit.
+    std::thread::sleep(Duration::from_millis(1500));
+    app.assert_alive();
+    let asked = std::time::Instant::now();
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(60)));
+    let quit = asked.elapsed();
+    eprintln!("Ctrl+Q ended the app after {quit:?}; one frame takes {frame_ms:.0} ms");
+    assert!(quit.as_secs_f64() * 1e3 < (frame_ms / 2.0).max(1000.0), "Ctrl+Q waited {quit:?} with frames of {frame_ms:.0} ms");
+}
+
 /// Where the panel's dark grey ends in a window screenshot of `height` rows.
 fn panel_end(img: &image::RgbaImage) -> u32 {
     let panel_gray = |p: &image::Rgba<u8>| p.0[0].abs_diff(27) <= 2 && p.0[1].abs_diff(27) <= 2 && p.0[2].abs_diff(27) <= 2;

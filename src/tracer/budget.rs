@@ -1,21 +1,52 @@
-//! How much work one frame may ask of the GPU, in ray-triangle tests: the one budget the
-//! window, `render` and `bench` share. A frame over [`TESTS_PER_SUBMISSION`] is split into
-//! row bands, each its own submission, so no single dispatch runs long enough to trip a
-//! driver's watchdog (brute force on big meshes); a frame over [`MAX_TESTS_PER_FRAME`] is
-//! refused, since it would take minutes on any GPU.
+//! How much work one submission may ask of the GPU, in ray-triangle tests: the one budget
+//! the window, `render` and `bench` share. A frame over the device's budget
+//! ([`tests_per_submission`]) is split into row bands, each its own submission, so no single
+//! dispatch runs long enough to trip a driver's watchdog or to keep the window from
+//! answering; a frame over [`MAX_TESTS_PER_FRAME`] is refused, since it would take minutes
+//! on any GPU.
 
 use crate::render_settings::{Accel, RenderSettings};
 
-/// Most ray-triangle tests one submission may ask for (well under a second on a fast GPU).
+/// Most ray-triangle tests one submission may ask of a GPU (well under a second on a fast
+/// one).
 pub const TESTS_PER_SUBMISSION: f64 = 4.0e9;
 
-/// The submission budget in use: [`TESTS_PER_SUBMISSION`], or the environment's
-/// `MESHTRACER_TESTS_PER_SUBMISSION` (tests use a small one to band small frames).
-pub fn tests_per_submission() -> f64 {
-    static BUDGET: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
-    *BUDGET.get_or_init(|| {
-        std::env::var("MESHTRACER_TESTS_PER_SUBMISSION").ok().and_then(|v| v.parse::<f64>().ok()).filter(|v| *v >= 1.0).unwrap_or(TESTS_PER_SUBMISSION)
-    })
+/// Most ray-triangle tests one submission may ask of a CPU device (lavapipe). The budget
+/// follows the device's kind rather than measured times: it is known before the first
+/// frame, so `render` and `bench` band exactly as the window does and a GPU's budget (and
+/// its `bench` figures) stays as it was. It decides which frames are banded at all; the
+/// window then sizes each band of a long frame from its measured time (about 40 ms,
+/// `app::tool::progressive`). On 2 cores lavapipe runs 0.6e9 to 0.9e9 estimated tests a
+/// second (a 1024², 8-bounce BVH frame of 2.4e9: 2.7 s for armadillo, 4.2 s for a
+/// 300k-triangle knot with other work running), so a submission takes 0.3 to 0.4 s. Set
+/// just above the default 512², 2-bounce BVH view (2.0e8), which stays one submission
+/// (a few hundred ms, drawn whole as before); anything longer is banded.
+pub const CPU_TESTS_PER_SUBMISSION: f64 = 2.5e8;
+
+/// The kind of device a budget is for (the tracer cannot see the GPU module's types).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeviceKind {
+    /// A GPU, discrete or integrated.
+    Gpu,
+    /// A CPU implementation of Vulkan (lavapipe), about a thousand times slower.
+    Cpu,
+}
+
+/// The submission budget in use on `device`: [`TESTS_PER_SUBMISSION`] or
+/// [`CPU_TESTS_PER_SUBMISSION`], or the environment's `MESHTRACER_TESTS_PER_SUBMISSION` on
+/// any device (tests use a small one to band small frames).
+pub fn tests_per_submission(device: DeviceKind) -> f64 {
+    static OVERRIDE: std::sync::OnceLock<Option<f64>> = std::sync::OnceLock::new();
+    let given = *OVERRIDE.get_or_init(|| std::env::var("MESHTRACER_TESTS_PER_SUBMISSION").ok().and_then(|v| v.parse::<f64>().ok()).filter(|v| *v >= 1.0));
+    given.unwrap_or(default_budget(device))
+}
+
+/// The budget of `device` when the environment sets none.
+fn default_budget(device: DeviceKind) -> f64 {
+    match device {
+        DeviceKind::Gpu => TESTS_PER_SUBMISSION,
+        DeviceKind::Cpu => CPU_TESTS_PER_SUBMISSION,
+    }
 }
 
 /// Most ray-triangle tests one frame may ask for (minutes on an H100 beyond this).
@@ -44,11 +75,12 @@ pub fn refusal(settings: &RenderSettings, triangles: u64) -> Option<String> {
     (tests > MAX_TESTS_PER_FRAME).then(|| format!("{} would test {tests:.1e} ray-triangle pairs per frame (minutes per frame)", settings.accel))
 }
 
-/// Rows per submission so that each stays under [`tests_per_submission`], rounded up to a
-/// multiple of `row_multiple` (the shader's work-group height) and at most the frame.
-pub fn rows_per_submission(settings: &RenderSettings, triangles: u64, row_multiple: u32) -> u32 {
+/// Rows per submission so that each stays under `budget` tests ([`tests_per_submission`]),
+/// rounded up to a multiple of `row_multiple` (the shader's work-group height) and at most
+/// the frame.
+pub fn rows_per_submission(settings: &RenderSettings, triangles: u64, row_multiple: u32, budget: f64) -> u32 {
     let per_row = settings.width as f64 * (settings.bounces as f64 + 1.0) * settings.spp as f64 * tests_per_ray(settings.accel, triangles);
-    let rows = (tests_per_submission() / per_row).floor() as u32;
+    let rows = (budget / per_row).floor() as u32;
     let rows = rows.max(1).div_ceil(row_multiple) * row_multiple;
     rows.min(settings.height.div_ceil(row_multiple) * row_multiple)
 }
@@ -60,9 +92,9 @@ mod tests {
     #[test]
     fn bvh_frames_are_one_band_and_brute_force_splits() {
         let s = RenderSettings { width: 1024, height: 1024, ..Default::default() };
-        assert_eq!(rows_per_submission(&s, 10_000_000, 8), 1024);
+        assert_eq!(rows_per_submission(&s, 10_000_000, 8, TESTS_PER_SUBMISSION), 1024);
         let brute = RenderSettings { accel: Accel::Brute, ..s };
-        let rows = rows_per_submission(&brute, 1_000_000, 8);
+        let rows = rows_per_submission(&brute, 1_000_000, 8, TESTS_PER_SUBMISSION);
         assert!(rows < 1024 && rows % 8 == 0, "{rows}");
         // Every band but the last stays under the budget (bands are at least one group high).
         assert!(rows == 8 || rows as f64 * 1024.0 * 3.0 * 1e6 <= TESTS_PER_SUBMISSION + 8.0 * 1024.0 * 3.0 * 1e6);
@@ -75,5 +107,26 @@ mod tests {
         let why = refusal(&s, 10_000_000).unwrap();
         assert!(why.starts_with("brute would test"), "{why}");
         assert!(refusal(&RenderSettings { accel: Accel::Bvh, ..s }, 10_000_000).is_none());
+    }
+
+    /// Issue #30: a 1024², 8-bounce BVH frame takes seconds on lavapipe, so a CPU device
+    /// bands it (submissions of a few hundred ms) while a GPU traces it in one, as before.
+    #[test]
+    fn a_cpu_device_bands_a_long_bvh_frame_and_a_gpu_does_not() {
+        let s = RenderSettings { width: 1024, height: 1024, bounces: 8, ..Default::default() };
+        assert_eq!(default_budget(DeviceKind::Gpu), TESTS_PER_SUBMISSION, "a GPU's budget is unchanged");
+        assert_eq!(rows_per_submission(&s, 345_944, 8, default_budget(DeviceKind::Gpu)), 1024);
+        let rows = rows_per_submission(&s, 345_944, 8, default_budget(DeviceKind::Cpu));
+        assert!(rows < 1024 && rows % 8 == 0, "{rows}");
+        // Each band's estimate is within one work-group strip of the CPU budget.
+        let per_row = 1024.0 * 9.0 * tests_per_ray(Accel::Bvh, 0);
+        assert!(rows as f64 * per_row <= CPU_TESTS_PER_SUBMISSION + 8.0 * per_row, "{rows}");
+        // Brute force bands on both, more finely on the CPU.
+        let brute = RenderSettings { accel: Accel::Brute, ..s };
+        let gpu_rows = rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Gpu));
+        assert!(gpu_rows < 1024 && rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Cpu)) <= gpu_rows);
+        // The default 512², 2-bounce view still fits one submission on a CPU device.
+        let view = RenderSettings { width: 512, height: 512, bounces: 2, ..Default::default() };
+        assert_eq!(rows_per_submission(&view, 345_944, 8, default_budget(DeviceKind::Cpu)), 512);
     }
 }

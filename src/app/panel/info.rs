@@ -46,6 +46,9 @@ pub(crate) struct PanelInfo<'a> {
     pub(crate) progress: Option<(f32, Option<f64>)>,
     /// Ray-triangle tests one frame of brute force would ask for.
     pub(crate) brute_tests: f64,
+    /// Ray-triangle tests one submission may ask of the tracing device: a frame over it is
+    /// traced in bands.
+    pub(crate) submission_tests: f64,
     pub(crate) screenshot_dir: String,
     /// The frame-time history.
     pub(crate) stats: &'a FrameStats,

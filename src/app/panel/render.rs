@@ -119,7 +119,7 @@ impl Section for RenderPanel {
         if params.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
             ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
         }
-        if params.settings.accel == Accel::Brute && info.brute_tests > crate::tracer::budget::tests_per_submission() {
+        if params.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
             // Said before the wait, not after: the frame is long and comes in bands.
             let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
             ui.add(egui::Label::new(RichText::new(text).small()).wrap());

@@ -66,6 +66,7 @@ impl Tool {
             accumulated_frames: self.session.accumulation.frames,
             progress: self.frame.progressive.as_ref().map(|p| (p.progress(), p.seconds_left())),
             brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..settings }, triangles),
+            submission_tests: self.gpu.tracer.tests_per_submission(),
             screenshot_dir: dir_text,
             stats: &self.timing.stats,
             benchmark: self.timing.benchmarks.progress(),
