@@ -5,6 +5,7 @@
 use std::collections::VecDeque;
 
 use crate::bench::timing::Spread;
+use crate::render_settings::RenderSettings;
 
 /// Seconds of history kept: the longest window the graph offers.
 pub(crate) const HISTORY_SECONDS: f64 = 60.0;
@@ -58,6 +59,8 @@ pub(crate) struct FrameStats {
     pub(crate) gpu: Series,
     /// Frame-to-frame time on the CPU clock.
     pub(crate) frame: Series,
+    /// The settings of the frame the latest GPU time belongs to (its rays give Mrays/s).
+    pub(crate) gpu_settings: Option<RenderSettings>,
 }
 
 impl FrameStats {
@@ -67,8 +70,18 @@ impl FrameStats {
     }
 
     /// Record a GPU trace time that became available at time `t`.
-    pub(crate) fn push_gpu(&mut self, t: f64, ms: f64) {
+    pub(crate) fn push_gpu(&mut self, t: f64, ms: f64, settings: Option<RenderSettings>) {
         self.gpu.push(t, ms);
+        self.gpu_settings = settings;
+    }
+
+    /// The latest GPU time and its Mrays/s, if it belongs to a frame of `now`'s settings: a
+    /// time from before a change of resolution, bounces or acceleration says nothing of
+    /// what is traced now (a long frame in bands shows none until its last band is in).
+    pub(crate) fn gpu_now(&self, now: &RenderSettings) -> Option<(f64, f64)> {
+        let settings = self.gpu_settings.filter(|s| same_work(s, now))?;
+        let ms = self.gpu.samples.back()?.1;
+        Some((ms, mrays_per_second(settings.max_rays(), ms)))
     }
 
     /// Time of the latest sample of either series (0 before any).
@@ -92,9 +105,30 @@ impl FrameStats {
 /// The one Mrays/s formula, `bench`'s.
 pub(crate) use crate::bench::timing::mrays_per_second;
 
+/// Two frames ask the GPU for the same work (every knob alike).
+fn same_work(a: &RenderSettings, b: &RenderSettings) -> bool {
+    a == b
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_gpu_time_is_shown_only_for_a_frame_of_the_settings_traced_now() {
+        // After width 8192 the panel showed the old frame's time over the new rays (2258.5
+        // Mrays/s), and the HUD a BVH frame's time while brute-force bands ran (#30).
+        let bvh = RenderSettings { width: 512, height: 512, ..Default::default() };
+        let mut stats = FrameStats::default();
+        stats.push_gpu(1.0, 2.0, Some(bvh));
+        let (ms, mrays) = stats.gpu_now(&bvh).unwrap();
+        assert_eq!(ms, 2.0);
+        assert!((mrays - bvh.max_rays() as f64 / 2.0 / 1e3).abs() < 1e-9, "{mrays}");
+        assert_eq!(stats.gpu_now(&RenderSettings { width: 8192, ..bvh }), None, "a new resolution has no time yet");
+        assert_eq!(stats.gpu_now(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..bvh }), None);
+        stats.push_gpu(2.0, 3.0, None);
+        assert_eq!(stats.gpu_now(&bvh), None, "a time of an unknown frame is shown with no rays");
+    }
 
     #[test]
     fn history_is_bounded_and_summarised() {

@@ -3,6 +3,7 @@
 
 use crate::app::measure::frame_stats::FrameStats;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
+use crate::render_settings::RenderSettings;
 use crate::scene::paper::ModelSource;
 
 /// The vendor path as the panel shows it.
@@ -31,6 +32,8 @@ pub(crate) struct PanelInfo<'a> {
     pub(crate) render_size: [u32; 2],
     /// Rays per frame at most.
     pub(crate) rays: u64,
+    /// What a frame traced now asks for (a GPU time is shown only for a frame of these).
+    pub(crate) settings: RenderSettings,
     /// (model, stage, seconds) of a load in progress.
     pub(crate) loading: Option<(&'a str, &'a str, f64)>,
     pub(crate) present_mode: String,

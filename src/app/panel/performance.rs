@@ -5,7 +5,7 @@
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
 
-use crate::app::measure::frame_stats::{mrays_per_second, FrameStats, Summary, HISTORY_SECONDS};
+use crate::app::measure::frame_stats::{FrameStats, Summary, HISTORY_SECONDS};
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
@@ -81,7 +81,6 @@ impl Section for PerfPanel {
             summary_row(ui, "GPU trace", GPU_COLOR, info.stats.gpu.summary_over(state.seconds));
             summary_row(ui, "frame", FRAME_COLOR, info.stats.frame.summary_over(state.seconds));
         });
-        let gpu_now = info.stats.gpu.samples.back().map(|s| s.1);
         egui::Grid::new("counts").num_columns(2).show(ui, |ui| {
             ui.label("fps");
             ui.label(format!("{:.1}", info.stats.fps()));
@@ -90,7 +89,7 @@ impl Section for PerfPanel {
             ui.label(format!("{} (at most)", group(info.rays)));
             ui.end_row();
             ui.label("Mrays/s");
-            ui.label(gpu_now.map_or("-".into(), |ms| format!("{:.1}", mrays_per_second(info.rays, ms))));
+            ui.label(info.stats.gpu_now(&info.settings).map_or("-".into(), |(_, mrays)| format!("{mrays:.1}")));
             ui.end_row();
             if let Some((now, highest)) = info.clock_mhz {
                 let why = "the tracing GPU's shader clock, read twice a second. A GPU that idles between frames (vsync, a slow window) is clocked down by its driver and traces slower than `meshtracer bench` shows";

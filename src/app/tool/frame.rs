@@ -9,6 +9,7 @@ use crate::app::views::aov;
 use crate::app::views::cost::heat_map;
 use crate::gpu::dispatch::GROUP;
 use crate::gpu::{Band, ComputeTracer, FrameTrace};
+use crate::render_settings::RenderSettings;
 
 /// A picture made or read back on the CPU: a view other than colour (cost heat map,
 /// depth, ...), or the colour traced on a device other than the window's. Its pixels (for
@@ -65,15 +66,34 @@ pub(super) struct Frames {
     pub(super) band_times: BandTimes,
     /// A frame has been traced: F12 has something to save.
     pub(super) traced: bool,
+    /// The settings of the last few frames by number, so that a GPU time that comes back
+    /// later is shown with the rays of its own frame (not those of a newer resolution).
+    pub(super) settings_by_frame: std::collections::VecDeque<(u64, RenderSettings)>,
 }
 
 impl Default for Frames {
     fn default() -> Self {
-        Self { picture: None, progressive: None, band_groups: 1, traced_frames: 0, band_times: BandTimes::default(), traced: false }
+        Self { picture: None, progressive: None, band_groups: 1, traced_frames: 0, band_times: BandTimes::default(), traced: false, settings_by_frame: Default::default() }
     }
 }
 
 impl Frames {
+    /// Remember that frame `number` traces with `settings` (the last eight are kept).
+    pub(super) fn note_settings(&mut self, number: u64, settings: RenderSettings) {
+        if self.settings_by_frame.back().is_some_and(|b| b.0 == number) {
+            self.settings_by_frame.pop_back();
+        }
+        self.settings_by_frame.push_back((number, settings));
+        while self.settings_by_frame.len() > 8 {
+            self.settings_by_frame.pop_front();
+        }
+    }
+
+    /// The settings frame `number` traced with, if it is recent.
+    pub(super) fn settings_of(&self, number: u64) -> Option<RenderSettings> {
+        self.settings_by_frame.iter().rev().find(|(n, _)| *n == number).map(|(_, s)| *s)
+    }
+
     /// Trace or band what `params` asks for on `gpu` (prepared already), for `view`:
     /// see `Tool::prepare_image`.
     pub(super) fn trace(&mut self, gpu: &mut Gpu, params: FrameTrace, view: ViewMode) -> anyhow::Result<Prepared> {

@@ -249,6 +249,9 @@ impl Tool {
         let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.ui.image_area);
         let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
         let tag = BandTag { frame: self.frame.traced_frames, last: prepared.completes };
+        if let Some(s) = frame_settings {
+            self.frame.note_settings(tag.frame, s);
+        }
         let show = match (prepared.show, &self.frame.picture) {
             (Shown::Output, _) => Show::Output,
             (Shown::Picture, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
@@ -272,11 +275,13 @@ impl Tool {
         let mut frame_time = None;
         if let Some(ms) = prepared.gpu_ms {
             let parts = prepared.part_ms.map_or([None; 2], |p| p.map(Some));
-            frame_time = self.frame.band_times.add(tag, ms, parts);
+            frame_time = self.frame.band_times.add(tag, ms, parts).map(|t| (t, tag.frame));
         }
         if let (Some(ms), Some(band)) = (outcome.gpu_ms, outcome.tag) {
-            frame_time = self.frame.band_times.add(band, ms, outcome.part_ms).or(frame_time);
+            frame_time = self.frame.band_times.add(band, ms, outcome.part_ms).map(|t| (t, band.frame)).or(frame_time);
         }
+        let timed_settings = frame_time.and_then(|(_, number)| self.frame.settings_of(number));
+        let frame_time = frame_time.map(|(t, _)| t);
         if prepared.completes {
             self.frame.traced_frames += 1;
         }
@@ -284,7 +289,7 @@ impl Tool {
         let t = now.duration_since(self.timing.start).as_secs_f64();
         // Before the frame is logged: its row carries the latest GPU time.
         if let Some((ms, _)) = frame_time {
-            self.timing.stats.push_gpu(t, ms);
+            self.timing.stats.push_gpu(t, ms, timed_settings);
         }
         if outcome.presented {
             if let Some(last) = self.timing.last_frame {

@@ -58,6 +58,7 @@ impl Tool {
             vertices,
             render_size: [settings.width, settings.height],
             rays: settings.max_rays(),
+            settings,
             loading: self.session.loader.status(),
             present_mode: self.gpu.presenter.present_mode_name(),
             vsync_off_available: self.gpu.presenter.can_disable_vsync(),

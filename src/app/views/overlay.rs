@@ -6,7 +6,6 @@ use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Rect, RichText, Stroke, Ui};
 
-use crate::app::measure::frame_stats::mrays_per_second;
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::widgets::{duration, group, FRAME_COLOR, GPU_COLOR};
 
@@ -82,14 +81,17 @@ pub(crate) fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, li
 /// The compact numbers drawn over a corner of the image (the HUD): visible at any window
 /// size, whether the panel is shown or scrolled.
 fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
-    let gpu = info.stats.gpu.summary().map(|s| s.current);
+    // The GPU time only for a frame of today's settings (not the last BVH frame's while
+    // brute-force bands run, nor the old resolution's after a change).
+    let gpu_now = info.stats.gpu_now(&info.settings);
+    let gpu = gpu_now.map(|(ms, _)| ms);
     let frame = info.stats.frame.summary().map(|s| s.current);
     let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
     let lines = [
         format!("{:.1} fps", info.stats.fps()),
         format!("GPU {} ms", ms(gpu)),
         format!("frame {} ms", ms(frame)),
-        format!("{} Mrays/s", gpu.map_or("-".into(), |g| format!("{:.0}", mrays_per_second(info.rays, g)))),
+        format!("{} Mrays/s", gpu_now.map_or("-".into(), |(_, mrays)| format!("{mrays:.0}"))),
         format!("{} triangles", group(info.triangles)),
     ];
     let banded = info.progress.map(|(p, left)| match left {
