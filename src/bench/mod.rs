@@ -7,6 +7,7 @@ pub mod clock_guard;
 pub mod paper_tables;
 pub mod report;
 pub mod timing;
+pub mod workload;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -16,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
+use workload::WorkloadHeader;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
@@ -84,14 +86,10 @@ impl Stats {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     pub series: String,
-    pub model: String,
-    pub models: u32,
-    pub triangles: u64,
-    pub width: u32,
-    pub height: u32,
-    pub bounces: u32,
-    /// Saved as "bvh" or "brute".
-    pub accel: Accel,
+    /// Model, triangles, resolution, bounces, acceleration: flattened, so the fields stay
+    /// where they always were in the JSON.
+    #[serde(flatten)]
+    pub workload: WorkloadHeader,
     /// Shading features on (smooth, textures, env, spp, adaptive), empty for the paper's.
     pub features: String,
     /// Rays per frame: every pixel's primary ray plus one per bounce (the mirror box is
@@ -125,8 +123,9 @@ pub struct Row {
 impl Row {
     /// The scene and rays of the row, without the acceleration and the notes (a framed
     /// row's coverage differs by a few edge pixels between tracers).
-    fn workload(&self) -> (&str, &str, u32, u64, u32, u32, u32) {
-        (&self.series, &self.model, self.models, self.triangles, self.width, self.height, self.bounces)
+    fn scene_and_rays(&self) -> (&str, &str, u32, u64, u32, u32, u32) {
+        let w = &self.workload;
+        (&self.series, &w.model, w.models, w.triangles, w.width, w.height, w.bounces)
     }
 }
 
@@ -134,8 +133,8 @@ impl Row {
 /// workload (the CLI puts the vendor rows right after their BVH row): (ours, vendor) indices.
 pub fn vendor_pairs(rows: &[Row]) -> Vec<(usize, usize)> {
     let mut pairs = Vec::new();
-    for (j, theirs) in rows.iter().enumerate().filter(|(_, r)| r.accel == Accel::Vendor) {
-        if let Some(i) = (0..j).rev().find(|&i| rows[i].accel == Accel::Bvh && rows[i].workload() == theirs.workload()) {
+    for (j, theirs) in rows.iter().enumerate().filter(|(_, r)| r.workload.accel == Accel::Vendor) {
+        if let Some(i) = (0..j).rev().find(|&i| rows[i].workload.accel == Accel::Bvh && rows[i].scene_and_rays() == theirs.scene_and_rays()) {
             pairs.push((i, j));
         }
     }
@@ -266,16 +265,18 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     let rays = s.max_rays();
     let mut row = Row {
         series: case.series.clone(),
-        model: match &case.generated {
-            Some(m) => m.name.clone(),
-            None => case.spec.model.label(),
+        workload: WorkloadHeader {
+            model: match &case.generated {
+                Some(m) => m.name.clone(),
+                None => case.spec.model.label(),
+            },
+            models: case.spec.models,
+            triangles,
+            width: s.width,
+            height: s.height,
+            bounces: s.bounces,
+            accel: s.accel,
         },
-        models: case.spec.models,
-        triangles,
-        width: s.width,
-        height: s.height,
-        bounces: s.bounces,
-        accel: s.accel,
         features: case.features.clone(),
         rays_per_frame: rays,
         gpu_ms: None,
@@ -383,6 +384,14 @@ mod tests {
 
     /// A row as an older report wrote it (no clock, no vendor fields).
     const ROW_JSON: &str = r#"{"series":"framed","model":"dragon","models":1,"triangles":202532,"width":1024,"height":1024,"bounces":0,"accel":"bvh","features":"","rays_per_frame":1048576,"gpu_ms":{"median":0.356,"p10":0.355,"p90":0.357},"wall_ms":{"median":0.43,"p10":0.42,"p90":0.44},"mrays_per_s":2945.0,"fps":2325.0,"bvh_build_ms":40.0,"scene_bytes":30283232,"paper_fps":null,"paper_ms":null,"skipped":null}"#;
+
+    #[test]
+    fn a_row_writes_its_workload_where_it_always_was() {
+        let row: Row = serde_json::from_str(ROW_JSON).unwrap();
+        assert_eq!(row.workload.model, "dragon");
+        let newer = ROW_JSON.replace("null}", r#"null,"vendor_kernel":null,"ours_over_vendor":null,"gpu_clock_mhz":null}"#);
+        assert_eq!(serde_json::to_string(&row).unwrap(), newer);
+    }
 
     #[test]
     fn percentiles_of_a_known_series() {

@@ -24,11 +24,11 @@ pub fn compare_table(rows: &[Row]) -> String {
                 out,
                 "{:<10} {:<12} {:>9} {:>5}x{:<5} b{} {:>9.3} {:>9.3} {:<8} {:>7.2} {:>7.1} ms {:>9.1} ms {:>8.1} {:>10.1}",
                 ours.series,
-                ours.model,
-                ours.triangles,
-                ours.width,
-                ours.height,
-                ours.bounces,
+                ours.workload.model,
+                ours.workload.triangles,
+                ours.workload.width,
+                ours.workload.height,
+                ours.workload.bounces,
                 a.median,
                 b.median,
                 theirs.vendor_kernel.as_deref().unwrap_or("-"),
@@ -59,20 +59,20 @@ pub fn format_row(r: &Row) -> String {
         _ => String::new(),
     };
     if let Some(why) = &r.skipped {
-        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel);
+        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel);
     }
     let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
     let mut notes = r.features.clone();
     if let Some(kernel) = &r.vendor_kernel {
         notes = [notes.as_str(), kernel.as_str()].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join(", ");
     }
-    if let (Some(ratio), Accel::Vendor) = (r.ours_over_vendor, r.accel) {
+    if let (Some(ratio), Accel::Vendor) = (r.ours_over_vendor, r.workload.accel) {
         notes.push_str(&format!(" (ours/vendor {ratio:.2})"));
     }
     let clock = r.gpu_clock_mhz.map_or("    -".into(), |mhz| format!("{mhz:>5.0}"));
     format!(
         "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} {gpu} {:>9.3} {:>8.1} {:>9.1} {clock}   {paper}{}",
-        r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.wall_ms.median, r.fps, r.mrays_per_s, notes
+        r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel, r.wall_ms.median, r.fps, r.mrays_per_s, notes
     )
 }
 
@@ -99,7 +99,7 @@ pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},\"{}\",\"{}\",{}",
-            r.series, r.model, r.models, r.triangles, r.width, r.height, r.bounces, r.accel, r.features, r.rays_per_frame,
+            r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel, r.features, r.rays_per_frame,
             g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
             opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), r.vendor_kernel.clone().unwrap_or_default(),
             opt(r.ours_over_vendor), opt(r.gpu_clock_mhz.map(f64::round)), env.device, env.driver, env.date

@@ -241,7 +241,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let slow = bench::clocked_down(&rows);
     if !slow.is_empty() {
         let highest = rows.iter().filter_map(|r| r.gpu_clock_mhz).fold(0.0, f64::max);
-        let names: Vec<String> = slow.iter().map(|r| format!("{} {} {} ({:.0} MHz)", r.series, r.model, r.accel, r.gpu_clock_mhz.unwrap_or_default())).collect();
+        let names: Vec<String> = slow.iter().map(|r| format!("{} {} {} ({:.0} MHz)", r.series, r.workload.model, r.workload.accel, r.gpu_clock_mhz.unwrap_or_default())).collect();
         println!(
             "\nnote: {} row(s) ran with the GPU clocked below {:.0}% of this run's highest shader clock ({highest:.0} MHz), so their times are the clock's, not the tracer's; run them again: {}",
             slow.len(),

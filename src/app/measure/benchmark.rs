@@ -13,8 +13,9 @@ use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
 use crate::bench::Environment;
 use crate::bench::timing::{mrays_per_second, Spread};
+use crate::bench::workload::WorkloadHeader;
 use crate::scene::camera::Camera;
-use crate::render_settings::{Accel, RenderSettings};
+use crate::render_settings::RenderSettings;
 
 /// Frames in a run when `--benchmark` is given without a number.
 pub(crate) const DEFAULT_FRAMES: u32 = 120;
@@ -58,14 +59,10 @@ pub(crate) struct Workload {
 pub(crate) struct BenchmarkSummary {
     /// Device, type, driver, Vulkan version and date, as `bench --json` writes them.
     pub(crate) environment: Environment,
-    pub(crate) model: String,
-    pub(crate) models: u32,
-    pub(crate) triangles: u64,
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) bounces: u32,
-    /// Saved as "bvh" or "brute".
-    pub(crate) accel: Accel,
+    /// Model, triangles, resolution, bounces, acceleration, as `bench`'s rows write them
+    /// (flattened: the fields stay where they always were in the JSON line).
+    #[serde(flatten)]
+    pub(crate) workload: WorkloadHeader,
     pub(crate) spp: u32,
     pub(crate) smooth: bool,
     /// Rays per frame at most (primary plus one per bounce, times spp), as `bench` counts them.
@@ -91,11 +88,11 @@ impl BenchmarkSummary {
     /// The summary as a few lines of text, for the terminal and the panel.
     pub(crate) fn lines(&self) -> Vec<String> {
         let t = |t: &Timing| format!("min {:.2}  mean {:.2}  p90 {:.2}  max {:.2}", t.min, t.mean, t.p90, t.max);
-        let e = &self.environment;
+        let (e, w) = (&self.environment, &self.workload);
         vec![
             format!(
                 "benchmark: {} frames of {} x{} ({} triangles) at {}x{}, {} bounces, {}, {} spp",
-                self.frames, self.model, self.models, self.triangles, self.width, self.height, self.bounces, self.accel, self.spp
+                self.frames, w.model, w.models, w.triangles, w.width, w.height, w.bounces, w.accel, self.spp
             ),
             format!("  frame ms: {}  ({:.1} fps)", t(&self.frame_ms), self.fps),
             match &self.gpu_ms {
@@ -255,13 +252,15 @@ impl Benchmark {
         let fps = if frame_ms.mean > 0.0 { 1e3 / frame_ms.mean } else { 0.0 };
         BenchmarkSummary {
             environment,
-            model: workload.model,
-            models: workload.models,
-            triangles: workload.triangles,
-            width: s.width,
-            height: s.height,
-            bounces: s.bounces,
-            accel: s.accel,
+            workload: WorkloadHeader {
+                model: workload.model,
+                models: workload.models,
+                triangles: workload.triangles,
+                width: s.width,
+                height: s.height,
+                bounces: s.bounces,
+                accel: s.accel,
+            },
             spp: s.spp,
             smooth: s.smooth,
             rays_per_frame: rays,
@@ -545,6 +544,12 @@ mod tests {
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[0].environment.driver, "1.2.3");
         assert_eq!(rows[1].frames, 3);
+        assert_eq!(rows[1].workload, s.workload);
+        // The flattened workload keeps the line's fields in their old order.
+        let line = text.lines().next().unwrap();
+        let at = |key: &str| line.find(&format!("\"{key}\":")).unwrap_or_else(|| panic!("{key} in {line}"));
+        let keys = ["environment", "model", "models", "triangles", "width", "height", "bounces", "accel", "spp", "smooth", "rays_per_frame", "frames"];
+        assert!(keys.windows(2).all(|k| at(k[0]) < at(k[1])), "{line}");
         let e = append_json(&dir.join("no/such/dir/x.jsonl"), &s).unwrap_err();
         assert!(e.starts_with("cannot append the benchmark to"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);

@@ -218,11 +218,11 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
     for r in rows.iter().filter(|r| r.series == "triangles") {
         let Some(ms) = gpu_ms(r) else { continue };
         // Generated meshes are named `torusknot-<triangles>` (`ModelSource::label`).
-        let generated = r.model.starts_with("torusknot-");
-        let key = TriangleSeries::Scaling { generated, width: r.width, height: r.height, bounces: r.bounces };
-        let accel = r.accel;
+        let generated = r.workload.model.starts_with("torusknot-");
+        let key = TriangleSeries::Scaling { generated, width: r.workload.width, height: r.workload.height, bounces: r.workload.bounces };
+        let accel = r.workload.accel;
         let what = if generated { "torus knots" } else { ".obj models" };
-        let label = format!("ours, {}: {what}, {}, {}", accel_name(accel), res_label(r.width, r.height), bounces_note(r.bounces));
+        let label = format!("ours, {}: {what}, {}, {}", accel_name(accel), res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
         let s = groups.get(accel, key, |g| {
             if generated {
                 Series::new(label, accel_color(accel, g.count_accel(accel)), Line::Solid, accel_marker(accel))
@@ -237,17 +237,17 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
                 Series::new(label, shades[n % 2], Line::None, Marker::Diamond)
             }
         });
-        s.push(r.triangles as f64, ms, (!generated).then(|| r.model.clone()));
+        s.push(r.workload.triangles as f64, ms, (!generated).then(|| r.workload.model.clone()));
     }
     // Our Table 1 rows at their largest resolution, as points beside the paper's.
     let table1: Vec<&Row> = rows.iter().filter(|r| r.series == "table1" && gpu_ms(r).is_some()).collect();
-    if let Some(size) = table1.iter().map(|r| r.width as u64 * r.height as u64).max() {
-        for r in table1.iter().filter(|r| r.width as u64 * r.height as u64 == size) {
-            let accel = r.accel;
-            let label = format!("ours, {}: Table 1 models, {}, {}", accel_name(accel), res_label(r.width, r.height), bounces_note(r.bounces));
-            let key = TriangleSeries::Table1 { bounces: r.bounces };
+    if let Some(size) = table1.iter().map(|r| r.workload.width as u64 * r.workload.height as u64).max() {
+        for r in table1.iter().filter(|r| r.workload.width as u64 * r.workload.height as u64 == size) {
+            let accel = r.workload.accel;
+            let label = format!("ours, {}: Table 1 models, {}, {}", accel_name(accel), res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
+            let key = TriangleSeries::Table1 { bounces: r.workload.bounces };
             let s = groups.get(accel, key, |g| Series::new(label, accel_color(accel, g.count_accel(accel) + 1), Line::None, accel_marker(accel)));
-            s.push(r.triangles as f64, gpu_ms(r).unwrap(), None);
+            s.push(r.workload.triangles as f64, gpu_ms(r).unwrap(), None);
         }
     }
     let mut series = groups.into_series();
@@ -273,13 +273,13 @@ fn resolution_chart(rows: &[Row], machine: &str) -> Chart {
     for r in rows.iter().filter(|r| r.series == "resolution" || r.series == "table1") {
         let Some(ms) = gpu_ms(r) else { continue };
         // (model, copies, bounces)
-        let key = (r.model.clone(), r.models, r.bounces);
-        let copies = if r.models > 1 { format!(" x{}", r.models) } else { String::new() };
-        let extra = if r.bounces != 2 { format!(", {}", bounces_note(r.bounces)) } else { String::new() };
-        let label = format!("ours, {}: {}{copies}{extra}", accel_name(r.accel), r.model);
-        let color = model_color(&r.model, &mut others);
-        let s = groups.get(r.accel, key, |_| Series::new(label, color, Line::Solid, accel_marker(r.accel)));
-        s.push(r.width as f64 * r.height as f64, ms, None);
+        let key = (r.workload.model.clone(), r.workload.models, r.workload.bounces);
+        let copies = if r.workload.models > 1 { format!(" x{}", r.workload.models) } else { String::new() };
+        let extra = if r.workload.bounces != 2 { format!(", {}", bounces_note(r.workload.bounces)) } else { String::new() };
+        let label = format!("ours, {}: {}{copies}{extra}", accel_name(r.workload.accel), r.workload.model);
+        let color = model_color(&r.workload.model, &mut others);
+        let s = groups.get(r.workload.accel, key, |_| Series::new(label, color, Line::Solid, accel_marker(r.workload.accel)));
+        s.push(r.workload.width as f64 * r.workload.height as f64, ms, None);
     }
     let mut series = Vec::new();
     for (model, figures) in TABLE1 {
@@ -310,14 +310,14 @@ fn models_chart(rows: &[Row], machine: &str) -> Chart {
     let mut sizes: Vec<(u32, u32)> = Vec::new();
     for r in rows.iter().filter(|r| r.series == "models" || r.series == "table2") {
         let Some(ms) = gpu_ms(r) else { continue };
-        if !sizes.contains(&(r.width, r.height)) {
-            sizes.push((r.width, r.height));
+        if !sizes.contains(&(r.workload.width, r.workload.height)) {
+            sizes.push((r.workload.width, r.workload.height));
         }
         // (model, (width, height), bounces)
-        let key = (r.model.clone(), (r.width, r.height), r.bounces);
-        let label = format!("ours, {}: {} copies, {}, {}", accel_name(r.accel), r.model, res_label(r.width, r.height), bounces_note(r.bounces));
-        let s = groups.get(r.accel, key, |_| Series::new(label, BLACK, Line::Solid, accel_marker(r.accel)));
-        s.push(r.models as f64, ms, None);
+        let key = (r.workload.model.clone(), (r.workload.width, r.workload.height), r.workload.bounces);
+        let label = format!("ours, {}: {} copies, {}, {}", accel_name(r.workload.accel), r.workload.model, res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
+        let s = groups.get(r.workload.accel, key, |_| Series::new(label, BLACK, Line::Solid, accel_marker(r.workload.accel)));
+        s.push(r.workload.models as f64, ms, None);
     }
     // Brute force first, then the largest resolution first within each acceleration, each
     // acceleration in its family of colours.
