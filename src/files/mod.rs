@@ -42,6 +42,20 @@ pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, 
     Ok(bytes)
 }
 
+/// The bytes of a regular file. Devices and pipes are refused before they are opened:
+/// `/dev/zero` would never end, and opening a FIFO waits for a writer.
+pub(crate) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("it is {what}")));
+    }
+    let mut file = std::fs::File::open(path)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0).saturating_add(1));
+    file.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
 /// Decode the image file at `path` (PNG, JPEG, TGA, HDR, EXR, DDS), refusing what is not a
 /// regular file before opening it.
 pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage, String> {
@@ -127,7 +141,7 @@ fn temporary_beside(path: &Path) -> PathBuf {
 }
 
 /// An I/O error's reason without Rust's "(os error 2)" suffix.
-fn io_reason(e: &std::io::Error) -> String {
+pub(crate) fn io_reason(e: &std::io::Error) -> String {
     let text = e.to_string();
     match text.find(" (os error") {
         Some(i) => text[..i].to_lowercase(),

@@ -15,8 +15,9 @@ use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::{buffer, image, mesh::Mode, Accessor, Document, Node, Semantic};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
-use super::obj::{read_regular_file, LoadedObj, ObjError};
+use super::obj::{LoadedObj, ObjError};
 use super::{Material, Mesh};
+use crate::files::{io_reason, read_regular_file};
 
 /// The deepest node hierarchy followed (deeper is taken for a cycle).
 const MAX_DEPTH: usize = 64;
@@ -383,10 +384,4 @@ fn percent_decode(uri: &str) -> String {
 /// Several lines of a validation report as one.
 fn one_line(text: &str) -> String {
     crate::files::shown(&text.lines().collect::<Vec<_>>().join("; "), 400)
-}
-
-/// An I/O error's reason without Rust's "(os error 2)" suffix.
-fn io_reason(e: &std::io::Error) -> String {
-    let text = e.to_string();
-    text.find(" (os error").map_or(text.clone(), |i| text[..i].to_lowercase())
 }

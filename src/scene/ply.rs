@@ -14,7 +14,8 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::obj::{read_regular_file, LoadedObj, ObjError};
+use super::obj::{LoadedObj, ObjError};
+use crate::files::read_regular_file;
 use super::{Material, Mesh};
 
 /// The most vertices or triangles reserved up front; beyond this vectors grow as they fill.

@@ -28,7 +28,7 @@ mod mtl;
 
 use std::cell::RefCell;
 use std::collections::HashSet;
-use std::io::{self, Read};
+use std::io;
 use std::path::{Path, PathBuf};
 
 use super::Mesh;
@@ -146,7 +146,7 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
 
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes = crate::files::read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     let name = path.display().to_string();
     let text = String::from_utf8(bytes).map_err(|e| {
         let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
@@ -216,20 +216,6 @@ fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind:
         warnings,
         format!("{name} line {}: face {kind} index {} is out of range (the file has {} {had} so far); {these} {outcome}", first.line, first.index, first.count),
     );
-}
-
-/// The bytes of a regular file. Devices and pipes are refused before they are opened:
-/// `/dev/zero` would never end, and opening a FIFO waits for a writer.
-pub(crate) fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
-    let meta = std::fs::metadata(path)?;
-    if !meta.is_file() {
-        let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
-        return Err(io::Error::new(io::ErrorKind::InvalidInput, format!("it is {what}")));
-    }
-    let mut file = std::fs::File::open(path)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0).saturating_add(1));
-    file.read_to_end(&mut bytes)?;
-    Ok(bytes)
 }
 
 /// Record a warning for the caller, who shows it once (the log on the command line, the

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::line_feeder::LineFeeder;
-use super::{quote, quote_name, read_regular_file, warn};
+use super::{quote, quote_name, warn};
+use crate::files::read_regular_file;
 use crate::scene::{Material, TextureTransform};
 
 /// The `mtllib` loader handed to tobj: reads libraries relative to the OBJ's folder and
