@@ -6,17 +6,12 @@
 //! Runs on the default driver always, and also on Mesa 22's lavapipe when
 //! `MESHTRACER_MESA22_ICD` names its ICD file (`.ci/run` unpacks one and sets it).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 
-/// A fresh scratch folder, removed again when dropped.
-struct Scratch(PathBuf);
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use common::Scratch;
 
 const SCENE: [&str; 8] = ["--model", "torusknot:30k", "--width", "32", "--height", "32", "--bounces", "2"];
 
@@ -38,8 +33,7 @@ fn pixels_off(a: &image::RgbImage, b: &image::RgbImage) -> usize {
 }
 
 fn brute_equals_bvh_and_cpu(icd: Option<&str>, tag: &str) {
-    let dir = Scratch(std::env::temp_dir().join(format!("meshtracer-brute-{}-{tag}", std::process::id())));
-    std::fs::create_dir_all(&dir.0).unwrap();
+    let dir = Scratch::new(tag);
     let cpu = render(&dir.0, None, &["--cpu"], "cpu.png");
     let bvh = render(&dir.0, icd, &["--accel", "bvh"], "bvh.png");
     let brute = render(&dir.0, icd, &["--accel", "brute"], "brute.png");

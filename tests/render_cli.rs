@@ -2,35 +2,17 @@
 //! or a TOML file, also for `view` and `bench`) with flags over it, its errors and
 //! warnings, and the output formats (PNG, JPEG, EXR with depth as channel Z).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
+
+use common::Scratch;
 
 use meshtracer::cli::{Cli, Command as Cmd};
 use meshtracer::scene::preset;
 use meshtracer::scene::spec::SceneSpec;
 use meshtracer::files::image_files::png_settings;
-
-/// A fresh scratch folder, removed again when dropped.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(tag: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("meshtracer-render-cli-{}-{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Scratch(dir)
-    }
-
-    fn join(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// `meshtracer render ARGS` in `dir` under the validation layer; panics unless it succeeds.
 fn render(dir: &Path, args: &[&str]) {

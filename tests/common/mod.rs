@@ -1,6 +1,7 @@
 //! Shared test helpers: one validated Vulkan context per test binary, and scene builders.
 #![allow(dead_code)]
 
+use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
@@ -97,4 +98,36 @@ pub fn large_neighbour_steps(img: &Image, step: f32) -> usize {
         }
     }
     n
+}
+
+/// A fresh scratch folder under the system's temporary folder, removed again when dropped.
+pub struct Scratch(pub PathBuf);
+
+impl Scratch {
+    /// `meshtracer-<test binary>-<pid>-<tag>`, emptied first.
+    pub fn new(tag: &str) -> Self {
+        let binary = std::env::current_exe().ok().and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned())).unwrap_or_default();
+        let dir = std::env::temp_dir().join(format!("meshtracer-{binary}-{}-{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        Scratch(dir)
+    }
+
+    /// A path in the folder.
+    pub fn join(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// The names in the folder, sorted.
+    pub fn names(&self) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(&self.0).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
