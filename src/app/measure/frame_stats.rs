@@ -79,7 +79,8 @@ impl FrameStats {
     /// time from before a change of resolution, bounces or acceleration says nothing of
     /// what is traced now (a long frame in bands shows none until its last band is in).
     pub(crate) fn gpu_now(&self, now: &RenderSettings) -> Option<(f64, f64)> {
-        let settings = self.gpu_settings.filter(|s| same_work(s, now))?;
+        // Every knob alike: the same work.
+        let settings = self.gpu_settings.filter(|s| s == now)?;
         let ms = self.gpu.samples.back()?.1;
         Some((ms, mrays_per_second(settings.max_rays(), ms)))
     }
@@ -104,11 +105,6 @@ impl FrameStats {
 
 /// The one Mrays/s formula, `bench`'s.
 pub(crate) use crate::bench::timing::mrays_per_second;
-
-/// Two frames ask the GPU for the same work (every knob alike).
-fn same_work(a: &RenderSettings, b: &RenderSettings) -> bool {
-    a == b
-}
 
 #[cfg(test)]
 mod tests {

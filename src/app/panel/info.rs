@@ -28,10 +28,6 @@ pub(crate) struct PanelInfo<'a> {
     pub(crate) model: Option<&'a ModelSource>,
     pub(crate) triangles: u64,
     pub(crate) vertices: u64,
-    /// Pixels traced per frame.
-    pub(crate) render_size: [u32; 2],
-    /// Rays per frame at most.
-    pub(crate) rays: u64,
     /// What a frame traced now asks for (a GPU time is shown only for a frame of these).
     pub(crate) settings: RenderSettings,
     /// (model, stage, seconds) of a load in progress.

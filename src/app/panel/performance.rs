@@ -86,7 +86,7 @@ impl Section for PerfPanel {
             ui.label(format!("{:.1}", info.stats.fps()));
             ui.end_row();
             ui.label("rays / frame");
-            ui.label(format!("{} (at most)", group(info.rays)));
+            ui.label(format!("{} (at most)", group(info.settings.max_rays())));
             ui.end_row();
             ui.label("Mrays/s");
             ui.label(info.stats.gpu_now(&info.settings).map_or("-".into(), |(_, mrays)| format!("{mrays:.1}")));

@@ -67,7 +67,7 @@ impl Section for RenderPanel {
                 ui.end_row();
             }
             ui.label("");
-            ui.label(RichText::new(format!("tracing {} x {}", info.render_size[0], info.render_size[1])).small().weak());
+            ui.label(RichText::new(format!("tracing {} x {}", info.settings.width, info.settings.height)).small().weak());
             ui.end_row();
             ui.label("Bounces");
             ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES))

@@ -56,8 +56,6 @@ impl Tool {
             model: self.session.model.as_ref().map(|m| &m.source),
             triangles,
             vertices,
-            render_size: [settings.width, settings.height],
-            rays: settings.max_rays(),
             settings,
             loading: self.session.loader.status(),
             present_mode: self.gpu.presenter.present_mode_name(),
