@@ -6,8 +6,7 @@ use winit::keyboard::KeyCode;
 
 pub(crate) use crate::gpu::present::PixelRect;
 use crate::app::views::split::SplitView;
-use crate::scene::obj::LoadOptions;
-use crate::scene::paper::{LightOrbit, ModelSource, BOX_HALF_SIZE, MAX_MODELS};
+use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::{Camera, EnvironmentSource};
 use crate::render_settings::{Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, RenderSettings};
@@ -95,38 +94,33 @@ impl CostMetric {
     }
 }
 
-/// Everything the user can change.
+/// Everything the user can change: the scene description the command line, presets and
+/// screenshots share (`scene`), and what only the window has (resolution mode, view,
+/// the live camera, the light's motion, panel and HUD, the split view).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Params {
+    /// The scene as a spec: model asked for, load options, copies, mirror box, light,
+    /// environment, and the render settings (bounces, blend, acceleration, shading
+    /// features: the one copy of each). Its camera is where the scene opens and R
+    /// returns to; width, height and AOV come from `resolution` and `view` when a frame
+    /// is made ([`Params::settings_for`]).
+    pub(crate) scene: SceneSpec,
     pub(crate) resolution: Resolution,
     pub(crate) custom: [u32; 2],
-    /// Bounces, blend, acceleration and the shading features (smooth, textures, spp,
-    /// adaptive): the one copy of each. Width, height and AOV come from `resolution` and
-    /// `view` when a frame is made ([`Params::settings_for`]).
-    pub(crate) settings: RenderSettings,
     pub(crate) view: ViewMode,
-    pub(crate) model_count: u32,
-    /// How .obj files are read, for every model loaded in the session (`--crease-angle`).
-    pub(crate) load_options: LoadOptions,
-    pub(crate) light: LightOrbit,
     /// Degrees per second along the orbit.
     pub(crate) light_speed: f32,
     pub(crate) light_paused: bool,
+    /// The camera now (the spec's camera is where it started).
     pub(crate) camera: Camera,
     pub(crate) vsync: bool,
     pub(crate) panel_visible: bool,
     /// The frame numbers over the image's corner (the HUD).
     pub(crate) hud_visible: bool,
-    /// What misses see: None (black, the paper), the generated sky, or a file.
-    pub(crate) environment: Option<EnvironmentSource>,
     /// The environment file given with `--env`, offered in the panel.
     pub(crate) environment_file: Option<EnvironmentSource>,
     /// Average successive frames while nothing changes (progressive anti-aliasing).
     pub(crate) accumulate: bool,
-    /// Where the camera starts and `reset` returns to.
-    pub(crate) home_camera: Camera,
-    /// The paper's six mirror planes around the models.
-    pub(crate) mirror_box: bool,
     /// The A/B split view (S): off, or A left of a line and B right of it.
     pub(crate) split: SplitView,
 }
@@ -138,26 +132,21 @@ impl Params {
         let s = &spec.settings;
         let resolution = if s.width == s.height && PRESETS.contains(&s.width) { Resolution::Square(s.width) } else { Resolution::Custom };
         let settings = RenderSettings { bounces: s.bounces.min(MAX_BOUNCES), blend: s.blend.clamp(0.0, 1.0), aov: Aov::Color, ..*s };
+        let scene = SceneSpec { settings, models: spec.models.clamp(1, MAX_MODELS), ..spec.clone() };
         Self {
             resolution,
             custom: [s.width, s.height],
-            settings,
             view: ViewMode::Color,
-            model_count: spec.models.clamp(1, MAX_MODELS),
-            load_options: spec.load_options,
-            light: spec.light,
             light_speed: 30.0,
             light_paused: scripted,
             camera: spec.camera.camera(),
             vsync: true,
             panel_visible: true,
             hud_visible: true,
-            environment: spec.environment.clone(),
             environment_file: spec.environment.clone().filter(|e| *e != EnvironmentSource::Sky),
             accumulate: !scripted,
-            home_camera: spec.camera.camera(),
-            mirror_box: spec.mirror_box,
             split: SplitView::default(),
+            scene,
         }
     }
 
@@ -174,19 +163,19 @@ impl Params {
     /// The frame settings for an image area of `area` physical pixels.
     pub(crate) fn settings_for(&self, area: [u32; 2]) -> RenderSettings {
         let [width, height] = self.render_size(area);
-        RenderSettings { width, height, aov: self.view.aov(), ..self.settings }
+        RenderSettings { width, height, aov: self.view.aov(), ..self.scene.settings }
     }
 
     /// Move the light along its orbit by `dt` seconds (unless paused).
     pub(crate) fn advance_light(&mut self, dt: f32) {
         if !self.light_paused {
-            self.light.angle_deg = (self.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
+            self.scene.light.angle_deg = (self.scene.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
         }
     }
 
     /// Put the camera back where the scene opens.
     pub(crate) fn reset_camera(&mut self) {
-        self.camera = self.home_camera;
+        self.camera = self.scene.camera.camera();
     }
 
     /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.
@@ -221,7 +210,7 @@ impl Params {
     /// The farthest the eye may be from the origin: inside the mirror box when it is on
     /// (outside, the user sees the box's back faces or black), a few box sizes otherwise.
     pub(crate) fn max_eye_distance(&self) -> f32 {
-        if self.mirror_box { BOX_HALF_SIZE * 0.95 } else { BOX_HALF_SIZE * 4.0 }
+        if self.scene.mirror_box { BOX_HALF_SIZE * 0.95 } else { BOX_HALF_SIZE * 4.0 }
     }
 
     /// Pull the eye back towards the target until it is within [`Self::max_eye_distance`]
@@ -249,14 +238,14 @@ impl Params {
 
     /// Brute force visits no BVH nodes: the cost view counts triangles there.
     pub(crate) fn fit_cost_metric(&mut self) {
-        if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.settings.accel) {
+        if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.scene.settings.accel) {
             *metric = CostMetric::Triangles;
         }
     }
 
     /// The light's position now.
     pub(crate) fn light_position(&self) -> Vec3 {
-        self.light.position()
+        self.scene.light.position()
     }
 
     /// Take the look a preset holds (everything but the model, which the tool loads):
@@ -268,34 +257,26 @@ impl Params {
         let fresh = Params::new(spec, true);
         self.resolution = fresh.resolution;
         self.custom = fresh.custom;
-        self.settings = fresh.settings;
-        self.model_count = fresh.model_count;
-        self.load_options = fresh.load_options;
-        self.light = fresh.light;
+        self.scene = SceneSpec { model: self.scene.model.clone(), ..fresh.scene };
         self.light_paused = true;
         self.camera = fresh.camera;
-        self.home_camera = fresh.home_camera;
-        self.environment = fresh.environment;
         if fresh.environment_file.is_some() {
             self.environment_file = fresh.environment_file;
         }
-        self.mirror_box = fresh.mirror_box;
         self.fit_cost_metric();
     }
 
-    /// The scene spec of what is shown now (`model`, traced with `settings`): what the
-    /// screenshots carry as their preset, so `render --preset` repeats it.
+    /// The scene spec of what is shown now (`model`, traced with `settings`, seen from
+    /// the camera now): what the screenshots carry as their preset, so `render --preset`
+    /// repeats it.
     pub(crate) fn scene_spec(&self, model: ModelSource, settings: RenderSettings) -> SceneSpec {
+        let c = &self.camera;
         SceneSpec {
             model,
-            load_options: self.load_options,
-            models: self.model_count,
-            mirror_box: self.mirror_box,
-            light: self.light,
-            camera: CameraSpec { eye: Some(self.camera.position), target: Some(self.camera.target), fov: Some(self.camera.vfov_deg), framed: false },
-            environment: self.environment.clone(),
+            camera: CameraSpec { eye: Some(c.position), target: Some(c.target), fov: Some(c.vfov_deg), framed: false },
             settings,
             accumulate: 1,
+            ..self.scene.clone()
         }
     }
 }
@@ -313,6 +294,8 @@ pub(crate) enum KeyAction {
     Benchmark,
     /// Open the file dialog for a model (Ctrl+O).
     OpenModel,
+    /// Stop the model load in progress, keeping the model shown (Escape).
+    CancelLoad,
     Quit,
 }
 
@@ -335,6 +318,7 @@ pub(crate) const SHORTCUTS: &[(&str, &str)] = &[
     ("V", "vsync on / off"),
     ("S", "A/B split view on / off (drag the line to move it)"),
     ("Ctrl+O", "open a model: OBJ, PLY or glTF (or drop one on the window)"),
+    ("Escape", "stop loading a model (the one shown stays)"),
     ("Ctrl+Q", "quit"),
     ("drag / wheel", "orbit / zoom the camera"),
     ("Shift+drag, middle drag", "pan the camera"),
@@ -350,19 +334,20 @@ impl Params {
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
             KeyCode::KeyO if ctrl => return KeyAction::OpenModel,
             KeyCode::KeyB => return KeyAction::Benchmark,
+            KeyCode::Escape => return KeyAction::CancelLoad,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
             KeyCode::KeyI => self.hud_visible = !self.hud_visible,
-            KeyCode::PageUp => self.settings.bounces = (self.settings.bounces + 1).min(MAX_BOUNCES),
-            KeyCode::PageDown => self.settings.bounces = self.settings.bounces.saturating_sub(1),
-            KeyCode::BracketLeft => self.settings.blend = ((self.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
-            KeyCode::BracketRight => self.settings.blend = ((self.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
-            KeyCode::Equal | KeyCode::NumpadAdd => self.model_count = (self.model_count + 1).min(MAX_MODELS),
-            KeyCode::Minus | KeyCode::NumpadSubtract => self.model_count = self.model_count.saturating_sub(1).max(1),
+            KeyCode::PageUp => self.scene.settings.bounces = (self.scene.settings.bounces + 1).min(MAX_BOUNCES),
+            KeyCode::PageDown => self.scene.settings.bounces = self.scene.settings.bounces.saturating_sub(1),
+            KeyCode::BracketLeft => self.scene.settings.blend = ((self.scene.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
+            KeyCode::BracketRight => self.scene.settings.blend = ((self.scene.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
+            KeyCode::Equal | KeyCode::NumpadAdd => self.scene.models = (self.scene.models + 1).min(MAX_MODELS),
+            KeyCode::Minus | KeyCode::NumpadSubtract => self.scene.models = self.scene.models.saturating_sub(1).max(1),
             KeyCode::KeyA => {
                 // BVH, brute force, vendor, and round (a device without the vendor's ray
                 // tracing falls back to the BVH with a note in the panel).
-                let next = Accel::ALL.iter().position(|&a| a == self.settings.accel).map_or(0, |i| (i + 1) % Accel::ALL.len());
-                self.settings.accel = Accel::ALL[next];
+                let next = Accel::ALL.iter().position(|&a| a == self.scene.settings.accel).map_or(0, |i| (i + 1) % Accel::ALL.len());
+                self.scene.settings.accel = Accel::ALL[next];
                 self.fit_cost_metric();
             }
             KeyCode::KeyC => {
@@ -405,6 +390,7 @@ pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::paper::LightOrbit;
 
     /// The tool's parameters for the default spec changed by `edit` (an interactive run).
     fn params(edit: impl FnOnce(&mut SceneSpec)) -> Params {
@@ -417,7 +403,7 @@ mod tests {
     fn command_line_sets_the_start() {
         let p = params(|s| s.settings = RenderSettings { width: 512, height: 512, bounces: 3, ..s.settings });
         assert_eq!(p.resolution, Resolution::Square(512));
-        assert_eq!(p.settings.bounces, 3);
+        assert_eq!(p.scene.settings.bounces, 3);
         assert!(!p.light_paused);
         let spec = SceneSpec { settings: RenderSettings { width: 128, height: 96, ..Default::default() }, ..Default::default() };
         let p = Params::new(&spec, true);
@@ -442,13 +428,13 @@ mod tests {
         let mut p = params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
         let mut prev = p.resolution;
         p.apply_key(KeyCode::PageUp, false, false, &mut prev);
-        assert_eq!(p.settings.bounces, 8);
+        assert_eq!(p.scene.settings.bounces, 8);
         p.apply_key(KeyCode::PageDown, false, false, &mut prev);
-        assert_eq!(p.settings.bounces, 7);
+        assert_eq!(p.scene.settings.bounces, 7);
         p.apply_key(KeyCode::BracketRight, false, false, &mut prev);
-        assert_eq!(p.settings.blend, 1.0);
+        assert_eq!(p.scene.settings.blend, 1.0);
         p.apply_key(KeyCode::BracketLeft, false, false, &mut prev);
-        assert!((p.settings.blend - 0.95).abs() < 1e-6);
+        assert!((p.scene.settings.blend - 0.95).abs() < 1e-6);
         assert_eq!(p.apply_key(KeyCode::F12, false, false, &mut prev), KeyAction::ScreenshotTrace);
         assert_eq!(p.apply_key(KeyCode::F12, true, false, &mut prev), KeyAction::ScreenshotWindow);
         assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev), KeyAction::Quit);
@@ -460,7 +446,7 @@ mod tests {
         for _ in 0..40 {
             p.apply_key(KeyCode::Minus, false, false, &mut prev);
         }
-        assert_eq!(p.model_count, 1);
+        assert_eq!(p.scene.models, 1);
     }
 
     #[test]
@@ -468,10 +454,10 @@ mod tests {
         let mut p = params(|s| s.light.angle_deg = 350.0);
         p.light_speed = 20.0;
         p.advance_light(1.0);
-        assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
+        assert!((p.scene.light.angle_deg - 10.0).abs() < 1e-3);
         p.light_paused = true;
         p.advance_light(1.0);
-        assert!((p.light.angle_deg - 10.0).abs() < 1e-3);
+        assert!((p.scene.light.angle_deg - 10.0).abs() < 1e-3);
     }
 
     #[test]
@@ -483,7 +469,7 @@ mod tests {
         assert!(p.camera.position.abs().max_element() <= BOX_HALF_SIZE * 0.95 + 1e-4, "{:?}", p.camera.position);
         assert!((p.camera.position - p.camera.target).length() > 1.0, "the eye still sees the model from afar");
         // Without the box, farther is allowed but bounded.
-        p.mirror_box = false;
+        p.scene.mirror_box = false;
         for _ in 0..100 {
             p.zoom_camera(-1.0);
         }

@@ -3,6 +3,7 @@
 //! reported as GPU time (timestamps around the dispatch) and wall-clock frame time.
 
 pub mod charts;
+pub mod load;
 pub mod clock_guard;
 pub mod paper_tables;
 pub mod report;
@@ -17,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
+use timing::Timing;
 use workload::WorkloadHeader;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
@@ -61,27 +63,6 @@ impl Case {
     }
 }
 
-/// Median and spread of a series of times.
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
-pub struct Stats {
-    pub median: f64,
-    pub p10: f64,
-    pub p90: f64,
-}
-
-impl Stats {
-    /// Percentiles of `samples` (nearest rank).
-    pub fn of(samples: &[f64]) -> Self {
-        if samples.is_empty() {
-            return Self::default();
-        }
-        let mut s = samples.to_vec();
-        s.sort_by(|a, b| a.total_cmp(b));
-        let at = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
-        Self { median: at(0.5), p10: at(0.1), p90: at(0.9) }
-    }
-}
-
 /// One measured (or skipped) row.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
@@ -95,8 +76,8 @@ pub struct Row {
     /// Rays per frame: every pixel's primary ray plus one per bounce (the mirror box is
     /// closed, so no ray escapes early).
     pub rays_per_frame: u64,
-    pub gpu_ms: Option<Stats>,
-    pub wall_ms: Stats,
+    pub gpu_ms: Option<Timing>,
+    pub wall_ms: Timing,
     /// Million rays per second from the median GPU time (wall time without timestamps).
     pub mrays_per_s: f64,
     pub fps: f64,
@@ -170,7 +151,7 @@ pub struct RunOptions {
 }
 
 /// The machine a run happened on.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Environment {
     pub device: String,
     pub device_type: String,
@@ -280,7 +261,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         features: case.features.clone(),
         rays_per_frame: rays,
         gpu_ms: None,
-        wall_ms: Stats::default(),
+        wall_ms: Timing::default(),
         mrays_per_s: 0.0,
         fps: 0.0,
         bvh_build_ms: packed.bvh_build_seconds * 1e3,
@@ -342,8 +323,8 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     if let (Some(guard), Some(before)) = (clock, clock_before) {
         row.gpu_clock_mhz = Some(before.min(guard.read()?));
     }
-    row.wall_ms = Stats::of(&wall);
-    row.gpu_ms = (!gpu.is_empty()).then(|| Stats::of(&gpu));
+    row.wall_ms = Timing::of(&wall).unwrap_or_default();
+    row.gpu_ms = Timing::of(&gpu);
     let ms = row.gpu_ms.map_or(row.wall_ms.median, |g| g.median);
     // A measured frame always took time: the rate is never the zero-time fallback.
     row.mrays_per_s = timing::mrays_per_second(rays, ms);
@@ -389,14 +370,11 @@ mod tests {
     fn a_row_writes_its_workload_where_it_always_was() {
         let row: Row = serde_json::from_str(ROW_JSON).unwrap();
         assert_eq!(row.workload.model, "dragon");
-        let newer = ROW_JSON.replace("null}", r#"null,"vendor_kernel":null,"ours_over_vendor":null,"gpu_clock_mhz":null}"#);
+        // Written since: the timings' min, mean and max (read as 0 from an older row).
+        let newer = ROW_JSON
+            .replace("null}", r#"null,"vendor_kernel":null,"ours_over_vendor":null,"gpu_clock_mhz":null}"#)
+            .replace(r#"_ms":{"median""#, r#"_ms":{"min":0.0,"mean":0.0,"max":0.0,"median""#);
         assert_eq!(serde_json::to_string(&row).unwrap(), newer);
-    }
-
-    #[test]
-    fn percentiles_of_a_known_series() {
-        let s = Stats::of(&(1..=11).map(f64::from).collect::<Vec<_>>());
-        assert_eq!(s, Stats { median: 6.0, p10: 2.0, p90: 10.0 });
     }
 }
 

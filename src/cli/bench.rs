@@ -82,6 +82,12 @@ pub struct BenchArgs {
     /// (with --charts DIR).
     #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "json", "csv"])]
     pub(crate) charts_from: Vec<PathBuf>,
+    /// Measure the way from each model to its first frame instead (files or names as
+    /// --model takes them, e.g. torusknot:10M): each phase (read, parse, build, pack,
+    /// upload), the first frame at --size in the paper's scene, the whole wait and the peak
+    /// memory.
+    #[arg(long, value_name = "MODEL", num_args = 1.., conflicts_with_all = ["paper", "scaling", "features", "framed", "compare", "charts_from", "preset"])]
+    pub(crate) load: Vec<String>,
     /// Benchmark exactly this preset (a TOML preset or a PNG this program wrote), one row
     /// per --accel given (else the preset's); --size and --bounces given beside it
     /// override it.
@@ -160,6 +166,9 @@ fn features_label(spec: &SceneSpec) -> String {
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     if !args.charts_from.is_empty() {
         return charts_from_files(args);
+    }
+    if !args.load.is_empty() {
+        return run_load(args);
     }
     let mut cases = Vec::new();
     let extra: Vec<ModelSource> = args.objs.iter().map(|p| ModelSource::File(p.clone())).collect();
@@ -270,6 +279,37 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         for path in charts::write_charts(dir, std::slice::from_ref(&env), &rows)? {
             println!("wrote {}", path.display());
         }
+    }
+    Ok(())
+}
+
+/// `--load MODEL...`: each model's way to its first frame, one row each, one tracer for all.
+fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
+    let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
+    let env = bench::environment(&ctx);
+    println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
+    println!("each model in the paper's mirror box at {0}x{0}, {1} bounces: phase times, the first frame's GPU time, read start to first frame, peak memory (and beyond the file's size, per triangle)", args.size, args.bounces);
+    let mut tracer = crate::gpu::ComputeTracer::new(&ctx, 0)?;
+    let mut rows = Vec::new();
+    for name in &args.load {
+        let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
+        (spec.settings.width, spec.settings.height, spec.settings.bounces) = (args.size, args.size, args.bounces);
+        let row = bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
+        rows.push(row);
+    }
+    print!("{}", bench::load::table(&rows));
+    let messages = ctx.validation_messages();
+    if !messages.is_empty() {
+        anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&bench::load::LoadReport { environment: &env, rows: &rows })?;
+        bench::load::write(path, &text)?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.csv {
+        bench::load::write(path, &bench::load::csv(&env, &rows))?;
+        println!("wrote {}", path.display());
     }
     Ok(())
 }

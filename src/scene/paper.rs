@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::obj::{load_obj_with, LoadOptions, LoadedObj, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
+use crate::progress::{Phase, Progress};
 
 /// Half the side of the mirror box.
 pub const BOX_HALF_SIZE: f32 = 4.0;
@@ -71,6 +72,13 @@ impl ModelSource {
         };
         prepare_model(&mut mesh);
         Ok((mesh, warnings))
+    }
+
+    /// [`ModelSource::load_with`], reporting its phase to `progress` (and stopping before
+    /// it when the load was cancelled); the error is one sentence.
+    pub(crate) fn load_with_progress(&self, options: &LoadOptions, progress: &Progress) -> Result<(Mesh, Vec<String>), String> {
+        progress.begin(Phase::Parse).map_err(|e| e.to_string())?;
+        self.load_with(options).map_err(|e| e.to_string())
     }
 }
 

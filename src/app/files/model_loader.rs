@@ -1,15 +1,17 @@
-//! Loading a model off the UI thread: parsing the .obj (or generating a paper model) and
-//! building its BVH run on a worker thread that reports its stage; the window keeps
-//! drawing the old model until the new one is ready, and keeps it if loading fails.
+//! Loading a model off the UI thread: reading and parsing the file (or generating a paper
+//! model), building its BVH and packing it run on a worker thread that reports each phase
+//! through a [`Progress`]; the window keeps drawing the old model until the new one is
+//! ready, keeps it if loading fails, and can cancel a load (Escape) at the next phase.
 
 use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
-use std::time::Instant;
 
+use crate::progress::{Phase, Progress, Snapshot};
 use crate::scene::Scene;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
 use crate::tracer::packed::PackedScene;
+use crate::tracer::prepare::PreparedScene;
 
 /// A loaded model, ready to upload.
 pub(crate) struct LoadedModel {
@@ -17,12 +19,8 @@ pub(crate) struct LoadedModel {
     pub(crate) scene: Scene,
     pub(crate) packed: PackedScene,
     pub(crate) warnings: Vec<String>,
-    pub(crate) seconds: f64,
-}
-
-enum Message {
-    Stage(String),
-    Done(Box<Result<LoadedModel, String>>),
+    /// Its phases so far (the upload, on the UI thread, is still to come).
+    pub(crate) progress: Progress,
 }
 
 /// What a poll of the loader found.
@@ -43,54 +41,50 @@ pub(crate) struct ModelLoader {
 
 struct Job {
     label: String,
-    stage: String,
-    started: Instant,
-    rx: Receiver<Message>,
+    progress: Progress,
+    rx: Receiver<Result<LoadedModel, String>>,
+}
+
+/// What the panel shows of a running load.
+pub(crate) struct LoadStatus<'a> {
+    /// The model being loaded.
+    pub(crate) label: &'a str,
+    /// Its phases so far, the running one last.
+    pub(crate) snapshot: Snapshot,
 }
 
 impl ModelLoader {
     /// Start loading `source` (a file with `options`) for `model_count` copies; a load
-    /// already running is abandoned (its thread finishes on its own and its result is dropped).
+    /// already running is cancelled (its thread stops at its next phase, its result dropped).
     pub(crate) fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit) {
+        self.cancel();
         let (tx, rx) = channel();
         let label = source.label();
-        let first_stage = match &source {
-            ModelSource::File(p) => format!("reading {}", p.display()),
-            ModelSource::Paper(m) => format!("generating the {}", m.name()),
-            ModelSource::Generated(n) => format!("generating a torus knot of {n} triangles"),
-        };
+        let progress = Progress::default();
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
-            let first_stage = first_stage.clone();
+            let progress = progress.clone();
             move || {
-                let started = Instant::now();
-                let _ = tx.send(Message::Stage(first_stage));
-                let result = source.check_name().and_then(|()| source.load_with(&options).map_err(|e| e.to_string())).and_then(|(mesh, warnings)| {
-                    let _ = tx.send(Message::Stage(format!("building the BVH ({} triangles)", mesh.triangle_count())));
-                    if mesh.triangle_count() == 0 {
-                        return Err(format!("{} has no triangles", source.label()));
-                    }
-                    let scene = paper_scene(mesh, model_count, light);
-                    let mut packed = PackedScene::new(&scene);
-                    // Textures that could not be read join the loader's warnings in the panel,
-                    // and each is printed once on the terminal.
-                    let warnings: Vec<String> = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
-                    for w in &warnings {
-                        log::warn!("{w}");
-                    }
-                    Ok(LoadedModel { source, scene, packed, warnings, seconds: started.elapsed().as_secs_f64() })
-                });
-                let _ = tx.send(Message::Done(Box::new(result)));
+                let result = load(source, &options, model_count, light, progress);
+                // The receiver is gone when the load was cancelled: nothing to tell.
+                let _ = tx.send(result);
             }
         });
         match spawned {
-            Ok(_) => self.job = Some(Job { label, stage: first_stage, started: Instant::now(), rx }),
+            Ok(_) => self.job = Some(Job { label, progress, rx }),
             Err(e) => {
                 // Report through the same path as a failed load.
                 let (tx, rx) = channel();
-                let _ = tx.send(Message::Done(Box::new(Err(format!("could not start the loader thread: {e}")))));
-                self.job = Some(Job { label, stage: String::new(), started: Instant::now(), rx });
+                let _ = tx.send(Err(format!("could not start the loader thread: {e}")));
+                self.job = Some(Job { label, progress, rx });
             }
         }
+    }
+
+    /// Stop the running load, if any: the old model stays. Returns the cancelled model's label.
+    pub(crate) fn cancel(&mut self) -> Option<String> {
+        let job = self.job.take()?;
+        job.progress.cancel();
+        Some(job.label)
     }
 
     /// True while a load runs (the tests' check; the tool polls).
@@ -99,28 +93,21 @@ impl ModelLoader {
         self.job.is_some()
     }
 
-    /// The model being loaded, its current stage and seconds so far.
-    pub(crate) fn status(&self) -> Option<(&str, &str, f64)> {
-        self.job.as_ref().map(|j| (j.label.as_str(), j.stage.as_str(), j.started.elapsed().as_secs_f64()))
+    /// The model being loaded and its phases so far.
+    pub(crate) fn status(&self) -> Option<LoadStatus<'_>> {
+        self.job.as_ref().map(|j| LoadStatus { label: &j.label, snapshot: j.progress.snapshot() })
     }
 
-    /// Take any progress and the result when it is there.
+    /// Take the result when it is there.
     pub(crate) fn poll(&mut self) -> Poll {
         let Some(job) = self.job.as_mut() else { return Poll::Idle };
-        loop {
-            match job.rx.try_recv() {
-                Ok(Message::Stage(s)) => job.stage = s,
-                Ok(Message::Done(result)) => {
-                    self.job = None;
-                    return Poll::Done(result);
-                }
-                Err(TryRecvError::Empty) => return Poll::Busy,
-                Err(TryRecvError::Disconnected) => {
-                    self.job = None;
-                    return Poll::Done(Box::new(Err("the loader thread stopped unexpectedly".into())));
-                }
-            }
-        }
+        let result = match job.rx.try_recv() {
+            Ok(result) => result,
+            Err(TryRecvError::Empty) => return Poll::Busy,
+            Err(TryRecvError::Disconnected) => Err("the loader thread stopped unexpectedly".into()),
+        };
+        self.job = None;
+        Poll::Done(Box::new(result))
     }
 
     /// Block until the running load finishes (for the tests; the tool polls each frame).
@@ -133,6 +120,29 @@ impl ModelLoader {
             }
         }
     }
+}
+
+/// The worker's part: read and parse (or generate), build, pack; stops between phases
+/// when cancelled.
+fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: LightOrbit, progress: Progress) -> Result<LoadedModel, String> {
+    source.check_name()?;
+    let (mesh, warnings) = source.load_with_progress(options, &progress).map_err(|e| e.to_string())?;
+    if mesh.triangle_count() == 0 {
+        return Err(format!("{} has no triangles", source.label()));
+    }
+    progress.begin(Phase::Build).map_err(|e| e.to_string())?;
+    let scene = paper_scene(mesh, model_count, light);
+    let prepared = PreparedScene::new(&scene);
+    progress.begin(Phase::Pack).map_err(|e| e.to_string())?;
+    let mut packed = PackedScene::pack(&scene, prepared);
+    progress.checkpoint().map_err(|e| e.to_string())?;
+    // Textures that could not be read join the loader's warnings in the panel, and each is
+    // printed once on the terminal.
+    let warnings: Vec<String> = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
+    for w in &warnings {
+        log::warn!("{w}");
+    }
+    Ok(LoadedModel { source, scene, packed, warnings, progress })
 }
 
 #[cfg(test)]
@@ -156,5 +166,32 @@ mod tests {
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let err = result.err().unwrap();
         assert!(!err.contains('\n'), "{err}");
+    }
+
+    #[test]
+    fn a_cancelled_load_keeps_the_old_model_and_starts_no_phase() {
+        let mut loader = ModelLoader::default();
+        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default());
+        assert!(loader.cancel().is_some_and(|label| label.starts_with("torusknot")));
+        assert!(matches!(loader.poll(), Poll::Idle), "the old model stays: nothing to take");
+        assert!(loader.cancel().is_none());
+
+        // The worker checks the flag before each phase.
+        let progress = Progress::default();
+        progress.cancel();
+        let err = load(ModelSource::Generated(2_000), &LoadOptions::default(), 1, LightOrbit::default(), progress.clone()).err().unwrap();
+        assert_eq!(err, "loading was cancelled");
+        assert!(progress.snapshot().phases.is_empty());
+    }
+
+    #[test]
+    fn a_finished_load_lists_its_phases_in_order() {
+        let mut loader = ModelLoader::default();
+        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default());
+        let status = loader.status().unwrap();
+        assert!(status.label.starts_with("torusknot"), "{}", status.label);
+        let Poll::Done(result) = loader.wait() else { panic!("no result") };
+        let phases: Vec<Phase> = result.unwrap().progress.snapshot().phases.iter().map(|p| p.phase).collect();
+        assert_eq!(phases, [Phase::Parse, Phase::Build, Phase::Pack]);
     }
 }

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
 use crate::bench::Environment;
-use crate::bench::timing::{mrays_per_second, Spread};
+use crate::bench::timing::{mrays_per_second, Timing};
 use crate::bench::workload::WorkloadHeader;
 use crate::scene::camera::Camera;
 use crate::render_settings::RenderSettings;
@@ -27,24 +27,6 @@ const WARMUP_FRAMES: u32 = 3;
 const DRAIN_FRAMES: u32 = 4;
 /// The file in the screenshot folder that runs are appended to without `--benchmark-json`.
 pub(crate) const DEFAULT_JSON_NAME: &str = "meshtracer_benchmark.jsonl";
-
-/// Min, mean, max and 90th percentile of a series of milliseconds.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub(crate) struct Timing {
-    pub(crate) min: f64,
-    pub(crate) mean: f64,
-    pub(crate) max: f64,
-    /// Nearest rank, as `bench` computes its percentiles.
-    pub(crate) p90: f64,
-}
-
-impl Timing {
-    /// The statistics of `samples`; None when there are none.
-    pub(crate) fn of(samples: &[f64]) -> Option<Self> {
-        let Spread { min, mean, max } = Spread::of(samples.iter().copied())?;
-        Some(Self { min, mean, max, p90: crate::bench::Stats::of(samples).p90 })
-    }
-}
 
 /// What was traced, besides the timings: filled by the tool when the run ends.
 #[derive(Clone, Debug, PartialEq)]
@@ -155,7 +137,7 @@ impl Benchmark {
         params.view = ViewMode::Color;
         let mut run = Self {
             frames: frames.max(1),
-            start: params.home_camera,
+            start: params.scene.camera.camera(),
             settings: params.settings_for(area),
             saved,
             warmup_left: WARMUP_FRAMES,
@@ -440,14 +422,6 @@ mod tests {
     }
 
     #[test]
-    fn timing_of_a_known_series() {
-        let t = Timing::of(&(1..=11).map(f64::from).collect::<Vec<_>>()).unwrap();
-        assert_eq!(t, Timing { min: 1.0, mean: 6.0, max: 11.0, p90: 10.0 });
-        assert_eq!(Timing::of(&[]), None);
-        assert_eq!(Timing::of(&[4.0]).unwrap().p90, 4.0);
-    }
-
-    #[test]
     fn summary_counts_measured_frames_only() {
         // Warm-up frames are 500 ms apart: none of them may reach the statistics.
         let (b, _) = run(10, &[10.0, 20.0], Some(5.0));
@@ -496,9 +470,9 @@ mod tests {
         params.view = ViewMode::Cost(crate::app::state::CostMetric::Nodes);
         let before = params.clone();
         let mut b = Benchmark::begin(8, &mut params, [800, 600]);
-        assert_eq!(params.camera, params.home_camera, "a run starts where the scene opens");
+        assert_eq!(params.camera, params.scene.camera.camera(), "a run starts where the scene opens");
         assert!(params.light_paused && !params.accumulate && params.view == ViewMode::Color);
-        let home = params.home_camera;
+        let home = params.scene.camera.camera();
         let dist = (home.position - home.target).length();
         let mut angles = Vec::new();
         for i in 0..30 {
@@ -524,7 +498,7 @@ mod tests {
         let mut params = Params::new(&SceneSpec::default(), false);
         let b = Benchmark::begin(8, &mut params, [800, 600]);
         assert!(!b.settings_changed(&params.settings_for([800, 600])));
-        params.settings.bounces += 1;
+        params.scene.settings.bounces += 1;
         assert!(b.settings_changed(&params.settings_for([800, 600])));
     }
 

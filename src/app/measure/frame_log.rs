@@ -74,7 +74,7 @@ pub(crate) struct Change {
 /// The light's position is watched only while it is paused: an orbiting light moves every
 /// frame, which would be a change row per frame.
 pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
-    let s = &p.settings;
+    let s = &p.scene.settings;
     let on = |b: bool| if b { "on" } else { "off" }.to_string();
     let v = |x: glam::Vec3| format!("{:.3} {:.3} {:.3}", x.x, x.y, x.z);
     let resolution = match p.resolution {
@@ -82,15 +82,15 @@ pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
         Resolution::MatchWindow => "match window".into(),
         Resolution::Custom => format!("{}x{} custom", p.custom[0], p.custom[1]),
     };
-    let environment = match &p.environment {
+    let environment = match &p.scene.environment {
         None => "none".into(),
         Some(crate::scene::EnvironmentSource::Sky) => "sky".into(),
         Some(crate::scene::EnvironmentSource::File(f)) => f.display().to_string(),
     };
-    let light = if p.light_paused { format!("paused at {:.1}°", p.light.angle_deg) } else { format!("orbiting at {:.0}°/s", p.light_speed) };
+    let light = if p.light_paused { format!("paused at {:.1}°", p.scene.light.angle_deg) } else { format!("orbiting at {:.0}°/s", p.light_speed) };
     vec![
         ("model", model.to_string()),
-        ("copies", p.model_count.to_string()),
+        ("copies", p.scene.models.to_string()),
         ("resolution", resolution),
         ("bounces", s.bounces.to_string()),
         ("blend", format!("{:.2}", s.blend)),
@@ -102,10 +102,10 @@ pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
         ("adaptive", on(s.adaptive)),
         ("accumulate", on(p.accumulate)),
         ("environment", environment),
-        ("mirror box", on(p.mirror_box)),
+        ("mirror box", on(p.scene.mirror_box)),
         ("light", light),
-        ("light radius", format!("{:.2}", p.light.radius)),
-        ("light height", format!("{:.2}", p.light.height)),
+        ("light radius", format!("{:.2}", p.scene.light.radius)),
+        ("light height", format!("{:.2}", p.scene.light.height)),
         ("camera", format!("eye {} target {} fov {:.1}", v(p.camera.position), v(p.camera.target), p.camera.vfov_deg)),
         ("vsync", on(p.vsync)),
         // Drawing the panel and the numbers costs frame time too.
@@ -407,8 +407,8 @@ mod tests {
         let a = params();
         let mut b = a.clone();
         assert!(diff(&watched(&a, "geosphere"), &watched(&b, "geosphere")).is_empty());
-        b.settings.bounces = 3;
-        b.settings.accel = Accel::Brute;
+        b.scene.settings.bounces = 3;
+        b.scene.settings.accel = Accel::Brute;
         let changes = diff(&watched(&a, "geosphere"), &watched(&b, "sphere"));
         let named: Vec<String> = changes.iter().map(|c| format!("{} {}->{}", c.name, c.from, c.to)).collect();
         assert_eq!(named, ["model geosphere->sphere", "bounces 2->3", "acceleration bvh->brute"]);
@@ -416,7 +416,7 @@ mod tests {
         let mut moving = a.clone();
         moving.light_paused = false;
         let mut later = moving.clone();
-        later.light.angle_deg += 10.0;
+        later.scene.light.angle_deg += 10.0;
         assert!(diff(&watched(&moving, ""), &watched(&later, "")).is_empty());
     }
 
@@ -424,7 +424,7 @@ mod tests {
     fn a_key_change_comes_before_its_first_frame() {
         let mut log = FrameLog::new(Vec::new()).unwrap();
         let (a, mut b) = (params(), params());
-        b.settings.bounces = 3;
+        b.scene.settings.bounces = 3;
         log.frame(row(5.0, 2), watched(&a, "m")).unwrap();
         log.frame(row(5.1, 3), watched(&b, "m")).unwrap();
         log.frame(row(5.2, 3), watched(&b, "m")).unwrap();
@@ -443,7 +443,7 @@ mod tests {
         let mut log = FrameLog::new(Vec::new()).unwrap();
         let mut p = params();
         for (i, blend) in [0.5, 0.6, 0.7, 0.8, 0.8, 0.8].into_iter().enumerate() {
-            p.settings.blend = blend;
+            p.scene.settings.blend = blend;
             log.frame(row(i as f64, 2), watched(&p, "m")).unwrap();
         }
         let lines = lines(log);
@@ -460,7 +460,7 @@ mod tests {
         let mut log = FrameLog::new(Vec::new()).unwrap();
         let mut p = params();
         log.frame(row(0.0, 2), watched(&p, "m")).unwrap();
-        p.settings.spp = 4;
+        p.scene.settings.spp = 4;
         log.frame(row(0.1, 2), watched(&p, "m")).unwrap();
         let lines = lines(log);
         assert_eq!(lines[2], "change,1,0.100,,,,,,,,,,spp,1->4");

@@ -4,7 +4,7 @@
 
 use std::collections::VecDeque;
 
-use crate::bench::timing::Spread;
+use crate::bench::timing::Timing;
 use crate::render_settings::RenderSettings;
 
 /// Seconds of history kept: the longest window the graph offers.
@@ -16,15 +16,6 @@ pub(crate) struct Series {
     pub(crate) samples: VecDeque<(f64, f64)>,
 }
 
-/// Current, min, mean and max of a series (the spread is [`Spread`]'s).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct Summary {
-    pub(crate) current: f64,
-    pub(crate) min: f64,
-    pub(crate) mean: f64,
-    pub(crate) max: f64,
-}
-
 impl Series {
     fn push(&mut self, t: f64, ms: f64) {
         self.samples.push_back((t, ms));
@@ -33,17 +24,16 @@ impl Series {
         }
     }
 
-    /// Statistics over the kept history; None when empty.
-    pub(crate) fn summary(&self) -> Option<Summary> {
-        self.summary_over(HISTORY_SECONDS)
+    /// The latest sample, ms; None when empty.
+    pub(crate) fn current(&self) -> Option<f64> {
+        self.samples.back().map(|&(_, ms)| ms)
     }
 
-    /// Statistics over the last `seconds` of history; None when empty.
-    pub(crate) fn summary_over(&self, seconds: f64) -> Option<Summary> {
-        let &(last, current) = self.samples.back()?;
-        let recent = self.samples.iter().rev().take_while(|&&(t, _)| last - t <= seconds).map(|&(_, v)| v);
-        let Spread { min, mean, max } = Spread::of(recent)?;
-        Some(Summary { current, min, mean, max })
+    /// The summary of the last `seconds` of history; None when empty.
+    pub(crate) fn summary_over(&self, seconds: f64) -> Option<Timing> {
+        let &(last, _) = self.samples.back()?;
+        let recent: Vec<f64> = self.samples.iter().filter(|&&(t, _)| last - t <= seconds).map(|&(_, v)| v).collect();
+        Timing::of(&recent)
     }
 
     /// The samples of the last `seconds`, as (seconds before the latest sample of `now`, ms).
@@ -129,7 +119,7 @@ mod tests {
     #[test]
     fn history_is_bounded_and_summarised() {
         let mut s = FrameStats::default();
-        assert!(s.frame.summary().is_none());
+        assert!(s.frame.summary_over(HISTORY_SECONDS).is_none());
         for i in 0..200 {
             s.push_frame(i as f64 * 0.1, if i % 2 == 0 { 10.0 } else { 30.0 });
         }
@@ -138,8 +128,8 @@ mod tests {
             s.push_frame(i as f64 * 0.1, if i % 2 == 0 { 10.0 } else { 30.0 });
         }
         assert!(s.frame.samples.len() <= 601);
-        let sum = s.frame.summary().unwrap();
-        assert_eq!(sum.current, 30.0);
+        let sum = s.frame.summary_over(HISTORY_SECONDS).unwrap();
+        assert_eq!(s.frame.current(), Some(30.0));
         assert_eq!(sum.min, 10.0);
         assert_eq!(sum.max, 30.0);
         assert!((sum.mean - 20.0).abs() < 0.5);

@@ -1,6 +1,7 @@
 //! The read-only facts the panel (and the HUD over the image) show, gathered by the tool
 //! once a frame. A leaf: it knows no section.
 
+use crate::app::files::model_loader::LoadStatus;
 use crate::app::measure::frame_stats::FrameStats;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::render_settings::RenderSettings;
@@ -30,8 +31,8 @@ pub(crate) struct PanelInfo<'a> {
     pub(crate) vertices: u64,
     /// What a frame traced now asks for (a GPU time is shown only for a frame of these).
     pub(crate) settings: RenderSettings,
-    /// (model, stage, seconds) of a load in progress.
-    pub(crate) loading: Option<(&'a str, &'a str, f64)>,
+    /// A load in progress: the model and its phases so far.
+    pub(crate) loading: Option<LoadStatus<'a>>,
     pub(crate) present_mode: String,
     pub(crate) vsync_off_available: bool,
     /// (scale top, max, mean) of the heat map shown.

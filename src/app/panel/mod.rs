@@ -97,3 +97,6 @@ pub(crate) fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, inf
     });
     actions
 }
+
+#[cfg(test)]
+mod tests;

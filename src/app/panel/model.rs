@@ -3,10 +3,12 @@
 
 use egui::{RichText, Ui};
 
+use crate::app::files::model_loader::LoadStatus;
 use crate::app::files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
 use crate::scene::paper::{ModelSource, MAX_MODELS};
+use crate::progress::Phase;
 use crate::scene::primitives::PaperModel;
 
 /// The section's state between frames.
@@ -64,12 +66,8 @@ impl Section for ModelPanel {
             }
             ui.label(RichText::new(if self.hovering_file { "drop the file to load it" } else { "or drop one on the window" }).small().weak());
         });
-        if let Some((label, stage, secs)) = info.loading {
-            ui.horizontal(|ui| {
-                ui.spinner();
-                // Elided: a long path must not widen the panel.
-                ui.add(egui::Label::new(format!("{label}: {stage} ({secs:.1} s)")).truncate());
-            });
+        if let Some(loading) = &info.loading {
+            loading_progress(ui, loading, actions);
         } else if let Some(s) = &self.status {
             status_line(ui, s);
             if self.warnings.len() > 1 {
@@ -82,8 +80,32 @@ impl Section for ModelPanel {
         }
         ui.horizontal(|ui| {
             ui.label("Copies");
-            ui.add(egui::Slider::new(&mut params.model_count, 1..=MAX_MODELS));
+            ui.add(egui::Slider::new(&mut params.scene.models, 1..=MAX_MODELS));
         });
         ui.label(RichText::new(format!("{} triangles, {} vertices in the scene", group(info.triangles), group(info.vertices))).small());
+    }
+}
+
+/// A load in progress: a bar over the phases (each an equal share, the running one filled
+/// as far as it reports), the finished phases' times, and a Cancel button (Escape).
+fn loading_progress(ui: &mut Ui, loading: &LoadStatus, actions: &mut Vec<PanelAction>) {
+    let snapshot = &loading.snapshot;
+    let running = snapshot.phases.last();
+    let done = snapshot.phases.iter().filter(|p| p.done).count();
+    let overall = (done as f32 + snapshot.fraction) / Phase::ALL.len() as f32;
+    let text = match running {
+        Some(p) if !p.done => format!("{}: {} {:.1} s", loading.label, p.phase.name(), p.seconds),
+        _ => format!("{}: starting", loading.label),
+    };
+    ui.horizontal(|ui| {
+        if ui.button("Cancel").on_hover_text("stop loading and keep the model shown (Escape)").clicked() {
+            actions.push(PanelAction::CancelLoad);
+        }
+        // The bar's text is elided by the bar: a long path must not widen the panel.
+        ui.add(egui::ProgressBar::new(overall).text(text).animate(true));
+    });
+    let finished: Vec<String> = snapshot.phases.iter().filter(|p| p.done).map(|p| format!("{} {:.2} s", p.phase.name(), p.seconds)).collect();
+    if !finished.is_empty() {
+        ui.add(egui::Label::new(RichText::new(finished.join(" · ")).small().weak()).truncate());
     }
 }

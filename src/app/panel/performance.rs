@@ -5,7 +5,7 @@
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
 
-use crate::app::measure::frame_stats::{FrameStats, Summary, HISTORY_SECONDS};
+use crate::app::measure::frame_stats::{FrameStats, Series, HISTORY_SECONDS};
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
@@ -37,11 +37,11 @@ impl PerfPanel {
     }
 }
 
-fn summary_row(ui: &mut Ui, name: &str, color: Color32, s: Option<Summary>) {
+fn summary_row(ui: &mut Ui, name: &str, color: Color32, series: &Series, seconds: f64) {
     ui.label(RichText::new(name).color(color));
-    match s {
-        Some(s) => {
-            for v in [s.current, s.min, s.mean, s.max] {
+    match series.current().zip(series.summary_over(seconds)) {
+        Some((current, s)) => {
+            for v in [current, s.min, s.mean, s.max] {
                 ui.label(RichText::new(format!("{v:.2}")).monospace());
             }
         }
@@ -78,8 +78,8 @@ impl Section for PerfPanel {
                 ui.label(RichText::new(h).small().weak());
             }
             ui.end_row();
-            summary_row(ui, "GPU trace", GPU_COLOR, info.stats.gpu.summary_over(state.seconds));
-            summary_row(ui, "frame", FRAME_COLOR, info.stats.frame.summary_over(state.seconds));
+            summary_row(ui, "GPU trace", GPU_COLOR, &info.stats.gpu, state.seconds);
+            summary_row(ui, "frame", FRAME_COLOR, &info.stats.frame, state.seconds);
         });
         egui::Grid::new("counts").num_columns(2).show(ui, |ui| {
             ui.label("fps");

@@ -44,7 +44,7 @@ impl Section for RenderPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
-        self.forget_stale_status(params.settings.accel);
+        self.forget_stale_status(params.scene.settings.accel);
         egui::Grid::new("render").num_columns(2).show(ui, |ui| {
             ui.label("Resolution");
             egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
@@ -70,26 +70,26 @@ impl Section for RenderPanel {
             ui.label(RichText::new(format!("tracing {} x {}", info.settings.width, info.settings.height)).small().weak());
             ui.end_row();
             ui.label("Bounces");
-            ui.add(egui::Slider::new(&mut params.settings.bounces, 0..=MAX_BOUNCES))
+            ui.add(egui::Slider::new(&mut params.scene.settings.bounces, 0..=MAX_BOUNCES))
                 .on_hover_text("mirror bounces after the primary hit (the paper's §3.3 used 2); PgUp / PgDn");
             ui.end_row();
             ui.label("Blend");
-            ui.add(egui::Slider::new(&mut params.settings.blend, 0.0..=1.0).fixed_decimals(2))
+            ui.add(egui::Slider::new(&mut params.scene.settings.blend, 0.0..=1.0).fixed_decimals(2))
                 .on_hover_text("reflection blend ratio (§3.3): 0 = the surface's own colour, 1 = pure mirror; [ and ]");
             ui.end_row();
             ui.label("Acceleration");
             ui.horizontal(|ui| {
-                ui.radio_value(&mut params.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
+                ui.radio_value(&mut params.scene.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
                 let estimate = format!("the paper's method (§3.3): {:.1e} ray-triangle tests per frame", info.brute_tests);
-                ui.radio_value(&mut params.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
+                ui.radio_value(&mut params.scene.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
                 let why = info.vendor.unavailable.clone().unwrap_or_default();
-                ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.settings.accel, Accel::Vendor, "vendor"))
+                ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.scene.settings.accel, Accel::Vendor, "vendor"))
                     .response
                     .on_hover_text("the GPU driver's own acceleration structures and traversal (Vulkan ray tracing), on the same scene and shading")
                     .on_disabled_hover_text(&why);
             });
             ui.end_row();
-            if params.settings.accel == Accel::Vendor {
+            if params.scene.settings.accel == Accel::Vendor {
                 vendor_rows(ui, info.vendor, actions);
             }
             ui.label("View");
@@ -108,7 +108,7 @@ impl Section for RenderPanel {
             if let ViewMode::Cost(metric) = &mut params.view {
                 ui.label("Counter");
                 // Brute force visits no nodes: only the triangle counter means something.
-                let bvh = params.settings.accel == Accel::Bvh;
+                let bvh = params.scene.settings.accel == Accel::Bvh;
                 ui.horizontal(|ui| {
                     ui.add_enabled_ui(bvh, |ui| ui.radio_value(metric, CostMetric::Nodes, "nodes")).response.on_disabled_hover_text("brute force visits no BVH nodes");
                     ui.radio_value(metric, CostMetric::Triangles, "triangles");
@@ -116,10 +116,10 @@ impl Section for RenderPanel {
                 ui.end_row();
             }
         });
-        if params.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
+        if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
             ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
         }
-        if params.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
+        if params.scene.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
             // Said before the wait, not after: the frame is long and comes in bands.
             let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
             ui.add(egui::Label::new(RichText::new(text).small()).wrap());

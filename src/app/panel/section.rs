@@ -17,6 +17,8 @@ use crate::scene::paper::ModelSource;
 pub(crate) enum PanelAction {
     /// Load a built-in, generated or .obj model.
     LoadModel(ModelSource),
+    /// Stop the load in progress; the model shown stays.
+    CancelLoad,
     /// Load this .obj exactly as a file dropped on the window (the Open dialog's pick).
     LoadFile(PathBuf),
     /// Show the Open dialog for a model or a preset.

@@ -23,7 +23,7 @@ impl Section for SplitPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let params = &mut *cx.params;
-        let (a, a_environment, times) = (params.settings, params.environment.is_some(), cx.info.split_ms);
+        let (a, a_environment, times) = (params.scene.settings, params.scene.environment.is_some(), cx.info.split_ms);
         // B offers the vendor only where A does: greyed out with the same reason.
         let vendor_missing = cx.info.vendor.unavailable.clone();
         let (a, split) = (&a, &mut params.split);

@@ -68,7 +68,12 @@ impl Tool {
     /// Load a model file dropped on the window or picked in the Open dialog (one path for both).
     pub(super) fn load_file(&mut self, path: std::path::PathBuf) {
         self.ui.panel.model.path = path.display().to_string();
-        self.session.start_load(crate::scene::paper::ModelSource::File(path), &self.params, &mut self.ui.panel);
+        self.session.start_load(crate::scene::paper::ModelSource::File(path), &mut self.params, &mut self.ui.panel);
+    }
+
+    /// Stop the model load in progress (Escape, the panel's Cancel).
+    pub(super) fn cancel_load(&mut self) {
+        self.session.cancel_load(&mut self.ui.panel);
     }
 
     /// Show the Open dialog for `purpose`, in the folder of the model or preset in use.
@@ -100,6 +105,7 @@ impl Tool {
             KeyAction::FrameModel => self.frame_model(),
             KeyAction::Benchmark => self.timing.benchmarks.want(self.ui.panel.benchmark.frames),
             KeyAction::OpenModel => self.open(Purpose::Model),
+            KeyAction::CancelLoad => self.cancel_load(),
             KeyAction::Quit => self.script.request_exit(),
         }
     }
@@ -107,7 +113,7 @@ impl Tool {
     /// Point the camera at the models in view from where it looks now (F).
     fn frame_model(&mut self) {
         if let Some(model) = &self.session.model {
-            let b = model.scene.model_bounds(self.params.model_count as usize);
+            let b = model.scene.model_bounds(self.params.scene.models as usize);
             if !b.is_empty() {
                 self.params.frame_model(b.center(), b.extent().length() * 0.5);
             }

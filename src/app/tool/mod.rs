@@ -116,7 +116,7 @@ impl Tool {
         if let Some(path) = &options.preset {
             panel.presets.used(path);
         }
-        session.start_load(options.spec.model.clone(), &params, &mut panel);
+        session.start_load(options.spec.model.clone(), &mut params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
         Ok(Self {
             gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx },
@@ -193,8 +193,8 @@ impl Tool {
             if let GpuError::VendorUnavailable(why) = &e {
                 self.ui.panel.render.status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
                 self.ui.panel.render.status_accel = Some(Accel::Bvh);
-                if self.params.settings.accel == Accel::Vendor {
-                    self.params.settings.accel = Accel::Bvh;
+                if self.params.scene.settings.accel == Accel::Vendor {
+                    self.params.scene.settings.accel = Accel::Bvh;
                 }
                 if self.params.split.b.accel == Some(Accel::Vendor) {
                     self.params.split.b.accel = Some(Accel::Bvh);
@@ -309,7 +309,7 @@ impl Tool {
         }
         self.timing.benchmarks.after_frame(t, outcome.presented && traced, frame_time.map(|(ms, _)| ms), self.gpu.clock.latest);
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
-        let workload = |p: &Params| Workload { model: session.model_label(), models: p.model_count, triangles: session.counts().0 };
+        let workload = |p: &Params| Workload { model: session.model_label(), models: p.scene.models, triangles: session.counts().0 };
         if self.timing.benchmarks.finish(&mut self.params, &mut self.ui.panel.benchmark.outcome, workload, || crate::bench::environment(ctx))? {
             self.script.request_exit();
         }

@@ -50,12 +50,12 @@ impl Tool {
     pub(super) fn load_preset(&mut self, path: &Path) {
         match preset::read(path) {
             Ok(Loaded { spec, warnings }) => {
-                let options = self.params.load_options;
+                let options = self.params.scene.load_options;
                 self.params.apply_preset(&spec);
                 // Another model, or the same read another way (--crease-angle): load it.
                 let shown = self.session.model.as_ref().map(|m| &m.source);
-                if shown != Some(&spec.model) || self.params.load_options != options {
-                    self.session.start_load(spec.model.clone(), &self.params, &mut self.ui.panel);
+                if shown != Some(&spec.model) || self.params.scene.load_options != options {
+                    self.session.start_load(spec.model.clone(), &mut self.params, &mut self.ui.panel);
                 }
                 let presets = &mut self.ui.panel.presets;
                 presets.status = Some(Status::ok(format!("loaded {}{}", path.display(), if warnings.is_empty() { String::new() } else { format!("; {} warning(s):", warnings.len()) })));
@@ -68,7 +68,7 @@ impl Tool {
 
     pub(super) fn name_parts(&self) -> NameParts {
         let [width, height] = self.gpu.tracer.resolution().unwrap_or_default();
-        NameParts { model: self.session.model_label(), models: self.params.model_count, width, height, bounces: self.params.settings.bounces, blend: self.params.settings.blend }
+        NameParts { model: self.session.model_label(), models: self.params.scene.models, width, height, bounces: self.params.scene.settings.bounces, blend: self.params.scene.settings.blend }
     }
 
     /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).

@@ -2,6 +2,7 @@
 //! progressive accumulation, and the model loader. Parameter changes reach the tracer
 //! here, each on the next frame.
 
+use crate::progress::Phase;
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
@@ -53,11 +54,21 @@ pub(crate) struct Session {
 }
 
 impl Session {
-    /// Start loading `source` (the current model stays until it is ready).
-    pub(crate) fn start_load(&mut self, source: ModelSource, params: &Params, panel: &mut PanelState) {
+    /// Start loading `source`, now the scene's model (the current one stays on screen
+    /// until the new one is ready).
+    pub(crate) fn start_load(&mut self, source: ModelSource, params: &mut Params, panel: &mut PanelState) {
         panel.model.status = None;
         panel.model.warnings.clear();
-        self.loader.start(source, params.load_options, params.model_count, params.light);
+        params.scene.model = source.clone();
+        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light);
+    }
+
+    /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays.
+    pub(crate) fn cancel_load(&mut self, panel: &mut PanelState) {
+        if let Some(label) = self.loader.cancel() {
+            let keeping = self.model.as_ref().map_or("no model".to_owned(), |m| m.source.label());
+            panel.model.status = Some(Status::ok(format!("stopped loading {label}; keeping {keeping}")));
+        }
     }
 
     /// Take a finished load: upload it, or keep the old model and say why not. With no
@@ -81,13 +92,19 @@ impl Session {
 
     /// Upload a loaded model; returns the window title it asks for.
     fn install(&mut self, loaded: LoadedModel, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<String> {
-        let LoadedModel { source, scene, mut packed, warnings, seconds } = loaded;
+        let LoadedModel { source, scene, mut packed, warnings, progress } = loaded;
+        // Not cancelled: the loader hands over only loads it still wants.
+        let _ = progress.begin(Phase::Upload);
         tracer.set_scene(&packed)?;
+        progress.finish();
+        let phases = progress.snapshot();
+        let seconds = phases.total_seconds();
+        let each: Vec<String> = phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
         // The GPU has the geometry now; keep only what instance and environment changes need.
         packed.triangles = Vec::new();
         packed.shading = Vec::new();
         packed.nodes = Vec::new();
-        let text = format!("loaded {} ({} triangles) in {seconds:.2} s", source.label(), group(scene.meshes[0].triangle_count() as u64));
+        let text = format!("loaded {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
         panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
             None => Status::ok(text),
@@ -121,10 +138,10 @@ impl Session {
             self.applied.resolution = tracer.resolution();
         }
         let Some(model) = &mut self.model else { return Ok(()) };
-        let want = (params.model_count, params.mirror_box);
+        let want = (params.scene.models, params.scene.mirror_box);
         if self.applied.instances != Some(want) {
-            model.scene.instances = instances(params.model_count);
-            if !params.mirror_box {
+            model.scene.instances = instances(params.scene.models);
+            if !params.scene.mirror_box {
                 model.scene.remove_box();
             }
             model.packed.set_instances(&model.scene.instances);
@@ -132,11 +149,11 @@ impl Session {
             self.applied.instances = Some(want);
             self.accumulation = Accumulation::default();
         }
-        // A's misses see `params.environment`; the split's B may ask for one when A has
+        // A's misses see `params.scene.environment`; the split's B may ask for one when A has
         // none: the sky is uploaded then (A's frames do not sample it).
-        model.scene.environment = params.environment.clone();
+        model.scene.environment = params.scene.environment.clone();
         let b_sky = params.split.enabled && params.split.b.wants_environment();
-        let upload = params.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
+        let upload = params.scene.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
         if self.applied.environment.as_ref() != Some(&upload) {
             let (map, warning) = EnvironmentMap::from_source(upload.as_ref());
             if let Some(w) = warning {

@@ -136,7 +136,8 @@ impl Tool {
     /// Do what the panel asked beyond changing parameters.
     pub(super) fn act(&mut self, action: PanelAction) -> anyhow::Result<()> {
         match action {
-            PanelAction::LoadModel(source) => self.session.start_load(source, &self.params, &mut self.ui.panel),
+            PanelAction::LoadModel(source) => self.session.start_load(source, &mut self.params, &mut self.ui.panel),
+            PanelAction::CancelLoad => self.cancel_load(),
             PanelAction::LoadFile(path) => self.load_file(path),
             PanelAction::Open(purpose) => self.open(purpose),
             PanelAction::ScreenshotTrace => self.captures.want_trace_shot = true,

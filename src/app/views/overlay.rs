@@ -85,7 +85,7 @@ fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
     // brute-force bands run, nor the old resolution's after a change).
     let gpu_now = info.stats.gpu_now(&info.settings);
     let gpu = gpu_now.map(|(ms, _)| ms);
-    let frame = info.stats.frame.summary().map(|s| s.current);
+    let frame = info.stats.frame.current();
     let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
     let lines = [
         format!("{:.1} fps", info.stats.fps()),

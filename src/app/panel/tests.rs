@@ -1,0 +1,131 @@
+//! The panel driven through egui's own test harness (egui_kittest): widgets found by their
+//! label through AccessKit, clicked as a user would, no window or X server. The Xvfb tests
+//! in `tests/app_*.rs` keep the real input end to end.
+
+use egui::Vec2;
+use egui_kittest::kittest::{NodeT, Queryable};
+use egui_kittest::Harness;
+
+use super::{show, PanelInfo, PanelState, VendorInfo, PANEL_WIDTH};
+use crate::app::measure::frame_stats::FrameStats;
+use crate::app::state::{Params, ViewMode, CostMetric};
+use crate::gpu::khr_rt::{AccelStats, VendorKernel};
+use crate::render_settings::Accel;
+use crate::scene::spec::SceneSpec;
+
+/// What one harness owns: the parameters and panel state the panel edits, the facts it shows.
+struct Fixture {
+    params: Params,
+    panel: PanelState,
+    vendor: VendorInfo,
+    stats: FrameStats,
+    /// The side panel's width as drawn in the last frame, points.
+    panel_width: f32,
+}
+
+impl Fixture {
+    fn new(vendor: VendorInfo) -> Self {
+        Self { params: Params::new(&SceneSpec::default(), false), panel: PanelState::default(), vendor, stats: FrameStats::default(), panel_width: 0.0 }
+    }
+}
+
+/// The facts a panel shows, with nothing loaded or measured.
+fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
+    PanelInfo {
+        device: "test device",
+        clock_mhz: None,
+        model: None,
+        triangles: 1000,
+        vertices: 500,
+        settings: f.params.settings_for([256, 256]),
+        loading: None,
+        present_mode: "FIFO".into(),
+        vsync_off_available: false,
+        heat: Some((100.0, 120.0, 30.0)),
+        view_note: None,
+        accumulated_frames: 0,
+        progress: None,
+        brute_tests: 0.0,
+        submission_tests: 1e9,
+        screenshot_dir: "/tmp".into(),
+        stats: &f.stats,
+        benchmark: None,
+        recording: None,
+        settings_file: None,
+        vendor: &f.vendor,
+        split_ms: [None, None],
+    }
+}
+
+/// The panel as the tool lays it out: a resizable left panel of the default width, at most
+/// half the window.
+fn harness(size: Vec2, fixture: Fixture) -> Harness<'static, Fixture> {
+    Harness::builder().with_size(size).build_ui_state(
+        |ui, f: &mut Fixture| {
+            let max = (ui.available_width() * 0.5).max(160.0);
+            let response = egui::Panel::left("panel").default_size(PANEL_WIDTH.min(max)).size_range(150.0..=max).show(ui, |ui| {
+                // The panel edits a copy of what the facts borrow, as the tool's frame does.
+                let mut params = f.params.clone();
+                let mut panel = std::mem::take(&mut f.panel);
+                let _ = show(ui, &mut params, &mut panel, &info(f));
+                f.panel = panel;
+                f.params = params;
+            });
+            f.panel_width = response.response.rect.width();
+        },
+        fixture,
+    )
+}
+
+fn no_vendor() -> VendorInfo {
+    VendorInfo { unavailable: Some("this device has no VK_KHR_ray_query".into()), ..Default::default() }
+}
+
+#[test]
+fn the_split_views_b_side_offers_no_vendor_the_device_lacks() {
+    // #30: A greyed the vendor out, B offered it, and picking it printed the error inside
+    // the Render section.
+    let mut fixture = Fixture::new(no_vendor());
+    fixture.params.split.enabled = true;
+    fixture.params.split.b.accel = Some(Accel::Bvh);
+    let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
+    h.get_by_label("A/B split").click();
+    h.run();
+    let vendors: Vec<_> = h.query_all_by_label("vendor").collect();
+    assert_eq!(vendors.len(), 2, "A's choice and B's");
+    assert!(vendors.iter().all(|v| v.accesskit_node().is_disabled()), "every vendor choice greyed out");
+    let b_vendor = vendors.iter().max_by(|a, b| a.rect().top().total_cmp(&b.rect().top())).unwrap().rect().center();
+    h.hover_at(b_vendor);
+    h.event(egui::Event::PointerButton { pos: b_vendor, button: egui::PointerButton::Primary, pressed: true, modifiers: Default::default() });
+    h.event(egui::Event::PointerButton { pos: b_vendor, button: egui::PointerButton::Primary, pressed: false, modifiers: Default::default() });
+    h.run();
+    assert_eq!(h.state().params.split.b.accel, Some(Accel::Bvh), "a greyed-out choice cannot be picked");
+}
+
+#[test]
+fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
+    // #30: the vendor's "Structures" line widened the panel from ~320 to ~490 px at
+    // 1280x800 (the image shrank) and was cut off at 900x600; the cost legend too.
+    for size in [Vec2::new(1280.0, 800.0), Vec2::new(900.0, 600.0)] {
+        let mut plain = harness(size, Fixture::new(VendorInfo::default()));
+        plain.run();
+        let usual = plain.state().panel_width;
+        assert!(usual <= PANEL_WIDTH + 20.0, "{size:?}: the panel starts {usual} points wide");
+
+        let vendor = VendorInfo {
+            kernel: Some(VendorKernel::Query),
+            kernels: vec![VendorKernel::Query, VendorKernel::Pipeline],
+            stats: Some(AccelStats { bottom_count: 27, bottom_ms: 1234.5, top_ms: 67.8, bytes: 799_000_000, rebuilt: "bottom and top levels" }),
+            ..Default::default()
+        };
+        let mut fixture = Fixture::new(vendor);
+        fixture.params.scene.settings.accel = Accel::Vendor;
+        fixture.params.view = ViewMode::Cost(CostMetric::Nodes);
+        let mut h = harness(size, fixture);
+        h.run();
+        let width = h.state().panel_width;
+        assert!(width <= usual + 0.5, "{size:?}: the long lines widened the panel from {usual} to {width} points");
+        let structures = h.get_by_label_contains("bottom levels");
+        assert!(structures.rect().right() <= width + 0.5, "{size:?}: the line runs past the panel ({} > {width})", structures.rect().right());
+    }
+}

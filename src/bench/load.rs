@@ -1,0 +1,199 @@
+//! `bench --load FILE...`: the way from a model file to the first frame, measured as the
+//! window walks it: each phase's time (read, parse, build, pack, upload), the first
+//! frame's trace, the whole wait, and the process's peak memory while loading.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::Environment;
+use crate::gpu::ComputeTracer;
+use crate::progress::{Phase, Progress};
+use crate::scene::paper::ModelSource;
+use crate::scene::spec::SceneSpec;
+use crate::tracer::packed::PackedScene;
+use crate::tracer::prepare::PreparedScene;
+use crate::tracer::FrameParams;
+
+/// One model's load, measured.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct LoadRow {
+    /// The model as `--model` names it.
+    pub model: String,
+    /// The file's size in bytes (0 for a generated model).
+    pub file_bytes: u64,
+    pub triangles: u64,
+    /// Seconds of each phase, in [`Phase::ALL`]'s order (read, parse, build, pack, upload);
+    /// a generated model spends its generation in parse and reads nothing.
+    pub phase_s: [f64; 5],
+    /// GPU time of the first frame (timestamps), ms; None without timestamps.
+    pub first_frame_gpu_ms: Option<f64>,
+    /// From the start of the read to the first frame read back: what a user waits.
+    pub to_first_frame_s: f64,
+    /// The process's peak resident memory during the load, bytes (None where the system
+    /// does not say: only Linux's /proc is read).
+    pub peak_rss_bytes: Option<u64>,
+}
+
+impl LoadRow {
+    /// Peak memory beyond the file's own size, per triangle: the measure of how
+    /// much the load keeps besides the text.
+    pub fn peak_bytes_per_triangle_beyond_file(&self) -> Option<f64> {
+        let peak = self.peak_rss_bytes? as f64;
+        (self.triangles > 0).then(|| (peak - self.file_bytes as f64) / self.triangles as f64)
+    }
+}
+
+/// Load `spec`'s model into a scene as the window does, upload it to `tracer` and trace one
+/// frame at `spec`'s settings. The peak memory counts from the start of this call.
+pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<LoadRow> {
+    spec.validate().map_err(anyhow::Error::msg)?;
+    spec.model.check_name().map_err(anyhow::Error::msg)?;
+    let file_bytes = match &spec.model {
+        ModelSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        _ => 0,
+    };
+    // Where the peak cannot be reset, the reading below is the process's peak so far.
+    reset_peak_rss();
+    let progress = Progress::default();
+    let start = Instant::now();
+    let (mesh, _warnings) = spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
+    let triangles = mesh.triangle_count() as u64;
+    progress.begin(Phase::Build)?;
+    let scene = spec.scene_with(mesh);
+    let prepared = PreparedScene::new(&scene);
+    progress.begin(Phase::Pack)?;
+    let packed = PackedScene::pack(&scene, prepared);
+    progress.begin(Phase::Upload)?;
+    tracer.set_scene(&packed)?;
+    drop(packed);
+    progress.finish();
+    let params = FrameParams::new(&scene, spec.settings);
+    let (_, timing) = tracer.render(&params)?;
+    let to_first_frame_s = start.elapsed().as_secs_f64();
+    let snapshot = progress.snapshot();
+    let mut phase_s = [0.0; 5];
+    for (slot, phase) in phase_s.iter_mut().zip(Phase::ALL) {
+        *slot = snapshot.seconds(phase);
+    }
+    let peak_rss_bytes = read_peak_rss();
+    Ok(LoadRow { model: spec.model.label(), file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes })
+}
+
+/// The table `bench --load` prints: a header and one line per row.
+pub fn table(rows: &[LoadRow]) -> String {
+    let mut s = format!(
+        "{:<20} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10}\n",
+        "model", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file"
+    );
+    for r in rows {
+        let [read, parse, build, pack, upload] = r.phase_s;
+        let mb = |b: u64| b as f64 / 1e6;
+        let _ = writeln!(
+            s,
+            "{:<20} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10}",
+            truncate(&r.model, 20),
+            r.triangles,
+            mb(r.file_bytes),
+            read,
+            parse,
+            build,
+            pack,
+            upload,
+            r.first_frame_gpu_ms.map_or("-".into(), |ms| format!("{ms:.2}")),
+            r.to_first_frame_s,
+            r.peak_rss_bytes.map_or("-".into(), |b| format!("{:.0}", mb(b))),
+            r.peak_bytes_per_triangle_beyond_file().map_or("-".into(), |b| format!("{b:.0}")),
+        );
+    }
+    s
+}
+
+/// The rows as CSV, one line each, with the device.
+pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
+    let mut s = String::from("model,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,device,driver,date\n");
+    for r in rows {
+        let [read, parse, build, pack, upload] = r.phase_s;
+        let _ = writeln!(
+            s,
+            "{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},\"{}\",\"{}\",{}",
+            r.model,
+            r.triangles,
+            r.file_bytes,
+            r.first_frame_gpu_ms.map_or(String::new(), |v| format!("{v:.4}")),
+            r.to_first_frame_s,
+            r.peak_rss_bytes.map_or(String::new(), |v| v.to_string()),
+            env.device,
+            env.driver,
+            env.date
+        );
+    }
+    s
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    if s.chars().count() <= n { s.to_owned() } else { s.chars().take(n - 1).chain(['…']).collect() }
+}
+
+/// Reset the kernel's record of this process's peak resident memory (Linux: writing 5 to
+/// /proc/self/clear_refs); false where that is not possible, so the next reading is the
+/// process's peak so far.
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The process's peak resident memory (VmHWM), bytes; None off Linux.
+fn read_peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// The rows as a file: `bench --load --json`.
+#[derive(Serialize)]
+pub struct LoadReport<'a> {
+    pub environment: &'a Environment,
+    pub rows: &'a [LoadRow],
+}
+
+/// Write `text` to `path` atomically (a failed write keeps the old file).
+pub fn write(path: &Path, text: &str) -> anyhow::Result<()> {
+    crate::files::write_bytes_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_and_csv_carry_every_phase() {
+        let row = LoadRow {
+            model: "knot".into(),
+            file_bytes: 1_000_000,
+            triangles: 1000,
+            phase_s: [0.1, 0.2, 0.3, 0.4, 0.5],
+            first_frame_gpu_ms: Some(1.5),
+            to_first_frame_s: 1.6,
+            peak_rss_bytes: Some(1_120_000),
+        };
+        assert_eq!(row.peak_bytes_per_triangle_beyond_file(), Some(120.0));
+        let table = table(std::slice::from_ref(&row));
+        assert_eq!(table.lines().count(), 2);
+        for figure in ["0.100", "0.500", "1.50", "1.600", "120"] {
+            assert!(table.lines().nth(1).unwrap().contains(figure), "{figure} missing from {table}");
+        }
+        let env = Environment::default();
+        let csv = csv(&env, &[row]);
+        assert_eq!(csv.lines().nth(1).unwrap().split(',').count(), csv.lines().next().unwrap().split(',').count());
+    }
+
+    #[test]
+    fn peak_memory_is_read_on_linux() {
+        if cfg!(target_os = "linux") {
+            assert!(read_peak_rss().is_some_and(|b| b > 0));
+        }
+    }
+}
