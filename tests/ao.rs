@@ -11,7 +11,9 @@
 //! that pixel by 1/N (N rays per hit). So we allow [`MAX_FRACTION_OVER`] of pixels to
 //! differ by more than 1e-4 and a mean difference of at most [`MAX_MEAN`]. The vendor's
 //! triangle test is watertight and ours is not, so the vendor's AO against ours gets the
-//! same allowance at a 1e-3 threshold.
+//! same allowance at a 1e-3 threshold. Measured on lavapipe: every comparison here is
+//! identical (no pixel differs); the Stanford bunny at 256², 32 rays, 4 frames accumulated,
+//! differs in 1 of 65,536 PNG pixels by 2/255 (CPU) and 4 (vendor).
 
 mod common;
 
