@@ -154,3 +154,99 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
     }
     return hit;
 }
+
+// Any-hit (occlusion) queries for the AO view: whether anything lies along the ray in
+// (0, t_max). The same traversal as traverse_bvh, but it returns at the first triangle hit
+// instead of looking on for a closer one: an AO ray only asks whether it is blocked.
+// Mirrors src/bvh/traverse.rs (any_hit) and src/tracer/cpu.rs (CpuScene::any_hit).
+
+// Whether one of leaf triangles first..first+n is hit closer than t_max.
+bool leaf_blocks(vec3 o, vec3 d, uint first, uint n, float t_max, inout uvec2 cost) {
+    Hit hit;
+    hit.t = t_max;
+    for (uint i = 0u; i < n; i++) {
+        cost.y += 1u;
+        if (intersect_triangle(o, d, first + i, hit)) return true;
+    }
+    return false;
+}
+
+// traverse_bvh's stack walk with early exit: leaves tested as their box is hit, inner
+// children near first, the first hit ends it.
+bool traverse_bvh_any(vec3 o, vec3 d, uint node_base, uint tri_base, float t_max, inout uvec2 cost) {
+    vec3 inv_d = safe_inverse(d);
+    uint stack[STACK_SIZE];
+    uint sp = 0u;
+    uint node = 0u;
+    while (true) {
+        BvhNode n = nodes[node_base + node];
+        cost.x += 1u;
+        uint li = floatBitsToUint(n.left_min.w);
+        uint lc = floatBitsToUint(n.left_max.w);
+        uint ri = floatBitsToUint(n.right_min.w);
+        uint rc = floatBitsToUint(n.right_max.w);
+        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, t_max);
+        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, t_max);
+        if (tl < INF && lc > 0u) {
+            if (leaf_blocks(o, d, tri_base + li, lc, t_max, cost)) return true;
+            tl = INF;
+        }
+        if (tr < INF && rc > 0u) {
+            if (leaf_blocks(o, d, tri_base + ri, rc, t_max, cost)) return true;
+            tr = INF;
+        }
+        if (tl < INF && tr < INF) {
+            if (tl <= tr) { stack[sp] = ri; node = li; } else { stack[sp] = li; node = ri; }
+            sp += 1u;
+        } else if (tl < INF) {
+            node = li;
+        } else if (tr < INF) {
+            node = ri;
+        } else {
+            if (sp == 0u) break;
+            sp -= 1u;
+            node = stack[sp];
+        }
+    }
+    return false;
+}
+
+// Whether any instance has a triangle along the ray in (0, t_max): our BVH with early exit,
+// or brute force that stops after the block of eight holding the first hit.
+bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
+    uint count = frame.misc.x;
+    vec3 inv_d = safe_inverse(d);
+    for (uint i = 0u; i < count; i++) {
+        Instance inst = instances[i];
+        if (inst.offsets.z == 0u) continue;  // no triangles, and so no nodes of its own
+        if (use_bvh && slab(inst.bounds_min.xyz, inst.bounds_max.xyz, o, inv_d, t_max) == INF) continue;
+        float s = inst.translation_scale.w;
+        vec3 lo = (o - inst.translation_scale.xyz) / s;
+        vec3 ld = d / s;
+        if (use_bvh) {
+            if (traverse_bvh_any(lo, ld, inst.offsets.x, inst.offsets.y, t_max, cost)) return true;
+        } else {
+            // Eight per iteration, as closest_hit's brute force (lavapipe's loop limit).
+            Hit hit;
+            hit.t = t_max;
+            uint first = inst.offsets.y, n = inst.offsets.z, k = 0u;
+            for (; k + 8u <= n; k += 8u) {
+                bool blocked = intersect_triangle(lo, ld, first + k, hit);
+                blocked = intersect_triangle(lo, ld, first + k + 1u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 2u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 3u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 4u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 5u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 6u, hit) || blocked;
+                blocked = intersect_triangle(lo, ld, first + k + 7u, hit) || blocked;
+                cost.y += 8u;
+                if (blocked) return true;
+            }
+            for (; k < n; k++) {
+                cost.y += 1u;
+                if (intersect_triangle(lo, ld, first + k, hit)) return true;
+            }
+        }
+    }
+    return false;
+}

@@ -62,8 +62,8 @@ layout(push_constant) uniform Frame {
     vec4 cam_forward_blend;  // xyz: forward, w: reflection blend ratio
     vec4 cam_right_ambient;  // xyz: right * tan(fov/2) * aspect, w: ambient fraction
     vec4 cam_up;             // xyz: up * tan(fov/2), w: trace.comp's tile_base (uint bits)
-    vec4 light_pos;          // xyz: point light position
-    vec4 light_color;        // rgb: light colour
+    vec4 light_pos;          // xyz: point light position, w: AO radius (the AO view)
+    vec4 light_color;        // rgb: light colour, w: AO rays per hit (uint bits)
     uvec4 dims;              // width, height, bounces, flags
     uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), accumulated frames
 } frame;

@@ -5,9 +5,10 @@
 // accumulation, and adaptive sampling on edges seen directly or in the mirrors.
 // The CPU twin is src/tracer/cpu.rs.
 //
-// The includer declares the scene (scene.glsl) and `Hit closest_hit(o, d, use_bvh, cost)`:
-// our BVH or brute force (intersect.glsl, trace.comp) or the driver's traversal
-// (vendor/query.comp, vendor/raygen.rgen), then calls trace_pixel from its entry point.
+// The includer declares the scene (scene.glsl), `Hit closest_hit(o, d, use_bvh, cost)` and
+// the AO view's occlusion query `bool any_hit(o, d, t_max, use_bvh, cost)`: our BVH or brute
+// force (intersect.glsl, trace.comp) or the driver's traversal (vendor/query.comp,
+// vendor/raygen.rgen), then calls trace_pixel from its entry point.
 
 #include "texture.glsl"
 #include "shade.glsl"
@@ -22,6 +23,37 @@ uint pcg(uint v) {
 float random01(inout uint seed) {
     seed = pcg(seed);
     return float(seed >> 8) * (1.0 / 16777216.0);
+}
+
+// The AO view: the fraction of `frame.light_color.w` (uint bits) cosine-weighted rays
+// around the shading normal ns, leaving from p lifted off the surface along ng (facing the
+// viewer), that meet nothing closer than the radius `frame.light_pos.w`. Each ray's
+// direction depends only on the camera sample's seed and the ray's index, through the PCG
+// hash, so the CPU's CpuScene::ambient_occlusion draws exactly these rays.
+float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh, inout uvec2 cost) {
+    uint rays = floatBitsToUint(frame.light_color.w);
+    float radius = frame.light_pos.w;
+    vec3 o = p + ng * frame.cam_origin_eps.w;
+    // A frame around ns without a branch on its direction (Duff et al. 2017).
+    float sgn = ns.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sgn + ns.z);
+    float b = ns.x * ns.y * a;
+    vec3 tangent = vec3(1.0 + sgn * ns.x * ns.x * a, sgn * b, -sgn * ns.x);
+    vec3 bitangent = vec3(b, sgn + ns.y * ns.y * a, -ns.y);
+    uint open = 0u;
+    for (uint j = 0u; j < rays; j++) {
+        uint seed = pcg(sample_seed ^ pcg(j + AO_SEED_SALT));
+        float u1 = random01(seed);
+        float u2 = random01(seed);
+        float r = sqrt(u1);
+        float phi = 6.2831855 * u2;
+        vec3 d = normalize(tangent * (r * cos(phi)) + bitangent * (r * sin(phi)) + ns * sqrt(max(1.0 - u1, 0.0)));
+        // A smooth normal may tip a direction under the triangle: mirror it back above.
+        float below = dot(d, ng);
+        if (below < 0.0) d -= 2.0 * below * ng;
+        if (!any_hit(o, d, radius, use_bvh, cost)) open += 1u;
+    }
+    return float(open) / float(max(rays, 1u));
 }
 
 // One surface of a path, for adaptive sampling's edge test: the instance, material and
@@ -47,8 +79,9 @@ void add_to_path_key(inout uint key, uint surface, float throughput) {
 }
 
 // The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top), and
-// the key of the surfaces along its path (adaptive sampling's edge test).
-vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint key) {
+// the key of the surfaces along its path (adaptive sampling's edge test). `sample_seed`
+// seeds the AO view's rays.
+vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec2 cost, inout uint key) {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
     uint flags = frame.dims.w;
@@ -77,6 +110,7 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
             color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
+            if (bounce == 0u && aov == AOV_AO) aux = vec4(1.0, 1.0, 1.0, 0.0);  // open sky, no coverage
             break;
         }
         if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
@@ -99,6 +133,10 @@ vec4 trace_sample(vec2 pos, uint aov, bool use_bvh, inout uvec2 cost, inout uint
                     side = -1.0;
                 }
             }
+        }
+        if (aov == AOV_AO) {
+            aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, cost)), 1.0);
+            break;
         }
         Material mat = materials[floatBitsToUint(tri.v0.w)];
         vec3 kd = mat.diffuse_mirror.rgb;
@@ -167,7 +205,7 @@ uint trace_pixel(uvec2 px) {
         // The key of the path through the pixel centre: primary hit and mirror bounces.
         uvec2 unused_cost = uvec2(0u);
         uint key = 0u;
-        trace_sample(vec2(px) + 0.5, AOV_COLOR, use_bvh, unused_cost, key);
+        trace_sample(vec2(px) + 0.5, AOV_COLOR, 0u, use_bvh, unused_cost, key);
         prim_ids[pixel] = key;
         return 0u;
     }
@@ -194,17 +232,19 @@ uint trace_pixel(uvec2 px) {
     vec4 sum = vec4(0.0);
     for (uint s = 0u; s < spp; s++) {
         vec2 offset = vec2(0.5);
+        // The sample's seed: its jitter and its AO rays (a new set each accumulated frame).
+        uint sample_seed = pcg(pixel ^ pcg(frame_index * 256u + s));
         if (jitter) {
-            uint seed = pcg(pixel ^ pcg(frame_index * 256u + s));
+            uint seed = sample_seed;
             offset = vec2(random01(seed), random01(seed));
         }
-        sum += trace_sample(vec2(px) + offset, aov, use_bvh, cost, key);
+        sum += trace_sample(vec2(px) + offset, aov, sample_seed, use_bvh, cost, key);
     }
     vec4 value = sum / float(spp);
 
-    if (aov == AOV_COLOR) {
+    if (aov == AOV_COLOR || aov == AOV_AO) {
         if (frame_index > 0u) {
-            // Progressive accumulation: running mean over frames.
+            // Progressive accumulation: running mean over frames (AO: over new rays).
             vec4 previous = out_float[pixel];
             value = previous + (value - previous) / float(frame_index + 1u);
         }

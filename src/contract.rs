@@ -61,6 +61,12 @@ contract! {
     AOV_COST = 4;
     /// AOV: camera samples spent on the pixel.
     AOV_SAMPLES = 5;
+    /// AOV: ambient occlusion, the fraction of cosine-weighted rays from the primary hit
+    /// that meet nothing within the AO radius (the radius in `light_pos.w`, the rays per
+    /// hit in `light_color.w` as uint bits).
+    AOV_AO = 6;
+    /// Salt of the AO rays' seeds, so their random numbers are not the camera jitter's.
+    AO_SEED_SALT = 0x68e3_1da4;
 
     // Texture flags of a material (`GpuMaterial::texture_flags`, `Material.texture.y`).
 
@@ -74,5 +80,5 @@ const _: () = {
     let flags = FLAG_BVH | FLAG_SMOOTH | FLAG_TEXTURES | FLAG_ENVIRONMENT | FLAG_ADAPTIVE | FLAG_ID_PASS;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
-    assert!(AOV_SAMPLES <= AOV_MASK);
+    assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);
 };

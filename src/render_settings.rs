@@ -40,6 +40,13 @@ impl Range {
         if self.open { v > self.lo && v < self.hi } else { v >= self.lo && v <= self.hi }
     }
 
+    /// A flag's text as a number inside the range: "'x' is not a number", or [`Self::check`]'s
+    /// message (NaN and infinities are in no range).
+    pub fn parse_f32(&self, s: &str) -> Result<f32, String> {
+        let v: f32 = s.trim().parse().map_err(|_| format!("'{s}' is not a number"))?;
+        self.check(v as f64, s).map(|()| v)
+    }
+
     /// `Ok(())` inside the range, else "`shown` is out of range (0..=180 degrees)".
     pub fn check(&self, v: f64, shown: impl fmt::Display) -> Result<(), String> {
         if self.contains(v) { Ok(()) } else { Err(format!("{shown} is out of range ({self})")) }
@@ -75,6 +82,14 @@ pub const ACCUMULATE: Range = Range::closed(1.0, 65536.0, "");
 pub const LIGHT_RADIUS: Range = Range::closed(0.0, 100.0, "");
 /// The light's height above the floor plane's centre.
 pub const LIGHT_HEIGHT: Range = Range::closed(-100.0, 100.0, "");
+/// Most AO rays per primary hit.
+pub const MAX_AO_SAMPLES: u32 = 256;
+/// AO rays per primary hit (`--ao-samples`).
+pub const AO_SAMPLES: Range = Range::closed(1.0, MAX_AO_SAMPLES as f64, "");
+/// The AO radius (`--ao-radius`), absolute, in scene units: every model is scaled to radius
+/// 1 about the origin (the mirror box reaches 4), so 0.25 is a quarter of the model's
+/// radius whatever units its file used, and it stays put when the box is toggled.
+pub const AO_RADIUS: Range = Range::open(0.0, 1000.0, " scene units");
 /// The crease angle of computed vertex normals (`--crease-angle`, a load option).
 pub const CREASE_ANGLE_DEGREES: Range = Range::closed(0.0, 180.0, " degrees");
 
@@ -112,6 +127,9 @@ pub enum Aov {
     Cost,
     /// Camera samples spent on the pixel (adaptive sampling's view).
     Samples,
+    /// Ambient occlusion: the share of `ao_samples` cosine-weighted rays from the primary
+    /// hit that meet nothing within `ao_radius` (grey, 1 = open; a miss is 1 with alpha 0).
+    Ao,
 }
 
 impl Aov {
@@ -124,6 +142,7 @@ impl Aov {
             Aov::PrimId => contract::AOV_PRIM_ID,
             Aov::Cost => contract::AOV_COST,
             Aov::Samples => contract::AOV_SAMPLES,
+            Aov::Ao => contract::AOV_AO,
         }
     }
 }
@@ -148,7 +167,7 @@ macro_rules! name_enum {
     };
 }
 name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh", Accel::Vendor => "vendor");
-name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples");
+name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples", Aov::Ao => "ao");
 
 /// Saved as its name ("bvh", "brute"), as in `bench --json` reports.
 impl Serialize for Accel {
@@ -182,11 +201,20 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Spend the `spp` samples only on pixels whose neighbours hit another triangle.
     pub adaptive: bool,
+    /// The AO view: rays per primary hit ([`AO_SAMPLES`]).
+    pub ao_samples: u32,
+    /// The AO view: how far a ray looks for an occluder, in scene units ([`AO_RADIUS`]).
+    pub ao_radius: f32,
 }
+
+/// AO rays per primary hit unless set: 8 a frame, more through accumulation.
+pub const DEFAULT_AO_SAMPLES: u32 = 8;
+/// The AO radius unless set: a quarter of a model's radius.
+pub const DEFAULT_AO_RADIUS: f32 = 0.25;
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false }
+        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false, ao_samples: DEFAULT_AO_SAMPLES, ao_radius: DEFAULT_AO_RADIUS }
     }
 }
 
@@ -199,13 +227,17 @@ impl RenderSettings {
         BOUNCES.check(self.bounces as f64, format!("bounces {}", self.bounces))?;
         BLEND.check(self.blend as f64, format!("blend {}", self.blend))?;
         SPP.check(self.spp as f64, format!("spp {}", self.spp))?;
+        AO_SAMPLES.check(self.ao_samples as f64, format!("ao samples {}", self.ao_samples))?;
+        AO_RADIUS.check(self.ao_radius as f64, format!("ao radius {}", self.ao_radius))?;
         Ok(())
     }
 
     /// Rays traced per frame at most: per camera sample, one primary ray and `bounces`
-    /// reflected rays (adaptive sampling traces fewer).
+    /// reflected rays, or in the AO view one primary ray and `ao_samples` AO rays
+    /// (adaptive sampling traces fewer).
     pub(crate) fn max_rays(&self) -> u64 {
-        self.width as u64 * self.height as u64 * (self.bounces as u64 + 1) * self.spp as u64
+        let per_sample = if self.aov == Aov::Ao { 1 + self.ao_samples as u64 } else { self.bounces as u64 + 1 };
+        self.width as u64 * self.height as u64 * per_sample * self.spp as u64
     }
 }
 
@@ -215,7 +247,7 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_bad_names_list_choices() {
-        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost, Aov::Samples] {
+        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost, Aov::Samples, Aov::Ao] {
             assert_eq!(a.to_string().parse::<Aov>().unwrap(), a);
         }
         assert_eq!("BVH".parse::<Accel>().unwrap(), Accel::Bvh);
@@ -243,6 +275,11 @@ mod tests {
         assert!(RenderSettings { blend: 7.0, ..ok }.validate().is_err());
         assert!(RenderSettings { blend: f32::NAN, ..ok }.validate().is_err());
         assert!(RenderSettings { spp: 0, ..ok }.validate().unwrap_err().contains("1..=64"));
+        assert!(RenderSettings { ao_samples: 0, ..ok }.validate().unwrap_err().contains("1..=256"));
+        assert!(RenderSettings { ao_radius: -1.0, ..ok }.validate().unwrap_err().contains("ao radius -1 is out of range (0..1000 scene units)"));
+        assert!(RenderSettings { ao_radius: f32::NAN, ..ok }.validate().is_err());
+        let ao = RenderSettings { aov: Aov::Ao, ao_samples: 16, bounces: 2, ..ok };
+        assert_eq!(ao.max_rays(), 512 * 512 * 17, "the AO view traces no bounces");
     }
 
     #[test]
@@ -252,5 +289,9 @@ mod tests {
         assert!(FOV_DEGREES.check(90.0, "").is_ok() && BLEND.check(1.0, "").is_ok() && CREASE_ANGLE_DEGREES.check(0.0, "").is_ok());
         assert!(BLEND.check(f64::NAN, "NaN").is_err(), "NaN is in no range");
         assert_eq!(BOUNCES.to_string(), "0..=8");
+        assert_eq!(AO_RADIUS.parse_f32("0.5"), Ok(0.5));
+        assert_eq!(AO_RADIUS.parse_f32("-1").unwrap_err(), "-1 is out of range (0..1000 scene units)");
+        assert_eq!(AO_RADIUS.parse_f32("wide").unwrap_err(), "'wide' is not a number");
+        assert!(AO_RADIUS.parse_f32("nan").is_err() && AO_RADIUS.parse_f32("inf").is_err());
     }
 }

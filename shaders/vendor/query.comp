@@ -21,6 +21,16 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
                       rayQueryGetIntersectionPrimitiveIndexEXT(query, true));
 }
 
+// The AO view's occlusion query: the driver stops at the first hit it meets within t_max
+// (any triangle will do, so no closest one is searched for).
+bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
+    rayQueryEXT query;
+    rayQueryInitializeEXT(query, scene_tlas, VENDOR_RAY_FLAGS | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, o, 0.0, d, t_max);
+    while (rayQueryProceedEXT(query)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(query, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+}
+
 #include "../trace.glsl"
 
 void main() {

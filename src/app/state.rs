@@ -40,11 +40,13 @@ pub(crate) enum ViewMode {
     PrimId,
     /// Camera samples spent per pixel (adaptive sampling's view), as a heat map.
     Samples,
+    /// Ambient occlusion, grey: the share of AO rays from the primary hit left open.
+    Ao,
 }
 
 impl ViewMode {
     /// Every view, in the panel's order (the cost view with the BVH-node counter).
-    pub(crate) const ALL: [ViewMode; 6] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples];
+    pub(crate) const ALL: [ViewMode; 7] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples, ViewMode::Ao];
 
     /// The output the tracer writes for this view.
     pub(crate) fn aov(self) -> Aov {
@@ -55,6 +57,7 @@ impl ViewMode {
             ViewMode::Normal => Aov::Normal,
             ViewMode::PrimId => Aov::PrimId,
             ViewMode::Samples => Aov::Samples,
+            ViewMode::Ao => Aov::Ao,
         }
     }
 
@@ -67,6 +70,7 @@ impl ViewMode {
             ViewMode::Normal => "normal",
             ViewMode::PrimId => "primitive id",
             ViewMode::Samples => "samples",
+            ViewMode::Ao => "ambient occlusion",
         }
     }
 

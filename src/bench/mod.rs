@@ -297,7 +297,9 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         let (image, _) = tracer.render(&ids)?;
         let model_triangles = scene.meshes[0].triangle_count() as f32;
         let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
-        row.features = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
+        let framed = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
+        // After the case's own label (the AO series names its rays), if it has one.
+        row.features = if case.features.is_empty() { framed } else { format!("{}, {framed}", case.features) };
     }
     // The driver's traversal reports no cost.
     if options.verbose && s.accel != Accel::Vendor {

@@ -104,6 +104,22 @@ pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[
     cases
 }
 
+/// The AO view on the framed series' scenes (`bench --ao`): per pixel one primary ray and
+/// `samples` occlusion rays of length `radius`, any-hit queries (ours with early exit, the
+/// vendor's terminating on the first hit), so `--compare` times our AO against the
+/// vendor's on the rays the issue had not measured: incoherent ones.
+pub fn ao_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32, samples: u32, radius: f32) -> Vec<Case> {
+    framed_cases(triangle_counts, extra, accels, size)
+        .into_iter()
+        .map(|mut case| {
+            case.series = "ao".into();
+            case.features = format!("ao {samples} rays, r {radius}");
+            case.spec.settings = RenderSettings { aov: Aov::Ao, ao_samples: samples, ao_radius: radius, ..case.spec.settings };
+            case
+        })
+        .collect()
+}
+
 /// The cost of each shading feature at `size`, on the BVH: the paper's flat shading as the
 /// baseline, then smooth shading, the environment map, 4 jittered samples, adaptive 4
 /// samples, and textures (on `textured`, e.g. Sponza, when given).

@@ -14,7 +14,7 @@ mod validate;
 
 pub use build::BuildOptions;
 pub use traverse::{ordered_edges, TraversalStats};
-pub(crate) use traverse::closest_hit;
+pub(crate) use traverse::{any_hit, closest_hit};
 
 use bytemuck::{Pod, Zeroable};
 

@@ -1,7 +1,8 @@
 //! Closest-hit traversal on the CPU over the packed two-child nodes: the reference for
 //! `traverse_bvh` in `shaders/intersect.glsl`, which it follows step for step (fixed stack,
 //! both child boxes tested against the same `t_max`, leaves tested on the spot, the near
-//! inner child visited next), so that its counts are the shader's cost AOV.
+//! inner child visited next), so that its counts are the shader's cost AOV; and the AO
+//! view's any-hit query ([`any_hit`]), the same walk ended by the first hit.
 
 use glam::Vec3;
 
@@ -94,6 +95,55 @@ pub fn closest_hit(
     best
 }
 
+/// Whether `ray` hits any triangle in (t_min, t_max) through one mesh's `nodes` (laid out
+/// as for [`closest_hit`]): the AO view's occlusion query, the reference for
+/// `traverse_bvh_any` in `shaders/intersect.glsl`. The same walk as [`closest_hit`] (leaves
+/// tested as their box is hit, the near inner child next), ended by the first hit found.
+pub fn any_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+    if nodes.is_empty() {
+        return false;
+    }
+    let inv_dir = safe_inverse(ray.dir);
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 0;
+    let mut node = 0u32;
+    loop {
+        let [left, right] = nodes[node as usize].children();
+        stats.nodes += 1;
+        let enter = |child: &BvhChild| if child.is_empty() { None } else { child.bounds.intersect(ray, inv_dir, t_max) };
+        let (mut t_left, mut t_right) = (enter(&left), enter(&right));
+        for (child, t_enter) in [(&left, &mut t_left), (&right, &mut t_right)] {
+            if t_enter.is_some() && child.is_leaf() {
+                for k in child.index..child.index + child.count {
+                    let [v0, e1, e2] = ordered[k as usize];
+                    stats.triangles += 1;
+                    if intersect_triangle(ray, v0, e1, e2, t_min, t_max).is_some() {
+                        return true;
+                    }
+                }
+                *t_enter = None;
+            }
+        }
+        node = match (t_left, t_right) {
+            (Some(l), Some(r)) => {
+                let (near, far) = if l <= r { (left.index, right.index) } else { (right.index, left.index) };
+                stack[sp] = far;
+                sp += 1;
+                near
+            }
+            (Some(_), None) => left.index,
+            (None, Some(_)) => right.index,
+            (None, None) => {
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                stack[sp]
+            }
+        };
+    }
+}
+
 /// Helper: triangles (corners) -> BVH-ordered (v0, e1, e2) triples, as the GPU stores them.
 pub fn ordered_edges(bvh: &Bvh, triangles: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
     bvh.prim_indices
@@ -123,6 +173,29 @@ mod tests {
         let miss = bvh.closest_hit(&ordered, &Ray::new(Vec3::new(2.0, 2.0, 3.0), down), 0.0, f32::INFINITY, &mut stats);
         assert!(miss.is_none());
         assert_eq!(stats.nodes, 2);
+    }
+
+    #[test]
+    fn any_hit_agrees_with_closest_hit_within_t_max() {
+        // The same stack of parallel triangles at z = 0..63, rays from above and from the side.
+        let tris: Vec<[Vec3; 3]> = (0..64)
+            .map(|i| ((i * 37) % 64) as f32)
+            .map(|z| [Vec3::new(0.0, 0.0, z), Vec3::new(1.0, 0.0, z), Vec3::new(0.0, 1.0, z)])
+            .collect();
+        let bvh = Bvh::build(&tris, &BuildOptions::default());
+        let ordered = ordered_edges(&bvh, &tris);
+        let mut stats = TraversalStats::default();
+        for (origin, dir) in [(Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z), (Vec3::new(0.2, 0.2, -5.0), Vec3::Z), (Vec3::new(5.0, 5.0, 5.0), Vec3::X)] {
+            let ray = Ray::new(origin, dir);
+            for t_max in [0.5, 4.0, 36.5, 37.5, 1e3, f32::INFINITY] {
+                let closest = bvh.closest_hit(&ordered, &ray, 0.0, t_max, &mut stats).is_some();
+                assert_eq!(any_hit(&bvh.nodes, &ordered, &ray, 0.0, t_max, &mut stats), closest, "{origin} {dir} t_max {t_max}");
+            }
+        }
+        // Early exit: every triangle lies across the ray from above, so the first tested ends it.
+        let mut one = TraversalStats::default();
+        assert!(any_hit(&bvh.nodes, &ordered, &Ray::new(Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z), 0.0, f32::INFINITY, &mut one));
+        assert_eq!(one.triangles, 1, "{one:?}");
     }
 
     #[test]

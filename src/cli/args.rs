@@ -11,7 +11,7 @@ use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-use crate::render_settings::{self as knobs, Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+use crate::render_settings::{self as knobs, Accel, Aov, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -102,6 +102,14 @@ pub(crate) struct SceneArgs {
     /// Spend the --spp samples only on pixels at edges (seen directly or in the mirrors), one elsewhere.
     #[arg(long)]
     pub adaptive: bool,
+    /// The AO view (--aov ao, the window's ambient-occlusion view): occlusion rays per
+    /// primary hit and frame, cosine-weighted around the normal (1..=256).
+    #[arg(long, value_name = "N", default_value_t = knobs::DEFAULT_AO_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64), allow_negative_numbers = true)]
+    pub ao_samples: u32,
+    /// The AO view: how far an occlusion ray looks, in scene units (every model is scaled
+    /// to radius 1, the mirror box reaches 4), above 0 and below 1000.
+    #[arg(long, value_name = "R", default_value_t = knobs::DEFAULT_AO_RADIUS, value_parser = |s: &str| knobs::AO_RADIUS.parse_f32(s), allow_negative_numbers = true)]
+    pub ao_radius: f32,
     /// Leave out the six mirror planes (to see an --env map around the model).
     #[arg(long)]
     pub no_box: bool,
@@ -210,6 +218,12 @@ impl SceneArgs {
         }
         if given("adaptive") {
             s.adaptive = self.adaptive;
+        }
+        if given("ao_samples") {
+            s.ao_samples = self.ao_samples;
+        }
+        if given("ao_radius") {
+            s.ao_radius = self.ao_radius;
         }
         if given("no_box") {
             spec.mirror_box = !self.no_box;
@@ -386,8 +400,9 @@ pub struct RenderArgs {
     /// Trace on the CPU reference tracer instead of the GPU.
     #[arg(long)]
     pub(crate) cpu: bool,
-    /// What to write: color (PNG, JPEG or EXR), or depth, normal, prim-id, cost, samples
-    /// (32-bit float OpenEXR; cost and samples also as a heat-map PNG or JPEG).
+    /// What to write: color (PNG, JPEG or EXR), ao (ambient occlusion, grey: PNG, JPEG or
+    /// EXR), or depth, normal, prim-id, cost, samples (32-bit float OpenEXR; cost and
+    /// samples also as a heat-map PNG or JPEG).
     #[arg(long, default_value = "color")]
     pub(crate) aov: Aov,
     /// Output file: .png (carrying its preset in a text chunk), .jpg/.jpeg, or .exr (32-bit
@@ -480,7 +495,7 @@ mod tests {
 
     #[test]
     fn a_negative_number_is_out_of_range_not_an_unknown_flag() {
-        for (flag, range) in [("--bounces", "0..=8"), ("--width", "1..=8192"), ("--spp", "1..=64"), ("--models", "1..=")] {
+        for (flag, range) in [("--bounces", "0..=8"), ("--width", "1..=8192"), ("--spp", "1..=64"), ("--models", "1..="), ("--ao-samples", "1..=256"), ("--ao-radius", "0..1000")] {
             let e = render_args(&[flag, "-1"]).unwrap_err().to_string();
             assert!(e.contains(flag) && e.contains(range) && !e.contains("unexpected argument"), "{flag}: {e}");
         }

@@ -13,7 +13,7 @@ use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
-use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::render_settings::{self as knobs, Accel, Aov, RenderSettings};
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]
@@ -37,6 +37,17 @@ pub struct BenchArgs {
     /// both.
     #[arg(long)]
     pub(crate) compare: bool,
+    /// The AO view on the framed series' scenes (--triangles knots and --model files at
+    /// --size): a primary ray and --ao-samples occlusion (any-hit) rays per pixel; with
+    /// --compare, ours against the vendor's.
+    #[arg(long)]
+    pub(crate) ao: bool,
+    /// Occlusion rays per pixel for --ao (1..=256).
+    #[arg(long, value_name = "N", default_value_t = knobs::DEFAULT_AO_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=knobs::MAX_AO_SAMPLES as i64), allow_negative_numbers = true)]
+    pub(crate) ao_samples: u32,
+    /// How far --ao's rays look, in scene units (the model has radius 1).
+    #[arg(long, value_name = "R", default_value_t = knobs::DEFAULT_AO_RADIUS, value_parser = |s: &str| knobs::AO_RADIUS.parse_f32(s), allow_negative_numbers = true)]
+    pub(crate) ao_radius: f32,
     /// How vendor rows trace the driver's structures: query (ray queries from the compute
     /// shader), pipeline (a ray tracing pipeline), comma-separated. Default: with --compare
     /// every kind the device has, else the device's default.
@@ -80,7 +91,7 @@ pub struct BenchArgs {
     pub(crate) charts: Option<PathBuf>,
     /// Draw the charts from these saved --json reports instead of running anything
     /// (with --charts DIR).
-    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "json", "csv"])]
+    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "json", "csv"])]
     pub(crate) charts_from: Vec<PathBuf>,
     /// Measure the way from each model to its first frame instead (files or names as
     /// --model takes them, e.g. torusknot:10M): each phase (read, parse, build, pack,
@@ -91,7 +102,7 @@ pub struct BenchArgs {
     /// Benchmark exactly this preset (a TOML preset or a PNG this program wrote), one row
     /// per --accel given (else the preset's); --size and --bounces given beside it
     /// override it.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["paper", "scaling", "features", "framed", "charts_from"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "charts_from"])]
     pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
@@ -186,7 +197,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             log::warn!("{w}");
         }
         cases.extend(preset_cases);
-    } else if args.paper || !(args.scaling || args.features || args.framed) {
+    } else if args.paper || !(args.scaling || args.features || args.framed || args.ao) {
         cases.extend(paper_tables::paper_cases(&args.resolutions, &accels));
     }
     if args.scaling {
@@ -194,6 +205,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if args.framed {
         cases.extend(paper_tables::framed_cases(&args.triangles, &extra, &framed_accels, args.size));
+    }
+    if args.ao {
+        cases.extend(paper_tables::ao_cases(&args.triangles, &extra, &framed_accels, args.size, args.ao_samples, args.ao_radius));
     }
     if args.features {
         let textured = extra.first().cloned();

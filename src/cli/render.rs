@@ -22,10 +22,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         log::warn!("{w}");
     }
     let aov = spec.settings.aov;
-    // Colour is PNG, JPEG or EXR; every AOV is float EXR; cost and samples may also be a
-    // heat map (PNG or JPEG).
+    // Colour and AO (grey in [0, 1]) are PNG, JPEG or EXR; every other AOV is float EXR;
+    // cost and samples may also be a heat map (PNG or JPEG).
     let heat_map_image = format != OutputFormat::Exr && matches!(aov, Aov::Cost | Aov::Samples);
-    if format != OutputFormat::Exr && !heat_map_image && aov != Aov::Color {
+    if format != OutputFormat::Exr && !heat_map_image && !matches!(aov, Aov::Color | Aov::Ao) {
         bail!("the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr");
     }
     spec.validate().map_err(anyhow::Error::msg)?;
@@ -114,16 +114,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     } else {
         image.save(&args.output, aov, Some(&preset_text))?;
     }
+    // The AO view traces no bounces: say what it traced instead.
+    let rays = match aov {
+        Aov::Ao => format!("{} AO rays within {}", settings.ao_samples, settings.ao_radius),
+        _ => format!("{} bounce{}", settings.bounces, if settings.bounces == 1 { "" } else { "s" }),
+    };
     println!(
-        "wrote {} ({}x{}, {} x{}, {} triangles, {} bounce{}, {}; {how})",
+        "wrote {} ({}x{}, {} x{}, {} triangles, {rays}, {}; {how})",
         args.output.display(),
         settings.width,
         settings.height,
         source.label(),
         spec.models,
         scene.triangle_count(),
-        settings.bounces,
-        if settings.bounces == 1 { "" } else { "s" },
         settings.accel,
     );
     Ok(())

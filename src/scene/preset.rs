@@ -65,6 +65,12 @@ struct ImagePart {
     height: u32,
     #[serde(serialize_with = "ser_display", deserialize_with = "de_from_str")]
     aov: Aov,
+    /// The AO view's rays per hit (`--ao-samples`).
+    #[serde(deserialize_with = "de_ao_samples")]
+    ao_samples: u32,
+    /// The AO view's radius in scene units (`--ao-radius`).
+    #[serde(deserialize_with = "de_ao_radius")]
+    ao_radius: f32,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -125,7 +131,7 @@ impl File {
         File {
             version: VERSION,
             model: ModelPart { source: spec.model.clone(), crease_angle: spec.load_options.crease_angle, copies: spec.models, mirror_box: spec.mirror_box },
-            image: ImagePart { width: s.width, height: s.height, aov: s.aov },
+            image: ImagePart { width: s.width, height: s.height, aov: s.aov, ao_samples: s.ao_samples, ao_radius: s.ao_radius },
             tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel },
             shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, accumulate: spec.accumulate, environment: spec.environment.clone() },
             light: LightPart { angle: spec.light.angle_deg, radius: spec.light.radius, height: spec.light.height },
@@ -154,6 +160,8 @@ impl File {
                 textures: shading.textures,
                 spp: shading.spp,
                 adaptive: shading.adaptive,
+                ao_samples: image.ao_samples,
+                ao_radius: image.ao_radius,
             },
             accumulate: shading.accumulate,
         }
@@ -264,6 +272,14 @@ fn de_accumulate<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 
 fn de_spp<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     de_in_range(d, knobs::SPP)
+}
+
+fn de_ao_samples<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    de_in_range(d, knobs::AO_SAMPLES)
+}
+
+fn de_ao_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    de_finite_in(d, knobs::AO_RADIUS)
 }
 
 fn de_crease_angle<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f32>, D::Error> {

@@ -23,6 +23,8 @@ fn rich_spec() -> SceneSpec {
             textures: false,
             spp: 16,
             adaptive: true,
+            ao_samples: 32,
+            ao_radius: 0.125,
         },
         accumulate: 40,
     }
@@ -34,7 +36,7 @@ fn presets_round_trip() {
     let text = to_text(&spec);
     assert!(text.starts_with("# meshtracer preset"), "{text}");
     assert!(!to_text(&SceneSpec::default()).contains("crease_angle"), "an unset crease angle is left out");
-    for needle in ["version = 1\n", "[model]\n", "crease_angle = 30.0\n", "source = 'models/my \"bunny\".obj'", "copies = 7\n", "[camera]\n", "accel = \"brute\"\n", "aov = \"prim-id\"\n", "environment = \"skies/noon.hdr\"\n", "angle = 123.456\n"] {
+    for needle in ["version = 1\n", "[model]\n", "crease_angle = 30.0\n", "source = 'models/my \"bunny\".obj'", "copies = 7\n", "[camera]\n", "accel = \"brute\"\n", "aov = \"prim-id\"\n", "environment = \"skies/noon.hdr\"\n", "angle = 123.456\n", "ao_samples = 32\n", "ao_radius = 0.125\n"] {
         assert!(text.contains(needle), "no {needle:?} in:\n{text}");
     }
     let (back, unknown) = from_text(&text).unwrap();
@@ -84,6 +86,8 @@ fn a_bad_value_names_its_key_and_line() {
         ("version = 2\n", 1, "version", "format version 2"),
         ("[camera]\neye = [0, 0, 0]\ntarget = [0, 0, 0]\n", 3, "camera.target", "same point"),
         ("[image]\nwidth 64\n", 2, "", "expected"),
+        ("[image]\nao_samples = 0\n", 2, "image.ao_samples", "0 is out of range (1..=256)"),
+        ("[image]\nao_radius = -1\n", 2, "image.ao_radius", "-1 is out of range (0..1000 scene units)"),
     ] {
         let e = from_text(text).unwrap_err();
         assert_eq!(e.line, Some(line), "{text:?}: {e}");

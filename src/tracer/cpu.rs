@@ -10,7 +10,7 @@ use super::frame::FrameParams;
 use crate::render_settings::{Accel, Aov, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
-use super::shading::{blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
+use super::shading::{ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
 use crate::bvh::{self, TraversalStats};
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
@@ -107,13 +107,64 @@ impl<'a> CpuScene<'a> {
         best
     }
 
+    /// Whether anything of the first `instance_count` instances lies along `ray` in
+    /// (0, t_max): the AO view's occlusion query, the shader's `any_hit` (the vendor's
+    /// frames with our BVH, as for closest hits).
+    pub fn any_hit(&self, ray: &Ray, t_max: f32, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> bool {
+        let inv_dir = safe_inverse(ray.dir);
+        let brute = accel == Accel::Brute;
+        for inst in self.packed.instances.iter().take(instance_count as usize) {
+            if inst.triangle_count == 0 {
+                continue;
+            }
+            let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
+            if !brute && bounds.intersect(ray, inv_dir, t_max).is_none() {
+                continue;
+            }
+            let local = Ray::new((ray.origin - Vec3::from(inst.translation)) / inst.scale, ray.dir / inst.scale);
+            let base = inst.triangle_base as usize;
+            let tris = &self.edges[base..base + inst.triangle_count as usize];
+            let blocked = if brute {
+                tris.iter().any(|[v0, e1, e2]| {
+                    stats.triangles += 1;
+                    intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max).is_some()
+                })
+            } else {
+                bvh::any_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats)
+            };
+            if blocked {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The AO view's value at hit point `p`: the share of the frame's AO rays from `p`
+    /// (lifted along `ng`) around `ns` that meet nothing within the radius; the shader's
+    /// `ambient_occlusion`, drawing the same directions from `sample_seed`.
+    fn ambient_occlusion(&self, params: &FrameParams, p: Vec3, ng: Vec3, ns: Vec3, sample_seed: u32, stats: &mut TraversalStats) -> f32 {
+        let s = &params.settings;
+        let origin = p + ng * params.ray_epsilon;
+        let open = (0..s.ao_samples)
+            .filter(|&j| {
+                let mut seed = pcg(sample_seed ^ pcg(j.wrapping_add(contract::AO_SEED_SALT)));
+                let u1 = random01(&mut seed);
+                let u2 = random01(&mut seed);
+                let ray = Ray::new(origin, ao_direction(ns, ng, u1, u2));
+                !self.any_hit(&ray, s.ao_radius, s.accel, params.instance_count, stats)
+            })
+            .count();
+        open as f32 / s.ao_samples.max(1) as f32
+    }
+
     fn environment(&self, d: Vec3) -> Vec3 {
         self.packed.environment.as_ref().map_or(Vec3::ZERO, |env| env.sample(d))
     }
 
     /// One camera sample through image position `pos` (pixel units): colour or AOV. With
     /// `path_key`, also folds the surfaces along the path into it (the shader's pre-pass).
-    fn trace_sample(&self, params: &FrameParams, pos: Vec2, stats: &mut TraversalStats, mut path_key: Option<&mut u32>) -> Vec4 {
+    /// `sample_seed` seeds the AO view's rays.
+    fn trace_sample(&self, params: &FrameParams, pos: Vec2, sample_seed: u32, stats: &mut TraversalStats, mut path_key: Option<&mut u32>) -> Vec4 {
         let s = &params.settings;
         let mut ray = params.camera.ray_at(pos.x, pos.y, s.width, s.height);
         let bounces = if matches!(s.aov, Aov::Color | Aov::Cost | Aov::Samples) { s.bounces } else { 0 };
@@ -133,6 +184,9 @@ impl<'a> CpuScene<'a> {
                 color += throughput * miss;
                 if bounce == 0 && s.aov == Aov::Normal {
                     aux = Vec4::ZERO;
+                }
+                if bounce == 0 && s.aov == Aov::Ao {
+                    aux = Vec4::new(1.0, 1.0, 1.0, 0.0); // open sky, no coverage
                 }
                 break;
             };
@@ -162,6 +216,10 @@ impl<'a> CpuScene<'a> {
                     smooth = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
                 }
             }
+            if s.aov == Aov::Ao {
+                aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats)).extend(1.0);
+                break;
+            }
             let gm = &self.packed.materials[tri.material as usize];
             let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
             let mut kd = mat.diffuse;
@@ -190,7 +248,7 @@ impl<'a> CpuScene<'a> {
                     Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
                     Aov::Normal => aux = ns.extend(1.0),
                     Aov::PrimId => aux = Vec4::new(prim, prim, prim, 1.0),
-                    Aov::Color | Aov::Cost | Aov::Samples => {}
+                    Aov::Color | Aov::Cost | Aov::Samples | Aov::Ao => {}
                 }
             }
             let r = s.blend * mat.mirror;
@@ -242,7 +300,7 @@ impl<'a> CpuScene<'a> {
                 let mut stats = TraversalStats::default();
                 let mut key = 0;
                 let centre = Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-                self.trace_sample(&color, centre, &mut stats, Some(&mut key));
+                self.trace_sample(&color, centre, 0, &mut stats, Some(&mut key));
                 key
             })
             .collect()
@@ -271,11 +329,13 @@ impl<'a> CpuScene<'a> {
         let mut sum = Vec4::ZERO;
         for sample in 0..spp {
             let mut offset = Vec2::splat(0.5);
+            // The sample's seed: its jitter and its AO rays (a new set each accumulated frame).
+            let sample_seed = pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
             if jitter {
-                let mut seed = pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
+                let mut seed = sample_seed;
                 offset = Vec2::new(random01(&mut seed), random01(&mut seed));
             }
-            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, &mut stats, None);
+            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, sample_seed, &mut stats, None);
         }
         let value = sum / spp as f32;
         match s.aov {
@@ -303,7 +363,7 @@ pub fn accumulate(packed: &PackedScene, params: &FrameParams, image: &mut Image)
     image.pixels.par_chunks_mut(w as usize).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let v = scene.trace_pixel(params, x as u32, y as u32, ids.as_deref());
-            *px = if n > 0 && params.settings.aov == Aov::Color {
+            *px = if n > 0 && matches!(params.settings.aov, Aov::Color | Aov::Ao) {
                 let prev = Vec4::from(*px);
                 (prev + (Vec4::from(v) - prev) / (n + 1) as f32).to_array()
             } else {

@@ -37,7 +37,9 @@ pub(crate) struct PushConstants {
     pub cam_right_ambient: [f32; 4],
     /// w: the frame slot's first entry of the tile order (u32 bits), set by the trace pass.
     pub cam_up: [f32; 4],
+    /// w: the AO radius (scene units).
     pub light_pos: [f32; 4],
+    /// w: AO rays per primary hit (u32 bits).
     pub light_color: [f32; 4],
     pub dims: [u32; 4],
     pub misc: [u32; 4],
@@ -106,8 +108,9 @@ impl FrameParams {
             cam_forward_blend: c.forward.extend(s.blend).to_array(),
             cam_right_ambient: c.right.extend(self.ambient).to_array(),
             cam_up: c.up.extend(0.0).to_array(),
-            light_pos: self.light_position.extend(1.0).to_array(),
-            light_color: self.light_color.extend(1.0).to_array(),
+            // w: the AO view's radius, and its rays per hit as uint bits.
+            light_pos: self.light_position.extend(s.ao_radius).to_array(),
+            light_color: self.light_color.extend(f32::from_bits(s.ao_samples)).to_array(),
             dims: [s.width, s.height, s.bounces, flags],
             misc: [self.instance_count, first_row, self.background_rgba8(), self.frame_index],
         }

@@ -1,5 +1,5 @@
 //! Blinn–Phong shading and the mirror-bounce blend (paper 3.3 steps 3 and 6), the CPU
-//! twin of `shaders/shade.glsl`.
+//! twin of `shaders/shade.glsl`; and the AO view's ray directions.
 
 use glam::Vec3;
 
@@ -25,6 +25,27 @@ pub fn blinn_phong(m: &ShadingMaterial, kd: Vec3, l: Vec3, n: Vec3, lit: bool, t
         0.0
     };
     kd * ambient + light_color * (kd * ndl + m.specular * spec)
+}
+
+/// An AO ray's direction from two uniform numbers in [0, 1): cosine-weighted over the
+/// hemisphere around the shading normal `ns` (unit), mirrored back above the triangle
+/// (geometric normal `ng`, facing the viewer) where a smooth normal tips it under. The twin
+/// of the loop body of `ambient_occlusion` in `shaders/trace.glsl`, term for term.
+pub fn ao_direction(ns: Vec3, ng: Vec3, u1: f32, u2: f32) -> Vec3 {
+    // A frame around ns without a branch on its direction (Duff et al. 2017).
+    let sgn = if ns.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sgn + ns.z);
+    let b = ns.x * ns.y * a;
+    let tangent = Vec3::new(1.0 + sgn * ns.x * ns.x * a, sgn * b, -sgn * ns.x);
+    let bitangent = Vec3::new(b, sgn + ns.y * ns.y * a, -ns.y);
+    let r = u1.sqrt();
+    let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
+    let mut d = (tangent * (r * cos) + bitangent * (r * sin) + ns * (1.0 - u1).max(0.0).sqrt()).normalize();
+    let below = d.dot(ng);
+    if below < 0.0 {
+        d -= 2.0 * below * ng;
+    }
+    d
 }
 
 /// The hit triangle as a smoothly shaded hit sees it: corners relative to the hit point's
@@ -117,6 +138,25 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ao_directions_are_unit_above_the_surface_and_cosine_weighted() {
+        let ng = Vec3::new(0.0, 0.6, 0.8);
+        for ns in [ng, Vec3::new(0.3, 0.2, -0.9).normalize(), Vec3::Z, Vec3::NEG_Z] {
+            let (mut mean_cos, n) = (0.0, 64);
+            for i in 0..n {
+                for j in 0..n {
+                    let d = ao_direction(ns, ng, (i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    assert!((d.length() - 1.0).abs() < 1e-5 && d.dot(ng) >= 0.0, "{ns} {d}");
+                    mean_cos += d.dot(ns) / (n * n) as f32;
+                }
+            }
+            // E[cos] = 2/3 for cosine-weighted directions (mirroring changes some for a tipped ns).
+            if ns == ng {
+                assert!((mean_cos - 2.0 / 3.0).abs() < 1e-3, "{mean_cos}");
+            }
+        }
+    }
 
     #[test]
     fn head_on_light_gives_diffuse_plus_full_specular() {

@@ -10,7 +10,7 @@ use crate::app::panel::widgets::status_line;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::app::views::cost::heat_color;
 use crate::gpu::khr_rt::VendorKernel;
-use crate::render_settings::{Accel, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::render_settings::{self as knobs, Accel, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// The section's state: the outcome of render changes and shader reloads.
 #[derive(Default)]
@@ -115,6 +115,9 @@ impl Section for RenderPanel {
                 });
                 ui.end_row();
             }
+            if params.view == ViewMode::Ao {
+                ao_rows(ui, &mut params.settings);
+            }
         });
         if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
             ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
@@ -136,6 +139,21 @@ impl Section for RenderPanel {
             ui.label(RichText::new(note).small());
         }
     }
+}
+
+/// The AO view's knobs: rays per hit and radius, within their ranges (`render_settings`).
+fn ao_rows(ui: &mut Ui, s: &mut crate::render_settings::RenderSettings) {
+    ui.label("AO rays");
+    ui.add(egui::Slider::new(&mut s.ao_samples, 1..=MAX_AO_SAMPLES).logarithmic(true))
+        .on_hover_text("occlusion rays per primary hit and frame (--ao-samples), cosine-weighted around the normal; accumulation adds a new set each frame");
+    ui.end_row();
+    ui.label("AO radius");
+    let (lo, hi) = (knobs::AO_RADIUS.lo as f32, knobs::AO_RADIUS.hi as f32);
+    ui.add(egui::Slider::new(&mut s.ao_radius, lo..=hi).logarithmic(true).smallest_positive(1e-3).max_decimals(3))
+        .on_hover_text("how far an AO ray looks for an occluder, in scene units (--ao-radius): the model has radius 1, the mirror box reaches 4");
+    // The slider's low end is the open range's bound: keep the radius inside it.
+    s.ao_radius = s.ao_radius.max(1e-3);
+    ui.end_row();
 }
 
 /// The resolution as the combo box names it.

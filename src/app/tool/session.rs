@@ -179,7 +179,7 @@ impl Session {
         let mut frame = params.split.frame(FrameParams::with_bounds(&model.scene, params.settings_for(area), bounds));
         // Average frames while nothing changes; any change starts afresh.
         let acc = &mut self.accumulation;
-        let still = params.accumulate && frame.params.settings.aov == Aov::Color && acc.last == Some(frame);
+        let still = params.accumulate && matches!(frame.params.settings.aov, Aov::Color | Aov::Ao) && acc.last == Some(frame);
         if hold && acc.last == Some(frame) {
             set_index(&mut frame, acc.frames.max(1) - 1);
             return Some(frame);

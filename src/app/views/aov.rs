@@ -1,5 +1,6 @@
-//! The depth, normal, primitive-id and samples views: the tracer's float output made into
-//! a picture with a line saying what its colours mean (the cost view is `views::cost`).
+//! The depth, normal, primitive-id, samples and ambient-occlusion views: the tracer's float
+//! output made into a picture with a line saying what its colours mean (the cost view is
+//! `views::cost`).
 
 use crate::app::state::ViewMode;
 use crate::tracer::Image;
@@ -44,8 +45,21 @@ pub(crate) fn picture(image: &Image, view: ViewMode) -> Option<ViewPicture> {
             let map = heat_map(&values);
             Some(ViewPicture { rgba: map.rgba, heat: Some((map.scale_max, map.max, map.mean)), note: None })
         }
+        ViewMode::Ao => {
+            // Grey over a dark blue where nothing was hit, blended by the pixel's coverage
+            // (alpha: 0 on a miss, between at jittered edges) so a miss is not "enclosed".
+            let shade = |p: &[f32; 4]| {
+                let cover = p[3].clamp(0.0, 1.0);
+                AO_MISS.map(|m| ((p[0].clamp(0.0, 1.0) * 255.0) * cover + m as f32 * (1.0 - cover)).round() as u8)
+            };
+            let note = "ambient occlusion: white = open, black = enclosed within the AO radius; blue: no hit";
+            Some(ViewPicture { rgba: rgba(&shade), heat: None, note: Some(note.into()) })
+        }
     }
 }
+
+/// The AO view's colour where the camera ray hits nothing.
+const AO_MISS: [u8; 3] = [24, 32, 64];
 
 /// A bright colour for a triangle index: neighbouring ids get unrelated colours.
 fn id_color(id: u32) -> [u8; 3] {
@@ -82,5 +96,14 @@ mod tests {
         assert_eq!(&ids.rgba[12..15], &[0; 3]);
         assert!(ids.note.unwrap().starts_with("2 triangles"));
         assert!(picture(&image(&[[1.0; 4]]), ViewMode::Color).is_none());
+    }
+
+    #[test]
+    fn ao_is_grey_by_openness_and_misses_are_blue() {
+        let p = picture(&image(&[[1.0, 1.0, 1.0, 1.0], [0.25, 0.25, 0.25, 1.0], [1.0, 1.0, 1.0, 0.0]]), ViewMode::Ao).unwrap();
+        assert_eq!(&p.rgba[0..3], &[255; 3]);
+        assert_eq!(&p.rgba[4..7], &[64; 3]);
+        assert_eq!(&p.rgba[8..11], &AO_MISS);
+        assert!(p.note.unwrap().contains("ambient occlusion"));
     }
 }
