@@ -116,7 +116,7 @@ impl Section for RenderPanel {
                 ui.end_row();
             }
             if params.view == ViewMode::Ao {
-                ao_rows(ui, &mut params.settings);
+                ao_rows(ui, &mut params.scene.settings);
             }
         });
         if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
