@@ -14,12 +14,16 @@
 //! stitched together in depth-first order at the end.
 
 mod bins;
+mod phases;
 mod prim;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
+use std::time::Duration;
+
 use self::bins::{Bin, BinGrid, BinSet};
+use self::phases::PhaseClock;
 use self::prim::{Bounds, Prim, MAX_BINS};
 use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
 use crate::geometry::Aabb;
@@ -68,12 +72,23 @@ const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
     pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
+        Self::build_timed(triangles, options).0
+    }
+
+    /// [`Bvh::build`], also returning where the time went: each phase's wall time in order,
+    /// then the thread time of the top splits and of the sequential subtrees (for the build
+    /// benchmark).
+    #[doc(hidden)]
+    pub fn build_timed(triangles: &[[Vec3; 3]], options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
+        let mut clock = PhaseClock::start();
         let prims = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
             .collect();
-        build_from_prims(prims, options)
+        clock.mark("prim boxes");
+        let bvh = build_from_prims(prims, options, &mut clock);
+        (bvh, clock.finish())
     }
 
     /// Same over arbitrary boxes (used for a top level over instances); empty boxes are
@@ -87,7 +102,7 @@ impl Bvh {
                 Prim::new(b.min, b.max, i as u32)
             })
             .collect();
-        build_from_prims(prims, options)
+        build_from_prims(prims, options, &mut PhaseClock::start())
     }
 }
 
@@ -143,24 +158,28 @@ impl ChildRef {
 }
 
 /// The resolved build options shared by all threads.
-struct Builder {
+struct Builder<'c> {
     max_leaf: usize,
     bins: usize,
+    clock: &'c PhaseClock,
 }
 
-fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
+fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut PhaseClock) -> Bvh {
     if prims.is_empty() {
         return Bvh::default();
     }
-    let builder = Builder {
-        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
-        bins: (options.bins as usize).clamp(2, MAX_BINS),
-    };
     let info = prims
         .par_chunks(64 * 1024)
         .map(NodeInfo::of)
         .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
+    clock.mark("root bounds");
+    let builder = Builder {
+        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
+        bins: (options.bins as usize).clamp(2, MAX_BINS),
+        clock: &*clock,
+    };
     let root = builder.build_parallel(&mut prims, 0, info, 1);
+    clock.mark("tree");
 
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
@@ -168,11 +187,13 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
     } else {
         root.flatten()
     };
+    clock.mark("stitching");
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
+    clock.mark("prim_indices gather");
     Bvh { nodes, prim_indices }
 }
 
-impl Builder {
+impl Builder<'_> {
     /// Builds the subtree over `prims` (which start at `first` in the whole array) into
     /// `nodes`, depth-first, and returns it as its parent will record it. `level` is the
     /// depth of the node this call would create (root = 1).
@@ -204,10 +225,12 @@ impl Builder {
     fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
             let mut nodes = Vec::with_capacity(prims.len() / 2);
-            let child = self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed());
+            let child = self
+                .clock
+                .subtree(|| self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed()));
             return Fragment { child, len: nodes.len() as u32, chunks: vec![Chunk { offset: 0, nodes }] };
         }
-        let split = self.split(prims, &info, level, &mut BinSet::boxed());
+        let split = self.clock.top_split(|| self.split(prims, &info, level, &mut BinSet::boxed()));
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
         let right_first = first + split.mid as u32;
         let (mut left, mut right) = rayon::join(
