@@ -11,9 +11,11 @@
 //!
 //! Subtrees of at least `PARALLEL_MIN_PRIMS` primitives are built on both threads
 //! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
-//! stitched together in depth-first order at the end.
+//! stitched together in depth-first order at the end, on all threads. Nodes of at least
+//! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
 
 mod bins;
+mod parallel;
 mod phases;
 mod prim;
 
@@ -23,9 +25,10 @@ use rayon::prelude::*;
 use std::time::Duration;
 
 use self::bins::{Bin, BinGrid, BinSet};
+use self::parallel::{Chunk, Fragment};
 use self::phases::PhaseClock;
 use self::prim::{Bounds, Prim, MAX_BINS};
-use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
+use super::{Bvh, BvhChild, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
 
 /// Build parameters.
@@ -220,8 +223,9 @@ impl Builder<'_> {
         ChildRef { bounds: info.bounds, index: slot as u32, count: 0 }
     }
 
-    /// As `build_subtree`, but forks big subtrees onto the other thread. Each sequential
-    /// subtree gets its own node vector; the result is a list of them in depth-first order.
+    /// As `build_subtree`, but forks big subtrees onto the other thread and splits big nodes
+    /// on all threads. Each sequential subtree gets its own node vector; the result is a list
+    /// of them in depth-first order.
     fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
             let mut nodes = Vec::with_capacity(prims.len() / 2);
@@ -270,26 +274,16 @@ impl Builder<'_> {
         let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
-        if prims.len() >= PARALLEL_BIN_MIN_PRIMS {
-            let reduced = prims
-                .par_chunks(32 * 1024)
-                .map(|chunk| {
-                    let mut b = BinSet::boxed();
-                    b.add(chunk, &grid);
-                    b
-                })
-                .reduce(BinSet::boxed, |mut a, b| {
-                    a.merge(&b, n_bins);
-                    a
-                });
-            bins.copy_from(&reduced);
+        let big = prims.len() >= PARALLEL_BIN_MIN_PRIMS;
+        if big {
+            parallel::bin(prims, &grid, n_bins, bins);
         } else {
             bins.clear(n_bins);
             bins.add(prims, &grid);
         }
 
         let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
-        let mid = partition(prims, &grid, axis, plane);
+        let mid = if big { parallel::partition(prims, &grid, axis, plane) } else { partition(prims, &grid, axis, plane) };
         // Each side's box is the union of its bins. Its centroids lie in that box and in the
         // node's centroid box: the intersection bounds them (loosely; binning only needs a
         // range that covers them, and tracking them exactly would cost a pass).
@@ -333,53 +327,6 @@ fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
         prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
     }
     Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
-}
-
-/// A built subtree as a list of node vectors that, concatenated, are its nodes in
-/// depth-first order. Stitching is deferred: each chunk remembers how far it will be
-/// shifted, so joining fragments costs O(chunks), not O(nodes).
-struct Fragment {
-    child: ChildRef,
-    len: u32,
-    chunks: Vec<Chunk>,
-}
-
-/// A run of nodes whose inner-child indices are relative to the run's start; `offset` is
-/// where that start lands in the enclosing fragment.
-struct Chunk {
-    offset: u32,
-    nodes: Vec<BvhNode>,
-}
-
-impl Fragment {
-    /// Moves the fragment `by` nodes further into its parent's node list.
-    fn shift(&mut self, by: u32) {
-        for chunk in &mut self.chunks {
-            chunk.offset += by;
-        }
-        if self.child.count == 0 {
-            self.child.index += by;
-        }
-    }
-
-    /// The nodes in their final places, inner-child indices made absolute.
-    fn flatten(self) -> Vec<BvhNode> {
-        let mut nodes = Vec::with_capacity(self.len as usize);
-        for chunk in self.chunks {
-            debug_assert_eq!(chunk.offset as usize, nodes.len());
-            let inner = |index: u32, count: u32| count == 0 && index != EMPTY;
-            nodes.extend(chunk.nodes.into_iter().map(|mut n| {
-                if inner(n.left_index, n.left_count) {
-                    n.left_index += chunk.offset;
-                }
-                if inner(n.right_index, n.right_count) {
-                    n.right_index += chunk.offset;
-                }
-                n
-            }));
-        }
-        nodes
-    }
 }
 
 #[cfg(test)]
