@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use std::time::Duration;
 
-use self::bins::{Bin, BinGrid, BinSet};
+use self::bins::{Bin, BinGrid, BinSet, LeftOf};
 use self::parallel::{Chunk, Fragment};
 use self::phases::PhaseClock;
 use self::prim::{Bounds, Prim, MAX_BINS};
@@ -283,7 +283,8 @@ impl Builder<'_> {
         }
 
         let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
-        let mid = if big { parallel::partition(prims, &grid, axis, plane) } else { partition(prims, &grid, axis, plane) };
+        let left_of = grid.left_of(axis, plane);
+        let mid = if big { parallel::partition(prims, &left_of) } else { partition(prims, &left_of) };
         // Each side's box is the union of its bins. Its centroids lie in that box and in the
         // node's centroid box: the intersection bounds them (loosely; binning only needs a
         // range that covers them, and tracking them exactly would cost a pass).
@@ -297,15 +298,14 @@ impl Builder<'_> {
     }
 }
 
-/// Moves the primitives whose centroid bin on `axis` is below `plane` to the front and
-/// returns how many there are.
+/// Moves the primitives that pass `left_of` to the front and returns how many there are.
 ///
 /// Branch-free (Lomuto with an unconditional swap): a primitive's side is a coin flip to the
 /// branch predictor, and a mispredict costs more than the swap.
-fn partition(prims: &mut [Prim], grid: &BinGrid, axis: usize, plane: usize) -> usize {
+fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
     let mut i = 0; // prims[..i] go left, prims[i..k] go right
     for k in 0..prims.len() {
-        let goes_left = grid.bin_on_axis(&prims[k], axis) < plane;
+        let goes_left = left_of.test(&prims[k]);
         prims.swap(i, k);
         i += goes_left as usize;
     }
