@@ -46,7 +46,7 @@ pub(super) fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
     for (i, &left) in lefts.iter().enumerate() {
         let (start, end) = (i * CHUNK, ((i + 1) * CHUNK).min(prims.len()));
         let mid = start + left;
-        if mid < total_left {
+        if mid < end.min(total_left) {
             wrong_right.push(mid..end.min(total_left));
         }
         if start.max(total_left) < mid {
@@ -148,31 +148,37 @@ mod tests {
 
     #[test]
     fn partition_puts_the_same_primitives_on_each_side_as_the_sequential_one() {
-        // Positions along x in a shuffled order, so that every chunk holds both sides.
+        // Positions along x shuffled (every chunk holds both sides) and sorted (whole chunks
+        // on one side, and runs of misplaced primitives that end at a chunk's end).
         let n = 3 * CHUNK + 1234;
-        let prims: Vec<Prim> = (0..n as u32)
-            .map(|i| {
-                let x = (i.wrapping_mul(2_654_435_761) % 1000) as f32;
-                Prim::new(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0), i)
-            })
-            .collect();
-        let centroids = Bounds { min: Vec3::new(0.5, 0.5, 0.5).into(), max: Vec3::new(999.5, 0.5, 0.5).into() };
-        let grid = BinGrid::new(&centroids, 16).unwrap();
-        for plane in [1, 7, 15] {
-            let (mut seq, mut par) = (prims.clone(), prims.clone());
-            let left_of = grid.left_of(0, plane);
-            let mid = super::super::partition(&mut seq, &left_of);
-            assert_eq!(partition(&mut par, &left_of), mid, "plane {plane}");
-            let sides = |p: &[Prim]| {
-                let mut left: Vec<u32> = p[..mid].iter().map(|p| p.index).collect();
-                left.sort_unstable();
-                left
-            };
-            assert_eq!(sides(&seq), sides(&par), "plane {plane}");
-            // The test agrees with the bins: x in [0.5, 999.5] spread over 16 bins.
-            let bin = |p: &Prim| (((p.min.x + 0.5) - 0.5) * (16.0 / 999.0)) as usize;
-            assert!(par[..mid].iter().all(|p| bin(p) < plane));
-            assert!(par[mid..].iter().all(|p| bin(p) >= plane));
+        let shuffled: Vec<u32> = (0..n as u32).map(|i| i.wrapping_mul(2_654_435_761) % 1000).collect();
+        let mut sorted = shuffled.clone();
+        sorted.sort_unstable();
+        sorted.reverse();
+        for xs in [shuffled, sorted] {
+            let prims: Vec<Prim> = xs
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| Prim::new(Vec3::new(x as f32, 0.0, 0.0), Vec3::new(x as f32 + 1.0, 1.0, 1.0), i as u32))
+                .collect();
+            let centroids = Bounds { min: Vec3::new(0.5, 0.5, 0.5).into(), max: Vec3::new(999.5, 0.5, 0.5).into() };
+            let grid = BinGrid::new(&centroids, 16).unwrap();
+            for plane in [1, 7, 15] {
+                let (mut seq, mut par) = (prims.clone(), prims.clone());
+                let left_of = grid.left_of(0, plane);
+                let mid = super::super::partition(&mut seq, &left_of);
+                assert_eq!(partition(&mut par, &left_of), mid, "plane {plane}");
+                let left_set = |p: &[Prim]| {
+                    let mut left: Vec<u32> = p[..mid].iter().map(|p| p.index).collect();
+                    left.sort_unstable();
+                    left
+                };
+                assert_eq!(left_set(&seq), left_set(&par), "plane {plane}");
+                // The test agrees with the bins: x in [0.5, 999.5] spread over 16 bins.
+                let bin = |p: &Prim| (((p.min.x + 0.5) - 0.5) * (16.0 / 999.0)) as usize;
+                assert!(par[..mid].iter().all(|p| bin(p) < plane));
+                assert!(par[mid..].iter().all(|p| bin(p) >= plane));
+            }
         }
     }
 }
