@@ -537,9 +537,9 @@ fn build_is_the_same_on_one_thread_and_on_several() {
 
 #[test]
 fn sah_cost_stays_within_bounds() {
-    // The costs of the sequential-top builder before it was made parallel (2026-11-26; the
-    // parallel one makes the same trees), with 0.1% room for rounding: a faster build must
-    // not make worse trees.
+    // The costs of the builder before it was made parallel (2026-11-26; today's equal them
+    // or, where it retries binning with exact centroid bounds, go below), with 0.1% room for
+    // rounding: a faster build must not make worse trees.
     let options = BuildOptions::default();
     let tracing = BuildOptions { max_leaf_size: 2, ..options };
     let knot = meshtracer::scene::primitives::large_torus_knot(200_000);

@@ -265,6 +265,15 @@ impl Builder<'_> {
             if let Some(split) = self.sah_split(prims, info, bins) {
                 return split;
             }
+            // The centroid box handed down is loose (see `sah_split`), so all centroids may
+            // share a bin of it where the exact box still separates them: retry with that.
+            let exact = NodeInfo::of(prims);
+            let loose = exact.centroids.min != info.centroids.min || exact.centroids.max != info.centroids.max;
+            if loose {
+                if let Some(split) = self.sah_split(prims, &exact, bins) {
+                    return split;
+                }
+            }
         }
         median_split(prims, info)
     }
@@ -318,13 +327,19 @@ fn ceil_log2(n: usize) -> usize {
 }
 
 /// Object-median split along the widest centroid axis; when all centroids coincide, any
-/// halving is as good as another, so the range is just cut in two.
+/// halving is as good as another, so the range is just cut in two. Ties go by original
+/// index, so that the halves do not depend on the order the partitions left the range in
+/// (which differs between the sequential and the parallel partition).
 fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
     let mid = prims.len() / 2;
     let extent = info.centroids.max - info.centroids.min;
     if extent.max_element() > 0.0 {
         let axis = extent.max_position();
-        prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
+        prims.select_nth_unstable_by(mid, |a, b| {
+            a.centroid()[axis].total_cmp(&b.centroid()[axis]).then(a.index.cmp(&b.index))
+        });
+    } else {
+        prims.select_nth_unstable_by_key(mid, |p| p.index);
     }
     Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
 }
