@@ -68,7 +68,7 @@ impl BuildOptions {
 /// overhead outweighs the gain.
 const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
 
-/// Nodes at least this big bin their primitives on all threads (only the top few levels,
+/// Nodes at least this big are binned and partitioned on all threads (only the top few levels,
 /// where too few subtrees exist to keep the threads busy).
 const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 
