@@ -228,7 +228,8 @@ impl Builder<'_> {
     /// of them in depth-first order.
     fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
-            let mut nodes = Vec::with_capacity(prims.len() / 2);
+            // At most n - 1 inner nodes: reserved, not touched, and never grown by copying.
+            let mut nodes = Vec::with_capacity(prims.len().saturating_sub(1));
             let child = self
                 .clock
                 .subtree(|| self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed()));
