@@ -2,8 +2,8 @@
 //! random triangle soups, a tessellated torus and optional OBJ files.
 //!
 //! `cargo run --release --example bvh_build_bench -- [triangle counts | .obj paths]`
-//! (default: 100000 1000000 4000000). Each count runs a random soup, a torus and
-//! `scene::primitives::large_torus_knot`.
+//! (default: 100000 1000000 4000000; counts may end in k or M: `1M`). Each count runs a
+//! random soup, a torus and `scene::primitives::large_torus_knot`.
 //!
 //! For each mesh and builder it prints the best wall time of a few builds and the least CPU
 //! time (all threads; the steadier number on a shared machine), the SAH cost under our cost
@@ -12,7 +12,9 @@
 //! visited and triangles tested by our traversal per ray (100k rays at random surface points).
 //!
 //! Environment knobs: `BENCH_RUNS` (builds per measurement), `BENCH_BINS` and `BENCH_LEAF`
-//! (our options), `BENCH_ONLY_OURS` (skip obvhs), `BENCH_QUICK` (timings only).
+//! (our options), `BENCH_ONLY_OURS` (skip obvhs), `BENCH_QUICK` (timings only),
+//! `BENCH_KNOT_ONLY` (counts run the knot alone), `BENCH_PHASES` (also print where our
+//! build's time went, phase by phase, from its fastest run).
 
 use std::time::{Duration, Instant};
 
@@ -31,9 +33,11 @@ fn main() {
         "mesh", "builder", "build ms", "cpu ms", "SAH", "depth", "leaves", "nodes/r", "tris/r"
     );
     for arg in &args {
-        if let Ok(n) = arg.replace('_', "").parse::<usize>() {
-            bench(&format!("random soup {n}"), &random_soup(n, 0x9e3779b97f4a7c15));
-            bench(&format!("torus {n}"), &torus(n));
+        if let Some(n) = count(arg) {
+            if std::env::var_os("BENCH_KNOT_ONLY").is_none() {
+                bench(&format!("random soup {n}"), &random_soup(n, 0x9e3779b97f4a7c15));
+                bench(&format!("torus {n}"), &torus(n));
+            }
             let knot = meshtracer::scene::primitives::large_torus_knot(n);
             bench(&format!("torus knot {n}"), &corners(&knot));
         } else {
@@ -43,6 +47,16 @@ fn main() {
             }
         }
     }
+}
+
+/// A triangle count such as `1000000`, `1_000_000`, `250k` or `1M`.
+fn count(arg: &str) -> Option<usize> {
+    let arg = arg.replace('_', "");
+    let (digits, scale) = match arg.strip_suffix(['k', 'K']) {
+        Some(d) => (d, 1_000),
+        None => arg.strip_suffix('M').map_or((arg.as_str(), 1), |d| (d, 1_000_000)),
+    };
+    digits.parse::<usize>().ok().map(|n| n * scale)
 }
 
 fn bench(name: &str, tris: &[[Vec3; 3]]) {
@@ -57,8 +71,12 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
     let only_ours = std::env::var_os("BENCH_ONLY_OURS").is_some();
     let rays = if std::env::var_os("BENCH_QUICK").is_some() { vec![] } else { probe_rays(tris, 100_000) };
 
-    let (ours, t) = best_of(runs, || Bvh::build(tris, &options));
+    let ((ours, phases), t) = best_of(runs, || Bvh::build_timed(tris, &options));
     report(&name, "ours (binned SAH)", t, &ours, tris, &rays);
+    if std::env::var_os("BENCH_PHASES").is_some() {
+        let list: Vec<String> = phases.iter().map(|(p, d)| format!("{p} {:.1}", d.as_secs_f64() * 1e3)).collect();
+        println!("  phases (ms): {}", list.join(", "));
+    }
 
     let otris: Vec<Triangle> = tris
         .iter()
@@ -75,21 +93,25 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
     }
 }
 
-/// Best wall time of `runs` calls, and the least CPU time (all threads) of one call.
 /// A number from the environment (`BENCH_RUNS`, `BENCH_BINS`, `BENCH_LEAF`).
 fn env<T: std::str::FromStr>(key: &str) -> Option<T> {
     std::env::var(key).ok().and_then(|v| v.parse().ok())
 }
 
+/// Best wall time of `runs` calls (with that call's result), and the least CPU time (all
+/// threads) of one call.
 fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (T, Timing) {
     let mut best = Timing { wall: Duration::MAX, cpu: Duration::MAX };
     let mut result = None;
     for _ in 0..runs {
         let (start, cpu_start) = (Instant::now(), process_cpu_time());
         let r = f();
-        best.wall = best.wall.min(start.elapsed());
+        let wall = start.elapsed();
         best.cpu = best.cpu.min(process_cpu_time().saturating_sub(cpu_start));
-        result = Some(r);
+        if wall < best.wall {
+            best.wall = wall;
+            result = Some(r);
+        }
     }
     (result.unwrap(), best)
 }

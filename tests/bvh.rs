@@ -507,3 +507,53 @@ fn big_parallel_build_fits_small_worker_stacks() {
     assert_eq!(bvh.prim_indices.len(), tris.len());
     assert!(bvh.depth() <= MAX_DEPTH);
 }
+
+#[test]
+fn build_is_the_same_on_one_thread_and_on_several() {
+    // Sizes that take every path: sequential only, forked subtrees, nodes big enough to be
+    // binned and partitioned on all threads, and the median split of coincident triangles.
+    let mut rng = Rng(31);
+    let point = [Vec3::ONE, Vec3::ONE, Vec3::ONE];
+    let meshes = [
+        ("soup 3k", soup(&mut rng, 3_000, 10.0, 0.5)),
+        ("soup 300k", soup(&mut rng, 300_000, 100.0, 0.5)),
+        ("grid 205k", grid(320, 0.0)),
+        ("one point 150k", vec![point; 150_000]),
+    ];
+    for (name, tris) in &meshes {
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::build(tris, &BuildOptions::default()))
+        };
+        let one = build(1);
+        assert_eq!(one.validate(tris), Ok(()), "{name}");
+        for threads in [2, 5] {
+            let many = build(threads);
+            assert!(one.nodes == many.nodes, "{name}: the nodes differ between 1 and {threads} threads");
+            assert!(one.prim_indices == many.prim_indices, "{name}: the order differs between 1 and {threads} threads");
+        }
+    }
+}
+
+#[test]
+fn sah_cost_stays_within_bounds() {
+    // The costs of the builder before it was made parallel (2026-11-26; today's equal them
+    // or, where it retries binning with exact centroid bounds, go below), with 0.1% room for
+    // rounding: a faster build must not make worse trees.
+    let options = BuildOptions::default();
+    let tracing = BuildOptions { max_leaf_size: 2, ..options };
+    let knot = meshtracer::scene::primitives::large_torus_knot(200_000);
+    let knot: Vec<[Vec3; 3]> = (0..knot.triangle_count()).map(|i| knot.corners(i)).collect();
+    let cases = [
+        ("knot 200k", knot.clone(), options, 52.569),
+        ("knot 200k, leaves of 2", knot, tracing, 50.539),
+        ("sphere 100x200", sphere(100, 200, 1.0), options, 38.015),
+        ("soup 50k", soup(&mut Rng(41), 50_000, 20.0, 0.5), options, 145.547),
+        ("grid 150", grid(150, 0.0), options, 17.358),
+    ];
+    for (name, tris, o, bound) in cases {
+        let cost = Bvh::build(&tris, &o).sah_cost(&BuildOptions::default());
+        println!("{name}: SAH cost {cost:.4}");
+        assert!(cost <= bound * 1.001, "{name}: SAH cost {cost} above {bound}");
+    }
+}

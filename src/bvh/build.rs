@@ -11,17 +11,24 @@
 //!
 //! Subtrees of at least `PARALLEL_MIN_PRIMS` primitives are built on both threads
 //! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
-//! stitched together in depth-first order at the end.
+//! stitched together in depth-first order at the end, on all threads. Nodes of at least
+//! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
 
 mod bins;
+mod parallel;
+mod phases;
 mod prim;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use self::bins::{Bin, BinGrid, BinSet};
+use std::time::Duration;
+
+use self::bins::{Bin, BinGrid, BinSet, LeftOf};
+use self::parallel::{Chunk, Fragment};
+use self::phases::PhaseClock;
 use self::prim::{Bounds, Prim, MAX_BINS};
-use super::{Bvh, BvhChild, BvhNode, EMPTY, MAX_DEPTH};
+use super::{Bvh, BvhChild, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
 
 /// Build parameters.
@@ -61,19 +68,30 @@ impl BuildOptions {
 /// overhead outweighs the gain.
 const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
 
-/// Nodes at least this big bin their primitives on all threads (only the top few levels,
+/// Nodes at least this big are binned and partitioned on all threads (only the top few levels,
 /// where too few subtrees exist to keep the threads busy).
 const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
     pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
+        Self::build_timed(triangles, options).0
+    }
+
+    /// [`Bvh::build`], also returning where the time went: each phase's wall time in order,
+    /// then the thread time of the top splits and of the sequential subtrees (for the build
+    /// benchmark).
+    #[doc(hidden)]
+    pub fn build_timed(triangles: &[[Vec3; 3]], options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
+        let mut clock = PhaseClock::start();
         let prims = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
             .collect();
-        build_from_prims(prims, options)
+        clock.mark("prim boxes");
+        let bvh = build_from_prims(prims, options, &mut clock);
+        (bvh, clock.finish())
     }
 
     /// Same over arbitrary boxes (used for a top level over instances); empty boxes are
@@ -87,7 +105,7 @@ impl Bvh {
                 Prim::new(b.min, b.max, i as u32)
             })
             .collect();
-        build_from_prims(prims, options)
+        build_from_prims(prims, options, &mut PhaseClock::start())
     }
 }
 
@@ -143,24 +161,28 @@ impl ChildRef {
 }
 
 /// The resolved build options shared by all threads.
-struct Builder {
+struct Builder<'c> {
     max_leaf: usize,
     bins: usize,
+    clock: &'c PhaseClock,
 }
 
-fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
+fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut PhaseClock) -> Bvh {
     if prims.is_empty() {
         return Bvh::default();
     }
-    let builder = Builder {
-        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
-        bins: (options.bins as usize).clamp(2, MAX_BINS),
-    };
     let info = prims
         .par_chunks(64 * 1024)
         .map(NodeInfo::of)
         .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
+    clock.mark("root bounds");
+    let builder = Builder {
+        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
+        bins: (options.bins as usize).clamp(2, MAX_BINS),
+        clock: &*clock,
+    };
     let root = builder.build_parallel(&mut prims, 0, info, 1);
+    clock.mark("tree");
 
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
@@ -168,11 +190,13 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions) -> Bvh {
     } else {
         root.flatten()
     };
+    clock.mark("stitching");
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
+    clock.mark("prim_indices gather");
     Bvh { nodes, prim_indices }
 }
 
-impl Builder {
+impl Builder<'_> {
     /// Builds the subtree over `prims` (which start at `first` in the whole array) into
     /// `nodes`, depth-first, and returns it as its parent will record it. `level` is the
     /// depth of the node this call would create (root = 1).
@@ -199,15 +223,19 @@ impl Builder {
         ChildRef { bounds: info.bounds, index: slot as u32, count: 0 }
     }
 
-    /// As `build_subtree`, but forks big subtrees onto the other thread. Each sequential
-    /// subtree gets its own node vector; the result is a list of them in depth-first order.
+    /// As `build_subtree`, but forks big subtrees onto the other thread and splits big nodes
+    /// on all threads. Each sequential subtree gets its own node vector; the result is a list
+    /// of them in depth-first order.
     fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
-            let mut nodes = Vec::with_capacity(prims.len() / 2);
-            let child = self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed());
+            // At most n - 1 inner nodes: reserved, not touched, and never grown by copying.
+            let mut nodes = Vec::with_capacity(prims.len().saturating_sub(1));
+            let child = self
+                .clock
+                .subtree(|| self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed()));
             return Fragment { child, len: nodes.len() as u32, chunks: vec![Chunk { offset: 0, nodes }] };
         }
-        let split = self.split(prims, &info, level, &mut BinSet::boxed());
+        let split = self.clock.top_split(|| self.split(prims, &info, level, &mut BinSet::boxed()));
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
         let right_first = first + split.mid as u32;
         let (mut left, mut right) = rayon::join(
@@ -238,6 +266,15 @@ impl Builder {
             if let Some(split) = self.sah_split(prims, info, bins) {
                 return split;
             }
+            // The centroid box handed down is loose (see `sah_split`), so all centroids may
+            // share a bin of it where the exact box still separates them: retry with that.
+            let exact = NodeInfo::of(prims);
+            let loose = exact.centroids.min != info.centroids.min || exact.centroids.max != info.centroids.max;
+            if loose {
+                if let Some(split) = self.sah_split(prims, &exact, bins) {
+                    return split;
+                }
+            }
         }
         median_split(prims, info)
     }
@@ -247,26 +284,17 @@ impl Builder {
         let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
-        if prims.len() >= PARALLEL_BIN_MIN_PRIMS {
-            let reduced = prims
-                .par_chunks(32 * 1024)
-                .map(|chunk| {
-                    let mut b = BinSet::boxed();
-                    b.add(chunk, &grid);
-                    b
-                })
-                .reduce(BinSet::boxed, |mut a, b| {
-                    a.merge(&b, n_bins);
-                    a
-                });
-            bins.copy_from(&reduced);
+        let big = prims.len() >= PARALLEL_BIN_MIN_PRIMS;
+        if big {
+            parallel::bin(prims, &grid, n_bins, bins);
         } else {
             bins.clear(n_bins);
             bins.add(prims, &grid);
         }
 
         let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
-        let mid = partition(prims, &grid, axis, plane);
+        let left_of = grid.left_of(axis, plane);
+        let mid = if big { parallel::partition(prims, &left_of) } else { partition(prims, &left_of) };
         // Each side's box is the union of its bins. Its centroids lie in that box and in the
         // node's centroid box: the intersection bounds them (loosely; binning only needs a
         // range that covers them, and tracking them exactly would cost a pass).
@@ -280,15 +308,14 @@ impl Builder {
     }
 }
 
-/// Moves the primitives whose centroid bin on `axis` is below `plane` to the front and
-/// returns how many there are.
+/// Moves the primitives that pass `left_of` to the front and returns how many there are.
 ///
 /// Branch-free (Lomuto with an unconditional swap): a primitive's side is a coin flip to the
 /// branch predictor, and a mispredict costs more than the swap.
-fn partition(prims: &mut [Prim], grid: &BinGrid, axis: usize, plane: usize) -> usize {
+fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
     let mut i = 0; // prims[..i] go left, prims[i..k] go right
     for k in 0..prims.len() {
-        let goes_left = grid.bin_on_axis(&prims[k], axis) < plane;
+        let goes_left = left_of.test(&prims[k]);
         prims.swap(i, k);
         i += goes_left as usize;
     }
@@ -301,62 +328,21 @@ fn ceil_log2(n: usize) -> usize {
 }
 
 /// Object-median split along the widest centroid axis; when all centroids coincide, any
-/// halving is as good as another, so the range is just cut in two.
+/// halving is as good as another, so the range is just cut in two. Ties go by original
+/// index, so that the halves do not depend on the order the partitions left the range in
+/// (which differs between the sequential and the parallel partition).
 fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
     let mid = prims.len() / 2;
     let extent = info.centroids.max - info.centroids.min;
     if extent.max_element() > 0.0 {
         let axis = extent.max_position();
-        prims.select_nth_unstable_by(mid, |a, b| a.centroid()[axis].total_cmp(&b.centroid()[axis]));
+        prims.select_nth_unstable_by(mid, |a, b| {
+            a.centroid()[axis].total_cmp(&b.centroid()[axis]).then(a.index.cmp(&b.index))
+        });
+    } else {
+        prims.select_nth_unstable_by_key(mid, |p| p.index);
     }
     Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
-}
-
-/// A built subtree as a list of node vectors that, concatenated, are its nodes in
-/// depth-first order. Stitching is deferred: each chunk remembers how far it will be
-/// shifted, so joining fragments costs O(chunks), not O(nodes).
-struct Fragment {
-    child: ChildRef,
-    len: u32,
-    chunks: Vec<Chunk>,
-}
-
-/// A run of nodes whose inner-child indices are relative to the run's start; `offset` is
-/// where that start lands in the enclosing fragment.
-struct Chunk {
-    offset: u32,
-    nodes: Vec<BvhNode>,
-}
-
-impl Fragment {
-    /// Moves the fragment `by` nodes further into its parent's node list.
-    fn shift(&mut self, by: u32) {
-        for chunk in &mut self.chunks {
-            chunk.offset += by;
-        }
-        if self.child.count == 0 {
-            self.child.index += by;
-        }
-    }
-
-    /// The nodes in their final places, inner-child indices made absolute.
-    fn flatten(self) -> Vec<BvhNode> {
-        let mut nodes = Vec::with_capacity(self.len as usize);
-        for chunk in self.chunks {
-            debug_assert_eq!(chunk.offset as usize, nodes.len());
-            let inner = |index: u32, count: u32| count == 0 && index != EMPTY;
-            nodes.extend(chunk.nodes.into_iter().map(|mut n| {
-                if inner(n.left_index, n.left_count) {
-                    n.left_index += chunk.offset;
-                }
-                if inner(n.right_index, n.right_count) {
-                    n.right_index += chunk.offset;
-                }
-                n
-            }));
-        }
-        nodes
-    }
 }
 
 #[cfg(test)]

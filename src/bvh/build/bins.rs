@@ -162,11 +162,27 @@ impl BinGrid {
         ((c - self.origin) * self.scale).as_uvec3().min(UVec3::splat(self.count as u32 - 1))
     }
 
-    /// The bin of primitive `p` on one axis (for the partition): the same float operations
-    /// as one lane of `bin_of(p.centroid())`, so both always agree.
+    /// The partition's test "centroid bin on `axis` below `plane`" for `0 < plane < count`.
+    pub(super) fn left_of(&self, axis: usize, plane: usize) -> LeftOf {
+        LeftOf { axis, origin: self.origin[axis], scale: self.scale[axis], plane: plane as f32 }
+    }
+}
+
+/// Whether a primitive's centroid bin on one axis is below a plane ([`BinGrid::left_of`]).
+/// It takes the same float operations as one lane of `bin_of(p.centroid())`, so both always
+/// agree, but compares before converting to a bin number (the slow part): a bin is below a
+/// whole number exactly when the scaled offset is; a NaN offset is bin 0 there, left here.
+pub(super) struct LeftOf {
+    axis: usize,
+    origin: f32,
+    scale: f32,
+    plane: f32,
+}
+
+impl LeftOf {
     #[inline(always)]
-    pub(super) fn bin_on_axis(&self, p: &Prim, axis: usize) -> usize {
-        let c = p.min[axis] * 0.5 + p.max[axis] * 0.5;
-        (((c - self.origin[axis]) * self.scale[axis]) as u32).min(self.count as u32 - 1) as usize
+    pub(super) fn test(&self, p: &Prim) -> bool {
+        let c = p.min[self.axis] * 0.5 + p.max[self.axis] * 0.5;
+        !((c - self.origin) * self.scale >= self.plane)
     }
 }
