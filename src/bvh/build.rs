@@ -24,10 +24,10 @@ use rayon::prelude::*;
 
 use std::time::Duration;
 
-use self::bins::{Bin, BinGrid, BinSet, LeftOf};
+use self::bins::{Bin, BinGrid, BinSet};
 use self::parallel::{Chunk, Fragment};
 use self::phases::PhaseClock;
-use self::prim::{Bounds, Prim, MAX_BINS};
+use self::prim::{Bounds, ChildRef, Prim, MAX_BINS};
 use super::{Bvh, BvhChild, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
 
@@ -144,20 +144,6 @@ struct Split {
     mid: usize,
     left: NodeInfo,
     right: NodeInfo,
-}
-
-/// A child as its parent will record it (`BvhChild` with the box still in SIMD form).
-#[derive(Clone, Copy)]
-struct ChildRef {
-    bounds: Bounds,
-    index: u32,
-    count: u32,
-}
-
-impl ChildRef {
-    fn to_child(self) -> BvhChild {
-        BvhChild { bounds: self.bounds.to_aabb(), index: self.index, count: self.count }
-    }
 }
 
 /// The resolved build options shared by all threads.
@@ -294,7 +280,7 @@ impl Builder<'_> {
 
         let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
         let left_of = grid.left_of(axis, plane);
-        let mid = if big { parallel::partition(prims, &left_of) } else { partition(prims, &left_of) };
+        let mid = if big { parallel::partition(prims, &left_of) } else { left_of.partition(prims) };
         // Each side's box is the union of its bins. Its centroids lie in that box and in the
         // node's centroid box: the intersection bounds them (loosely; binning only needs a
         // range that covers them, and tracking them exactly would cost a pass).
@@ -306,20 +292,6 @@ impl Builder<'_> {
         };
         Some(Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) })
     }
-}
-
-/// Moves the primitives that pass `left_of` to the front and returns how many there are.
-///
-/// Branch-free (Lomuto with an unconditional swap): a primitive's side is a coin flip to the
-/// branch predictor, and a mispredict costs more than the swap.
-fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
-    let mut i = 0; // prims[..i] go left, prims[i..k] go right
-    for k in 0..prims.len() {
-        let goes_left = left_of.test(&prims[k]);
-        prims.swap(i, k);
-        i += goes_left as usize;
-    }
-    i
 }
 
 /// `ceil(log2(n))` for `n >= 1`: the levels a median split needs to bring `n` down to 1.

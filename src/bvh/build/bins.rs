@@ -180,6 +180,20 @@ pub(super) struct LeftOf {
 }
 
 impl LeftOf {
+    /// Moves the primitives that pass `left_of` to the front and returns how many there are.
+    ///
+    /// Branch-free (Lomuto with an unconditional swap): a primitive's side is a coin flip to the
+    /// branch predictor, and a mispredict costs more than the swap.
+    pub(super) fn partition(&self, prims: &mut [Prim]) -> usize {
+        let mut i = 0; // prims[..i] go left, prims[i..k] go right
+        for k in 0..prims.len() {
+            let goes_left = self.test(&prims[k]);
+            prims.swap(i, k);
+            i += goes_left as usize;
+        }
+        i
+    }
+
     #[inline(always)]
     pub(super) fn test(&self, p: &Prim) -> bool {
         let c = p.min[self.axis] * 0.5 + p.max[self.axis] * 0.5;

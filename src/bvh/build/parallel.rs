@@ -8,8 +8,7 @@
 use rayon::prelude::*;
 
 use super::bins::{BinGrid, BinSet, LeftOf};
-use super::prim::Prim;
-use super::ChildRef;
+use super::prim::{ChildRef, Prim};
 use crate::bvh::{BvhNode, EMPTY};
 
 /// Primitives per task when binning or partitioning a big node.
@@ -38,7 +37,7 @@ pub(super) fn bin(prims: &[Prim], grid: &BinGrid, n_bins: usize, bins: &mut BinS
 /// primitives that lie in the left part overall and the left ones in the right part, which
 /// in each chunk form at most one run, are swapped pairwise, run by run.
 pub(super) fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
-    let lefts: Vec<usize> = prims.par_chunks_mut(CHUNK).map(|chunk| super::partition(chunk, left_of)).collect();
+    let lefts: Vec<usize> = prims.par_chunks_mut(CHUNK).map(|chunk| left_of.partition(chunk)).collect();
     let total_left: usize = lefts.iter().sum();
 
     // The misplaced runs, in order: right primitives before `total_left`, left ones after.
@@ -147,7 +146,7 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-    use crate::bvh::build::prim::Bounds;
+    use super::super::prim::Bounds;
 
     #[test]
     fn partition_puts_the_same_primitives_on_each_side_as_the_sequential_one() {
@@ -169,7 +168,7 @@ mod tests {
             for plane in [1, 7, 15] {
                 let (mut seq, mut par) = (prims.clone(), prims.clone());
                 let left_of = grid.left_of(0, plane);
-                let mid = super::super::partition(&mut seq, &left_of);
+                let mid = left_of.partition(&mut seq);
                 assert_eq!(partition(&mut par, &left_of), mid, "plane {plane}");
                 let left_set = |p: &[Prim]| {
                     let mut left: Vec<u32> = p[..mid].iter().map(|p| p.index).collect();

@@ -3,6 +3,7 @@
 
 use glam::{Vec3, Vec3A};
 
+use crate::bvh::BvhChild;
 use crate::geometry::Aabb;
 
 /// Most SAH bins per axis (`BuildOptions::bins` is clamped to it).
@@ -72,5 +73,19 @@ impl Bounds {
 
     pub(super) fn to_aabb(self) -> Aabb {
         Aabb { min: self.min.into(), max: self.max.into() }
+    }
+}
+
+/// A child as its parent will record it (`BvhChild` with the box still in SIMD form).
+#[derive(Clone, Copy)]
+pub(super) struct ChildRef {
+    pub(super) bounds: Bounds,
+    pub(super) index: u32,
+    pub(super) count: u32,
+}
+
+impl ChildRef {
+    pub(super) fn to_child(self) -> BvhChild {
+        BvhChild { bounds: self.bounds.to_aabb(), index: self.index, count: self.count }
     }
 }
