@@ -199,3 +199,38 @@ fn framed_series_fills_the_frame_with_the_model() {
     assert!(row["gpu_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0) || row["wall_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn load_measures_every_phase_of_a_file_and_a_generated_model() {
+    // `bench --load`: a file (read, parse, build, pack, upload) and a generated knot (no
+    // read), each to its first frame, as a table, JSON and CSV.
+    let dir = scratch("load");
+    let obj = dir.join("quad.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    let (json, csv) = (dir.join("load.json"), dir.join("load.csv"));
+    let out = meshtracer(&["bench", "--load", obj.to_str().unwrap(), "torusknot:2000", "--size", "32", "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap()], true);
+    assert_success(&out, "bench --load");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("read s") && stdout.contains("to frame s"), "{stdout}");
+    let report: Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["triangles"], 2, "a quad is two triangles");
+    assert_eq!(rows[0]["file_bytes"], std::fs::metadata(&obj).unwrap().len());
+    for row in rows {
+        let phases: Vec<f64> = row["phase_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert_eq!(phases.len(), 5);
+        assert!(phases.iter().all(|&s| s >= 0.0));
+        let total = row["to_first_frame_s"].as_f64().unwrap();
+        assert!(total >= phases.iter().sum::<f64>(), "the wait includes every phase: {row}");
+    }
+    assert_eq!(rows[1]["phase_s"][0], 0.0, "a generated model reads no file");
+    assert!(rows[1]["triangles"].as_u64().unwrap() >= 2000);
+    let csv_text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(csv_text.lines().count(), 3, "{csv_text}");
+
+    let missing = meshtracer(&["bench", "--load", "/nonexistent/model.ply", "--size", "32"], false);
+    assert!(!missing.status.success());
+    let stderr = String::from_utf8_lossy(&missing.stderr);
+    assert!(stderr.contains("model.ply") && !stderr.contains("panicked"), "{stderr}");
+}

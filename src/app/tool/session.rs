@@ -63,11 +63,12 @@ impl Session {
         self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light);
     }
 
-    /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays.
+    /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays. The
+    /// first load has no model to fall back on, so it runs on.
     pub(crate) fn cancel_load(&mut self, panel: &mut PanelState) {
+        let Some(shown) = self.model.as_ref().map(|m| m.source.label()) else { return };
         if let Some(label) = self.loader.cancel() {
-            let keeping = self.model.as_ref().map_or("no model".to_owned(), |m| m.source.label());
-            panel.model.status = Some(Status::ok(format!("stopped loading {label}; keeping {keeping}")));
+            panel.model.status = Some(Status::ok(format!("stopped loading {label}; keeping {shown}")));
         }
     }
 
