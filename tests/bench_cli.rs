@@ -207,15 +207,19 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
     let dir = scratch("load");
     let obj = dir.join("quad.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    let ply = dir.join("tri.ply");
+    std::fs::write(&ply, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").unwrap();
     let (json, csv) = (dir.join("load.json"), dir.join("load.csv"));
-    let out = meshtracer(&["bench", "--load", obj.to_str().unwrap(), "torusknot:2000", "--size", "32", "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap()], true);
+    let out = meshtracer(&["bench", "--load", obj.to_str().unwrap(), "torusknot:2000", ply.to_str().unwrap(), "--size", "32", "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap()], true);
     assert_success(&out, "bench --load");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("read s") && stdout.contains("to frame s"), "{stdout}");
     let report: Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let rows = report["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 2);
+    assert_eq!(rows.len(), 3);
     assert_eq!(rows[0]["triangles"], 2, "a quad is two triangles");
+    assert_eq!(rows[2]["triangles"], 1);
+    assert!(rows[2]["phase_s"][0].as_f64().unwrap() > 0.0, "a PLY is read, then parsed: {}", rows[2]);
     assert_eq!(rows[0]["file_bytes"], std::fs::metadata(&obj).unwrap().len());
     for row in rows {
         let phases: Vec<f64> = row["phase_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
@@ -227,7 +231,7 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
     assert_eq!(rows[1]["phase_s"][0], 0.0, "a generated model reads no file");
     assert!(rows[1]["triangles"].as_u64().unwrap() >= 2000);
     let csv_text = std::fs::read_to_string(&csv).unwrap();
-    assert_eq!(csv_text.lines().count(), 3, "{csv_text}");
+    assert_eq!(csv_text.lines().count(), 4, "{csv_text}");
 
     let missing = meshtracer(&["bench", "--load", "/nonexistent/model.ply", "--size", "32"], false);
     assert!(!missing.status.success());

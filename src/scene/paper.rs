@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::obj::{load_obj_with, LoadOptions, LoadedObj, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
+use crate::files::read_regular_file;
 use crate::progress::{Phase, Progress};
 
 /// Half the side of the mirror box.
@@ -77,8 +78,40 @@ impl ModelSource {
     /// [`ModelSource::load_with`], reporting its phase to `progress` (and stopping before
     /// it when the load was cancelled); the error is one sentence.
     pub(crate) fn load_with_progress(&self, options: &LoadOptions, progress: &Progress) -> Result<(Mesh, Vec<String>), String> {
-        progress.begin(Phase::Parse).map_err(|e| e.to_string())?;
-        self.load_with(options).map_err(|e| e.to_string())
+        let (mut mesh, warnings) = match self {
+            ModelSource::File(p) => {
+                let loaded = load_model_file_reporting(p, options, progress)?;
+                (loaded.mesh, loaded.warnings)
+            }
+            generated => {
+                progress.begin(Phase::Parse).map_err(|e| e.to_string())?;
+                return generated.load_with(options).map_err(|e| e.to_string());
+            }
+        };
+        prepare_model(&mut mesh);
+        Ok((mesh, warnings))
+    }
+}
+
+/// [`load_model_file`], reporting the read and the parse to `progress` as separate phases
+/// where the format's reader takes bytes (PLY, glTF); the error is one sentence.
+fn load_model_file_reporting(path: &Path, options: &LoadOptions, progress: &Progress) -> Result<LoadedObj, String> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let begin = |phase| progress.begin(phase).map_err(|e| e.to_string());
+    let read = || -> Result<Vec<u8>, String> {
+        begin(Phase::Read)?;
+        let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
+        begin(Phase::Parse)?;
+        Ok(bytes)
+    };
+    let name = path.display().to_string();
+    match ext.as_deref() {
+        Some("ply") => super::ply::load_ply_from_bytes(&read()?, &name).map_err(|e| e.to_string()),
+        Some("gltf" | "glb") => super::gltf::load_gltf_from_bytes(&read()?, &name, path.parent()).map_err(|e| e.to_string()),
+        _ => {
+            begin(Phase::Parse)?;
+            load_model_file(path, options).map_err(|e| e.to_string())
+        }
     }
 }
 
