@@ -14,7 +14,7 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use meshtracer::scene::obj::{load_obj, load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions};
 use meshtracer::scene::primitives::{large_torus_knot, write_obj};
 

@@ -21,8 +21,13 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
     let (with_normals, with_texcoords) = (parsed.any_normal, parsed.any_texcoord);
+    // Nearly always each position makes one vertex: room for that many, no regrowing.
+    let vertices = parsed.positions.len();
     let mut mesh = Mesh {
         name: name.to_owned(),
+        positions: Vec::with_capacity(vertices),
+        normals: Vec::with_capacity(if with_normals { vertices } else { 0 }),
+        texcoords: Vec::with_capacity(if with_texcoords { vertices } else { 0 }),
         triangles: Vec::with_capacity(triangle_total),
         triangle_materials: Vec::with_capacity(triangle_total),
         ..Default::default()
@@ -55,7 +60,10 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
             if base + vertex_count > u32::MAX as usize {
                 return Err(too_many_vertices(name, base + vertex_count));
             }
-            triangulate(&corners, &[corners.len() as u32], base as u32, &mut mesh.triangles);
+            match corners[..] {
+                [a, b, c] => mesh.triangles.push([a, b, c].map(|k| k + base as u32)),
+                _ => triangulate(&corners, &[corners.len() as u32], base as u32, &mut mesh.triangles),
+            }
         }
         let material = match model.material {
             Some(i) if i < materials.len() => i as u32,

@@ -48,10 +48,10 @@ pub(super) fn default_chunk_bytes(text_len: usize) -> usize {
     (text_len / (4 * rayon::current_num_threads()).max(1)).max(MIN_CHUNK_BYTES)
 }
 
-/// Cut `text` into chunks of about `chunk_bytes` (at least one byte), at line starts.
-pub(super) fn split(text: &str, chunk_bytes: usize) -> Vec<Chunk<'_>> {
-    let bytes = text.as_bytes();
-    let mut chunks = Vec::new();
+/// Cut `bytes` into pieces of about `chunk_bytes` (at least one byte), at line starts
+/// (just after a `\n` byte, which is never inside a UTF-8 sequence).
+pub(super) fn split(bytes: &[u8], chunk_bytes: usize) -> Vec<(usize, &[u8])> {
+    let mut pieces = Vec::new();
     let mut start = 0;
     while start < bytes.len() {
         let mut end = (start + chunk_bytes.max(1)).min(bytes.len());
@@ -66,10 +66,10 @@ pub(super) fn split(text: &str, chunk_bytes: usize) -> Vec<Chunk<'_>> {
             }
             end += 1;
         }
-        chunks.push(Chunk { text: &text[start..end], offset: start });
+        pieces.push((start, &bytes[start..end]));
         start = end;
     }
-    chunks
+    pieces
 }
 
 /// True when the line ending at the end of `text` (its `\n` included) ends in `\`.
@@ -79,17 +79,32 @@ fn continues(text: &[u8]) -> bool {
     line.ends_with(b"\\")
 }
 
-/// The first pass: each chunk's counts, and the counts before each chunk (prefix sums).
-pub(super) fn count_all(chunks: &[Chunk<'_>]) -> Vec<Counts> {
-    let each: Vec<Counts> = chunks.par_iter().map(|c| count(c.text)).collect();
+/// The first pass: every piece checked to be UTF-8 text and counted. Gives the chunks and
+/// the counts before each (prefix sums, one more than chunks: the last is the total), or
+/// the line of the first invalid byte.
+pub(super) fn count_all<'a>(pieces: &[(usize, &'a [u8])]) -> Result<(Vec<Chunk<'a>>, Vec<Counts>), usize> {
+    let each: Vec<Result<(Chunk<'a>, Counts), &'a [u8]>> = pieces
+        .par_iter()
+        .map(|&(offset, bytes)| match std::str::from_utf8(bytes) {
+            Ok(text) => Ok((Chunk { text, offset }, count(text))),
+            Err(e) => Err(&bytes[..e.valid_up_to()]),
+        })
+        .collect();
+    let mut chunks = Vec::with_capacity(each.len());
     let mut before = Vec::with_capacity(each.len() + 1);
     let mut sum = Counts::default();
     before.push(sum);
-    for c in each {
-        sum = sum.add(c);
-        before.push(sum);
+    for piece in each {
+        match piece {
+            Ok((chunk, counts)) => {
+                chunks.push(chunk);
+                sum = sum.add(counts);
+                before.push(sum);
+            }
+            Err(valid) => return Err(1 + sum.lines + valid.iter().filter(|&&b| b == b'\n').count()),
+        }
     }
-    before
+    Ok((chunks, before))
 }
 
 /// Lines and `v`/`vt`/`vn` statements of one chunk.
@@ -97,10 +112,10 @@ fn count(text: &str) -> Counts {
     let mut counts = Counts::default();
     for line in lines(text) {
         counts.lines += 1;
-        match keyword(line) {
-            "v" => counts.positions += 1,
-            "vt" => counts.texcoords += 1,
-            "vn" => counts.normals += 1,
+        match keyword(line).as_bytes() {
+            [b'v'] => counts.positions += 1,
+            [b'v', b't'] => counts.texcoords += 1,
+            [b'v', b'n'] => counts.normals += 1,
             _ => {}
         }
     }
@@ -162,14 +177,22 @@ mod tests {
     fn chunks_cover_the_text_at_line_starts_and_keep_continued_lines_together() {
         let text = "v 1 2 3\r\nf 1 \\\r\n 2 3\nvt 0 0\n\nlast";
         for size in 1..text.len() + 2 {
-            let chunks = split(text, size);
+            let (chunks, before) = count_all(&split(text.as_bytes(), size)).unwrap();
             assert_eq!(chunks.iter().map(|c| c.text).collect::<String>(), text);
             for c in &chunks {
                 assert!(c.offset == 0 || text.as_bytes()[c.offset - 1] == b'\n', "size {size}: {c:?}");
                 assert!(!continues(c.text.as_bytes()) || c.offset + c.text.len() == text.len(), "size {size}: {c:?}");
             }
-            let total = count_all(&chunks).last().copied().unwrap();
+            let total = before.last().copied().unwrap();
             assert_eq!(total, Counts { lines: 6, positions: 1, texcoords: 1, normals: 0 });
+        }
+    }
+
+    #[test]
+    fn invalid_utf8_is_found_on_its_line_whatever_the_chunks() {
+        let bytes = b"v 1 2 3\nv 1 2 3\nv \xff 2 3\nv\n";
+        for size in 1..bytes.len() + 2 {
+            assert_eq!(count_all(&split(bytes, size)).err(), Some(3), "size {size}");
         }
     }
 

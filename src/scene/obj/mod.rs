@@ -160,18 +160,13 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
 
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    let bytes = crate::files::read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes = crate::files::read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     let name = path.display().to_string();
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
-        ObjError::NotText { line, name: name.clone() }
-    })?;
     // `parent()` of a bare file name is "", which joins to paths relative to the working
-    // directory: exactly where the file itself was found.
-    let chunk_bytes = chunks::default_chunk_bytes(text.len());
-    let parsed = parse_text(&text, &name, path.parent(), chunk_bytes)?;
-    drop(text);
+    // directory: exactly where the file itself was found. The bytes are checked to be
+    // UTF-8 chunk by chunk, in parallel, as they are parsed.
+    let parsed = parse_text(&bytes, &name, path.parent(), chunks::default_chunk_bytes(bytes.len()))?;
+    drop(bytes);
     finish(parsed, &name, options)
 }
 
@@ -191,7 +186,7 @@ pub fn load_obj_from_str_with(text: &str, name: &str, base_dir: Option<&Path>, o
 /// at every line): for tests, which check that every cut gives the same result.
 #[doc(hidden)]
 pub fn load_obj_from_str_chunked(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions, chunk_bytes: usize) -> Result<LoadedObj, ObjError> {
-    let parsed = parse_text(text, name, base_dir, chunk_bytes)?;
+    let parsed = parse_text(text.as_bytes(), name, base_dir, chunk_bytes)?;
     finish(parsed, name, options)
 }
 
@@ -203,11 +198,11 @@ struct ParsedObj {
     warnings: Vec<String>,
 }
 
-fn parse_text(text: &str, name: &str, base_dir: Option<&Path>, chunk_bytes: usize) -> Result<ParsedObj, ObjError> {
+fn parse_text(bytes: &[u8], name: &str, base_dir: Option<&Path>, chunk_bytes: usize) -> Result<ParsedObj, ObjError> {
     // A UTF-8 byte-order mark would glue itself to the first keyword.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let bytes = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
     let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
-    let mut parsed = parallel::parse(text, name, &libs, chunk_bytes)?;
+    let mut parsed = parallel::parse(bytes, name, &libs, chunk_bytes)?;
     let mut warnings = libs.warnings.into_inner();
     warn_dropped(&mut warnings, name, &parsed.dropped_texcoords, "texture coordinate", "texture coordinates", "drawn without texture coordinates");
     warn_dropped(&mut warnings, name, &parsed.dropped_normals, "normal", "normals", "drawn with computed normals");

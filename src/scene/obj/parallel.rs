@@ -64,10 +64,12 @@ pub(super) struct Parsed {
     pub(super) materials: Vec<tobj::Material>,
 }
 
-/// Parse `text` in chunks of about `chunk_bytes`; `libs` loads the `mtllib` libraries.
-pub(super) fn parse(text: &str, name: &str, libs: &MaterialLibraries, chunk_bytes: usize) -> Result<Parsed, ObjError> {
-    let chunks = chunks::split(text, chunk_bytes);
-    let before = chunks::count_all(&chunks);
+/// Parse `bytes` (checked to be UTF-8 on the way) in chunks of about `chunk_bytes`;
+/// `libs` loads the `mtllib` libraries.
+pub(super) fn parse(bytes: &[u8], name: &str, libs: &MaterialLibraries, chunk_bytes: usize) -> Result<Parsed, ObjError> {
+    let pieces = chunks::split(bytes, chunk_bytes);
+    let (chunks, before) = chunks::count_all(&pieces).map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
+    drop(pieces);
     let total = before.last().copied().unwrap_or_default();
     let mut parsed = Parsed {
         positions: vec![Vec3::ZERO; total.positions],
@@ -78,7 +80,7 @@ pub(super) fn parse(text: &str, name: &str, libs: &MaterialLibraries, chunk_byte
     };
     let targets = split_targets(&mut parsed, &before);
     let results: Vec<ChunkFaces> = chunks.par_iter().zip(targets).zip(&before).map(|((c, t), b)| parse_chunk(*c, *b, t)).collect();
-    join(results, &mut parsed, text, name, libs)?;
+    join(results, &mut parsed, bytes, name, libs)?;
     Ok(parsed)
 }
 
@@ -100,7 +102,10 @@ fn split_targets<'t>(parsed: &'t mut Parsed, before: &[Counts]) -> Vec<Targets<'
 /// The chunks in file order, as tobj would have read them: models, materials, smoothing
 /// groups, dropped attributes; the first error in file order, or the vertex colour error
 /// that tobj raises when it closes a model before that line.
-fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, text: &str, name: &str, libs: &MaterialLibraries) -> Result<(), ObjError> {
+fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str, libs: &MaterialLibraries) -> Result<(), ObjError> {
+    // Every chunk was valid UTF-8, so the whole is: the messages that read the text again
+    // (rare) check it once more rather than assume it.
+    let text = || std::str::from_utf8(bytes).unwrap_or_default();
     let mut walk = Walk::default();
     let mut error: Option<ChunkError> = None;
     let (mut face_base, mut colour_base) = (0, 0);
@@ -129,10 +134,10 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, text: &str, name: &str, l
         walk.pop(face_base, colour_base);
     }
     if walk.pops.iter().any(|(faces, colours)| *colours > 0 && uses_vertex_beyond(&parsed.blocks, faces.clone(), *colours)) {
-        return Err(locate_colour_mismatch(text, name));
+        return Err(locate_colour_mismatch(text(), name));
     }
     if let Some(e) = error {
-        return Err(located_error(e, text, name));
+        return Err(located_error(e, text(), name));
     }
     parsed.models = walk.models;
     parsed.smoothing = walk.smoothing;

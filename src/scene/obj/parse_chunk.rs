@@ -160,9 +160,10 @@ impl<'a> Parser<'a, '_> {
         // `word` is a subslice of `line`: what follows it.
         let rest = &line[word.as_ptr() as usize - line.as_ptr() as usize + word.len()..];
         let quoted = || quote(line);
-        match word {
-            "v" => self.position(line, rest)?,
-            "vt" => {
+        // Byte patterns: a plain comparison each, where string patterns call memcmp.
+        match word.as_bytes() {
+            [b'v'] => self.position(line, rest)?,
+            [b'v', b't'] => {
                 let Some(t) = numbers::<2>(&mut words(rest)) else {
                     return Err(ErrorKind::Parse(format!("a texture coordinate needs two numbers, but the line reads {}", quoted())));
                 };
@@ -170,7 +171,7 @@ impl<'a> Parser<'a, '_> {
                 put(self.targets.texcoords, self.counts.texcoords - self.first.texcoords, Vec2::from(t));
                 self.counts.texcoords += 1;
             }
-            "vn" => {
+            [b'v', b'n'] => {
                 let Some(n) = numbers::<3>(&mut words(rest)) else {
                     return Err(ErrorKind::Parse(format!("a normal needs three numbers, but the line reads {}", quoted())));
                 };
@@ -178,9 +179,9 @@ impl<'a> Parser<'a, '_> {
                 put(self.targets.normals, self.counts.normals - self.first.normals, Vec3::from(n));
                 self.counts.normals += 1;
             }
-            "f" => self.face(line, rest)?,
-            "o" | "g" => self.out.events.push(Event::Group { face: self.out.arities.len(), colours: self.out.colours }),
-            "usemtl" => {
+            [b'f'] => self.face(line, rest)?,
+            [b'o'] | [b'g'] => self.out.events.push(Event::Group { face: self.out.arities.len(), colours: self.out.colours }),
+            [b'u', b's', b'e', b'm', b't', b'l'] => {
                 let name = line.split_once(' ').map_or("", |(_, n)| n.trim());
                 if name.is_empty() {
                     return Err(ErrorKind::Parse(format!("cannot read the material name from {}", quoted())));
@@ -188,8 +189,8 @@ impl<'a> Parser<'a, '_> {
                 let (face, colours) = (self.out.arities.len(), self.out.colours);
                 self.out.events.push(Event::Usemtl { face, colours, name });
             }
-            "mtllib" => self.out.events.push(Event::Mtllib { spelled: line.split_once(' ').map_or("", |(_, n)| n.trim()) }),
-            "s" => {
+            [b'm', b't', b'l', b'l', b'i', b'b'] => self.out.events.push(Event::Mtllib { spelled: line.split_once(' ').map_or("", |(_, n)| n.trim()) }),
+            [b's'] => {
                 let value = words(rest).next().map(str::as_bytes);
                 let group = match value {
                     Some(v) if v.eq_ignore_ascii_case(b"off") => 0,
