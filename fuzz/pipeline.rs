@@ -110,8 +110,8 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
     Outcome::Traced(scene.meshes[0].triangle_count())
 }
 
-/// The parallel parse, cut at every line, gives exactly what the serial tobj loader it
-/// replaced gives: the same mesh and warnings, or the same message.
+/// The parallel parse, in one chunk and cut at every line, gives exactly what the serial
+/// tobj loader it replaced gives: the same mesh and warnings, or the same message.
 fn check_against_tobj(text: &str, dir: Option<&Path>) {
     let outcome = |r: Result<LoadedObj, ObjError>| match r {
         Ok(l) => format!("{:?}\n{:?}", l.mesh, l.warnings),
@@ -119,8 +119,10 @@ fn check_against_tobj(text: &str, dir: Option<&Path>) {
     };
     let options = LoadOptions::default();
     let expected = outcome(load_obj_from_str_tobj(text, "fuzz.obj", dir, &options));
+    let whole = outcome(load_obj_from_str_chunked(text, "fuzz.obj", dir, &options, usize::MAX));
+    assert_eq!(whole, expected, "the parallel parse in one chunk differs from tobj");
     let chunked = outcome(load_obj_from_str_chunked(text, "fuzz.obj", dir, &options, 1));
-    assert_eq!(chunked, expected, "the parallel parse differs from tobj");
+    assert_eq!(chunked, expected, "the parallel parse cut at every line differs from tobj");
 }
 
 /// The loader's message is one line naming the file.
