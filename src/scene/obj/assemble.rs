@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 
 use super::convert::{finish_normals, triangulate, NormalSources};
+use super::par_dedup::{add_model, Output, Piece, Shared, Sources};
 use super::parallel::{FaceBlock, ModelRun, Parsed};
 use super::parse_chunk::NONE;
 use super::{LoadOptions, ObjError};
@@ -33,15 +34,35 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         ..Default::default()
     };
     let mut dedup = Dedup::new(parsed.positions.len());
-    let mut faces = Faces::new(&parsed.blocks);
+    let mut shared = None;
+    let mut cursor = Cursor { blocks: &parsed.blocks, block: 0, face: 0, corner: 0 };
     let mut corners = Vec::new();
     let mut default_material = None;
     for (m, model) in parsed.models.iter().enumerate() {
         let base = mesh.positions.len();
+        let pieces = cursor.take(model.faces.len());
+        // A model over several chunks is de-duplicated in parallel, a chunk at a time.
+        let parallel = pieces.len() > 1 && {
+            let shared = shared.get_or_insert_with(|| Shared::new(parsed.positions.len()));
+            let sources = Sources {
+                positions: &parsed.positions,
+                normals: with_normals.then_some(&parsed.normals[..]),
+                texcoords: with_texcoords.then_some(&parsed.texcoords[..]),
+            };
+            let out = Output { positions: &mut mesh.positions, normals: &mut mesh.normals, texcoords: &mut mesh.texcoords, triangles: &mut mesh.triangles };
+            add_model(&pieces, shared, &sources, out)
+        };
         dedup.start_model(m as u32);
         let mut vertex_count = 0usize;
-        for _ in model.faces.clone() {
-            let Some(face) = faces.next() else { break };
+        let faces = pieces.iter().filter(|_| !parallel).flat_map(|p| {
+            let mut rest = p.corners;
+            p.arities.iter().map(move |&n| {
+                let (face, after) = rest.split_at(n as usize);
+                rest = after;
+                face
+            })
+        });
+        for face in faces {
             corners.clear();
             for &[v, vt, vn] in face {
                 let (index, new) = dedup.vertex(v, vt, vn);
@@ -129,32 +150,32 @@ fn triangle_groups(blocks: &[FaceBlock], models: &[ModelRun], smoothing: &[(usiz
     groups
 }
 
-/// The faces of all blocks in order, each as its corners.
-struct Faces<'b> {
-    blocks: std::slice::Iter<'b, FaceBlock>,
-    corners: &'b [[u32; 3]],
-    arities: std::slice::Iter<'b, u32>,
+/// Walks the blocks' faces in order, handing out each model's faces as pieces (its faces
+/// within one block each).
+struct Cursor<'b> {
+    blocks: &'b [FaceBlock],
+    block: usize,
+    /// Face and corner of `block` where the next model starts.
+    face: usize,
+    corner: usize,
 }
 
-impl<'b> Faces<'b> {
-    fn new(blocks: &'b [FaceBlock]) -> Self {
-        Faces { blocks: blocks.iter(), corners: &[], arities: [].iter() }
-    }
-}
-
-impl<'b> Iterator for Faces<'b> {
-    type Item = &'b [[u32; 3]];
-
-    fn next(&mut self) -> Option<&'b [[u32; 3]]> {
-        loop {
-            if let Some(&n) = self.arities.next() {
-                let (face, rest) = self.corners.split_at(n as usize);
-                self.corners = rest;
-                return Some(face);
+impl<'b> Cursor<'b> {
+    fn take(&mut self, mut faces: usize) -> Vec<Piece<'b>> {
+        let mut pieces = Vec::new();
+        while faces > 0 && self.block < self.blocks.len() {
+            let block = &self.blocks[self.block];
+            let n = faces.min(block.arities.len() - self.face);
+            let arities = &block.arities[self.face..self.face + n];
+            let corner_count: usize = arities.iter().map(|&a| a as usize).sum();
+            pieces.push(Piece { corners: &block.corners[self.corner..self.corner + corner_count], arities });
+            (self.face, self.corner, faces) = (self.face + n, self.corner + corner_count, faces - n);
+            if self.face == block.arities.len() {
+                (self.block, self.face, self.corner) = (self.block + 1, 0, 0);
             }
-            let block = self.blocks.next()?;
-            (self.corners, self.arities) = (&block.corners, block.arities.iter());
         }
+        pieces.retain(|p| !p.arities.is_empty());
+        pieces
     }
 }
 

@@ -3,8 +3,8 @@
 //!
 //! The file is read once, cut into chunks at line starts and parsed chunk by chunk on all
 //! cores (`chunks.rs`, `parse_chunk.rs`), joined in file order (`parallel.rs`) and built
-//! into one mesh (`assemble.rs`, `convert.rs`); the text is freed before the mesh is
-//! built. The loader used to be tobj fed line by line (`line_feeder.rs`); that path is
+//! into one mesh (`assemble.rs`, with `par_dedup.rs` for models spread over several
+//! chunks, and `convert.rs` for the normals); the text is freed before the mesh is built. The loader used to be tobj fed line by line (`line_feeder.rs`); that path is
 //! kept, hidden, as the oracle the tests and the fuzzer compare with, and every rule
 //! below is the one it had:
 //!
@@ -37,6 +37,7 @@ mod chunks;
 mod convert;
 mod line_feeder;
 mod mtl;
+mod par_dedup;
 mod parallel;
 mod parse_chunk;
 
