@@ -14,7 +14,7 @@
 use std::path::Path;
 
 use glam::Vec3;
-use meshtracer::scene::obj::{load_obj_from_str, ObjError};
+use meshtracer::scene::obj::{load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj, ObjError};
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::render_settings::RenderSettings;
 use meshtracer::tracer::{cpu, FrameParams, PackedScene};
@@ -51,9 +51,13 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         Some(mtl) => {
             std::fs::write(dir.join("m.mtl"), mtl).expect("the scratch folder is writable");
             let text = format!("mtllib m.mtl\n{obj}");
+            check_against_tobj(&text, Some(dir));
             load_obj_from_str(&text, "fuzz.obj", Some(dir))
         }
-        None => load_obj_from_str(obj, "fuzz.obj", None),
+        None => {
+            check_against_tobj(obj, None);
+            load_obj_from_str(obj, "fuzz.obj", None)
+        }
     };
     let mut mesh = match loaded {
         Ok(l) => l.mesh,
@@ -104,6 +108,21 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         assert!(p.iter().all(|c| c.is_finite()), "a traced pixel is {p:?}");
     }
     Outcome::Traced(scene.meshes[0].triangle_count())
+}
+
+/// The parallel parse, in one chunk and cut at every line, gives exactly what the serial
+/// tobj loader it replaced gives: the same mesh and warnings, or the same message.
+fn check_against_tobj(text: &str, dir: Option<&Path>) {
+    let outcome = |r: Result<LoadedObj, ObjError>| match r {
+        Ok(l) => format!("{:?}\n{:?}", l.mesh, l.warnings),
+        Err(e) => format!("error: {e}"),
+    };
+    let options = LoadOptions::default();
+    let expected = outcome(load_obj_from_str_tobj(text, "fuzz.obj", dir, &options));
+    let whole = outcome(load_obj_from_str_chunked(text, "fuzz.obj", dir, &options, usize::MAX));
+    assert_eq!(whole, expected, "the parallel parse in one chunk differs from tobj");
+    let chunked = outcome(load_obj_from_str_chunked(text, "fuzz.obj", dir, &options, 1));
+    assert_eq!(chunked, expected, "the parallel parse cut at every line differs from tobj");
 }
 
 /// The loader's message is one line naming the file.

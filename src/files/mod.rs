@@ -56,6 +56,54 @@ pub(crate) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// [`read_regular_file`] with the reading split between threads (positioned reads of
+/// disjoint parts, so the kernel's copying and the page faults of a large model file run
+/// on every core). Only as many bytes as the file had when it was checked are read; a
+/// file that changes meanwhile is read again the plain way.
+pub(crate) fn read_regular_file_parallel(path: &Path) -> std::io::Result<Vec<u8>> {
+    use rayon::prelude::*;
+    /// Below this, one read: threads would cost more than they save.
+    const PART: usize = 8 << 20;
+    let meta = std::fs::metadata(path)?;
+    let len = usize::try_from(meta.len()).unwrap_or(usize::MAX);
+    if !cfg!(unix) || !meta.is_file() || len < 2 * PART {
+        return read_regular_file(path);
+    }
+    let file = File::open(path)?;
+    let mut bytes = vec![0u8; len];
+    let parts: Vec<(usize, &mut [u8])> = bytes.chunks_mut(PART).enumerate().map(|(i, part)| (i * PART, part)).collect();
+    if parts.into_par_iter().try_for_each(|(offset, part)| read_exact_at(&file, part, offset as u64)).is_err() {
+        // Shrunk since it was checked, or a read failed: the plain read says what is there.
+        return read_regular_file(path);
+    }
+    // Grown since it was checked: the plain read takes what is there now.
+    let mut probe = [0u8; 1];
+    if read_at(&file, &mut probe, len as u64)? != 0 {
+        return read_regular_file(path);
+    }
+    Ok(bytes)
+}
+
+#[cfg(unix)]
+fn read_exact_at(file: &File, part: &mut [u8], offset: u64) -> std::io::Result<()> {
+    std::os::unix::fs::FileExt::read_exact_at(file, part, offset)
+}
+
+#[cfg(unix)]
+fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Result<usize> {
+    std::os::unix::fs::FileExt::read_at(file, buf, offset)
+}
+
+#[cfg(not(unix))]
+fn read_exact_at(_: &File, _: &mut [u8], _: u64) -> std::io::Result<()> {
+    Err(std::io::Error::other("positioned reads are only used on Unix"))
+}
+
+#[cfg(not(unix))]
+fn read_at(_: &File, _: &mut [u8], _: u64) -> std::io::Result<usize> {
+    Err(std::io::Error::other("positioned reads are only used on Unix"))
+}
+
 /// Decode the image file at `path` (PNG, JPEG, TGA, HDR, EXR, DDS), refusing what is not a
 /// regular file before opening it.
 pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage, String> {

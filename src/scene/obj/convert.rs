@@ -17,9 +17,9 @@ fn triangles_in(m: &tobj::Mesh) -> usize {
     }
 }
 
-/// Append the triangles of one tobj mesh, offset by `base`. Quads split as the paper
+/// Append the triangles of one mesh, offset by `base`. Quads split as the paper
 /// says, (1,2,4) and (2,3,4); larger polygons become fans around their first corner.
-fn triangulate(indices: &[u32], arities: &[u32], base: u32, out: &mut Vec<[u32; 3]>) {
+pub(super) fn triangulate(indices: &[u32], arities: &[u32], base: u32, out: &mut Vec<[u32; 3]>) {
     if arities.is_empty() {
         // tobj drops the arities when every face is a triangle.
         out.extend(indices.chunks_exact(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
@@ -120,6 +120,29 @@ pub(super) fn build_mesh(
 
     let groups = (!notes.smoothing.is_empty()).then(|| triangle_groups(models, notes.smoothing));
     let models_with_faces = models.iter().filter(|m| !m.mesh.indices.is_empty()).count();
+    let sources = NormalSources { with_normals, all_normals, with_texcoords, models_with_faces };
+    finish_normals(&mut mesh, groups.as_deref(), sources, options);
+    Ok(mesh)
+}
+
+/// What the file gave the mesh's vertices, which decides how its normals are made.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct NormalSources {
+    /// Some vertex has a normal from the file.
+    pub(super) with_normals: bool,
+    /// Every vertex has one.
+    pub(super) all_normals: bool,
+    /// Some vertex has a texture coordinate.
+    pub(super) with_texcoords: bool,
+    /// How many models (runs of faces with one material, object or group) have faces.
+    pub(super) models_with_faces: usize,
+}
+
+/// The mesh's final normals: the file's (normalised) where every vertex has a usable one,
+/// otherwise computed by smoothing group, crease angle or position (see the module docs).
+/// `groups` is the smoothing group of every triangle, None without `s` lines.
+pub(super) fn finish_normals(mesh: &mut Mesh, groups: Option<&[u32]>, sources: NormalSources, options: &LoadOptions) {
+    let NormalSources { with_normals, all_normals, with_texcoords, models_with_faces } = sources;
     if all_normals && mesh.normals.iter().all(|n| n.try_normalize().is_some()) {
         // File normals need not be unit length.
         mesh.normals.iter_mut().for_each(|n| *n = n.normalize());
@@ -128,7 +151,7 @@ pub(super) fn build_mesh(
         if models_with_faces > 1 || with_texcoords {
             // tobj splits vertices at every `usemtl`/`o`/`g` and at texture seams: averaging
             // per vertex would leave shading seams there, so average per position instead.
-            smooth_normals_by_position(&mut mesh);
+            smooth_normals_by_position(mesh);
         } else {
             mesh.compute_vertex_normals();
         }
@@ -137,12 +160,11 @@ pub(super) fn build_mesh(
         // crease angle: a vertex used with different normals is split.
         let file_normals = std::mem::take(&mut mesh.normals);
         let crease = if groups.is_some() { None } else { options.crease_angle };
-        let corners = corner_normals(&mesh, groups.as_deref(), crease);
+        let corners = corner_normals(mesh, groups, crease);
         let usable = |v: usize| file_normals.get(v).and_then(|n| n.try_normalize());
-        apply_corner_normals(&mut mesh, |v, corner| usable(v).unwrap_or(corners[corner]));
+        apply_corner_normals(mesh, |v, corner| usable(v).unwrap_or(corners[corner]));
         mesh.has_file_normals = all_normals;
     }
-    Ok(mesh)
 }
 
 /// Which of a model's vertices have an attribute (normal or texture coordinate).

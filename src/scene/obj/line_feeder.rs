@@ -4,6 +4,10 @@
 //! path that says what is wrong), hands tobj a face without the texture coordinates or
 //! normals it names out of range, records smoothing groups (which tobj ignores), collects
 //! `usemtl` names and hides polylines from tobj.
+//!
+//! OBJ files are now parsed by our own parallel parser (`parallel.rs`); the OBJ mode here
+//! is the serial loader it replaced, kept as the oracle the tests and the fuzzer compare
+//! it with. MTL files still go through tobj and this feeder.
 
 use std::borrow::Cow;
 use std::collections::HashSet;

@@ -1,30 +1,45 @@
-//! Wavefront OBJ loading (paper 3.1), on top of `tobj`, hardened for real-world files.
+//! Wavefront OBJ loading (paper 3.1): our own parallel parser, hardened for real-world
+//! files; `tobj` reads the .mtl libraries.
 //!
-//! `tobj` does the parsing, the vertex de-duplication (`single_index`) and the .mtl
-//! parsing. Around it this module adds what a viewer needs from a loader:
+//! The file is read once, cut into chunks at line starts and parsed chunk by chunk on all
+//! cores (`chunks.rs`, `parse_chunk.rs`), joined in file order (`parallel.rs`) and built
+//! into one mesh (`assemble.rs`, with `par_dedup.rs` for models spread over several
+//! chunks, and `convert.rs` for the normals); the text is freed before the mesh is built. The loader used to be tobj fed line by line (`line_feeder.rs`); that path is
+//! kept, hidden, as the oracle the tests and the fuzzer compare with, and every rule
+//! below is the one it had:
 //!
-//! - Triangulation done here, so that a quad `1 2 3 4` splits into (1,2,4) and (2,3,4)
-//!   exactly as the paper says; larger polygons become fans.
-//! - Errors that name the file and the line. `tobj` reads through a `LineFeeder`, which
-//!   sees it take one line at a time, so when `tobj` stops with an error the feeder knows
-//!   the line. The feeder also checks every face index against the counts seen so far
-//!   before `tobj` parses it: out-of-range indices get a line number, and `tobj` never
-//!   meets the zero, huge or far-negative indices whose arithmetic can overflow inside it.
-//!   All of this costs about a tenth of `tobj`'s own time; the text is only scanned
-//!   again to find the line of a NaN.
+//! - Statements read as tobj read them: words split at whitespace, `v x y z` with an
+//!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b, `vt u v`,
+//!   `vn x y z`, faces of three or more corners `v`, `v/vt`, `v//vn`, `v/vt/vn` with
+//!   absolute or relative (negative) indices; every line on its own (a `\` at the end of a
+//!   line does not continue it); `l` polylines and unknown statements ignored.
+//! - Vertices as tobj made them: per model (a new one at `o`/`g` and at a `usemtl` that
+//!   changes the material, once the current one has faces) each distinct corner becomes
+//!   a vertex, in order of first use.
+//! - Triangulation: a quad `1 2 3 4` splits into (1,2,4) and (2,3,4) exactly as the paper
+//!   says; larger polygons become fans.
+//! - Errors that name the file and the line, the first in file order: a number that is
+//!   not one, too few values, a bad face corner, a face vertex index out of range (checked
+//!   against the counts before its line, so zero, huge or far-negative indices are refused
+//!   with their line), a statement cut short on the last line, a NaN or infinity.
 //! - Warnings instead of failures for what a model can live without: a missing .mtl,
 //!   a missing texture, an unknown `usemtl` name, texture options it does not apply,
-//!   faces naming texture coordinates or normals that the file never defines (the feeder
-//!   hands tobj those faces without them).
+//!   faces naming texture coordinates or normals that the file never defines (the face
+//!   goes on without them).
 //! - Computed normals (for vertices that the file gives none) that honour smoothing
-//!   groups (`s 1`, `s off`, which tobj ignores) or, without groups, an optional crease
-//!   angle ([`LoadOptions::crease_angle`]).
+//!   groups (`s 1`, `s off`) or, without groups, an optional crease angle
+//!   ([`LoadOptions::crease_angle`]).
 //! - Texture options of `map_Kd` (`-o`, `-s`, `-clamp` applied, the others ignored) and
 //!   `mtllib` with several names and `\ ` escapes.
 
+mod assemble;
+mod chunks;
 mod convert;
 mod line_feeder;
 mod mtl;
+mod par_dedup;
+mod parallel;
+mod parse_chunk;
 
 use std::cell::RefCell;
 use std::collections::HashSet;
@@ -138,24 +153,22 @@ pub enum ObjError {
 
 /// Load an OBJ file (and the .mtl libraries it names, from its folder).
 ///
-/// The whole file is read into memory first: it is needed again to locate the line of
-/// an error, and one read is the fastest way to get at it anyway.
+/// The whole file is read into memory first (one read is the fastest way to get at it),
+/// parsed in parallel, and freed before the mesh is built.
 pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
     load_obj_with(path, &LoadOptions::default())
 }
 
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    let bytes = crate::files::read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes = crate::files::read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     let name = path.display().to_string();
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = 1 + valid.iter().filter(|&&b| b == b'\n').count();
-        ObjError::NotText { line, name: name.clone() }
-    })?;
     // `parent()` of a bare file name is "", which joins to paths relative to the working
-    // directory: exactly where the file itself was found.
-    load_obj_from_str_with(&text, &name, path.parent(), options)
+    // directory: exactly where the file itself was found. The bytes are checked to be
+    // UTF-8 chunk by chunk, in parallel, as they are parsed.
+    let parsed = parse_text(&bytes, &name, path.parent(), chunks::default_chunk_bytes(bytes.len()))?;
+    drop(bytes);
+    finish(parsed, &name, options)
 }
 
 /// Same, from text already in memory (`name` is used in messages, `base_dir` resolves mtllib). Used by tests and the fuzzer.
@@ -167,6 +180,53 @@ pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Res
 
 /// [`load_obj_from_str`] with options.
 pub fn load_obj_from_str_with(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+    load_obj_from_str_chunked(text, name, base_dir, options, chunks::default_chunk_bytes(text.len()))
+}
+
+/// [`load_obj_from_str_with`] with the text cut into chunks of about `chunk_bytes` (1 cuts
+/// at every line): for tests, which check that every cut gives the same result.
+#[doc(hidden)]
+pub fn load_obj_from_str_chunked(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions, chunk_bytes: usize) -> Result<LoadedObj, ObjError> {
+    let parsed = parse_text(text.as_bytes(), name, base_dir, chunk_bytes)?;
+    finish(parsed, name, options)
+}
+
+/// The parse and everything that needs the text: the joined parse, the converted
+/// materials and the warnings so far.
+struct ParsedObj {
+    parsed: parallel::Parsed,
+    materials: Vec<crate::scene::Material>,
+    warnings: Vec<String>,
+}
+
+fn parse_text(bytes: &[u8], name: &str, base_dir: Option<&Path>, chunk_bytes: usize) -> Result<ParsedObj, ObjError> {
+    // A UTF-8 byte-order mark would glue itself to the first keyword.
+    let bytes = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
+    let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
+    let mut parsed = parallel::parse(bytes, name, &libs, chunk_bytes)?;
+    let mut warnings = libs.warnings.into_inner();
+    warn_dropped(&mut warnings, name, &parsed.dropped_texcoords, "texture coordinate", "texture coordinates", "drawn without texture coordinates");
+    warn_dropped(&mut warnings, name, &parsed.dropped_normals, "normal", "normals", "drawn with computed normals");
+    let materials = convert_materials(&std::mem::take(&mut parsed.materials), &libs.loaded.into_inner(), &mut warnings);
+    let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+    for missing in parsed.usemtl_names.iter().filter(|n| !known.contains(n.as_str())) {
+        warn(
+            &mut warnings,
+            format!("{name}: `usemtl {}` names no material of the loaded libraries; its faces use the default material", quote_name(missing)),
+        );
+    }
+    Ok(ParsedObj { parsed, materials, warnings })
+}
+
+fn finish(parsed: ParsedObj, name: &str, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+    let mesh = assemble::assemble(parsed.parsed, parsed.materials, name, options)?;
+    Ok(LoadedObj { mesh, warnings: parsed.warnings })
+}
+
+/// The loader as it was before the parallel parse: tobj reading through the line feeder.
+/// Kept as the oracle that tests (and the fuzzer) compare the parallel loader with.
+#[doc(hidden)]
+pub fn load_obj_from_str_tobj(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     // A UTF-8 byte-order mark would glue itself to the first keyword.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };

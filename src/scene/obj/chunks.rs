@@ -1,0 +1,205 @@
+//! Cutting an OBJ text into chunks that can be parsed in parallel, and the first pass
+//! over them: how many lines and how many `v`/`vt`/`vn` each chunk holds, so that the
+//! second pass knows, for every face, the element counts before its line in the whole
+//! file (what absolute and relative indices are checked and resolved against).
+//!
+//! A chunk always starts at the start of a line. A line ending in `\` is never the last
+//! line of a chunk (some writers continue a statement on the next line that way; tobj,
+//! whose behaviour the loader keeps, reads every line on its own), and as chunks end just
+//! after a `\n`, a CRLF is never split.
+
+use rayon::prelude::*;
+
+/// Below this many bytes a file is parsed as one chunk: threads would cost more than they save.
+const MIN_CHUNK_BYTES: usize = 1 << 20;
+
+/// One piece of the text and where it starts in the whole file.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Chunk<'a> {
+    /// Whole lines, the last one with its `\n` unless it is the file's last line.
+    pub(super) text: &'a str,
+    /// Byte offset of `text` in the whole text.
+    pub(super) offset: usize,
+}
+
+/// What the first pass counts in one chunk (and, summed, before a chunk).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Counts {
+    /// Lines (a last line without `\n` counts).
+    pub(super) lines: usize,
+    pub(super) positions: usize,
+    pub(super) texcoords: usize,
+    pub(super) normals: usize,
+}
+
+impl Counts {
+    fn add(self, other: Counts) -> Counts {
+        Counts {
+            lines: self.lines + other.lines,
+            positions: self.positions + other.positions,
+            texcoords: self.texcoords + other.texcoords,
+            normals: self.normals + other.normals,
+        }
+    }
+}
+
+/// The chunk size for a text: about four chunks per thread, none smaller than 1 MiB.
+pub(super) fn default_chunk_bytes(text_len: usize) -> usize {
+    (text_len / (4 * rayon::current_num_threads()).max(1)).max(MIN_CHUNK_BYTES)
+}
+
+/// Cut `bytes` into pieces of about `chunk_bytes` (at least one byte), at line starts
+/// (just after a `\n` byte, which is never inside a UTF-8 sequence).
+pub(super) fn split(bytes: &[u8], chunk_bytes: usize) -> Vec<(usize, &[u8])> {
+    let mut pieces = Vec::new();
+    let mut start = 0;
+    while start < bytes.len() {
+        let mut end = (start + chunk_bytes.max(1)).min(bytes.len());
+        loop {
+            // Extend to the end of the line that `end` falls in (or that ends just before it).
+            end = match memchr(b'\n', &bytes[end - 1..]) {
+                Some(i) => end + i,
+                None => bytes.len(),
+            };
+            if end == bytes.len() || !continues(&bytes[start..end]) {
+                break;
+            }
+            end += 1;
+        }
+        pieces.push((start, &bytes[start..end]));
+        start = end;
+    }
+    pieces
+}
+
+/// True when the line ending at the end of `text` (its `\n` included) ends in `\`.
+fn continues(text: &[u8]) -> bool {
+    let line = text.strip_suffix(b"\n").unwrap_or(text);
+    let line = line.strip_suffix(b"\r").unwrap_or(line);
+    line.ends_with(b"\\")
+}
+
+/// The first pass: every piece checked to be UTF-8 text and counted. Gives the chunks and
+/// the counts before each (prefix sums, one more than chunks: the last is the total), or
+/// the line of the first invalid byte.
+pub(super) fn count_all<'a>(pieces: &[(usize, &'a [u8])]) -> Result<(Vec<Chunk<'a>>, Vec<Counts>), usize> {
+    let each: Vec<Result<(Chunk<'a>, Counts), &'a [u8]>> = pieces
+        .par_iter()
+        .map(|&(offset, bytes)| match std::str::from_utf8(bytes) {
+            Ok(text) => Ok((Chunk { text, offset }, count(text))),
+            Err(e) => Err(&bytes[..e.valid_up_to()]),
+        })
+        .collect();
+    let mut chunks = Vec::with_capacity(each.len());
+    let mut before = Vec::with_capacity(each.len() + 1);
+    let mut sum = Counts::default();
+    before.push(sum);
+    for piece in each {
+        match piece {
+            Ok((chunk, counts)) => {
+                chunks.push(chunk);
+                sum = sum.add(counts);
+                before.push(sum);
+            }
+            Err(valid) => return Err(1 + sum.lines + valid.iter().filter(|&&b| b == b'\n').count()),
+        }
+    }
+    Ok((chunks, before))
+}
+
+/// Lines and `v`/`vt`/`vn` statements of one chunk.
+fn count(text: &str) -> Counts {
+    let mut counts = Counts::default();
+    for line in lines(text) {
+        counts.lines += 1;
+        match keyword(line).as_bytes() {
+            [b'v'] => counts.positions += 1,
+            [b'v', b't'] => counts.texcoords += 1,
+            [b'v', b'n'] => counts.normals += 1,
+            _ => {}
+        }
+    }
+    counts
+}
+
+/// The lines of `text` as tobj reads them: cut at `\n` (kept out), no empty line after a
+/// final `\n`. A `\r` before the `\n` stays: every use splits at whitespace or trims.
+pub(super) fn lines(text: &str) -> impl Iterator<Item = &str> {
+    let mut rest = text;
+    std::iter::from_fn(move || {
+        if rest.is_empty() {
+            return None;
+        }
+        // `str::find` of one byte runs a word-at-a-time search.
+        let (line, next) = match rest.find('\n') {
+            Some(i) => (&rest[..i], &rest[i + 1..]),
+            None => (rest, ""),
+        };
+        rest = next;
+        Some(line)
+    })
+}
+
+/// The first word of a line as `split_whitespace` gives it ("" for a blank line), with a
+/// fast path for ASCII.
+pub(super) fn keyword(line: &str) -> &str {
+    let bytes = line.as_bytes();
+    let mut i = 0;
+    while i < bytes.len() && is_ascii_space(bytes[i]) {
+        i += 1;
+    }
+    let start = i;
+    while i < bytes.len() && !is_ascii_space(bytes[i]) && bytes[i] < 0x80 {
+        i += 1;
+    }
+    if bytes.get(start).is_some_and(|&b| b >= 0x80) || bytes.get(i).is_some_and(|&b| b >= 0x80) {
+        return line.split_whitespace().next().unwrap_or("");
+    }
+    &line[start..i]
+}
+
+/// The ASCII characters that `char::is_whitespace` accepts (vertical tab and form feed
+/// included, unlike `u8::is_ascii_whitespace`).
+pub(super) fn is_ascii_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+}
+
+/// The first `needle` in `haystack` (only used to place the few chunk ends).
+fn memchr(needle: u8, haystack: &[u8]) -> Option<usize> {
+    haystack.iter().position(|&b| b == needle)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_cover_the_text_at_line_starts_and_keep_continued_lines_together() {
+        let text = "v 1 2 3\r\nf 1 \\\r\n 2 3\nvt 0 0\n\nlast";
+        for size in 1..text.len() + 2 {
+            let (chunks, before) = count_all(&split(text.as_bytes(), size)).unwrap();
+            assert_eq!(chunks.iter().map(|c| c.text).collect::<String>(), text);
+            for c in &chunks {
+                assert!(c.offset == 0 || text.as_bytes()[c.offset - 1] == b'\n', "size {size}: {c:?}");
+                assert!(!continues(c.text.as_bytes()) || c.offset + c.text.len() == text.len(), "size {size}: {c:?}");
+            }
+            let total = before.last().copied().unwrap();
+            assert_eq!(total, Counts { lines: 6, positions: 1, texcoords: 1, normals: 0 });
+        }
+    }
+
+    #[test]
+    fn invalid_utf8_is_found_on_its_line_whatever_the_chunks() {
+        let bytes = b"v 1 2 3\nv 1 2 3\nv \xff 2 3\nv\n";
+        for size in 1..bytes.len() + 2 {
+            assert_eq!(count_all(&split(bytes, size)).err(), Some(3), "size {size}");
+        }
+    }
+
+    #[test]
+    fn keywords_are_split_as_split_whitespace_splits() {
+        for line in ["v 1", "  vt\t1", "\u{3000}vn 1", "f\u{a0}1", "", "   ", "#x", "g\r", "é 1", "vé 1"] {
+            assert_eq!(keyword(line), line.split_whitespace().next().unwrap_or(""), "{line:?}");
+        }
+    }
+}

@@ -1,0 +1,209 @@
+//! tobj's vertex de-duplication for a model spread over several chunks, in parallel and
+//! with the same result as the serial walk: every distinct corner (v, vt, vn) becomes a
+//! vertex, numbered in order of its first corner.
+//!
+//! 1. Every corner offers its (model-relative) index for its position; the smallest wins
+//!    (`fetch_min`): that corner is the first use of the position and makes a vertex.
+//! 2. The winner records its (vt, vn). A later corner of the same position with the same
+//!    (vt, vn) reuses that vertex; one with others ("other" corners, rare: texture seams,
+//!    normal creases) is settled by a serial pass over just those, with a map.
+//! 3. Each chunk counts the vertices it makes; prefix sums give it its range of vertex
+//!    numbers and triangles, which it fills on its own.
+
+use std::collections::{HashMap, HashSet};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::convert::triangulate;
+use super::parse_chunk::NONE;
+
+/// A model's faces within one chunk.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Piece<'b> {
+    pub(super) corners: &'b [[u32; 3]],
+    pub(super) arities: &'b [u32],
+}
+
+/// Per position: the first corner that uses it (model-relative), that corner's (vt, vn),
+/// and the vertex it made. Allocated once per load, reset between models.
+pub(super) struct Shared {
+    first: Vec<AtomicU32>,
+    key: Vec<AtomicU64>,
+    vertex: Vec<AtomicU32>,
+}
+
+impl Shared {
+    pub(super) fn new(positions: usize) -> Self {
+        let atomic32 = |n| (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
+        Shared { first: atomic32(positions), key: (0..positions).map(|_| AtomicU64::new(0)).collect(), vertex: atomic32(positions) }
+    }
+}
+
+/// The element arrays a model's vertices are made from.
+pub(super) struct Sources<'p> {
+    pub(super) positions: &'p [Vec3],
+    /// Empty when no vertex of the mesh has a normal (then none is written).
+    pub(super) normals: Option<&'p [Vec3]>,
+    pub(super) texcoords: Option<&'p [Vec2]>,
+}
+
+/// What a model adds to the mesh.
+pub(super) struct Output<'m> {
+    pub(super) positions: &'m mut Vec<Vec3>,
+    pub(super) normals: &'m mut Vec<Vec3>,
+    pub(super) texcoords: &'m mut Vec<Vec2>,
+    pub(super) triangles: &'m mut Vec<[u32; 3]>,
+}
+
+fn pack(vt: u32, vn: u32) -> u64 {
+    (u64::from(vt) << 32) | u64::from(vn)
+}
+
+/// Add one model (its pieces in order) to `out`; false (nothing added) when its vertices
+/// would not fit 32-bit indices, for the serial path to report.
+pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, out: Output) -> bool {
+    let starts: Vec<u32> = pieces
+        .iter()
+        .scan(0u32, |at, p| {
+            let start = *at;
+            *at += p.corners.len() as u32;
+            Some(start)
+        })
+        .collect();
+    let first = |c: &[u32; 3]| shared.first[c[0] as usize].load(Relaxed);
+    // 1. The first corner of each position.
+    pieces.par_iter().zip(&starts).for_each(|(p, &start)| {
+        for (i, c) in p.corners.iter().enumerate() {
+            shared.first[c[0] as usize].fetch_min(start + i as u32, Relaxed);
+        }
+    });
+    // 2. Its (vt, vn); then per piece the corners that are neither first nor like it.
+    pieces.par_iter().zip(&starts).for_each(|(p, &start)| {
+        for (i, c) in p.corners.iter().enumerate() {
+            if first(c) == start + i as u32 {
+                shared.key[c[0] as usize].store(pack(c[1], c[2]), Relaxed);
+            }
+        }
+    });
+    let is_other = |c: &[u32; 3], k: u32| first(c) != k && shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2]);
+    let others: Vec<Vec<u32>> = pieces
+        .par_iter()
+        .zip(&starts)
+        .map(|(p, &start)| (0..p.corners.len() as u32).filter(|&i| is_other(&p.corners[i as usize], start + i)).map(|i| start + i).collect())
+        .collect();
+    // The first corner of each distinct "other" corner makes a vertex too.
+    let mut seen = HashSet::new();
+    let makers: HashSet<u32> = pieces
+        .iter()
+        .zip(&starts)
+        .zip(&others)
+        .flat_map(|((p, &start), list)| list.iter().map(move |&k| (k, p.corners[(k - start) as usize])))
+        .filter(|(_, c)| seen.insert(*c))
+        .map(|(k, _)| k)
+        .collect();
+    drop(seen);
+    // 3. Vertex numbers and triangles per piece.
+    let makes = |c: &[u32; 3], k: u32| first(c) == k || makers.contains(&k);
+    let made: Vec<usize> =
+        pieces.par_iter().zip(&starts).map(|(p, &start)| p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()).collect();
+    let base = out.positions.len();
+    let total: usize = made.iter().sum();
+    if base + total > u32::MAX as usize {
+        return false;
+    }
+    let triangles: Vec<usize> = pieces.iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
+    let tri_base = out.triangles.len();
+    out.positions.resize(base + total, Vec3::ZERO);
+    if sources.normals.is_some() {
+        out.normals.resize(base + total, Vec3::ZERO);
+    }
+    if sources.texcoords.is_some() {
+        out.texcoords.resize(base + total, Vec2::ZERO);
+    }
+    out.triangles.resize(tri_base + triangles.iter().sum::<usize>(), [0; 3]);
+    // Vertices: each piece writes the ones it makes, in order, and records their numbers.
+    let mut other_vertices: HashMap<[u32; 3], u32> = HashMap::new();
+    {
+        let mut positions = &mut out.positions[base..];
+        let mut normals = if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
+        let mut texcoords = if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
+        let mut jobs = Vec::with_capacity(pieces.len());
+        let mut first_vertex = 0u32;
+        for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&made) {
+            let pos = take_front(&mut positions, n, true);
+            let nor = take_front(&mut normals, n, sources.normals.is_some());
+            let tex = take_front(&mut texcoords, n, sources.texcoords.is_some());
+            jobs.push((p, start, first_vertex, pos, nor, tex));
+            first_vertex += n as u32;
+        }
+        let made_others: Vec<Vec<([u32; 3], u32)>> = jobs
+            .into_par_iter()
+            .map(|(p, start, mut next, pos, nor, tex)| {
+                let mut mine = Vec::new();
+                let mut slot = 0;
+                for (i, c) in p.corners.iter().enumerate() {
+                    let k = start + i as u32;
+                    let primary = first(c) == k;
+                    if !primary && !makers.contains(&k) {
+                        continue;
+                    }
+                    pos[slot] = sources.positions[c[0] as usize];
+                    if let Some(normals) = sources.normals {
+                        nor[slot] = if c[2] == NONE { Vec3::ZERO } else { normals[c[2] as usize] };
+                    }
+                    if let Some(texcoords) = sources.texcoords {
+                        tex[slot] = if c[1] == NONE { Vec2::ZERO } else { texcoords[c[1] as usize] };
+                    }
+                    if primary {
+                        shared.vertex[c[0] as usize].store(next, Relaxed);
+                    } else {
+                        mine.push((*c, next));
+                    }
+                    slot += 1;
+                    next += 1;
+                }
+                mine
+            })
+            .collect();
+        other_vertices.extend(made_others.into_iter().flatten());
+    }
+    // Triangles: each piece its range, corners looked up.
+    let mut rest = &mut out.triangles[tri_base..];
+    let mut jobs = Vec::with_capacity(pieces.len());
+    for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&triangles) {
+        let (mine, after) = std::mem::take(&mut rest).split_at_mut(n);
+        rest = after;
+        jobs.push((p, start, mine));
+    }
+    let other_vertices = &other_vertices;
+    jobs.into_par_iter().for_each(|(p, start, mine)| {
+        let mut made = Vec::with_capacity(mine.len() + 2);
+        let (mut corner, mut local) = (0usize, Vec::new());
+        for &n in p.arities {
+            local.clear();
+            for (i, c) in p.corners[corner..corner + n as usize].iter().enumerate() {
+                let k = start + (corner + i) as u32;
+                let index = if is_other(c, k) { other_vertices[c] } else { shared.vertex[c[0] as usize].load(Relaxed) };
+                local.push(index);
+            }
+            corner += n as usize;
+            triangulate(&local, &[n], base as u32, &mut made);
+        }
+        mine.copy_from_slice(&made);
+    });
+    // Reset the first-use marks of the model's positions for the next model.
+    pieces.par_iter().for_each(|p| p.corners.iter().for_each(|c| shared.first[c[0] as usize].store(u32::MAX, Relaxed)));
+    true
+}
+
+/// The first `n` elements of `s` (which keeps the rest), or none when `wanted` is false.
+fn take_front<'a, T>(s: &mut &'a mut [T], n: usize, wanted: bool) -> &'a mut [T] {
+    if !wanted {
+        return &mut [];
+    }
+    let (front, rest) = std::mem::take(s).split_at_mut(n);
+    *s = rest;
+    front
+}

@@ -1,0 +1,253 @@
+//! The parallel OBJ parse: the text cut into chunks at line starts, counted (first pass),
+//! parsed chunk by chunk with rayon (second pass) into the whole file's element arrays and
+//! per-chunk faces, then joined in order: `mtllib`/`usemtl`/`o`/`g` walked as tobj walked
+//! them (which decides the models, each a run of faces with one material), smoothing
+//! groups and dropped attributes numbered in the whole file, and the first error in file
+//! order reported, whichever chunk finished first.
+//!
+//! What comes out no longer borrows the text, so the caller can free it before the mesh
+//! is built.
+
+use std::collections::{HashMap, HashSet};
+use std::ops::Range;
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::chunks::{self, Counts};
+use super::convert::locate_colour_mismatch;
+use super::line_feeder::{Dropped, DroppedFirst};
+use super::mtl::MaterialLibraries;
+use super::parse_chunk::{parse_chunk, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event, Targets};
+use super::ObjError;
+
+/// A run of faces (numbered in file order) that tobj made one model of.
+#[derive(Clone, Debug)]
+pub(super) struct ModelRun {
+    pub(super) faces: Range<usize>,
+    /// Index into the merged material libraries, when `usemtl` named a known material.
+    pub(super) material: Option<usize>,
+}
+
+/// The faces of one chunk.
+#[derive(Debug, Default)]
+pub(super) struct FaceBlock {
+    /// (v, vt, vn) per corner, 0-based, `NONE` when absent.
+    pub(super) corners: Vec<[u32; 3]>,
+    /// Corners per face.
+    pub(super) arities: Vec<u32>,
+}
+
+/// The parsed file, joined, without references into the text.
+#[derive(Debug, Default)]
+pub(super) struct Parsed {
+    pub(super) positions: Vec<Vec3>,
+    pub(super) texcoords: Vec<Vec2>,
+    pub(super) normals: Vec<Vec3>,
+    /// The faces, chunk by chunk, in file order.
+    pub(super) blocks: Vec<FaceBlock>,
+    pub(super) models: Vec<ModelRun>,
+    /// Where the smoothing group changes: (first face, group); empty without `s` lines.
+    pub(super) smoothing: Vec<(usize, u32)>,
+    pub(super) dropped_texcoords: Dropped,
+    pub(super) dropped_normals: Dropped,
+    /// Some corner names a texture coordinate / a normal; every corner names a normal.
+    pub(super) any_texcoord: bool,
+    pub(super) any_normal: bool,
+    pub(super) all_normals: bool,
+    /// First line per kind (position, normal, texture coordinate) holding a non-finite value.
+    pub(super) non_finite: [Option<usize>; 3],
+    /// Distinct `usemtl` names, in order of first use.
+    pub(super) usemtl_names: Vec<String>,
+    /// The merged materials of all `mtllib` libraries, as tobj merges them.
+    pub(super) materials: Vec<tobj::Material>,
+}
+
+/// Parse `bytes` (checked to be UTF-8 on the way) in chunks of about `chunk_bytes`;
+/// `libs` loads the `mtllib` libraries.
+pub(super) fn parse(bytes: &[u8], name: &str, libs: &MaterialLibraries, chunk_bytes: usize) -> Result<Parsed, ObjError> {
+    let pieces = chunks::split(bytes, chunk_bytes);
+    let (chunks, before) = chunks::count_all(&pieces).map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
+    drop(pieces);
+    let total = before.last().copied().unwrap_or_default();
+    let mut parsed = Parsed {
+        positions: vec![Vec3::ZERO; total.positions],
+        texcoords: vec![Vec2::ZERO; total.texcoords],
+        normals: vec![Vec3::ZERO; total.normals],
+        all_normals: true,
+        ..Default::default()
+    };
+    let targets = split_targets(&mut parsed, &before);
+    let results: Vec<ChunkFaces> = chunks.par_iter().zip(targets).zip(&before).map(|((c, t), b)| parse_chunk(*c, *b, t)).collect();
+    join(results, &mut parsed, bytes, name, libs)?;
+    Ok(parsed)
+}
+
+/// Each chunk's own parts of the element arrays.
+fn split_targets<'t>(parsed: &'t mut Parsed, before: &[Counts]) -> Vec<Targets<'t>> {
+    let (mut p, mut t, mut n) = (parsed.positions.as_mut_slice(), parsed.texcoords.as_mut_slice(), parsed.normals.as_mut_slice());
+    before
+        .windows(2)
+        .map(|w| {
+            let (pa, pb) = std::mem::take(&mut p).split_at_mut(w[1].positions - w[0].positions);
+            let (ta, tb) = std::mem::take(&mut t).split_at_mut(w[1].texcoords - w[0].texcoords);
+            let (na, nb) = std::mem::take(&mut n).split_at_mut(w[1].normals - w[0].normals);
+            (p, t, n) = (pb, tb, nb);
+            Targets { positions: pa, texcoords: ta, normals: na }
+        })
+        .collect()
+}
+
+/// The chunks in file order, as tobj would have read them: models, materials, smoothing
+/// groups, dropped attributes; the first error in file order, or the vertex colour error
+/// that tobj raises when it closes a model before that line.
+fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str, libs: &MaterialLibraries) -> Result<(), ObjError> {
+    // Every chunk was valid UTF-8, so the whole is: the messages that read the text again
+    // (rare) check it once more rather than assume it.
+    let text = || std::str::from_utf8(bytes).unwrap_or_default();
+    let mut walk = Walk::default();
+    let mut error: Option<ChunkError> = None;
+    let (mut face_base, mut colour_base) = (0, 0);
+    for mut chunk in results {
+        for event in std::mem::take(&mut chunk.events) {
+            walk.event(event, face_base, colour_base, libs);
+        }
+        join_dropped(&mut parsed.dropped_texcoords, &chunk.dropped_texcoords, face_base);
+        join_dropped(&mut parsed.dropped_normals, &chunk.dropped_normals, face_base);
+        parsed.any_texcoord |= chunk.any_texcoord;
+        parsed.any_normal |= chunk.any_normal;
+        parsed.all_normals &= chunk.all_normals;
+        for (first, here) in parsed.non_finite.iter_mut().zip(chunk.non_finite) {
+            *first = first.or(here);
+        }
+        face_base += chunk.arities.len();
+        colour_base += chunk.colours;
+        error = chunk.error.take();
+        parsed.blocks.push(FaceBlock { corners: chunk.corners, arities: chunk.arities });
+        if error.is_some() {
+            break;
+        }
+    }
+    if error.is_none() {
+        // The last model is closed at the end of the file, even without faces.
+        walk.pop(face_base, colour_base);
+    }
+    if walk.pops.iter().any(|(faces, colours)| *colours > 0 && uses_vertex_beyond(&parsed.blocks, faces.clone(), *colours)) {
+        return Err(locate_colour_mismatch(text(), name));
+    }
+    if let Some(e) = error {
+        return Err(located_error(e, text(), name));
+    }
+    parsed.models = walk.models;
+    parsed.smoothing = walk.smoothing;
+    parsed.usemtl_names = walk.usemtl_names;
+    parsed.materials = walk.materials;
+    Ok(())
+}
+
+/// The chunk's dropped faces, numbered in the whole file.
+fn join_dropped(all: &mut Dropped, chunk: &ChunkDropped, face_base: usize) {
+    all.faces.extend(chunk.faces.iter().map(|f| f + face_base));
+    if all.first.is_none() {
+        all.first = chunk.first.as_ref().map(|(line, index, count)| DroppedFirst { line: *line, index: index.clone(), count: *count });
+    }
+}
+
+/// True when a face among `faces` uses a vertex without a colour value (tobj's check when
+/// it closes a model while some `v` lines carried colours: `colours` values so far).
+fn uses_vertex_beyond(blocks: &[FaceBlock], faces: Range<usize>, colours: usize) -> bool {
+    let mut first_face = 0;
+    for block in blocks {
+        let here = first_face..first_face + block.arities.len();
+        first_face = here.end;
+        if here.end <= faces.start || here.start >= faces.end {
+            continue;
+        }
+        let mut corner = 0;
+        for (f, &n) in block.arities.iter().enumerate() {
+            let n = n as usize;
+            if faces.contains(&(here.start + f)) && block.corners[corner..corner + n].iter().any(|c| 3 * c[0] as usize + 2 >= colours) {
+                return true;
+            }
+            corner += n;
+        }
+    }
+    false
+}
+
+/// A chunk's error as the message the loader gives: a parse error on the file's last
+/// line reads as a truncated file.
+fn located_error(e: ChunkError, text: &str, name: &str) -> ObjError {
+    let (name, line) = (name.to_owned(), e.line);
+    match e.kind {
+        ErrorKind::VertexOutOfRange { index, count } => {
+            ObjError::IndexOutOfRange { name, line, kind: "vertex", kind_plural: "vertices", index, count }
+        }
+        ErrorKind::Parse(reason) if text.get(e.line_end..).unwrap_or("").trim().is_empty() => ObjError::Truncated { name, line, reason },
+        ErrorKind::Parse(reason) => ObjError::Parse { name, line, reason },
+    }
+}
+
+/// tobj's state between faces, walked event by event in file order.
+#[derive(Default)]
+struct Walk {
+    /// First face of the model being gathered.
+    start: usize,
+    material: Option<usize>,
+    materials: Vec<tobj::Material>,
+    material_map: HashMap<String, usize>,
+    models: Vec<ModelRun>,
+    /// Every closed model's faces and the vertex colour values read by then.
+    pops: Vec<(Range<usize>, usize)>,
+    smoothing: Vec<(usize, u32)>,
+    usemtl_names: Vec<String>,
+    usemtl_seen: HashSet<String>,
+}
+
+impl Walk {
+    fn event(&mut self, event: Event, face_base: usize, colour_base: usize, libs: &MaterialLibraries) {
+        match event {
+            Event::Group { face, colours } => {
+                if face_base + face > self.start {
+                    self.pop(face_base + face, colour_base + colours);
+                }
+            }
+            Event::Usemtl { face, colours, name } => {
+                if !self.usemtl_seen.contains(name) {
+                    self.usemtl_seen.insert(name.to_owned());
+                    self.usemtl_names.push(name.to_owned());
+                }
+                let material = self.material_map.get(name).copied();
+                if material != self.material && face_base + face > self.start {
+                    self.pop(face_base + face, colour_base + colours);
+                }
+                self.material = material;
+            }
+            Event::Mtllib { spelled } => {
+                // A library that fails was already turned into a warning.
+                if let Ok((mut materials, map)) = libs.load(Path::new(spelled)) {
+                    let offset = self.materials.len();
+                    self.materials.append(&mut materials);
+                    self.material_map.extend(map.into_iter().map(|(name, i)| (name, i + offset)));
+                }
+            }
+            Event::Smooth { face, group } => {
+                let face = face_base + face;
+                match self.smoothing.last_mut() {
+                    Some(last) if last.0 == face => last.1 = group,
+                    Some(last) if last.1 == group => {}
+                    _ => self.smoothing.push((face, group)),
+                }
+            }
+        }
+    }
+
+    /// Close the model gathered so far at face `end`.
+    fn pop(&mut self, end: usize, colours: usize) {
+        let faces = self.start..end;
+        self.models.push(ModelRun { faces: faces.clone(), material: self.material });
+        self.pops.push((faces, colours));
+        self.start = end;
+    }
+}
