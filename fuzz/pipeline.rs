@@ -85,7 +85,7 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
     let mut total = 0;
     for (mesh, pm) in scene.meshes.iter().zip(&packed.meshes) {
         let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-        if let Err(e) = pm.bvh.validate(&corners) {
+        if let Err(e) = pm.bvh(&packed).validate(&corners) {
             panic!("invalid BVH for {} ({} triangles): {e}", mesh.name, corners.len());
         }
         // Every triangle packed exactly once, its prim id its file-order index.

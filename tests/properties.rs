@@ -147,7 +147,7 @@ proptest! {
             prop_assert_eq!(pm.triangle_count, n);
             prop_assert_eq!(pm.prim_base, prim_base);
             let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-            if let Err(e) = pm.bvh.validate(&corners) {
+            if let Err(e) = pm.bvh(&packed).validate(&corners) {
                 return Err(TestCaseError::fail(format!("invalid BVH: {e}")));
             }
             let range = pm.triangle_base as usize..(pm.triangle_base + n) as usize;

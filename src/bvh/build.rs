@@ -83,11 +83,23 @@ impl Bvh {
     /// benchmark).
     #[doc(hidden)]
     pub fn build_timed(triangles: &[[Vec3; 3]], options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
+        Self::build_indexed_timed(triangles.len(), |i| triangles[i], options)
+    }
+
+    /// [`Bvh::build`] over `count` triangles whose corners `corners(i)` gives: no array of
+    /// corner triples is made (36 bytes a triangle the caller need not hold).
+    pub fn build_indexed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> Bvh {
+        Self::build_indexed_timed(count, corners, options).0
+    }
+
+    fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
         let mut clock = PhaseClock::start();
-        let prims = triangles
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32))
+        let prims = (0..count)
+            .into_par_iter()
+            .map(|i| {
+                let t = corners(i);
+                Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
+            })
             .collect();
         clock.mark("prim boxes");
         let bvh = build_from_prims(prims, options, &mut clock);

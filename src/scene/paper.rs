@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::obj::{load_obj_with, LoadOptions, LoadedObj, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
-use crate::files::read_regular_file;
+use crate::files::read_regular_file_parallel;
 use crate::progress::{Phase, Progress};
 
 /// Half the side of the mirror box.
@@ -93,19 +93,20 @@ impl ModelSource {
     }
 }
 
-/// [`load_model_file`], reporting the read and the parse to `progress` as separate phases
-/// where the format's reader takes bytes (PLY, glTF); the error is one sentence.
+/// [`load_model_file`], reporting the read and the parse to `progress` as separate phases;
+/// the error is one sentence.
 fn load_model_file_reporting(path: &Path, options: &LoadOptions, progress: &Progress) -> Result<LoadedObj, String> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     let begin = |phase| progress.begin(phase).map_err(|e| e.to_string());
     let read = || -> Result<Vec<u8>, String> {
         begin(Phase::Read)?;
-        let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
+        let bytes = read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
         begin(Phase::Parse)?;
         Ok(bytes)
     };
     let name = path.display().to_string();
     match ext.as_deref() {
+        Some("obj") => super::obj::load_obj_from_bytes(read()?, &name, path.parent(), options).map_err(|e| e.to_string()),
         Some("ply") => super::ply::load_ply_from_bytes(&read()?, &name).map_err(|e| e.to_string()),
         Some("gltf" | "glb") => super::gltf::load_gltf_from_bytes(&read()?, &name, path.parent()).map_err(|e| e.to_string()),
         _ => {

@@ -5,7 +5,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glam::Vec3;
 use image::RgbaImage;
 use rayon::prelude::*;
 
@@ -35,10 +34,7 @@ impl PreparedScene {
                 let bvhs: Vec<Bvh> = scene
                     .meshes
                     .iter()
-                    .map(|mesh| {
-                        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-                        Bvh::build(&corners, &options)
-                    })
+                    .map(|mesh| Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options))
                     .collect();
                 (bvhs, start.elapsed().as_secs_f64())
             },

@@ -162,13 +162,18 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     let bytes = crate::files::read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
-    let name = path.display().to_string();
     // `parent()` of a bare file name is "", which joins to paths relative to the working
-    // directory: exactly where the file itself was found. The bytes are checked to be
-    // UTF-8 chunk by chunk, in parallel, as they are parsed.
-    let parsed = parse_text(&bytes, &name, path.parent(), chunks::default_chunk_bytes(bytes.len()))?;
+    // directory: exactly where the file itself was found.
+    load_obj_from_bytes(bytes, &path.display().to_string(), path.parent(), options)
+}
+
+/// [`load_obj_with`] on a file already read (`name` for messages, `base_dir` for its .mtl
+/// and textures); the text is freed as soon as it is parsed. The bytes are checked to be
+/// UTF-8 chunk by chunk, in parallel, as they are parsed.
+pub fn load_obj_from_bytes(bytes: Vec<u8>, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+    let parsed = parse_text(&bytes, name, base_dir, chunks::default_chunk_bytes(bytes.len()))?;
     drop(bytes);
-    finish(parsed, &name, options)
+    finish(parsed, name, options)
 }
 
 /// Same, from text already in memory (`name` is used in messages, `base_dir` resolves mtllib). Used by tests and the fuzzer.
