@@ -68,12 +68,12 @@ pub struct Snapshot {
 impl Snapshot {
     /// Seconds of every phase recorded.
     pub fn total_seconds(&self) -> f64 {
-        self.phases.iter().map(|p| p.seconds).sum()
+        self.phases.iter().fold(0.0, |sum, p| sum + p.seconds)
     }
 
     /// Seconds `phase` took (0 when it did not run).
     pub fn seconds(&self, phase: Phase) -> f64 {
-        self.phases.iter().filter(|p| p.phase == phase).map(|p| p.seconds).sum()
+        self.phases.iter().filter(|p| p.phase == phase).fold(0.0, |sum, p| sum + p.seconds) // not .sum(): an empty f64 sum is -0.0
     }
 }
 
