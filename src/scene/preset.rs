@@ -392,6 +392,7 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     let mut all = File::default();
     all.model.crease_angle = Some(0.0);
     all.shading.accumulate = 2;
+    all.tracing.bvh = BvhLayout::Wide;
     let known = toml::Table::try_from(all).expect("a preset always serializes");
     let mut unknown = Vec::new();
     unknown_keys(doc.get_ref(), &known, "", &mut |key, span| unknown.push(UnknownKey { key, line: line_of(span.start) }));

@@ -1,29 +1,31 @@
-//! From the binary SAH tree to the wide one, by greedy collapse: starting from a binary
-//! node's two children, the inner child with the largest surface area is replaced by its
-//! own two children until eight are open or none is left to open (the paper's cost-based
-//! collapse is not done here). Triangles are then laid out in the wide tree's leaf order
-//! and the binary tree is rewritten to read them there.
+//! From the binary SAH tree to the wide one: each wide node takes the cheapest cut of its
+//! binary subtree into at most eight slots, as the paper's cost-based collapse plans it
+//! (`plan.rs`). Triangles are then laid out in the wide tree's leaf order and the binary
+//! tree is rewritten to read them there.
 
 use glam::{DVec3, Vec3};
 
+use super::plan::{Plan, Planned};
 use super::{WideBvh, WideNode, INNER_META_BASE, MAX_LEAF_TRIANGLES, WIDTH};
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
 
-/// A child of a wide node before it is placed: a binary node still to open, or a run of
-/// triangles (a binary leaf, or a piece of one).
+/// A child of a wide node before it is placed: a binary node to make a wide node of, or
+/// a run of triangles (a binary leaf, a piece of one, or a small subtree made one leaf).
 #[derive(Clone, Copy, Debug)]
 enum Pending {
     /// `bvh.nodes[index]`, with its box.
     Binary { index: u32, bounds: Aabb },
     /// Triangles `first .. first + count` in the binary tree's order.
     Leaf { first: u32, count: u32, bounds: Aabb },
+    /// Every triangle (at most three) under `bvh.nodes[index]`.
+    Merged { index: u32, count: u32, bounds: Aabb },
 }
 
 impl Pending {
     fn bounds(&self) -> Aabb {
         match *self {
-            Pending::Binary { bounds, .. } | Pending::Leaf { bounds, .. } => bounds,
+            Pending::Binary { bounds, .. } | Pending::Leaf { bounds, .. } | Pending::Merged { bounds, .. } => bounds,
         }
     }
 }
@@ -36,7 +38,8 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
         return WideBvh::default();
     }
     let root = bvh.nodes[0].children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
-    let mut collapser = Collapser { bvh, nodes: vec![WideNode::default()], order: Vec::new() };
+    let plan = Plan::new(bvh);
+    let mut collapser = Collapser { bvh, plan, nodes: vec![WideNode::default()], order: Vec::new() };
     collapser.build(0, Pending::Binary { index: 0, bounds: root });
     let Collapser { nodes, order, .. } = collapser;
     reorder_binary(bvh, &order);
@@ -45,6 +48,7 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
 
 struct Collapser<'a> {
     bvh: &'a Bvh,
+    plan: Plan,
     nodes: Vec<WideNode>,
     /// Wide leaf order -> binary tree position of each triangle placed so far.
     order: Vec<u32>,
@@ -64,12 +68,15 @@ impl Collapser<'_> {
             let Some(child) = child else { continue };
             quantize(&mut node, s, &child.bounds());
             // A leaf small enough for one slot goes in; anything else becomes an inner node.
+            let offset = self.order.len() as u32 - triangle_base;
             match *child {
                 Pending::Leaf { first, count, .. } if count <= MAX_LEAF_TRIANGLES => {
-                    let offset = self.order.len() as u32 - triangle_base;
-                    let unary = (1u32 << count) - 1;
-                    node.meta[s] = ((unary << 5) | offset) as u8;
+                    node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
                     self.order.extend(first..first + count);
+                }
+                Pending::Merged { index, count, .. } => {
+                    node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
+                    self.push_subtree(index);
                 }
                 _ => {
                     node.exponents_imask[3] |= 1 << s;
@@ -91,22 +98,18 @@ impl Collapser<'_> {
     /// The (at most eight) children of the wide node made from `item`.
     fn children_of(&self, item: Pending) -> Vec<Pending> {
         match item {
-            Pending::Binary { index, .. } => {
-                let mut children = self.open(index);
-                // Open the largest inner child until eight children are out.
-                while children.len() < WIDTH {
-                    let largest = children
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, c)| matches!(c, Pending::Binary { .. }))
-                        .max_by(|a, b| half_area(&a.1.bounds()).total_cmp(&half_area(&b.1.bounds())))
-                        .map(|(i, _)| i);
-                    let Some(i) = largest else { break };
-                    let Pending::Binary { index, .. } = children.swap_remove(i) else { unreachable!() };
-                    children.extend(self.open(index));
-                }
-                children
-            }
+            Pending::Binary { index, .. } => self
+                .plan
+                .slots(self.bvh, index)
+                .into_iter()
+                .map(|p| match p {
+                    Planned::Node { index, bounds } => Pending::Binary { index, bounds },
+                    Planned::Leaf { first, count, bounds } => Pending::Leaf { first, count, bounds },
+                    Planned::Merged { index, count, bounds } => Pending::Merged { index, count, bounds },
+                })
+                .collect(),
+            // At most three triangles always fit one slot: never a node of its own.
+            Pending::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
             // A leaf too big for a slot: split into pieces, each with the leaf's box.
             Pending::Leaf { first, count, bounds } => {
                 let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 { MAX_LEAF_TRIANGLES } else { count.div_ceil(WIDTH as u32) };
@@ -118,27 +121,24 @@ impl Collapser<'_> {
         }
     }
 
-    /// The children of binary node `index` (an absent one left out).
-    fn open(&self, index: u32) -> Vec<Pending> {
-        self.bvh.nodes[index as usize]
-            .children()
-            .iter()
-            .filter(|c| !c.is_empty())
-            .map(|c| {
-                if c.is_leaf() {
-                    Pending::Leaf { first: c.index, count: c.count, bounds: c.bounds }
-                } else {
-                    Pending::Binary { index: c.index, bounds: c.bounds }
+    /// Place every triangle under binary node `index`, leaf by leaf.
+    fn push_subtree(&mut self, index: u32) {
+        let mut stack = vec![index];
+        while let Some(n) = stack.pop() {
+            for child in self.bvh.nodes[n as usize].children() {
+                if child.is_leaf() {
+                    self.order.extend(child.index..child.index + child.count);
+                } else if child.is_inner() {
+                    stack.push(child.index);
                 }
-            })
-            .collect()
+            }
+        }
     }
 }
 
-/// Half the surface area, in f64 so that huge boxes do not overflow.
-fn half_area(b: &Aabb) -> f64 {
-    let e = b.extent().as_dvec3();
-    e.x * e.y + e.y * e.z + e.z * e.x
+/// The unary count of a leaf slot's `meta` (1 to 3 triangles: 0b001, 0b011, 0b111).
+fn leaf_unary(count: u32) -> u32 {
+    (1u32 << count) - 1
 }
 
 /// Places each child in one of the eight slots: slot `s` wants the child lying furthest

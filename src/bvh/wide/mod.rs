@@ -2,7 +2,8 @@
 //! on GPUs through compressed wide BVHs"): eight children per 80-byte node, their boxes
 //! quantized to 8 bits in the parent's frame, visited in the ray's octant order.
 //!
-//! It is collapsed from the binary tree ([`collapse`]) and shares its triangles: collapsing
+//! It is collapsed from the binary tree by the paper's cost-based plan ([`collapse`]) and
+//! shares its triangles: collapsing
 //! reorders the binary tree's triangles into the wide tree's leaf order (every binary leaf
 //! stays one contiguous range), so one triangle array serves both layouts and the tracers
 //! pick a layout per frame (`BvhLayout`).
@@ -22,6 +23,7 @@
 //! axis `i`) meets its children in about the order of `s ^ o`.
 
 mod collapse;
+mod plan;
 mod stats;
 mod traverse;
 
