@@ -298,8 +298,11 @@ fn large_knot_statistics() {
     for n in [1_000_000usize, 4_000_000] {
         let mesh = meshtracer::scene::primitives::large_torus_knot(n);
         let tris: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+        let start = std::time::Instant::now();
         let mut bvh = Bvh::build(&tris, &tracing());
+        let built = start.elapsed();
         let wide_bvh = wide::collapse(&mut bvh);
+        println!("knot {n}: build {:.0} ms, collapse {:.0} ms", built.as_secs_f64() * 1e3, (start.elapsed() - built).as_secs_f64() * 1e3);
         let s = WideStats::new(&bvh, &wide_bvh);
         println!("knot {n}: {} triangles; binary {} nodes, {:.1} B/tri; wide {} nodes, {:.1} B/tri, {:.2} children per node, {} leaf slots, depth {} (binary {})", s.triangles, s.binary_nodes, s.binary_bytes_per_triangle(), s.wide_nodes, s.wide_bytes_per_triangle(), s.mean_children, s.wide_leaves, s.wide_depth, bvh.depth());
         let ordered = ordered_edges(&bvh, &tris);

@@ -154,7 +154,7 @@ fn assign_slots(children: &[Pending], parent: Aabb) -> [Option<Pending>; WIDTH] 
             pairs.push((offset.dot(corner(s)), c, s));
         }
     }
-    pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    pairs.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
     let mut slots = [None; WIDTH];
     let mut placed = vec![false; children.len()];
     for (_, c, s) in pairs {

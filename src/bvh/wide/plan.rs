@@ -75,10 +75,12 @@ impl Plan {
         let [left, right] = bvh.nodes[n].children();
         self.triangles[n] = self.triangles_of(&left) + self.triangles_of(&right);
         // Spread over the children: i slots, k of them to the left.
+        // Each child's costs for 0..=8 slots, looked up 45 times below.
+        let (l, r): ([f64; WIDTH + 1], [f64; WIDTH + 1]) = (std::array::from_fn(|k| self.child_cost(&left, k)), std::array::from_fn(|k| self.child_cost(&right, k)));
         let mut spread = [(f64::INFINITY, 0u8); WIDTH + 1];
         for (i, best) in spread.iter_mut().enumerate().skip(1) {
             for k in 0..=i {
-                let c = self.child_cost(&left, k) + self.child_cost(&right, i - k);
+                let c = l[k] + r[i - k];
                 if c < best.0 {
                     *best = (c, k as u8);
                 }
