@@ -108,6 +108,8 @@ void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, 
     }
 }
 
+#include "traverse_wide.glsl"
+
 // The closest hit over all instances in (0, t_max). Instances carry a uniform scale, so
 // the object-space ray keeps world-space distances.
 Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
@@ -128,7 +130,10 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
         vec3 lo = (o - inst.translation_scale.xyz) / s;
         vec3 ld = d / s;
         uint before = hit.tri;
-        if (use_bvh) {
+        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u) {
+            // The wide layout (`--bvh wide`); an empty mesh has no wide nodes.
+            if (inst.offsets.z > 0u) traverse_wide(lo, ld, floatBitsToUint(inst.bounds_min.w), inst.offsets.y, hit, cost);
+        } else if (use_bvh) {
             traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
         } else {
             // The paper's brute force: every triangle of every model, eight per iteration.

@@ -37,7 +37,8 @@ struct BvhNode {
 struct Instance {
     vec4 translation_scale;  // world = object * scale + translation
     uvec4 offsets;           // node base, triangle base, triangle count, prim-id base
-    vec4 bounds_min;         // world-space box of the instance (the top level's culling test)
+    vec4 bounds_min;         // world-space box of the instance (the top level's culling test);
+                             // bounds_min.w: its first wide BVH node, in uvec4s (uint bits)
     vec4 bounds_max;
 };
 

@@ -111,6 +111,22 @@ impl Accel {
     pub const ALL: [Accel; 3] = [Accel::Bvh, Accel::Brute, Accel::Vendor];
 }
 
+/// Which layout of our BVH the traversal reads (`--bvh`); both are packed for every scene,
+/// so a frame may switch between them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhLayout {
+    /// Two children per 64-byte node, float boxes (the SAH tree as built).
+    #[default]
+    Binary,
+    /// The compressed wide BVH: eight children per 80-byte node, 8-bit boxes.
+    Wide,
+}
+
+impl BvhLayout {
+    /// Every layout, in the order the panel lists them.
+    pub const ALL: [BvhLayout; 2] = [BvhLayout::Binary, BvhLayout::Wide];
+}
+
 /// What a render writes: the shaded colour or one of the primary-hit buffers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Aov {
@@ -167,6 +183,7 @@ macro_rules! name_enum {
     };
 }
 name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh", Accel::Vendor => "vendor");
+name_enum!(BvhLayout, "BVH layout", BvhLayout::Binary => "binary", BvhLayout::Wide => "wide");
 name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples", Aov::Ao => "ao");
 
 /// Saved as its name ("bvh", "brute"), as in `bench --json` reports.
@@ -182,6 +199,19 @@ impl<'de> Deserialize<'de> for Accel {
     }
 }
 
+/// Saved as its name ("binary", "wide"), as `Accel` is.
+impl Serialize for BvhLayout {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for BvhLayout {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        String::deserialize(deserializer)?.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 /// The user's knobs for one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -192,6 +222,8 @@ pub struct RenderSettings {
     /// Reflection blend ratio in [0, 1]: 0 = no reflection, 1 = pure mirror.
     pub blend: f32,
     pub accel: Accel,
+    /// The BVH layout `Accel::Bvh` traverses.
+    pub bvh: BvhLayout,
     pub aov: Aov,
     /// Interpolate vertex normals (smooth shading) instead of the paper's flat normals.
     pub smooth: bool,
@@ -214,7 +246,7 @@ pub const DEFAULT_AO_RADIUS: f32 = 0.25;
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false, ao_samples: DEFAULT_AO_SAMPLES, ao_radius: DEFAULT_AO_RADIUS }
+        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, bvh: BvhLayout::Binary, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false, ao_samples: DEFAULT_AO_SAMPLES, ao_radius: DEFAULT_AO_RADIUS }
     }
 }
 

@@ -110,14 +110,19 @@ impl Row {
     }
 }
 
-/// `bench --compare`: each vendor row's partner, the nearest BVH row before it with the same
-/// workload (the CLI puts the vendor rows right after their BVH row): (ours, vendor) indices.
+/// `bench --compare`: each vendor row's partners, the nearest BVH row before it with the same
+/// workload for each BVH layout (the CLI puts the vendor rows right after their BVH rows):
+/// (ours, vendor) indices.
 pub fn vendor_pairs(rows: &[Row]) -> Vec<(usize, usize)> {
     let mut pairs = Vec::new();
     for (j, theirs) in rows.iter().enumerate().filter(|(_, r)| r.workload.accel == Accel::Vendor) {
-        if let Some(i) = (0..j).rev().find(|&i| rows[i].workload.accel == Accel::Bvh && rows[i].scene_and_rays() == theirs.scene_and_rays()) {
-            pairs.push((i, j));
+        let mut ours: Vec<usize> = Vec::new();
+        for i in (0..j).rev().filter(|&i| rows[i].workload.accel == Accel::Bvh && rows[i].scene_and_rays() == theirs.scene_and_rays()) {
+            if ours.iter().all(|&k| rows[k].workload.bvh != rows[i].workload.bvh) {
+                ours.push(i);
+            }
         }
+        pairs.extend(ours.into_iter().rev().map(|i| (i, j)));
     }
     pairs
 }
@@ -257,6 +262,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
             height: s.height,
             bounces: s.bounces,
             accel: s.accel,
+            bvh: s.bvh,
         },
         features: case.features.clone(),
         rays_per_frame: rays,

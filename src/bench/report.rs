@@ -13,8 +13,8 @@ use crate::render_settings::Accel;
 /// the vendor's: below 1 we are faster), and the build time and memory of both structures.
 pub fn compare_table(rows: &[Row]) -> String {
     let mut out = format!(
-        "{:<10} {:<12} {:>9} {:>11} {:<2} {:>9} {:>9} {:<8} {:>7} {:>10} {:>12} {:>8} {:>10}\n",
-        "series", "model", "triangles", "resolution", "b", "bvh ms", "vendor ms", "kernel", "ratio", "bvh build", "vendor build", "bvh MB", "vendor MB"
+        "{:<10} {:<12} {:>9} {:>11} {:<2} {:<6} {:>9} {:>9} {:<8} {:>7} {:>10} {:>12} {:>8} {:>10}\n",
+        "series", "model", "triangles", "resolution", "b", "ours", "ours ms", "vendor ms", "kernel", "ratio", "bvh build", "vendor build", "bvh MB", "vendor MB"
     );
     for (i, j) in super::vendor_pairs(rows) {
         let (ours, theirs) = (&rows[i], &rows[j]);
@@ -22,13 +22,14 @@ pub fn compare_table(rows: &[Row]) -> String {
             let (Some(a), Some(b)) = (ours.gpu_ms, theirs.gpu_ms) else { continue };
             let _ = writeln!(
                 out,
-                "{:<10} {:<12} {:>9} {:>5}x{:<5} b{} {:>9.3} {:>9.3} {:<8} {:>7.2} {:>7.1} ms {:>9.1} ms {:>8.1} {:>10.1}",
+                "{:<10} {:<12} {:>9} {:>5}x{:<5} b{} {:<6} {:>9.3} {:>9.3} {:<8} {:>7.2} {:>7.1} ms {:>9.1} ms {:>8.1} {:>10.1}",
                 ours.series,
                 ours.workload.model,
                 ours.workload.triangles,
                 ours.workload.width,
                 ours.workload.height,
                 ours.workload.bounces,
+                ours.workload.accel_label(),
                 a.median,
                 b.median,
                 theirs.vendor_kernel.as_deref().unwrap_or("-"),
@@ -59,7 +60,7 @@ pub fn format_row(r: &Row) -> String {
         _ => String::new(),
     };
     if let Some(why) = &r.skipped {
-        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel);
+        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel_label());
     }
     let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
     let mut notes = r.features.clone();
@@ -72,7 +73,7 @@ pub fn format_row(r: &Row) -> String {
     let clock = r.gpu_clock_mhz.map_or("    -".into(), |mhz| format!("{mhz:>5.0}"));
     format!(
         "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} {gpu} {:>9.3} {:>8.1} {:>9.1} {clock}   {paper}{}",
-        r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel, r.wall_ms.median, r.fps, r.mrays_per_s, notes
+        r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel_label(), r.wall_ms.median, r.fps, r.mrays_per_s, notes
     )
 }
 
@@ -99,7 +100,7 @@ pub fn write_csv(path: &Path, env: &Environment, rows: &[Row]) -> anyhow::Result
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},\"{}\",\"{}\",{}",
-            r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel, r.features, r.rays_per_frame,
+            r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel_label(), r.features, r.rays_per_frame,
             g.median, g.p10, g.p90, r.wall_ms.median, r.wall_ms.p10, r.wall_ms.p90, r.mrays_per_s, r.fps, r.bvh_build_ms, r.scene_bytes,
             opt(r.paper_fps), opt(r.paper_ms), r.skipped.clone().unwrap_or_default(), r.vendor_kernel.clone().unwrap_or_default(),
             opt(r.ours_over_vendor), opt(r.gpu_clock_mhz.map(f64::round)), env.device, env.driver, env.date

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::render_settings::Accel;
+use crate::render_settings::{Accel, BvhLayout};
 
 /// The model, its copies and triangles, the resolution, the bounces and the acceleration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -20,4 +20,18 @@ pub struct WorkloadHeader {
     pub bounces: u32,
     /// Saved as "bvh" or "brute".
     pub accel: Accel,
+    /// The BVH layout of a "bvh" row; saved only when wide, so older reports read the same.
+    #[serde(default, skip_serializing_if = "is_binary")]
+    pub bvh: BvhLayout,
+}
+
+fn is_binary(layout: &BvhLayout) -> bool {
+    *layout == BvhLayout::Binary
+}
+
+impl WorkloadHeader {
+    /// The acceleration as tables print it: "wide" for our wide BVH, else the accel's name.
+    pub fn accel_label(&self) -> String {
+        if self.accel == Accel::Bvh && self.bvh == BvhLayout::Wide { "wide".into() } else { self.accel.to_string() }
+    }
 }

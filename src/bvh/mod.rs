@@ -11,6 +11,7 @@ mod build;
 mod stats;
 mod traverse;
 mod validate;
+pub mod wide;
 
 pub use build::BuildOptions;
 pub use traverse::{ordered_edges, TraversalStats};

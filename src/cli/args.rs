@@ -11,7 +11,7 @@ use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-use crate::render_settings::{self as knobs, Accel, Aov, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
+use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -83,6 +83,10 @@ pub(crate) struct SceneArgs {
     /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
     #[arg(long, default_value = "bvh")]
     pub accel: Accel,
+    /// BVH layout with --accel bvh: binary (two children per node) or wide (the compressed
+    /// eight-wide tree of Ylitie, Karras and Laine 2017).
+    #[arg(long, default_value = "binary")]
+    pub bvh: BvhLayout,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
     pub device: Option<usize>,
@@ -203,6 +207,9 @@ impl SceneArgs {
         }
         if given("accel") {
             s.accel = self.accel;
+        }
+        if given("bvh") {
+            s.bvh = self.bvh;
         }
         if given("smooth") {
             s.smooth = self.smooth;

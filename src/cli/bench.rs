@@ -13,7 +13,7 @@ use crate::gpu::{ContextOptions, GpuContext};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
-use crate::render_settings::{self as knobs, Accel, Aov, RenderSettings};
+use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]
@@ -67,6 +67,10 @@ pub struct BenchArgs {
     /// Accelerations to run, comma-separated: brute, bvh, vendor.
     #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
     pub(crate) accel: Vec<Accel>,
+    /// BVH layouts of the bvh rows, comma-separated: binary, wide (each bvh row is traced
+    /// with each; with --compare, the vendor's rows follow them).
+    #[arg(long, value_delimiter = ',', default_value = "binary")]
+    pub(crate) bvh: Vec<BvhLayout>,
     /// Triangle counts of the generated meshes for --scaling, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,100000,1000000,4000000")]
     pub(crate) triangles: Vec<usize>,
@@ -234,6 +238,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             let mut out = Vec::new();
             if accel == Accel::Vendor {
                 out.extend(kernels.iter().map(|&k| Case { vendor_kernel: k, ..case.clone() }));
+            } else if accel == Accel::Bvh && args.given("bvh") {
+                for &layout in &args.bvh {
+                    let mut ours = case.clone();
+                    ours.spec.settings.bvh = layout;
+                    out.push(ours);
+                }
             } else {
                 out.push(case.clone());
             }

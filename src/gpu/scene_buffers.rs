@@ -55,7 +55,9 @@ impl SceneBuffers {
         let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
         let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
         let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
-        let nodes = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.nodes), storage, "bvh nodes")?;
+        // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
+        // ones as 16-byte words (`wide_nodes`).
+        let nodes = GpuBuffer::device_local_with(ctx, &packed.node_bytes(), storage, "bvh nodes")?;
         let capacity = (INSTANCE_CAPACITY.max(packed.instances.len()) * std::mem::size_of::<GpuInstance>()) as u64;
         let instances = GpuBuffer::new(ctx, capacity, storage | vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuOnly, "instances")?;
         let texels = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.texels), storage, "texels")?;

@@ -54,6 +54,8 @@ pub(crate) enum TraceBuffer {
     Shading,
     Materials,
     Nodes,
+    /// The same node buffer read as 16-byte words, for the wide BVH's nodes.
+    WideNodes,
     Instances,
     Texels,
     TextureInfos,
@@ -68,11 +70,12 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 13] = [
+    pub const ALL: [TraceBuffer; 14] = [
         Self::Triangles,
         Self::Shading,
         Self::Materials,
         Self::Nodes,
+        Self::WideNodes,
         Self::Instances,
         Self::Texels,
         Self::TextureInfos,
@@ -91,6 +94,7 @@ impl TraceBuffer {
             "Shading" => Self::Shading,
             "Materials" => Self::Materials,
             "Nodes" => Self::Nodes,
+            "WideNodes" => Self::WideNodes,
             "Instances" => Self::Instances,
             "Texels" => Self::Texels,
             "TextureInfos" => Self::TextureInfos,

@@ -115,7 +115,7 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
                 TraceBuffer::Triangles => &scene.triangles,
                 TraceBuffer::Shading => &scene.shading,
                 TraceBuffer::Materials => &scene.materials,
-                TraceBuffer::Nodes => &scene.nodes,
+                TraceBuffer::Nodes | TraceBuffer::WideNodes => &scene.nodes,
                 TraceBuffer::Instances => &scene.instances,
                 TraceBuffer::Texels => &scene.texels,
                 TraceBuffer::TextureInfos => &scene.texture_infos,

@@ -18,7 +18,7 @@ use super::obj::LoadOptions;
 use super::paper::{LightOrbit, ModelSource, MAX_MODELS};
 use super::spec::{CameraSpec, SceneSpec};
 use super::EnvironmentSource;
-use crate::render_settings::{self as knobs, Accel, Aov, RenderSettings};
+use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
 
 /// The format version this build writes and reads (`version = 1`).
 pub(crate) const VERSION: u32 = 1;
@@ -82,6 +82,13 @@ struct TracingPart {
     blend: f32,
     #[serde(serialize_with = "ser_display", deserialize_with = "de_from_str")]
     accel: Accel,
+    /// `--bvh`: binary or wide; written only when wide, so older presets read the same.
+    #[serde(skip_serializing_if = "is_binary", serialize_with = "ser_display", deserialize_with = "de_from_str")]
+    bvh: BvhLayout,
+}
+
+fn is_binary(layout: &BvhLayout) -> bool {
+    *layout == BvhLayout::Binary
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -132,7 +139,7 @@ impl File {
             version: VERSION,
             model: ModelPart { source: spec.model.clone(), crease_angle: spec.load_options.crease_angle, copies: spec.models, mirror_box: spec.mirror_box },
             image: ImagePart { width: s.width, height: s.height, aov: s.aov, ao_samples: s.ao_samples, ao_radius: s.ao_radius },
-            tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel },
+            tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel, bvh: s.bvh },
             shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, accumulate: spec.accumulate, environment: spec.environment.clone() },
             light: LightPart { angle: spec.light.angle_deg, radius: spec.light.radius, height: spec.light.height },
             camera: CameraPart { eye: camera.position.to_array(), target: camera.target.to_array(), fov: camera.vfov_deg },
@@ -155,6 +162,7 @@ impl File {
                 bounces: tracing.bounces,
                 blend: tracing.blend,
                 accel: tracing.accel,
+                bvh: tracing.bvh,
                 aov: image.aov,
                 smooth: shading.smooth,
                 textures: shading.textures,
@@ -400,6 +408,7 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     let mut all = File::default();
     all.model.crease_angle = Some(0.0);
     all.shading.accumulate = 2;
+    all.tracing.bvh = BvhLayout::Wide;
     let known = toml::Table::try_from(all).expect("a preset always serializes");
     let mut unknown = Vec::new();
     unknown_keys(doc.get_ref(), &known, "", &mut |key, span| unknown.push(UnknownKey { key, line: line_of(span.start) }));

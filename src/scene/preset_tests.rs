@@ -18,6 +18,7 @@ fn rich_spec() -> SceneSpec {
             bounces: 5,
             blend: 0.3,
             accel: Accel::Brute,
+            bvh: crate::render_settings::BvhLayout::Wide,
             aov: Aov::PrimId,
             smooth: true,
             textures: false,

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::contract;
 use super::frame::FrameParams;
-use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use super::image::Image;
 use super::packed::{PackedScene, NO_TEXTURE};
 use super::shading::{ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
@@ -62,8 +62,13 @@ impl<'a> CpuScene<'a> {
         Self { packed, edges: packed.triangles.iter().map(|t| t.edges()).collect() }
     }
 
-    /// Closest hit over the first `instance_count` instances, in (0, inf).
+    /// Closest hit over the first `instance_count` instances, in (0, inf), through the binary BVH.
     pub fn closest_hit(&self, ray: &Ray, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
+        self.closest_hit_in(ray, accel, BvhLayout::Binary, instance_count, stats)
+    }
+
+    /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout.
+    pub fn closest_hit_in(&self, ray: &Ray, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
         let mut best: Option<SceneHit> = None;
         let inv_dir = safe_inverse(ray.dir);
         for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
@@ -97,8 +102,11 @@ impl<'a> CpuScene<'a> {
                     }
                     // The instance's nodes start at its node base, their indices relative to it
                     // (and to the triangle base), as the shader's traverse_bvh reads them.
-                    let nodes = &self.packed.nodes[inst.node_base as usize..];
-                    if let Some((k, h)) = bvh::closest_hit(nodes, tris, &local, 0.0, t_max, stats) {
+                    let found = match layout {
+                        BvhLayout::Binary => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
+                        BvhLayout::Wide => bvh::wide::closest_hit(self.packed.wide_nodes_of(inst), tris, &local, 0.0, t_max, stats),
+                    };
+                    if let Some((k, h)) = found {
                         best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle: inst.triangle_base + k, instance: i as u32 });
                     }
                 }
@@ -175,7 +183,7 @@ impl<'a> CpuScene<'a> {
         let mut aux = Vec4::new(-1.0, -1.0, -1.0, 0.0);
 
         for bounce in 0..=bounces {
-            let hit = self.closest_hit(&ray, s.accel, params.instance_count, stats);
+            let hit = self.closest_hit_in(&ray, s.accel, s.bvh, params.instance_count, stats);
             if let Some(key) = path_key.as_deref_mut() {
                 add_to_path_key(key, self.surface_key(hit), throughput);
             }

@@ -5,7 +5,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::contract;
-use crate::render_settings::{Accel, RenderSettings};
+use crate::render_settings::{Accel, BvhLayout, RenderSettings};
 use crate::scene::camera::CameraBasis;
 use crate::scene::Scene;
 
@@ -74,6 +74,7 @@ impl FrameParams {
         let mut f = s.aov.code() << contract::AOV_SHIFT | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
         for (on, bit) in [
             (s.accel == Accel::Bvh, contract::FLAG_BVH),
+            (s.accel == Accel::Bvh && s.bvh == BvhLayout::Wide, contract::FLAG_WIDE),
             (s.smooth, contract::FLAG_SMOOTH),
             (s.textures, contract::FLAG_TEXTURES),
             (self.environment, contract::FLAG_ENVIRONMENT),

@@ -14,6 +14,7 @@ use glam::{Vec2, Vec3};
 
 use super::prepare::PreparedScene;
 use super::textures::{EnvironmentMap, TextureAtlas};
+use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::Aabb;
 use crate::scene::{Instance, Mesh, Scene};
@@ -111,7 +112,8 @@ pub struct GpuInstance {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
-    /// World-space bounds (.w unused): the top level culls instances with them.
+    /// World-space bounds: the top level culls instances with them. `bounds_min[3]` holds
+    /// (as u32 bits) the mesh's first wide node, in 16-byte words of the node buffer.
     pub(crate) bounds_min: [f32; 4],
     pub(crate) bounds_max: [f32; 4],
 }
@@ -128,6 +130,8 @@ pub struct PackedMesh {
     /// Nodes of the mesh's BVH in `PackedScene::nodes` from `node_base` (the tree is kept
     /// only there: [`PackedMesh::bvh`] puts it back together).
     pub node_count: u32,
+    /// The mesh's first node in `PackedScene::wide_nodes`.
+    pub wide_base: u32,
 }
 
 /// The whole scene as flat arrays.
@@ -137,6 +141,12 @@ pub struct PackedScene {
     pub shading: Vec<GpuTriangleShading>,
     pub materials: Vec<GpuMaterial>,
     pub(crate) nodes: Vec<BvhNode>,
+    /// Every mesh's wide BVH nodes back to back; the GPU's node buffer holds them after
+    /// `nodes` (see [`PackedScene::node_bytes`]).
+    pub(crate) wide_nodes: Vec<WideNode>,
+    /// Where `wide_nodes` start in the node buffer, in 16-byte words (kept when the host
+    /// copies are dropped after upload).
+    wide_word_base: u32,
     pub instances: Vec<GpuInstance>,
     pub meshes: Vec<PackedMesh>,
     /// Diffuse textures of all materials.
@@ -160,17 +170,18 @@ impl PackedScene {
     /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
     /// only copies and reorders: nothing here builds or decodes.
     pub(crate) fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
-        let PreparedScene { bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
+        let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
         let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         for (path, img) in textures {
             let index = packed.textures.add(&img);
             packed.texture_index.insert(path, index);
         }
         let mut prim_base = 0u32;
-        for (mesh, bvh) in scene.meshes.iter().zip(bvhs) {
-            packed.push_mesh(mesh, bvh, prim_base);
+        for ((mesh, bvh), wide) in scene.meshes.iter().zip(bvhs).zip(wide_bvhs) {
+            packed.push_mesh(mesh, bvh, wide, prim_base);
             prim_base += mesh.triangle_count() as u32;
         }
+        packed.wide_word_base = (std::mem::size_of_val(packed.nodes.as_slice()) / 16) as u32;
         packed.set_instances(&scene.instances);
         packed
     }
@@ -193,8 +204,7 @@ impl PackedScene {
         }
     }
 
-    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, prim_base: u32) {
-
+    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: WideBvh, prim_base: u32) {
         let material_base = self.materials.len() as u32;
         let texture_of = |m: &crate::scene::Material| {
             m.diffuse_texture.as_ref().filter(|_| !mesh.texcoords.is_empty()).and_then(|p| self.texture_index.get(p).copied()).unwrap_or(NO_TEXTURE)
@@ -224,9 +234,12 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
+        let wide_base = self.wide_nodes.len() as u32;
+        append(&mut self.wide_nodes, wide.nodes);
         self.meshes.push(PackedMesh {
             node_base,
             node_count,
+            wide_base,
             triangle_base,
             triangle_count: mesh.triangle_count() as u32,
             prim_base,
@@ -246,8 +259,9 @@ impl PackedScene {
                 } else {
                     (b.min * inst.scale + inst.translation, b.max * inst.scale + inst.translation)
                 };
+                let wide_words = self.wide_word_base + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32;
                 GpuInstance {
-                    bounds_min: lo.extend(0.0).to_array(),
+                    bounds_min: lo.extend(f32::from_bits(wide_words)).to_array(),
                     bounds_max: hi.extend(0.0).to_array(),
                     translation: inst.translation.to_array(),
                     scale: inst.scale,
@@ -260,12 +274,28 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, shading, materials, nodes, instances, texels.
+    /// Bytes of each GPU array: triangles, shading, materials, nodes (both layouts),
+    /// instances, texels.
     pub(crate) fn buffer_sizes(&self) -> [u64; 6] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
-        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), bytes(&self.nodes), bytes(&self.instances), bytes(&self.textures.texels)]
+        let nodes = bytes(&self.nodes) + bytes(&self.wide_nodes);
+        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), nodes, bytes(&self.instances), bytes(&self.textures.texels)]
+    }
+
+    /// The GPU's node buffer: the binary nodes, then the wide ones (at `wide_word_base`).
+    pub(crate) fn node_bytes(&self) -> Vec<u8> {
+        let mut bytes = Vec::with_capacity(self.buffer_sizes()[3] as usize);
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.nodes));
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.wide_nodes));
+        bytes
+    }
+
+    /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
+    pub(crate) fn wide_nodes_of(&self, inst: &GpuInstance) -> &[WideNode] {
+        let words = inst.bounds_min[3].to_bits().saturating_sub(self.wide_word_base) as usize;
+        self.wide_nodes.get(words / (std::mem::size_of::<WideNode>() / 16)..).unwrap_or(&[])
     }
 }
 
@@ -328,6 +358,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
+        assert_eq!(std::mem::size_of::<WideNode>(), 80);
     }
 
     #[test]

@@ -9,18 +9,21 @@ use image::RgbaImage;
 use rayon::prelude::*;
 
 use super::textures::EnvironmentMap;
+use crate::bvh::wide::{self, WideBvh};
 use crate::bvh::{BuildOptions, Bvh};
 use crate::scene::Scene;
 
 /// A scene's BVHs (one per mesh, in mesh order), decoded textures and environment.
 pub(crate) struct PreparedScene {
     pub bvhs: Vec<Bvh>,
+    /// Each mesh's wide BVH, over its binary tree's (reordered) triangles.
+    pub wide_bvhs: Vec<WideBvh>,
     /// Every readable diffuse texture, by the path materials name it with.
     pub textures: Vec<(PathBuf, RgbaImage)>,
     pub environment: Option<EnvironmentMap>,
     /// Problems worked around (unreadable textures or environment), reported by the caller.
     pub warnings: Vec<String>,
-    /// Seconds spent building BVHs, for reports.
+    /// Seconds spent building BVHs (and collapsing them into wide ones), for reports.
     pub bvh_build_seconds: f64,
 }
 
@@ -31,19 +34,25 @@ impl PreparedScene {
             || {
                 let start = Instant::now();
                 let options = BuildOptions::for_tracing();
-                let bvhs: Vec<Bvh> = scene
+                // Both layouts, so that a frame may pick either: the wide tree is collapsed
+                // from the binary one, whose triangles it puts in its own leaf order.
+                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<WideBvh>) = scene
                     .meshes
                     .iter()
-                    .map(|mesh| Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options))
-                    .collect();
-                (bvhs, start.elapsed().as_secs_f64())
+                    .map(|mesh| {
+                        let mut bvh = Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
+                        let wide = wide::collapse(&mut bvh);
+                        (bvh, wide)
+                    })
+                    .unzip();
+                (bvhs, wide_bvhs, start.elapsed().as_secs_f64())
             },
             || decode_textures(scene),
         );
-        let ((bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
+        let ((bvhs, wide_bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
-        Self { bvhs, textures, environment, warnings, bvh_build_seconds }
+        Self { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds }
     }
 }
 

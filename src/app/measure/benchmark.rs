@@ -242,6 +242,7 @@ impl Benchmark {
                 height: s.height,
                 bounces: s.bounces,
                 accel: s.accel,
+                bvh: s.bvh,
             },
             spp: s.spp,
             smooth: s.smooth,

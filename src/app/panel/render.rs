@@ -10,7 +10,7 @@ use crate::app::panel::widgets::status_line;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::app::views::cost::heat_color;
 use crate::gpu::khr_rt::VendorKernel;
-use crate::render_settings::{self as knobs, Accel, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::render_settings::{self as knobs, Accel, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION};
 
 /// The section's state: the outcome of render changes and shader reloads.
 #[derive(Default)]
@@ -91,6 +91,17 @@ impl Section for RenderPanel {
             ui.end_row();
             if params.scene.settings.accel == Accel::Vendor {
                 vendor_rows(ui, info.vendor, actions);
+            }
+            if params.scene.settings.accel == Accel::Bvh {
+                ui.label("BVH layout");
+                egui::ComboBox::new("bvh_layout", "").selected_text(params.scene.settings.bvh.to_string()).show_ui(ui, |ui| {
+                    for layout in BvhLayout::ALL {
+                        ui.selectable_value(&mut params.scene.settings.bvh, layout, layout.to_string());
+                    }
+                })
+                .response
+                .on_hover_text("binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017); both are built for every model");
+                ui.end_row();
             }
             ui.label("View");
             egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {

@@ -105,6 +105,7 @@ impl Session {
         packed.triangles = Vec::new();
         packed.shading = Vec::new();
         packed.nodes = Vec::new();
+        packed.wide_nodes = Vec::new();
         let text = format!("loaded {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
         panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),

@@ -1,0 +1,235 @@
+//! From the binary SAH tree to the wide one: each wide node takes the cheapest cut of its
+//! binary subtree into at most eight slots, as the paper's cost-based collapse plans it
+//! (`plan.rs`). Triangles are then laid out in the wide tree's leaf order and the binary
+//! tree is rewritten to read them there.
+
+use glam::{DVec3, Vec3};
+
+use super::plan::{Plan, Planned};
+use super::{WideBvh, WideNode, INNER_META_BASE, MAX_LEAF_TRIANGLES, WIDTH};
+use crate::bvh::Bvh;
+use crate::geometry::Aabb;
+
+/// A child of a wide node before it is placed: a binary node to make a wide node of, or
+/// a run of triangles (a binary leaf, a piece of one, or a small subtree made one leaf).
+#[derive(Clone, Copy, Debug)]
+enum Pending {
+    /// `bvh.nodes[index]`, with its box.
+    Binary { index: u32, bounds: Aabb },
+    /// Triangles `first .. first + count` in the binary tree's order.
+    Leaf { first: u32, count: u32, bounds: Aabb },
+    /// Every triangle (at most three) under `bvh.nodes[index]`.
+    Merged { index: u32, count: u32, bounds: Aabb },
+}
+
+impl Pending {
+    fn bounds(&self) -> Aabb {
+        match *self {
+            Pending::Binary { bounds, .. } | Pending::Leaf { bounds, .. } | Pending::Merged { bounds, .. } => bounds,
+        }
+    }
+}
+
+/// Collapse `bvh` into a compressed wide BVH and reorder `bvh`'s triangles (its
+/// `prim_indices` and leaf indices) into the wide tree's leaf order, which both trees then
+/// share. The binary tree keeps its shape and answers as before.
+pub fn collapse(bvh: &mut Bvh) -> WideBvh {
+    if bvh.nodes.is_empty() {
+        return WideBvh::default();
+    }
+    let root = bvh.nodes[0].children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+    let plan = Plan::new(bvh);
+    let mut collapser = Collapser { bvh, plan, nodes: vec![WideNode::default()], order: Vec::new() };
+    collapser.build(0, Pending::Binary { index: 0, bounds: root });
+    let Collapser { nodes, order, .. } = collapser;
+    reorder_binary(bvh, &order);
+    WideBvh { nodes }
+}
+
+struct Collapser<'a> {
+    bvh: &'a Bvh,
+    plan: Plan,
+    nodes: Vec<WideNode>,
+    /// Wide leaf order -> binary tree position of each triangle placed so far.
+    order: Vec<u32>,
+}
+
+impl Collapser<'_> {
+    /// Fill `nodes[index]` from `item`, then its inner children (depth first, so that the
+    /// triangles of any subtree, a split binary leaf's included, end up contiguous).
+    fn build(&mut self, index: usize, item: Pending) {
+        let children = self.children_of(item);
+        let slots = assign_slots(&children, item.bounds());
+        let mut node = frame(item.bounds());
+        let child_base = self.nodes.len() as u32;
+        let triangle_base = self.order.len() as u32;
+        let mut inner = Vec::new();
+        for (s, child) in slots.iter().enumerate() {
+            let Some(child) = child else { continue };
+            quantize(&mut node, s, &child.bounds());
+            // A leaf small enough for one slot goes in; anything else becomes an inner node.
+            let offset = self.order.len() as u32 - triangle_base;
+            match *child {
+                Pending::Leaf { first, count, .. } if count <= MAX_LEAF_TRIANGLES => {
+                    node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
+                    self.order.extend(first..first + count);
+                }
+                Pending::Merged { index, count, .. } => {
+                    node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
+                    self.push_subtree(index);
+                }
+                _ => {
+                    node.exponents_imask[3] |= 1 << s;
+                    node.meta[s] = ((1 << 5) | (INNER_META_BASE + s as u32)) as u8;
+                    inner.push(*child);
+                }
+            }
+        }
+        node.child_base = child_base;
+        node.triangle_base = triangle_base;
+        self.nodes[index] = node;
+        // Inner children sit side by side in slot order (the traversal counts `imask` bits).
+        self.nodes.resize(self.nodes.len() + inner.len(), WideNode::default());
+        for (k, child) in inner.into_iter().enumerate() {
+            self.build(child_base as usize + k, child);
+        }
+    }
+
+    /// The (at most eight) children of the wide node made from `item`.
+    fn children_of(&self, item: Pending) -> Vec<Pending> {
+        match item {
+            Pending::Binary { index, .. } => self
+                .plan
+                .slots(self.bvh, index)
+                .into_iter()
+                .map(|p| match p {
+                    Planned::Node { index, bounds } => Pending::Binary { index, bounds },
+                    Planned::Leaf { first, count, bounds } => Pending::Leaf { first, count, bounds },
+                    Planned::Merged { index, count, bounds } => Pending::Merged { index, count, bounds },
+                })
+                .collect(),
+            // At most three triangles always fit one slot: never a node of its own.
+            Pending::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
+            // A leaf too big for a slot: split into pieces, each with the leaf's box.
+            Pending::Leaf { first, count, bounds } => {
+                let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 { MAX_LEAF_TRIANGLES } else { count.div_ceil(WIDTH as u32) };
+                (first..first + count)
+                    .step_by(per_piece as usize)
+                    .map(|start| Pending::Leaf { first: start, count: per_piece.min(first + count - start), bounds })
+                    .collect()
+            }
+        }
+    }
+
+    /// Place every triangle under binary node `index`, leaf by leaf.
+    fn push_subtree(&mut self, index: u32) {
+        let mut stack = vec![index];
+        while let Some(n) = stack.pop() {
+            for child in self.bvh.nodes[n as usize].children() {
+                if child.is_leaf() {
+                    self.order.extend(child.index..child.index + child.count);
+                } else if child.is_inner() {
+                    stack.push(child.index);
+                }
+            }
+        }
+    }
+}
+
+/// The unary count of a leaf slot's `meta` (1 to 3 triangles: 0b001, 0b011, 0b111).
+fn leaf_unary(count: u32) -> u32 {
+    (1u32 << count) - 1
+}
+
+/// Places each child in one of the eight slots: slot `s` wants the child lying furthest
+/// towards corner `s` of the parent box (bit `i` set: the high side of axis `i`). Greedy
+/// over (child, slot) pairs, best first, which is close to the paper's assignment.
+fn assign_slots(children: &[Pending], parent: Aabb) -> [Option<Pending>; WIDTH] {
+    let centre = parent.center().as_dvec3();
+    let corner = |s: usize| DVec3::new(sign(s, 0), sign(s, 1), sign(s, 2));
+    let mut pairs = Vec::with_capacity(children.len() * WIDTH);
+    for (c, child) in children.iter().enumerate() {
+        let offset = child.bounds().center().as_dvec3() - centre;
+        for s in 0..WIDTH {
+            pairs.push((offset.dot(corner(s)), c, s));
+        }
+    }
+    pairs.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+    let mut slots = [None; WIDTH];
+    let mut placed = vec![false; children.len()];
+    for (_, c, s) in pairs {
+        if !placed[c] && slots[s].is_none() {
+            slots[s] = Some(children[c]);
+            placed[c] = true;
+        }
+    }
+    slots
+}
+
+fn sign(s: usize, axis: usize) -> f64 {
+    if s & (1 << axis) != 0 { 1.0 } else { -1.0 }
+}
+
+/// A node with its quantization frame over `bounds`: origin at the minimum, and per axis
+/// the smallest power-of-two scale whose 255 steps reach the maximum.
+fn frame(bounds: Aabb) -> WideNode {
+    let mut node = WideNode { origin: bounds.min.into(), ..WideNode::default() };
+    for axis in 0..3 {
+        node.exponents_imask[axis] = exponent(bounds.min[axis], bounds.max[axis]);
+    }
+    // The meaningless planes of empty slots: lo above hi, never tested (meta 0).
+    node.lo = [[u8::MAX; WIDTH]; 3];
+    node
+}
+
+/// The biased exponent of the scale spanning `lo..hi` in 255 steps (checked in f32, as
+/// the traversal decodes), from 1 (2^-126) to 254.
+fn exponent(lo: f32, hi: f32) -> u8 {
+    let extent = (hi as f64 - lo as f64) / 255.0;
+    let mut biased = if extent > 0.0 && extent.is_finite() { (extent.log2().ceil() as i64 + 127).clamp(1, 254) as u32 } else { 1 };
+    while biased < 254 && lo + 255.0 * f32::from_bits(biased << 23) < hi {
+        biased += 1;
+    }
+    biased as u8
+}
+
+/// Slot `s`'s quantized box, rounded outwards so that the decoded box (origin + q * scale,
+/// in f32) contains `child`.
+fn quantize(node: &mut WideNode, s: usize, child: &Aabb) {
+    let origin = Vec3::from(node.origin);
+    let scale = node.scale();
+    for axis in 0..3 {
+        let (p, step) = (origin[axis], scale[axis]);
+        let decode = |q: f32| p + q * step;
+        let mut lo = ((child.min[axis] - p) / step).floor().clamp(0.0, 255.0);
+        while lo > 0.0 && decode(lo) > child.min[axis] {
+            lo -= 1.0;
+        }
+        let mut hi = ((child.max[axis] - p) / step).ceil().clamp(0.0, 255.0);
+        while hi < 255.0 && decode(hi) < child.max[axis] {
+            hi += 1.0;
+        }
+        node.lo[axis][s] = lo as u8;
+        node.hi[axis][s] = hi as u8;
+    }
+}
+
+/// Put `bvh`'s triangles in wide leaf order (`order[new] = old` position) and point its
+/// leaves at their new ranges; every binary leaf's triangles stay side by side.
+fn reorder_binary(bvh: &mut Bvh, order: &[u32]) {
+    debug_assert_eq!(order.len(), bvh.prim_indices.len(), "every triangle is placed once");
+    let mut new_position = vec![0u32; order.len()];
+    for (new, &old) in order.iter().enumerate() {
+        new_position[old as usize] = new as u32;
+    }
+    let first_new = |first: u32, count: u32| (first..first + count).map(|old| new_position[old as usize]).min().unwrap_or(first);
+    for node in &mut bvh.nodes {
+        if node.left_count > 0 {
+            node.left_index = first_new(node.left_index, node.left_count);
+        }
+        if node.right_count > 0 {
+            node.right_index = first_new(node.right_index, node.right_count);
+        }
+    }
+    bvh.prim_indices = order.iter().map(|&old| bvh.prim_indices[old as usize]).collect();
+}

@@ -1,0 +1,80 @@
+//! Size statistics of a wide tree beside its binary source, for reports and tests: node
+//! counts and the bytes the traversal reads per triangle.
+
+use super::{WideBvh, WideNode, WideSlot, WIDTH};
+use crate::bvh::{Bvh, BvhNode};
+
+/// Bytes of one triangle as the traversal reads it (`GpuTriangle`: v0, e1, e2).
+const TRIANGLE_BYTES: usize = 48;
+
+/// Sizes of a wide tree and its binary source.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WideStats {
+    /// Triangles of the mesh.
+    pub triangles: usize,
+    /// Nodes of the binary tree.
+    pub binary_nodes: usize,
+    /// Nodes of the wide tree.
+    pub wide_nodes: usize,
+    /// Leaf slots of the wide tree.
+    pub wide_leaves: usize,
+    /// Mean filled slots per wide node.
+    pub mean_children: f64,
+    /// Longest root-to-leaf path in wide nodes.
+    pub wide_depth: usize,
+}
+
+impl WideStats {
+    /// The statistics of `wide`, collapsed from `bvh`.
+    pub fn new(bvh: &Bvh, wide: &WideBvh) -> Self {
+        let filled: usize = wide.nodes.iter().map(|n| n.meta.iter().filter(|&&m| m != 0).count()).sum();
+        let leaves = wide.nodes.iter().map(|n| (0..WIDTH).filter(|&s| matches!(n.slot(s), WideSlot::Leaf { .. })).count()).sum();
+        Self {
+            triangles: bvh.prim_indices.len(),
+            binary_nodes: bvh.nodes.len(),
+            wide_nodes: wide.nodes.len(),
+            wide_leaves: leaves,
+            mean_children: if wide.nodes.is_empty() { 0.0 } else { filled as f64 / wide.nodes.len() as f64 },
+            wide_depth: wide.depth(),
+        }
+    }
+
+    /// Node bytes plus triangle bytes the binary traversal reads, per triangle.
+    pub fn binary_bytes_per_triangle(&self) -> f64 {
+        self.per_triangle(self.binary_nodes * std::mem::size_of::<BvhNode>())
+    }
+
+    /// Node bytes plus triangle bytes the wide traversal reads, per triangle.
+    pub fn wide_bytes_per_triangle(&self) -> f64 {
+        self.per_triangle(self.wide_nodes * std::mem::size_of::<WideNode>())
+    }
+
+    fn per_triangle(&self, node_bytes: usize) -> f64 {
+        if self.triangles == 0 {
+            return 0.0;
+        }
+        (node_bytes + self.triangles * TRIANGLE_BYTES) as f64 / self.triangles as f64
+    }
+}
+
+impl WideBvh {
+    /// Longest root-to-leaf path in nodes: 0 when empty. A traversal stacks at most this
+    /// many node groups.
+    pub fn depth(&self) -> usize {
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        let mut deepest = 0;
+        let mut stack = vec![(0u32, 1usize)];
+        while let Some((index, level)) = stack.pop() {
+            deepest = deepest.max(level);
+            let node = &self.nodes[index as usize];
+            for s in 0..WIDTH {
+                if let WideSlot::Inner(child) = node.slot(s) {
+                    stack.push((child, level + 1));
+                }
+            }
+        }
+        deepest
+    }
+}

@@ -1,0 +1,329 @@
+//! The compressed wide BVH against the binary tree it is collapsed from and against brute
+//! force: the same closest hits (up to ties) on ordinary and degenerate meshes, boxes that
+//! contain what they bound, and its size beside the binary tree.
+
+use glam::Vec3;
+use meshtracer::bvh::wide::{self, WideBvh, WideSlot, WideStats, WIDTH};
+use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, TraversalStats};
+use meshtracer::geometry::{intersect_triangle, Aabb, Ray, TriHit};
+use meshtracer::scene::primitives::PaperModel;
+
+/// xorshift64: a seeded, dependency-free random source.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn f(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f()
+    }
+    fn vec_in(&mut self, b: &Aabb) -> Vec3 {
+        Vec3::new(self.range(b.min.x, b.max.x), self.range(b.min.y, b.max.y), self.range(b.min.z, b.max.z))
+    }
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+fn soup(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Vec<[Vec3; 3]> {
+    let b = Aabb { min: Vec3::splat(-extent), max: Vec3::splat(extent) };
+    (0..n)
+        .map(|_| {
+            let c = rng.vec_in(&b);
+            [c + rng.unit() * size, c + rng.unit() * size, c + rng.unit() * size]
+        })
+        .collect()
+}
+
+fn bounds(tris: &[[Vec3; 3]]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(Aabb::from_points(t)))
+}
+
+/// Zero-area triangles collapsed onto a point, so that no traversal "hits" them on
+/// rounding noise (as the packer zeroes their edges).
+fn hittable(tris: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+    tris.iter()
+        .map(|&[a, b, c]| {
+            let (e1, e2) = (b - a, c - a);
+            if e1.cross(e2).length() <= 1e-5 * e1.length() * e2.length() { [a, a, a] } else { [a, b, c] }
+        })
+        .collect()
+}
+
+fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(u32, TriHit)> {
+    let mut best: Option<(u32, TriHit)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        let t_max = best.map_or(f32::INFINITY, |(_, h)| h.t);
+        if let Some(h) = intersect_triangle(ray, t[0], t[1] - t[0], t[2] - t[0], 0.0, t_max) {
+            best = Some((i as u32, h));
+        }
+    }
+    best
+}
+
+/// Rays from in and around the mesh, half aimed at a random triangle's centre.
+fn random_rays(rng: &mut Rng, tris: &[[Vec3; 3]], count: usize) -> Vec<Ray> {
+    let b = if tris.is_empty() { Aabb { min: Vec3::ZERO, max: Vec3::ONE } } else { bounds(tris) };
+    let pad = b.extent().max_element().max(1e-3);
+    let around = Aabb { min: b.min - pad, max: b.max + pad };
+    (0..count)
+        .map(|i| {
+            let origin = if i % 3 == 0 { rng.vec_in(&b) } else { rng.vec_in(&around) };
+            let dir = if i % 2 == 0 && !tris.is_empty() {
+                let t = tris[(rng.next_u64() % tris.len() as u64) as usize];
+                let (u, v) = (rng.range(0.05, 0.45), rng.range(0.05, 0.45));
+                let target = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                (target - origin).try_normalize().unwrap_or(Vec3::Z)
+            } else {
+                rng.unit()
+            };
+            Ray::new(origin, dir)
+        })
+        .collect()
+}
+
+/// Every wide node's decoded child boxes contain the exact boxes of what they hold, and
+/// every triangle sits in exactly one leaf slot.
+fn check_boxes(wide: &WideBvh, bvh: &Bvh, tris: &[[Vec3; 3]]) {
+    let mut seen = vec![0u32; tris.len()];
+    let mut stack = vec![(0u32, None::<Aabb>)];
+    while let Some((index, parent_slot)) = stack.pop().filter(|_| !wide.nodes.is_empty()) {
+        let node = &wide.nodes[index as usize];
+        let mut node_box = Aabb::EMPTY;
+        for s in 0..WIDTH {
+            let decoded = node.child_box(s);
+            match node.slot(s) {
+                WideSlot::Empty => continue,
+                WideSlot::Inner(child) => stack.push((child, Some(decoded))),
+                WideSlot::Leaf { first, count } => {
+                    assert!((1..=3).contains(&count));
+                    for k in first..first + count {
+                        seen[k as usize] += 1;
+                        let exact = Aabb::from_points(&tris[bvh.prim_indices[k as usize] as usize]);
+                        assert!(inside(&exact, &decoded), "triangle {k} {exact:?} outside its slot {decoded:?}");
+                    }
+                }
+            }
+            node_box = node_box.union(decoded);
+        }
+        if let Some(slot) = parent_slot {
+            // The children's frame lies within the slot that points here, up to one step.
+            let step = node.scale().max_element() * 2.0 + slot.extent().max_element() * 1e-6;
+            assert!(node_box.min.cmpge(slot.min - step).all() && node_box.max.cmple(slot.max + step).all(), "node {index} leaves its slot");
+        }
+    }
+    assert!(seen.iter().all(|&n| n == 1), "every triangle in exactly one leaf");
+}
+
+fn inside(inner: &Aabb, outer: &Aabb) -> bool {
+    inner.min.cmpge(outer.min).all() && inner.max.cmple(outer.max).all()
+}
+
+/// Build, collapse, check the boxes and the reordered binary tree, then trace `rays` random
+/// rays through both trees and brute force; returns the two trees' traversal counts.
+fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, options: &BuildOptions) -> (TraversalStats, TraversalStats) {
+    let mut bvh = Bvh::build(tris, options);
+    let wide = wide::collapse(&mut bvh);
+    bvh.validate_with(tris, options).unwrap_or_else(|e| panic!("{name}: reordered binary tree: {e}"));
+    check_boxes(&wide, &bvh, tris);
+    assert!(wide.depth() <= meshtracer::bvh::STACK_SIZE, "{name}: wide depth {}", wide.depth());
+    let targets = hittable(tris);
+    let ordered = ordered_edges(&bvh, &targets);
+    let (mut binary_stats, mut wide_stats) = (TraversalStats::default(), TraversalStats::default());
+    let mut rng = Rng(0x9e37_79b9 ^ tris.len() as u64);
+    for (r, ray) in random_rays(&mut rng, tris, rays).iter().enumerate() {
+        let binary = bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut binary_stats);
+        let got = wide::closest_hit(&wide.nodes, &ordered, ray, 0.0, f32::INFINITY, &mut wide_stats);
+        let want = brute_force(&targets, ray);
+        for (what, other) in [("binary", binary), ("brute force", want.map(|(i, h)| (u32::MAX - i, h)))] {
+            match (got, other) {
+                (None, None) => {}
+                (Some((k, g)), Some((_, w))) => {
+                    let close = (g.t - w.t).abs() <= 1e-5 * w.t.abs().max(1e-30);
+                    assert!(close, "{name} ray {r}: wide t = {} (k {k}) vs {what} t = {}: {ray:?}", g.t, w.t);
+                }
+                (g, w) => panic!("{name} ray {r}: wide {g:?} vs {what} {w:?}: {ray:?}"),
+            }
+        }
+        if let (Some((k, g)), Some((j, b))) = (got, binary) {
+            if k == j {
+                assert_eq!(g, b, "{name} ray {r}: same triangle, different hit");
+            }
+        }
+    }
+    (binary_stats, wide_stats)
+}
+
+fn tracing() -> BuildOptions {
+    BuildOptions { max_leaf_size: 2, ..BuildOptions::default() }
+}
+
+#[test]
+fn random_soup_matches_binary_and_brute_force() {
+    let mut rng = Rng(1);
+    check_mesh("soup", &soup(&mut rng, 3000, 10.0, 0.5), 4000, &tracing());
+    // Bigger binary leaves split into several slots or their own nodes.
+    for leaf in [1, 3, 4, 8, 30, 255] {
+        let options = BuildOptions { max_leaf_size: leaf, ..BuildOptions::default() };
+        check_mesh(&format!("soup, leaves of {leaf}"), &soup(&mut rng, 700, 5.0, 0.8), 1500, &options);
+    }
+}
+
+#[test]
+fn empty_and_single_triangle() {
+    let mut bvh = Bvh::build(&[], &tracing());
+    let wide = wide::collapse(&mut bvh);
+    assert!(wide.nodes.is_empty());
+    let ray = Ray::new(Vec3::ZERO, Vec3::Z);
+    assert!(wide::closest_hit(&wide.nodes, &[], &ray, 0.0, f32::INFINITY, &mut TraversalStats::default()).is_none());
+    let one = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    check_mesh("one triangle", &one, 500, &tracing());
+    let mut bvh = Bvh::build(&one, &tracing());
+    let wide = wide::collapse(&mut bvh);
+    let mut stats = TraversalStats::default();
+    let hit = wide::closest_hit(&wide.nodes, &ordered_edges(&bvh, &one), &Ray::new(Vec3::new(0.2, 0.2, 3.0), -Vec3::Z), 0.0, f32::INFINITY, &mut stats);
+    assert_eq!(hit.map(|(k, h)| (k, h.t)), Some((0, 3.0)));
+    assert_eq!(stats, TraversalStats { nodes: 1, triangles: 1 });
+}
+
+#[test]
+fn coplanar_and_one_point() {
+    let mut rng = Rng(13);
+    let flat: Vec<[Vec3; 3]> = soup(&mut rng, 2000, 10.0, 0.7).into_iter().map(|t| t.map(|p| Vec3::new(p.x, p.y, 1.5))).collect();
+    check_mesh("coplanar", &flat, 4000, &tracing());
+    let p = Vec3::new(1.0, -2.0, 3.0);
+    check_mesh("one point", &vec![[p, p, p]; 500], 500, &tracing());
+}
+
+#[test]
+fn huge_and_tiny_coordinates() {
+    let mut rng = Rng(17);
+    // Möller–Trumbore overflows f32 beyond ~1e12, so hits are traced at 1e10; the boxes
+    // are checked up to 1e30.
+    check_mesh("1e10 scale", &soup(&mut rng, 1500, 1e10, 3e9), 3000, &tracing());
+    check_mesh("1e-20 scale", &soup(&mut rng, 1500, 1e-20, 3e-21), 3000, &tracing());
+    // Far from the origin, where a node's frame origin is large beside its steps (at 1e7
+    // these corners would snap to whole units and rays graze box faces: both trees miss).
+    let far: Vec<[Vec3; 3]> = soup(&mut rng, 500, 1.0, 0.1).into_iter().map(|t| t.map(|p| p + Vec3::splat(1e4))).collect();
+    check_mesh("unit triangles at 1e4", &far, 2000, &tracing());
+    for extent in [1e20f32, 1e30] {
+        let big = soup(&mut rng, 800, extent, extent * 0.3);
+        let mut bvh = Bvh::build(&big, &tracing());
+        let wide = wide::collapse(&mut bvh);
+        check_boxes(&wide, &bvh, &big);
+    }
+}
+
+#[test]
+fn torus_knot_matches_and_is_smaller() {
+    let mesh = PaperModel::TorusKnot.mesh();
+    let tris: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+    let (binary, wide_counts) = check_mesh("torus knot", &tris, 20_000, &tracing());
+    let mut bvh = Bvh::build(&tris, &tracing());
+    let wide = wide::collapse(&mut bvh);
+    let stats = WideStats::new(&bvh, &wide);
+    // The expectations written down before the GPU is measured (see the report).
+    println!("knot: {} triangles, binary {} nodes ({:.1} B/tri), wide {} nodes ({:.1} B/tri), {:.2} children per node, depth {}", stats.triangles, stats.binary_nodes, stats.binary_bytes_per_triangle(), stats.wide_nodes, stats.wide_bytes_per_triangle(), stats.mean_children, stats.wide_depth);
+    let rays = 20_000.0;
+    let per_ray = |s: TraversalStats, node_bytes: f64| (s.nodes as f64 / rays, s.triangles as f64 / rays, (s.nodes as f64 * node_bytes + s.triangles as f64 * 48.0) / rays);
+    println!("binary per ray: {:.1} nodes, {:.1} triangles, {:.0} B", per_ray(binary, 64.0).0, per_ray(binary, 64.0).1, per_ray(binary, 64.0).2);
+    println!("wide per ray: {:.1} nodes, {:.1} triangles, {:.0} B", per_ray(wide_counts, 80.0).0, per_ray(wide_counts, 80.0).1, per_ray(wide_counts, 80.0).2);
+    assert!(stats.wide_nodes * 3 < stats.binary_nodes, "{stats:?}");
+    assert!(stats.wide_bytes_per_triangle() < stats.binary_bytes_per_triangle());
+    assert!(wide_counts.nodes < binary.nodes, "fewer node visits: {wide_counts:?} vs {binary:?}");
+}
+
+// --- the GPU's traversal against the CPU reference (lavapipe, validation layer) -----------
+
+mod common;
+
+use common::{paper, render_both};
+use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
+
+fn wide_settings(size: u32, bounces: u32) -> RenderSettings {
+    RenderSettings { width: size, height: size, bounces, accel: Accel::Bvh, bvh: BvhLayout::Wide, aov: Aov::Color, ..RenderSettings::default() }
+}
+
+/// The tolerance of tests/gpu_vs_cpu.rs: 0.2% of pixels may differ by more than 1e-4.
+fn assert_close(a: &meshtracer::tracer::Image, b: &meshtracer::tracer::Image, what: &str) {
+    let d = a.compare(b, 1e-4);
+    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: images differ: {d:?}");
+}
+
+#[test]
+fn gpu_wide_traversal_matches_the_cpu_reference_and_the_binary_tree() {
+    for model in PaperModel::ALL {
+        let scene = paper(model, 2);
+        let (gpu, cpu) = render_both(&scene, wide_settings(48, 2));
+        assert_close(&gpu, &cpu, &format!("{}: wide GPU vs CPU", model.name()));
+        let (binary, _) = render_both(&scene, RenderSettings { bvh: BvhLayout::Binary, ..wide_settings(48, 2) });
+        assert_close(&gpu, &binary, &format!("{}: wide vs binary", model.name()));
+    }
+    common::assert_validation_clean(&common::ctx());
+}
+
+#[test]
+fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
+    let scene = paper(PaperModel::TorusKnot, 3);
+    let (gpu, cpu) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 2) });
+    let differ = gpu.pixels.iter().zip(&cpu.pixels).filter(|(g, c)| g[..2] != c[..2]).count();
+    assert!(differ as f32 <= 0.002 * gpu.pixels.len() as f32, "cost differs on {differ} of {} pixels", gpu.pixels.len());
+    assert!(cpu.pixels.iter().any(|p| p[0] > 1.0), "the wide BVH is traversed");
+    // Fewer nodes than the binary tree visits for the same rays.
+    let (binary, _) = render_both(&scene, RenderSettings { aov: Aov::Cost, bvh: BvhLayout::Binary, ..wide_settings(32, 2) });
+    let nodes = |img: &meshtracer::tracer::Image| img.pixels.iter().map(|p| p[0] as f64).sum::<f64>();
+    assert!(nodes(&gpu) < nodes(&binary), "wide {} vs binary {} nodes", nodes(&gpu), nodes(&binary));
+    common::assert_validation_clean(&common::ctx());
+}
+
+/// Hand measurement (`cargo test --release --test bvh_wide -- --ignored --nocapture`): the
+/// framed knot's sizes and per-ray work in both trees, primary rays from a camera on +z
+/// through a 256² grid over the knot's box (as `bench --framed` frames it, roughly).
+#[test]
+#[ignore]
+fn large_knot_statistics() {
+    for n in [1_000_000usize, 4_000_000] {
+        let mesh = meshtracer::scene::primitives::large_torus_knot(n);
+        let tris: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+        let start = std::time::Instant::now();
+        let mut bvh = Bvh::build(&tris, &tracing());
+        let built = start.elapsed();
+        let wide_bvh = wide::collapse(&mut bvh);
+        println!("knot {n}: build {:.0} ms, collapse {:.0} ms", built.as_secs_f64() * 1e3, (start.elapsed() - built).as_secs_f64() * 1e3);
+        let s = WideStats::new(&bvh, &wide_bvh);
+        println!("knot {n}: {} triangles; binary {} nodes, {:.1} B/tri; wide {} nodes, {:.1} B/tri, {:.2} children per node, {} leaf slots, depth {} (binary {})", s.triangles, s.binary_nodes, s.binary_bytes_per_triangle(), s.wide_nodes, s.wide_bytes_per_triangle(), s.mean_children, s.wide_leaves, s.wide_depth, bvh.depth());
+        let ordered = ordered_edges(&bvh, &tris);
+        let b = bounds(&tris);
+        let eye = Vec3::new(b.center().x, b.center().y, b.max.z + 1.2 * b.extent().max_element());
+        let (mut binary, mut wide_counts, mut hits) = (TraversalStats::default(), TraversalStats::default(), 0);
+        let side = 256;
+        for j in 0..side {
+            for i in 0..side {
+                let target = Vec3::new(b.min.x + b.extent().x * (i as f32 + 0.5) / side as f32, b.min.y + b.extent().y * (j as f32 + 0.5) / side as f32, b.center().z);
+                let ray = Ray::new(eye, (target - eye).normalize());
+                let h = bvh.closest_hit(&ordered, &ray, 0.0, f32::INFINITY, &mut binary);
+                let w = wide::closest_hit(&wide_bvh.nodes, &ordered, &ray, 0.0, f32::INFINITY, &mut wide_counts);
+                assert_eq!(h.map(|x| x.1.t), w.map(|x| x.1.t));
+                hits += h.is_some() as u32;
+            }
+        }
+        let rays = (side * side) as f64;
+        for (name, c, node_bytes) in [("binary", binary, 64.0), ("wide", wide_counts, 80.0)] {
+            let (nodes, tested) = (c.nodes as f64 / rays, c.triangles as f64 / rays);
+            println!("  {name}: {nodes:.1} nodes, {tested:.1} triangles per ray, {:.0} B per ray ({:.0}% of rays hit)", nodes * node_bytes + tested * 48.0, 100.0 * hits as f64 / rays);
+        }
+    }
+}
