@@ -289,6 +289,28 @@ fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
     common::assert_validation_clean(&common::ctx());
 }
 
+#[test]
+fn a_scene_packed_without_the_wide_layout_traces_its_binary_tree() {
+    // The wide tree is packed only when a frame asks for it (its collapse costs as much as
+    // the build): a wide frame of a binary-only scene is the binary frame, on both tracers.
+    use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::{cpu, FrameParams, PackedScene};
+    let scene = paper(PaperModel::TorusKnot, 1);
+    let binary_only = PackedScene::new(&scene);
+    assert!(!binary_only.has_wide());
+    assert!(PackedScene::for_layout(&scene, BvhLayout::Wide).has_wide());
+    let ctx = common::ctx();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &binary_only).unwrap();
+    let wide = FrameParams::new(&scene, wide_settings(32, 1));
+    let binary = FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::Binary, ..wide_settings(32, 1) });
+    let (gpu_wide, _) = tracer.render(&wide).unwrap();
+    let (gpu_binary, _) = tracer.render(&binary).unwrap();
+    assert_eq!(gpu_wide.pixels, gpu_binary.pixels);
+    assert_eq!(cpu::render(&binary_only, &wide).pixels, cpu::render(&binary_only, &binary).pixels);
+    drop(tracer);
+    common::assert_validation_clean(&ctx);
+}
+
 /// Hand measurement (`cargo test --release --test bvh_wide -- --ignored --nocapture`): the
 /// framed knot's sizes and per-ray work in both trees, primary rays from a camera on +z
 /// through a 256² grid over the knot's box (as `bench --framed` frames it, roughly).

@@ -63,7 +63,7 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let triangles = mesh.triangle_count() as u64;
     progress.begin(Phase::Build)?;
     let scene = spec.scene_with(mesh);
-    let prepared = PreparedScene::new(&scene);
+    let prepared = PreparedScene::new(&scene, spec.settings.bvh == crate::render_settings::BvhLayout::Wide);
     progress.begin(Phase::Pack)?;
     let packed = PackedScene::pack(&scene, prepared);
     progress.begin(Phase::Upload)?;

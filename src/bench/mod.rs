@@ -214,9 +214,10 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
         }
         let mesh = &loaded.as_ref().unwrap().mesh;
         let scene = case.spec.scene_with(mesh.clone());
-        let key = format!("{key}:{:?}:{}", case.spec.environment, case.spec.mirror_box);
+        let layout = case.spec.settings.bvh;
+        let key = format!("{key}:{:?}:{}:{layout}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {
-            let packed = PackedScene::new(&scene);
+            let packed = PackedScene::for_layout(&scene, layout);
             for w in &packed.warnings {
                 log::warn!("{w}");
             }

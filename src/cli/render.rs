@@ -43,7 +43,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if progress {
         eprintln!("loaded {} triangles in {:.2} s; building the BVH ...", scene.triangle_count(), started.elapsed().as_secs_f64());
     }
-    let packed = PackedScene::new(&scene);
+    let packed = PackedScene::for_layout(&scene, settings.bvh);
     if progress {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }

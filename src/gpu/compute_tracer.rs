@@ -22,7 +22,7 @@ use super::dispatch::{Band, FrameTrace, GROUP};
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
 use crate::tracer::budget;
-use crate::render_settings::Accel;
+use crate::render_settings::{Accel, BvhLayout};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
 use crate::tracer::packed::{GpuInstance, PackedScene};
@@ -64,6 +64,8 @@ pub struct ComputeTracer {
     recorded_slots: u32,
     /// Triangles over all instances, for the work estimate that splits frames into bands.
     triangle_total: u64,
+    /// The scene uploaded holds the wide BVH layout (see `PackedScene::for_layout`).
+    has_wide: bool,
     /// The vendor path, or why the device cannot run it.
     vendor: Result<VendorTracer, String>,
     /// (first triangle, count) of each mesh, and the instances: what the vendor's
@@ -100,6 +102,7 @@ impl ComputeTracer {
             timer,
             recorded_slots,
             triangle_total: 0,
+            has_wide: false,
             vendor,
             meshes: Vec::new(),
             instances: Vec::new(),
@@ -125,6 +128,7 @@ impl ComputeTracer {
         }
         self.scene = Some(SceneBuffers::upload(&self.ctx, packed)?);
         self.triangle_total = triangle_total(&packed.instances);
+        self.has_wide = packed.has_wide();
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
         self.instances = packed.instances.clone();
         self.rebind();
@@ -294,7 +298,12 @@ impl ComputeTracer {
 
     /// `params` limited to the instances uploaded.
     fn clamped(&self, params: &FrameParams) -> FrameParams {
-        FrameParams { instance_count: params.instance_count.min(self.instance_count()), ..*params }
+        let mut settings = params.settings;
+        if !self.has_wide {
+            // A scene packed without the wide layout traces its binary tree.
+            settings.bvh = BvhLayout::Binary;
+        }
+        FrameParams { instance_count: params.instance_count.min(self.instance_count()), settings, ..*params }
     }
 
     /// Record the trace of `band` of a frame into `cmd`, each part of a split frame with

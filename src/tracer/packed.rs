@@ -17,6 +17,7 @@ use super::textures::{EnvironmentMap, TextureAtlas};
 use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::Aabb;
+use crate::render_settings::BvhLayout;
 use crate::scene::{Instance, Mesh, Scene};
 
 /// A triangle as `shaders/scene.glsl` reads it (48 bytes).
@@ -164,7 +165,18 @@ impl PackedScene {
     /// Prepare (build every mesh's BVH, decode textures and the environment) and pack
     /// the scene: the one call most callers want.
     pub fn new(scene: &Scene) -> Self {
-        Self::pack(scene, PreparedScene::new(scene))
+        Self::pack(scene, PreparedScene::new(scene, false))
+    }
+
+    /// [`PackedScene::new`] for frames of `layout`: with [`BvhLayout::Wide`], both layouts
+    /// are packed (a frame may then pick either); binary alone otherwise.
+    pub fn for_layout(scene: &Scene, layout: BvhLayout) -> Self {
+        Self::pack(scene, PreparedScene::new(scene, layout == BvhLayout::Wide))
+    }
+
+    /// True when the wide layout was packed: frames asking for it without trace the binary tree.
+    pub fn has_wide(&self) -> bool {
+        !self.wide_nodes.is_empty()
     }
 
     /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
@@ -204,7 +216,7 @@ impl PackedScene {
         }
     }
 
-    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: WideBvh, prim_base: u32) {
+    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: Option<WideBvh>, prim_base: u32) {
         let material_base = self.materials.len() as u32;
         let texture_of = |m: &crate::scene::Material| {
             m.diffuse_texture.as_ref().filter(|_| !mesh.texcoords.is_empty()).and_then(|p| self.texture_index.get(p).copied()).unwrap_or(NO_TEXTURE)
@@ -235,7 +247,9 @@ impl PackedScene {
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
         let wide_base = self.wide_nodes.len() as u32;
-        append(&mut self.wide_nodes, wide.nodes);
+        if let Some(wide) = wide {
+            append(&mut self.wide_nodes, wide.nodes);
+        }
         self.meshes.push(PackedMesh {
             node_base,
             node_count,

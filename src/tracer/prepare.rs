@@ -16,8 +16,8 @@ use crate::scene::Scene;
 /// A scene's BVHs (one per mesh, in mesh order), decoded textures and environment.
 pub(crate) struct PreparedScene {
     pub bvhs: Vec<Bvh>,
-    /// Each mesh's wide BVH, over its binary tree's (reordered) triangles.
-    pub wide_bvhs: Vec<WideBvh>,
+    /// Each mesh's wide BVH, over its binary tree's (reordered) triangles, when asked for.
+    pub wide_bvhs: Vec<Option<WideBvh>>,
     /// Every readable diffuse texture, by the path materials name it with.
     pub textures: Vec<(PathBuf, RgbaImage)>,
     pub environment: Option<EnvironmentMap>,
@@ -28,20 +28,22 @@ pub(crate) struct PreparedScene {
 }
 
 impl PreparedScene {
-    /// Build the BVHs and decode the images `scene` needs.
-    pub(crate) fn new(scene: &Scene) -> Self {
+    /// Build the BVHs (and, with `wide`, collapse each into the wide layout) and decode the
+    /// images `scene` needs.
+    pub(crate) fn new(scene: &Scene, wide: bool) -> Self {
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
                 let options = BuildOptions::for_tracing();
-                // Both layouts, so that a frame may pick either: the wide tree is collapsed
-                // from the binary one, whose triangles it puts in its own leaf order.
-                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<WideBvh>) = scene
+                // With `wide`, both layouts, so that a frame may pick either: the wide tree is
+                // collapsed from the binary one, whose triangles it puts in its own leaf
+                // order. Only on request: the collapse takes as long as the build.
+                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = scene
                     .meshes
                     .iter()
                     .map(|mesh| {
                         let mut bvh = Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
-                        let wide = wide::collapse(&mut bvh);
+                        let wide = wide.then(|| wide::collapse(&mut bvh));
                         (bvh, wide)
                     })
                     .unzip();

@@ -70,7 +70,7 @@ pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
 
 /// Render on both tracers from a prepared scene with params adjusted by `tweak`.
 pub fn render_both_with(scene: &Scene, settings: RenderSettings, tweak: impl Fn(&mut FrameParams)) -> (Image, Image) {
-    let packed = PackedScene::new(scene);
+    let packed = PackedScene::for_layout(scene, settings.bvh);
     let mut params = FrameParams::new(scene, settings);
     tweak(&mut params);
     let ctx = ctx();

@@ -7,6 +7,7 @@ use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 
 use crate::progress::{Phase, Progress, Snapshot};
+use crate::render_settings::BvhLayout;
 use crate::scene::Scene;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
@@ -56,7 +57,8 @@ pub(crate) struct LoadStatus<'a> {
 impl ModelLoader {
     /// Start loading `source` (a file with `options`) for `model_count` copies; a load
     /// already running is cancelled (its thread stops at its next phase, its result dropped).
-    pub(crate) fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit) {
+    /// With `layout` wide, the wide BVH is packed too.
+    pub(crate) fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit, layout: BvhLayout) {
         self.cancel();
         let (tx, rx) = channel();
         let label = source.label();
@@ -64,7 +66,7 @@ impl ModelLoader {
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
             let progress = progress.clone();
             move || {
-                let result = load(source, &options, model_count, light, progress);
+                let result = load(source, &options, model_count, light, layout, progress);
                 // The receiver is gone when the load was cancelled: nothing to tell.
                 let _ = tx.send(result);
             }
@@ -124,7 +126,7 @@ impl ModelLoader {
 
 /// The worker's part: read and parse (or generate), build, pack; stops between phases
 /// when cancelled.
-fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: LightOrbit, progress: Progress) -> Result<LoadedModel, String> {
+fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: LightOrbit, layout: BvhLayout, progress: Progress) -> Result<LoadedModel, String> {
     source.check_name()?;
     let (mesh, warnings) = source.load_with_progress(options, &progress).map_err(|e| e.to_string())?;
     if mesh.triangle_count() == 0 {
@@ -132,7 +134,7 @@ fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: Lig
     }
     progress.begin(Phase::Build).map_err(|e| e.to_string())?;
     let scene = paper_scene(mesh, model_count, light);
-    let prepared = PreparedScene::new(&scene);
+    let prepared = PreparedScene::new(&scene, layout == BvhLayout::Wide);
     progress.begin(Phase::Pack).map_err(|e| e.to_string())?;
     let mut packed = PackedScene::pack(&scene, prepared);
     progress.checkpoint().map_err(|e| e.to_string())?;
@@ -154,7 +156,7 @@ mod tests {
     fn loads_on_a_thread_and_reports_errors_as_one_sentence() {
         let mut loader = ModelLoader::default();
         assert!(matches!(loader.poll(), Poll::Idle));
-        loader.start(ModelSource::Paper(PaperModel::Sphere), LoadOptions::default(), 2, LightOrbit::default());
+        loader.start(ModelSource::Paper(PaperModel::Sphere), LoadOptions::default(), 2, LightOrbit::default(), BvhLayout::Binary);
         assert!(loader.busy());
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let loaded = result.unwrap();
@@ -162,7 +164,7 @@ mod tests {
         assert!(!loaded.packed.triangles.is_empty());
         assert!(!loader.busy());
 
-        loader.start(ModelSource::File("/nonexistent/model.obj".into()), LoadOptions::default(), 1, LightOrbit::default());
+        loader.start(ModelSource::File("/nonexistent/model.obj".into()), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let err = result.err().unwrap();
         assert!(!err.contains('\n'), "{err}");
@@ -171,7 +173,7 @@ mod tests {
     #[test]
     fn a_cancelled_load_keeps_the_old_model_and_starts_no_phase() {
         let mut loader = ModelLoader::default();
-        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default());
+        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
         assert!(loader.cancel().is_some_and(|label| label.starts_with("torusknot")));
         assert!(matches!(loader.poll(), Poll::Idle), "the old model stays: nothing to take");
         assert!(loader.cancel().is_none());
@@ -179,7 +181,7 @@ mod tests {
         // The worker checks the flag before each phase.
         let progress = Progress::default();
         progress.cancel();
-        let err = load(ModelSource::Generated(2_000), &LoadOptions::default(), 1, LightOrbit::default(), progress.clone()).err().unwrap();
+        let err = load(ModelSource::Generated(2_000), &LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary, progress.clone()).err().unwrap();
         assert_eq!(err, "loading was cancelled");
         assert!(progress.snapshot().phases.is_empty());
     }
@@ -187,7 +189,7 @@ mod tests {
     #[test]
     fn a_finished_load_lists_its_phases_in_order() {
         let mut loader = ModelLoader::default();
-        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default());
+        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
         let status = loader.status().unwrap();
         assert!(status.label.starts_with("torusknot"), "{}", status.label);
         let Poll::Done(result) = loader.wait() else { panic!("no result") };

@@ -6,7 +6,7 @@ use crate::progress::Phase;
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
-use crate::render_settings::Aov;
+use crate::render_settings::{Accel, Aov, BvhLayout};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
@@ -23,6 +23,8 @@ pub(crate) struct Model {
     /// The packed scene with its geometry arrays emptied after upload: the mesh table
     /// stays for instance rebuilds, the environment for its changes.
     pub(crate) packed: PackedScene,
+    /// The wide BVH layout was packed with it (only when asked for: see `apply`).
+    pub(crate) has_wide: bool,
 }
 
 /// What the tracer holds now; None = not applied yet (or to be applied again).
@@ -51,6 +53,8 @@ pub(crate) struct Session {
     pub(crate) loader: ModelLoader,
     applied: Applied,
     pub(crate) accumulation: Accumulation,
+    /// The model shown was sent to be loaded again with the wide layout (once per model).
+    wide_asked: bool,
 }
 
 impl Session {
@@ -60,7 +64,7 @@ impl Session {
         panel.model.status = None;
         panel.model.warnings.clear();
         params.scene.model = source.clone();
-        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light);
+        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light, params.scene.settings.bvh);
     }
 
     /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays. The
@@ -105,6 +109,7 @@ impl Session {
         packed.triangles = Vec::new();
         packed.shading = Vec::new();
         packed.nodes = Vec::new();
+        let has_wide = packed.has_wide();
         packed.wide_nodes = Vec::new();
         let text = format!("loaded {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
         panel.model.status = Some(match warnings.first() {
@@ -117,13 +122,23 @@ impl Session {
         self.applied.instances = None;
         self.applied.environment = None;
         self.accumulation = Accumulation::default();
-        self.model = Some(Model { source, scene, packed });
+        self.wide_asked = false;
+        self.model = Some(Model { source, scene, packed, has_wide });
         Ok(title)
     }
 
     /// Push parameter changes to the tracer (each takes effect this frame); `area` is the
     /// image area in physical pixels.
     pub(crate) fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
+        // The wide layout is packed only on request (its collapse takes as long as the
+        // build): a model loaded without it is loaded again, once; binary frames meanwhile.
+        let settings = &params.scene.settings;
+        if settings.accel == Accel::Bvh && settings.bvh == BvhLayout::Wide && !self.wide_asked && self.loader.status().is_none() {
+            if let Some(source) = self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone()) {
+                self.wide_asked = true;
+                self.start_load(source, params, panel);
+            }
+        }
         let size = params.render_size(area);
         if self.applied.resolution != Some(size) {
             match tracer.set_resolution(size[0], size[1]) {
