@@ -166,6 +166,9 @@ fn main() {
             if stem == "trace" {
                 // The variant for CPU devices: tiles in row order (src/gpu/tile_order.rs).
                 compile(&path, &contract, &[shader_compile::ROW_ORDER], "_rows", &out_dir);
+                // Each without the AO view and the wide BVH, for the frames that use neither.
+                compile(&path, &contract, &[shader_compile::CORE_ONLY], "_core", &out_dir);
+                compile(&path, &contract, &[shader_compile::ROW_ORDER, shader_compile::CORE_ONLY], "_rows_core", &out_dir);
             }
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }

@@ -130,10 +130,13 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
         vec3 lo = (o - inst.translation_scale.xyz) / s;
         vec3 ld = d / s;
         uint before = hit.tri;
+#ifndef CORE_ONLY
         if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u) {
             // The wide layout (`--bvh wide`); an empty mesh has no wide nodes.
             if (inst.offsets.z > 0u) traverse_wide(lo, ld, floatBitsToUint(inst.bounds_min.w), inst.offsets.y, hit, cost);
-        } else if (use_bvh) {
+        } else
+#endif
+        if (use_bvh) {
             traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
         } else {
             // The paper's brute force: every triangle of every model, eight per iteration.

@@ -110,7 +110,9 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
             color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
+#ifndef CORE_ONLY
             if (bounce == 0u && aov == AOV_AO) aux = vec4(1.0, 1.0, 1.0, 0.0);  // open sky, no coverage
+#endif
             break;
         }
         if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
@@ -134,10 +136,12 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                 }
             }
         }
+#ifndef CORE_ONLY
         if (aov == AOV_AO) {
             aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, cost)), 1.0);
             break;
         }
+#endif
         Material mat = materials[floatBitsToUint(tri.v0.w)];
         vec3 kd = mat.diffuse_mirror.rgb;
         if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {

@@ -94,6 +94,12 @@ impl Expanded {
 /// costs (for CPU devices; see `tile_order.rs`).
 pub(crate) const ROW_ORDER: &str = "ROW_ORDER";
 
+/// Defined for the trace kernel's core variant: without the AO view and the wide BVH, whose
+/// code (a second traversal each) cost every frame 4-7% on the H200 through the registers it
+/// takes (docs/BENCHMARKS.md); frames that use neither run it.
+#[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
+pub(crate) const CORE_ONLY: &str = "CORE_ONLY";
+
 /// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.

@@ -19,6 +19,7 @@ use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_la
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
+use crate::contract;
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
@@ -26,6 +27,10 @@ static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"))
 
 /// The same with `ROW_ORDER` defined (tiles in row order, no cost record).
 static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows.spv"));
+
+/// Each with `CORE_ONLY` defined: no AO view, no wide BVH (see `shader_compile::CORE_ONLY`).
+static TRACE_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv"));
+static TRACE_ROWS_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv"));
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
 static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
@@ -187,6 +192,9 @@ pub(crate) struct TracePass {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     pipeline: vk::Pipeline,
+    /// Our kernels' core variant, for frames without the AO view and the wide BVH; None
+    /// for the vendor's kernel and after a reload (the reloaded shader then runs every frame).
+    core: Option<vk::Pipeline>,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
@@ -206,8 +214,13 @@ impl TracePass {
             Kernel::RayQuery => QUERY_SPV,
         });
         let pipeline = create_pipeline(ctx, layout, &code)?;
+        let core = match kernel {
+            Kernel::Ours => Some(create_pipeline(ctx, layout, &words(TRACE_CORE_SPV))?),
+            Kernel::OursInRowOrder => Some(create_pipeline(ctx, layout, &words(TRACE_ROWS_CORE_SPV))?),
+            Kernel::RayQuery => None,
+        };
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
-        Ok(Self { ctx: ctx.clone(), kernel, pipeline, layout, set_layout, pool, set })
+        Ok(Self { ctx: ctx.clone(), kernel, pipeline, core, layout, set_layout, pool, set })
     }
 
     /// The kernel the pass runs.
@@ -259,8 +272,13 @@ impl TracePass {
             unsafe { self.ctx.device.destroy_pipeline(pipeline, None) };
             return Err(e);
         }
-        // SAFETY: the GPU is idle, so nothing uses the old pipeline.
-        unsafe { self.ctx.device.destroy_pipeline(std::mem::replace(&mut self.pipeline, pipeline), None) };
+        // SAFETY: the GPU is idle, so nothing uses the old pipelines.
+        unsafe {
+            self.ctx.device.destroy_pipeline(std::mem::replace(&mut self.pipeline, pipeline), None);
+            if let Some(core) = self.core.take() {
+                self.ctx.device.destroy_pipeline(core, None);
+            }
+        }
         Ok(())
     }
 
@@ -300,16 +318,27 @@ impl TracePass {
         let base_x = band.columns.start / GROUP.width;
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
+        let pipeline = match self.core {
+            Some(core) if !needs_full_kernel(pc) => core,
+            _ => self.pipeline,
+        };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
         // outlive its execution (the owner waits for the GPU before dropping them) and the
         // push constants fit the layout's range.
         unsafe {
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
             device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(pc));
             device.cmd_dispatch_base(cmd, base_x, 0, 0, groups_x, groups_y, 1);
         }
     }
+}
+
+/// True when a frame of these push constants uses the code the core variant leaves out:
+/// the AO view or the wide BVH.
+fn needs_full_kernel(pc: &PushConstants) -> bool {
+    let flags = pc.dims[3];
+    (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO || flags & contract::FLAG_WIDE != 0
 }
 
 /// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
@@ -328,7 +357,7 @@ fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -
 /// built for that interface.
 pub(crate) fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
     use super::shader_compile;
-    let contract = shader_compile::contract_glsl(crate::contract::ALL, "src/tracer/contract.rs");
+    let contract = shader_compile::contract_glsl(crate::contract::ALL, "src/contract.rs");
     let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
     let shader = shader_compile::compile(&dir.join("trace.comp"), &contract, defines)?;
     let signature = shader_compile::layout_signature(&shader.module)?;
@@ -347,6 +376,9 @@ impl Drop for TracePass {
         // SAFETY: the owner (`ComputeTracer`) waits for the GPU before dropping the pass,
         // so nothing uses these objects.
         unsafe {
+            if let Some(core) = self.core {
+                d.destroy_pipeline(core, None);
+            }
             destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
     }
@@ -363,6 +395,22 @@ mod tests {
         // The same assembly and compiler as build.rs: the very same SPIR-V.
         let bytes: Vec<u8> = spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
         assert!(bytes == TRACE_SPV, "run-time SPIR-V differs from build.rs's");
+    }
+
+    #[test]
+    fn the_core_variant_leaves_out_the_ao_view_and_the_wide_bvh() {
+        use super::super::shader_compile::{self, CORE_ONLY};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
+        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
+        let core = shader_compile::compile(&path, &contract, &[CORE_ONLY]).unwrap();
+        let bytes: Vec<u8> = core.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+        assert!(bytes == TRACE_CORE_SPV, "run-time SPIR-V differs from build.rs's");
+        // Smaller by the code it drops (the AO loop and the wide traversal).
+        assert!(TRACE_CORE_SPV.len() + 1000 < TRACE_SPV.len(), "core {} vs full {} bytes", TRACE_CORE_SPV.len(), TRACE_SPV.len());
+        let push = |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
+        assert!(!needs_full_kernel(&push(contract::FLAG_BVH)));
+        assert!(needs_full_kernel(&push(contract::FLAG_BVH | contract::FLAG_WIDE)));
+        assert!(needs_full_kernel(&push(contract::AOV_AO << contract::AOV_SHIFT)));
     }
 
     #[test]
