@@ -6,6 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
+use rayon::prelude::*;
 
 use super::barrier::{self, Access};
 use super::context::GpuContext;
@@ -92,31 +93,46 @@ impl GpuBuffer {
 
     /// A device-local storage buffer filled with `data` through a staging copy (paper 3.2).
     pub(crate) fn device_local_with(ctx: &Arc<GpuContext>, data: &[u8], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
-        let dst = GpuBuffer::new(ctx, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
-        dst.upload(data)?;
+        Self::device_local_with_parts(ctx, &[data], usage, name)
+    }
+
+    /// A device-local storage buffer holding `parts` back to back, each copied from where it
+    /// lies (no joined copy on the host).
+    pub(crate) fn device_local_with_parts(ctx: &Arc<GpuContext>, parts: &[&[u8]], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+        let size: usize = parts.iter().map(|p| p.len()).sum();
+        let dst = GpuBuffer::new(ctx, size as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        let mut offset = 0;
+        for part in parts {
+            dst.upload_in_pieces(part, offset, UPLOAD_CHUNK)?;
+            offset += part.len();
+        }
         Ok(dst)
     }
 
     /// Overwrite the start of this (device-local) buffer with `data` through staging copies.
     pub(crate) fn upload(&self, data: &[u8]) -> Result<(), GpuError> {
-        self.upload_in_pieces(data, UPLOAD_CHUNK)
+        self.upload_in_pieces(data, 0, UPLOAD_CHUNK)
     }
 
     /// [`Self::upload`] through a staging buffer of at most `chunk` bytes, refilled: a
     /// 10M-triangle scene then needs 64 MB of staging memory beside it instead of a copy of
     /// its largest buffer.
-    fn upload_in_pieces(&self, data: &[u8], chunk: usize) -> Result<(), GpuError> {
+    /// `offset`: where in this buffer `data` goes.
+    fn upload_in_pieces(&self, data: &[u8], offset: usize, chunk: usize) -> Result<(), GpuError> {
         if data.is_empty() {
             return Ok(());
         }
-        assert!(data.len() as u64 <= self.size, "upload larger than the buffer");
+        assert!((offset + data.len()) as u64 <= self.size, "upload larger than the buffer");
         let chunk = chunk.clamp(1, data.len());
         let mut staging = GpuBuffer::new(&self.ctx, chunk as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
         for (i, part) in data.chunks(chunk).enumerate() {
-            staging.mapped().expect("staging memory is mapped")[..part.len()].copy_from_slice(part);
+            // On every core: one thread filled a 10M-triangle scene's 1.5 GB at a third of
+            // the rate the copies to the device ran.
+            let mapped = &mut staging.mapped().expect("staging memory is mapped")[..part.len()];
+            mapped.par_chunks_mut(1 << 20).zip(part.par_chunks(1 << 20)).for_each(|(to, from)| to.copy_from_slice(from));
             let device = &self.ctx.device;
             self.ctx.one_shot(|cmd| {
-                let region = [vk::BufferCopy { src_offset: 0, dst_offset: (i * chunk) as u64, size: part.len() as u64 }];
+                let region = [vk::BufferCopy { src_offset: 0, dst_offset: (offset + i * chunk) as u64, size: part.len() as u64 }];
                 // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
                 unsafe { device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region) };
                 // Make the copy visible to the compute shader that reads the buffer next.
@@ -168,9 +184,14 @@ mod tests {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
         let buffer = GpuBuffer::new(&ctx, data.len() as u64, usage, MemoryLocation::GpuOnly, "pieces").unwrap();
         // 3,000-byte pieces: three whole ones and a short last one.
-        buffer.upload_in_pieces(&data, 3000).unwrap();
+        buffer.upload_in_pieces(&data, 0, 3000).unwrap();
         assert_eq!(buffer.download(data.len() as u64).unwrap(), data);
         drop(buffer);
+        // Parts back to back, each in pieces of its own.
+        let (a, b) = data.split_at(4321);
+        let joined = GpuBuffer::device_local_with_parts(&ctx, &[a, b], usage, "parts").unwrap();
+        assert_eq!(joined.download(data.len() as u64).unwrap(), data);
+        drop(joined);
         let messages = ctx.validation_messages();
         assert!(messages.is_empty(), "validation: {messages:?}");
     }

@@ -57,7 +57,7 @@ impl SceneBuffers {
         let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
         // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
         // ones as 16-byte words (`wide_nodes`).
-        let nodes = GpuBuffer::device_local_with(ctx, &packed.node_bytes(), storage, "bvh nodes")?;
+        let nodes = GpuBuffer::device_local_with_parts(ctx, &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)], storage, "bvh nodes")?;
         let capacity = (INSTANCE_CAPACITY.max(packed.instances.len()) * std::mem::size_of::<GpuInstance>()) as u64;
         let instances = GpuBuffer::new(ctx, capacity, storage | vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuOnly, "instances")?;
         let texels = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.texels), storage, "texels")?;

@@ -143,7 +143,7 @@ pub struct PackedScene {
     pub materials: Vec<GpuMaterial>,
     pub(crate) nodes: Vec<BvhNode>,
     /// Every mesh's wide BVH nodes back to back; the GPU's node buffer holds them after
-    /// `nodes` (see [`PackedScene::node_bytes`]).
+    /// `nodes`.
     pub(crate) wide_nodes: Vec<WideNode>,
     /// Where `wide_nodes` start in the node buffer, in 16-byte words (kept when the host
     /// copies are dropped after upload).
@@ -296,14 +296,6 @@ impl PackedScene {
         }
         let nodes = bytes(&self.nodes) + bytes(&self.wide_nodes);
         [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), nodes, bytes(&self.instances), bytes(&self.textures.texels)]
-    }
-
-    /// The GPU's node buffer: the binary nodes, then the wide ones (at `wide_word_base`).
-    pub(crate) fn node_bytes(&self) -> Vec<u8> {
-        let mut bytes = Vec::with_capacity(self.buffer_sizes()[3] as usize);
-        bytes.extend_from_slice(bytemuck::cast_slice(&self.nodes));
-        bytes.extend_from_slice(bytemuck::cast_slice(&self.wide_nodes));
-        bytes
     }
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
