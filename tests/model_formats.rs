@@ -428,3 +428,67 @@ fn mutated_files_never_panic() {
         }
     }
 }
+
+/// A plain PLY (vertex x y z nx ny nz u v, then triangles alone): the shape the common
+/// writers emit, which a binary file reads on every core.
+fn plain_ply(format: &str, verts: &[[f32; 8]], tris: &[[i32; 3]]) -> Vec<u8> {
+    let big = format == "binary_big_endian";
+    let mut out = format!(
+        "ply\nformat {format} 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        verts.len(),
+        tris.len()
+    )
+    .into_bytes();
+    let word = |out: &mut Vec<u8>, b: [u8; 4]| out.extend(if big { [b[3], b[2], b[1], b[0]] } else { b });
+    for v in verts {
+        if format == "ascii" {
+            out.extend(format!("{}\n", v.map(|c| c.to_string()).join(" ")).bytes());
+        } else {
+            v.iter().for_each(|c| word(&mut out, c.to_le_bytes()));
+        }
+    }
+    for t in tris {
+        if format == "ascii" {
+            out.extend(format!("3 {} {} {}\n", t[0], t[1], t[2]).bytes());
+        } else {
+            out.push(3);
+            t.iter().for_each(|i| word(&mut out, i.to_le_bytes()));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
+    let dir = TempDir::new("plain-ply");
+    // A grid of 40x30 quads, with normals and texture coordinates that are not round numbers.
+    let (nx, ny) = (41usize, 31usize);
+    let verts: Vec<[f32; 8]> = (0..nx * ny)
+        .map(|k| {
+            let (x, y) = ((k % nx) as f32 / 7.0, (k / nx) as f32 / 3.0);
+            let n = Vec3::new(0.1 * x.sin(), 0.2, 1.0).normalize();
+            [x, y, (x * y).sin() / 9.0, n.x, n.y, n.z, x / 5.0, y / 11.0]
+        })
+        .collect();
+    let tris: Vec<[i32; 3]> = (0..(nx - 1) * (ny - 1))
+        .flat_map(|q| {
+            let (i, j) = ((q % (nx - 1)) as i32, (q / (nx - 1)) as i32);
+            let at = |di: i32, dj: i32| (j + dj) * nx as i32 + i + di;
+            [[at(0, 0), at(1, 0), at(1, 1)], [at(0, 0), at(1, 1), at(0, 1)]]
+        })
+        .collect();
+    let ascii = load_model_file(&dir.write("grid.ply", plain_ply("ascii", &verts, &tris)), &LoadOptions::default()).unwrap().mesh;
+    for format in ["binary_little_endian", "binary_big_endian"] {
+        let binary = load_model_file(&dir.write(&format!("{format}.ply"), plain_ply(format, &verts, &tris)), &LoadOptions::default()).unwrap().mesh;
+        assert_eq!(binary.positions, ascii.positions, "{format}");
+        assert_eq!(binary.normals, ascii.normals, "{format}");
+        assert_eq!(binary.texcoords, ascii.texcoords, "{format}");
+        assert_eq!(binary.triangles, ascii.triangles, "{format}");
+        assert!(binary.has_file_normals);
+    }
+    // Anything wrong in it is still found and named by the reader that says what.
+    let mut bad = tris.clone();
+    bad[1000][2] = 99_999;
+    let err = load_model_file(&dir.write("bad.ply", plain_ply("binary_little_endian", &verts, &bad)), &LoadOptions::default()).unwrap_err().to_string();
+    assert!(err.contains("face 1000") && err.contains("99999") && err.contains("out of range"), "{err}");
+}

@@ -39,12 +39,25 @@ pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjErr
     let header = parse_header(bytes).map_err(|(l, r)| fail(l, r))?;
     let body = &bytes[header.body_start..];
     check_body_size(&header, body).map_err(|r| fail(Location::File, r))?;
-    let mut reader = match header.format {
-        Format::Ascii => Body::Ascii { text: body, pos: 0, line: header.body_line },
-        Format::Binary { big_endian } => Body::Binary { data: body, pos: 0, big_endian },
-    };
     let mut warnings = Vec::new();
-    let mesh = read_body(&header, &mut reader, name, &mut warnings).map_err(|(l, r)| fail(l, r))?;
+    let fast = match header.format {
+        Format::Binary { big_endian } => read_binary_in_parallel(&header, body, big_endian),
+        Format::Ascii => None,
+    };
+    let mesh = match fast {
+        Some((positions, normals, texcoords, triangles)) => {
+            let mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], positions, triangles, ..Default::default() };
+            finish_mesh(mesh, normals, texcoords, &header, name, &mut warnings)
+        }
+        None => {
+            let mut reader = match header.format {
+                Format::Ascii => Body::Ascii { text: body, pos: 0, line: header.body_line },
+                Format::Binary { big_endian } => Body::Binary { data: body, pos: 0, big_endian },
+            };
+            read_body(&header, &mut reader, name, &mut warnings)
+        }
+    }
+    .map_err(|(l, r)| fail(l, r))?;
     Ok(LoadedObj { mesh, warnings })
 }
 
@@ -437,6 +450,12 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
             }
         }
     }
+    finish_mesh(mesh, normals, texcoords, header, name, warnings)
+}
+
+/// What every reading ends with: the check for faces, the warnings for skipped elements and
+/// unusable texture coordinates, and the file's normals (or computed ones).
+fn finish_mesh(mut mesh: Mesh, normals: Vec<Vec3>, texcoords: Vec<Vec2>, header: &Header, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
     if mesh.triangles.is_empty() {
         return Err((Location::File, "the file has no faces, so there is nothing to trace".to_owned()));
     }
@@ -457,6 +476,60 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
         mesh.compute_vertex_normals();
     }
     Ok(mesh)
+}
+
+/// Positions, normals, texture coordinates and triangles of a binary file read on every core.
+type Columns = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
+
+/// The common binary file (a vertex element of scalars, then a face element of triangles
+/// alone) read with its records split between threads: every record has the same size, so
+/// each is found by its index (a 10M-triangle file took 0.9 s on one thread). None when the
+/// file is anything else or anything in it is wrong: `read_body` then reads it, and says what.
+fn read_binary_in_parallel(header: &Header, body: &[u8], big_endian: bool) -> Option<Columns> {
+    use rayon::prelude::*;
+    let [vertex, face] = header.elements.as_slice() else { return None };
+    if vertex.name != "vertex" || face.name != "face" {
+        return None;
+    }
+    let scalars: Vec<Scalar> = vertex.properties.iter().map(|(_, p)| if let Property::Scalar(s) = p { Some(*s) } else { None }).collect::<Option<_>>()?;
+    let [(list_name, Property::List { count, item })] = face.properties.as_slice() else { return None };
+    if list_name != "vertex_indices" && list_name != "vertex_index" {
+        return None;
+    }
+    let stride: usize = scalars.iter().map(|s| s.size()).sum();
+    let record = count.size() + 3 * item.size();
+    let (vertices, faces) = (usize::try_from(vertex.count).ok()?, usize::try_from(face.count).ok()?);
+    let vertex_bytes = body.get(..vertices.checked_mul(stride)?)?;
+    let face_bytes = body.get(vertex_bytes.len()..)?.get(..faces.checked_mul(record)?)?;
+    let read = |data: &[u8], kind: Scalar| Body::Binary { data, pos: 0, big_endian }.next(kind).ok();
+    let offsets: Vec<usize> = scalars.iter().scan(0, |at, s| Some(std::mem::replace(at, *at + s.size()))).collect();
+    let value = |rec: &[u8], k: usize| read(&rec[offsets[k]..], scalars[k]).unwrap_or(0.0) as f32;
+    let column = |names: &[&str]| vertex.find(names);
+    let xyz = [column(&["x"])?, column(&["y"])?, column(&["z"])?];
+    let n = [column(&["nx"]), column(&["ny"]), column(&["nz"])];
+    let uv = [column(&["u", "s", "texture_u", "texture_s"]), column(&["v", "t", "texture_v", "texture_t"])];
+    let records = || vertex_bytes.par_chunks_exact(stride.max(1)).take(vertices);
+    let positions: Vec<Vec3> = records().map(|r| Vec3::from(xyz.map(|k| value(r, k)))).collect();
+    if stride == 0 || !positions.par_iter().all(|p| p.is_finite()) {
+        return None;
+    }
+    let normals = match n {
+        [Some(a), Some(b), Some(c)] => records().map(|r| Vec3::new(value(r, a), value(r, b), value(r, c))).collect(),
+        _ => Vec::new(),
+    };
+    let texcoords = match uv {
+        [Some(a), Some(b)] => records().map(|r| Vec2::new(value(r, a), value(r, b))).collect(),
+        _ => Vec::new(),
+    };
+    let triangles: Vec<[u32; 3]> = face_bytes
+        .par_chunks_exact(record)
+        .map(|r| {
+            (read(r, *count)? == 3.0).then_some(())?;
+            let corner = |k: usize| read(&r[count.size() + k * item.size()..], *item).filter(|&c| c >= 0.0 && c < vertices as f64).map(|c| c as u32);
+            Some([corner(0)?, corner(1)?, corner(2)?])
+        })
+        .collect::<Option<_>>()?;
+    Some((positions, normals, texcoords, triangles))
 }
 
 /// A word from the file for a message, cut and escaped (see `files::shown`).
