@@ -233,7 +233,7 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
     assert!((loaded.mesh.materials[0].diffuse - Vec3::new(0.8, 0.1, 0.1)).length() < 1e-6);
 
     // The OBJ twin: the quad placed by hand by each node's world matrix, in scene order.
-    let node1 = Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_xyzw(0.0, 0.7071068, 0.0, 0.7071068), Vec3::ZERO);
+    let node1 = Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_xyzw(0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2), Vec3::ZERO);
     let worlds = [Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)), node1, node1 * Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0))];
     let mut obj = String::new();
     for (k, w) in worlds.iter().enumerate() {

@@ -39,9 +39,6 @@ static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query
 /// (`shaders/vendor/tlas.glsl`), after the storage buffers.
 pub(crate) const TLAS_BINDING: u32 = 11;
 
-/// The work-group size's old path, kept for `src/app/` until it imports `crate::gpu::GROUP`
-/// (issue #26: removed after the merge).
-
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Kernel {

@@ -197,6 +197,10 @@ impl LeftOf {
     #[inline(always)]
     pub(super) fn test(&self, p: &Prim) -> bool {
         let c = p.min[self.axis] * 0.5 + p.max[self.axis] * 0.5;
-        !((c - self.origin) * self.scale >= self.plane)
+        // Negated on purpose: a NaN centroid compares false and so goes left, in the sequential
+        // and the parallel partition alike.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let left = !((c - self.origin) * self.scale >= self.plane);
+        left
     }
 }

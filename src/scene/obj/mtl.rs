@@ -187,7 +187,7 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
             warn(warnings, format!("{library}: material {}: `map_Kd` {plural} {} not supported; ignored", quote_name(&m.name), quote_name(&options)));
         }
         if out.diffuse_texture.is_none() {
-            warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", quote_name(&map.file), quote_name(&m.name)));
+            warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", quote_name(map.file), quote_name(&m.name)));
         }
         // Exporters write `Kd 0 0 0` when the map supplies the colour (all of Sponza does).
         // Taken literally that is black whatever the renderer does with textures: white
