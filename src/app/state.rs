@@ -452,6 +452,13 @@ mod tests {
         }
         assert_eq!(p.scene.models, 1);
     }
+    #[test]
+    fn escape_asks_to_stop_a_load() {
+        let mut p = params(|_| {});
+        let mut previous = Resolution::Square(512);
+        assert_eq!(p.apply_key(KeyCode::Escape, false, false, &mut previous), KeyAction::CancelLoad);
+    }
+
 
     #[test]
     fn light_moves_unless_paused() {

@@ -6,7 +6,9 @@ use egui::Vec2;
 use egui_kittest::kittest::{NodeT, Queryable};
 use egui_kittest::Harness;
 
-use super::{show, PanelInfo, PanelState, VendorInfo, PANEL_WIDTH};
+use super::{show, PanelAction, PanelInfo, PanelState, VendorInfo, PANEL_WIDTH};
+use crate::app::files::model_loader::LoadStatus;
+use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::app::measure::frame_stats::FrameStats;
 use crate::app::state::{Params, ViewMode, CostMetric};
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
@@ -21,11 +23,15 @@ struct Fixture {
     stats: FrameStats,
     /// The side panel's width as drawn in the last frame, points.
     panel_width: f32,
+    /// A load in progress, as the loader reports it.
+    loading: Option<(String, Snapshot)>,
+    /// Every action the panel asked for, in order.
+    actions: Vec<PanelAction>,
 }
 
 impl Fixture {
     fn new(vendor: VendorInfo) -> Self {
-        Self { params: Params::new(&SceneSpec::default(), false), panel: PanelState::default(), vendor, stats: FrameStats::default(), panel_width: 0.0 }
+        Self { params: Params::new(&SceneSpec::default(), false), panel: PanelState::default(), vendor, stats: FrameStats::default(), panel_width: 0.0, loading: None, actions: Vec::new() }
     }
 }
 
@@ -38,7 +44,7 @@ fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
         triangles: 1000,
         vertices: 500,
         settings: f.params.settings_for([256, 256]),
-        loading: None,
+        loading: f.loading.as_ref().map(|(label, snapshot)| LoadStatus { label, snapshot: snapshot.clone() }),
         present_mode: "FIFO".into(),
         vsync_off_available: false,
         heat: Some((100.0, 120.0, 30.0)),
@@ -67,7 +73,8 @@ fn harness(size: Vec2, fixture: Fixture) -> Harness<'static, Fixture> {
                 // The panel edits a copy of what the facts borrow, as the tool's frame does.
                 let mut params = f.params.clone();
                 let mut panel = std::mem::take(&mut f.panel);
-                let _ = show(ui, &mut params, &mut panel, &info(f));
+                let actions = show(ui, &mut params, &mut panel, &info(f));
+                f.actions.extend(actions);
                 f.panel = panel;
                 f.params = params;
             });
@@ -128,4 +135,22 @@ fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
         let structures = h.get_by_label_contains("bottom levels");
         assert!(structures.rect().right() <= width + 0.5, "{size:?}: the line runs past the panel ({} > {width})", structures.rect().right());
     }
+}
+
+#[test]
+fn a_load_shows_its_phases_and_cancels_from_the_panel() {
+    let mut fixture = Fixture::new(VendorInfo::default());
+    let phases = vec![
+        PhaseTime { phase: Phase::Read, seconds: 0.25, done: true },
+        PhaseTime { phase: Phase::Parse, seconds: 1.5, done: false },
+    ];
+    fixture.loading = Some(("dragon".into(), Snapshot { phases, fraction: 0.5 }));
+    let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
+    h.run_steps(2); // the bar animates: it never settles
+    // The running phase on the bar, the finished ones with their times.
+    h.get_by_label_contains("dragon: parse 1.5 s");
+    h.get_by_label_contains("read 0.25 s");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2); // the bar animates: it never settles
+    assert!(h.state().actions.contains(&PanelAction::CancelLoad), "{:?}", h.state().actions);
 }
