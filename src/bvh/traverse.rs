@@ -35,14 +35,27 @@ impl Bvh {
 /// (root first, child and leaf indices relative to the mesh's node and triangle bases) over
 /// its BVH-ordered (v0, e1, e2) triangles `ordered`; returns (k, hit) with `k` indexing
 /// `ordered`. Adds to `stats` what the shader adds to its cost: one per node, one per triangle.
-pub fn closest_hit(
-    nodes: &[BvhNode],
-    ordered: &[[Vec3; 3]],
-    ray: &Ray,
-    t_min: f32,
-    t_max: f32,
-    stats: &mut TraversalStats,
-) -> Option<(u32, TriHit)> {
+pub fn closest_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
+    walk(nodes, ordered, ray, t_min, t_max, stats, Stop::AtClosest)
+}
+
+/// Whether `ray` hits any triangle in (t_min, t_max) through one mesh's `nodes` (laid out
+/// as for [`closest_hit`]): the AO view's occlusion query, the reference for
+/// `traverse_bvh_any` in `shaders/intersect.glsl`. The same walk as [`closest_hit`] (leaves
+/// tested as their box is hit, the near inner child next), ended by the first hit found.
+pub fn any_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+    walk(nodes, ordered, ray, t_min, t_max, stats, Stop::AtFirst).is_some()
+}
+
+/// When a walk ends: with every box the closest hit leaves open visited, or at the first hit.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Stop {
+    AtClosest,
+    AtFirst,
+}
+
+/// The traversal both queries share (the shader's `traverse_bvh` and `traverse_bvh_any`).
+fn walk(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats, stop: Stop) -> Option<(u32, TriHit)> {
     if nodes.is_empty() {
         return None;
     }
@@ -66,6 +79,9 @@ pub fn closest_hit(
                     let [v0, e1, e2] = ordered[k as usize];
                     stats.triangles += 1;
                     if let Some(hit) = intersect_triangle(ray, v0, e1, e2, t_min, t_max) {
+                        if stop == Stop::AtFirst {
+                            return Some((k, hit));
+                        }
                         t_max = hit.t;
                         best = Some((k, hit));
                     }
@@ -93,55 +109,6 @@ pub fn closest_hit(
         };
     }
     best
-}
-
-/// Whether `ray` hits any triangle in (t_min, t_max) through one mesh's `nodes` (laid out
-/// as for [`closest_hit`]): the AO view's occlusion query, the reference for
-/// `traverse_bvh_any` in `shaders/intersect.glsl`. The same walk as [`closest_hit`] (leaves
-/// tested as their box is hit, the near inner child next), ended by the first hit found.
-pub fn any_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
-    if nodes.is_empty() {
-        return false;
-    }
-    let inv_dir = safe_inverse(ray.dir);
-    let mut stack = [0u32; STACK_SIZE];
-    let mut sp = 0;
-    let mut node = 0u32;
-    loop {
-        let [left, right] = nodes[node as usize].children();
-        stats.nodes += 1;
-        let enter = |child: &BvhChild| if child.is_empty() { None } else { child.bounds.intersect(ray, inv_dir, t_max) };
-        let (mut t_left, mut t_right) = (enter(&left), enter(&right));
-        for (child, t_enter) in [(&left, &mut t_left), (&right, &mut t_right)] {
-            if t_enter.is_some() && child.is_leaf() {
-                for k in child.index..child.index + child.count {
-                    let [v0, e1, e2] = ordered[k as usize];
-                    stats.triangles += 1;
-                    if intersect_triangle(ray, v0, e1, e2, t_min, t_max).is_some() {
-                        return true;
-                    }
-                }
-                *t_enter = None;
-            }
-        }
-        node = match (t_left, t_right) {
-            (Some(l), Some(r)) => {
-                let (near, far) = if l <= r { (left.index, right.index) } else { (right.index, left.index) };
-                stack[sp] = far;
-                sp += 1;
-                near
-            }
-            (Some(_), None) => left.index,
-            (None, Some(_)) => right.index,
-            (None, None) => {
-                if sp == 0 {
-                    return false;
-                }
-                sp -= 1;
-                stack[sp]
-            }
-        };
-    }
 }
 
 /// Helper: triangles (corners) -> BVH-ordered (v0, e1, e2) triples, as the GPU stores them.
