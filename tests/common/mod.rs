@@ -1,6 +1,8 @@
 //! Shared test helpers: one validated Vulkan context per test binary, and scene builders.
 #![allow(dead_code)]
 
+pub mod random;
+
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
