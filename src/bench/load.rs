@@ -14,7 +14,6 @@ use crate::progress::{Phase, Progress};
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::packed::PackedScene;
-use crate::tracer::prepare::PreparedScene;
 use crate::tracer::FrameParams;
 
 /// One model's load, measured.
@@ -61,11 +60,8 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let start = Instant::now();
     let (mesh, _warnings) = spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
     let triangles = mesh.triangle_count() as u64;
-    progress.begin(Phase::Build)?;
     let scene = spec.scene_with(mesh);
-    let prepared = PreparedScene::new(&scene, spec.settings.bvh == crate::render_settings::BvhLayout::Wide);
-    progress.begin(Phase::Pack)?;
-    let packed = PackedScene::pack(&scene, prepared);
+    let packed = PackedScene::for_layout_reporting(&scene, spec.settings.bvh, &progress)?;
     progress.begin(Phase::Upload)?;
     tracer.set_scene(&packed)?;
     drop(packed);

@@ -17,6 +17,7 @@ use super::textures::{EnvironmentMap, TextureAtlas};
 use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::Aabb;
+use crate::progress::{Cancelled, Phase, Progress};
 use crate::render_settings::BvhLayout;
 use crate::scene::{Instance, Mesh, Scene};
 
@@ -172,6 +173,15 @@ impl PackedScene {
     /// are packed (a frame may then pick either); binary alone otherwise.
     pub fn for_layout(scene: &Scene, layout: BvhLayout) -> Self {
         Self::pack(scene, PreparedScene::new(scene, layout == BvhLayout::Wide))
+    }
+
+    /// [`PackedScene::for_layout`] as a load's build and pack phases, reported to `progress`
+    /// (the window's loader, `bench --load`); Err when the load was cancelled before either.
+    pub(crate) fn for_layout_reporting(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
+        progress.begin(Phase::Build)?;
+        let prepared = PreparedScene::new(scene, layout == BvhLayout::Wide);
+        progress.begin(Phase::Pack)?;
+        Ok(Self::pack(scene, prepared))
     }
 
     /// True when the wide layout was packed: frames asking for it without trace the binary tree.

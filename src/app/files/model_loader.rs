@@ -6,13 +6,12 @@
 use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 
-use crate::progress::{Phase, Progress, Snapshot};
+use crate::progress::{Progress, Snapshot};
 use crate::render_settings::BvhLayout;
 use crate::scene::Scene;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
 use crate::tracer::packed::PackedScene;
-use crate::tracer::prepare::PreparedScene;
 
 /// A loaded model, ready to upload.
 pub(crate) struct LoadedModel {
@@ -132,11 +131,8 @@ fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: Lig
     if mesh.triangle_count() == 0 {
         return Err(format!("{} has no triangles", source.label()));
     }
-    progress.begin(Phase::Build).map_err(|e| e.to_string())?;
     let scene = paper_scene(mesh, model_count, light);
-    let prepared = PreparedScene::new(&scene, layout == BvhLayout::Wide);
-    progress.begin(Phase::Pack).map_err(|e| e.to_string())?;
-    let mut packed = PackedScene::pack(&scene, prepared);
+    let mut packed = PackedScene::for_layout_reporting(&scene, layout, &progress).map_err(|e| e.to_string())?;
     progress.checkpoint().map_err(|e| e.to_string())?;
     // Textures that could not be read join the loader's warnings in the panel, and each is
     // printed once on the terminal.
@@ -150,6 +146,7 @@ fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: Lig
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::Phase;
     use crate::scene::primitives::PaperModel;
 
     #[test]
