@@ -89,6 +89,10 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates, same length as `positions`, or empty.
     pub texcoords: Vec<Vec2>,
+    /// Per-vertex colours (RGBA8, as stored in the file: no colour-space conversion, like
+    /// texture texels), same length as `positions`, or empty. The diffuse colour is
+    /// multiplied by them (glTF's `COLOR_0` rule; PLY scans give `red green blue`).
+    pub colors: Vec<[u8; 4]>,
     /// Triangles in file order (a quad's two triangles follow each other).
     pub triangles: Vec<[u32; 3]>,
     /// Material index of each triangle (into `materials`).
