@@ -96,7 +96,9 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         total += mesh.triangle_count();
     }
     assert_eq!(packed.triangles.len(), total);
-    assert_eq!(packed.shading.len(), total);
+    assert_eq!(packed.vertices.corners.len(), total);
+    let vertices = packed.vertices.normals.len() as u32;
+    assert!(packed.vertices.corners.iter().flatten().all(|&k| k < vertices), "a corner names a vertex past the end");
     assert_eq!(packed.instances.len(), scene.instances.len());
     let material_count = packed.materials.len() as u32;
     assert!(packed.triangles.iter().all(|t| t.material < material_count), "a triangle names a material past the end");

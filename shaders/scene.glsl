@@ -11,17 +11,10 @@ struct Triangle {
     vec4 e2;   // xyz: v2 - v0;  w: unused
 };
 
-struct TriangleShading {
-    vec4 n0;   // xyz: vertex normals of the three corners (object space); w: u of corner 2
-    vec4 n1;   //                                                          w: v of corner 2
-    vec4 n2;
-    vec4 uv01; // texture coordinates of corners 0 and 1
-};
-
 struct Material {
     vec4 diffuse_mirror;     // rgb: Kd, a: mirror strength (scales the blend ratio)
     vec4 specular_shininess; // rgb: Ks, a: Ns
-    uvec4 texture;           // x: diffuse texture index or EMPTY, y: texture flags (TEXTURE_CLAMP)
+    uvec4 texture;           // x: diffuse texture index or EMPTY, y: flags (TEXTURE_CLAMP, MATERIAL_VERTEX_COLORS)
     vec4 uv_transform;       // xy: scale, zw: offset of the texture coordinates (map_Kd -s, -o)
 };
 
@@ -43,7 +36,13 @@ struct Instance {
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Shading { TriangleShading shading[]; };
+// What the shading reads at a hit (src/tracer/packed.rs: PackedVertices): each triangle's
+// three vertex indices (BVH order, 3 uints a triangle), and per vertex its normal (3 floats),
+// texture coordinates and RGBA8 colour; the last two are empty when no mesh has them.
+layout(std430, set = 0, binding = 1) readonly buffer Corners { uint corners[]; };
+layout(std430, set = 0, binding = 15) readonly buffer VertexNormals { float vertex_normals[]; };
+layout(std430, set = 0, binding = 16) readonly buffer VertexTexcoords { vec2 vertex_texcoords[]; };
+layout(std430, set = 0, binding = 17) readonly buffer VertexColors { uint vertex_colors[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Materials { Material materials[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Nodes { BvhNode nodes[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instances[]; };
@@ -56,6 +55,14 @@ layout(std430, set = 0, binding = 8) readonly buffer TextureInfos { uvec4 textur
 layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
 // Equirectangular environment: [0] width, [1] height, then RGB9E5 (HDR) texels.
 layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
+
+uvec3 triangle_corners(uint tri) {
+    return uvec3(corners[3u * tri], corners[3u * tri + 1u], corners[3u * tri + 2u]);
+}
+
+vec3 vertex_normal(uint k) {
+    return vec3(vertex_normals[3u * k], vertex_normals[3u * k + 1u], vertex_normals[3u * k + 2u]);
+}
 
 // Per-frame parameters (src/tracer/frame.rs: FrameParams::push_constants). 128 bytes.
 layout(push_constant) uniform Frame {

@@ -122,11 +122,15 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         vec3 ng = normalize(cross(tri.e1.xyz, tri.e2.xyz));
         if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
         vec3 ns = ng;
-        TriangleShading sh = shading[hit.tri];
         bool smooth_hit = false;
         float side = 1.0;  // the corner normals flipped to the viewer's side
+        vec3 n0 = vec3(0.0), n1 = vec3(0.0), n2 = vec3(0.0);
         if ((flags & FLAG_SMOOTH) != 0u) {
-            vec3 interp = sh.n0.xyz * (1.0 - hit.u - hit.v) + sh.n1.xyz * hit.u + sh.n2.xyz * hit.v;
+            uvec3 c = triangle_corners(hit.tri);
+            n0 = vertex_normal(c.x);
+            n1 = vertex_normal(c.y);
+            n2 = vertex_normal(c.z);
+            vec3 interp = n0 * (1.0 - hit.u - hit.v) + n1 * hit.u + n2 * hit.v;
             if (dot(interp, interp) > 1e-12) {
                 ns = normalize(interp);
                 smooth_hit = true;
@@ -144,10 +148,16 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
 #endif
         Material mat = materials[floatBitsToUint(tri.v0.w)];
         vec3 kd = mat.diffuse_mirror.rgb;
+        if ((mat.texture.y & MATERIAL_VERTEX_COLORS) != 0u) {
+            uvec3 c = triangle_corners(hit.tri);
+            kd *= unpackUnorm4x8(vertex_colors[c.x]).rgb * (1.0 - hit.u - hit.v)
+                + unpackUnorm4x8(vertex_colors[c.y]).rgb * hit.u + unpackUnorm4x8(vertex_colors[c.z]).rgb * hit.v;
+        }
         if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {
-            vec2 uv0 = material_uv(mat, sh.uv01.xy);
-            vec2 uv1 = material_uv(mat, sh.uv01.zw);
-            vec2 uv2 = material_uv(mat, vec2(sh.n0.w, sh.n1.w));
+            uvec3 c = triangle_corners(hit.tri);
+            vec2 uv0 = material_uv(mat, vertex_texcoords[c.x]);
+            vec2 uv1 = material_uv(mat, vertex_texcoords[c.y]);
+            vec2 uv2 = material_uv(mat, vertex_texcoords[c.z]);
             vec2 uv = uv0 * (1.0 - hit.u - hit.v) + uv1 * hit.u + uv2 * hit.v;
             uvec4 info = texture_infos[mat.texture.x];
             float s = instances[hit.instance].translation_scale.w;
@@ -165,7 +175,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         vec3 l = normalize(frame.light_pos.xyz - p);
         float scale = instances[hit.instance].translation_scale.w;
         bool lit = light_reaches(l, ng, ns, smooth_hit, hit.u, hit.v, tri.e1.xyz, tri.e2.xyz,
-                                 sh.n0.xyz * side, sh.n1.xyz * side, sh.n2.xyz * side, p, scale);
+                                 n0 * side, n1 * side, n2 * side, p, scale);
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
             uint prim = floatBitsToUint(tri.e1.w) + instances[hit.instance].offsets.w;

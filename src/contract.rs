@@ -76,6 +76,9 @@ contract! {
     /// Texture flag: coordinates clamp to [0, 1] and the edge texels (`map_Kd -clamp on`)
     /// instead of repeating.
     TEXTURE_CLAMP = 1;
+    /// Material flag (same word): the material's mesh has vertex colours, which multiply its
+    /// diffuse colour.
+    MATERIAL_VERTEX_COLORS = 2;
 }
 
 // The fields of the flag word must not overlap, and every AOV code must fit its bits.

@@ -81,6 +81,44 @@ fn flat_quad_under_a_light_on_the_axis_has_the_analytic_colour() {
 }
 
 #[test]
+fn vertex_colours_multiply_the_diffuse_colour_on_both_tracers() {
+    // One colour on every vertex: the centre is Kd * colour * (ambient + N.L) with N.L = 1,
+    // as for a material of that diffuse colour.
+    let m = Material { diffuse: Vec3::new(0.5, 1.0, 0.75), specular: Vec3::ZERO, shininess: 8.0, mirror: 0.0, ..Material::default() };
+    let d = 3.0;
+    let mut scene = quad_scene(m.clone(), d, Vec3::new(0.0, 0.0, d));
+    scene.meshes[0].colors = vec![[255, 51, 0, 255]; 4];
+    let (gpu, cpu) = render_both(&scene, settings(33, 0));
+    let expect = m.diffuse * Vec3::new(1.0, 0.2, 0.0) * 1.1;
+    for img in [&gpu, &cpu] {
+        let c = img.get(16, 16);
+        assert!((Vec3::new(c[0], c[1], c[2]) - expect).abs().max_element() < 1e-4, "centre {c:?} vs {expect}");
+    }
+    // Red on the left corners, blue on the right: interpolated across, the same on both.
+    scene.meshes[0].colors = vec![[255, 0, 0, 255], [0, 0, 255, 255], [0, 0, 255, 255], [255, 0, 0, 255]];
+    let (gpu, cpu) = render_both(&scene, settings(33, 0));
+    assert_close(&gpu, &cpu, "interpolated vertex colours");
+    let (left, right) = (gpu.get(10, 16), gpu.get(22, 16));
+    assert!(left[0] > 2.0 * left[2] && right[2] > 2.0 * right[0], "left {left:?} is red, right {right:?} blue");
+    assert_eq!(left[1], 0.0, "no green anywhere: the colour multiplies, it does not add");
+}
+
+#[test]
+fn a_coloured_model_in_the_mirror_box_matches_the_cpu_reference() {
+    // The model has colours, the box has none (its vertices read white): smooth shading and
+    // two bounces, so the colours are also seen in the mirrors.
+    let mut scene = paper(PaperModel::Geosphere, 2);
+    let mesh = &mut scene.meshes[0];
+    mesh.colors = mesh.positions.iter().map(|p| [(p.x.abs() * 255.0) as u8, (p.y.abs() * 255.0) as u8, 200, 255]).collect();
+    let smooth = RenderSettings { smooth: true, ..settings(48, 2) };
+    let (gpu, cpu) = render_both(&scene, smooth);
+    assert_close(&gpu, &cpu, "coloured geosphere");
+    scene.meshes[0].colors.clear();
+    let (plain, _) = render_both(&scene, smooth);
+    assert!(gpu.compare(&plain, 0.01).fraction_over > 0.05, "the colours change the image");
+}
+
+#[test]
 fn aovs_report_depth_normal_and_triangle() {
     let d = 3.0;
     let scene = quad_scene(Material::default(), d, Vec3::new(0.0, 0.0, d));

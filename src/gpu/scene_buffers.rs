@@ -17,7 +17,10 @@ pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
 /// Device buffers of one packed scene.
 pub struct SceneBuffers {
     pub(crate) triangles: GpuBuffer,
-    pub(crate) shading: GpuBuffer,
+    pub(crate) corners: GpuBuffer,
+    pub(crate) vertex_normals: GpuBuffer,
+    pub(crate) vertex_texcoords: GpuBuffer,
+    pub(crate) vertex_colors: GpuBuffer,
     pub(crate) materials: GpuBuffer,
     pub(crate) nodes: GpuBuffer,
     pub(crate) instances: GpuBuffer,
@@ -32,7 +35,7 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
-    let names = ["triangle", "shading", "material", "BVH node", "instance", "texture"];
+    let names = ["triangle", "corner", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
     let limit = ctx.info.max_storage_buffer_range;
     for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
         if bytes > limit {
@@ -53,7 +56,11 @@ impl SceneBuffers {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         // Read back by the vendor path to build the driver's structures (no host copy is kept).
         let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
-        let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
+        let v = &packed.vertices;
+        let corners = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.corners), storage, "corners")?;
+        let vertex_normals = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.normals), storage, "vertex normals")?;
+        let vertex_texcoords = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.texcoords), storage, "vertex texcoords")?;
+        let vertex_colors = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.colors), storage, "vertex colours")?;
         let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
         // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
         // ones as 16-byte words (`wide_nodes`).
@@ -63,15 +70,46 @@ impl SceneBuffers {
         let texels = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.texels), storage, "texels")?;
         let texture_infos = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.infos), storage, "texture infos")?;
         let environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.environment_words()), storage, "environment")?;
-        let bytes = triangles.size + shading.size + materials.size + nodes.size + instances.size + texels.size + texture_infos.size + environment.size;
-        let mut s = Self { triangles, shading, materials, nodes, instances, texels, texture_infos, environment, instance_count: 0, bytes };
+        let mut s = Self {
+            triangles,
+            corners,
+            vertex_normals,
+            vertex_texcoords,
+            vertex_colors,
+            materials,
+            nodes,
+            instances,
+            texels,
+            texture_infos,
+            environment,
+            instance_count: 0,
+            bytes: 0,
+        };
+        s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(&packed.instances)?;
         Ok(s)
     }
 
     /// One line per buffer: where its memory lives (`bench --verbose`).
     pub(crate) fn describe(&self) -> Vec<String> {
-        [&self.triangles, &self.shading, &self.materials, &self.nodes, &self.instances, &self.texels, &self.texture_infos, &self.environment].iter().map(|b| b.describe()).collect()
+        self.all().iter().map(|b| b.describe()).collect()
+    }
+
+    /// Every buffer of the scene.
+    fn all(&self) -> [&GpuBuffer; 11] {
+        [
+            &self.triangles,
+            &self.corners,
+            &self.vertex_normals,
+            &self.vertex_texcoords,
+            &self.vertex_colors,
+            &self.materials,
+            &self.nodes,
+            &self.instances,
+            &self.texels,
+            &self.texture_infos,
+            &self.environment,
+        ]
     }
 
     /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);

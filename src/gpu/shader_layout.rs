@@ -51,7 +51,11 @@ const _: () = assert!(WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum TraceBuffer {
     Triangles,
-    Shading,
+    /// Each triangle's three vertex indices.
+    Corners,
+    VertexNormals,
+    VertexTexcoords,
+    VertexColors,
     Materials,
     Nodes,
     /// The same node buffer read as 16-byte words, for the wide BVH's nodes.
@@ -70,9 +74,12 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 14] = [
+    pub const ALL: [TraceBuffer; 17] = [
         Self::Triangles,
-        Self::Shading,
+        Self::Corners,
+        Self::VertexNormals,
+        Self::VertexTexcoords,
+        Self::VertexColors,
         Self::Materials,
         Self::Nodes,
         Self::WideNodes,
@@ -91,7 +98,10 @@ impl TraceBuffer {
     pub(crate) fn from_block(block: &str) -> Option<Self> {
         Some(match block {
             "Triangles" => Self::Triangles,
-            "Shading" => Self::Shading,
+            "Corners" => Self::Corners,
+            "VertexNormals" => Self::VertexNormals,
+            "VertexTexcoords" => Self::VertexTexcoords,
+            "VertexColors" => Self::VertexColors,
             "Materials" => Self::Materials,
             "Nodes" => Self::Nodes,
             "WideNodes" => Self::WideNodes,
@@ -123,7 +133,7 @@ mod tests {
     use super::*;
     use crate::bvh::BvhNode;
     use crate::tracer::frame::PushConstants;
-    use crate::tracer::packed::{GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading};
+    use crate::tracer::packed::{GpuInstance, GpuMaterial, GpuTriangle};
 
     #[test]
     fn every_binding_is_a_known_buffer_and_every_buffer_is_bound_once() {
@@ -242,7 +252,6 @@ mod tests {
     fn rust_twins_match_the_shader_structs_member_by_member() {
         let twins = [
             ("Triangle", twin!(GpuTriangle { v0: "v0", material: "v0" + 12, e1: "e1", prim: "e1" + 12, e2: "e2", _pad: "e2" + 12 })),
-            ("TriangleShading", twin!(GpuTriangleShading { normals: "n0" ..= "n2", uv01: "uv01" })),
             ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", texture_flags: "texture" + 4, _pad: "texture" + 8, uv_scale: "uv_transform", uv_offset: "uv_transform" + 8 })),
             (
                 "BvhNode",

@@ -115,7 +115,10 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
         .map(|b| {
             let buffer = match TraceBuffer::of(b) {
                 TraceBuffer::Triangles => &scene.triangles,
-                TraceBuffer::Shading => &scene.shading,
+                TraceBuffer::Corners => &scene.corners,
+                TraceBuffer::VertexNormals => &scene.vertex_normals,
+                TraceBuffer::VertexTexcoords => &scene.vertex_texcoords,
+                TraceBuffer::VertexColors => &scene.vertex_colors,
                 TraceBuffer::Materials => &scene.materials,
                 TraceBuffer::Nodes | TraceBuffer::WideNodes => &scene.nodes,
                 TraceBuffer::Instances => &scene.instances,

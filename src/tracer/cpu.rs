@@ -202,7 +202,6 @@ impl<'a> CpuScene<'a> {
             };
             path_length += hit.t;
             let tri = &self.packed.triangles[hit.triangle as usize];
-            let sh = &self.packed.shading[hit.triangle as usize];
             let p = ray.at(hit.t);
             let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
             let mut ng = e1.cross(e2).normalize();
@@ -214,7 +213,8 @@ impl<'a> CpuScene<'a> {
             // The corner normals on the viewer's side, for the terminator offset.
             let mut smooth = None;
             if s.smooth {
-                let interp = sh.normal(0) * w + sh.normal(1) * hit.u + sh.normal(2) * hit.v;
+                let [n0, n1, n2] = self.packed.vertices.normals_of(hit.triangle as usize);
+                let interp = n0 * w + n1 * hit.u + n2 * hit.v;
                 if interp.length_squared() > 1e-12 {
                     ns = interp.normalize();
                     let mut side = 1.0;
@@ -222,7 +222,7 @@ impl<'a> CpuScene<'a> {
                         ns = -ns;
                         side = -1.0;
                     }
-                    let normals = [sh.normal(0) * side, sh.normal(1) * side, sh.normal(2) * side];
+                    let normals = [n0 * side, n1 * side, n2 * side];
                     smooth = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
                 }
             }
@@ -233,8 +233,12 @@ impl<'a> CpuScene<'a> {
             let gm = &self.packed.materials[tri.material as usize];
             let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
             let mut kd = mat.diffuse;
+            if gm.has_vertex_colors() {
+                let [c0, c1, c2] = self.packed.vertices.colors_of(hit.triangle as usize);
+                kd *= c0 * w + c1 * hit.u + c2 * hit.v;
+            }
             if s.textures && gm.texture != NO_TEXTURE {
-                let [uv0, uv1, uv2] = sh.uvs().map(|uv| gm.texture_uv(uv));
+                let [uv0, uv1, uv2] = self.packed.vertices.texcoords_of(hit.triangle as usize).map(|uv| gm.texture_uv(uv));
                 let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
                 let info = self.packed.textures.infos[gm.texture as usize];
                 let scale = self.packed.instances[hit.instance as usize].scale;

@@ -1,5 +1,5 @@
 //! The scene flattened into the arrays the GPU reads (and the CPU reference reads the same
-//! way): triangles in BVH order as (v0, e1, e2), their shading normals, materials, every
+//! way): triangles in BVH order as (v0, e1, e2), their corners' vertex attributes, materials, every
 //! mesh's BVH nodes back to back, and the instance list on top.
 //!
 //! Geometry is packed once per model load; the instance list (the "top level") is rebuilt
@@ -42,28 +42,70 @@ impl GpuTriangle {
     }
 }
 
-/// Per-corner shading normals and texture coordinates of a triangle (64 bytes): the
-/// normals' .w hold corner 2's (u, v), `uv01` corners 0 and 1.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuTriangleShading {
-    pub(crate) normals: [[f32; 4]; 3],
-    pub(crate) uv01: [f32; 4],
+/// The vertex attributes the shading reads at a hit, shared by the triangles that meet at
+/// a vertex (`corners` index them): 12 bytes of corner indices a triangle and 12 to 24 a
+/// vertex, where one 64-byte record of three corners a triangle used to be. Arrays a scene
+/// does not use stay empty (no mesh with texture coordinates, none with colours).
+#[derive(Clone, Debug, Default)]
+pub struct PackedVertices {
+    /// Each triangle's three vertices (in BVH order, like `PackedScene::triangles`), as
+    /// indices into the arrays below.
+    pub corners: Vec<[u32; 3]>,
+    /// Vertex normals (object space), every vertex of every mesh.
+    pub normals: Vec<[f32; 3]>,
+    /// Texture coordinates per vertex, or empty when no mesh has any (zero where a mesh
+    /// lacks them).
+    pub texcoords: Vec<[f32; 2]>,
+    /// RGBA8 colours per vertex, or empty when no mesh has any (white where a mesh lacks
+    /// them).
+    pub colors: Vec<[u8; 4]>,
 }
 
-impl GpuTriangleShading {
-    /// The three corner normals.
-    pub(crate) fn normal(&self, k: usize) -> Vec3 {
-        Vec3::from_slice(&self.normals[k][..3])
+impl PackedVertices {
+    /// The three corner normals of triangle `tri`.
+    pub(crate) fn normals_of(&self, tri: usize) -> [Vec3; 3] {
+        self.corners[tri].map(|k| Vec3::from(self.normals[k as usize]))
     }
 
-    /// The three corner texture coordinates.
-    pub(crate) fn uvs(&self) -> [Vec2; 3] {
-        [
-            Vec2::new(self.uv01[0], self.uv01[1]),
-            Vec2::new(self.uv01[2], self.uv01[3]),
-            Vec2::new(self.normals[0][3], self.normals[1][3]),
-        ]
+    /// The three corner texture coordinates of triangle `tri` (zero without any).
+    pub(crate) fn texcoords_of(&self, tri: usize) -> [Vec2; 3] {
+        self.corners[tri].map(|k| self.texcoords.get(k as usize).map_or(Vec2::ZERO, |&t| Vec2::from(t)))
+    }
+
+    /// The three corner colours of triangle `tri`, in [0, 1] (white without any).
+    pub(crate) fn colors_of(&self, tri: usize) -> [Vec3; 3] {
+        self.corners[tri].map(|k| self.colors.get(k as usize).map_or(Vec3::ONE, |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0))
+    }
+
+    /// Append `mesh`'s vertices; returns the index its first vertex gets.
+    fn push_mesh(&mut self, mesh: &Mesh) -> u32 {
+        let base = self.normals.len();
+        let count = mesh.positions.len();
+        if mesh.normals.len() == count {
+            self.normals.par_extend(mesh.normals.par_iter().map(|n| n.to_array()));
+        } else {
+            self.normals.resize(base + count, [0.0; 3]);
+        }
+        if mesh.texcoords.len() == count && count > 0 {
+            self.texcoords.resize(base, [0.0; 2]);
+            self.texcoords.extend(mesh.texcoords.iter().map(|t| t.to_array()));
+        }
+        if mesh.colors.len() == count && count > 0 {
+            self.colors.resize(base, [255; 4]);
+            self.colors.extend_from_slice(&mesh.colors);
+        }
+        base as u32
+    }
+
+    /// Fill the attributes of the last meshes that lacked them up to the vertex count.
+    fn finish(&mut self) {
+        let count = self.normals.len();
+        if !self.texcoords.is_empty() {
+            self.texcoords.resize(count, [0.0; 2]);
+        }
+        if !self.colors.is_empty() {
+            self.colors.resize(count, [255; 4]);
+        }
     }
 }
 
@@ -77,7 +119,8 @@ pub struct GpuMaterial {
     pub(crate) shininess: f32,
     /// Diffuse texture index into the atlas, or `NO_TEXTURE`.
     pub(crate) texture: u32,
-    /// `contract::TEXTURE_CLAMP` when the texture clamps instead of repeating.
+    /// `contract::TEXTURE_CLAMP` when the texture clamps instead of repeating,
+    /// `contract::MATERIAL_VERTEX_COLORS` when the mesh's vertex colours tint it.
     pub(crate) texture_flags: u32,
     pub(crate) _pad: [u32; 2],
     /// Texture coordinates are `uv * uv_scale + uv_offset` before the lookup
@@ -97,6 +140,11 @@ impl GpuMaterial {
     /// True when the texture clamps at its edges instead of repeating.
     pub(crate) fn texture_clamps(&self) -> bool {
         self.texture_flags & crate::contract::TEXTURE_CLAMP != 0
+    }
+
+    /// True when the mesh's vertex colours multiply the diffuse colour.
+    pub(crate) fn has_vertex_colors(&self) -> bool {
+        self.texture_flags & crate::contract::MATERIAL_VERTEX_COLORS != 0
     }
 }
 
@@ -140,7 +188,8 @@ pub struct PackedMesh {
 #[derive(Clone, Debug, Default)]
 pub struct PackedScene {
     pub triangles: Vec<GpuTriangle>,
-    pub shading: Vec<GpuTriangleShading>,
+    /// What the shading reads at a hit: corner indices and vertex attributes.
+    pub vertices: PackedVertices,
     pub materials: Vec<GpuMaterial>,
     pub(crate) nodes: Vec<BvhNode>,
     /// Every mesh's wide BVH nodes back to back; the GPU's node buffer holds them after
@@ -203,6 +252,7 @@ impl PackedScene {
             packed.push_mesh(mesh, bvh, wide, prim_base);
             prim_base += mesh.triangle_count() as u32;
         }
+        packed.vertices.finish();
         packed.wide_word_base = (std::mem::size_of_val(packed.nodes.as_slice()) / 16) as u32;
         packed.set_instances(&scene.instances);
         packed
@@ -228,6 +278,8 @@ impl PackedScene {
 
     fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: Option<WideBvh>, prim_base: u32) {
         let material_base = self.materials.len() as u32;
+        let with_colors = !mesh.colors.is_empty() && mesh.colors.len() == mesh.positions.len();
+        let vertex_base = self.vertices.push_mesh(mesh);
         let texture_of = |m: &crate::scene::Material| {
             m.diffuse_texture.as_ref().filter(|_| !mesh.texcoords.is_empty()).and_then(|p| self.texture_index.get(p).copied()).unwrap_or(NO_TEXTURE)
         };
@@ -240,7 +292,8 @@ impl PackedScene {
                 specular: m.specular.to_array(),
                 shininess: m.shininess,
                 texture: texture_of(m),
-                texture_flags: if m.texture_transform.clamp { crate::contract::TEXTURE_CLAMP } else { 0 },
+                texture_flags: if m.texture_transform.clamp { crate::contract::TEXTURE_CLAMP } else { 0 }
+                    | if with_colors { crate::contract::MATERIAL_VERTEX_COLORS } else { 0 },
                 _pad: [0; 2],
                 uv_scale: m.texture_transform.scale.to_array(),
                 uv_offset: m.texture_transform.offset.to_array(),
@@ -249,10 +302,10 @@ impl PackedScene {
         self.materials.extend(materials);
         let triangle_base = self.triangles.len() as u32;
         // In BVH order, on every core: at 10M triangles this was a second of one thread.
-        let (triangles, shading): (Vec<GpuTriangle>, Vec<GpuTriangleShading>) =
-            bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base)).unzip();
+        let (triangles, corners): (Vec<GpuTriangle>, Vec<[u32; 3]>) =
+            bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip();
         append(&mut self.triangles, triangles);
-        append(&mut self.shading, shading);
+        append(&mut self.vertices.corners, corners);
         let node_base = self.nodes.len() as u32;
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
@@ -298,14 +351,25 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, shading, materials, nodes (both layouts),
-    /// instances, texels.
-    pub(crate) fn buffer_sizes(&self) -> [u64; 6] {
+    /// Bytes of each GPU array: triangles, corners, normals, texture coordinates,
+    /// colours, materials, nodes (both layouts), instances, texels.
+    pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
         let nodes = bytes(&self.nodes) + bytes(&self.wide_nodes);
-        [bytes(&self.triangles), bytes(&self.shading), bytes(&self.materials), nodes, bytes(&self.instances), bytes(&self.textures.texels)]
+        let v = &self.vertices;
+        [
+            bytes(&self.triangles),
+            bytes(&v.corners),
+            bytes(&v.normals),
+            bytes(&v.texcoords),
+            bytes(&v.colors),
+            bytes(&self.materials),
+            nodes,
+            bytes(&self.instances),
+            bytes(&self.textures.texels),
+        ]
     }
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
@@ -315,8 +379,9 @@ impl PackedScene {
     }
 }
 
-/// One triangle's traversal record and shading record (`prim` in file order).
-fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32) -> (GpuTriangle, GpuTriangleShading) {
+/// One triangle's traversal record and its corners' vertex indices (`prim` in file order;
+/// the mesh's vertices start at `vertex_base`).
+fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> (GpuTriangle, [u32; 3]) {
     let [a, b, c] = mesh.corners(prim as usize);
     let (mut e1, mut e2) = (b - a, c - a);
     // A (nearly) degenerate triangle would pass Möller–Trumbore's absolute determinant test
@@ -333,15 +398,7 @@ fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32) -> (GpuTriangle, Gp
         e2: e2.to_array(),
         _pad: 0,
     };
-    let idx = mesh.triangles[prim as usize];
-    let normal = |k: u32| mesh.normals.get(k as usize).copied().unwrap_or(Vec3::ZERO);
-    let uv = |k: u32| mesh.texcoords.get(k as usize).copied().unwrap_or(Vec2::ZERO);
-    let [t0, t1, t2] = idx.map(uv);
-    let shading = GpuTriangleShading {
-        normals: [normal(idx[0]).extend(t2.x).to_array(), normal(idx[1]).extend(t2.y).to_array(), normal(idx[2]).extend(0.0).to_array()],
-        uv01: [t0.x, t0.y, t1.x, t1.y],
-    };
-    (triangle, shading)
+    (triangle, mesh.triangles[prim as usize].map(|k| vertex_base + k))
 }
 
 /// `to.extend(from)`, moving `from` in whole when `to` is empty (the first mesh: no copy).
@@ -370,11 +427,41 @@ mod tests {
     #[test]
     fn gpu_structs_match_the_shader_layout() {
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
-        assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 64);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
         assert_eq!(std::mem::size_of::<WideNode>(), 80);
+    }
+
+    #[test]
+    fn vertex_attributes_are_filled_for_meshes_without_them() {
+        // Mesh 0 has neither colours nor texture coordinates, mesh 1 both: the arrays are
+        // indexed by global vertex, so mesh 0's vertices read white and (0, 0).
+        use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+        use crate::scene::primitives::PaperModel;
+        let mut model = PaperModel::Geosphere.mesh();
+        prepare_model(&mut model);
+        let mut scene = paper_scene(model, 1, LightOrbit::default());
+        let box_mesh = &mut scene.meshes[1];
+        box_mesh.colors = vec![[10, 20, 30, 40]; box_mesh.positions.len()];
+        box_mesh.texcoords = vec![Vec2::new(0.25, 0.5); box_mesh.positions.len()];
+        let packed = PackedScene::new(&scene);
+        let v = &packed.vertices;
+        let first = scene.meshes[0].vertex_count();
+        let total = first + scene.meshes[1].vertex_count();
+        assert_eq!((v.normals.len(), v.texcoords.len(), v.colors.len()), (total, total, total));
+        assert!(v.colors[..first].iter().all(|&c| c == [255; 4]) && v.colors[first..].iter().all(|&c| c == [10, 20, 30, 40]));
+        assert!(v.texcoords[..first].iter().all(|&t| t == [0.0; 2]) && v.texcoords[first..].iter().all(|&t| t == [0.25, 0.5]));
+        // Only the coloured mesh's materials say so; its triangles' corners are its vertices.
+        let flags: Vec<bool> = packed.materials.iter().map(GpuMaterial::has_vertex_colors).collect();
+        let model_materials = scene.meshes[0].materials.len();
+        assert!(flags[..model_materials].iter().all(|&f| !f) && flags[model_materials..].iter().all(|&f| f), "{flags:?}");
+        let m1 = &packed.meshes[1];
+        let range = m1.triangle_base as usize..(m1.triangle_base + m1.triangle_count) as usize;
+        assert!(v.corners[range].iter().flatten().all(|&k| (first..total).contains(&(k as usize))));
+        // Without any, the arrays stay empty (nothing to upload).
+        let plain = PackedScene::new(&paper_scene(PaperModel::Geosphere.mesh(), 1, LightOrbit::default()));
+        assert!(plain.vertices.colors.is_empty() && plain.vertices.texcoords.is_empty());
     }
 
     #[test]

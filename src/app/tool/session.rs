@@ -107,7 +107,7 @@ impl Session {
         let each: Vec<String> = phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
         // The GPU has the geometry now; keep only what instance and environment changes need.
         packed.triangles = Vec::new();
-        packed.shading = Vec::new();
+        packed.vertices = Default::default();
         packed.nodes = Vec::new();
         let has_wide = packed.has_wide();
         packed.wide_nodes = Vec::new();
