@@ -96,6 +96,17 @@ fn smooth_shading_with_samples_and_an_environment_matches() {
 }
 
 #[test]
+fn vertex_colours_match() {
+    // The shading is shared, but the hit's corners come from the driver's primitive id:
+    // a wrong triangle would show the wrong colours.
+    let mut mesh = PaperModel::TorusKnot.mesh();
+    prepare_model(&mut mesh);
+    mesh.colors = mesh.positions.iter().map(|p| [(p.x.abs() * 255.0) as u8, 64, (p.z.abs() * 255.0) as u8, 255]).collect();
+    let scene = open_scene(mesh, 1, LightOrbit::default());
+    assert_all_close(&scene, RenderSettings { smooth: true, ..settings(48, 2) }, "vertex colours");
+}
+
+#[test]
 fn a_textured_mesh_matches() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj");
     let mut mesh = load_obj(&data.join("texture_options.obj")).expect("the test file loads").mesh;
