@@ -90,18 +90,18 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         }
         // Every triangle packed exactly once, its prim id its file-order index.
         let range = pm.triangle_base as usize..(pm.triangle_base + pm.triangle_count) as usize;
-        let mut prims: Vec<u32> = packed.triangles[range].iter().map(|t| t.prim).collect();
+        let mut prims: Vec<u32> = packed.prims[range].to_vec();
         prims.sort_unstable();
         assert!(prims.iter().copied().eq(0..mesh.triangle_count() as u32), "prim ids of {} are not 0..{}", mesh.name, mesh.triangle_count());
         total += mesh.triangle_count();
     }
     assert_eq!(packed.triangles.len(), total);
-    assert_eq!(packed.vertices.corners.len(), total);
+    assert_eq!((packed.shading.len(), packed.prims.len()), (total, total));
     let vertices = packed.vertices.normals.len() as u32;
-    assert!(packed.vertices.corners.iter().flatten().all(|&k| k < vertices), "a corner names a vertex past the end");
+    assert!(packed.shading.iter().flat_map(|s| s.corners).all(|k| k < vertices), "a corner names a vertex past the end");
     assert_eq!(packed.instances.len(), scene.instances.len());
     let material_count = packed.materials.len() as u32;
-    assert!(packed.triangles.iter().all(|t| t.material < material_count), "a triangle names a material past the end");
+    assert!(packed.shading.iter().all(|s| s.material < material_count), "a triangle names a material past the end");
 
     // A few rays through the fresh BVH: primary and one bounce.
     let settings = RenderSettings { width: 4, height: 4, bounces: 1, ..Default::default() };

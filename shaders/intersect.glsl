@@ -29,7 +29,7 @@ bool intersect_loaded(vec3 o, vec3 d, Triangle tri, uint k, inout Hit hit) {
 }
 
 bool intersect_triangle(vec3 o, vec3 d, uint k, inout Hit hit) {
-    return intersect_loaded(o, d, triangles[k], k, hit);
+    return intersect_loaded(o, d, load_triangle(k), k, hit);
 }
 
 // Entry distance of the ray into the box, or INF when it misses within (0, t_max).
@@ -56,10 +56,10 @@ vec3 safe_inverse(vec3 d) {
 // as leaf by leaf (a, then b).
 void test_leaves(vec3 o, vec3 d, uint a, uint na, uint b, uint nb, inout Hit hit, inout uvec2 cost) {
     Triangle ta0, ta1, tb0, tb1;
-    if (na > 0u) ta0 = triangles[a];
-    if (na > 1u) ta1 = triangles[a + 1u];
-    if (nb > 0u) tb0 = triangles[b];
-    if (nb > 1u) tb1 = triangles[b + 1u];
+    if (na > 0u) ta0 = load_triangle(a);
+    if (na > 1u) ta1 = load_triangle(a + 1u);
+    if (nb > 0u) tb0 = load_triangle(b);
+    if (nb > 1u) tb1 = load_triangle(b + 1u);
     if (na > 0u) intersect_loaded(o, d, ta0, a, hit);
     if (na > 1u) intersect_loaded(o, d, ta1, a + 1u, hit);
     for (uint i = 2u; i < na; i++) intersect_triangle(o, d, a + i, hit);

@@ -5,10 +5,25 @@
 // EMPTY, the flag bits and the AOV codes: generated from src/contract.rs.
 #include "contract.glsl"
 
+// A triangle as the traversal reads it: nine floats, 36 bytes (std430 packs float arrays
+// tightly), so the traversal's bytes are the geometry's alone; load_triangle unpacks it.
+struct PackedTriangle {
+    float v0[3];  // corner 0
+    float e1[3];  // v1 - v0
+    float e2[3];  // v2 - v0
+};
+
+// A loaded triangle.
 struct Triangle {
-    vec4 v0;   // xyz: corner 0; w: material index (uint bits)
-    vec4 e1;   // xyz: v1 - v0;  w: triangle index in its mesh's file order (uint bits)
-    vec4 e2;   // xyz: v2 - v0;  w: unused
+    vec3 v0;
+    vec3 e1;
+    vec3 e2;
+};
+
+// What the shading reads at a hit: the corners' vertex indices and the material.
+struct TriangleShading {
+    uvec3 corners;
+    uint material;
 };
 
 struct Material {
@@ -35,11 +50,13 @@ struct Instance {
     vec4 bounds_max;
 };
 
-layout(std430, set = 0, binding = 0) readonly buffer Triangles { Triangle triangles[]; };
-// What the shading reads at a hit (src/tracer/packed.rs: PackedVertices): each triangle's
-// three vertex indices (BVH order, 3 uints a triangle), and per vertex its normal (3 floats),
-// texture coordinates and RGBA8 colour; the last two are empty when no mesh has them.
-layout(std430, set = 0, binding = 1) readonly buffer Corners { uint corners[]; };
+layout(std430, set = 0, binding = 0) readonly buffer Triangles { PackedTriangle triangles[]; };
+// Per triangle, in the order of triangles[]: its shading record and its index in its mesh's
+// file order (the prim-id view). Per vertex (src/tracer/packed.rs: PackedVertices): the
+// normal (3 floats), texture coordinates and RGBA8 colour; the last two are empty when no
+// mesh has them.
+layout(std430, set = 0, binding = 1) readonly buffer Shading { TriangleShading shading[]; };
+layout(std430, set = 0, binding = 18) readonly buffer Prims { uint triangle_prims[]; };
 layout(std430, set = 0, binding = 15) readonly buffer VertexNormals { float vertex_normals[]; };
 layout(std430, set = 0, binding = 16) readonly buffer VertexTexcoords { vec2 vertex_texcoords[]; };
 layout(std430, set = 0, binding = 17) readonly buffer VertexColors { uint vertex_colors[]; };
@@ -56,8 +73,10 @@ layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
 // Equirectangular environment: [0] width, [1] height, then RGB9E5 (HDR) texels.
 layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
 
-uvec3 triangle_corners(uint tri) {
-    return uvec3(corners[3u * tri], corners[3u * tri + 1u], corners[3u * tri + 2u]);
+Triangle load_triangle(uint k) {
+    return Triangle(vec3(triangles[k].v0[0], triangles[k].v0[1], triangles[k].v0[2]),
+                    vec3(triangles[k].e1[0], triangles[k].e1[1], triangles[k].e1[2]),
+                    vec3(triangles[k].e2[0], triangles[k].e2[1], triangles[k].e2[2]));
 }
 
 vec3 vertex_normal(uint k) {

@@ -61,12 +61,12 @@ float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh
 // is no edge but a silhouette or a crease is.
 uint surface_key(Hit hit) {
     if (hit.tri == EMPTY) return EMPTY;
-    Triangle tri = triangles[hit.tri];
+    Triangle tri = load_triangle(hit.tri);
     vec3 n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
     if (n.x < 0.0 || (n.x == 0.0 && (n.y < 0.0 || (n.y == 0.0 && n.z < 0.0)))) n = -n;
     ivec3 q = ivec3(round(n * 1024.0));
     uint key = pcg(uint(q.x) ^ pcg(uint(q.y) ^ pcg(uint(q.z))));
-    key = pcg(key ^ floatBitsToUint(tri.v0.w)) ^ pcg(hit.instance + 0x9e3779b9u);
+    key = pcg(key ^ shading[hit.tri].material) ^ pcg(hit.instance + 0x9e3779b9u);
     return key == EMPTY ? 0u : key;
 }
 
@@ -117,7 +117,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         }
         if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
         path_length += hit.t;
-        Triangle tri = triangles[hit.tri];
+        Triangle tri = load_triangle(hit.tri);
         vec3 p = o + d * hit.t;
         vec3 ng = normalize(cross(tri.e1.xyz, tri.e2.xyz));
         if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
@@ -126,7 +126,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         float side = 1.0;  // the corner normals flipped to the viewer's side
         vec3 n0 = vec3(0.0), n1 = vec3(0.0), n2 = vec3(0.0);
         if ((flags & FLAG_SMOOTH) != 0u) {
-            uvec3 c = triangle_corners(hit.tri);
+            uvec3 c = shading[hit.tri].corners;
             n0 = vertex_normal(c.x);
             n1 = vertex_normal(c.y);
             n2 = vertex_normal(c.z);
@@ -146,15 +146,16 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             break;
         }
 #endif
-        Material mat = materials[floatBitsToUint(tri.v0.w)];
+        TriangleShading sh = shading[hit.tri];
+        Material mat = materials[sh.material];
         vec3 kd = mat.diffuse_mirror.rgb;
         if ((mat.texture.y & MATERIAL_VERTEX_COLORS) != 0u) {
-            uvec3 c = triangle_corners(hit.tri);
+            uvec3 c = shading[hit.tri].corners;
             kd *= unpackUnorm4x8(vertex_colors[c.x]).rgb * (1.0 - hit.u - hit.v)
                 + unpackUnorm4x8(vertex_colors[c.y]).rgb * hit.u + unpackUnorm4x8(vertex_colors[c.z]).rgb * hit.v;
         }
         if ((flags & FLAG_TEXTURES) != 0u && mat.texture.x != EMPTY) {
-            uvec3 c = triangle_corners(hit.tri);
+            uvec3 c = shading[hit.tri].corners;
             vec2 uv0 = material_uv(mat, vertex_texcoords[c.x]);
             vec2 uv1 = material_uv(mat, vertex_texcoords[c.y]);
             vec2 uv2 = material_uv(mat, vertex_texcoords[c.z]);
@@ -178,7 +179,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                                  n0 * side, n1 * side, n2 * side, p, scale);
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
-            uint prim = floatBitsToUint(tri.e1.w) + instances[hit.instance].offsets.w;
+            uint prim = triangle_prims[hit.tri] + instances[hit.instance].offsets.w;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
             if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
             if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);

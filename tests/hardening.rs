@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use ash::vk;
 use meshtracer::gpu::scene_buffers::{check_fits, SceneBuffers};
 use meshtracer::gpu::{ContextOptions, GpuContext, GpuError, ComputeTracer};
-use meshtracer::tracer::packed::GpuTriangle;
+use meshtracer::tracer::packed::{GpuTriangle, GpuTriangleShading};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::render_settings::MAX_RESOLUTION;
 use meshtracer::render_settings::RenderSettings;
@@ -212,13 +212,13 @@ fn a_scene_over_the_storage_buffer_range_is_refused_before_upload() {
     assert_mentions(&msg, &["triangle buffer", &bytes.to_string(), &limit.to_string()], "message");
     assert!(!msg.contains('\n'), "{msg}");
 
-    // The shading's arrays are checked too (the corner indices, 12 bytes a triangle).
+    // The shading array is checked too (16 bytes a triangle: over the limit first).
     let mut packed = PackedScene::default();
     packed.triangles = vec![GpuTriangle::default(); 1];
-    packed.vertices.corners = vec![[0; 3]; (limit / 12 + 1) as usize];
+    packed.shading = vec![GpuTriangleShading::default(); (limit / 16 + 1) as usize];
     match check_fits(&ctx, &packed) {
-        Err(GpuError::SceneTooLarge { buffer, .. }) => assert_eq!(buffer, "corner"),
-        other => panic!("oversized corner array: {other:?}"),
+        Err(GpuError::SceneTooLarge { buffer, .. }) => assert_eq!(buffer, "shading"),
+        other => panic!("oversized shading array: {other:?}"),
     }
     common::assert_validation_clean(&ctx);
 }

@@ -137,7 +137,8 @@ proptest! {
         prop_assert_eq!(packed.meshes.len(), scene.meshes.len());
         let total: usize = scene.meshes.iter().map(Mesh::triangle_count).sum();
         prop_assert_eq!(packed.triangles.len(), total);
-        prop_assert_eq!(packed.vertices.corners.len(), total);
+        prop_assert_eq!(packed.shading.len(), total);
+        prop_assert_eq!(packed.prims.len(), total);
         let vertex_total: usize = scene.meshes.iter().map(Mesh::vertex_count).sum();
         prop_assert_eq!(packed.vertices.normals.len(), vertex_total);
         let mut vertex_base = 0u32;
@@ -154,21 +155,21 @@ proptest! {
                 return Err(TestCaseError::fail(format!("invalid BVH: {e}")));
             }
             let range = pm.triangle_base as usize..(pm.triangle_base + n) as usize;
-            let mut prims: Vec<u32> = packed.triangles[range.clone()].iter().map(|t| t.prim).collect();
+            let mut prims: Vec<u32> = packed.prims[range.clone()].to_vec();
             prims.sort_unstable();
             prop_assert!(prims.iter().copied().eq(0..n), "prim ids are not a permutation of 0..{}", n);
-            for (t, shared) in packed.triangles[range.clone()].iter().zip(&packed.vertices.corners[range]) {
+            for ((t, sh), &prim) in packed.triangles[range.clone()].iter().zip(&packed.shading[range.clone()]).zip(&packed.prims[range]) {
                 // The shading's corners are the triangle's vertices, with their normals.
-                prop_assert_eq!(shared.map(|k| k - vertex_base), mesh.triangles[t.prim as usize]);
-                for &k in shared {
+                prop_assert_eq!(sh.corners.map(|k| k - vertex_base), mesh.triangles[prim as usize]);
+                for k in sh.corners {
                     prop_assert_eq!(Vec3::from(packed.vertices.normals[k as usize]), mesh.normals[(k - vertex_base) as usize]);
                 }
-                let [a, b, c] = corners[t.prim as usize];
+                let [a, b, c] = corners[prim as usize];
                 prop_assert_eq!(Vec3::from(t.v0), a);
                 let (e1, e2) = (Vec3::from(t.e1), Vec3::from(t.e2));
                 // Degenerate triangles have their edges zeroed (both tracers skip them).
                 prop_assert!((e1, e2) == (b - a, c - a) || (e1, e2) == (Vec3::ZERO, Vec3::ZERO));
-                prop_assert_eq!(t.material, material_base + mesh.triangle_materials[t.prim as usize]);
+                prop_assert_eq!(sh.material, material_base + mesh.triangle_materials[prim as usize]);
             }
             material_base += mesh.materials.len() as u32;
             vertex_base += mesh.vertex_count() as u32;

@@ -17,7 +17,8 @@ pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
 /// Device buffers of one packed scene.
 pub struct SceneBuffers {
     pub(crate) triangles: GpuBuffer,
-    pub(crate) corners: GpuBuffer,
+    pub(crate) shading: GpuBuffer,
+    pub(crate) prims: GpuBuffer,
     pub(crate) vertex_normals: GpuBuffer,
     pub(crate) vertex_texcoords: GpuBuffer,
     pub(crate) vertex_colors: GpuBuffer,
@@ -35,7 +36,7 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
-    let names = ["triangle", "corner", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
+    let names = ["triangle", "shading", "prim id", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
     let limit = ctx.info.max_storage_buffer_range;
     for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
         if bytes > limit {
@@ -57,7 +58,8 @@ impl SceneBuffers {
         // Read back by the vendor path to build the driver's structures (no host copy is kept).
         let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
         let v = &packed.vertices;
-        let corners = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.corners), storage, "corners")?;
+        let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
+        let prims = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.prims), storage, "prim ids")?;
         let vertex_normals = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.normals), storage, "vertex normals")?;
         let vertex_texcoords = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.texcoords), storage, "vertex texcoords")?;
         let vertex_colors = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.colors), storage, "vertex colours")?;
@@ -72,7 +74,8 @@ impl SceneBuffers {
         let environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.environment_words()), storage, "environment")?;
         let mut s = Self {
             triangles,
-            corners,
+            shading,
+            prims,
             vertex_normals,
             vertex_texcoords,
             vertex_colors,
@@ -96,10 +99,11 @@ impl SceneBuffers {
     }
 
     /// Every buffer of the scene.
-    fn all(&self) -> [&GpuBuffer; 11] {
+    fn all(&self) -> [&GpuBuffer; 12] {
         [
             &self.triangles,
-            &self.corners,
+            &self.shading,
+            &self.prims,
             &self.vertex_normals,
             &self.vertex_texcoords,
             &self.vertex_colors,

@@ -51,8 +51,10 @@ const _: () = assert!(WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum TraceBuffer {
     Triangles,
-    /// Each triangle's three vertex indices.
-    Corners,
+    /// Each triangle's corners and material.
+    Shading,
+    /// Each triangle's index in its mesh's file order.
+    Prims,
     VertexNormals,
     VertexTexcoords,
     VertexColors,
@@ -74,9 +76,10 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 17] = [
+    pub const ALL: [TraceBuffer; 18] = [
         Self::Triangles,
-        Self::Corners,
+        Self::Shading,
+        Self::Prims,
         Self::VertexNormals,
         Self::VertexTexcoords,
         Self::VertexColors,
@@ -98,7 +101,8 @@ impl TraceBuffer {
     pub(crate) fn from_block(block: &str) -> Option<Self> {
         Some(match block {
             "Triangles" => Self::Triangles,
-            "Corners" => Self::Corners,
+            "Shading" => Self::Shading,
+            "Prims" => Self::Prims,
             "VertexNormals" => Self::VertexNormals,
             "VertexTexcoords" => Self::VertexTexcoords,
             "VertexColors" => Self::VertexColors,
@@ -133,7 +137,7 @@ mod tests {
     use super::*;
     use crate::bvh::BvhNode;
     use crate::tracer::frame::PushConstants;
-    use crate::tracer::packed::{GpuInstance, GpuMaterial, GpuTriangle};
+    use crate::tracer::packed::{GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading};
 
     #[test]
     fn every_binding_is_a_known_buffer_and_every_buffer_is_bound_once() {
@@ -251,7 +255,8 @@ mod tests {
     #[test]
     fn rust_twins_match_the_shader_structs_member_by_member() {
         let twins = [
-            ("Triangle", twin!(GpuTriangle { v0: "v0", material: "v0" + 12, e1: "e1", prim: "e1" + 12, e2: "e2", _pad: "e2" + 12 })),
+            ("PackedTriangle", twin!(GpuTriangle { v0: "v0", e1: "e1", e2: "e2" })),
+            ("TriangleShading", twin!(GpuTriangleShading { corners: "corners", material: "material" })),
             ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", texture_flags: "texture" + 4, _pad: "texture" + 8, uv_scale: "uv_transform", uv_offset: "uv_transform" + 8 })),
             (
                 "BvhNode",

@@ -115,7 +115,8 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
         .map(|b| {
             let buffer = match TraceBuffer::of(b) {
                 TraceBuffer::Triangles => &scene.triangles,
-                TraceBuffer::Corners => &scene.corners,
+                TraceBuffer::Shading => &scene.shading,
+                TraceBuffer::Prims => &scene.prims,
                 TraceBuffer::VertexNormals => &scene.vertex_normals,
                 TraceBuffer::VertexTexcoords => &scene.vertex_texcoords,
                 TraceBuffer::VertexColors => &scene.vertex_colors,

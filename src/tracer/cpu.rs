@@ -202,6 +202,7 @@ impl<'a> CpuScene<'a> {
             };
             path_length += hit.t;
             let tri = &self.packed.triangles[hit.triangle as usize];
+            let shading = &self.packed.shading[hit.triangle as usize];
             let p = ray.at(hit.t);
             let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
             let mut ng = e1.cross(e2).normalize();
@@ -213,7 +214,7 @@ impl<'a> CpuScene<'a> {
             // The corner normals on the viewer's side, for the terminator offset.
             let mut smooth = None;
             if s.smooth {
-                let [n0, n1, n2] = self.packed.vertices.normals_of(hit.triangle as usize);
+                let [n0, n1, n2] = self.packed.vertices.normals_of(shading.corners);
                 let interp = n0 * w + n1 * hit.u + n2 * hit.v;
                 if interp.length_squared() > 1e-12 {
                     ns = interp.normalize();
@@ -230,15 +231,15 @@ impl<'a> CpuScene<'a> {
                 aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats)).extend(1.0);
                 break;
             }
-            let gm = &self.packed.materials[tri.material as usize];
+            let gm = &self.packed.materials[shading.material as usize];
             let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
             let mut kd = mat.diffuse;
             if gm.has_vertex_colors() {
-                let [c0, c1, c2] = self.packed.vertices.colors_of(hit.triangle as usize);
+                let [c0, c1, c2] = self.packed.vertices.colors_of(shading.corners);
                 kd *= c0 * w + c1 * hit.u + c2 * hit.v;
             }
             if s.textures && gm.texture != NO_TEXTURE {
-                let [uv0, uv1, uv2] = self.packed.vertices.texcoords_of(hit.triangle as usize).map(|uv| gm.texture_uv(uv));
+                let [uv0, uv1, uv2] = self.packed.vertices.texcoords_of(shading.corners).map(|uv| gm.texture_uv(uv));
                 let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
                 let info = self.packed.textures.infos[gm.texture as usize];
                 let scale = self.packed.instances[hit.instance as usize].scale;
@@ -257,7 +258,7 @@ impl<'a> CpuScene<'a> {
             let lit = light_reaches(l, ng, ns, smooth.as_ref(), p, params.light_position, scale);
             let local = blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
-                let prim = (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
+                let prim = (self.packed.prims[hit.triangle as usize] + self.packed.instances[hit.instance as usize].prim_base) as f32;
                 match s.aov {
                     Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
                     Aov::Normal => aux = ns.extend(1.0),
@@ -299,7 +300,7 @@ impl<'a> CpuScene<'a> {
         let q = (n * 1024.0).round();
         let (qx, qy, qz) = (q.x as i32 as u32, q.y as i32 as u32, q.z as i32 as u32);
         let key = pcg(qx ^ pcg(qy ^ pcg(qz)));
-        let key = pcg(key ^ tri.material) ^ pcg(hit.instance.wrapping_add(0x9e3779b9));
+        let key = pcg(key ^ self.packed.shading[hit.triangle as usize].material) ^ pcg(hit.instance.wrapping_add(0x9e3779b9));
         if key == u32::MAX { 0 } else { key }
     }
 

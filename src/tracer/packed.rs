@@ -21,18 +21,24 @@ use crate::progress::{Cancelled, Phase, Progress};
 use crate::render_settings::BvhLayout;
 use crate::scene::{Instance, Mesh, Scene};
 
-/// A triangle as `shaders/scene.glsl` reads it (48 bytes).
+/// A triangle as the traversal reads it (36 bytes, nine floats: `shaders/scene.glsl`'s
+/// `load_triangle`). Nothing else: what a hit needs beyond the geometry is in
+/// [`GpuTriangleShading`], so the traversal's bytes are the geometry's.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {
     pub v0: [f32; 3],
-    /// Global material index.
-    pub material: u32,
     pub e1: [f32; 3],
-    /// Index of the triangle in its mesh's file order.
-    pub prim: u32,
     pub e2: [f32; 3],
-    pub(crate) _pad: u32,
+}
+
+/// What the shading reads at a triangle's hit (16 bytes, one `uvec4`): its corners'
+/// indices into [`PackedVertices`] and its global material index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangleShading {
+    pub corners: [u32; 3],
+    pub material: u32,
 }
 
 impl GpuTriangle {
@@ -43,14 +49,11 @@ impl GpuTriangle {
 }
 
 /// The vertex attributes the shading reads at a hit, shared by the triangles that meet at
-/// a vertex (`corners` index them): 12 bytes of corner indices a triangle and 12 to 24 a
-/// vertex, where one 64-byte record of three corners a triangle used to be. Arrays a scene
-/// does not use stay empty (no mesh with texture coordinates, none with colours).
+/// a vertex (`GpuTriangleShading::corners` index them): 12 to 24 bytes a vertex, where a
+/// 64-byte record of three corners a triangle used to be. Arrays a scene does not use stay
+/// empty (no mesh with texture coordinates, none with colours).
 #[derive(Clone, Debug, Default)]
 pub struct PackedVertices {
-    /// Each triangle's three vertices (in BVH order, like `PackedScene::triangles`), as
-    /// indices into the arrays below.
-    pub corners: Vec<[u32; 3]>,
     /// Vertex normals (object space), every vertex of every mesh.
     pub normals: Vec<[f32; 3]>,
     /// Texture coordinates per vertex, or empty when no mesh has any (zero where a mesh
@@ -62,19 +65,19 @@ pub struct PackedVertices {
 }
 
 impl PackedVertices {
-    /// The three corner normals of triangle `tri`.
-    pub(crate) fn normals_of(&self, tri: usize) -> [Vec3; 3] {
-        self.corners[tri].map(|k| Vec3::from(self.normals[k as usize]))
+    /// The normals of `corners`.
+    pub(crate) fn normals_of(&self, corners: [u32; 3]) -> [Vec3; 3] {
+        corners.map(|k| Vec3::from(self.normals[k as usize]))
     }
 
-    /// The three corner texture coordinates of triangle `tri` (zero without any).
-    pub(crate) fn texcoords_of(&self, tri: usize) -> [Vec2; 3] {
-        self.corners[tri].map(|k| self.texcoords.get(k as usize).map_or(Vec2::ZERO, |&t| Vec2::from(t)))
+    /// The texture coordinates of `corners` (zero without any).
+    pub(crate) fn texcoords_of(&self, corners: [u32; 3]) -> [Vec2; 3] {
+        corners.map(|k| self.texcoords.get(k as usize).map_or(Vec2::ZERO, |&t| Vec2::from(t)))
     }
 
-    /// The three corner colours of triangle `tri`, in [0, 1] (white without any).
-    pub(crate) fn colors_of(&self, tri: usize) -> [Vec3; 3] {
-        self.corners[tri].map(|k| self.colors.get(k as usize).map_or(Vec3::ONE, |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0))
+    /// The colours of `corners`, in [0, 1] (white without any).
+    pub(crate) fn colors_of(&self, corners: [u32; 3]) -> [Vec3; 3] {
+        corners.map(|k| self.colors.get(k as usize).map_or(Vec3::ONE, |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0))
     }
 
     /// Append `mesh`'s vertices; returns the index its first vertex gets.
@@ -188,7 +191,12 @@ pub struct PackedMesh {
 #[derive(Clone, Debug, Default)]
 pub struct PackedScene {
     pub triangles: Vec<GpuTriangle>,
-    /// What the shading reads at a hit: corner indices and vertex attributes.
+    /// Each triangle's corners and material, in the order of `triangles`.
+    pub shading: Vec<GpuTriangleShading>,
+    /// Each triangle's index in its mesh's file order, in the order of `triangles` (the
+    /// prim-id view; the BVH's leaf order).
+    pub prims: Vec<u32>,
+    /// The vertex attributes that `shading` indexes.
     pub vertices: PackedVertices,
     pub materials: Vec<GpuMaterial>,
     pub(crate) nodes: Vec<BvhNode>,
@@ -302,10 +310,11 @@ impl PackedScene {
         self.materials.extend(materials);
         let triangle_base = self.triangles.len() as u32;
         // In BVH order, on every core: at 10M triangles this was a second of one thread.
-        let (triangles, corners): (Vec<GpuTriangle>, Vec<[u32; 3]>) =
+        let (triangles, shading): (Vec<GpuTriangle>, Vec<GpuTriangleShading>) =
             bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip();
         append(&mut self.triangles, triangles);
-        append(&mut self.vertices.corners, corners);
+        append(&mut self.shading, shading);
+        append(&mut self.prims, bvh.prim_indices);
         let node_base = self.nodes.len() as u32;
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
@@ -351,9 +360,9 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, corners, normals, texture coordinates,
+    /// Bytes of each GPU array: triangles, shading, prims, normals, texture coordinates,
     /// colours, materials, nodes (both layouts), instances, texels.
-    pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
+    pub(crate) fn buffer_sizes(&self) -> [u64; 10] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
@@ -361,7 +370,8 @@ impl PackedScene {
         let v = &self.vertices;
         [
             bytes(&self.triangles),
-            bytes(&v.corners),
+            bytes(&self.shading),
+            bytes(&self.prims),
             bytes(&v.normals),
             bytes(&v.texcoords),
             bytes(&v.colors),
@@ -379,9 +389,9 @@ impl PackedScene {
     }
 }
 
-/// One triangle's traversal record and its corners' vertex indices (`prim` in file order;
-/// the mesh's vertices start at `vertex_base`).
-fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> (GpuTriangle, [u32; 3]) {
+/// One triangle's traversal record and shading record (`prim` in file order; the mesh's
+/// vertices start at `vertex_base`).
+fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> (GpuTriangle, GpuTriangleShading) {
     let [a, b, c] = mesh.corners(prim as usize);
     let (mut e1, mut e2) = (b - a, c - a);
     // A (nearly) degenerate triangle would pass Möller–Trumbore's absolute determinant test
@@ -390,15 +400,12 @@ fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -
     if e1.cross(e2).length() <= 1e-7 * e1.length() * e2.length() {
         (e1, e2) = (Vec3::ZERO, Vec3::ZERO);
     }
-    let triangle = GpuTriangle {
-        v0: a.to_array(),
+    let triangle = GpuTriangle { v0: a.to_array(), e1: e1.to_array(), e2: e2.to_array() };
+    let shading = GpuTriangleShading {
+        corners: mesh.triangles[prim as usize].map(|k| vertex_base + k),
         material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
-        e1: e1.to_array(),
-        prim,
-        e2: e2.to_array(),
-        _pad: 0,
     };
-    (triangle, mesh.triangles[prim as usize].map(|k| vertex_base + k))
+    (triangle, shading)
 }
 
 /// `to.extend(from)`, moving `from` in whole when `to` is empty (the first mesh: no copy).
@@ -416,7 +423,7 @@ impl PackedMesh {
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
         let nodes = packed.nodes[self.node_base as usize..][..self.node_count as usize].to_vec();
         let range = self.triangle_base as usize..(self.triangle_base + self.triangle_count) as usize;
-        Bvh { nodes, prim_indices: packed.triangles[range].iter().map(|t| t.prim).collect() }
+        Bvh { nodes, prim_indices: packed.prims[range].to_vec() }
     }
 }
 
@@ -426,7 +433,8 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(std::mem::size_of::<GpuTriangle>(), 48);
+        assert_eq!(std::mem::size_of::<GpuTriangle>(), 36);
+        assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 16);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
         assert_eq!(std::mem::size_of::<BvhNode>(), 64);
@@ -458,7 +466,7 @@ mod tests {
         assert!(flags[..model_materials].iter().all(|&f| !f) && flags[model_materials..].iter().all(|&f| f), "{flags:?}");
         let m1 = &packed.meshes[1];
         let range = m1.triangle_base as usize..(m1.triangle_base + m1.triangle_count) as usize;
-        assert!(v.corners[range].iter().flatten().all(|&k| (first..total).contains(&(k as usize))));
+        assert!(packed.shading[range].iter().flat_map(|s| s.corners).all(|k| (first..total).contains(&(k as usize))));
         // Without any, the arrays stay empty (nothing to upload).
         let plain = PackedScene::new(&paper_scene(PaperModel::Geosphere.mesh(), 1, LightOrbit::default()));
         assert!(plain.vertices.colors.is_empty() && plain.vertices.texcoords.is_empty());
