@@ -90,13 +90,13 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         }
         // Every triangle packed exactly once, its prim id its file-order index.
         let range = pm.triangle_base as usize..(pm.triangle_base + pm.triangle_count) as usize;
-        let mut prims: Vec<u32> = packed.prims[range].to_vec();
+        let mut prims: Vec<u32> = packed.triangles[range].iter().map(|t| t.prim).collect();
         prims.sort_unstable();
         assert!(prims.iter().copied().eq(0..mesh.triangle_count() as u32), "prim ids of {} are not 0..{}", mesh.name, mesh.triangle_count());
         total += mesh.triangle_count();
     }
     assert_eq!(packed.triangles.len(), total);
-    assert_eq!((packed.shading.len(), packed.prims.len()), (total, total));
+    assert_eq!(packed.shading.len(), total);
     let vertices = packed.vertices.normals.len() as u32;
     assert!(packed.shading.iter().flat_map(|s| s.corners).all(|k| k < vertices), "a corner names a vertex past the end");
     assert_eq!(packed.instances.len(), scene.instances.len());

@@ -5,12 +5,11 @@
 // EMPTY, the flag bits and the AOV codes: generated from src/contract.rs.
 #include "contract.glsl"
 
-// A triangle as the traversal reads it: nine floats, 36 bytes (std430 packs float arrays
-// tightly), so the traversal's bytes are the geometry's alone; load_triangle unpacks it.
+// A triangle as the traversal reads it, 40 bytes read as five 8-byte words (load_triangle):
+// corner 0, v1 - v0, v2 - v0 (nine floats), then its index in its mesh's file order (uint
+// bits). The material is in the shading record, read only at a hit.
 struct PackedTriangle {
-    float v0[3];  // corner 0
-    float e1[3];  // v1 - v0
-    float e2[3];  // v2 - v0
+    vec2 w[5];
 };
 
 // A loaded triangle.
@@ -51,12 +50,10 @@ struct Instance {
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer Triangles { PackedTriangle triangles[]; };
-// Per triangle, in the order of triangles[]: its shading record and its index in its mesh's
-// file order (the prim-id view). Per vertex (src/tracer/packed.rs: PackedVertices): the
-// normal (3 floats), texture coordinates and RGBA8 colour; the last two are empty when no
-// mesh has them.
+// Per triangle, in the order of triangles[]: its shading record. Per vertex
+// (src/tracer/packed.rs: PackedVertices): the normal (3 floats), texture coordinates and
+// RGBA8 colour; the last two are empty when no mesh has them.
 layout(std430, set = 0, binding = 1) readonly buffer Shading { TriangleShading shading[]; };
-layout(std430, set = 0, binding = 18) readonly buffer Prims { uint triangle_prims[]; };
 layout(std430, set = 0, binding = 15) readonly buffer VertexNormals { float vertex_normals[]; };
 layout(std430, set = 0, binding = 16) readonly buffer VertexTexcoords { vec2 vertex_texcoords[]; };
 layout(std430, set = 0, binding = 17) readonly buffer VertexColors { uint vertex_colors[]; };
@@ -74,9 +71,13 @@ layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
 layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
 
 Triangle load_triangle(uint k) {
-    return Triangle(vec3(triangles[k].v0[0], triangles[k].v0[1], triangles[k].v0[2]),
-                    vec3(triangles[k].e1[0], triangles[k].e1[1], triangles[k].e1[2]),
-                    vec3(triangles[k].e2[0], triangles[k].e2[1], triangles[k].e2[2]));
+    vec2 a = triangles[k].w[0], b = triangles[k].w[1], c = triangles[k].w[2], d = triangles[k].w[3], e = triangles[k].w[4];
+    return Triangle(vec3(a, b.x), vec3(b.y, c), vec3(d, e.x));
+}
+
+// Triangle k's index in its mesh's file order.
+uint triangle_prim(uint k) {
+    return floatBitsToUint(triangles[k].w[4].y);
 }
 
 vec3 vertex_normal(uint k) {

@@ -179,7 +179,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                                  n0 * side, n1 * side, n2 * side, p, scale);
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
-            uint prim = triangle_prims[hit.tri] + instances[hit.instance].offsets.w;
+            uint prim = triangle_prim(hit.tri) + instances[hit.instance].offsets.w;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
             if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
             if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);

@@ -138,7 +138,6 @@ proptest! {
         let total: usize = scene.meshes.iter().map(Mesh::triangle_count).sum();
         prop_assert_eq!(packed.triangles.len(), total);
         prop_assert_eq!(packed.shading.len(), total);
-        prop_assert_eq!(packed.prims.len(), total);
         let vertex_total: usize = scene.meshes.iter().map(Mesh::vertex_count).sum();
         prop_assert_eq!(packed.vertices.normals.len(), vertex_total);
         let mut vertex_base = 0u32;
@@ -155,10 +154,11 @@ proptest! {
                 return Err(TestCaseError::fail(format!("invalid BVH: {e}")));
             }
             let range = pm.triangle_base as usize..(pm.triangle_base + n) as usize;
-            let mut prims: Vec<u32> = packed.prims[range.clone()].to_vec();
+            let mut prims: Vec<u32> = packed.triangles[range.clone()].iter().map(|t| t.prim).collect();
             prims.sort_unstable();
             prop_assert!(prims.iter().copied().eq(0..n), "prim ids are not a permutation of 0..{}", n);
-            for ((t, sh), &prim) in packed.triangles[range.clone()].iter().zip(&packed.shading[range.clone()]).zip(&packed.prims[range]) {
+            for (t, sh) in packed.triangles[range.clone()].iter().zip(&packed.shading[range]) {
+                let prim = t.prim;
                 // The shading's corners are the triangle's vertices, with their normals.
                 prop_assert_eq!(sh.corners.map(|k| k - vertex_base), mesh.triangles[prim as usize]);
                 for k in sh.corners {

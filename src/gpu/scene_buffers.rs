@@ -18,7 +18,6 @@ pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
 pub struct SceneBuffers {
     pub(crate) triangles: GpuBuffer,
     pub(crate) shading: GpuBuffer,
-    pub(crate) prims: GpuBuffer,
     pub(crate) vertex_normals: GpuBuffer,
     pub(crate) vertex_texcoords: GpuBuffer,
     pub(crate) vertex_colors: GpuBuffer,
@@ -36,7 +35,7 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
-    let names = ["triangle", "shading", "prim id", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
+    let names = ["triangle", "shading", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
     let limit = ctx.info.max_storage_buffer_range;
     for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
         if bytes > limit {
@@ -59,7 +58,6 @@ impl SceneBuffers {
         let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
         let v = &packed.vertices;
         let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
-        let prims = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.prims), storage, "prim ids")?;
         let vertex_normals = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.normals), storage, "vertex normals")?;
         let vertex_texcoords = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.texcoords), storage, "vertex texcoords")?;
         let vertex_colors = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.colors), storage, "vertex colours")?;
@@ -75,7 +73,6 @@ impl SceneBuffers {
         let mut s = Self {
             triangles,
             shading,
-            prims,
             vertex_normals,
             vertex_texcoords,
             vertex_colors,
@@ -99,11 +96,10 @@ impl SceneBuffers {
     }
 
     /// Every buffer of the scene.
-    fn all(&self) -> [&GpuBuffer; 12] {
+    fn all(&self) -> [&GpuBuffer; 11] {
         [
             &self.triangles,
             &self.shading,
-            &self.prims,
             &self.vertex_normals,
             &self.vertex_texcoords,
             &self.vertex_colors,

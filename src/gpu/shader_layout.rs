@@ -53,8 +53,6 @@ pub(crate) enum TraceBuffer {
     Triangles,
     /// Each triangle's corners and material.
     Shading,
-    /// Each triangle's index in its mesh's file order.
-    Prims,
     VertexNormals,
     VertexTexcoords,
     VertexColors,
@@ -76,10 +74,9 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 18] = [
+    pub const ALL: [TraceBuffer; 17] = [
         Self::Triangles,
         Self::Shading,
-        Self::Prims,
         Self::VertexNormals,
         Self::VertexTexcoords,
         Self::VertexColors,
@@ -102,7 +99,6 @@ impl TraceBuffer {
         Some(match block {
             "Triangles" => Self::Triangles,
             "Shading" => Self::Shading,
-            "Prims" => Self::Prims,
             "VertexNormals" => Self::VertexNormals,
             "VertexTexcoords" => Self::VertexTexcoords,
             "VertexColors" => Self::VertexColors,
@@ -255,7 +251,7 @@ mod tests {
     #[test]
     fn rust_twins_match_the_shader_structs_member_by_member() {
         let twins = [
-            ("PackedTriangle", twin!(GpuTriangle { v0: "v0", e1: "e1", e2: "e2" })),
+            ("PackedTriangle", twin!(GpuTriangle { v0: "w", e1: "w" + 12, e2: "w" + 24, prim: "w" + 36 })),
             ("TriangleShading", twin!(GpuTriangleShading { corners: "corners", material: "material" })),
             ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", texture_flags: "texture" + 4, _pad: "texture" + 8, uv_scale: "uv_transform", uv_offset: "uv_transform" + 8 })),
             (

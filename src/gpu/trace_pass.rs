@@ -116,7 +116,6 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
             let buffer = match TraceBuffer::of(b) {
                 TraceBuffer::Triangles => &scene.triangles,
                 TraceBuffer::Shading => &scene.shading,
-                TraceBuffer::Prims => &scene.prims,
                 TraceBuffer::VertexNormals => &scene.vertex_normals,
                 TraceBuffer::VertexTexcoords => &scene.vertex_texcoords,
                 TraceBuffer::VertexColors => &scene.vertex_colors,

@@ -258,7 +258,7 @@ impl<'a> CpuScene<'a> {
             let lit = light_reaches(l, ng, ns, smooth.as_ref(), p, params.light_position, scale);
             let local = blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
-                let prim = (self.packed.prims[hit.triangle as usize] + self.packed.instances[hit.instance as usize].prim_base) as f32;
+                let prim = (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
                 match s.aov {
                     Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
                     Aov::Normal => aux = ns.extend(1.0),

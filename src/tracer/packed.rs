@@ -21,15 +21,21 @@ use crate::progress::{Cancelled, Phase, Progress};
 use crate::render_settings::BvhLayout;
 use crate::scene::{Instance, Mesh, Scene};
 
-/// A triangle as the traversal reads it (36 bytes, nine floats: `shaders/scene.glsl`'s
-/// `load_triangle`). Nothing else: what a hit needs beyond the geometry is in
-/// [`GpuTriangleShading`], so the traversal's bytes are the geometry's.
+/// A triangle as the traversal reads it (40 bytes: `shaders/scene.glsl`'s
+/// `load_triangle` reads it as five 8-byte words). The material is in
+/// [`GpuTriangleShading`], read only at a hit. 40 bytes rather than 48 took 5-7% off the
+/// 4M and 10M knots' frames on the H100 and put nodes and triangles under the driver's
+/// structure (76.7 against 79.8 bytes a triangle); 36 (nine single floats) was as fast on
+/// the big meshes but up to 10% slower on Sponza: its nine 4-byte loads against five
+/// 8-byte ones (docs/BENCHMARKS.md).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {
     pub v0: [f32; 3],
     pub e1: [f32; 3],
     pub e2: [f32; 3],
+    /// Index of the triangle in its mesh's file order (the prim-id view).
+    pub prim: u32,
 }
 
 /// What the shading reads at a triangle's hit (16 bytes, one `uvec4`): its corners'
@@ -193,9 +199,6 @@ pub struct PackedScene {
     pub triangles: Vec<GpuTriangle>,
     /// Each triangle's corners and material, in the order of `triangles`.
     pub shading: Vec<GpuTriangleShading>,
-    /// Each triangle's index in its mesh's file order, in the order of `triangles` (the
-    /// prim-id view; the BVH's leaf order).
-    pub prims: Vec<u32>,
     /// The vertex attributes that `shading` indexes.
     pub vertices: PackedVertices,
     pub materials: Vec<GpuMaterial>,
@@ -314,7 +317,6 @@ impl PackedScene {
             bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip();
         append(&mut self.triangles, triangles);
         append(&mut self.shading, shading);
-        append(&mut self.prims, bvh.prim_indices);
         let node_base = self.nodes.len() as u32;
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
@@ -360,9 +362,9 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, shading, prims, normals, texture coordinates,
-    /// colours, materials, nodes (both layouts), instances, texels.
-    pub(crate) fn buffer_sizes(&self) -> [u64; 10] {
+    /// Bytes of each GPU array: triangles, shading, normals, texture coordinates, colours,
+    /// materials, nodes (both layouts), instances, texels.
+    pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
@@ -371,7 +373,6 @@ impl PackedScene {
         [
             bytes(&self.triangles),
             bytes(&self.shading),
-            bytes(&self.prims),
             bytes(&v.normals),
             bytes(&v.texcoords),
             bytes(&v.colors),
@@ -400,7 +401,7 @@ fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -
     if e1.cross(e2).length() <= 1e-7 * e1.length() * e2.length() {
         (e1, e2) = (Vec3::ZERO, Vec3::ZERO);
     }
-    let triangle = GpuTriangle { v0: a.to_array(), e1: e1.to_array(), e2: e2.to_array() };
+    let triangle = GpuTriangle { v0: a.to_array(), e1: e1.to_array(), e2: e2.to_array(), prim };
     let shading = GpuTriangleShading {
         corners: mesh.triangles[prim as usize].map(|k| vertex_base + k),
         material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
@@ -423,7 +424,7 @@ impl PackedMesh {
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
         let nodes = packed.nodes[self.node_base as usize..][..self.node_count as usize].to_vec();
         let range = self.triangle_base as usize..(self.triangle_base + self.triangle_count) as usize;
-        Bvh { nodes, prim_indices: packed.prims[range].to_vec() }
+        Bvh { nodes, prim_indices: packed.triangles[range].iter().map(|t| t.prim).collect() }
     }
 }
 
@@ -433,7 +434,7 @@ mod tests {
 
     #[test]
     fn gpu_structs_match_the_shader_layout() {
-        assert_eq!(std::mem::size_of::<GpuTriangle>(), 36);
+        assert_eq!(std::mem::size_of::<GpuTriangle>(), 40);
         assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 16);
         assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
         assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
