@@ -3,6 +3,7 @@
 
 pub mod camera;
 pub mod gltf;
+mod normals;
 pub mod obj;
 pub mod paper;
 pub mod ply;
@@ -13,6 +14,7 @@ pub mod spec;
 use std::path::PathBuf;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::geometry::Aabb;
 
@@ -121,21 +123,16 @@ impl Mesh {
 
     /// Bounding box of all vertices.
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&self.positions)
+        // Fixed-size pieces folded in order: the same box (signed zeros included, which
+        // `min`/`max` may pick either of) on any thread count.
+        let pieces: Vec<Aabb> = self.positions.par_chunks(1 << 16).map(Aabb::from_points).collect();
+        pieces.into_iter().fold(Aabb::EMPTY, Aabb::union)
     }
 
-    /// Area-weighted vertex normals from the triangles (used when a file has no `vn`).
+    /// Area-weighted vertex normals from the triangles (used when a file has no `vn`), on
+    /// every core with the same bits on any thread count (see `normals.rs`).
     pub fn compute_vertex_normals(&mut self) {
-        let mut n = vec![Vec3::ZERO; self.positions.len()];
-        for tri in &self.triangles {
-            let [a, b, c] = tri.map(|k| self.positions[k as usize]);
-            // The cross product's length is twice the area: the weighting comes for free.
-            let face = (b - a).cross(c - a);
-            for &k in tri {
-                n[k as usize] += face;
-            }
-        }
-        self.normals = n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect();
+        self.normals = normals::area_weighted_normals(&self.positions, &self.triangles);
         self.has_file_normals = false;
     }
 
@@ -151,9 +148,7 @@ impl Mesh {
         let c = (min + max) * 0.5;
         let half = (max - min).max_element() * 0.5;
         let s = if half > 0.0 { radius as f64 / half } else { 1.0 };
-        for p in &mut self.positions {
-            *p = ((p.as_dvec3() - c) * s).as_vec3();
-        }
+        self.positions.par_iter_mut().for_each(|p| *p = ((p.as_dvec3() - c) * s).as_vec3());
     }
 }
 
