@@ -7,6 +7,7 @@
 use std::collections::HashMap;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::convert::{finish_normals, triangulate, NormalSources};
 use super::par_dedup::{add_model, Output, Piece, Shared, Sources};
@@ -119,9 +120,9 @@ fn too_many_vertices(name: &str, count: usize) -> ObjError {
 /// (position, normal, texture coordinate) that holds one.
 fn check_finite(mesh: &Mesh, first_lines: [Option<usize>; 3], name: &str) -> Result<(), ObjError> {
     let bad = [
-        !mesh.positions.iter().all(|p| p.is_finite()),
-        !mesh.normals.iter().all(|n| n.is_finite()),
-        !mesh.texcoords.iter().all(|t| t.is_finite()),
+        !mesh.positions.par_iter().all(|p| p.is_finite()),
+        !mesh.normals.par_iter().all(|n| n.is_finite()),
+        !mesh.texcoords.par_iter().all(|t| t.is_finite()),
     ];
     if !bad.contains(&true) {
         return Ok(());
