@@ -13,6 +13,7 @@
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::obj::{LoadedObj, ObjError};
 use crate::files::read_regular_file;
@@ -464,13 +465,13 @@ fn finish_mesh(mut mesh: Mesh, normals: Vec<Vec3>, texcoords: Vec<Vec2>, header:
         warnings.push(format!("{name}: elements {} are not used", skipped.join(", ")));
     }
     mesh.triangle_materials = vec![0; mesh.triangles.len()];
-    if !texcoords.iter().all(|t| t.is_finite()) {
+    if !texcoords.par_iter().all(|t| t.is_finite()) {
         warnings.push(format!("{name}: a texture coordinate is not a finite number; the model is drawn without texture coordinates"));
     } else {
         mesh.texcoords = texcoords;
     }
-    if !normals.is_empty() && normals.iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
-        mesh.normals = normals.into_iter().map(Vec3::normalize).collect();
+    if !normals.is_empty() && normals.par_iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
+        mesh.normals = normals.into_par_iter().map(Vec3::normalize).collect();
         mesh.has_file_normals = true;
     } else {
         mesh.compute_vertex_normals();
@@ -486,7 +487,6 @@ type Columns = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
 /// each is found by its index (a 10M-triangle file took 0.9 s on one thread). None when the
 /// file is anything else or anything in it is wrong: `read_body` then reads it, and says what.
 fn read_binary_in_parallel(header: &Header, body: &[u8], big_endian: bool) -> Option<Columns> {
-    use rayon::prelude::*;
     let [vertex, face] = header.elements.as_slice() else { return None };
     if vertex.name != "vertex" || face.name != "face" {
         return None;
@@ -521,14 +521,23 @@ fn read_binary_in_parallel(header: &Header, body: &[u8], big_endian: bool) -> Op
         [Some(a), Some(b)] => records().map(|r| Vec2::new(value(r, a), value(r, b))).collect(),
         _ => Vec::new(),
     };
+    // Collected as an indexed iterator (each record written in place by its thread) with a
+    // flag for a bad one: collecting `Option`s would gather pieces and join them on one thread.
+    let bad = std::sync::atomic::AtomicBool::new(false);
     let triangles: Vec<[u32; 3]> = face_bytes
         .par_chunks_exact(record)
         .map(|r| {
-            (read(r, *count)? == 3.0).then_some(())?;
             let corner = |k: usize| read(&r[count.size() + k * item.size()..], *item).filter(|&c| c >= 0.0 && c < vertices as f64).map(|c| c as u32);
-            Some([corner(0)?, corner(1)?, corner(2)?])
+            let triangle = (read(r, *count) == Some(3.0)).then(|| Some([corner(0)?, corner(1)?, corner(2)?])).flatten();
+            triangle.unwrap_or_else(|| {
+                bad.store(true, std::sync::atomic::Ordering::Relaxed);
+                [0; 3]
+            })
         })
-        .collect::<Option<_>>()?;
+        .collect();
+    if bad.into_inner() {
+        return None;
+    }
     Some((positions, normals, texcoords, triangles))
 }
 
