@@ -211,3 +211,43 @@ fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
     assert!(e.contains("accessor 2 (COLOR_0) has component type U8"), "{e}");
     assert!(!e.contains('\n'), "{e}");
 }
+
+/// Each triangle corner's colour: the same on meshes whose vertices were numbered or
+/// split differently.
+fn corner_colours(mesh: &Mesh) -> Vec<[u8; 4]> {
+    assert_eq!(mesh.colors.len(), mesh.positions.len(), "{}", mesh.name);
+    mesh.triangles.iter().flatten().map(|&v| mesh.colors[v as usize]).collect()
+}
+
+#[test]
+fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
+    use meshtracer::scene::obj::{load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions};
+    use meshtracer::scene::primitives::{uv_sphere, write_obj};
+    let dir = TempDir::new("obj");
+    let mut sphere = uv_sphere(16, 8);
+    sphere.colors = (0..sphere.positions.len()).map(|i| [(i * 37 % 256) as u8, (i * 101 % 256) as u8, (255 - i % 256) as u8, 255]).collect();
+    let expected = corner_colours(&sphere);
+    let path = dir.0.join("sphere.obj");
+    // With file normals, and without them smoothed within a crease angle (vertices split).
+    for (normals, options) in [(true, LoadOptions::default()), (false, LoadOptions { crease_angle: Some(20.0) })] {
+        let mut mesh = sphere.clone();
+        if !normals {
+            mesh.normals.clear();
+        }
+        write_obj(&mesh, &path).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        let oracle = load_obj_from_str_tobj(&text, "sphere.obj", None, &options).unwrap().mesh;
+        assert_eq!(corner_colours(&oracle), expected, "tobj, normals {normals}");
+        // One chunk, and many (a model over several chunks is de-duplicated in parallel).
+        for chunk_bytes in [usize::MAX, 256] {
+            let parallel = load_obj_from_str_chunked(&text, "sphere.obj", None, &options, chunk_bytes).unwrap().mesh;
+            assert_eq!(corner_colours(&parallel), expected, "chunks of {chunk_bytes} bytes, normals {normals}");
+            assert_eq!(parallel.colors, oracle.colors);
+        }
+    }
+    // A file without colours reads none.
+    sphere.colors.clear();
+    write_obj(&sphere, &path).unwrap();
+    let text = fs::read_to_string(&path).unwrap();
+    assert!(load_obj_from_str_chunked(&text, "plain.obj", None, &LoadOptions::default(), 256).unwrap().mesh.colors.is_empty());
+}

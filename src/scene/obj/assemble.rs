@@ -23,6 +23,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
     let (with_normals, with_texcoords) = (parsed.any_normal, parsed.any_texcoord);
+    let with_colours = !parsed.colors.is_empty();
     // Nearly always each position makes one vertex: room for that many, no regrowing.
     let vertices = parsed.positions.len();
     let mut mesh = Mesh {
@@ -30,6 +31,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         positions: Vec::with_capacity(vertices),
         normals: Vec::with_capacity(if with_normals { vertices } else { 0 }),
         texcoords: Vec::with_capacity(if with_texcoords { vertices } else { 0 }),
+        colors: Vec::with_capacity(if with_colours { vertices } else { 0 }),
         triangles: Vec::with_capacity(triangle_total),
         triangle_materials: Vec::with_capacity(triangle_total),
         ..Default::default()
@@ -49,8 +51,15 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                 positions: &parsed.positions,
                 normals: with_normals.then_some(&parsed.normals[..]),
                 texcoords: with_texcoords.then_some(&parsed.texcoords[..]),
+                colors: with_colours.then_some(&parsed.colors[..]),
             };
-            let out = Output { positions: &mut mesh.positions, normals: &mut mesh.normals, texcoords: &mut mesh.texcoords, triangles: &mut mesh.triangles };
+            let out = Output {
+                positions: &mut mesh.positions,
+                normals: &mut mesh.normals,
+                texcoords: &mut mesh.texcoords,
+                colors: &mut mesh.colors,
+                triangles: &mut mesh.triangles,
+            };
             add_model(&pieces, shared, &sources, out)
         };
         dedup.start_model(m as u32);
@@ -75,6 +84,10 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                     }
                     if with_texcoords {
                         mesh.texcoords.push(if vt == NONE { Vec2::ZERO } else { parsed.texcoords[vt as usize] });
+                    }
+                    if with_colours {
+                        // Faces past the colours were refused in the join; white keeps it safe.
+                        mesh.colors.push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
                     }
                 }
                 corners.push(index);

@@ -48,6 +48,8 @@ pub(super) struct Sources<'p> {
     /// Empty when no vertex of the mesh has a normal (then none is written).
     pub(super) normals: Option<&'p [Vec3]>,
     pub(super) texcoords: Option<&'p [Vec2]>,
+    /// Per position, when the file has colours.
+    pub(super) colors: Option<&'p [[u8; 4]]>,
 }
 
 /// What a model adds to the mesh.
@@ -55,6 +57,7 @@ pub(super) struct Output<'m> {
     pub(super) positions: &'m mut Vec<Vec3>,
     pub(super) normals: &'m mut Vec<Vec3>,
     pub(super) texcoords: &'m mut Vec<Vec2>,
+    pub(super) colors: &'m mut Vec<[u8; 4]>,
     pub(super) triangles: &'m mut Vec<[u32; 3]>,
 }
 
@@ -124,6 +127,9 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
     if sources.texcoords.is_some() {
         grow(out.texcoords, base + total, Vec2::ZERO);
     }
+    if sources.colors.is_some() {
+        grow(out.colors, base + total, [255; 4]);
+    }
     grow(out.triangles, tri_base + triangles.iter().sum::<usize>(), [0; 3]);
     // Vertices: each piece writes the ones it makes, in order, and records their numbers.
     let mut other_vertices: HashMap<[u32; 3], u32> = HashMap::new();
@@ -131,18 +137,20 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
         let mut positions = &mut out.positions[base..];
         let mut normals = if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
         let mut texcoords = if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
+        let mut colors = if sources.colors.is_some() { &mut out.colors[base..] } else { &mut [][..] };
         let mut jobs = Vec::with_capacity(pieces.len());
         let mut first_vertex = 0u32;
         for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&made) {
             let pos = take_front(&mut positions, n, true);
             let nor = take_front(&mut normals, n, sources.normals.is_some());
             let tex = take_front(&mut texcoords, n, sources.texcoords.is_some());
-            jobs.push((p, start, first_vertex, pos, nor, tex));
+            let col = take_front(&mut colors, n, sources.colors.is_some());
+            jobs.push((p, start, first_vertex, pos, nor, tex, col));
             first_vertex += n as u32;
         }
         let made_others: Vec<Vec<([u32; 3], u32)>> = jobs
             .into_par_iter()
-            .map(|(p, start, mut next, pos, nor, tex)| {
+            .map(|(p, start, mut next, pos, nor, tex, col)| {
                 let mut mine = Vec::new();
                 let mut slot = 0;
                 for (i, c) in p.corners.iter().enumerate() {
@@ -157,6 +165,9 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                     }
                     if let Some(texcoords) = sources.texcoords {
                         tex[slot] = if c[1] == NONE { Vec2::ZERO } else { texcoords[c[1] as usize] };
+                    }
+                    if let Some(colors) = sources.colors {
+                        col[slot] = colors.get(c[0] as usize).copied().unwrap_or([255; 4]);
                     }
                     if primary {
                         shared.vertex[c[0] as usize].store(next, Relaxed);

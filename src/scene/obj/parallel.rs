@@ -45,6 +45,9 @@ pub(super) struct Parsed {
     pub(super) positions: Vec<Vec3>,
     pub(super) texcoords: Vec<Vec2>,
     pub(super) normals: Vec<Vec3>,
+    /// Colours of the `v` lines that have one, in order (empty without): a vertex made
+    /// from position `v` takes `colors[v]`, as tobj gives it.
+    pub(super) colors: Vec<[u8; 4]>,
     /// The faces, chunk by chunk, in file order.
     pub(super) blocks: Vec<FaceBlock>,
     pub(super) models: Vec<ModelRun>,
@@ -123,6 +126,7 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
         }
         face_base += chunk.arities.len();
         colour_base += chunk.colours;
+        parsed.colors.append(&mut chunk.colors);
         error = chunk.error.take();
         parsed.blocks.push(FaceBlock { corners: chunk.corners, arities: chunk.arities });
         if error.is_some() {

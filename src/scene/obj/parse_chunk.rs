@@ -66,6 +66,8 @@ pub(super) struct ChunkFaces<'a> {
     pub(super) events: Vec<Event<'a>>,
     /// Vertex colour values read (tobj keeps them, and fails if faces use vertices beyond them).
     pub(super) colours: usize,
+    /// The colours of the `v x y z r g b` lines, in order (tobj's `vertex_color`).
+    pub(super) colors: Vec<[u8; 4]>,
     /// Some corner has a texture coordinate / a normal; every corner has a normal.
     pub(super) any_texcoord: bool,
     pub(super) any_normal: bool,
@@ -220,7 +222,13 @@ impl<'a> Parser<'a, '_> {
                 1 => {
                     first.parse::<f32>().map_err(|_| position_error())?;
                 }
-                3 => self.out.colours += extra.iter().map_while(|w| w.parse::<f32>().ok()).count(),
+                3 => {
+                    let rgb: Vec<f32> = extra.iter().map_while(|w| w.parse::<f32>().ok()).collect();
+                    self.out.colours += rgb.len();
+                    if let [r, g, b] = rgb[..] {
+                        self.out.colors.push(super::convert::colour([r, g, b]));
+                    }
+                }
                 _ => return Err(colour_error()),
             }
             let leading: Vec<f32> = extra.iter().map_while(|w| w.parse().ok()).collect();
