@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::convert::{finish_normals, triangulate, NormalSources};
-use super::par_dedup::{add_model, Output, Piece, Shared, Sources};
+use super::par_dedup::{add_model, grow, Output, Piece, Shared, Sources};
 use super::parallel::{FaceBlock, ModelRun, Parsed};
 use super::parse_chunk::NONE;
 use super::{LoadOptions, ObjError};
@@ -36,7 +36,8 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         triangle_materials: Vec::with_capacity(triangle_total),
         ..Default::default()
     };
-    let mut dedup = Dedup::new(parsed.positions.len());
+    // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
+    let mut dedup: Option<Dedup> = None;
     let mut shared = None;
     let mut cursor = Cursor { blocks: &parsed.blocks, block: 0, face: 0, corner: 0 };
     let mut corners = Vec::new();
@@ -62,7 +63,11 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
             };
             add_model(&pieces, shared, &sources, out)
         };
-        dedup.start_model(m as u32);
+        let mut serial = (!parallel).then(|| {
+            let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
+            dedup.start_model(m as u32);
+            dedup
+        });
         let mut vertex_count = 0usize;
         let faces = pieces.iter().filter(|_| !parallel).flat_map(|p| {
             let mut rest = p.corners;
@@ -73,6 +78,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
             })
         });
         for face in faces {
+            let Some(dedup) = serial.as_deref_mut() else { break };
             corners.clear();
             for &[v, vt, vn] in face {
                 let (index, new) = dedup.vertex(v, vt, vn);
@@ -107,7 +113,8 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                 (materials.len() - 1) as u32
             }),
         };
-        mesh.triangle_materials.resize(mesh.triangles.len(), material);
+        // Filled on every core: one model can be the whole mesh.
+        grow(&mut mesh.triangle_materials, mesh.triangles.len(), material);
     }
     mesh.materials = materials;
     let sources = NormalSources {

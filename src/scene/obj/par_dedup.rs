@@ -212,7 +212,7 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
 }
 
 /// `v.resize(len, value)` with the new elements written in parallel.
-fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) {
+pub(super) fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) {
     if len > v.len() {
         let more = len - v.len();
         v.par_extend(rayon::iter::repeat_n(value, more));
