@@ -125,7 +125,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
     };
     let groups = (!parsed.smoothing.is_empty()).then(|| triangle_groups(&parsed.blocks, &parsed.models, &parsed.smoothing));
     let non_finite = parsed.non_finite;
-    drop(parsed);
+    super::free_in_background(parsed);
     check_finite(&mesh, non_finite, name)?;
     finish_normals(&mut mesh, groups.as_deref(), sources, options);
     Ok(mesh)
