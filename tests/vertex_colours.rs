@@ -251,3 +251,17 @@ fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
     let text = fs::read_to_string(&path).unwrap();
     assert!(load_obj_from_str_chunked(&text, "plain.obj", None, &LoadOptions::default(), 256).unwrap().mesh.colors.is_empty());
 }
+
+#[test]
+fn obj_colour_lines_with_an_unreadable_value_shift_the_rest_as_tobj_does() {
+    use meshtracer::scene::obj::{load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions};
+    // tobj keeps the first line's leading 0.5 alone, so every later colour is shifted by one value.
+    let text = "v 0 0 0 0.5 x 0.2\nv 1 0 0 1 0 0\nv 0 1 0 0 1 0\nv 0 0 1 0 0 1\nf 1 2 3\n";
+    let options = LoadOptions::default();
+    let oracle = load_obj_from_str_tobj(text, "shift.obj", None, &options).unwrap().mesh;
+    assert_eq!(oracle.colors, [[128, 255, 0, 255], [0, 0, 255, 255], [0, 0, 0, 255]]);
+    for chunk_bytes in [usize::MAX, 1] {
+        let parallel = load_obj_from_str_chunked(text, "shift.obj", None, &options, chunk_bytes).unwrap().mesh;
+        assert_eq!(parallel.colors, oracle.colors, "chunks of {chunk_bytes} bytes");
+    }
+}
