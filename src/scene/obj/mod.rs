@@ -9,7 +9,8 @@
 //! below is the one it had:
 //!
 //! - Statements read as tobj read them: words split at whitespace, `v x y z` with an
-//!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b, `vt u v`,
+//!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b (0..1, kept as
+//!   RGBA8 in `Mesh::colors`, following its vertex through de-duplication and splits), `vt u v`,
 //!   `vn x y z`, faces of three or more corners `v`, `v/vt`, `v//vn`, `v/vt/vn` with
 //!   absolute or relative (negative) indices; every line on its own (a `\` at the end of a
 //!   line does not continue it); `l` polylines and unknown statements ignored.
