@@ -18,7 +18,7 @@ use crate::scene::{Material, Mesh};
 
 /// Build the mesh; `materials` are the merged libraries' materials, converted.
 pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str, options: &LoadOptions) -> Result<Mesh, ObjError> {
-    let triangle_total: usize = parsed.blocks.iter().flat_map(|b| &b.arities).map(|&n| (n as usize).saturating_sub(2)).sum();
+    let triangle_total: usize = parsed.blocks.par_iter().map(|b| b.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum::<usize>()).sum();
     if triangle_total == 0 {
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
@@ -188,7 +188,8 @@ impl<'b> Cursor<'b> {
             let block = &self.blocks[self.block];
             let n = faces.min(block.arities.len() - self.face);
             let arities = &block.arities[self.face..self.face + n];
-            let corner_count: usize = arities.iter().map(|&a| a as usize).sum();
+            // A whole block (the common case: one model) needs no count of its corners.
+            let corner_count: usize = if arities.len() == block.arities.len() { block.corners.len() } else { arities.iter().map(|&a| a as usize).sum() };
             pieces.push(Piece { corners: &block.corners[self.corner..self.corner + corner_count], arities });
             (self.face, self.corner, faces) = (self.face + n, self.corner + corner_count, faces - n);
             if self.face == block.arities.len() {

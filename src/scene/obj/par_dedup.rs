@@ -117,7 +117,7 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
     if base + total > u32::MAX as usize {
         return false;
     }
-    let triangles: Vec<usize> = pieces.iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
+    let triangles: Vec<usize> = pieces.par_iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
     let tri_base = out.triangles.len();
     // Grown on every core (`resize` writes, and faults in, the new pages on one thread).
     grow(out.positions, base + total, Vec3::ZERO);
