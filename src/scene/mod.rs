@@ -125,7 +125,7 @@ impl Mesh {
     pub fn bounds(&self) -> Aabb {
         // Fixed-size pieces folded in order: the same box (signed zeros included, which
         // `min`/`max` may pick either of) on any thread count.
-        let pieces: Vec<Aabb> = self.positions.par_chunks(1 << 16).map(Aabb::from_points).collect();
+        let pieces: Vec<Aabb> = self.positions.par_chunks(1 << 16).map(piece_bounds).collect();
         pieces.into_iter().fold(Aabb::EMPTY, Aabb::union)
     }
 
@@ -150,6 +150,22 @@ impl Mesh {
         let s = if half > 0.0 { radius as f64 / half } else { 1.0 };
         self.positions.par_iter_mut().for_each(|p| *p = ((p.as_dvec3() - c) * s).as_vec3());
     }
+}
+
+/// The box of `points`, kept in four running boxes: one box is a chain of dependent
+/// min/max operations, which ran at a third of the speed.
+fn piece_bounds(points: &[Vec3]) -> Aabb {
+    let mut boxes = [Aabb::EMPTY; 4];
+    let mut quads = points.chunks_exact(4);
+    for q in &mut quads {
+        for (b, &p) in boxes.iter_mut().zip(q) {
+            *b = b.grow_point(p);
+        }
+    }
+    for &p in quads.remainder() {
+        boxes[0] = boxes[0].grow_point(p);
+    }
+    boxes.into_iter().fold(Aabb::EMPTY, Aabb::union)
 }
 
 /// A placement of a mesh in the world: uniform scale, then translation. Uniform scale keeps
@@ -257,5 +273,19 @@ impl Scene {
             }
             acc.union(Aabb { min: b.min * inst.scale + inst.translation, max: b.max * inst.scale + inst.translation })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_in_pieces_equal_the_box_of_all_points() {
+        // Several pieces, and a length that is not a multiple of four.
+        let positions: Vec<Vec3> = (0..200_003u64).map(|i| Vec3::new((i * 7919 % 1000) as f32, -((i * 104_729 % 777) as f32), (i % 13) as f32 * 0.5)).collect();
+        let mesh = Mesh { positions, ..Default::default() };
+        assert_eq!(mesh.bounds(), Aabb::from_points(&mesh.positions));
+        assert!(Mesh::default().bounds().is_empty());
     }
 }
