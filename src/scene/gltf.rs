@@ -182,6 +182,26 @@ fn read_accessor(acc: &Accessor, buffers: &[Vec<u8>], what: &str, dims: Dimensio
     Ok(out)
 }
 
+/// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
+/// glTF allows) as RGBA8, alpha 255 where absent; `count` is the primitive's vertex count.
+fn read_colors(acc: &Accessor, buffers: &[Vec<u8>], count: usize, at: &str) -> Result<Vec<[u8; 4]>, String> {
+    let dims = acc.dimensions();
+    if !matches!(dims, Dimensions::Vec3 | Dimensions::Vec4) {
+        return Err(format!("accessor {} (COLOR_0) is of type {dims:?}, expected Vec3 or Vec4", acc.index()));
+    }
+    let kind = acc.data_type();
+    if !(kind == DataType::F32 || (acc.normalized() && matches!(kind, DataType::U8 | DataType::U16))) {
+        return Err(format!("accessor {} (COLOR_0) has component type {kind:?}; glTF allows float or normalized unsigned byte or short", acc.index()));
+    }
+    let values = read_accessor(acc, buffers, "COLOR_0", dims)?;
+    let width = dims.multiplicity();
+    if values.len() / width != count {
+        return Err(format!("{at}: COLOR_0 has {} elements, POSITION {count}", values.len() / width));
+    }
+    let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    Ok(values.chunks_exact(width).map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]).collect())
+}
+
 /// Triangle indices of a primitive (unsigned integer scalars).
 fn read_indices(acc: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
     let kind = acc.data_type();
@@ -221,6 +241,8 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
     let mut all_normals = true;
     let mut any_texcoords = false;
     let mut texcoords: Vec<Vec2> = Vec::new();
+    let mut any_colors = false;
+    let mut colors: Vec<[u8; 4]> = Vec::new();
     let mut material_slots: HashMap<Option<usize>, u32> = HashMap::new();
     let mut skipped_modes = 0;
     for (node, world) in world_nodes(document)? {
@@ -263,6 +285,12 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
                 texcoords.extend(t.chunks_exact(2).map(Vec2::from_slice));
                 any_texcoords = true;
             }
+            // Primitives without COLOR_0 are white, so they look as they would alone.
+            colors.resize(base, [255; 4]);
+            if let Some(acc) = prim.get(&Semantic::Colors(0)) {
+                colors.extend(read_colors(&acc, buffers, count, &at)?);
+                any_colors = true;
+            }
             let indices = match prim.indices() {
                 Some(acc) => read_indices(&acc, buffers)?,
                 None => (0..count as u32).collect(),
@@ -294,6 +322,10 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
     if any_texcoords {
         texcoords.resize(mesh.positions.len(), Vec2::ZERO);
         mesh.texcoords = texcoords;
+    }
+    if any_colors {
+        colors.resize(mesh.positions.len(), [255; 4]);
+        mesh.colors = colors;
     }
     if all_normals && normals.iter().all(|n| n.is_finite() && *n != Vec3::ZERO) {
         mesh.normals = normals;

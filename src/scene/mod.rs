@@ -3,6 +3,7 @@
 
 pub mod camera;
 pub mod gltf;
+mod normals;
 pub mod obj;
 pub mod paper;
 pub mod ply;
@@ -13,6 +14,7 @@ pub mod spec;
 use std::path::PathBuf;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::geometry::Aabb;
 
@@ -121,21 +123,16 @@ impl Mesh {
 
     /// Bounding box of all vertices.
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&self.positions)
+        // Fixed-size pieces folded in order: the same box (signed zeros included, which
+        // `min`/`max` may pick either of) on any thread count.
+        let pieces: Vec<Aabb> = self.positions.par_chunks(1 << 16).map(piece_bounds).collect();
+        pieces.into_iter().fold(Aabb::EMPTY, Aabb::union)
     }
 
-    /// Area-weighted vertex normals from the triangles (used when a file has no `vn`).
+    /// Area-weighted vertex normals from the triangles (used when a file has no `vn`), on
+    /// every core with the same bits on any thread count (see `normals.rs`).
     pub fn compute_vertex_normals(&mut self) {
-        let mut n = vec![Vec3::ZERO; self.positions.len()];
-        for tri in &self.triangles {
-            let [a, b, c] = tri.map(|k| self.positions[k as usize]);
-            // The cross product's length is twice the area: the weighting comes for free.
-            let face = (b - a).cross(c - a);
-            for &k in tri {
-                n[k as usize] += face;
-            }
-        }
-        self.normals = n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect();
+        self.normals = normals::area_weighted_normals(&self.positions, &self.triangles);
         self.has_file_normals = false;
     }
 
@@ -151,10 +148,24 @@ impl Mesh {
         let c = (min + max) * 0.5;
         let half = (max - min).max_element() * 0.5;
         let s = if half > 0.0 { radius as f64 / half } else { 1.0 };
-        for p in &mut self.positions {
-            *p = ((p.as_dvec3() - c) * s).as_vec3();
+        self.positions.par_iter_mut().for_each(|p| *p = ((p.as_dvec3() - c) * s).as_vec3());
+    }
+}
+
+/// The box of `points`, kept in four running boxes: one box is a chain of dependent
+/// min/max operations, which ran at a third of the speed.
+fn piece_bounds(points: &[Vec3]) -> Aabb {
+    let mut boxes = [Aabb::EMPTY; 4];
+    let mut quads = points.chunks_exact(4);
+    for q in &mut quads {
+        for (b, &p) in boxes.iter_mut().zip(q) {
+            *b = b.grow_point(p);
         }
     }
+    for &p in quads.remainder() {
+        boxes[0] = boxes[0].grow_point(p);
+    }
+    boxes.into_iter().fold(Aabb::EMPTY, Aabb::union)
 }
 
 /// A placement of a mesh in the world: uniform scale, then translation. Uniform scale keeps
@@ -262,5 +273,19 @@ impl Scene {
             }
             acc.union(Aabb { min: b.min * inst.scale + inst.translation, max: b.max * inst.scale + inst.translation })
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_in_pieces_equal_the_box_of_all_points() {
+        // Several pieces, and a length that is not a multiple of four.
+        let positions: Vec<Vec3> = (0..200_003u64).map(|i| Vec3::new((i * 7919 % 1000) as f32, -((i * 104_729 % 777) as f32), (i % 13) as f32 * 0.5)).collect();
+        let mesh = Mesh { positions, ..Default::default() };
+        assert_eq!(mesh.bounds(), Aabb::from_points(&mesh.positions));
+        assert!(Mesh::default().bounds().is_empty());
     }
 }

@@ -312,14 +312,24 @@ fn tube_knot(name: &str, p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
 }
 
 /// Write `mesh` as a Wavefront OBJ: `v`, `vn` (and `vt` when the mesh has texture
-/// coordinates), one `f` per triangle referring to the same index for all attributes.
+/// coordinates), one `f` per triangle referring to the same index for all attributes;
+/// vertex colours, when the mesh has them, as `v x y z r g b`.
 /// Floats are written in their shortest exact form, so reading the file back gives the
 /// same numbers.
 pub fn write_obj(mesh: &Mesh, path: &Path) -> io::Result<()> {
     let mut out = BufWriter::new(std::fs::File::create(path)?);
     writeln!(out, "# {}: {} vertices, {} triangles (written by meshtracer)", mesh.name, mesh.vertex_count(), mesh.triangle_count())?;
-    for p in &mesh.positions {
-        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    if mesh.colors.len() == mesh.positions.len() && !mesh.colors.is_empty() {
+        // `v x y z r g b`, colours 0..1 (alpha has no place in OBJ). Nine digits bring
+        // every byte back when the reader scales by 255 and rounds.
+        for (p, c) in mesh.positions.iter().zip(&mesh.colors) {
+            let [r, g, b] = [c[0], c[1], c[2]].map(|v| v as f64 / 255.0);
+            writeln!(out, "v {} {} {} {r:.9} {g:.9} {b:.9}", p.x, p.y, p.z)?;
+        }
+    } else {
+        for p in &mesh.positions {
+            writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+        }
     }
     for n in &mesh.normals {
         writeln!(out, "vn {} {} {}", n.x, n.y, n.z)?;

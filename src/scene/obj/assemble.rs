@@ -7,9 +7,10 @@
 use std::collections::HashMap;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::convert::{finish_normals, triangulate, NormalSources};
-use super::par_dedup::{add_model, Output, Piece, Shared, Sources};
+use super::par_dedup::{add_model, grow, Output, Piece, Shared, Sources};
 use super::parallel::{FaceBlock, ModelRun, Parsed};
 use super::parse_chunk::NONE;
 use super::{LoadOptions, ObjError};
@@ -17,11 +18,12 @@ use crate::scene::{Material, Mesh};
 
 /// Build the mesh; `materials` are the merged libraries' materials, converted.
 pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str, options: &LoadOptions) -> Result<Mesh, ObjError> {
-    let triangle_total: usize = parsed.blocks.iter().flat_map(|b| &b.arities).map(|&n| (n as usize).saturating_sub(2)).sum();
+    let triangle_total: usize = parsed.blocks.par_iter().map(|b| b.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum::<usize>()).sum();
     if triangle_total == 0 {
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
     let (with_normals, with_texcoords) = (parsed.any_normal, parsed.any_texcoord);
+    let with_colours = !parsed.colors.is_empty();
     // Nearly always each position makes one vertex: room for that many, no regrowing.
     let vertices = parsed.positions.len();
     let mut mesh = Mesh {
@@ -29,11 +31,13 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         positions: Vec::with_capacity(vertices),
         normals: Vec::with_capacity(if with_normals { vertices } else { 0 }),
         texcoords: Vec::with_capacity(if with_texcoords { vertices } else { 0 }),
+        colors: Vec::with_capacity(if with_colours { vertices } else { 0 }),
         triangles: Vec::with_capacity(triangle_total),
         triangle_materials: Vec::with_capacity(triangle_total),
         ..Default::default()
     };
-    let mut dedup = Dedup::new(parsed.positions.len());
+    // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
+    let mut dedup: Option<Dedup> = None;
     let mut shared = None;
     let mut cursor = Cursor { blocks: &parsed.blocks, block: 0, face: 0, corner: 0 };
     let mut corners = Vec::new();
@@ -48,11 +52,22 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                 positions: &parsed.positions,
                 normals: with_normals.then_some(&parsed.normals[..]),
                 texcoords: with_texcoords.then_some(&parsed.texcoords[..]),
+                colors: with_colours.then_some(&parsed.colors[..]),
             };
-            let out = Output { positions: &mut mesh.positions, normals: &mut mesh.normals, texcoords: &mut mesh.texcoords, triangles: &mut mesh.triangles };
+            let out = Output {
+                positions: &mut mesh.positions,
+                normals: &mut mesh.normals,
+                texcoords: &mut mesh.texcoords,
+                colors: &mut mesh.colors,
+                triangles: &mut mesh.triangles,
+            };
             add_model(&pieces, shared, &sources, out)
         };
-        dedup.start_model(m as u32);
+        let mut serial = (!parallel).then(|| {
+            let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
+            dedup.start_model(m as u32);
+            dedup
+        });
         let mut vertex_count = 0usize;
         let faces = pieces.iter().filter(|_| !parallel).flat_map(|p| {
             let mut rest = p.corners;
@@ -63,6 +78,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
             })
         });
         for face in faces {
+            let Some(dedup) = serial.as_deref_mut() else { break };
             corners.clear();
             for &[v, vt, vn] in face {
                 let (index, new) = dedup.vertex(v, vt, vn);
@@ -74,6 +90,10 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                     }
                     if with_texcoords {
                         mesh.texcoords.push(if vt == NONE { Vec2::ZERO } else { parsed.texcoords[vt as usize] });
+                    }
+                    if with_colours {
+                        // Faces past the colours were refused in the join; white keeps it safe.
+                        mesh.colors.push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
                     }
                 }
                 corners.push(index);
@@ -93,7 +113,8 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                 (materials.len() - 1) as u32
             }),
         };
-        mesh.triangle_materials.resize(mesh.triangles.len(), material);
+        // Filled on every core: one model can be the whole mesh.
+        grow(&mut mesh.triangle_materials, mesh.triangles.len(), material);
     }
     mesh.materials = materials;
     let sources = NormalSources {
@@ -104,7 +125,7 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
     };
     let groups = (!parsed.smoothing.is_empty()).then(|| triangle_groups(&parsed.blocks, &parsed.models, &parsed.smoothing));
     let non_finite = parsed.non_finite;
-    drop(parsed);
+    super::free_in_background(parsed);
     check_finite(&mesh, non_finite, name)?;
     finish_normals(&mut mesh, groups.as_deref(), sources, options);
     Ok(mesh)
@@ -119,9 +140,9 @@ fn too_many_vertices(name: &str, count: usize) -> ObjError {
 /// (position, normal, texture coordinate) that holds one.
 fn check_finite(mesh: &Mesh, first_lines: [Option<usize>; 3], name: &str) -> Result<(), ObjError> {
     let bad = [
-        !mesh.positions.iter().all(|p| p.is_finite()),
-        !mesh.normals.iter().all(|n| n.is_finite()),
-        !mesh.texcoords.iter().all(|t| t.is_finite()),
+        !mesh.positions.par_iter().all(|p| p.is_finite()),
+        !mesh.normals.par_iter().all(|n| n.is_finite()),
+        !mesh.texcoords.par_iter().all(|t| t.is_finite()),
     ];
     if !bad.contains(&true) {
         return Ok(());
@@ -167,7 +188,8 @@ impl<'b> Cursor<'b> {
             let block = &self.blocks[self.block];
             let n = faces.min(block.arities.len() - self.face);
             let arities = &block.arities[self.face..self.face + n];
-            let corner_count: usize = arities.iter().map(|&a| a as usize).sum();
+            // A whole block (the common case: one model) needs no count of its corners.
+            let corner_count: usize = if arities.len() == block.arities.len() { block.corners.len() } else { arities.iter().map(|&a| a as usize).sum() };
             pieces.push(Piece { corners: &block.corners[self.corner..self.corner + corner_count], arities });
             (self.face, self.corner, faces) = (self.face + n, self.corner + corner_count, faces - n);
             if self.face == block.arities.len() {

@@ -17,6 +17,12 @@ fn triangles_in(m: &tobj::Mesh) -> usize {
     }
 }
 
+/// An OBJ vertex colour (`v x y z r g b`, 0..1 floats) as RGBA8: scaled, rounded, clamped.
+pub(super) fn colour(rgb: [f32; 3]) -> [u8; 4] {
+    let [r, g, b] = rgb.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+    [r, g, b, 255]
+}
+
 /// Append the triangles of one mesh, offset by `base`. Quads split as the paper
 /// says, (1,2,4) and (2,3,4); larger polygons become fans around their first corner.
 pub(super) fn triangulate(indices: &[u32], arities: &[u32], base: u32, out: &mut Vec<[u32; 3]>) {
@@ -75,6 +81,7 @@ pub(super) fn build_mesh(
     let with_normals = attributes.iter().any(|a| a.normals != Coverage::None);
     let all_normals = attributes.iter().zip(models).all(|(a, m)| a.normals == Coverage::All || m.mesh.positions.is_empty());
     let with_texcoords = attributes.iter().any(|a| a.texcoords != Coverage::None);
+    let with_colours = models.iter().any(|m| !m.mesh.vertex_color.is_empty());
 
     let mut mesh = Mesh {
         name: name.to_owned(),
@@ -96,6 +103,11 @@ pub(super) fn build_mesh(
         }
         if with_texcoords {
             attrs.texcoords.spread(m.texcoords.chunks_exact(2).map(Vec2::from_slice), Vec2::ZERO, &mut mesh.texcoords, mesh.positions.len());
+        }
+        if with_colours {
+            // tobj gives every vertex of a file with colours its colour (or fails).
+            mesh.colors.extend(m.vertex_color.chunks_exact(3).map(|c| colour([c[0], c[1], c[2]])));
+            mesh.colors.resize(mesh.positions.len(), [255; 4]);
         }
         let material = match m.material_id {
             Some(i) if i < materials.len() => i as u32,
@@ -402,6 +414,9 @@ fn apply_corner_normals(mesh: &mut Mesh, normal_of: impl Fn(usize, usize) -> Vec
                         mesh.positions.push(mesh.positions[v as usize]);
                         if !mesh.texcoords.is_empty() {
                             mesh.texcoords.push(mesh.texcoords[v as usize]);
+                        }
+                        if !mesh.colors.is_empty() {
+                            mesh.colors.push(mesh.colors[v as usize]);
                         }
                         normals.push(Some(n));
                         (mesh.positions.len() - 1) as u32

@@ -9,7 +9,8 @@
 //! below is the one it had:
 //!
 //! - Statements read as tobj read them: words split at whitespace, `v x y z` with an
-//!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b, `vt u v`,
+//!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b (0..1, kept as
+//!   RGBA8 in `Mesh::colors`, following its vertex through de-duplication and splits), `vt u v`,
 //!   `vn x y z`, faces of three or more corners `v`, `v/vt`, `v//vn`, `v/vt/vn` with
 //!   absolute or relative (negative) indices; every line on its own (a `\` at the end of a
 //!   line does not continue it); `l` polylines and unknown statements ignored.
@@ -172,7 +173,7 @@ pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, Ob
 /// UTF-8 chunk by chunk, in parallel, as they are parsed.
 pub fn load_obj_from_bytes(bytes: Vec<u8>, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     let parsed = parse_text(&bytes, name, base_dir, chunks::default_chunk_bytes(bytes.len()))?;
-    drop(bytes);
+    free_in_background(bytes);
     finish(parsed, name, options)
 }
 
@@ -281,6 +282,14 @@ fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind:
         warnings,
         format!("{name} line {}: face {kind} index {} is out of range (the file has {} {had} so far); {these} {outcome}", first.line, first.index, first.count),
     );
+}
+
+/// Free `value` on a thread of its own: unmapping the hundreds of MB of a large file's text
+/// or parse takes tens of milliseconds on one core, which the load need not wait for. The
+/// memory is returned at once all the same (no later than a plain drop would start to).
+fn free_in_background<T: Send + 'static>(value: T) {
+    // Where no thread can be started, the closure, and `value` with it, is dropped here.
+    let _ = std::thread::Builder::new().name("obj-free".to_owned()).spawn(move || drop(value));
 }
 
 /// Record a warning for the caller, who shows it once (the log on the command line, the

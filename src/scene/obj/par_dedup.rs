@@ -36,8 +36,9 @@ pub(super) struct Shared {
 
 impl Shared {
     pub(super) fn new(positions: usize) -> Self {
-        let atomic32 = |n| (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
-        Shared { first: atomic32(positions), key: (0..positions).map(|_| AtomicU64::new(0)).collect(), vertex: atomic32(positions) }
+        // Filled on every core: at 10M triangles these are ~80 MB of fresh pages.
+        let atomic32 = |n| (0..n).into_par_iter().map(|_| AtomicU32::new(u32::MAX)).collect();
+        Shared { first: atomic32(positions), key: (0..positions).into_par_iter().map(|_| AtomicU64::new(0)).collect(), vertex: atomic32(positions) }
     }
 }
 
@@ -47,6 +48,8 @@ pub(super) struct Sources<'p> {
     /// Empty when no vertex of the mesh has a normal (then none is written).
     pub(super) normals: Option<&'p [Vec3]>,
     pub(super) texcoords: Option<&'p [Vec2]>,
+    /// Per position, when the file has colours.
+    pub(super) colors: Option<&'p [[u8; 4]]>,
 }
 
 /// What a model adds to the mesh.
@@ -54,6 +57,7 @@ pub(super) struct Output<'m> {
     pub(super) positions: &'m mut Vec<Vec3>,
     pub(super) normals: &'m mut Vec<Vec3>,
     pub(super) texcoords: &'m mut Vec<Vec2>,
+    pub(super) colors: &'m mut Vec<[u8; 4]>,
     pub(super) triangles: &'m mut Vec<[u32; 3]>,
 }
 
@@ -113,34 +117,40 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
     if base + total > u32::MAX as usize {
         return false;
     }
-    let triangles: Vec<usize> = pieces.iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
+    let triangles: Vec<usize> = pieces.par_iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
     let tri_base = out.triangles.len();
-    out.positions.resize(base + total, Vec3::ZERO);
+    // Grown on every core (`resize` writes, and faults in, the new pages on one thread).
+    grow(out.positions, base + total, Vec3::ZERO);
     if sources.normals.is_some() {
-        out.normals.resize(base + total, Vec3::ZERO);
+        grow(out.normals, base + total, Vec3::ZERO);
     }
     if sources.texcoords.is_some() {
-        out.texcoords.resize(base + total, Vec2::ZERO);
+        grow(out.texcoords, base + total, Vec2::ZERO);
     }
-    out.triangles.resize(tri_base + triangles.iter().sum::<usize>(), [0; 3]);
+    if sources.colors.is_some() {
+        grow(out.colors, base + total, [255; 4]);
+    }
+    grow(out.triangles, tri_base + triangles.iter().sum::<usize>(), [0; 3]);
     // Vertices: each piece writes the ones it makes, in order, and records their numbers.
     let mut other_vertices: HashMap<[u32; 3], u32> = HashMap::new();
     {
         let mut positions = &mut out.positions[base..];
         let mut normals = if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
         let mut texcoords = if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
+        let mut colors = if sources.colors.is_some() { &mut out.colors[base..] } else { &mut [][..] };
         let mut jobs = Vec::with_capacity(pieces.len());
         let mut first_vertex = 0u32;
         for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&made) {
             let pos = take_front(&mut positions, n, true);
             let nor = take_front(&mut normals, n, sources.normals.is_some());
             let tex = take_front(&mut texcoords, n, sources.texcoords.is_some());
-            jobs.push((p, start, first_vertex, pos, nor, tex));
+            let col = take_front(&mut colors, n, sources.colors.is_some());
+            jobs.push((p, start, first_vertex, pos, nor, tex, col));
             first_vertex += n as u32;
         }
         let made_others: Vec<Vec<([u32; 3], u32)>> = jobs
             .into_par_iter()
-            .map(|(p, start, mut next, pos, nor, tex)| {
+            .map(|(p, start, mut next, pos, nor, tex, col)| {
                 let mut mine = Vec::new();
                 let mut slot = 0;
                 for (i, c) in p.corners.iter().enumerate() {
@@ -155,6 +165,9 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                     }
                     if let Some(texcoords) = sources.texcoords {
                         tex[slot] = if c[1] == NONE { Vec2::ZERO } else { texcoords[c[1] as usize] };
+                    }
+                    if let Some(colors) = sources.colors {
+                        col[slot] = colors.get(c[0] as usize).copied().unwrap_or([255; 4]);
                     }
                     if primary {
                         shared.vertex[c[0] as usize].store(next, Relaxed);
@@ -196,6 +209,14 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
     // Reset the first-use marks of the model's positions for the next model.
     pieces.par_iter().for_each(|p| p.corners.iter().for_each(|c| shared.first[c[0] as usize].store(u32::MAX, Relaxed)));
     true
+}
+
+/// `v.resize(len, value)` with the new elements written in parallel.
+pub(super) fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) {
+    if len > v.len() {
+        let more = len - v.len();
+        v.par_extend(rayon::iter::repeat_n(value, more));
+    }
 }
 
 /// The first `n` elements of `s` (which keeps the rest), or none when `wanted` is false.

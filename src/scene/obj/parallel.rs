@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::chunks::{self, Counts};
-use super::convert::locate_colour_mismatch;
+use super::convert::{colour, locate_colour_mismatch};
 use super::line_feeder::{Dropped, DroppedFirst};
 use super::mtl::MaterialLibraries;
 use super::parse_chunk::{parse_chunk, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event, Targets};
@@ -45,6 +45,9 @@ pub(super) struct Parsed {
     pub(super) positions: Vec<Vec3>,
     pub(super) texcoords: Vec<Vec2>,
     pub(super) normals: Vec<Vec3>,
+    /// Colours of the `v` lines that have one, in order (empty without): a vertex made
+    /// from position `v` takes `colors[v]`, as tobj gives it.
+    pub(super) colors: Vec<[u8; 4]>,
     /// The faces, chunk by chunk, in file order.
     pub(super) blocks: Vec<FaceBlock>,
     pub(super) models: Vec<ModelRun>,
@@ -109,6 +112,7 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
     let mut walk = Walk::default();
     let mut error: Option<ChunkError> = None;
     let (mut face_base, mut colour_base) = (0, 0);
+    let mut colour_values = Vec::new();
     for mut chunk in results {
         for event in std::mem::take(&mut chunk.events) {
             walk.event(event, face_base, colour_base, libs);
@@ -123,6 +127,7 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
         }
         face_base += chunk.arities.len();
         colour_base += chunk.colours;
+        colour_values.append(&mut chunk.colour_values);
         error = chunk.error.take();
         parsed.blocks.push(FaceBlock { corners: chunk.corners, arities: chunk.arities });
         if error.is_some() {
@@ -139,6 +144,8 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
     if let Some(e) = error {
         return Err(located_error(e, text(), name));
     }
+    // Position `v` has values 3v..3v+3, as tobj reads them.
+    parsed.colors = colour_values.chunks_exact(3).map(|c| colour([c[0], c[1], c[2]])).collect();
     parsed.models = walk.models;
     parsed.smoothing = walk.smoothing;
     parsed.usemtl_names = walk.usemtl_names;

@@ -66,6 +66,9 @@ pub(super) struct ChunkFaces<'a> {
     pub(super) events: Vec<Event<'a>>,
     /// Vertex colour values read (tobj keeps them, and fails if faces use vertices beyond them).
     pub(super) colours: usize,
+    /// The colour values of the `v x y z r g b` lines, in order, as tobj keeps them: each
+    /// line's leading numbers, so a line with an unreadable one shifts the rest.
+    pub(super) colour_values: Vec<f32>,
     /// Some corner has a texture coordinate / a normal; every corner has a normal.
     pub(super) any_texcoord: bool,
     pub(super) any_normal: bool,
@@ -220,7 +223,11 @@ impl<'a> Parser<'a, '_> {
                 1 => {
                     first.parse::<f32>().map_err(|_| position_error())?;
                 }
-                3 => self.out.colours += extra.iter().map_while(|w| w.parse::<f32>().ok()).count(),
+                3 => {
+                    let before = self.out.colour_values.len();
+                    self.out.colour_values.extend(extra.iter().map_while(|w| w.parse::<f32>().ok()));
+                    self.out.colours += self.out.colour_values.len() - before;
+                }
                 _ => return Err(colour_error()),
             }
             let leading: Vec<f32> = extra.iter().map_while(|w| w.parse().ok()).collect();

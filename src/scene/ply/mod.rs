@@ -4,7 +4,8 @@
 //! body's smallest possible size follows from the header and is checked against the bytes
 //! present before anything is read (an ASCII body against its length in the same way),
 //! and vectors start at a capped capacity. From `element vertex` we keep x/y/z, nx/ny/nz
-//! and u/v (or s/t); colours and anything else are skipped by their declared type, as are
+//! and u/v (or s/t) and colours (`red green blue`, optional `alpha`: see `colours.rs`);
+//! anything else is skipped by its declared type, as are
 //! elements other than `vertex` and `face`. Faces (`vertex_indices` or `vertex_index`, any
 //! count and index type) are split as the OBJ loader splits them: quads as the paper
 //! does, larger polygons into fans. Errors name the file and the line (ASCII) or the
@@ -13,10 +14,17 @@
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::obj::{LoadedObj, ObjError};
 use crate::files::read_regular_file;
 use super::{Material, Mesh};
+
+mod binary;
+mod colours;
+
+use binary::read_binary_in_parallel;
+use colours::ColourColumns;
 
 /// The most vertices or triangles reserved up front; beyond this vectors grow as they fill.
 const MAX_INITIAL_CAPACITY: usize = 1 << 20;
@@ -45,9 +53,9 @@ pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjErr
         Format::Ascii => None,
     };
     let mesh = match fast {
-        Some((positions, normals, texcoords, triangles)) => {
+        Some((positions, attributes, triangles)) => {
             let mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], positions, triangles, ..Default::default() };
-            finish_mesh(mesh, normals, texcoords, &header, name, &mut warnings)
+            finish_mesh(mesh, attributes, &header, name, &mut warnings)
         }
         None => {
             let mut reader = match header.format {
@@ -367,8 +375,7 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
     let vertex_count = header.elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
     let capacity = |n: u64| (n as usize).min(MAX_INITIAL_CAPACITY);
     let mut mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], ..Default::default() };
-    let mut normals = Vec::new();
-    let mut texcoords = Vec::new();
+    let mut attributes = Attributes::default();
     let mut saw_vertices = false;
     for e in &header.elements {
         match e.name.as_str() {
@@ -382,6 +389,7 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
                     (Some(a), Some(b)) => Some([a, b]),
                     _ => None,
                 };
+                let colours = ColourColumns::of(e).map_err(|r| (Location::File, r))?;
                 mesh.positions.reserve(capacity(e.count));
                 let mut values = vec![0.0f64; e.properties.len()];
                 for i in 0..e.count {
@@ -394,10 +402,13 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
                     }
                     mesh.positions.push(p);
                     if let Some(n) = n {
-                        normals.push(Vec3::from(n.map(|k| values[k] as f32)));
+                        attributes.normals.push(Vec3::from(n.map(|k| values[k] as f32)));
                     }
                     if let Some(uv) = uv {
-                        texcoords.push(Vec2::from(uv.map(|k| values[k] as f32)));
+                        attributes.texcoords.push(Vec2::from(uv.map(|k| values[k] as f32)));
+                    }
+                    if let Some(c) = &colours {
+                        attributes.colors.push(c.rgba(|k| values[k]));
                     }
                 }
             }
@@ -450,12 +461,22 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
             }
         }
     }
-    finish_mesh(mesh, normals, texcoords, header, name, warnings)
+    finish_mesh(mesh, attributes, header, name, warnings)
+}
+
+/// The vertex attributes besides positions, each empty when the file has none.
+#[derive(Debug, Default)]
+struct Attributes {
+    normals: Vec<Vec3>,
+    texcoords: Vec<Vec2>,
+    colors: Vec<[u8; 4]>,
 }
 
 /// What every reading ends with: the check for faces, the warnings for skipped elements and
-/// unusable texture coordinates, and the file's normals (or computed ones).
-fn finish_mesh(mut mesh: Mesh, normals: Vec<Vec3>, texcoords: Vec<Vec2>, header: &Header, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
+/// unusable texture coordinates, the colours (with a white diffuse, so that they are what
+/// is seen), and the file's normals (or computed ones).
+fn finish_mesh(mut mesh: Mesh, attributes: Attributes, header: &Header, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
+    let Attributes { normals, texcoords, colors } = attributes;
     if mesh.triangles.is_empty() {
         return Err((Location::File, "the file has no faces, so there is nothing to trace".to_owned()));
     }
@@ -464,72 +485,23 @@ fn finish_mesh(mut mesh: Mesh, normals: Vec<Vec3>, texcoords: Vec<Vec2>, header:
         warnings.push(format!("{name}: elements {} are not used", skipped.join(", ")));
     }
     mesh.triangle_materials = vec![0; mesh.triangles.len()];
-    if !texcoords.iter().all(|t| t.is_finite()) {
+    if !colors.is_empty() {
+        // The diffuse colour multiplies the vertex colours: white shows them as they are.
+        mesh.materials.iter_mut().for_each(|m| m.diffuse = Vec3::ONE);
+        mesh.colors = colors;
+    }
+    if !texcoords.par_iter().all(|t| t.is_finite()) {
         warnings.push(format!("{name}: a texture coordinate is not a finite number; the model is drawn without texture coordinates"));
     } else {
         mesh.texcoords = texcoords;
     }
-    if !normals.is_empty() && normals.iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
-        mesh.normals = normals.into_iter().map(Vec3::normalize).collect();
+    if !normals.is_empty() && normals.par_iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
+        mesh.normals = normals.into_par_iter().map(Vec3::normalize).collect();
         mesh.has_file_normals = true;
     } else {
         mesh.compute_vertex_normals();
     }
     Ok(mesh)
-}
-
-/// Positions, normals, texture coordinates and triangles of a binary file read on every core.
-type Columns = (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>);
-
-/// The common binary file (a vertex element of scalars, then a face element of triangles
-/// alone) read with its records split between threads: every record has the same size, so
-/// each is found by its index (a 10M-triangle file took 0.9 s on one thread). None when the
-/// file is anything else or anything in it is wrong: `read_body` then reads it, and says what.
-fn read_binary_in_parallel(header: &Header, body: &[u8], big_endian: bool) -> Option<Columns> {
-    use rayon::prelude::*;
-    let [vertex, face] = header.elements.as_slice() else { return None };
-    if vertex.name != "vertex" || face.name != "face" {
-        return None;
-    }
-    let scalars: Vec<Scalar> = vertex.properties.iter().map(|(_, p)| if let Property::Scalar(s) = p { Some(*s) } else { None }).collect::<Option<_>>()?;
-    let [(list_name, Property::List { count, item })] = face.properties.as_slice() else { return None };
-    if list_name != "vertex_indices" && list_name != "vertex_index" {
-        return None;
-    }
-    let stride: usize = scalars.iter().map(|s| s.size()).sum();
-    let record = count.size() + 3 * item.size();
-    let (vertices, faces) = (usize::try_from(vertex.count).ok()?, usize::try_from(face.count).ok()?);
-    let vertex_bytes = body.get(..vertices.checked_mul(stride)?)?;
-    let face_bytes = body.get(vertex_bytes.len()..)?.get(..faces.checked_mul(record)?)?;
-    let read = |data: &[u8], kind: Scalar| Body::Binary { data, pos: 0, big_endian }.next(kind).ok();
-    let offsets: Vec<usize> = scalars.iter().scan(0, |at, s| Some(std::mem::replace(at, *at + s.size()))).collect();
-    let value = |rec: &[u8], k: usize| read(&rec[offsets[k]..], scalars[k]).unwrap_or(0.0) as f32;
-    let column = |names: &[&str]| vertex.find(names);
-    let xyz = [column(&["x"])?, column(&["y"])?, column(&["z"])?];
-    let n = [column(&["nx"]), column(&["ny"]), column(&["nz"])];
-    let uv = [column(&["u", "s", "texture_u", "texture_s"]), column(&["v", "t", "texture_v", "texture_t"])];
-    let records = || vertex_bytes.par_chunks_exact(stride.max(1)).take(vertices);
-    let positions: Vec<Vec3> = records().map(|r| Vec3::from(xyz.map(|k| value(r, k)))).collect();
-    if stride == 0 || !positions.par_iter().all(|p| p.is_finite()) {
-        return None;
-    }
-    let normals = match n {
-        [Some(a), Some(b), Some(c)] => records().map(|r| Vec3::new(value(r, a), value(r, b), value(r, c))).collect(),
-        _ => Vec::new(),
-    };
-    let texcoords = match uv {
-        [Some(a), Some(b)] => records().map(|r| Vec2::new(value(r, a), value(r, b))).collect(),
-        _ => Vec::new(),
-    };
-    let triangles: Vec<[u32; 3]> = face_bytes
-        .par_chunks_exact(record)
-        .map(|r| {
-            (read(r, *count)? == 3.0).then_some(())?;
-            let corner = |k: usize| read(&r[count.size() + k * item.size()..], *item).filter(|&c| c >= 0.0 && c < vertices as f64).map(|c| c as u32);
-            Some([corner(0)?, corner(1)?, corner(2)?])
-        })
-        .collect::<Option<_>>()?;
-    Some((positions, normals, texcoords, triangles))
 }
 
 /// A word from the file for a message, cut and escaped (see `files::shown`).
