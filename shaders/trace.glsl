@@ -149,7 +149,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         TriangleShading sh = shading[hit.tri];
         Material mat = materials[sh.material];
         vec3 kd = mat.diffuse_mirror.rgb;
-        if ((mat.texture.y & MATERIAL_VERTEX_COLORS) != 0u) {
+        if ((flags & FLAG_TEXTURES) != 0u && (mat.texture.y & MATERIAL_VERTEX_COLORS) != 0u) {
             uvec3 c = shading[hit.tri].corners;
             kd *= unpackUnorm4x8(vertex_colors[c.x]).rgb * (1.0 - hit.u - hit.v)
                 + unpackUnorm4x8(vertex_colors[c.y]).rgb * hit.u + unpackUnorm4x8(vertex_colors[c.z]).rgb * hit.v;

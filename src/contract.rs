@@ -34,7 +34,7 @@ contract! {
     AOV_MASK = 0b111;
     /// Flag: interpolate vertex normals (smooth shading).
     FLAG_SMOOTH = 1 << 4;
-    /// Flag: apply diffuse textures.
+    /// Flag: apply diffuse textures and vertex colours.
     FLAG_TEXTURES = 1 << 5;
     /// Flag: misses see the environment map instead of the background colour.
     FLAG_ENVIRONMENT = 1 << 6;
@@ -77,7 +77,7 @@ contract! {
     /// instead of repeating.
     TEXTURE_CLAMP = 1;
     /// Material flag (same word): the material's mesh has vertex colours, which multiply its
-    /// diffuse colour.
+    /// diffuse colour when `FLAG_TEXTURES` is set.
     MATERIAL_VERTEX_COLORS = 2;
 }
 

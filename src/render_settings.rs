@@ -227,7 +227,7 @@ pub struct RenderSettings {
     pub aov: Aov,
     /// Interpolate vertex normals (smooth shading) instead of the paper's flat normals.
     pub smooth: bool,
-    /// Apply `map_Kd` diffuse textures.
+    /// Apply the file's surface colours: `map_Kd` diffuse textures and vertex colours.
     pub textures: bool,
     /// Jittered camera samples per pixel (1 = the paper's ray through the pixel centre).
     pub spp: u32,

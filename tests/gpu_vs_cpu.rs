@@ -94,6 +94,12 @@ fn vertex_colours_multiply_the_diffuse_colour_on_both_tracers() {
         let c = img.get(16, 16);
         assert!((Vec3::new(c[0], c[1], c[2]) - expect).abs().max_element() < 1e-4, "centre {c:?} vs {expect}");
     }
+    // The textures switch (`--no-textures`) turns them off with the textures: Kd alone.
+    let (gpu, cpu) = render_both(&scene, RenderSettings { textures: false, ..settings(33, 0) });
+    for img in [&gpu, &cpu] {
+        let c = img.get(16, 16);
+        assert!((Vec3::new(c[0], c[1], c[2]) - m.diffuse * 1.1).abs().max_element() < 1e-4, "without colours: centre {c:?}");
+    }
     // Red on the left corners, blue on the right: interpolated across, the same on both.
     scene.meshes[0].colors = vec![[255, 0, 0, 255], [0, 0, 255, 255], [0, 0, 255, 255], [255, 0, 0, 255]];
     let (gpu, cpu) = render_both(&scene, settings(33, 0));

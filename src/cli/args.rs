@@ -93,7 +93,7 @@ pub(crate) struct SceneArgs {
     /// Smooth shading: interpolate vertex normals (the paper shades flat).
     #[arg(long)]
     pub smooth: bool,
-    /// Ignore `map_Kd` textures (use the materials' Kd).
+    /// Ignore `map_Kd` textures and vertex colours (use the materials' Kd).
     #[arg(long)]
     pub no_textures: bool,
     /// Environment seen by rays that miss: none (black, the paper), sky (generated), or an

@@ -234,7 +234,7 @@ impl<'a> CpuScene<'a> {
             let gm = &self.packed.materials[shading.material as usize];
             let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
             let mut kd = mat.diffuse;
-            if gm.has_vertex_colors() {
+            if s.textures && gm.has_vertex_colors() {
                 let [c0, c1, c2] = self.packed.vertices.colors_of(shading.corners);
                 kd *= c0 * w + c1 * hit.u + c2 * hit.v;
             }

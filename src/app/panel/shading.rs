@@ -32,7 +32,7 @@ impl Section for ShadingPanel {
             });
             ui.end_row();
             ui.label("Textures");
-            ui.checkbox(&mut params.scene.settings.textures, "map_Kd").on_hover_text("diffuse textures from the model's .mtl (§5)");
+            ui.checkbox(&mut params.scene.settings.textures, "map_Kd, colours").on_hover_text("diffuse textures from the model's .mtl (§5), and the model's vertex colours");
             ui.end_row();
             ui.label("Environment");
             let label = |e: &Option<EnvironmentSource>| match e {
