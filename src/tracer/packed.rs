@@ -1,6 +1,7 @@
 //! The scene flattened into the arrays the GPU reads (and the CPU reference reads the same
-//! way): triangles in BVH order as (v0, e1, e2), their corners' vertex attributes, materials, every
-//! mesh's BVH nodes back to back, and the instance list on top.
+//! way): triangles in BVH order as (v0, e1, e2) with a hit record each (corner vertices and
+//! material), the vertices' shading attributes, materials, every mesh's BVH nodes back to
+//! back, and the instance list on top.
 //!
 //! Geometry is packed once per model load; the instance list (the "top level") is rebuilt
 //! alone when only the model count changes, so no mesh is re-uploaded.
