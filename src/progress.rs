@@ -54,6 +54,9 @@ pub struct PhaseTime {
     pub seconds: f64,
     /// False for the phase running now.
     pub done: bool,
+    /// The process's peak resident memory during the phase, bytes, when the load asked for
+    /// it ([`Progress::track_peak_memory`]) and the system says (Linux).
+    pub peak_rss_bytes: Option<u64>,
 }
 
 /// What a watcher sees at one moment.
@@ -82,7 +85,18 @@ struct Shared {
     cancelled: AtomicBool,
     /// The running phase's fraction, as f32 bits.
     fraction: AtomicU32,
-    phases: Mutex<Vec<(Phase, Instant, Option<f64>)>>,
+    phases: Mutex<Vec<Record>>,
+    /// Record each phase's peak memory (`bench --load`).
+    track_memory: AtomicBool,
+}
+
+/// A phase as recorded: when it began, what it took once closed, its peak memory.
+#[derive(Clone, Copy, Debug)]
+struct Record {
+    phase: Phase,
+    start: Instant,
+    took: Option<f64>,
+    peak_rss: Option<u64>,
 }
 
 /// A handle on one load's progress; clones share it.
@@ -107,14 +121,24 @@ impl Progress {
         if self.is_cancelled() { Err(Cancelled) } else { Ok(()) }
     }
 
+    /// Record from now on each phase's peak resident memory ([`PhaseTime::peak_rss_bytes`]):
+    /// the kernel's peak is read and reset at every phase boundary (Linux).
+    pub fn track_peak_memory(&self) {
+        self.shared.track_memory.store(true, Ordering::Relaxed);
+        reset_peak_rss();
+    }
+
     /// End the running phase and start `phase` (Err, and nothing started, when cancelled).
     pub fn begin(&self, phase: Phase) -> Result<(), Cancelled> {
         self.checkpoint()?;
-        return_freed_memory();
         let now = Instant::now();
         let mut phases = self.phases();
-        close_running(&mut phases, now);
-        phases.push((phase, now, None));
+        self.close_running(&mut phases, now);
+        return_freed_memory();
+        if self.shared.track_memory.load(Ordering::Relaxed) {
+            reset_peak_rss();
+        }
+        phases.push(Record { phase, start: now, took: None, peak_rss: None });
         self.shared.fraction.store(0f32.to_bits(), Ordering::Relaxed);
         Ok(())
     }
@@ -126,7 +150,7 @@ impl Progress {
 
     /// End the running phase: the load is over.
     pub fn finish(&self) {
-        close_running(&mut self.phases(), Instant::now());
+        self.close_running(&mut self.phases(), Instant::now());
     }
 
     /// The phases and the running one's fraction now.
@@ -135,21 +159,40 @@ impl Progress {
         let phases = self
             .phases()
             .iter()
-            .map(|&(phase, start, took)| PhaseTime { phase, seconds: took.unwrap_or_else(|| (now - start).as_secs_f64()), done: took.is_some() })
+            .map(|r| PhaseTime { phase: r.phase, seconds: r.took.unwrap_or_else(|| (now - r.start).as_secs_f64()), done: r.took.is_some(), peak_rss_bytes: r.peak_rss })
             .collect();
         Snapshot { phases, fraction: f32::from_bits(self.shared.fraction.load(Ordering::Relaxed)) }
     }
 
-    fn phases(&self) -> std::sync::MutexGuard<'_, Vec<(Phase, Instant, Option<f64>)>> {
+    fn phases(&self) -> std::sync::MutexGuard<'_, Vec<Record>> {
         // A watcher that panicked leaves a list that is still whole: keep using it.
         self.shared.phases.lock().unwrap_or_else(PoisonError::into_inner)
     }
+
+    /// Close the running phase at `now`, with its peak memory when tracked.
+    fn close_running(&self, phases: &mut [Record], now: Instant) {
+        if let Some(r @ Record { took: None, .. }) = phases.last_mut() {
+            r.took = Some((now - r.start).as_secs_f64());
+            if self.shared.track_memory.load(Ordering::Relaxed) {
+                r.peak_rss = read_peak_rss();
+            }
+        }
+    }
 }
 
-fn close_running(phases: &mut [(Phase, Instant, Option<f64>)], now: Instant) {
-    if let Some((_, start, took @ None)) = phases.last_mut() {
-        *took = Some((now - *start).as_secs_f64());
-    }
+/// Reset the kernel's record of this process's peak resident memory (Linux: writing 5 to
+/// /proc/self/clear_refs); false where that is not possible, so the next reading is the
+/// process's peak so far.
+pub(crate) fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// The process's peak resident memory (VmHWM), bytes; None off Linux.
+pub(crate) fn read_peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 /// Hand the memory that the last phase freed back to the system. A phase boundary is where

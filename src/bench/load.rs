@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Environment;
 use crate::gpu::ComputeTracer;
-use crate::progress::{Phase, Progress};
+use crate::progress::{read_peak_rss, Phase, Progress};
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::packed::PackedScene;
@@ -34,6 +34,9 @@ pub struct LoadRow {
     /// The process's peak resident memory during the load, bytes (None where the system
     /// does not say: only Linux's /proc is read).
     pub peak_rss_bytes: Option<u64>,
+    /// The peak of each phase, in [`Phase::ALL`]'s order: where the memory goes.
+    #[serde(default)]
+    pub phase_peak_rss_bytes: [Option<u64>; 5],
 }
 
 impl LoadRow {
@@ -42,6 +45,12 @@ impl LoadRow {
     pub fn peak_bytes_per_triangle_beyond_file(&self) -> Option<f64> {
         let peak = self.peak_rss_bytes? as f64;
         (self.triangles > 0).then(|| (peak - self.file_bytes as f64) / self.triangles as f64)
+    }
+
+    /// The phase whose peak was the load's (None without the phases' peaks).
+    pub fn peak_phase(&self) -> Option<Phase> {
+        let (i, _) = self.phase_peak_rss_bytes.iter().enumerate().filter_map(|(i, p)| p.map(|p| (i, p))).max_by_key(|&(_, p)| p)?;
+        Some(Phase::ALL[i])
     }
 }
 
@@ -54,9 +63,9 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
         ModelSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
         _ => 0,
     };
-    // Where the peak cannot be reset, the reading below is the process's peak so far.
-    reset_peak_rss();
+    // Where the peak cannot be reset, the readings are the process's peak so far.
     let progress = Progress::default();
+    progress.track_peak_memory();
     let start = Instant::now();
     let (mesh, _warnings) = spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
     let triangles = mesh.triangle_count() as u64;
@@ -71,25 +80,28 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let to_first_frame_s = start.elapsed().as_secs_f64();
     let snapshot = progress.snapshot();
     let mut phase_s = [0.0; 5];
-    for (slot, phase) in phase_s.iter_mut().zip(Phase::ALL) {
+    let mut phase_peak_rss_bytes = [None; 5];
+    for ((slot, peak), phase) in phase_s.iter_mut().zip(&mut phase_peak_rss_bytes).zip(Phase::ALL) {
         *slot = snapshot.seconds(phase);
+        *peak = snapshot.phases.iter().filter(|p| p.phase == phase).filter_map(|p| p.peak_rss_bytes).max();
     }
-    let peak_rss_bytes = read_peak_rss();
-    Ok(LoadRow { model: spec.model.label(), file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes })
+    // The first frame after the last phase counts too.
+    let peak_rss_bytes = phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
+    Ok(LoadRow { model: spec.model.label(), file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes, phase_peak_rss_bytes })
 }
 
 /// The table `bench --load` prints: a header and one line per row.
 pub fn table(rows: &[LoadRow]) -> String {
     let mut s = format!(
-        "{:<20} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10}\n",
-        "model", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file"
+        "{:<20} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7}\n",
+        "model", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file", "peak in"
     );
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let mb = |b: u64| b as f64 / 1e6;
         let _ = writeln!(
             s,
-            "{:<20} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10}",
+            "{:<20} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10} {:>7}",
             truncate(&r.model, 20),
             r.triangles,
             mb(r.file_bytes),
@@ -102,6 +114,7 @@ pub fn table(rows: &[LoadRow]) -> String {
             r.to_first_frame_s,
             r.peak_rss_bytes.map_or("-".into(), |b| format!("{:.0}", mb(b))),
             r.peak_bytes_per_triangle_beyond_file().map_or("-".into(), |b| format!("{b:.0}")),
+            r.peak_phase().map_or("-", |p| p.name()),
         );
     }
     s
@@ -109,18 +122,19 @@ pub fn table(rows: &[LoadRow]) -> String {
 
 /// The rows as CSV, one line each, with the device.
 pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
-    let mut s = String::from("model,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,device,driver,date\n");
+    let mut s = String::from("model,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,read_peak_rss_bytes,parse_peak_rss_bytes,build_peak_rss_bytes,pack_peak_rss_bytes,upload_peak_rss_bytes,device,driver,date\n");
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let _ = writeln!(
             s,
-            "{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},\"{}\",\"{}\",{}",
+            "{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},{},\"{}\",\"{}\",{}",
             r.model,
             r.triangles,
             r.file_bytes,
             r.first_frame_gpu_ms.map_or(String::new(), |v| format!("{v:.4}")),
             r.to_first_frame_s,
             r.peak_rss_bytes.map_or(String::new(), |v| v.to_string()),
+            r.phase_peak_rss_bytes.map(|p| p.map_or(String::new(), |v| v.to_string())).join(","),
             env.device,
             env.driver,
             env.date
@@ -131,21 +145,6 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
 
 fn truncate(s: &str, n: usize) -> String {
     if s.chars().count() <= n { s.to_owned() } else { s.chars().take(n - 1).chain(['…']).collect() }
-}
-
-/// Reset the kernel's record of this process's peak resident memory (Linux: writing 5 to
-/// /proc/self/clear_refs); false where that is not possible, so the next reading is the
-/// process's peak so far.
-fn reset_peak_rss() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-/// The process's peak resident memory (VmHWM), bytes; None off Linux.
-fn read_peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
 }
 
 /// The rows as a file: `bench --load --json`.
@@ -174,11 +173,13 @@ mod tests {
             first_frame_gpu_ms: Some(1.5),
             to_first_frame_s: 1.6,
             peak_rss_bytes: Some(1_120_000),
+            phase_peak_rss_bytes: [Some(900_000), Some(1_000_000), Some(1_120_000), Some(1_100_000), None],
         };
         assert_eq!(row.peak_bytes_per_triangle_beyond_file(), Some(120.0));
+        assert_eq!(row.peak_phase(), Some(Phase::Build));
         let table = table(std::slice::from_ref(&row));
         assert_eq!(table.lines().count(), 2);
-        for figure in ["0.100", "0.500", "1.50", "1.600", "120"] {
+        for figure in ["0.100", "0.500", "1.50", "1.600", "120", "build"] {
             assert!(table.lines().nth(1).unwrap().contains(figure), "{figure} missing from {table}");
         }
         let env = Environment::default();
@@ -192,4 +193,5 @@ mod tests {
             assert!(read_peak_rss().is_some_and(|b| b > 0));
         }
     }
+
 }

@@ -141,8 +141,8 @@ fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
 fn a_load_shows_its_phases_and_cancels_from_the_panel() {
     let mut fixture = Fixture::new(VendorInfo::default());
     let phases = vec![
-        PhaseTime { phase: Phase::Read, seconds: 0.25, done: true },
-        PhaseTime { phase: Phase::Parse, seconds: 1.5, done: false },
+        PhaseTime { phase: Phase::Read, seconds: 0.25, done: true, peak_rss_bytes: None },
+        PhaseTime { phase: Phase::Parse, seconds: 1.5, done: false, peak_rss_bytes: None },
     ];
     fixture.loading = Some(("dragon".into(), Snapshot { phases, fraction: 0.5 }));
     let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
