@@ -181,6 +181,11 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut Ph
     };
     let root = builder.build_parallel(&mut prims, 0, info, 1);
     clock.mark("tree");
+    // The records go before the stitching, which holds the subtrees' nodes and their joined
+    // copy at once: 32 bytes a triangle less at the build's peak.
+    let prim_indices = prims.par_iter().map(|p| p.index).collect();
+    drop(prims);
+    clock.mark("prim_indices gather");
 
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
@@ -189,8 +194,6 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut Ph
         root.flatten()
     };
     clock.mark("stitching");
-    let prim_indices = prims.par_iter().map(|p| p.index).collect();
-    clock.mark("prim_indices gather");
     Bvh { nodes, prim_indices }
 }
 
