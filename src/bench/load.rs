@@ -70,9 +70,9 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let (mesh, _warnings) = spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
     let triangles = mesh.triangle_count() as u64;
     let scene = spec.scene_with(mesh);
-    let packed = PackedScene::for_layout_reporting(&scene, spec.settings.bvh, &progress)?;
+    let packed = PackedScene::for_loading(&scene, spec.settings.bvh, &progress)?;
     progress.begin(Phase::Upload)?;
-    tracer.set_scene(&packed)?;
+    tracer.set_loaded_scene(&packed, &scene)?;
     drop(packed);
     progress.finish();
     let params = FrameParams::new(&scene, spec.settings);

@@ -21,6 +21,7 @@ use super::timer::GpuTimer;
 use super::dispatch::{Band, FrameTrace, GROUP};
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
+use crate::scene::Scene;
 use crate::tracer::budget;
 use crate::render_settings::{Accel, BvhLayout};
 use crate::tracer::frame::FrameParams;
@@ -121,12 +122,22 @@ impl ComputeTracer {
 
     /// Upload a new scene; the old one is freed first (the GPU is waited for).
     pub fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+        self.set_scene_from(packed, None)
+    }
+
+    /// [`ComputeTracer::set_scene`] for a scene packed for loading
+    /// (`PackedScene::for_loading`): its triangles are written from `scene`'s meshes.
+    pub(crate) fn set_loaded_scene(&mut self, packed: &PackedScene, scene: &Scene) -> Result<(), GpuError> {
+        self.set_scene_from(packed, Some(scene))
+    }
+
+    fn set_scene_from(&mut self, packed: &PackedScene, scene: Option<&Scene>) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.scene = None;
         if let Ok(v) = &mut self.vendor {
             v.scene_changed();
         }
-        self.scene = Some(SceneBuffers::upload(&self.ctx, packed)?);
+        self.scene = Some(SceneBuffers::upload_loaded(&self.ctx, packed, scene)?);
         self.triangle_total = triangle_total(&packed.instances);
         self.has_wide = packed.has_wide();
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();

@@ -9,6 +9,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
 use crate::scene::paper::MAX_MODELS;
+use crate::scene::Scene;
 use crate::tracer::packed::{GpuInstance, PackedScene};
 
 /// Room in the instance buffer: every model copy plus the mirror box, plus headroom.
@@ -52,12 +53,32 @@ pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError
 impl SceneBuffers {
     /// Upload the packed scene.
     pub fn upload(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
+        Self::upload_loaded(ctx, packed, None)
+    }
+
+    /// Upload the packed scene; one packed for loading ([`PackedScene::for_loading`]) has its
+    /// triangles and hit records written here from `scene`'s meshes, the ones it was packed
+    /// from.
+    pub(crate) fn upload_loaded(ctx: &Arc<GpuContext>, packed: &PackedScene, scene: Option<&Scene>) -> Result<Self, GpuError> {
         check_fits(ctx, packed)?;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        // Read back by the vendor path to build the driver's structures (no host copy is kept).
-        let triangles = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), storage | vk::BufferUsageFlags::TRANSFER_SRC, "triangles")?;
+        // Triangles are read back by the vendor path to build the driver's structures (no host
+        // copy is kept); both by the test that checks what a load writes.
+        let triangle_usage = storage | vk::BufferUsageFlags::TRANSFER_SRC;
+        let (triangles, shading) = match (&packed.deferred, scene) {
+            (Some(_), Some(scene)) => {
+                let count = packed.triangle_count();
+                let triangles = GpuBuffer::device_local_made(ctx, count, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k).0)?;
+                let shading = GpuBuffer::device_local_made(ctx, count, triangle_usage, "shading", |k| packed.deferred_triangle(scene, k).1)?;
+                (triangles, shading)
+            }
+            (Some(_), None) => panic!("a scene packed for loading is uploaded with its meshes"),
+            (None, _) => (
+                GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), triangle_usage, "triangles")?,
+                GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), triangle_usage, "shading")?,
+            ),
+        };
         let v = &packed.vertices;
-        let shading = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), storage, "shading")?;
         let vertex_normals = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.normals), storage, "vertex normals")?;
         let vertex_texcoords = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.texcoords), storage, "vertex texcoords")?;
         let vertex_colors = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.colors), storage, "vertex colours")?;
@@ -129,5 +150,40 @@ impl SceneBuffers {
         self.instances.upload(bytes)?;
         self.instance_count = instances.len() as u32;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec2;
+
+    use super::*;
+    use crate::gpu::{ContextOptions, GpuContext};
+    use crate::progress::Progress;
+    use crate::render_settings::BvhLayout;
+    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::primitives::PaperModel;
+
+    #[test]
+    fn a_scene_packed_for_loading_uploads_the_same_bytes() {
+        // Triangles and hit records written into the staging memory from the meshes equal
+        // the host arrays of a full packing, for the model and the mirror box after it.
+        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let mut mesh = PaperModel::TorusKnot.mesh();
+        prepare_model(&mut mesh);
+        mesh.texcoords = mesh.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect();
+        mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
+        let scene = paper_scene(mesh, 2, LightOrbit::default());
+        let full = PackedScene::new(&scene);
+        let loading = PackedScene::for_loading(&scene, BvhLayout::Binary, &Progress::default()).unwrap();
+        assert!(loading.triangles.is_empty() && loading.shading.is_empty(), "nothing of them on the host");
+        assert_eq!(loading.buffer_sizes(), full.buffer_sizes());
+        let written = SceneBuffers::upload_loaded(&ctx, &loading, Some(&scene)).unwrap();
+        let triangles: &[u8] = bytemuck::cast_slice(&full.triangles);
+        let shading: &[u8] = bytemuck::cast_slice(&full.shading);
+        assert_eq!(written.triangles.download(triangles.len() as u64).unwrap(), triangles);
+        assert_eq!(written.shading.download(shading.len() as u64).unwrap(), shading);
+        let m = ctx.validation_messages();
+        assert!(m.is_empty(), "{m:?}");
     }
 }

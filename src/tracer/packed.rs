@@ -221,6 +221,20 @@ pub struct PackedScene {
     texture_index: HashMap<PathBuf, u32>,
     /// Seconds spent building BVHs, for reports.
     pub(crate) bvh_build_seconds: f64,
+    /// Set when `triangles` and `shading` were left empty for the upload to write them
+    /// straight from the scene's meshes ([`PackedScene::for_loading`]).
+    pub(crate) deferred: Option<DeferredTriangles>,
+}
+
+/// What the upload needs to write a loaded scene's triangles and hit records itself, in its
+/// staging memory: each mesh's BVH order and where its materials and vertices start. A load
+/// then never holds the 56 bytes a triangle of both arrays on the host, its peak.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct DeferredTriangles {
+    /// Per mesh, as `PackedScene::meshes`: its triangles (file order) in BVH order.
+    orders: Vec<Vec<u32>>,
+    /// Per mesh: its first global material and first vertex.
+    bases: Vec<(u32, u32)>,
 }
 
 impl PackedScene {
@@ -238,11 +252,13 @@ impl PackedScene {
 
     /// [`PackedScene::for_layout`] as a load's build and pack phases, reported to `progress`
     /// (the window's loader, `bench --load`); Err when the load was cancelled before either.
-    pub(crate) fn for_layout_reporting(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
+    /// The triangles and hit records are left to the upload, which writes them from `scene`'s
+    /// meshes (`ComputeTracer::set_loaded_scene`): the CPU tracer cannot trace the result.
+    pub(crate) fn for_loading(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
         let prepared = PreparedScene::new(scene, layout == BvhLayout::Wide);
         progress.begin(Phase::Pack)?;
-        Ok(Self::pack(scene, prepared))
+        Ok(Self::pack_with(scene, prepared, true))
     }
 
     /// True when the wide layout was packed: frames asking for it without trace the binary tree.
@@ -253,8 +269,16 @@ impl PackedScene {
     /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
     /// only copies and reorders: nothing here builds or decodes.
     pub(crate) fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
+        Self::pack_with(scene, prepared, false)
+    }
+
+    /// [`PackedScene::pack`], leaving the triangles and hit records to the upload when `defer`.
+    fn pack_with(scene: &Scene, prepared: PreparedScene, defer: bool) -> Self {
         let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
         let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
+        if defer {
+            packed.deferred = Some(DeferredTriangles::default());
+        }
         for (path, img) in textures {
             let index = packed.textures.add(&img);
             packed.texture_index.insert(path, index);
@@ -312,13 +336,18 @@ impl PackedScene {
             })
             .collect();
         self.materials.extend(materials);
-        let triangle_base = self.triangles.len() as u32;
-        // In BVH order, on every core: at 10M triangles this was a second of one thread.
-        // Written in place: no intermediate pieces to join.
-        let (mut triangles, mut shading) = (Vec::new(), Vec::new());
-        bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip_into_vecs(&mut triangles, &mut shading);
-        append(&mut self.triangles, triangles);
-        append(&mut self.shading, shading);
+        let triangle_base = self.meshes.last().map_or(0, |m| m.triangle_base + m.triangle_count);
+        if let Some(deferred) = &mut self.deferred {
+            deferred.orders.push(bvh.prim_indices);
+            deferred.bases.push((material_base, vertex_base));
+        } else {
+            // In BVH order, on every core: at 10M triangles this was a second of one thread.
+            // Written in place: no intermediate pieces to join.
+            let (mut triangles, mut shading) = (Vec::new(), Vec::new());
+            bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip_into_vecs(&mut triangles, &mut shading);
+            append(&mut self.triangles, triangles);
+            append(&mut self.shading, shading);
+        }
         let node_base = self.nodes.len() as u32;
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
@@ -372,9 +401,11 @@ impl PackedScene {
         }
         let nodes = bytes(&self.nodes) + bytes(&self.wide_nodes);
         let v = &self.vertices;
+        // Deferred arrays are as big as they will be once the upload writes them.
+        let deferred = |written: u64, item: usize| if self.deferred.is_some() { self.triangle_count() as u64 * item as u64 } else { written };
         [
-            bytes(&self.triangles),
-            bytes(&self.shading),
+            deferred(bytes(&self.triangles), std::mem::size_of::<GpuTriangle>()),
+            deferred(bytes(&self.shading), std::mem::size_of::<GpuTriangleShading>()),
             bytes(&v.normals),
             bytes(&v.texcoords),
             bytes(&v.colors),
@@ -383,6 +414,21 @@ impl PackedScene {
             bytes(&self.instances),
             bytes(&self.textures.texels),
         ]
+    }
+
+    /// Triangles of all meshes.
+    pub(crate) fn triangle_count(&self) -> usize {
+        self.meshes.last().map_or(0, |m| (m.triangle_base + m.triangle_count) as usize)
+    }
+
+    /// Triangle `k`'s traversal and hit records for a deferred scene (see
+    /// [`DeferredTriangles`]), from `scene`'s meshes, the ones it was packed from.
+    pub(crate) fn deferred_triangle(&self, scene: &Scene, k: usize) -> (GpuTriangle, GpuTriangleShading) {
+        let deferred = self.deferred.as_ref().expect("a deferred scene");
+        let m = self.meshes.partition_point(|m| m.triangle_base as usize <= k) - 1;
+        let local = k - self.meshes[m].triangle_base as usize;
+        let (material_base, vertex_base) = deferred.bases[m];
+        pack_triangle(&scene.meshes[m], deferred.orders[m][local], material_base, vertex_base)
     }
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.

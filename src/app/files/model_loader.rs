@@ -132,7 +132,7 @@ fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: Lig
         return Err(format!("{} has no triangles", source.label()));
     }
     let scene = paper_scene(mesh, model_count, light);
-    let mut packed = PackedScene::for_layout_reporting(&scene, layout, &progress).map_err(|e| e.to_string())?;
+    let mut packed = PackedScene::for_loading(&scene, layout, &progress).map_err(|e| e.to_string())?;
     progress.checkpoint().map_err(|e| e.to_string())?;
     // Textures that could not be read join the loader's warnings in the panel, and each is
     // printed once on the terminal.
@@ -158,7 +158,7 @@ mod tests {
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let loaded = result.unwrap();
         assert_eq!(loaded.scene.instances.len(), 3);
-        assert!(!loaded.packed.triangles.is_empty());
+        assert_eq!(loaded.packed.triangle_count(), loaded.scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>());
         assert!(!loader.busy());
 
         loader.start(ModelSource::File("/nonexistent/model.obj".into()), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);

@@ -100,13 +100,14 @@ impl Session {
         let LoadedModel { source, scene, mut packed, warnings, progress } = loaded;
         // Not cancelled: the loader hands over only loads it still wants.
         let _ = progress.begin(Phase::Upload);
-        tracer.set_scene(&packed)?;
+        tracer.set_loaded_scene(&packed, &scene)?;
         progress.finish();
         let phases = progress.snapshot();
         let seconds = phases.total_seconds();
         let each: Vec<String> = phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
         // The GPU has the geometry now; keep only what instance and environment changes need.
         packed.triangles = Vec::new();
+        packed.shading = Vec::new();
         packed.vertices = Default::default();
         packed.nodes = Vec::new();
         let has_wide = packed.has_wide();
