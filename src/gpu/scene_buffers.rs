@@ -68,8 +68,8 @@ impl SceneBuffers {
         let (triangles, shading) = match (&packed.deferred, scene) {
             (Some(_), Some(scene)) => {
                 let count = packed.triangle_count();
-                let triangles = GpuBuffer::device_local_made(ctx, count, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k).0)?;
-                let shading = GpuBuffer::device_local_made(ctx, count, triangle_usage, "shading", |k| packed.deferred_triangle(scene, k).1)?;
+                let triangles = GpuBuffer::device_local_made(ctx, count, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k))?;
+                let shading = GpuBuffer::device_local_made(ctx, count, triangle_usage, "shading", |k| packed.deferred_shading(scene, k))?;
                 (triangles, shading)
             }
             (Some(_), None) => panic!("a scene packed for loading is uploaded with its meshes"),

@@ -421,14 +421,26 @@ impl PackedScene {
         self.meshes.last().map_or(0, |m| (m.triangle_base + m.triangle_count) as usize)
     }
 
-    /// Triangle `k`'s traversal and hit records for a deferred scene (see
-    /// [`DeferredTriangles`]), from `scene`'s meshes, the ones it was packed from.
-    pub(crate) fn deferred_triangle(&self, scene: &Scene, k: usize) -> (GpuTriangle, GpuTriangleShading) {
+    /// Triangle `k`'s traversal record for a deferred scene (see [`DeferredTriangles`]), from
+    /// `scene`'s meshes, the ones it was packed from.
+    pub(crate) fn deferred_triangle(&self, scene: &Scene, k: usize) -> GpuTriangle {
+        let (m, prim, _) = self.deferred_source(k);
+        triangle_record(&scene.meshes[m], prim)
+    }
+
+    /// Triangle `k`'s hit record for a deferred scene, as [`PackedScene::deferred_triangle`].
+    pub(crate) fn deferred_shading(&self, scene: &Scene, k: usize) -> GpuTriangleShading {
+        let (m, prim, (material_base, vertex_base)) = self.deferred_source(k);
+        shading_record(&scene.meshes[m], prim, material_base, vertex_base)
+    }
+
+    /// Deferred triangle `k`'s mesh, its index in the mesh's file order, and the mesh's first
+    /// material and vertex.
+    fn deferred_source(&self, k: usize) -> (usize, u32, (u32, u32)) {
         let deferred = self.deferred.as_ref().expect("a deferred scene");
         let m = self.meshes.partition_point(|m| m.triangle_base as usize <= k) - 1;
         let local = k - self.meshes[m].triangle_base as usize;
-        let (material_base, vertex_base) = deferred.bases[m];
-        pack_triangle(&scene.meshes[m], deferred.orders[m][local], material_base, vertex_base)
+        (m, deferred.orders[m][local], deferred.bases[m])
     }
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
@@ -441,6 +453,11 @@ impl PackedScene {
 /// One triangle's traversal record and shading record (`prim` in file order; the mesh's
 /// vertices start at `vertex_base`).
 fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> (GpuTriangle, GpuTriangleShading) {
+    (triangle_record(mesh, prim), shading_record(mesh, prim, material_base, vertex_base))
+}
+
+/// Triangle `prim` (file order) of `mesh` as the traversal reads it.
+fn triangle_record(mesh: &Mesh, prim: u32) -> GpuTriangle {
     let [a, b, c] = mesh.corners(prim as usize);
     let (mut e1, mut e2) = (b - a, c - a);
     // A (nearly) degenerate triangle would pass Möller–Trumbore's absolute determinant test
@@ -449,12 +466,15 @@ fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -
     if e1.cross(e2).length() <= 1e-7 * e1.length() * e2.length() {
         (e1, e2) = (Vec3::ZERO, Vec3::ZERO);
     }
-    let triangle = GpuTriangle { v0: a.to_array(), e1: e1.to_array(), e2: e2.to_array(), prim };
-    let shading = GpuTriangleShading {
+    GpuTriangle { v0: a.to_array(), e1: e1.to_array(), e2: e2.to_array(), prim }
+}
+
+/// Triangle `prim`'s hit record, its mesh's vertices and materials starting at the bases.
+fn shading_record(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> GpuTriangleShading {
+    GpuTriangleShading {
         corners: mesh.triangles[prim as usize].map(|k| vertex_base + k),
         material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
-    };
-    (triangle, shading)
+    }
 }
 
 /// `to.extend(from)`, moving `from` in whole when `to` is empty (the first mesh: no copy).
