@@ -131,10 +131,12 @@ impl Progress {
     /// End the running phase and start `phase` (Err, and nothing started, when cancelled).
     pub fn begin(&self, phase: Phase) -> Result<(), Cancelled> {
         self.checkpoint()?;
+        // Before taking the lock, which the window's frames wait for. Trimming lowers the
+        // memory in use, never the peak read below.
+        return_freed_memory();
         let now = Instant::now();
         let mut phases = self.phases();
         self.close_running(&mut phases, now);
-        return_freed_memory();
         if self.shared.track_memory.load(Ordering::Relaxed) {
             reset_peak_rss();
         }
