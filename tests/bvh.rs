@@ -480,6 +480,9 @@ fn build_is_the_same_on_one_thread_and_on_several() {
         ("soup 300k", soup(&mut rng, 300_000, 100.0, 0.5)),
         ("grid 205k", grid(320, 0.0)),
         ("one point 150k", vec![point; 150_000]),
+        // Big enough for the top levels planned on a sample (bvh/build/top.rs).
+        ("knot 600k", knot_corners(600_000)),
+        ("one point 600k", vec![point; 600_000]),
     ];
     for (name, tris) in &meshes {
         let build = |threads: usize| {
@@ -493,6 +496,33 @@ fn build_is_the_same_on_one_thread_and_on_several() {
             assert!(one.nodes == many.nodes, "{name}: the nodes differ between 1 and {threads} threads");
             assert!(one.prim_indices == many.prim_indices, "{name}: the order differs between 1 and {threads} threads");
         }
+    }
+}
+
+fn knot_corners(n: usize) -> Vec<[Vec3; 3]> {
+    let knot = meshtracer::scene::primitives::large_torus_knot(n);
+    (0..knot.triangle_count()).map(|i| knot.corners(i)).collect()
+}
+
+#[test]
+fn top_levels_planned_on_a_sample_cost_what_full_binning_costs() {
+    // Builds of 512K triangles and more choose their top splits on every 16th triangle;
+    // a build over the same boxes (`build_from_boxes`) bins every primitive at every level.
+    // Same boxes, so the trees differ only in those planes: their SAH costs must agree
+    // within 0.2%, and the sampled tree must be as valid as any.
+    let mut rng = Rng(53);
+    let mut clustered = soup(&mut rng, 300_000, 10.0, 0.05);
+    clustered.extend(soup(&mut rng, 300_000, 1000.0, 2.0));
+    for (name, tris) in [("knot 600k", knot_corners(600_000)), ("clusters 600k", clustered)] {
+        let o = BuildOptions { max_leaf_size: 2, ..Default::default() };
+        let sampled = Bvh::build(&tris, &o);
+        assert_eq!(sampled.validate_with(&tris, &o), Ok(()), "{name}");
+        assert!(sampled.depth() <= MAX_DEPTH);
+        let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::from_points(t)).collect();
+        let full = Bvh::build_from_boxes(&boxes, &o);
+        let (a, b) = (sampled.sah_cost(&o), full.sah_cost(&o));
+        println!("{name}: SAH cost sampled top {a:.4}, full binning {b:.4}");
+        assert!((a - b).abs() <= 0.002 * b, "{name}: sampled {a} against full {b}");
     }
 }
 

@@ -18,13 +18,15 @@ mod bins;
 mod parallel;
 mod phases;
 mod prim;
+mod small;
+mod top;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use std::time::Duration;
 
-use self::bins::{Bin, BinGrid, BinSet};
+use self::bins::{Bin, BinGrid, BinSet, LeftOf};
 use self::parallel::{Chunk, Fragment};
 use self::phases::PhaseClock;
 use self::prim::{Bounds, ChildRef, Prim, MAX_BINS};
@@ -93,16 +95,17 @@ impl Bvh {
     }
 
     fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
-        let mut clock = PhaseClock::start();
-        let prims = (0..count)
-            .into_par_iter()
-            .map(|i| {
-                let t = corners(i);
-                Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
-            })
-            .collect();
-        clock.mark("prim boxes");
-        let bvh = build_from_prims(prims, options, &mut clock);
+        let clock = PhaseClock::start();
+        if count < top::SAMPLED_TOP_MIN_PRIMS {
+            let prims = (0..count).into_par_iter().map(|i| top::prim_of(&corners, i)).collect();
+            clock.mark("prim boxes");
+            let bvh = build_from_prims(prims, options, &clock);
+            return (bvh, clock.finish());
+        }
+        let builder = Builder::new(options, &clock);
+        let (prims, root) = builder.build_sampled(count, &corners, &clock);
+        clock.mark("tree");
+        let bvh = finish(prims, root, &clock);
         (bvh, clock.finish())
     }
 
@@ -117,7 +120,7 @@ impl Bvh {
                 Prim::new(b.min, b.max, i as u32)
             })
             .collect();
-        build_from_prims(prims, options, &mut PhaseClock::start())
+        build_from_prims(prims, options, &PhaseClock::start())
     }
 }
 
@@ -165,7 +168,7 @@ struct Builder<'c> {
     clock: &'c PhaseClock,
 }
 
-fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut PhaseClock) -> Bvh {
+fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &PhaseClock) -> Bvh {
     if prims.is_empty() {
         return Bvh::default();
     }
@@ -174,13 +177,14 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut Ph
         .map(NodeInfo::of)
         .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
     clock.mark("root bounds");
-    let builder = Builder {
-        max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
-        bins: (options.bins as usize).clamp(2, MAX_BINS),
-        clock: &*clock,
-    };
-    let root = builder.build_parallel(&mut prims, 0, info, 1);
+    let root = Builder::new(options, clock).build_parallel(&mut prims, 0, info, 1);
     clock.mark("tree");
+    finish(prims, root, clock)
+}
+
+/// The tree's primitive order and its nodes in one array, from the primitives in tree order
+/// and the tree as fragments.
+fn finish(prims: Vec<Prim>, root: Fragment, clock: &PhaseClock) -> Bvh {
     // The records go before the stitching, which holds the subtrees' nodes and their joined
     // copy at once: 32 bytes a triangle less at the build's peak.
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
@@ -195,6 +199,16 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &mut Ph
     };
     clock.mark("stitching");
     Bvh { nodes, prim_indices }
+}
+
+impl<'c> Builder<'c> {
+    fn new(options: &BuildOptions, clock: &'c PhaseClock) -> Self {
+        Builder {
+            max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
+            bins: (options.bins as usize).clamp(2, MAX_BINS),
+            clock,
+        }
+    }
 }
 
 impl Builder<'_> {
@@ -239,23 +253,11 @@ impl Builder<'_> {
         let split = self.clock.top_split(|| self.split(prims, &info, level, &mut BinSet::boxed()));
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
         let right_first = first + split.mid as u32;
-        let (mut left, mut right) = rayon::join(
+        let (left, right) = rayon::join(
             || self.build_parallel(left_prims, first, split.left, level + 1),
             || self.build_parallel(right_prims, right_first, split.right, level + 1),
         );
-        // Depth-first order: this node, then the left fragment, then the right one.
-        left.shift(1);
-        right.shift(1 + left.len);
-        let node = BvhNode::new(left.child.to_child(), right.child.to_child());
-        let mut chunks = Vec::with_capacity(1 + left.chunks.len() + right.chunks.len());
-        chunks.push(Chunk { offset: 0, nodes: vec![node] });
-        chunks.append(&mut left.chunks);
-        chunks.append(&mut right.chunks);
-        Fragment {
-            child: ChildRef { bounds: info.bounds, index: 0, count: 0 },
-            len: 1 + left.len + right.len,
-            chunks,
-        }
+        Fragment::join(left, right, info.bounds)
     }
 
     /// Chooses how to split a node that must be split: the best binned-SAH plane, or the
@@ -264,7 +266,10 @@ impl Builder<'_> {
         // A median split from here on needs ceil(log2(n)) more levels at most; keep that
         // within MAX_DEPTH so that the traversal stack can never overflow.
         if level + ceil_log2(prims.len()) < MAX_DEPTH {
-            if let Some(split) = self.sah_split(prims, info, bins) {
+            if prims.len() <= small::SMALL_NODE {
+                return small::exact_split(prims, &info.bounds);
+            }
+            if let Some((split, _)) = self.sah_split(prims, info, bins) {
                 return split;
             }
             // The centroid box handed down is loose (see `sah_split`), so all centroids may
@@ -272,7 +277,7 @@ impl Builder<'_> {
             let exact = NodeInfo::of(prims);
             let loose = exact.centroids.min != info.centroids.min || exact.centroids.max != info.centroids.max;
             if loose {
-                if let Some(split) = self.sah_split(prims, &exact, bins) {
+                if let Some((split, _)) = self.sah_split(prims, &exact, bins) {
                     return split;
                 }
             }
@@ -280,8 +285,9 @@ impl Builder<'_> {
         median_split(prims, info)
     }
 
-    /// The best binned-SAH split; `None` when binning cannot separate the primitives.
-    fn sah_split(&self, prims: &mut [Prim], info: &NodeInfo, bins: &mut BinSet) -> Option<Split> {
+    /// The best binned-SAH split, and the test that sent each primitive to its side; `None`
+    /// when binning cannot separate the primitives.
+    fn sah_split(&self, prims: &mut [Prim], info: &NodeInfo, bins: &mut BinSet) -> Option<(Split, LeftOf)> {
         let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
@@ -305,7 +311,7 @@ impl Builder<'_> {
             let centroids = Bounds { min: bounds.min.max(info.centroids.min), max: bounds.max.min(info.centroids.max) };
             NodeInfo { bounds, centroids }
         };
-        Some(Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) })
+        Some((Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) }, left_of))
     }
 }
 

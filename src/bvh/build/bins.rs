@@ -157,9 +157,23 @@ impl BinGrid {
     }
 
     /// The bins of centroid `c` on all three axes (for binning).
+    ///
+    /// Clamped in floats first (a NaN offset goes to bin 0, as `as` would send it), so that
+    /// the conversion needs no saturation: one vector instruction on x86-64 instead of three
+    /// scalar conversions with their range checks, a quarter of the binning's instructions.
     #[inline(always)]
     fn bin_of(&self, c: Vec3A) -> UVec3 {
-        ((c - self.origin) * self.scale).as_uvec3().min(UVec3::splat(self.count as u32 - 1))
+        // `max` returns its argument for a NaN lane, so NaN becomes 0.
+        let offset = ((c - self.origin) * self.scale).max(Vec3A::ZERO).min(Vec3A::splat((self.count - 1) as f32));
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{__m128, _mm_cvttps_epi32};
+            // SAFETY: SSE2 is part of x86-64; every lane is in 0..count, so truncation is exact.
+            let lanes: [i32; 4] = unsafe { std::mem::transmute(_mm_cvttps_epi32(__m128::from(offset))) };
+            UVec3::new(lanes[0] as u32, lanes[1] as u32, lanes[2] as u32)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        offset.as_uvec3()
     }
 
     /// The partition's test "centroid bin on `axis` below `plane`" for `0 < plane < count`.
@@ -172,6 +186,7 @@ impl BinGrid {
 /// It takes the same float operations as one lane of `bin_of(p.centroid())`, so both always
 /// agree, but compares before converting to a bin number (the slow part): a bin is below a
 /// whole number exactly when the scaled offset is; a NaN offset is bin 0 there, left here.
+#[derive(Clone, Copy)]
 pub(super) struct LeftOf {
     axis: usize,
     origin: f32,

@@ -8,7 +8,7 @@
 use rayon::prelude::*;
 
 use super::bins::{BinGrid, BinSet, LeftOf};
-use super::prim::{ChildRef, Prim};
+use super::prim::{Bounds, ChildRef, Prim};
 use crate::bvh::{BvhNode, EMPTY};
 
 /// Primitives per task when binning or partitioning a big node.
@@ -99,6 +99,19 @@ pub(super) struct Chunk {
 }
 
 impl Fragment {
+    /// The fragment of a new node over `left` and `right`, whose box is `bounds`: in
+    /// depth-first order, the node, then the left fragment, then the right one.
+    pub(super) fn join(mut left: Fragment, mut right: Fragment, bounds: Bounds) -> Fragment {
+        left.shift(1);
+        right.shift(1 + left.len);
+        let node = BvhNode::new(left.child.to_child(), right.child.to_child());
+        let mut chunks = Vec::with_capacity(1 + left.chunks.len() + right.chunks.len());
+        chunks.push(Chunk { offset: 0, nodes: vec![node] });
+        chunks.append(&mut left.chunks);
+        chunks.append(&mut right.chunks);
+        Fragment { child: ChildRef { bounds, index: 0, count: 0 }, len: 1 + left.len + right.len, chunks }
+    }
+
     /// Moves the fragment `by` nodes further into its parent's node list.
     pub(super) fn shift(&mut self, by: u32) {
         for chunk in &mut self.chunks {
@@ -115,9 +128,9 @@ impl Fragment {
         if self.chunks.len() == 1 && self.chunks[0].offset == 0 {
             return self.chunks.pop().map(|chunk| chunk.nodes).unwrap_or_default(); // already in place
         }
+        // Written straight into the new memory, not zeroed first: 64 bytes a node not written twice.
         let mut nodes = Vec::with_capacity(self.len as usize);
-        nodes.par_extend((0..self.len).into_par_iter().map(|_| BvhNode::default()));
-        let mut rest = nodes.as_mut_slice();
+        let mut rest = &mut nodes.spare_capacity_mut()[..self.len as usize];
         let mut places = Vec::with_capacity(self.chunks.len());
         for chunk in &self.chunks {
             debug_assert_eq!(chunk.offset as usize + rest.len(), self.len as usize);
@@ -125,18 +138,22 @@ impl Fragment {
             places.push(place);
             rest = tail;
         }
+        assert!(rest.is_empty(), "the chunks hold the fragment's nodes");
         self.chunks.par_iter().zip(places).for_each(|(chunk, place)| {
             let inner = |index: u32, count: u32| count == 0 && index != EMPTY;
             for (out, n) in place.iter_mut().zip(&chunk.nodes) {
-                *out = *n;
+                let mut n = *n;
                 if inner(n.left_index, n.left_count) {
-                    out.left_index += chunk.offset;
+                    n.left_index += chunk.offset;
                 }
                 if inner(n.right_index, n.right_count) {
-                    out.right_index += chunk.offset;
+                    n.right_index += chunk.offset;
                 }
+                out.write(n);
             }
         });
+        // SAFETY: the chunks cover `0..len` exactly (asserted above) and wrote all their nodes.
+        unsafe { nodes.set_len(self.len as usize) };
         nodes
     }
 }
@@ -146,7 +163,6 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-    use super::super::prim::Bounds;
 
     #[test]
     fn partition_puts_the_same_primitives_on_each_side_as_the_sequential_one() {

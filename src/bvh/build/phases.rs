@@ -4,25 +4,33 @@
 //! big node or subtree only, so every build keeps one.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 pub(super) struct PhaseClock {
-    last: Instant,
-    phases: Vec<(&'static str, Duration)>,
+    /// When the running phase began, and the phases done (marked from the builder's calling
+    /// thread only; the lock just lets the builder share the clock with its tasks).
+    marks: Mutex<(Instant, Vec<(&'static str, Duration)>)>,
     top_splits: AtomicU64,
     subtrees: AtomicU64,
 }
 
 impl PhaseClock {
     pub(super) fn start() -> Self {
-        Self { last: Instant::now(), phases: Vec::new(), top_splits: AtomicU64::new(0), subtrees: AtomicU64::new(0) }
+        Self {
+            marks: Mutex::new((Instant::now(), Vec::new())),
+            top_splits: AtomicU64::new(0),
+            subtrees: AtomicU64::new(0),
+        }
     }
 
     /// Ends the phase running since the previous mark (or the start) and names it.
-    pub(super) fn mark(&mut self, phase: &'static str) {
+    pub(super) fn mark(&self, phase: &'static str) {
         let now = Instant::now();
-        self.phases.push((phase, now - self.last));
-        self.last = now;
+        let mut marks = self.marks.lock().unwrap_or_else(|e| e.into_inner());
+        let since = now - marks.0;
+        marks.1.push((phase, since));
+        marks.0 = now;
     }
 
     /// Runs `f`, adding its time to the top-split total.
@@ -36,11 +44,12 @@ impl PhaseClock {
     }
 
     /// The wall-time phases, then the two thread-time totals.
-    pub(super) fn finish(mut self) -> Vec<(&'static str, Duration)> {
+    pub(super) fn finish(self) -> Vec<(&'static str, Duration)> {
         let total = |a: &AtomicU64| Duration::from_nanos(a.load(Ordering::Relaxed));
-        self.phases.push(("top splits (thread time)", total(&self.top_splits)));
-        self.phases.push(("subtrees (thread time)", total(&self.subtrees)));
-        self.phases
+        let mut phases = self.marks.into_inner().unwrap_or_else(|e| e.into_inner()).1;
+        phases.push(("top splits (thread time)", total(&self.top_splits)));
+        phases.push(("subtrees (thread time)", total(&self.subtrees)));
+        phases
     }
 }
 

@@ -1,0 +1,134 @@
+//! Small nodes split by the exact SAH: every plane between neighbouring centroids on each
+//! axis, instead of bins. Most of a tree's nodes are this small (at leaves of 2, about 80%
+//! of the inner nodes hold at most 8 triangles), and for them binning pays for clearing and
+//! sweeping bins that hold a primitive or none; sorting a handful of centroids is cheaper
+//! and finds the best plane rather than the best bin boundary.
+
+use super::prim::{Bounds, Prim};
+use super::{NodeInfo, Split};
+
+/// Nodes of at most this many primitives take the exact split.
+pub(super) const SMALL_NODE: usize = 8;
+
+/// The exact-SAH split of `prims` (2 ..= `SMALL_NODE` of them), which it reorders so that
+/// the left side comes first. Centroids tie by original index, so the split does not depend
+/// on the order the primitives arrive in; NaN centroids sort last.
+pub(super) fn exact_split(prims: &mut [Prim], node_bounds: &Bounds) -> Split {
+    let n = prims.len();
+    debug_assert!((2..=SMALL_NODE).contains(&n));
+    // Areas scaled as in the binned sweep, so that huge coordinates stay finite.
+    let extent = (node_bounds.max - node_bounds.min).max_element();
+    let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
+
+    let mut best = (f32::INFINITY, 0usize, 1usize); // (cost, axis, left count)
+    let mut orders = [[0u8; SMALL_NODE]; 3];
+    for (axis, order) in orders.iter_mut().enumerate() {
+        sort_by_centroid(prims, axis, &mut order[..n]);
+        let order = &order[..n];
+        // Right to left: the box of everything from each position on.
+        let mut right_area = [0.0f32; SMALL_NODE];
+        let mut acc = Bounds::EMPTY;
+        for i in (1..n).rev() {
+            let p = &prims[order[i] as usize];
+            acc.grow(p.bounds_min(), p.bounds_max());
+            right_area[i] = acc.half_area(scale) * (n - i) as f32;
+        }
+        let mut acc = Bounds::EMPTY;
+        for (i, &right) in right_area.iter().enumerate().take(n).skip(1) {
+            let p = &prims[order[i - 1] as usize];
+            acc.grow(p.bounds_min(), p.bounds_max());
+            let cost = acc.half_area(scale) * i as f32 + right;
+            // `<` keeps the first axis and plane among equals; a NaN cost never wins, and
+            // the initial plane (axis 0, one on the left) stands if every cost is NaN.
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
+        }
+    }
+
+    let (_, axis, mid) = best;
+    let mut sorted = [prims[0]; SMALL_NODE];
+    for (slot, &i) in sorted.iter_mut().zip(&orders[axis][..n]) {
+        *slot = prims[i as usize];
+    }
+    prims.copy_from_slice(&sorted[..n]);
+    Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
+}
+
+/// Writes into `order` the positions of `prims` sorted by centroid on `axis`, ties by
+/// original index: each primitive's place is the number of primitives before it in that
+/// order (a rank, with no branch to mispredict; a total order, so the ranks are a
+/// permutation even with NaNs).
+fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
+    let mut keys = [0u64; SMALL_NODE];
+    for (key, p) in keys.iter_mut().zip(prims) {
+        let c = p.min[axis] * 0.5 + p.max[axis] * 0.5;
+        *key = (u64::from(sortable_bits(c)) << 32) | u64::from(p.index);
+    }
+    let keys = &keys[..prims.len()];
+    for (i, &key) in keys.iter().enumerate() {
+        let rank = keys.iter().filter(|&&other| other < key).count();
+        order[rank] = i as u8;
+    }
+}
+
+/// The bits of `x` as an unsigned number that orders like the float (`f32::total_cmp`).
+fn sortable_bits(x: f32) -> u32 {
+    let bits = x.to_bits();
+    if bits >> 31 == 1 { !bits } else { bits | 1 << 31 }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+
+    fn prim(x: f32, index: u32) -> Prim {
+        Prim::new(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0), index)
+    }
+
+    #[test]
+    fn sortable_bits_order_like_total_cmp() {
+        let xs = [f32::NEG_INFINITY, -1e30, -1.0, -0.0, 0.0, 1e-40, 1.0, f32::INFINITY, f32::NAN];
+        for a in xs {
+            for b in xs {
+                assert_eq!(sortable_bits(a).cmp(&sortable_bits(b)), a.total_cmp(&b), "{a} {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn splits_two_clusters_between_them_whatever_the_input_order() {
+        // Three boxes near x = 0 and three near x = 100: the only sensible plane is between.
+        let xs = [100.0, 0.5, 101.0, 0.0, 100.5, 1.0];
+        let mut prims: Vec<Prim> = xs.iter().enumerate().map(|(i, &x)| prim(x, i as u32)).collect();
+        let bounds = NodeInfo::of(&prims).bounds;
+        let split = exact_split(&mut prims, &bounds);
+        assert_eq!(split.mid, 3);
+        let mut left: Vec<u32> = prims[..3].iter().map(|p| p.index).collect();
+        left.sort_unstable();
+        assert_eq!(left, [1, 3, 5]);
+        assert_eq!(split.left.bounds.max.x, 2.0);
+        assert_eq!(split.right.bounds.min.x, 100.0);
+    }
+
+    #[test]
+    fn coincident_and_nan_centroids_still_split_into_two_non_empty_sides() {
+        let mut same: Vec<Prim> = (0..SMALL_NODE as u32).map(|i| prim(5.0, i)).collect();
+        let bounds = NodeInfo::of(&same).bounds;
+        let split = exact_split(&mut same, &bounds);
+        assert!(split.mid > 0 && split.mid < SMALL_NODE);
+        let mut indices: Vec<u32> = same.iter().map(|p| p.index).collect();
+        indices.sort_unstable();
+        assert_eq!(indices, (0..SMALL_NODE as u32).collect::<Vec<_>>(), "a permutation");
+
+        let mut with_nan = vec![prim(f32::NAN, 0), prim(1.0, 1), prim(2.0, 2)];
+        let bounds = NodeInfo::of(&with_nan).bounds;
+        let split = exact_split(&mut with_nan, &bounds);
+        assert!(split.mid > 0 && split.mid < 3);
+        let mut indices: Vec<u32> = with_nan.iter().map(|p| p.index).collect();
+        indices.sort_unstable();
+        assert_eq!(indices, [0, 1, 2]);
+    }
+}
