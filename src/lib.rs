@@ -15,6 +15,7 @@ pub(crate) mod bench;
 pub mod bvh;
 pub mod files;
 pub mod geometry;
+pub mod memory;
 pub mod progress;
 pub mod render_settings;
 pub mod scene;

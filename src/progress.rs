@@ -133,7 +133,7 @@ impl Progress {
         self.checkpoint()?;
         // Before taking the lock, which the window's frames wait for. Trimming lowers the
         // memory in use, never the peak read below.
-        return_freed_memory();
+        crate::memory::return_freed_memory();
         let now = Instant::now();
         let mut phases = self.phases();
         self.close_running(&mut phases, now);
@@ -195,18 +195,6 @@ pub(crate) fn read_peak_rss() -> Option<u64> {
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
-}
-
-/// Hand the memory that the last phase freed back to the system. A phase boundary is where
-/// a load's temporaries (the parser's chunks, the builder's records) have just been freed,
-/// but glibc keeps freed pages in its per-thread arenas, so they would add to the next
-/// phase's peak: at 2M triangles, 55 bytes a triangle more before the upload.
-fn return_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only releases free pages of the allocator's own heaps.
-    unsafe {
-        libc::malloc_trim(0);
-    }
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The top-level modules from the bottom up.
-const LAYERS: &[&str] = &["contract", "geometry", "progress", "render_settings", "files", "bvh", "scene", "tracer", "gpu", "bench", "app", "cli"];
+const LAYERS: &[&str] = &["contract", "geometry", "memory", "progress", "render_settings", "files", "bvh", "scene", "tracer", "gpu", "bench", "app", "cli"];
 
 type Module = Vec<String>;
 

@@ -506,7 +506,7 @@ fn knot_corners(n: usize) -> Vec<[Vec3; 3]> {
 
 #[test]
 fn top_levels_planned_on_a_sample_cost_what_full_binning_costs() {
-    // Builds of 512K triangles and more choose their top splits on every 16th triangle;
+    // Builds of 512K triangles and more choose their top splits on every 32nd triangle;
     // a build over the same boxes (`build_from_boxes`) bins every primitive at every level.
     // Same boxes, so the trees differ only in those planes: their SAH costs must agree
     // within 0.2%, and the sampled tree must be as valid as any.

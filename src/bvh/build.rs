@@ -103,9 +103,9 @@ impl Bvh {
             return (bvh, clock.finish());
         }
         let builder = Builder::new(options, &clock);
-        let (prims, root) = builder.build_sampled(count, &corners, &clock);
-        clock.mark("tree");
-        let bvh = finish(prims, root, &clock);
+        let (prim_indices, root) = builder.build_sampled(count, &corners, &clock);
+        clock.mark("tree (and prim_indices)");
+        let bvh = finish(prim_indices, root, &clock);
         (bvh, clock.finish())
     }
 
@@ -179,18 +179,16 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &PhaseC
     clock.mark("root bounds");
     let root = Builder::new(options, clock).build_parallel(&mut prims, 0, info, 1);
     clock.mark("tree");
-    finish(prims, root, clock)
-}
-
-/// The tree's primitive order and its nodes in one array, from the primitives in tree order
-/// and the tree as fragments.
-fn finish(prims: Vec<Prim>, root: Fragment, clock: &PhaseClock) -> Bvh {
     // The records go before the stitching, which holds the subtrees' nodes and their joined
     // copy at once: 32 bytes a triangle less at the build's peak.
     let prim_indices = prims.par_iter().map(|p| p.index).collect();
     drop(prims);
     clock.mark("prim_indices gather");
+    finish(prim_indices, root, clock)
+}
 
+/// The tree from its primitive order and its nodes as fragments: the nodes in one array.
+fn finish(prim_indices: Vec<u32>, root: Fragment, clock: &PhaseClock) -> Bvh {
     let nodes = if root.child.count > 0 {
         // A single leaf: the root node holds it on the left and nothing on the right.
         vec![BvhNode::new(root.child.to_child(), BvhChild::EMPTY)]

@@ -4,7 +4,7 @@
 //! build has about six above the 128K-triangle subtrees) streams its 320 MB of boxes from
 //! memory four times a level; with every core busy that traffic, not the arithmetic, set the
 //! pace. Instead the top splits are chosen on every `SAMPLE_STRIDE`-th triangle (the same
-//! binned SAH; a 128K-triangle node still has 8K samples to bin), and the triangles then go
+//! binned SAH; a 128K-triangle node still has 4K samples to bin), and the triangles then go
 //! straight from the mesh to their top-level bucket: one pass counts each chunk's triangles
 //! per bucket, a second writes each triangle's box into its place, totting up every bucket's
 //! exact bounds on the way. Each bucket is then built as before, and the top nodes take
@@ -15,6 +15,8 @@
 //! sample, so no side of a planned split is empty. Everything is deterministic: fixed
 //! chunks, exact merges.
 
+use std::mem::MaybeUninit;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -23,9 +25,10 @@ use super::parallel::Fragment;
 use super::phases::PhaseClock;
 use super::prim::Prim;
 use super::{Builder, NodeInfo, PARALLEL_BIN_MIN_PRIMS, PARALLEL_MIN_PRIMS};
+use crate::memory;
 
 /// Every this many triangles, one plans the top levels.
-const SAMPLE_STRIDE: usize = 16;
+const SAMPLE_STRIDE: usize = 32;
 
 /// Builds of at least this many triangles plan their top levels on a sample; below it the
 /// whole array stays in cache often enough that binning it costs little.
@@ -108,13 +111,13 @@ pub(super) fn prim_of(corners: &(impl Fn(usize) -> [Vec3; 3] + Sync), i: usize) 
 
 impl Builder<'_> {
     /// Builds over `count >= SAMPLED_TOP_MIN_PRIMS` triangles with sampled top levels.
-    /// Returns the boxes in tree order and the tree as a fragment.
+    /// Returns the triangles' tree order (`Bvh::prim_indices`) and the tree as a fragment.
     pub(super) fn build_sampled(
         &self,
         count: usize,
         corners: &(impl Fn(usize) -> [Vec3; 3] + Sync),
         clock: &PhaseClock,
-    ) -> (Vec<Prim>, Fragment) {
+    ) -> (Vec<u32>, Fragment) {
         let mut sample: Vec<Prim> =
             (0..count.div_ceil(SAMPLE_STRIDE)).into_par_iter().map(|s| prim_of(corners, s * SAMPLE_STRIDE)).collect();
         let info = sample.par_chunks(CHUNK).map(NodeInfo::of).reduce(|| NodeInfo::EMPTY, NodeInfo::union);
@@ -124,20 +127,22 @@ impl Builder<'_> {
         clock.mark("top plan (sample)");
 
         // Each chunk's triangles per bucket, then where each chunk's share of a bucket starts.
-        let mut buckets = vec![0u32; count];
-        let counts: Vec<Vec<u32>> = buckets
+        let mut buckets: Vec<u32> = memory::with_huge_pages(count);
+        let counts: Vec<Vec<u32>> = buckets.spare_capacity_mut()[..count]
             .par_chunks_mut(CHUNK)
             .enumerate()
             .map(|(c, out)| {
                 let mut counts = vec![0u32; plan.buckets];
                 for (j, b) in out.iter_mut().enumerate() {
                     let bucket = plan.bucket_of(&prim_of(corners, c * CHUNK + j));
-                    *b = bucket as u32;
+                    b.write(bucket as u32);
                     counts[bucket] += 1;
                 }
                 counts
             })
             .collect();
+        // SAFETY: the chunks above wrote all `count` ids.
+        unsafe { buckets.set_len(count) };
         let mut bucket_start = vec![0usize; plan.buckets + 1];
         for b in 0..plan.buckets {
             bucket_start[b + 1] = bucket_start[b] + counts.iter().map(|c| c[b] as usize).sum::<usize>();
@@ -154,7 +159,7 @@ impl Builder<'_> {
         clock.mark("classify");
 
         // Every triangle's box into its place, each chunk into its own slots.
-        let mut prims: Vec<Prim> = Vec::with_capacity(count);
+        let mut prims: Vec<Prim> = memory::with_huge_pages(count);
         let out = SharedSlots(prims.as_mut_ptr());
         let infos: Vec<Vec<NodeInfo>> = buckets
             .par_chunks(CHUNK)
@@ -184,8 +189,15 @@ impl Builder<'_> {
             .collect();
         clock.mark("scatter");
 
-        let tree = self.build_planned(&plan, 0, &mut prims, 0, 1, &bucket_info, &bucket_start);
-        (prims, tree)
+        // Each bucket writes its triangles' order as soon as it is built, while its boxes are
+        // still in cache (a pass of its own over all the boxes took 22 ms of a 10M build on
+        // 16 cores).
+        let mut order: Vec<u32> = memory::with_huge_pages(count);
+        let places = Places { prims: &mut prims, order: &mut order.spare_capacity_mut()[..count], first: 0 };
+        let tree = self.build_planned(&plan, 0, places, 1, &bucket_info, &bucket_start);
+        // SAFETY: the buckets cover `0..count` and each wrote its whole range.
+        unsafe { order.set_len(count) };
+        (order, tree)
     }
 
     /// Plans the top levels on `sample`, which it partitions like a build would.
@@ -206,34 +218,55 @@ impl Builder<'_> {
         PlanTree::Split(test, Box::new(left), Box::new(right))
     }
 
-    /// Builds plan node `at` over `prims` (its buckets, in order, starting at `first`).
-    #[allow(clippy::too_many_arguments)]
+    /// Builds plan node `at` over its buckets' triangles, `places`.
     fn build_planned(
         &self,
         plan: &Plan,
         at: usize,
-        prims: &mut [Prim],
-        first: u32,
+        places: Places,
         level: usize,
         bucket_info: &[NodeInfo],
         bucket_start: &[usize],
     ) -> Fragment {
         match plan.nodes[at] {
-            PlanNode::Bucket(b) => self.build_parallel(prims, first, bucket_info[b as usize], level),
+            PlanNode::Bucket(b) => {
+                let Places { prims, order, first } = places;
+                let tree = self.build_parallel(prims, first, bucket_info[b as usize], level);
+                order.iter_mut().zip(prims.iter()).for_each(|(o, p)| {
+                    o.write(p.index);
+                });
+                tree
+            }
             PlanNode::Split { right, right_bucket, .. } => {
-                let mid = bucket_start[right_bucket as usize] - first as usize;
-                let (left_prims, right_prims) = prims.split_at_mut(mid);
+                let (left_places, right_places) = places.split_at(bucket_start[right_bucket as usize]);
                 let (left, right) = rayon::join(
-                    || self.build_planned(plan, at + 1, left_prims, first, level + 1, bucket_info, bucket_start),
-                    || {
-                        let first = first + mid as u32;
-                        self.build_planned(plan, right as usize, right_prims, first, level + 1, bucket_info, bucket_start)
-                    },
+                    || self.build_planned(plan, at + 1, left_places, level + 1, bucket_info, bucket_start),
+                    || self.build_planned(plan, right as usize, right_places, level + 1, bucket_info, bucket_start),
                 );
                 let bounds = left.child.bounds.union(right.child.bounds);
                 Fragment::join(left, right, bounds)
             }
         }
+    }
+}
+
+/// A range of the tree's boxes and of its triangle order, which starts at `first`.
+struct Places<'a> {
+    prims: &'a mut [Prim],
+    order: &'a mut [MaybeUninit<u32>],
+    first: u32,
+}
+
+impl<'a> Places<'a> {
+    /// The places before triangle `at` (of the whole array) and those from it on.
+    fn split_at(self, at: usize) -> (Places<'a>, Places<'a>) {
+        let mid = at - self.first as usize;
+        let (left_prims, right_prims) = self.prims.split_at_mut(mid);
+        let (left_order, right_order) = self.order.split_at_mut(mid);
+        (
+            Places { prims: left_prims, order: left_order, first: self.first },
+            Places { prims: right_prims, order: right_order, first: at as u32 },
+        )
     }
 }
 
