@@ -29,7 +29,9 @@ pub fn advise_huge_pages<T>(spare: &mut [MaybeUninit<T>]) {
     let _ = spare;
 }
 
-/// An empty vector with room for `capacity` items, its memory advised to huge pages.
+/// An empty vector with room for `capacity` items, its memory advised to huge pages. For
+/// arrays filled once and never grown: growing moves an array, and moving huge pages to an
+/// address that is not 2 MB aligned splits them all (0.2-0.3 s for 367 MB on the GPU host).
 pub fn with_huge_pages<T>(capacity: usize) -> Vec<T> {
     let mut v = Vec::with_capacity(capacity);
     advise_huge_pages(v.spare_capacity_mut());
