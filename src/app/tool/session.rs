@@ -105,13 +105,18 @@ impl Session {
         let phases = progress.snapshot();
         let seconds = phases.total_seconds();
         let each: Vec<String> = phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
-        // The GPU has the geometry now; keep only what instance and environment changes need.
-        packed.triangles = Vec::new();
-        packed.shading = Vec::new();
-        packed.vertices = Default::default();
-        packed.nodes = Vec::new();
+        // The GPU has the geometry now; keep only what instance and environment changes need,
+        // and free the rest on another thread (unmapping a 10M-triangle model's arrays took
+        // tens of milliseconds, which the next frame would wait for).
         let has_wide = packed.has_wide();
-        packed.wide_nodes = Vec::new();
+        let freed = (
+            std::mem::take(&mut packed.triangles),
+            std::mem::take(&mut packed.shading),
+            std::mem::take(&mut packed.vertices),
+            std::mem::take(&mut packed.nodes),
+            std::mem::take(&mut packed.wide_nodes),
+        );
+        crate::memory::free_in_background(freed);
         let text = format!("loaded {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
         panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
