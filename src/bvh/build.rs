@@ -13,6 +13,10 @@
 //! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
 //! stitched together in depth-first order at the end, on all threads. Nodes of at least
 //! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
+//! Builds of at least `SAMPLED_TOP_MIN_PRIMS` triangles instead plan those big top nodes on
+//! a sample and scatter the triangles into the buckets below them in one pass
+//! (`build/top.rs`). Nodes of at most `SMALL_NODE` primitives take the exact SAH split over
+//! every centroid plane instead of bins (`build/small.rs`).
 
 mod bins;
 mod parallel;
@@ -97,7 +101,7 @@ impl Bvh {
     fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
         let clock = PhaseClock::start();
         if count < top::SAMPLED_TOP_MIN_PRIMS {
-            let prims = (0..count).into_par_iter().map(|i| top::prim_of(&corners, i)).collect();
+            let prims = (0..count).into_par_iter().map(|i| Prim::of_triangle(corners(i), i as u32)).collect();
             clock.mark("prim boxes");
             let bvh = build_from_prims(prims, options, &clock);
             return (bvh, clock.finish());

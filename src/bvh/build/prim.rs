@@ -25,6 +25,12 @@ impl Prim {
         Self { min, index, max, _pad: 0 }
     }
 
+    /// The box of triangle `index`, whose corners are `t`.
+    #[inline(always)]
+    pub(super) fn of_triangle(t: [Vec3; 3], index: u32) -> Self {
+        Self::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), index)
+    }
+
     #[inline(always)]
     pub(super) fn bounds_min(&self) -> Vec3A {
         self.min.into()

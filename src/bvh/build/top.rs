@@ -30,8 +30,8 @@ use crate::memory;
 /// Every this many triangles, one plans the top levels.
 const SAMPLE_STRIDE: usize = 32;
 
-/// Builds of at least this many triangles plan their top levels on a sample; below it the
-/// whole array stays in cache often enough that binning it costs little.
+/// Builds of at least this many triangles plan their top levels on a sample; smaller ones
+/// have at most two levels above the buckets to save.
 pub(super) const SAMPLED_TOP_MIN_PRIMS: usize = 4 * PARALLEL_BIN_MIN_PRIMS;
 
 /// A planned node of fewer triangles than this (as the sample estimates) becomes a bucket,
@@ -102,11 +102,10 @@ impl Plan {
     }
 }
 
-/// One triangle's box, as the build's first step makes it.
+/// Triangle `i`'s box.
 #[inline(always)]
-pub(super) fn prim_of(corners: &(impl Fn(usize) -> [Vec3; 3] + Sync), i: usize) -> Prim {
-    let t = corners(i);
-    Prim::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]), i as u32)
+fn prim_of(corners: &(impl Fn(usize) -> [Vec3; 3] + Sync), i: usize) -> Prim {
+    Prim::of_triangle(corners(i), i as u32)
 }
 
 impl Builder<'_> {
