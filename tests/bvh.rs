@@ -480,9 +480,12 @@ fn build_is_the_same_on_one_thread_and_on_several() {
         ("soup 300k", soup(&mut rng, 300_000, 100.0, 0.5)),
         ("grid 205k", grid(320, 0.0)),
         ("one point 150k", vec![point; 150_000]),
-        // Big enough for the top levels planned on a sample (bvh/build/top.rs).
+        // Big enough for the top levels planned on a sample (bvh/build/top.rs): a mesh, one
+        // point, one plane, and coordinates near the float range's end.
         ("knot 600k", knot_corners(600_000)),
         ("one point 600k", vec![point; 600_000]),
+        ("flat grid 640k", grid(566, 0.0)),
+        ("knot 600k at 1e30", knot_corners(600_000).iter().map(|t| t.map(|v| v * 1e30)).collect()),
     ];
     for (name, tris) in &meshes {
         let build = |threads: usize| {
