@@ -31,7 +31,8 @@ pub struct LoadRow {
     pub phase_s: [f64; 5],
     /// GPU time of the first frame (timestamps), ms; None without timestamps.
     pub first_frame_gpu_ms: Option<f64>,
-    /// From the start of the read to the first frame read back: what a user waits.
+    /// From the start of the read until the GPU has traced the first frame: what a user of
+    /// the window waits (which shows the frame without reading it back).
     pub to_first_frame_s: f64,
     /// The process's peak resident memory during the load, bytes (None where the system
     /// does not say: only Linux's /proc is read).
