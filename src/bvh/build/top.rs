@@ -146,6 +146,9 @@ impl Builder<'_> {
         for b in 0..plan.buckets {
             bucket_start[b + 1] = bucket_start[b] + counts.iter().map(|c| c[b] as usize).sum::<usize>();
         }
+        // Each bucket holds at least the sample triangles that planned it (an empty one would
+        // become a leaf of no triangles, which the node layout cannot tell from an inner node).
+        assert!(bucket_start.windows(2).all(|w| w[0] < w[1]), "a planned bucket is empty");
         let mut next = bucket_start[..plan.buckets].to_vec();
         let starts: Vec<Vec<usize>> = counts
             .iter()
