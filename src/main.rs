@@ -22,7 +22,6 @@ fn main() {
         let at = info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
         eprintln!("error: internal error: {msg}{at} (please report this)");
     }));
-    warn_of_a_file_size_limit();
     let cli = match Cli::try_parse_noting_flags() {
         Ok(cli) => cli,
         // --help and --version print as usual; a bad flag is one line, not a page.
@@ -59,23 +58,4 @@ fn one_line(e: &anyhow::Error) -> String {
         }
     }
     line.replace('\n', " ")
-}
-
-/// Under a file-size limit (`ulimit -f`), the system stops the process when a file grows past
-/// it, and the Vulkan driver grows files of its own (lavapipe backs GPU memory with them, and
-/// drivers keep a shader cache): the shell then says only "File size limit exceeded". Ignoring
-/// the signal does not help (lavapipe then dies of a bus error), so the limit is named first.
-fn warn_of_a_file_size_limit() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
-        // SAFETY: getrlimit writes the limit into `limit` and nothing else.
-        let read = unsafe { libc::getrlimit(libc::RLIMIT_FSIZE, &mut limit) } == 0;
-        if read && limit.rlim_cur != libc::RLIM_INFINITY {
-            log::warn!(
-                "the file-size limit (ulimit -f) is {} bytes; the Vulkan driver's own files (GPU memory on a CPU driver, its shader cache) may outgrow it, and the system then stops the program",
-                limit.rlim_cur
-            );
-        }
-    }
 }

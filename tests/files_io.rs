@@ -82,6 +82,27 @@ fn a_fifo_as_model_is_refused_at_once() {
 }
 
 #[test]
+fn a_file_size_limit_is_named_before_the_vulkan_driver_meets_it() {
+    // Lavapipe backs GPU memory with files, which a 1 KiB limit stops: the system then ends
+    // the process (SIGXFSZ; a bus error where the signal is ignored), and the program has said
+    // first what the limit is.
+    let dir = Scratch::new("size-limit-gpu");
+    let script = "ulimit -f 1; exec \"$0\" \"$@\"";
+    let out = Command::new("sh")
+        .current_dir(&dir.0)
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_meshtracer"))
+        .args(["render", "--width", "64", "--height", "64", "-o", "x.png"])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    // (512 or 1024 bytes: a block of `ulimit -f` is either, shell by shell.)
+    let first = err.lines().next().unwrap_or_default();
+    assert!(first.starts_with("warning: the file-size limit (ulimit -f) is ") && (first.contains("1024 bytes;") || first.contains("512 bytes;")), "{err}");
+}
+
+#[test]
 fn a_failed_write_keeps_the_users_file_and_leaves_nothing_half_written() {
     let dir = Scratch::new("failed-write");
     let old = b"the user's own file, not to be lost".to_vec();

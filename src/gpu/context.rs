@@ -211,6 +211,8 @@ impl GpuContext {
 
     /// Create instance, optional surface (via `make_surface`), device and allocator.
     pub(crate) fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
+        static WARNED: std::sync::Once = std::sync::Once::new();
+        WARNED.call_once(warn_of_a_file_size_limit);
         let entry = load_entry()?;
         let validation = options.validation_wanted();
         let validation_log = Arc::new(ValidationLog::default());
@@ -559,4 +561,23 @@ fn has_subgroup_clock(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool 
     // SAFETY: the feature struct chained to `features` outlives the call.
     unsafe { instance.get_physical_device_features2(pd, &mut features) };
     clock.shader_subgroup_clock == vk::TRUE
+}
+
+/// Under a file-size limit (`ulimit -f`), the system stops the process when a file grows past
+/// it, and the Vulkan driver grows files of its own (lavapipe backs GPU memory with them, and
+/// drivers keep a shader cache): the shell then says only "File size limit exceeded". Ignoring
+/// the signal does not help (lavapipe then dies of a bus error), so the limit is named first.
+fn warn_of_a_file_size_limit() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+        // SAFETY: getrlimit writes the limit into `limit` and nothing else.
+        let read = unsafe { libc::getrlimit(libc::RLIMIT_FSIZE, &mut limit) } == 0;
+        if read && limit.rlim_cur != libc::RLIM_INFINITY {
+            log::warn!(
+                "the file-size limit (ulimit -f) is {} bytes; the Vulkan driver's own files (GPU memory on a CPU driver, its shader cache) may outgrow it, and the system then stops the program",
+                limit.rlim_cur
+            );
+        }
+    }
 }
