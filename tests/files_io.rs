@@ -90,6 +90,7 @@ fn a_file_size_limit_is_named_before_the_vulkan_driver_meets_it() {
     let script = "ulimit -f 1; exec \"$0\" \"$@\"";
     let out = Command::new("sh")
         .current_dir(&dir.0)
+        .env("MESHTRACER_VALIDATION", "1")
         .arg("-c")
         .arg(script)
         .arg(env!("CARGO_BIN_EXE_meshtracer"))
