@@ -1,8 +1,11 @@
 //! Vertex colours from the readers: PLY `red green blue [alpha]` in every encoding and
 //! through both binary readers, glTF `COLOR_0`, and the errors for colours that are wrong.
 
+mod common;
+
 use std::fs;
-use std::path::PathBuf;
+
+use common::Scratch;
 
 use glam::Vec3;
 use meshtracer::scene::gltf::load_gltf;
@@ -136,23 +139,6 @@ fn a_colour_that_is_a_list_is_one_line_naming_the_file() {
     }
 }
 
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("meshtracer-colours-{tag}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
-
 /// The quad's positions, u16 indices, RGBA ubyte colours and RGB float colours, in one buffer.
 fn gltf_bin() -> Vec<u8> {
     let mut bin: Vec<u8> = QUAD.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
@@ -194,9 +180,9 @@ fn gltf_json(rgba_accessor: &str) -> String {
 
 #[test]
 fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
-    let dir = TempDir::new("gltf");
-    fs::write(dir.0.join("quad.bin"), gltf_bin()).unwrap();
-    let path = dir.0.join("c.gltf");
+    let dir = Scratch::new("gltf");
+    fs::write(dir.join("quad.bin"), gltf_bin()).unwrap();
+    let path = dir.join("c.gltf");
     fs::write(&path, gltf_json(r#", "normalized": true"#)).unwrap();
     let mesh = load_gltf(&path).unwrap().mesh;
     let floats = [[255, 128, 0, 255], [0, 64, 255, 255], [255, 0, 51, 255], [102, 153, 204, 255]];
@@ -223,11 +209,11 @@ fn corner_colours(mesh: &Mesh) -> Vec<[u8; 4]> {
 fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
     use meshtracer::scene::obj::{load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions};
     use meshtracer::scene::primitives::{uv_sphere, write_obj};
-    let dir = TempDir::new("obj");
+    let dir = Scratch::new("obj");
     let mut sphere = uv_sphere(16, 8);
     sphere.colors = (0..sphere.positions.len()).map(|i| [(i * 37 % 256) as u8, (i * 101 % 256) as u8, (255 - i % 256) as u8, 255]).collect();
     let expected = corner_colours(&sphere);
-    let path = dir.0.join("sphere.obj");
+    let path = dir.join("sphere.obj");
     // With file normals, and without them smoothed within a crease angle (vertices split).
     for (normals, options) in [(true, LoadOptions::default()), (false, LoadOptions { crease_angle: Some(20.0) })] {
         let mut mesh = sphere.clone();
