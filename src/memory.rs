@@ -6,9 +6,9 @@ use std::mem::MaybeUninit;
 /// Asks the system to back the not yet touched memory of `spare` with 2 MB pages where it can
 /// (`MADV_HUGEPAGE` on Linux with glibc; elsewhere, and for arrays under a few pages, nothing happens).
 ///
-/// Filling fresh memory costs a page fault per 4 KB page first: a 10M-triangle BVH build made
-/// about a million of them, and on the 16-core GPU host they took a fifth of its time
-/// (docs/BENCHMARKS.md, fourteenth session). With 2 MB pages it is a 512th as many.
+/// Filling fresh memory costs a page fault per 4 KB page first: the 10M-triangle build
+/// benchmark made about a million of them, 460K once the builder's big arrays asked for 2 MB
+/// pages (a 512th as many faults for those arrays; docs/BENCHMARKS.md, fourteenth session).
 pub fn advise_huge_pages<T>(spare: &mut [MaybeUninit<T>]) {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
