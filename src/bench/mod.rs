@@ -351,16 +351,71 @@ fn work_per_ray(tracer: &mut ComputeTracer, scene: &crate::scene::Scene, s: Rend
     let tris = image.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / n;
     let node_bytes = std::mem::size_of::<crate::bvh::BvhNode>() as f64;
     let tri_bytes = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as f64;
+    let tail = PathTail::of(&image, crate::gpu::GROUP.width);
     Ok(format!(
-        "{nodes:.1} nodes ({node_bytes} B) + {tris:.1} triangles ({tri_bytes} B) per pixel, {:.0} B per pixel ({} rays per pixel at most)",
+        "{nodes:.1} nodes ({node_bytes} B) + {tris:.1} triangles ({tri_bytes} B) per pixel, {:.0} B per pixel ({} rays per pixel at most); \
+         longest path {:.0} steps, a {}-pixel run's longest: median {:.0}, 99.9th percentile {:.0}",
         nodes * node_bytes + tris * tri_bytes,
-        s.bounces + 1
+        s.bounces + 1,
+        tail.longest,
+        crate::gpu::GROUP.width,
+        tail.run_median,
+        tail.run_p999,
     ))
+}
+
+/// The long paths of a cost image, in steps (nodes visited plus triangles tested, over all
+/// of a pixel's rays). A subgroup traces a run of a row's pixels and takes as long as its
+/// longest lane, so where the mean work per pixel says little about a frame (the mirror
+/// box: a few hundred runs hold a ray that grazes the model), these do.
+struct PathTail {
+    /// The costliest pixel's steps.
+    longest: f32,
+    /// The median over every run of its costliest pixel.
+    run_median: f32,
+    /// The 99.9th percentile (nearest rank) over every run of its costliest pixel.
+    run_p999: f32,
+}
+
+impl PathTail {
+    /// Over runs of `run` pixels along each row (the last one of a row may be shorter).
+    fn of(image: &crate::tracer::Image, run: u32) -> Self {
+        let steps = |p: &[f32; 4]| p[0] + p[1];
+        let mut runs: Vec<f32> = image
+            .pixels
+            .chunks(image.width.max(1) as usize)
+            .flat_map(|row| row.chunks(run.max(1) as usize).map(|r| r.iter().map(steps).fold(0.0, f32::max)))
+            .collect();
+        runs.sort_by(f32::total_cmp);
+        let rank = |q: f64| runs.get(((q * runs.len() as f64).ceil() as usize).clamp(1, runs.len().max(1)) - 1).copied().unwrap_or(0.0);
+        Self { longest: runs.last().copied().unwrap_or(0.0), run_median: rank(0.5), run_p999: rank(0.999) }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn path_tail_takes_each_runs_costliest_pixel() {
+        // Two rows of 64 pixels: four runs of 32. One grazing ray of 900 nodes and 100
+        // triangles; every other pixel 8 + 2.
+        let mut image = crate::tracer::Image { width: 64, height: 2, pixels: vec![[8.0, 2.0, 0.0, 1.0]; 128] };
+        image.pixels[70] = [900.0, 100.0, 0.0, 1.0];
+        image.pixels[3] = [20.0, 5.0, 0.0, 1.0];
+        let tail = PathTail::of(&image, 32);
+        assert_eq!(tail.longest, 1000.0);
+        // Run maxima 25, 10, 1000, 10: the median is the second smallest, 10.
+        assert_eq!(tail.run_median, 10.0);
+        assert_eq!(tail.run_p999, 1000.0);
+        // A frame narrower than a run: one run per row.
+        let narrow = crate::tracer::Image { width: 3, height: 1, pixels: vec![[1.0, 1.0, 0.0, 1.0], [4.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]] };
+        let tail = PathTail::of(&narrow, 32);
+        assert_eq!((tail.longest, tail.run_median, tail.run_p999), (4.0, 4.0, 4.0));
+        // An empty image has no paths.
+        let empty = crate::tracer::Image { width: 0, height: 0, pixels: Vec::new() };
+        assert_eq!(PathTail::of(&empty, 32).longest, 0.0);
+    }
 
     #[test]
     fn rows_below_the_share_of_the_highest_clock_are_clocked_down() {

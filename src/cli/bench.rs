@@ -115,7 +115,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub(crate) validation: bool,
     /// Print where each scene buffer's memory lives (memory flags, dedicated or not), the work
-    /// per ray, and what the driver compiled the trace shader to (registers, local memory).
+    /// per ray and its longest paths, and what the driver compiled the trace shader to
+    /// (registers, local memory).
     #[arg(long)]
     pub(crate) verbose: bool,
     /// The flags given on the command line (clap's ids); None: all of them count as given.
