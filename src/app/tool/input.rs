@@ -11,6 +11,11 @@
 //! A key that moves the focus is cut after the same way (the caller says which: Ctrl+O
 //! opening the Open dialog, `/` opening the dialog's path field), so the keys typed after
 //! it in one burst reach the dialog and its field, not a frame that had neither.
+//!
+//! A mouse button pressed and released within one frame (an ordinary click at a few fps)
+//! is cut between the two: egui takes a press and release in one frame for a click and
+//! never for a drag, so a slider (which senses drags only) ignored a click on its track
+//! unless the button was held over a frame boundary.
 
 use winit::dpi::PhysicalPosition;
 use winit::event::{ElementState, MouseScrollDelta};
@@ -105,18 +110,30 @@ impl Input {
     }
 
     /// The key presses of the frame whose egui input is `events`: those up to the first
-    /// pointer release, or event that `moves_focus`, that has a key or text event after it.
-    /// The events after it are taken out of `events` and returned, to go first into the
-    /// next frame's input; the presses among them wait for that frame.
+    /// pointer release, or event that `moves_focus`, that has a key or text event after it,
+    /// or up to (not including) the first release of a button pressed earlier in `events`.
+    /// The events after the cut are taken out of `events` and returned, to go first into
+    /// the next frame's input; the presses among them wait for that frame.
     pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>, moves_focus: impl Fn(&egui::Event) -> bool) -> (Vec<KeyPress>, Vec<egui::Event>) {
         let is_cut = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. }) || moves_focus(e);
         let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
-        let cut = events.iter().position(is_cut).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+        let after_click = events.iter().position(is_cut).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+        let pressed_before = |i: usize, released: egui::PointerButton| {
+            events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
+        };
+        let release_of_a_press = events.iter().enumerate().find_map(|(i, e)| match e {
+            egui::Event::PointerButton { pressed: false, button, .. } if pressed_before(i, *button) => Some(i),
+            _ => None,
+        });
+        let cut = match (after_click, release_of_a_press) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         let Some(cut) = cut else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
-        log::debug!("{} input events after a click wait for the next frame", held.len());
+        log::debug!("{} input events after a press or a click wait for the next frame", held.len());
         // A press whose events end at the cut is this frame's (the key that moved the focus).
         let later = self.keys.iter().position(|k| k.at > cut).unwrap_or(self.keys.len());
         let mut waiting = self.keys.split_off(later);
@@ -217,10 +234,17 @@ mod tests {
 
         let (keys, held) = input.frame_keys(&mut events, no_key);
         assert_eq!(codes(&keys), [KeyCode::Equal], "only the key before the click is this frame's");
-        assert_eq!(events.len(), 3, "this frame's egui input ends with the click");
+        assert_eq!(events.len(), 2, "this frame's egui input ends with the press");
+        assert_eq!(held, [button(false), egui::Event::Text("m".into()), egui::Event::Text("-".into())]);
+
+        // The release ends the next frame (the field it focuses gets the keys after it)...
+        let mut next = held;
+        let (keys, held) = input.frame_keys(&mut next, no_key);
+        assert!(keys.is_empty());
+        assert_eq!(next, [button(false)]);
         assert_eq!(held, [egui::Event::Text("m".into()), egui::Event::Text("-".into())]);
 
-        // The next frame's input starts with what was held; a key pressed meanwhile follows.
+        // ...and the one after starts with what was held; a key pressed meanwhile follows.
         let mut next = held;
         type_keys(&mut input, &mut next, &[(KeyCode::KeyS, "s")]);
         let (keys, held) = input.frame_keys(&mut next, no_key);
@@ -229,11 +253,33 @@ mod tests {
     }
 
     #[test]
+    fn a_press_and_its_release_in_one_frame_reach_egui_in_two() {
+        // A quick click on a slider's track at a few fps: egui sees the press alone (the
+        // slider is dragged to the pointer), the release and what follows a frame later.
+        let mut input = Input::default();
+        let moved = egui::Event::PointerMoved(egui::pos2(1.0, 2.0));
+        let mut events = vec![moved.clone(), button(true), moved.clone(), button(false), moved.clone()];
+        let (keys, held) = input.frame_keys(&mut events, no_key);
+        assert!(keys.is_empty());
+        assert_eq!(events, [moved.clone(), button(true), moved.clone()]);
+        assert_eq!(held, [button(false), moved.clone()]);
+        // A release whose press came in an earlier frame is no cut.
+        let mut next = held;
+        let (_, held) = input.frame_keys(&mut next, no_key);
+        assert!(held.is_empty() && next.len() == 2);
+        // Nor is the release of another button than the one pressed.
+        let other = egui::Event::PointerButton { pos: egui::pos2(10.0, 10.0), button: egui::PointerButton::Secondary, pressed: false, modifiers: Default::default() };
+        let mut events = vec![button(true), other];
+        let (_, held) = input.frame_keys(&mut events, no_key);
+        assert!(held.is_empty() && events.len() == 2);
+    }
+
+    #[test]
     fn a_frame_without_typing_after_a_click_takes_everything() {
         let mut input = Input::default();
-        let mut events = vec![button(true), button(false), egui::Event::PointerMoved(egui::pos2(1.0, 2.0))];
+        let mut events = vec![button(false), egui::Event::PointerMoved(egui::pos2(1.0, 2.0))];
         let (keys, held) = input.frame_keys(&mut events, no_key);
-        assert!(keys.is_empty() && held.is_empty() && events.len() == 3);
+        assert!(keys.is_empty() && held.is_empty() && events.len() == 2);
 
         // Keys and no click: all this frame's, in order.
         let mut events = Vec::new();
@@ -251,15 +297,18 @@ mod tests {
         events.extend([button(true), button(false)]);
         type_keys(&mut input, &mut events, &[(KeyCode::KeyB, "b")]);
 
-        let (keys, mut held) = input.frame_keys(&mut events, no_key);
-        assert!(keys.is_empty() && events.len() == 2);
-        let (keys, rest) = input.frame_keys(&mut held, no_key);
-        assert_eq!(codes(&keys), [KeyCode::KeyA]);
-        assert_eq!(held.len(), 3, "the first held frame ends with the second click");
-        let mut rest = rest;
-        let (keys, held) = input.frame_keys(&mut rest, no_key);
-        assert_eq!(codes(&keys), [KeyCode::KeyB]);
-        assert!(held.is_empty());
+        // Each press, each release and the keys after a release get frames of their own.
+        let mut frames = Vec::new();
+        let mut keys_by_frame = Vec::new();
+        let mut pending = events;
+        while !pending.is_empty() {
+            let (keys, held) = input.frame_keys(&mut pending, no_key);
+            frames.push(pending.len());
+            keys_by_frame.push(codes(&keys));
+            pending = held;
+        }
+        assert_eq!(frames, [1, 1, 2, 1, 1], "press | release | a, press | release | b");
+        assert_eq!(keys_by_frame, [vec![], vec![], vec![KeyCode::KeyA], vec![], vec![KeyCode::KeyB]]);
     }
 
     #[test]
