@@ -495,6 +495,29 @@ fn a_name_typed_straight_after_the_click_into_its_field_goes_into_the_field() {
 }
 
 #[test]
+fn a_quick_click_on_a_sliders_track_sets_it_at_a_few_fps() {
+    // An ordinary click on the Bounces slider's track (xdotool presses and releases 12 ms
+    // apart) while a frame takes longer: egui takes a press and release in one frame for a
+    // click, which a slider ignores, unless the tool hands it the release a frame later.
+    // Near the track's left end: no bounces. The slider sits at (108..206, 436) of the panel.
+    let x = Xvfb::start();
+    let dir = TempDir::new("slider-click");
+    let scene = ["--width", "512", "--height", "512", "--bounces", "2"];
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(scene).args(["--window", "900x700", "--frames", "1000000", "--no-hud"]);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let start = f12(&x, &window, dir.path(), &mut app);
+    click_at(&x.display, &window, 108, 436);
+    let after = f12(&x, &window, dir.path(), &mut app);
+    let no_bounces = headless_render(dir.path(), &["--width", "512", "--height", "512", "--bounces", "0"], "b0.png");
+    assert!(max_diff(&start, &no_bounces) > 30, "2 bounces and none look alike: the test shows nothing");
+    assert!(max_diff(&after, &no_bounces) <= 1, "the click left the bounces alone (the window differs from `render --bounces 0` by {})", max_diff(&after, &no_bounces));
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
 fn a_middle_drag_pans_and_r_brings_the_view_back() {
     let x = Xvfb::start();
     let dir = TempDir::new("pan");
