@@ -37,12 +37,24 @@ impl PerfPanel {
     }
 }
 
+/// A time in ms in at most five characters below 100 s, to three or four significant
+/// digits: the table keeps its width (the panel grew, and the image moved, the first time
+/// a frame took 100 ms or more, when two decimals made six).
+fn ms_text(ms: f64) -> String {
+    match ms {
+        v if v < 1.0 => format!("{v:.3}"),
+        v if v < 10.0 => format!("{v:.2}"),
+        v if v < 100.0 => format!("{v:.1}"),
+        v => format!("{v:.0}"),
+    }
+}
+
 fn summary_row(ui: &mut Ui, name: &str, color: Color32, series: &Series, seconds: f64) {
     ui.label(RichText::new(name).color(color));
     match series.current().zip(series.summary_over(seconds)) {
         Some((current, s)) => {
             for v in [current, s.min, s.mean, s.max] {
-                ui.label(RichText::new(format!("{v:.2}")).monospace());
+                ui.label(RichText::new(ms_text(v)).monospace());
             }
         }
         None => {
@@ -155,4 +167,22 @@ fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64) {
             plot.line(Line::new("frame ms", frame).color(FRAME_COLOR).width(1.5));
             plot.line(Line::new("GPU ms", gpu).color(GPU_COLOR).width(1.5));
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ms_text;
+
+    #[test]
+    fn times_keep_to_five_characters_below_a_hundred_seconds() {
+        assert_eq!(ms_text(0.4126), "0.413");
+        assert_eq!(ms_text(9.994), "9.99");
+        assert_eq!(ms_text(62.66), "62.7");
+        assert_eq!(ms_text(249.63), "250");
+        assert_eq!(ms_text(99_999.0), "99999");
+        // Every value a frame can take up to 100 s, including those that round up.
+        for v in (0..999_990).map(|i| i as f64 * 0.1).chain([0.9996, 9.996, 99.96]) {
+            assert!(ms_text(v).len() <= 5, "{v} ms shows as {}", ms_text(v));
+        }
+    }
 }
