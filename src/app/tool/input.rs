@@ -12,10 +12,14 @@
 //! opening the Open dialog, `/` opening the dialog's path field), so the keys typed after
 //! it in one burst reach the dialog and its field, not a frame that had neither.
 //!
-//! A mouse button pressed and released within one frame (an ordinary click at a few fps)
-//! is cut between the two: egui takes a press and release in one frame for a click and
-//! never for a drag, so a slider (which senses drags only) ignored a click on its track
-//! unless the button was held over a frame boundary.
+//! Pointer buttons cut frames too, so that egui sees each press and each release in a frame
+//! of its own, as it would at 60 fps:
+//! - a button pressed and released within one frame (an ordinary click at a few fps) is
+//!   cut between the two: egui takes a press and release in one frame for a click and never
+//!   for a drag, so a slider (which senses drags only) ignored a click on its track;
+//! - a frame ends with a release: egui gives a drag that ends in a frame the pointer's last
+//!   position in it, so a slider clicked just before another widget took that widget's
+//!   position as its value.
 
 use winit::dpi::PhysicalPosition;
 use winit::event::{ElementState, MouseScrollDelta};
@@ -109,15 +113,21 @@ impl Input {
         self.keys.push(KeyPress { code, shift, ctrl, repeat, at: egui_events });
     }
 
-    /// The key presses of the frame whose egui input is `events`: those up to the first
-    /// pointer release, or event that `moves_focus`, that has a key or text event after it,
-    /// or up to (not including) the first release of a button pressed earlier in `events`.
-    /// The events after the cut are taken out of `events` and returned, to go first into
-    /// the next frame's input; the presses among them wait for that frame.
+    /// The key presses of the frame whose egui input is `events`, and where that input ends:
+    /// before the first release of a button pressed earlier in `events`, after the first
+    /// pointer release that anything follows, or after the first event that `moves_focus`
+    /// that a key or text event follows, whichever comes first. The events after the cut
+    /// are taken out of `events` and returned, to go first into the next frame's input; the
+    /// presses among them wait for that frame.
     pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>, moves_focus: impl Fn(&egui::Event) -> bool) -> (Vec<KeyPress>, Vec<egui::Event>) {
-        let is_cut = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. }) || moves_focus(e);
+        let is_release = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
         let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
-        let after_click = events.iter().position(is_cut).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+        let after_release = events.iter().position(is_release).map(|i| i + 1).filter(|&cut| cut < events.len());
+        let after_focus_move = events.iter().position(moves_focus).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+        let after_click = match (after_release, after_focus_move) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         let pressed_before = |i: usize, released: egui::PointerButton| {
             events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
         };
@@ -133,7 +143,7 @@ impl Input {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
-        log::debug!("{} input events after a press or a click wait for the next frame", held.len());
+        log::debug!("{} input events after a press, a release or a focus move wait for the next frame", held.len());
         // A press whose events end at the cut is this frame's (the key that moved the focus).
         let later = self.keys.iter().position(|k| k.at > cut).unwrap_or(self.keys.len());
         let mut waiting = self.keys.split_off(later);
@@ -263,11 +273,17 @@ mod tests {
         assert!(keys.is_empty());
         assert_eq!(events, [moved.clone(), button(true), moved.clone()]);
         assert_eq!(held, [button(false), moved.clone()]);
-        // A release whose press came in an earlier frame is no cut.
+        // The release ends its frame: a slider dragged until it takes the pointer's last
+        // position in that frame, which must not be where the pointer went next.
         let mut next = held;
         let (_, held) = input.frame_keys(&mut next, no_key);
-        assert!(held.is_empty() && next.len() == 2);
-        // Nor is the release of another button than the one pressed.
+        assert_eq!(next, [button(false)]);
+        assert_eq!(held, [moved.clone()]);
+        // A release last in its frame is no cut, nor is the release of another button than
+        // the one pressed.
+        let mut events = vec![moved.clone(), button(false)];
+        let (_, held) = input.frame_keys(&mut events, no_key);
+        assert!(held.is_empty() && events.len() == 2);
         let other = egui::Event::PointerButton { pos: egui::pos2(10.0, 10.0), button: egui::PointerButton::Secondary, pressed: false, modifiers: Default::default() };
         let mut events = vec![button(true), other];
         let (_, held) = input.frame_keys(&mut events, no_key);
@@ -275,9 +291,32 @@ mod tests {
     }
 
     #[test]
-    fn a_frame_without_typing_after_a_click_takes_everything() {
+    fn a_click_then_a_click_elsewhere_reach_egui_in_four_frames() {
+        // A slider clicked, then a text field straight after, in one frame's input: the
+        // slider's last frame must not hold the move to the field.
         let mut input = Input::default();
-        let mut events = vec![button(false), egui::Event::PointerMoved(egui::pos2(1.0, 2.0))];
+        let at = |x: f32| egui::Event::PointerMoved(egui::pos2(x, 0.0));
+        let mut pending = vec![at(150.0), button(true), button(false), at(180.0), button(true), button(false)];
+        let mut frames = Vec::new();
+        while !pending.is_empty() {
+            let (_, held) = input.frame_keys(&mut pending, no_key);
+            frames.push(std::mem::replace(&mut pending, held));
+        }
+        assert_eq!(frames, [vec![at(150.0), button(true)], vec![button(false)], vec![at(180.0), button(true)], vec![button(false)]]);
+    }
+
+    #[test]
+    fn a_press_and_the_drag_after_it_stay_in_one_frame() {
+        let mut input = Input::default();
+        let mut events = vec![button(true), egui::Event::PointerMoved(egui::pos2(1.0, 2.0)), egui::Event::PointerMoved(egui::pos2(3.0, 2.0))];
+        let (_, held) = input.frame_keys(&mut events, no_key);
+        assert!(held.is_empty() && events.len() == 3);
+    }
+
+    #[test]
+    fn a_frame_without_a_release_before_its_end_takes_everything() {
+        let mut input = Input::default();
+        let mut events = vec![egui::Event::PointerMoved(egui::pos2(1.0, 2.0)), button(false)];
         let (keys, held) = input.frame_keys(&mut events, no_key);
         assert!(keys.is_empty() && held.is_empty() && events.len() == 2);
 
