@@ -337,6 +337,10 @@ impl Params {
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
             KeyCode::KeyQ if ctrl => return KeyAction::Quit,
             KeyCode::KeyO if ctrl => return KeyAction::OpenModel,
+            // Other Ctrl chords are the system's (Ctrl+A select all, Ctrl+C copy, Ctrl+V
+            // paste, Ctrl+S save), not the plain keys' actions: Ctrl+A missing a text field
+            // switched the tracer to brute force.
+            _ if ctrl => return KeyAction::None,
             KeyCode::KeyB => return KeyAction::Benchmark,
             KeyCode::Escape => return KeyAction::CancelLoad,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
@@ -452,6 +456,21 @@ mod tests {
         }
         assert_eq!(p.scene.models, 1);
     }
+    #[test]
+    fn ctrl_chords_other_than_quit_and_open_leave_everything_alone() {
+        let mut p = params(|_| {});
+        let mut prev = p.resolution;
+        let before = format!("{:?}", (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible));
+        for key in [KeyCode::KeyA, KeyCode::KeyC, KeyCode::KeyV, KeyCode::KeyS, KeyCode::KeyM, KeyCode::KeyR, KeyCode::KeyB, KeyCode::KeyH, KeyCode::Equal] {
+            assert_eq!(p.apply_key(key, false, true, &mut prev), KeyAction::None, "Ctrl+{key:?}");
+        }
+        assert_eq!(format!("{:?}", (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)), before);
+        assert_eq!(p.apply_key(KeyCode::KeyO, false, true, &mut prev), KeyAction::OpenModel);
+        // Without Ctrl, A is the acceleration's key.
+        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
+        assert_ne!(format!("{:?}", &p.scene), format!("{:?}", params(|_| {}).scene));
+    }
+
     #[test]
     fn escape_asks_to_stop_a_load() {
         let mut p = params(|_| {});
