@@ -518,6 +518,41 @@ fn a_quick_click_on_a_sliders_track_sets_it_at_a_few_fps() {
 }
 
 #[test]
+fn a_slider_keeps_its_click_when_the_pointer_moves_on_at_once() {
+    // One burst: a click near the right end of the Bounces track, then the pointer straight
+    // on to the left end of the Blend track below, with no click there. egui gives a drag
+    // the pointer's last position in the frame that ends it; the tool ends that frame with
+    // the release (`Input::frame_keys`), so the move cannot set the bounces to where the
+    // pointer went (none). The same burst passed before that cut too (the move came a frame
+    // later); it stands for what a user does, the unit tests for the cut.
+    let x = Xvfb::start();
+    let dir = TempDir::new("slider-move-on");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(["--width", "512", "--height", "512", "--bounces", "2", "--window", "900x700", "--frames", "1000000", "--no-hud"]);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    f12(&x, &window, dir.path(), &mut app);
+    let out = xdotool(&x.display, &["mousemove", "--window", &window, "200", "436", "click", "1", "mousemove", "--window", &window, "108", "457"]);
+    assert!(out.status.success());
+    std::thread::sleep(Duration::from_millis(1500));
+    press(&x.display, &window, &["F12"]);
+    let shot = wait_until(Duration::from_secs(60), "the F12 screenshot", || {
+        std::thread::sleep(Duration::from_millis(300));
+        pngs(dir.path(), "meshtracer_").into_iter().find(|p| !p.to_string_lossy().ends_with("_window.png"))
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    let text = meshtracer::files::image_files::png_settings(&std::fs::read(&shot).unwrap()).unwrap().expect("the screenshot carries its preset");
+    let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
+    let (bounces, blend) = (spec.settings.bounces, spec.settings.blend);
+    assert!(bounces >= 6, "the Bounces slider followed the pointer away: {bounces} bounces");
+    assert_eq!(blend, 0.5, "the Blend slider moved without a click");
+    let reference = headless_render(dir.path(), &["--width", "512", "--height", "512", "--bounces", &bounces.to_string()], "ref.png");
+    assert!(max_diff(&load(&shot), &reference) <= 1, "the window differs from `render --bounces {bounces}`");
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
 fn a_middle_drag_pans_and_r_brings_the_view_back() {
     let x = Xvfb::start();
     let dir = TempDir::new("pan");
