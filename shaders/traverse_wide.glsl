@@ -94,8 +94,21 @@ void traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, inout Hit hit,
                 leaf_bits |= (meta >> 5u) << (meta & 31u);
             }
         }
-        // This node's leaves now, in slot order.
+        // This node's leaves now, in slot order; the first two triangles are loaded before
+        // either is tested, so that their fetches overlap (as test_leaves does).
         uint first = tri_base + w1.y;
+        if (leaf_bits != 0u) {
+            uint k0 = first + uint(findLSB(leaf_bits));
+            leaf_bits &= leaf_bits - 1u;
+            bool two = leaf_bits != 0u;
+            uint k1 = two ? first + uint(findLSB(leaf_bits)) : k0;
+            leaf_bits &= leaf_bits - 1u;
+            Triangle t0 = load_triangle(k0);
+            Triangle t1 = load_triangle(k1);
+            intersect_loaded(o, d, t0, k0, hit);
+            if (two) intersect_loaded(o, d, t1, k1, hit);
+            cost.y += two ? 2u : 1u;
+        }
         while (leaf_bits != 0u) {
             uint offset = uint(findLSB(leaf_bits));
             leaf_bits &= leaf_bits - 1u;
