@@ -2,7 +2,7 @@
 // 2017): eight quantized child boxes per 80-byte node, children visited in the ray's
 // octant order, a stack of node groups. Mirrors src/bvh/wide/traverse.rs step for step,
 // except that the boxes are tested as the paper does, in the node's grid with the grid
-// folded into the ray and four slots at a time (22-28% faster on the H100 than decoding
+// folded into the ray and four slots at a time (13-28% faster on the H100 than decoding
 // each box; docs/BENCHMARKS.md, "Fifteenth session"), where the CPU tests the decoded
 // boxes: the two may round a ray that touches a box's face differently.
 
