@@ -82,17 +82,18 @@ void traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, inout Hit hit,
                   | (slots_hit(near_x.y, near_y.y, near_z.y, far_x.y, far_y.y, far_z.y, a, b, hit.t) << 4u);
         hits &= slots_used(w1.z) | (slots_used(w1.w) << 4u);
 
-        uint inner_hits = 0u;
+        // Inner children hit, each at bit slot ^ octant: the XOR moves bits by 1, 2 and 4.
+        uint inner_hits = hits & node_imask;
+        if ((octant & 1u) != 0u) inner_hits = ((inner_hits & 0x55u) << 1u) | ((inner_hits & 0xaau) >> 1u);
+        if ((octant & 2u) != 0u) inner_hits = ((inner_hits & 0x33u) << 2u) | ((inner_hits & 0xccu) >> 2u);
+        if ((octant & 4u) != 0u) inner_hits = ((inner_hits & 0x0fu) << 4u) | ((inner_hits & 0xf0u) >> 4u);
+        uint leaf_hits = hits & ~node_imask;
         uint leaf_bits = 0u;
-        while (hits != 0u) {
-            uint s = uint(findLSB(hits));
-            hits &= hits - 1u;
+        while (leaf_hits != 0u) {
+            uint s = uint(findLSB(leaf_hits));
+            leaf_hits &= leaf_hits - 1u;
             uint meta = ((s < 4u ? w1.z : w1.w) >> ((s & 3u) * 8u)) & 0xffu;
-            if ((node_imask & (1u << s)) != 0u) {
-                inner_hits |= 1u << (s ^ octant);
-            } else {
-                leaf_bits |= (meta >> 5u) << (meta & 31u);
-            }
+            leaf_bits |= (meta >> 5u) << (meta & 31u);
         }
         // This node's leaves now, in slot order; the first two triangles are loaded before
         // either is tested, so that their fetches overlap (as test_leaves does).
