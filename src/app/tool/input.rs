@@ -124,10 +124,6 @@ impl Input {
         let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
         let after_release = events.iter().position(is_release).map(|i| i + 1).filter(|&cut| cut < events.len());
         let after_focus_move = events.iter().position(moves_focus).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
-        let after_click = match (after_release, after_focus_move) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
         let pressed_before = |i: usize, released: egui::PointerButton| {
             events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
         };
@@ -135,11 +131,7 @@ impl Input {
             egui::Event::PointerButton { pressed: false, button, .. } if pressed_before(i, *button) => Some(i),
             _ => None,
         });
-        let cut = match (after_click, release_of_a_press) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
-        let Some(cut) = cut else {
+        let Some(cut) = [after_release, after_focus_move, release_of_a_press].into_iter().flatten().min() else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
