@@ -399,6 +399,19 @@ fn click_at(display: &str, window: &str, x: u32, y: u32) {
     std::thread::sleep(Duration::from_millis(400));
 }
 
+/// The 512² scene with 2 bounces in the 900x700 window whose panel positions the panel
+/// tests name; its first four flags are the image size for `render`.
+const PANEL_SCENE: [&str; 11] = ["--width", "512", "--height", "512", "--bounces", "2", "--window", "900x700", "--frames", "1000000", "--no-hud"];
+
+/// [`PANEL_SCENE`] open in `x`'s display, its window id.
+fn open_panel_window(x: &Xvfb, dir: &std::path::Path) -> (Running, String) {
+    let mut cmd = meshtracer(&x.display, dir);
+    cmd.args(PANEL_SCENE);
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    (app, window)
+}
+
 /// Scroll the panel to its end: then the last sections sit at fixed heights above the
 /// window's bottom, whatever status lines the sections above show.
 fn scroll_panel_to_end(display: &str, window: &str) {
@@ -473,10 +486,7 @@ fn a_name_typed_straight_after_the_click_into_its_field_goes_into_the_field() {
     // preset test above (900x700, the panel scrolled to its end).
     let x = Xvfb::start();
     let dir = TempDir::new("click-type");
-    let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(["--width", "512", "--height", "512", "--bounces", "2", "--window", "900x700", "--frames", "1000000", "--no-hud"]);
-    let mut app = spawn(cmd);
-    let window = wait_for_window(&x.display, &mut app);
+    let (mut app, window) = open_panel_window(&x, dir.path());
     let start = f12(&x, &window, dir.path(), &mut app);
     open_presets(&x.display, &window);
     click_at(&x.display, &window, 600, 300);
@@ -502,15 +512,11 @@ fn a_quick_click_on_a_sliders_track_sets_it_at_a_few_fps() {
     // Near the track's left end: no bounces. The slider sits at (108..206, 436) of the panel.
     let x = Xvfb::start();
     let dir = TempDir::new("slider-click");
-    let scene = ["--width", "512", "--height", "512", "--bounces", "2"];
-    let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(scene).args(["--window", "900x700", "--frames", "1000000", "--no-hud"]);
-    let mut app = spawn(cmd);
-    let window = wait_for_window(&x.display, &mut app);
+    let (mut app, window) = open_panel_window(&x, dir.path());
     let start = f12(&x, &window, dir.path(), &mut app);
     click_at(&x.display, &window, 108, 436);
     let after = f12(&x, &window, dir.path(), &mut app);
-    let no_bounces = headless_render(dir.path(), &["--width", "512", "--height", "512", "--bounces", "0"], "b0.png");
+    let no_bounces = headless_render(dir.path(), &[&PANEL_SCENE[..4], &["--bounces", "0"]].concat(), "b0.png");
     assert!(max_diff(&start, &no_bounces) > 30, "2 bounces and none look alike: the test shows nothing");
     assert!(max_diff(&after, &no_bounces) <= 1, "the click left the bounces alone (the window differs from `render --bounces 0` by {})", max_diff(&after, &no_bounces));
     press(&x.display, &window, &["ctrl+q"]);
@@ -527,26 +533,18 @@ fn a_slider_keeps_its_click_when_the_pointer_moves_on_at_once() {
     // later); it stands for what a user does, the unit tests for the cut.
     let x = Xvfb::start();
     let dir = TempDir::new("slider-move-on");
-    let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(["--width", "512", "--height", "512", "--bounces", "2", "--window", "900x700", "--frames", "1000000", "--no-hud"]);
-    let mut app = spawn(cmd);
-    let window = wait_for_window(&x.display, &mut app);
+    let (mut app, window) = open_panel_window(&x, dir.path());
     f12(&x, &window, dir.path(), &mut app);
     let out = xdotool(&x.display, &["mousemove", "--window", &window, "200", "436", "click", "1", "mousemove", "--window", &window, "108", "457"]);
     assert!(out.status.success());
     std::thread::sleep(Duration::from_millis(1500));
-    press(&x.display, &window, &["F12"]);
-    let shot = wait_until(Duration::from_secs(60), "the F12 screenshot", || {
-        std::thread::sleep(Duration::from_millis(300));
-        pngs(dir.path(), "meshtracer_").into_iter().find(|p| !p.to_string_lossy().ends_with("_window.png"))
-    });
-    std::thread::sleep(Duration::from_millis(300));
+    let shot = f12_file(&x, &window, dir.path(), &mut app);
     let text = meshtracer::files::image_files::png_settings(&std::fs::read(&shot).unwrap()).unwrap().expect("the screenshot carries its preset");
     let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
     let (bounces, blend) = (spec.settings.bounces, spec.settings.blend);
     assert!(bounces >= 6, "the Bounces slider followed the pointer away: {bounces} bounces");
     assert_eq!(blend, 0.5, "the Blend slider moved without a click");
-    let reference = headless_render(dir.path(), &["--width", "512", "--height", "512", "--bounces", &bounces.to_string()], "ref.png");
+    let reference = headless_render(dir.path(), &[&PANEL_SCENE[..4], &["--bounces", &bounces.to_string()]].concat(), "ref.png");
     assert!(max_diff(&load(&shot), &reference) <= 1, "the window differs from `render --bounces {bounces}`");
     press(&x.display, &window, &["ctrl+q"]);
     assert_clean_exit(&app.wait(Duration::from_secs(120)));

@@ -275,15 +275,21 @@ pub fn assert_clean_exit(out: &Output) {
 /// The newest F12 screenshot after pressing F12 (the light is still in scripted runs, so
 /// two shots of an unchanged view are equal).
 pub fn f12(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> image::RgbaImage {
+    let shot = f12_file(x, window, dir, app);
+    let img = load(&shot);
+    std::fs::remove_file(&shot).unwrap();
+    img
+}
+
+/// The file of the newest F12 screenshot after pressing F12 (it carries its preset), left
+/// in `dir`.
+pub fn f12_file(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> PathBuf {
     let before = pngs(dir, "meshtracer_").len();
-    let shot = wait_until(Duration::from_secs(90), "an F12 screenshot", || {
+    wait_until(Duration::from_secs(90), "an F12 screenshot", || {
         app.assert_alive();
         press(&x.display, window, &["F12"]);
         std::thread::sleep(Duration::from_millis(700));
         let all: Vec<_> = pngs(dir, "meshtracer_").into_iter().filter(|p| !p.to_string_lossy().ends_with("_window.png")).collect();
         (all.len() > before).then(|| all.last().cloned()).flatten()
-    });
-    let img = load(&shot);
-    std::fs::remove_file(&shot).unwrap();
-    img
+    })
 }
