@@ -14,7 +14,9 @@
 //! Environment knobs: `BENCH_RUNS` (builds per measurement), `BENCH_BINS` and `BENCH_LEAF`
 //! (our options), `BENCH_ONLY_OURS` (skip obvhs), `BENCH_QUICK` (timings only),
 //! `BENCH_KNOT_ONLY` (counts run the knot alone), `BENCH_PHASES` (also print where our
-//! build's time went, phase by phase, from its fastest run).
+//! build's time went, phase by phase, from its fastest run), `BENCH_WIDE` (also collapse our
+//! tree into the wide one and count its traversal over the same rays: collapse time, depth,
+//! nodes, per-ray work, the longest path and the stack entries it can need).
 
 use std::time::{Duration, Instant};
 
@@ -73,6 +75,9 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
 
     let ((ours, phases), t) = best_of(runs, || Bvh::build_timed(tris, &options));
     report(&name, "ours (binned SAH)", t, &ours, tris, &rays);
+    if std::env::var_os("BENCH_WIDE").is_some() {
+        wide_report(&name, &ours, tris, &rays);
+    }
     if std::env::var_os("BENCH_PHASES").is_some() {
         let list: Vec<String> = phases.iter().map(|(p, d)| format!("{p} {:.1}", d.as_secs_f64() * 1e3)).collect();
         println!("  phases (ms): {}", list.join(", "));
@@ -162,6 +167,36 @@ fn report(mesh: &str, builder: &str, t: Timing, bvh: &Bvh, tris: &[[Vec3; 3]], r
         bvh.sah_cost(&BuildOptions::default()),
         bvh.depth(),
         bvh.leaf_count(),
+    );
+}
+
+/// The wide tree collapsed from `bvh`: collapse time, depth, nodes, the mean nodes and
+/// triangles per ray of its traversal, the longest path (nodes + triangles) and the stack need.
+fn wide_report(mesh: &str, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
+    let mut bvh = bvh.clone();
+    let start = Instant::now();
+    let wide = meshtracer::bvh::wide::collapse(&mut bvh);
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    let ordered = ordered_edges(&bvh, tris);
+    let (nodes, triangles, longest) = rays
+        .par_iter()
+        .map(|ray| {
+            let mut s = TraversalStats::default();
+            meshtracer::bvh::wide::closest_hit(&wide.nodes, &ordered, ray, 0.0, f32::INFINITY, &mut s);
+            (s.nodes as u64, s.triangles as u64, (s.nodes + s.triangles) as u64)
+        })
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2.max(b.2)));
+    let r = rays.len().max(1) as f64;
+    println!(
+        "{mesh:<28} {:<26} {ms:>10.1} {:>8} {:>9} {:>6} {:>9} {:>8.1} {:>8.1}  longest {longest}, stack need {}",
+        "wide (collapsed)",
+        "",
+        "",
+        wide.depth(),
+        wide.nodes.len(),
+        nodes as f64 / r,
+        triangles as f64 / r,
+        wide.stack_need()
     );
 }
 

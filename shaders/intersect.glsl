@@ -133,7 +133,10 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
 #ifndef CORE_ONLY
         if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u) {
             // The wide layout (`--bvh wide`); an empty mesh has no wide nodes.
-            if (inst.offsets.z > 0u) traverse_wide(lo, ld, floatBitsToUint(inst.bounds_min.w), inst.offsets.y, hit, cost);
+            // A mesh without a wide tree (EMPTY) traces its binary one.
+            uint wide_words = floatBitsToUint(inst.bounds_min.w);
+            if (inst.offsets.z > 0u && wide_words != EMPTY) traverse_wide(lo, ld, wide_words, inst.offsets.y, hit, cost);
+            else if (inst.offsets.z > 0u) traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
         } else
 #endif
         if (use_bvh) {

@@ -23,6 +23,9 @@ contract! {
     EMPTY = u32::MAX;
     /// Entries in the BVH traversal stack (CPU and shader alike).
     STACK_SIZE = 64;
+    /// Entries in the wide BVH traversal's stack: one per pending child, so a visit pushes
+    /// up to seven (`WideBvh::stack_need` of a traced tree stays within it).
+    WIDE_STACK_SIZE = 128;
 
     // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
 

@@ -101,7 +101,8 @@ fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, options: &BuildOption
     let wide = wide::collapse(&mut bvh);
     bvh.validate_with(tris, options).unwrap_or_else(|e| panic!("{name}: reordered binary tree: {e}"));
     check_boxes(&wide, &bvh, tris);
-    assert!(wide.depth() <= meshtracer::bvh::STACK_SIZE, "{name}: wide depth {}", wide.depth());
+    assert!(wide.stack_need() <= wide::STACK_SIZE, "{name}: the traversal may need {} stack entries", wide.stack_need());
+    assert!(wide.stack_need() >= wide.depth(), "{name}: a path's every node is pending at its end");
     let targets = hittable(tris);
     let ordered = ordered_edges(&bvh, &targets);
     let (mut binary_stats, mut wide_stats) = (TraversalStats::default(), TraversalStats::default());
@@ -149,6 +150,7 @@ fn empty_and_single_triangle() {
     let mut bvh = Bvh::build(&[], &tracing());
     let wide = wide::collapse(&mut bvh);
     assert!(wide.nodes.is_empty());
+    assert_eq!((wide.depth(), wide.stack_need()), (0, 0));
     let ray = Ray::new(Vec3::ZERO, Vec3::Z);
     assert!(wide::closest_hit(&wide.nodes, &[], &ray, 0.0, f32::INFINITY, &mut TraversalStats::default()).is_none());
     let one = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
@@ -159,6 +161,7 @@ fn empty_and_single_triangle() {
     let hit = wide::closest_hit(&wide.nodes, &ordered_edges(&bvh, &one), &Ray::new(Vec3::new(0.2, 0.2, 3.0), -Vec3::Z), 0.0, f32::INFINITY, &mut stats);
     assert_eq!(hit.map(|(k, h)| (k, h.t)), Some((0, 3.0)));
     assert_eq!(stats, TraversalStats { nodes: 1, triangles: 1 });
+    assert_eq!((wide.depth(), wide.stack_need()), (1, 1));
 }
 
 #[test]
@@ -249,6 +252,34 @@ fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
     let nodes = |img: &meshtracer::tracer::Image| img.pixels.iter().map(|p| p[0] as f64).sum::<f64>();
     assert!(nodes(&gpu) < nodes(&binary), "wide {} vs binary {} nodes", nodes(&gpu), nodes(&binary));
     common::assert_validation_clean(&common::ctx());
+}
+
+#[test]
+fn a_mesh_without_a_wide_tree_traces_its_binary_one_in_wide_frames() {
+    // A mesh whose wide tree could overflow the traversal's stack keeps the binary layout
+    // alone, beside meshes traced wide (here the mirror box): same image, the binary tree's
+    // node counts for the knot, GPU as CPU.
+    use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::{cpu, FrameParams, PackedScene};
+    let scene = paper(PaperModel::TorusKnot, 1);
+    let mut packed = PackedScene::for_layout(&scene, BvhLayout::Wide);
+    let cost = FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 1) });
+    let all_wide = cpu::render(&packed, &cost);
+    packed.drop_wide_tree(0, &scene.instances);
+    assert!(packed.has_wide(), "the box keeps its wide tree");
+    let ctx = common::ctx();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    let (gpu, _) = tracer.render(&cost).unwrap();
+    let cpu_cost = cpu::render(&packed, &cost);
+    let differ = gpu.pixels.iter().zip(&cpu_cost.pixels).filter(|(g, c)| g[..2] != c[..2]).count();
+    assert!(differ as f32 <= 0.002 * gpu.pixels.len() as f32, "cost differs on {differ} of {} pixels", gpu.pixels.len());
+    let nodes = |img: &meshtracer::tracer::Image| img.pixels.iter().map(|p| p[0] as f64).sum::<f64>();
+    assert!(nodes(&cpu_cost) > 1.5 * nodes(&all_wide), "the knot's binary tree: {} vs wide {} nodes", nodes(&cpu_cost), nodes(&all_wide));
+    let colour = FrameParams::new(&scene, wide_settings(32, 1));
+    let (gpu_colour, _) = tracer.render(&colour).unwrap();
+    assert_close(&gpu_colour, &cpu::render(&packed, &colour), "the knot's binary tree in a wide frame, GPU vs CPU");
+    drop(tracer);
+    common::assert_validation_clean(&ctx);
 }
 
 #[test]

@@ -103,8 +103,9 @@ impl<'a> CpuScene<'a> {
                     // The instance's nodes start at its node base, their indices relative to it
                     // (and to the triangle base), as the shader's traverse_bvh reads them.
                     let found = match layout {
-                        // Without the wide layout packed, the binary tree (as on the GPU).
-                        BvhLayout::Wide if !self.packed.has_wide() => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
+                        // Without the wide layout packed, or without a wide tree for this
+                        // mesh, the binary tree (as on the GPU).
+                        BvhLayout::Wide if !self.packed.has_wide() || self.packed.wide_nodes_of(inst).is_empty() => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
                         BvhLayout::Binary => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
                         BvhLayout::Wide => bvh::wide::closest_hit(self.packed.wide_nodes_of(inst), tris, &local, 0.0, t_max, stats),
                     };

@@ -17,6 +17,7 @@ use super::prepare::PreparedScene;
 use super::textures::{EnvironmentMap, TextureAtlas};
 use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
+use crate::contract::EMPTY;
 use crate::geometry::Aabb;
 use crate::progress::{Cancelled, Phase, Progress};
 use crate::render_settings::BvhLayout;
@@ -173,7 +174,8 @@ pub struct GpuInstance {
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
     /// World-space bounds: the top level culls instances with them. `bounds_min[3]` holds
-    /// (as u32 bits) the mesh's first wide node, in 16-byte words of the node buffer.
+    /// (as u32 bits) the mesh's first wide node, in 16-byte words of the node buffer, or
+    /// `EMPTY` for a mesh without a wide tree.
     pub(crate) bounds_min: [f32; 4],
     pub(crate) bounds_max: [f32; 4],
 }
@@ -192,6 +194,9 @@ pub struct PackedMesh {
     pub node_count: u32,
     /// The mesh's first node in `PackedScene::wide_nodes`.
     pub wide_base: u32,
+    /// Whether the mesh has a wide tree (packed with the wide layout, and its stack need
+    /// within the shader's): without, its instances trace the binary tree in either layout.
+    pub(crate) has_wide: bool,
 }
 
 /// The whole scene as flat arrays.
@@ -259,6 +264,15 @@ impl PackedScene {
         let prepared = PreparedScene::new(scene, layout == BvhLayout::Wide);
         progress.begin(Phase::Pack)?;
         Ok(Self::pack_with(scene, prepared, true))
+    }
+
+    /// Make mesh `m` trace its binary tree in wide frames too, as a mesh whose wide tree could
+    /// overflow the traversal's stack does (for tests of that fallback); `instances` as
+    /// [`PackedScene::set_instances`] takes them.
+    #[doc(hidden)]
+    pub fn drop_wide_tree(&mut self, m: usize, instances: &[Instance]) {
+        self.meshes[m].has_wide = false;
+        self.set_instances(instances);
     }
 
     /// True when the wide layout was packed: frames asking for it without trace the binary tree.
@@ -352,6 +366,7 @@ impl PackedScene {
         let node_count = bvh.nodes.len() as u32;
         append(&mut self.nodes, bvh.nodes);
         let wide_base = self.wide_nodes.len() as u32;
+        let has_wide = wide.is_some();
         if let Some(wide) = wide {
             append(&mut self.wide_nodes, wide.nodes);
         }
@@ -359,6 +374,7 @@ impl PackedScene {
             node_base,
             node_count,
             wide_base,
+            has_wide,
             triangle_base,
             triangle_count: mesh.triangle_count() as u32,
             prim_base,
@@ -378,7 +394,7 @@ impl PackedScene {
                 } else {
                     (b.min * inst.scale + inst.translation, b.max * inst.scale + inst.translation)
                 };
-                let wide_words = self.wide_word_base + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32;
+                let wide_words = if m.has_wide { self.wide_word_base + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32 } else { EMPTY };
                 GpuInstance {
                     bounds_min: lo.extend(f32::from_bits(wide_words)).to_array(),
                     bounds_max: hi.extend(0.0).to_array(),
@@ -445,6 +461,9 @@ impl PackedScene {
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
     pub(crate) fn wide_nodes_of(&self, inst: &GpuInstance) -> &[WideNode] {
+        if inst.bounds_min[3].to_bits() == EMPTY {
+            return &[];
+        }
         let words = inst.bounds_min[3].to_bits().saturating_sub(self.wide_word_base) as usize;
         self.wide_nodes.get(words / (std::mem::size_of::<WideNode>() / 16)..).unwrap_or(&[])
     }

@@ -43,7 +43,9 @@ impl PreparedScene {
                     .iter()
                     .map(|mesh| {
                         let mut bvh = Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
-                        let wide = wide.then(|| wide::collapse(&mut bvh));
+                        // A tree whose traversal could overflow the shader's stack (none of
+                        // the meshes measured comes near) keeps the binary layout alone.
+                        let wide = wide.then(|| wide::collapse(&mut bvh)).filter(|w| w.stack_need() <= wide::STACK_SIZE);
                         (bvh, wide)
                     })
                     .unzip();

@@ -77,4 +77,28 @@ impl WideBvh {
         }
         deepest
     }
+
+    /// The most stack entries the traversal can hold: over every root-to-node path, the
+    /// sum of each node's filled slots but one (a visit pushes every hit slot but the
+    /// nearest), plus one. At most [`STACK_SIZE`](super::STACK_SIZE) for a tree the tracers
+    /// traverse (a deeper one keeps the binary layout).
+    pub fn stack_need(&self) -> usize {
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        let mut most = 0;
+        let mut stack = vec![(0u32, 0usize)];
+        while let Some((index, above)) = stack.pop() {
+            let node = &self.nodes[index as usize];
+            let filled = node.meta.iter().filter(|&&m| m != 0).count();
+            let here = above + filled.saturating_sub(1);
+            most = most.max(here);
+            for s in 0..WIDTH {
+                if let WideSlot::Inner(child) = node.slot(s) {
+                    stack.push((child, here));
+                }
+            }
+        }
+        most + 1
+    }
 }
