@@ -193,6 +193,16 @@ fn huge_and_tiny_coordinates() {
 }
 
 #[test]
+fn a_mesh_collapsed_in_pieces_on_every_core_matches() {
+    // Above 16k triangles the collapse spreads subtrees over threads and splices them in:
+    // every triangle still lies in one slot's box, and the hits are the binary tree's.
+    let mesh = meshtracer::scene::primitives::large_torus_knot(60_000);
+    let tris: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+    let (binary, wide_counts) = check_mesh("60k knot", &tris, 400, &tracing());
+    assert!(wide_counts.nodes < binary.nodes, "{wide_counts:?} vs {binary:?}");
+}
+
+#[test]
 fn torus_knot_matches_and_is_smaller() {
     let mesh = PaperModel::TorusKnot.mesh();
     let tris: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();

@@ -1,12 +1,16 @@
 //! From the binary SAH tree to the wide one: each wide node takes the cheapest cut of its
 //! binary subtree into at most eight slots, as the paper's cost-based collapse plans it
 //! (`plan.rs`). Triangles are then laid out in the wide tree's leaf order and the binary
-//! tree is rewritten to read them there.
+//! tree is rewritten to read them there. The top of the tree is collapsed on one thread,
+//! the binary subtrees of at most 16k triangles below it on every core, each on its own,
+//! and spliced in.
 
 use glam::{DVec3, Vec3};
 
 use super::plan::{Plan, Planned};
 use super::{WideBvh, WideNode, INNER_META_BASE, MAX_LEAF_TRIANGLES, WIDTH};
+use rayon::prelude::*;
+
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
 
@@ -39,19 +43,59 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
     }
     let root = bvh.nodes[0].children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
     let plan = Plan::new(bvh);
-    let mut collapser = Collapser { bvh, plan, nodes: vec![WideNode::default()], order: Vec::new() };
-    collapser.build(0, Pending::Binary { index: 0, bounds: root });
-    let Collapser { nodes, order, .. } = collapser;
+    // The top of the tree here, the subtrees below it on every core, then spliced in.
+    let mut top = Collapser { bvh, plan: &plan, nodes: vec![WideNode::default()], order: Vec::new(), deferred: Some(Vec::new()) };
+    top.build(0, Pending::Binary { index: 0, bounds: root });
+    let deferred = top.deferred.take().unwrap_or_default();
+    let subtrees: Vec<(usize, Collapser)> = deferred
+        .into_par_iter()
+        .map(|(index, item)| {
+            let mut sub = Collapser { bvh, plan: &plan, nodes: vec![WideNode::default()], order: Vec::new(), deferred: None };
+            sub.build(0, item);
+            (index, sub)
+        })
+        .collect();
+    let Collapser { mut nodes, mut order, .. } = top;
+    for (index, sub) in subtrees {
+        splice(&mut nodes, &mut order, index, sub);
+    }
     reorder_binary(bvh, &order);
     WideBvh { nodes }
 }
 
+/// Binary subtrees with at most this many triangles are collapsed on their own (in
+/// parallel) and spliced in: small enough for the work to spread, big enough that the
+/// sequential top stays short.
+const PARALLEL_MAX_TRIANGLES: u32 = 16 * 1024;
+
+/// Put `sub` (a subtree collapsed on its own, its root at its node 0) in place of
+/// `nodes[index]`: its other nodes go after `nodes`, its triangles after `order`.
+fn splice(nodes: &mut Vec<WideNode>, order: &mut Vec<u32>, index: usize, sub: Collapser) {
+    let (node_offset, triangle_offset) = (nodes.len() as u32 - 1, order.len() as u32);
+    for (k, mut node) in sub.nodes.into_iter().enumerate() {
+        // Local node i > 0 becomes node_offset + i; the root keeps `index`.
+        if node.imask() != 0 {
+            node.child_base += node_offset;
+        }
+        node.triangle_base += triangle_offset;
+        if k == 0 {
+            nodes[index] = node;
+        } else {
+            nodes.push(node);
+        }
+    }
+    order.extend(sub.order);
+}
+
 struct Collapser<'a> {
     bvh: &'a Bvh,
-    plan: Plan,
+    plan: &'a Plan,
     nodes: Vec<WideNode>,
     /// Wide leaf order -> binary tree position of each triangle placed so far.
     order: Vec<u32>,
+    /// For the top of the tree: binary subtrees left to collapse on their own, with the
+    /// wide node each becomes. None: collapse everything here.
+    deferred: Option<Vec<(usize, Pending)>>,
 }
 
 impl Collapser<'_> {
@@ -91,7 +135,16 @@ impl Collapser<'_> {
         // Inner children sit side by side in slot order (the traversal counts `imask` bits).
         self.nodes.resize(self.nodes.len() + inner.len(), WideNode::default());
         for (k, child) in inner.into_iter().enumerate() {
-            self.build(child_base as usize + k, child);
+            let at = child_base as usize + k;
+            // Whole binary subtrees only: the pieces of a split leaf stay with their parent,
+            // so that the leaf's triangles stay contiguous.
+            if let (Some(deferred), Pending::Binary { index, .. }) = (self.deferred.as_mut(), child) {
+                if self.plan.triangles_under(index) <= PARALLEL_MAX_TRIANGLES {
+                    deferred.push((at, child));
+                    continue;
+                }
+            }
+            self.build(at, child);
         }
     }
 

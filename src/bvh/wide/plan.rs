@@ -4,6 +4,8 @@
 //! node, `i` = 1..=8. A slot is a wide node of its own, a binary leaf, or a whole subtree
 //! of at most three triangles made one leaf.
 
+use rayon::prelude::*;
+
 use super::{MAX_LEAF_TRIANGLES, WIDTH};
 use crate::bvh::{Bvh, BvhChild};
 use crate::geometry::Aabb;
@@ -23,6 +25,9 @@ pub(super) enum Planned {
     /// Every triangle under binary node `index` (at most three) as one leaf.
     Merged { index: u32, count: u32, bounds: Aabb },
 }
+
+/// One binary node's entries of each of [`Plan`]'s arrays.
+type Row = ([f64; WIDTH + 1], [u8; WIDTH + 1], [u8; WIDTH + 1], u32);
 
 /// Per binary node, for 1..=8 slots: the least cost and how it is reached.
 pub(super) struct Plan {
@@ -49,7 +54,7 @@ impl Plan {
     pub(super) fn new(bvh: &Bvh) -> Self {
         let n = bvh.nodes.len();
         let mut plan = Plan { cost: vec![[f64::INFINITY; WIDTH + 1]; n], split: vec![[0; WIDTH + 1]; n], how: vec![[0; WIDTH + 1]; n], triangles: vec![0; n] };
-        // Post order: every node after its inner children.
+        // Parents before their inner children (read backwards: children first).
         let mut order = Vec::with_capacity(n);
         let mut stack = vec![0u32];
         while let Some(index) = stack.pop() {
@@ -64,16 +69,31 @@ impl Plan {
                 area[c.index as usize] = half_area(&c.bounds);
             }
         }
+        // Bottom up, a level of equal height at a time, each level's rows on every core: a
+        // node's height is one more than its inner children's.
+        let mut height = vec![0u32; n];
         for &index in order.iter().rev() {
-            plan.solve(bvh, index as usize, area[index as usize]);
+            height[index as usize] = bvh.nodes[index as usize].children().iter().filter(|c| c.is_inner()).map(|c| height[c.index as usize] + 1).max().unwrap_or(0);
+        }
+        let mut levels: Vec<Vec<u32>> = vec![Vec::new(); height.iter().max().map_or(0, |&h| h as usize + 1)];
+        for &index in &order {
+            levels[height[index as usize] as usize].push(index);
+        }
+        for level in &levels {
+            let rows: Vec<Row> = level.par_iter().map(|&index| plan.row(bvh, index as usize, area[index as usize])).collect();
+            for (&index, row) in level.iter().zip(rows) {
+                let i = index as usize;
+                (plan.cost[i], plan.split[i], plan.how[i], plan.triangles[i]) = row;
+            }
         }
         plan
     }
 
-    /// Fill node `n`'s row from its children's.
-    fn solve(&mut self, bvh: &Bvh, n: usize, area: f64) {
+    /// Node `n`'s row from its children's: its least costs, splits and choices for 1..=8
+    /// slots, and the triangles under it.
+    fn row(&self, bvh: &Bvh, n: usize, area: f64) -> Row {
         let [left, right] = bvh.nodes[n].children();
-        self.triangles[n] = self.triangles_of(&left) + self.triangles_of(&right);
+        let triangles = self.triangles_of(&left) + self.triangles_of(&right);
         // Spread over the children: i slots, k of them to the left.
         // Each child's costs for 0..=8 slots, looked up 45 times below.
         let (l, r): ([f64; WIDTH + 1], [f64; WIDTH + 1]) = (std::array::from_fn(|k| self.child_cost(&left, k)), std::array::from_fn(|k| self.child_cost(&right, k)));
@@ -86,14 +106,20 @@ impl Plan {
                 }
             }
         }
-        let merged = if self.triangles[n] <= MAX_LEAF_TRIANGLES { area * self.triangles[n] as f64 * TRIANGLE_COST } else { f64::INFINITY };
+        let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f64 * TRIANGLE_COST } else { f64::INFINITY };
         let node = area * NODE_COST + spread[WIDTH].0;
-        let (cost, how, split) = (&mut self.cost[n], &mut self.how[n], &mut self.split[n]);
+        let (mut cost, mut how, mut split) = ([f64::INFINITY; WIDTH + 1], [0u8; WIDTH + 1], [0u8; WIDTH + 1]);
         (cost[1], how[1]) = if merged <= node { (merged, 0) } else { (node, 1) };
         for i in 2..=WIDTH {
             split[i] = spread[i].1;
             (cost[i], how[i]) = if spread[i].0 < cost[i - 1] { (spread[i].0, 1) } else { (cost[i - 1], 0) };
         }
+        (cost, split, how, triangles)
+    }
+
+    /// Triangles under binary node `index`.
+    pub(super) fn triangles_under(&self, index: u32) -> u32 {
+        self.triangles[index as usize]
     }
 
     fn triangles_of(&self, child: &BvhChild) -> u32 {
