@@ -135,7 +135,7 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
             // The wide layout (`--bvh wide`); an empty mesh has no wide nodes.
             // A mesh without a wide tree (EMPTY) traces its binary one.
             uint wide_words = floatBitsToUint(inst.bounds_min.w);
-            if (inst.offsets.z > 0u && wide_words != EMPTY) traverse_wide(lo, ld, wide_words, inst.offsets.y, hit, cost);
+            if (inst.offsets.z > 0u && wide_words != EMPTY) traverse_wide(lo, ld, wide_words, inst.offsets.y, false, hit, cost);
             else if (inst.offsets.z > 0u) traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
         } else
 #endif
@@ -167,8 +167,9 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
 }
 
 // Any-hit (occlusion) queries for the AO view: whether anything lies along the ray in
-// (0, t_max). The same traversal as traverse_bvh, but it returns at the first triangle hit
-// instead of looking on for a closer one: an AO ray only asks whether it is blocked.
+// (0, t_max). The same traversal as traverse_bvh (or traverse_wide with `first`), but it
+// returns at the first triangle hit instead of looking on for a closer one: an AO ray only
+// asks whether it is blocked.
 // Mirrors src/bvh/traverse.rs (any_hit) and src/tracer/cpu.rs (CpuScene::any_hit).
 
 // Whether one of leaf triangles first..first+n is hit closer than t_max.
@@ -234,6 +235,19 @@ bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
         float s = inst.translation_scale.w;
         vec3 lo = (o - inst.translation_scale.xyz) / s;
         vec3 ld = d / s;
+#ifndef CORE_ONLY
+        // The wide layout, as closest_hit takes it.
+        uint wide_words = floatBitsToUint(inst.bounds_min.w);
+        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && wide_words != EMPTY) {
+            Hit hit;
+            hit.t = t_max;
+            hit.tri = EMPTY;
+            hit.instance = EMPTY;
+            hit.u = 0.0;
+            hit.v = 0.0;
+            if (traverse_wide(lo, ld, wide_words, inst.offsets.y, true, hit, cost)) return true;
+        } else
+#endif
         if (use_bvh) {
             if (traverse_bvh_any(lo, ld, inst.offsets.x, inst.offsets.y, t_max, cost)) return true;
         } else {

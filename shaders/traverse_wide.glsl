@@ -39,7 +39,9 @@ uint slot_reference(uint s, uint meta, uint child_base, uint triangle_base, uint
     return 0x80000000u | (uint(bitCount(meta >> 5u)) - 1u) << 29u | (triangle_base + (meta & 31u));
 }
 
-void traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, inout Hit hit, inout uvec2 cost) {
+// The closest hit below hit.t, or with `first` (an AO ray's occlusion query) whether there
+// is any: then it returns true at the first triangle hit.
+bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, inout Hit hit, inout uvec2 cost) {
     vec3 inv_d = safe_inverse(d);
     // Pending children: (reference, entry distance bits), the farthest deepest.
     uvec2 stack[WIDE_STACK_SIZE];
@@ -99,10 +101,15 @@ void traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, inout Hit hit,
             uint n = ((entry.x >> 29u) & 3u) + 1u;
             Triangle t0 = load_triangle(k0);
             Triangle t1 = load_triangle(n > 1u ? k0 + 1u : k0);
-            intersect_loaded(o, d, t0, k0, hit);
-            if (n > 1u) intersect_loaded(o, d, t1, k0 + 1u, hit);
-            if (n > 2u) intersect_triangle(o, d, k0 + 2u, hit);
-            cost.y += n;
+            bool found = intersect_loaded(o, d, t0, k0, hit);
+            if (n > 1u) found = intersect_loaded(o, d, t1, k0 + 1u, hit) || found;
+            cost.y += min(n, 2u);
+            if (first && found) return true;
+            if (n > 2u) {
+                found = intersect_triangle(o, d, k0 + 2u, hit);
+                cost.y += 1u;
+                if (first && found) return true;
+            }
             live = false;
         }
         if (!live) {
@@ -111,4 +118,5 @@ void traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, inout Hit hit,
             entry = stack[sp];
         }
     }
+    return false;
 }

@@ -23,7 +23,7 @@ use common::*;
 use glam::Vec3;
 use meshtracer::gpu::khr_rt::VendorKernel;
 use meshtracer::gpu::{ComputeTracer, GpuContext};
-use meshtracer::render_settings::{Accel, Aov, RenderSettings};
+use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
@@ -129,6 +129,7 @@ fn gpu_ao_matches_the_cpu_reference() {
         (ao(48, 8, 0.5), "knot, 8 rays"),
         (RenderSettings { smooth: true, spp: 2, ..ao(40, 16, 1.0) }, "knot smooth, 2 spp, 16 rays"),
         (RenderSettings { accel: Accel::Brute, ..ao(32, 4, 0.25) }, "knot brute force"),
+        (RenderSettings { bvh: BvhLayout::Wide, ..ao(48, 8, 0.5) }, "knot, 8 rays, wide BVH"),
     ] {
         let (gpu, cpu) = render_both(&knot, settings);
         assert_close(&gpu, &cpu, 1e-4, what);
@@ -139,6 +140,10 @@ fn gpu_ao_matches_the_cpu_reference() {
     }
     let (gpu, cpu) = render_both(&paper(PaperModel::Geosphere, 3), ao(48, 8, 2.0));
     assert_close(&gpu, &cpu, 1e-4, "three geospheres in the mirror box");
+    // The wide tree's occlusion queries answer as the binary tree's.
+    let (binary, _) = render_both(&knot, ao(48, 8, 0.5));
+    let (wide, _) = render_both(&knot, RenderSettings { bvh: BvhLayout::Wide, ..ao(48, 8, 0.5) });
+    assert_close(&wide, &binary, 1e-4, "knot AO, wide against binary BVH");
 }
 
 #[test]

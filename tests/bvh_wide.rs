@@ -121,6 +121,12 @@ fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, options: &BuildOption
                 (g, w) => panic!("{name} ray {r}: wide {g:?} vs {what} {w:?}: {ray:?}"),
             }
         }
+        // The occlusion query: a hit just beyond the closest one, none just before it.
+        let any = |t_max: f32| wide::any_hit(&wide.nodes, &ordered, ray, 0.0, t_max, &mut TraversalStats::default());
+        match want {
+            Some((_, w)) => assert!(any(w.t * 1.01) && !any(w.t * 0.99), "{name} ray {r}: any-hit around t = {}", w.t),
+            None => assert!(!any(f32::INFINITY), "{name} ray {r}: any-hit without a hit"),
+        }
         if let (Some((k, g)), Some((j, b))) = (got, binary) {
             if k == j {
                 assert_eq!(g, b, "{name} ray {r}: same triangle, different hit");

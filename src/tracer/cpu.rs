@@ -120,8 +120,8 @@ impl<'a> CpuScene<'a> {
 
     /// Whether anything of the first `instance_count` instances lies along `ray` in
     /// (0, t_max): the AO view's occlusion query, the shader's `any_hit` (the vendor's
-    /// frames with our BVH, as for closest hits).
-    pub fn any_hit(&self, ray: &Ray, t_max: f32, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> bool {
+    /// frames with our BVH, as for closest hits), through `layout` where it is packed.
+    pub fn any_hit(&self, ray: &Ray, t_max: f32, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> bool {
         let inv_dir = safe_inverse(ray.dir);
         let brute = accel == Accel::Brute;
         for inst in self.packed.instances.iter().take(instance_count as usize) {
@@ -140,6 +140,8 @@ impl<'a> CpuScene<'a> {
                     stats.triangles += 1;
                     intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max).is_some()
                 })
+            } else if layout == BvhLayout::Wide && !self.packed.wide_nodes_of(inst).is_empty() {
+                bvh::wide::any_hit(self.packed.wide_nodes_of(inst), tris, &local, 0.0, t_max, stats)
             } else {
                 bvh::any_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats)
             };
@@ -162,7 +164,7 @@ impl<'a> CpuScene<'a> {
                 let u1 = random01(&mut seed);
                 let u2 = random01(&mut seed);
                 let ray = Ray::new(origin, ao_direction(ns, ng, u1, u2));
-                !self.any_hit(&ray, s.ao_radius, s.accel, params.instance_count, stats)
+                !self.any_hit(&ray, s.ao_radius, s.accel, s.bvh, params.instance_count, stats)
             })
             .count();
         open as f32 / s.ao_samples.max(1) as f32

@@ -30,7 +30,7 @@ mod traverse;
 
 pub use collapse::collapse;
 pub use stats::WideStats;
-pub use traverse::closest_hit;
+pub use traverse::{any_hit, closest_hit};
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

@@ -43,6 +43,18 @@ fn sort_key(t_enter: f32, s: usize) -> u32 {
 /// indexing `ordered`. Adds to `stats` one per node and one per triangle tested, as the
 /// shader adds to its cost.
 pub fn closest_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
+    walk(nodes, ordered, ray, t_min, t_max, false, stats)
+}
+
+/// Whether `ray` hits any triangle in (t_min, t_max): the AO view's occlusion query, the
+/// same walk as [`closest_hit`] ended by the first leaf that holds a hit (a leaf's first
+/// two triangles are both tested, as the shader loads them together).
+pub fn any_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+    walk(nodes, ordered, ray, t_min, t_max, true, stats).is_some()
+}
+
+/// The walk both queries share (the shader's `traverse_wide`; `first` as there).
+fn walk(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, first: bool, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
     if nodes.is_empty() {
         return None;
     }
@@ -56,13 +68,18 @@ pub fn closest_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: 
     loop {
         if entry.1 <= t_max {
             if entry.0 & LEAF_ENTRY != 0 {
-                let first = entry.0 & 0x1fff_ffff;
-                for k in first..=first + ((entry.0 >> 29) & 3) {
+                let start = entry.0 & 0x1fff_ffff;
+                let end = start + ((entry.0 >> 29) & 3);
+                for k in start..=end {
                     let [v0, e1, e2] = ordered[k as usize];
                     stats.triangles += 1;
                     if let Some(hit) = intersect_triangle(ray, v0, e1, e2, t_min, t_max) {
                         t_max = hit.t;
                         best = Some((k, hit));
+                    }
+                    // The first two are tested together (loaded together in the shader).
+                    if first && best.is_some() && (k > start || k == end) {
+                        return best;
                     }
                 }
             } else {
