@@ -75,11 +75,24 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
             uint hits_lo, hits_hi;
             uvec4 k_lo = slot_keys(near_x.x, near_y.x, near_z.x, far_x.x, far_y.x, far_z.x, a, b, hit.t, w1.z, uvec4(0u, 1u, 2u, 3u), hits_lo);
             uvec4 k_hi = slot_keys(near_x.y, near_y.y, near_z.y, far_x.y, far_y.y, far_z.y, a, b, hit.t, w1.w, uvec4(4u, 5u, 6u, 7u), hits_hi);
-            uint n = uint(bitCount(hits_lo | (hits_hi << 4u)));
+            uint hits = hits_lo | (hits_hi << 4u);
+            uint n = uint(bitCount(hits));
+            // An occlusion query takes any order: the slots in slot order, the last visited
+            // next, no sort (and no distances: its t_max never shrinks).
+            for (uint i = 0u; first && i < n; i++) {
+                uint s = uint(findLSB(hits));
+                hits &= hits - 1u;
+                uint meta = ((s < 4u ? w1.z : w1.w) >> ((s & 3u) * 8u)) & 0xffu;
+                entry = uvec2(slot_reference(s, meta, w1.x, w1.y, imask), 0u);
+                if (i + 1u < n) {
+                    stack[sp] = entry;
+                    sp += 1u;
+                }
+            }
             // Farthest first onto the stack; the last pick, the nearest, is visited next
             // (or, a leaf, tested below). A pick's slot is read off its key (keys are
             // unique), and its key cleared.
-            for (uint i = 0u; i < n; i++) {
+            for (uint i = 0u; !first && i < n; i++) {
                 uvec4 m4 = max(k_lo, k_hi);
                 uint m = max(max(m4.x, m4.y), max(m4.z, m4.w));
                 uint s = m & 7u;
