@@ -4,8 +4,6 @@
 //! node, `i` = 1..=8. A slot is a wide node of its own, a binary leaf, or a whole subtree
 //! of at most three triangles made one leaf.
 
-use rayon::prelude::*;
-
 use super::{MAX_LEAF_TRIANGLES, WIDTH};
 use crate::bvh::{Bvh, BvhChild};
 use crate::geometry::Aabb;
@@ -26,21 +24,30 @@ pub(super) enum Planned {
     Merged { index: u32, count: u32, bounds: Aabb },
 }
 
-/// One binary node's entries of each of [`Plan`]'s arrays.
-type Row = ([f64; WIDTH + 1], [u8; WIDTH + 1], [u8; WIDTH + 1], u32);
+/// What the plan knows of one binary node's subtree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Row {
+    /// `cost[i]`: the least cost of the subtree in at most `i` slots.
+    cost: [f64; WIDTH + 1],
+    /// `split[i]`: slots given to the left child when the subtree is spread over exactly its
+    /// children (`i` >= 2, and 8 for a wide node made from the node).
+    split: [u8; WIDTH + 1],
+    /// `how[1]`: 0 = one merged leaf, 1 = one wide node; `how[i >= 2]`: 0 = as with `i - 1`
+    /// slots, 1 = spread over the children (`split`).
+    how: [u8; WIDTH + 1],
+    /// Triangles under the node.
+    triangles: u32,
+}
+
+impl Default for Row {
+    fn default() -> Self {
+        Self { cost: [f64::INFINITY; WIDTH + 1], split: [0; WIDTH + 1], how: [0; WIDTH + 1], triangles: 0 }
+    }
+}
 
 /// Per binary node, for 1..=8 slots: the least cost and how it is reached.
 pub(super) struct Plan {
-    /// `cost[n][i]`: the least cost of node n's subtree in at most `i` slots.
-    cost: Vec<[f64; WIDTH + 1]>,
-    /// `split[n][i]`: slots given to the left child when node n's subtree is spread over
-    /// exactly its children (`i` >= 2, and 8 for a wide node made from n).
-    split: Vec<[u8; WIDTH + 1]>,
-    /// `how[n][1]`: 0 = one merged leaf, 1 = one wide node; `how[n][i >= 2]`: 0 = as with
-    /// `i - 1` slots, 1 = spread over the children (`split`).
-    how: Vec<[u8; WIDTH + 1]>,
-    /// Triangles under each binary node.
-    triangles: Vec<u32>,
+    rows: Vec<Row>,
 }
 
 /// Half the surface area, in f64 so that huge boxes do not overflow.
@@ -49,97 +56,28 @@ pub(super) fn half_area(b: &Aabb) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
-impl Plan {
-    /// The plan for `bvh` (children after parents in `bvh.nodes` is not assumed).
-    pub(super) fn new(bvh: &Bvh) -> Self {
-        let n = bvh.nodes.len();
-        let mut plan = Plan { cost: vec![[f64::INFINITY; WIDTH + 1]; n], split: vec![[0; WIDTH + 1]; n], how: vec![[0; WIDTH + 1]; n], triangles: vec![0; n] };
-        // Parents before their inner children (read backwards: children first).
-        let mut order = Vec::with_capacity(n);
-        let mut stack = vec![0u32];
-        while let Some(index) = stack.pop() {
-            order.push(index);
-            stack.extend(bvh.nodes[index as usize].children().iter().filter(|c| c.is_inner()).map(|c| c.index));
-        }
-        let root_box = bvh.nodes.first().map_or(Aabb::EMPTY, |r| r.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds)));
-        let mut area = vec![0.0; n];
-        area[0] = half_area(&root_box);
-        for &index in &order {
-            for c in bvh.nodes[index as usize].children().iter().filter(|c| c.is_inner()) {
-                area[c.index as usize] = half_area(&c.bounds);
-            }
-        }
-        // Bottom up, a level of equal height at a time, each level's rows on every core: a
-        // node's height is one more than its inner children's.
-        let mut height = vec![0u32; n];
-        for &index in order.iter().rev() {
-            height[index as usize] = bvh.nodes[index as usize].children().iter().filter(|c| c.is_inner()).map(|c| height[c.index as usize] + 1).max().unwrap_or(0);
-        }
-        let mut levels: Vec<Vec<u32>> = vec![Vec::new(); height.iter().max().map_or(0, |&h| h as usize + 1)];
-        for &index in &order {
-            levels[height[index as usize] as usize].push(index);
-        }
-        for level in &levels {
-            let rows: Vec<Row> = level.par_iter().map(|&index| plan.row(bvh, index as usize, area[index as usize])).collect();
-            for (&index, row) in level.iter().zip(rows) {
-                let i = index as usize;
-                (plan.cost[i], plan.split[i], plan.how[i], plan.triangles[i]) = row;
-            }
-        }
-        plan
-    }
+/// Subtrees of at least this many binary nodes solve their two halves on two threads.
+const PARALLEL_MIN_NODES: usize = 8 * 1024;
 
-    /// Node `n`'s row from its children's: its least costs, splits and choices for 1..=8
-    /// slots, and the triangles under it.
-    fn row(&self, bvh: &Bvh, n: usize, area: f64) -> Row {
-        let [left, right] = bvh.nodes[n].children();
-        let triangles = self.triangles_of(&left) + self.triangles_of(&right);
-        // Spread over the children: i slots, k of them to the left.
-        // Each child's costs for 0..=8 slots, looked up 45 times below.
-        let (l, r): ([f64; WIDTH + 1], [f64; WIDTH + 1]) = (std::array::from_fn(|k| self.child_cost(&left, k)), std::array::from_fn(|k| self.child_cost(&right, k)));
-        let mut spread = [(f64::INFINITY, 0u8); WIDTH + 1];
-        for (i, best) in spread.iter_mut().enumerate().skip(1) {
-            for k in 0..=i {
-                let c = l[k] + r[i - k];
-                if c < best.0 {
-                    *best = (c, k as u8);
-                }
-            }
+impl Plan {
+    /// The plan for `bvh`. Our builders lay the tree out depth first (a node, its left
+    /// subtree, its right subtree), so every subtree's rows are one slice, solved bottom up
+    /// with the halves of big subtrees on two threads; any other layout is solved on one.
+    pub(super) fn new(bvh: &Bvh) -> Self {
+        let mut rows = vec![Row::default(); bvh.nodes.len()];
+        let Some(root) = bvh.nodes.first() else { return Plan { rows } };
+        let area = half_area(&root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds)));
+        if is_depth_first(bvh) {
+            solve_slice(bvh, 0, &mut rows, area);
+        } else {
+            solve_anywhere(bvh, 0, &mut rows, area);
         }
-        let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f64 * TRIANGLE_COST } else { f64::INFINITY };
-        let node = area * NODE_COST + spread[WIDTH].0;
-        let (mut cost, mut how, mut split) = ([f64::INFINITY; WIDTH + 1], [0u8; WIDTH + 1], [0u8; WIDTH + 1]);
-        (cost[1], how[1]) = if merged <= node { (merged, 0) } else { (node, 1) };
-        for i in 2..=WIDTH {
-            split[i] = spread[i].1;
-            (cost[i], how[i]) = if spread[i].0 < cost[i - 1] { (spread[i].0, 1) } else { (cost[i - 1], 0) };
-        }
-        (cost, split, how, triangles)
+        Plan { rows }
     }
 
     /// Triangles under binary node `index`.
     pub(super) fn triangles_under(&self, index: u32) -> u32 {
-        self.triangles[index as usize]
-    }
-
-    fn triangles_of(&self, child: &BvhChild) -> u32 {
-        if child.is_inner() { self.triangles[child.index as usize] } else { child.count }
-    }
-
-    /// The least cost of `child` in at most `slots` slots (an absent child costs nothing).
-    fn child_cost(&self, child: &BvhChild, slots: usize) -> f64 {
-        if child.is_empty() {
-            0.0
-        } else if slots == 0 {
-            f64::INFINITY
-        } else if child.is_leaf() {
-            let area = half_area(&child.bounds);
-            // A leaf too big for one slot becomes a node of its pieces.
-            let node = if child.count > MAX_LEAF_TRIANGLES { NODE_COST } else { 0.0 };
-            area * (node + child.count as f64 * TRIANGLE_COST)
-        } else {
-            self.cost[child.index as usize][slots]
-        }
+        self.rows[index as usize].triangles
     }
 
     /// The slots of the wide node made from binary node `index`: its subtree cut into at
@@ -147,7 +85,7 @@ impl Plan {
     pub(super) fn slots(&self, bvh: &Bvh, index: u32) -> Vec<Planned> {
         let mut out = Vec::with_capacity(WIDTH);
         let [left, right] = bvh.nodes[index as usize].children();
-        let k = self.split[index as usize][WIDTH] as usize;
+        let k = self.rows[index as usize].split[WIDTH] as usize;
         self.gather(bvh, &left, k, &mut out);
         self.gather(bvh, &right, WIDTH - k, &mut out);
         out
@@ -164,18 +102,162 @@ impl Plan {
         }
         let n = child.index as usize;
         let mut i = slots;
-        while i >= 2 && self.how[n][i] == 0 {
+        while i >= 2 && self.rows[n].how[i] == 0 {
             i -= 1;
         }
         if i >= 2 {
             let [left, right] = bvh.nodes[n].children();
-            let k = self.split[n][i] as usize;
+            let k = self.rows[n].split[i] as usize;
             self.gather(bvh, &left, k, out);
             self.gather(bvh, &right, i - k, out);
-        } else if self.how[n][1] == 0 {
-            out.push(Planned::Merged { index: child.index, count: self.triangles[n], bounds: child.bounds });
+        } else if self.rows[n].how[1] == 0 {
+            out.push(Planned::Merged { index: child.index, count: self.rows[n].triangles, bounds: child.bounds });
         } else {
             out.push(Planned::Node { index: child.index, bounds: child.bounds });
         }
+    }
+}
+
+/// Whether every node's left child, where inner, is the next node and its right child, where
+/// inner, follows the left subtree: each subtree then owns the slice of rows from its root.
+fn is_depth_first(bvh: &Bvh) -> bool {
+    // Subtree sizes from the last node back, children before parents (checked on the way).
+    let n = bvh.nodes.len();
+    let mut size = vec![0usize; n];
+    for index in (0..n).rev() {
+        let [left, right] = bvh.nodes[index].children();
+        let mut next = index + 1;
+        for child in [left, right] {
+            if child.is_inner() {
+                if child.index as usize != next || next >= n {
+                    return false;
+                }
+                next += size[next];
+            }
+        }
+        size[index] = next - index;
+    }
+    size.first() == Some(&n)
+}
+
+/// Solve binary node `index`'s subtree, laid out depth first in `rows` (its own row first),
+/// `area` the node box's half area.
+fn solve_slice(bvh: &Bvh, index: usize, rows: &mut [Row], area: f64) {
+    let [left, right] = bvh.nodes[index].children();
+    let total = rows.len();
+    let (head, rest) = rows.split_first_mut().expect("a node's own row");
+    let (left_rows, right_rows): (&mut [Row], &mut [Row]) = match (left.is_inner(), right.is_inner()) {
+        (true, true) => rest.split_at_mut(right.index as usize - index - 1),
+        (true, false) => (rest, &mut []),
+        (false, true) => (&mut [], rest),
+        (false, false) => (&mut [], &mut []),
+    };
+    let solve_left = |r: &mut [Row]| if left.is_inner() { solve_slice(bvh, left.index as usize, r, half_area(&left.bounds)) };
+    let solve_right = |r: &mut [Row]| if right.is_inner() { solve_slice(bvh, right.index as usize, r, half_area(&right.bounds)) };
+    if total >= PARALLEL_MIN_NODES {
+        rayon::join(|| solve_left(&mut *left_rows), || solve_right(&mut *right_rows));
+    } else {
+        solve_left(&mut *left_rows);
+        solve_right(&mut *right_rows);
+    }
+    *head = row(&left, left_rows.first(), &right, right_rows.first(), area);
+}
+
+/// Solve binary node `index`'s subtree wherever its nodes lie, on this thread.
+fn solve_anywhere(bvh: &Bvh, index: usize, rows: &mut [Row], area: f64) {
+    let [left, right] = bvh.nodes[index].children();
+    for child in [left, right].iter().filter(|c| c.is_inner()) {
+        solve_anywhere(bvh, child.index as usize, rows, half_area(&child.bounds));
+    }
+    let inner_row = |c: &BvhChild| c.is_inner().then(|| rows[c.index as usize]);
+    rows[index] = row(&left, inner_row(&left).as_ref(), &right, inner_row(&right).as_ref(), area);
+}
+
+/// A node's row from its children's (`*_row`: an inner child's row): its least costs,
+/// splits and choices for 1..=8 slots, and the triangles under it.
+fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Option<&Row>, area: f64) -> Row {
+    let triangles = triangles_of(left, left_row) + triangles_of(right, right_row);
+    // Spread over the children: i slots, k of them to the left.
+    // Each child's costs for 0..=8 slots, looked up 45 times below.
+    let (l, r): ([f64; WIDTH + 1], [f64; WIDTH + 1]) = (child_costs(left, left_row), child_costs(right, right_row));
+    let mut spread = [(f64::INFINITY, 0u8); WIDTH + 1];
+    for (i, best) in spread.iter_mut().enumerate().skip(1) {
+        for k in 0..=i {
+            let c = l[k] + r[i - k];
+            if c < best.0 {
+                *best = (c, k as u8);
+            }
+        }
+    }
+    let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f64 * TRIANGLE_COST } else { f64::INFINITY };
+    let node = area * NODE_COST + spread[WIDTH].0;
+    let mut out = Row { triangles, ..Row::default() };
+    (out.cost[1], out.how[1]) = if merged <= node { (merged, 0) } else { (node, 1) };
+    for i in 2..=WIDTH {
+        out.split[i] = spread[i].1;
+        (out.cost[i], out.how[i]) = if spread[i].0 < out.cost[i - 1] { (spread[i].0, 1) } else { (out.cost[i - 1], 0) };
+    }
+    out
+}
+
+fn triangles_of(child: &BvhChild, row: Option<&Row>) -> u32 {
+    row.map_or(if child.is_leaf() { child.count } else { 0 }, |r| r.triangles)
+}
+
+/// The least cost of `child` in at most 0..=8 slots (an absent child costs nothing).
+fn child_costs(child: &BvhChild, row: Option<&Row>) -> [f64; WIDTH + 1] {
+    if child.is_empty() {
+        return [0.0; WIDTH + 1];
+    }
+    let mut costs = match row {
+        Some(r) => r.cost,
+        None => {
+            // A leaf; one too big for one slot becomes a node of its pieces.
+            let node = if child.count > MAX_LEAF_TRIANGLES { NODE_COST } else { 0.0 };
+            [half_area(&child.bounds) * (node + child.count as f64 * TRIANGLE_COST); WIDTH + 1]
+        }
+    };
+    costs[0] = f64::INFINITY;
+    costs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::{BuildOptions, BvhNode};
+    use glam::Vec3;
+
+    #[test]
+    fn any_node_layout_gets_the_plan_of_the_depth_first_one() {
+        // A soup big enough for the two-thread split, its tree then relabelled so that
+        // children come before their parents: solved on one thread, the same rows.
+        let mut s = 0x2545f4914f6cdd1du64;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let tris: Vec<[Vec3; 3]> = (0..20_000)
+            .map(|_| {
+                let c = Vec3::new(next(), next(), next()) * 50.0;
+                [c, c + Vec3::new(next(), next(), 0.0), c + Vec3::new(0.0, next(), next())]
+            })
+            .collect();
+        let bvh = Bvh::build(&tris, &BuildOptions::for_tracing());
+        assert!(is_depth_first(&bvh) && bvh.nodes.len() >= PARALLEL_MIN_NODES);
+        let n = bvh.nodes.len();
+        let moved = |i: u32| if i == 0 { 0 } else { n as u32 - i };
+        let mut reversed = bvh.clone();
+        for (i, node) in bvh.nodes.iter().enumerate() {
+            let [l, r] = node.children().map(|c| if c.is_inner() { BvhChild { index: moved(c.index), ..c } } else { c });
+            reversed.nodes[moved(i as u32) as usize] = BvhNode::new(l, r);
+        }
+        assert!(!is_depth_first(&reversed));
+        let (plan, other) = (Plan::new(&bvh), Plan::new(&reversed));
+        for i in 0..n {
+            assert_eq!(plan.rows[i], other.rows[moved(i as u32) as usize], "node {i}");
+        }
+        assert_eq!(plan.rows[0].triangles, 20_000);
     }
 }
