@@ -193,9 +193,9 @@ fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Opt
     let node = area * NODE_COST + spread[WIDTH].0;
     let mut out = Row { triangles, ..Row::default() };
     (out.cost[1], out.how[1]) = if merged <= node { (merged, 0) } else { (node, 1) };
-    for i in 2..=WIDTH {
-        out.split[i] = spread[i].1;
-        (out.cost[i], out.how[i]) = if spread[i].0 < out.cost[i - 1] { (spread[i].0, 1) } else { (out.cost[i - 1], 0) };
+    for (i, &(spread_cost, left_slots)) in spread.iter().enumerate().skip(2) {
+        out.split[i] = left_slots;
+        (out.cost[i], out.how[i]) = if spread_cost < out.cost[i - 1] { (spread_cost, 1) } else { (out.cost[i - 1], 0) };
     }
     out
 }
