@@ -200,17 +200,24 @@ fn leaf_unary(count: u32) -> u32 {
 fn assign_slots(children: &[Pending], parent: Aabb) -> [Option<Pending>; WIDTH] {
     let centre = parent.center().as_dvec3();
     let corner = |s: usize| DVec3::new(sign(s, 0), sign(s, 1), sign(s, 2));
-    let mut pairs = Vec::with_capacity(children.len() * WIDTH);
-    for (c, child) in children.iter().enumerate() {
+    // Each pair as one integer key, so that sorting them is cheap: the score descending
+    // (its bits in f64::total_cmp's order, inverted), then the child, then the slot.
+    let mut pairs = [0u128; WIDTH * WIDTH];
+    let mut count = 0;
+    for (c, child) in children.iter().enumerate().take(WIDTH) {
         let offset = child.bounds().center().as_dvec3() - centre;
         for s in 0..WIDTH {
-            pairs.push((offset.dot(corner(s)), c, s));
+            let bits = offset.dot(corner(s)).to_bits() as i64;
+            let ascending = (bits ^ (((bits >> 63) as u64) >> 1) as i64) as u64 ^ (1 << 63);
+            pairs[count] = ((!ascending) as u128) << 64 | (c as u128) << 8 | s as u128;
+            count += 1;
         }
     }
-    pairs.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+    pairs[..count].sort_unstable();
     let mut slots = [None; WIDTH];
-    let mut placed = vec![false; children.len()];
-    for (_, c, s) in pairs {
+    let mut placed = [false; WIDTH];
+    for &key in &pairs[..count] {
+        let (c, s) = ((key >> 8) as u8 as usize, key as u8 as usize);
         if !placed[c] && slots[s].is_none() {
             slots[s] = Some(children[c]);
             placed[c] = true;
