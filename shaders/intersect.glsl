@@ -110,15 +110,21 @@ void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, 
 
 #include "traverse_wide.glsl"
 
-// The closest hit over all instances in (0, t_max). Instances carry a uniform scale, so
-// the object-space ray keeps world-space distances.
-Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+// No hit yet: nothing found closer than t_max.
+Hit no_hit(float t_max) {
     Hit hit;
-    hit.t = INF;
+    hit.t = t_max;
     hit.tri = EMPTY;
     hit.instance = EMPTY;
     hit.u = 0.0;
     hit.v = 0.0;
+    return hit;
+}
+
+// The closest hit over all instances in (0, t_max). Instances carry a uniform scale, so
+// the object-space ray keeps world-space distances.
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+    Hit hit = no_hit(INF);
     uint count = frame.misc.x;
     vec3 inv_d = safe_inverse(d);
     for (uint i = 0u; i < count; i++) {
@@ -131,12 +137,11 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
         vec3 ld = d / s;
         uint before = hit.tri;
 #ifndef CORE_ONLY
-        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u) {
-            // The wide layout (`--bvh wide`); an empty mesh has no wide nodes.
-            // A mesh without a wide tree (EMPTY) traces its binary one.
-            uint wide_words = floatBitsToUint(inst.bounds_min.w);
-            if (inst.offsets.z > 0u && wide_words != EMPTY) traverse_wide(lo, ld, wide_words, inst.offsets.y, false, hit, cost);
-            else if (inst.offsets.z > 0u) traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
+        // The wide layout (`--bvh wide`); an empty mesh has no wide nodes, and a mesh
+        // without a wide tree (EMPTY) takes the binary path below.
+        uint wide_words = floatBitsToUint(inst.bounds_min.w);
+        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && wide_words != EMPTY) {
+            if (inst.offsets.z > 0u) traverse_wide(lo, ld, wide_words, inst.offsets.y, false, hit, cost);
         } else
 #endif
         if (use_bvh) {
@@ -239,12 +244,7 @@ bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
         // The wide layout, as closest_hit takes it.
         uint wide_words = floatBitsToUint(inst.bounds_min.w);
         if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && wide_words != EMPTY) {
-            Hit hit;
-            hit.t = t_max;
-            hit.tri = EMPTY;
-            hit.instance = EMPTY;
-            hit.u = 0.0;
-            hit.v = 0.0;
+            Hit hit = no_hit(t_max);
             if (traverse_wide(lo, ld, wide_words, inst.offsets.y, true, hit, cost)) return true;
         } else
 #endif

@@ -31,12 +31,13 @@ uvec4 slot_keys(uint nx, uint ny, uint nz, uint fx, uint fy, uint fz, vec3 a, ve
     return keys * taken;
 }
 
-// A stack entry's reference for slot s of a node (meta: its meta byte): an inner child's
-// node index, or a leaf: bit 31, its triangle count less one in bits 29-30, its first
-// triangle in bits 0-28 (LEAF_ENTRY in src/bvh/wide/traverse.rs).
-uint slot_reference(uint s, uint meta, uint child_base, uint triangle_base, uint imask) {
-    if ((imask & (1u << s)) != 0u) return child_base + uint(bitCount(imask & ((1u << s) - 1u)));
-    return 0x80000000u | (uint(bitCount(meta >> 5u)) - 1u) << 29u | (triangle_base + (meta & 31u));
+// A stack entry's reference for slot s of a node (w1: the node's word 1, imask its inner
+// slots): an inner child's node index, or a leaf: bit 31, its triangle count less one in
+// bits 29-30, its first triangle in bits 0-28 (LEAF_ENTRY in src/bvh/wide/traverse.rs).
+uint slot_reference(uint s, uvec4 w1, uint imask) {
+    if ((imask & (1u << s)) != 0u) return w1.x + uint(bitCount(imask & ((1u << s) - 1u)));
+    uint meta = ((s < 4u ? w1.z : w1.w) >> ((s & 3u) * 8u)) & 0xffu;
+    return 0x80000000u | (uint(bitCount(meta >> 5u)) - 1u) << 29u | (w1.y + (meta & 31u));
 }
 
 // The closest hit below hit.t, or with `first` (an AO ray's occlusion query) whether there
@@ -82,8 +83,7 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
             for (uint i = 0u; first && i < n; i++) {
                 uint s = uint(findLSB(hits));
                 hits &= hits - 1u;
-                uint meta = ((s < 4u ? w1.z : w1.w) >> ((s & 3u) * 8u)) & 0xffu;
-                entry = uvec2(slot_reference(s, meta, w1.x, w1.y, imask), 0u);
+                entry = uvec2(slot_reference(s, w1, imask), 0u);
                 if (i + 1u < n) {
                     stack[sp] = entry;
                     sp += 1u;
@@ -98,8 +98,7 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
                 uint s = m & 7u;
                 k_lo = mix(k_lo, uvec4(0u), equal(k_lo, uvec4(m)));
                 k_hi = mix(k_hi, uvec4(0u), equal(k_hi, uvec4(m)));
-                uint meta = ((s < 4u ? w1.z : w1.w) >> ((s & 3u) * 8u)) & 0xffu;
-                entry = uvec2(slot_reference(s, meta, w1.x, w1.y, imask), m & ~7u);
+                entry = uvec2(slot_reference(s, w1, imask), m & ~7u);
                 if (i + 1u < n) {
                     stack[sp] = entry;
                     sp += 1u;

@@ -9,8 +9,9 @@ use crate::contract;
 use super::frame::FrameParams;
 use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use super::image::Image;
-use super::packed::{PackedScene, NO_TEXTURE};
+use super::packed::{GpuInstance, PackedScene, NO_TEXTURE};
 use super::shading::{ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
+use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
 
@@ -102,12 +103,9 @@ impl<'a> CpuScene<'a> {
                     }
                     // The instance's nodes start at its node base, their indices relative to it
                     // (and to the triangle base), as the shader's traverse_bvh reads them.
-                    let found = match layout {
-                        // Without the wide layout packed, or without a wide tree for this
-                        // mesh, the binary tree (as on the GPU).
-                        BvhLayout::Wide if !self.packed.has_wide() || self.packed.wide_nodes_of(inst).is_empty() => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
-                        BvhLayout::Binary => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
-                        BvhLayout::Wide => bvh::wide::closest_hit(self.packed.wide_nodes_of(inst), tris, &local, 0.0, t_max, stats),
+                    let found = match self.wide_nodes(inst, layout) {
+                        Some(nodes) => bvh::wide::closest_hit(nodes, tris, &local, 0.0, t_max, stats),
+                        None => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
                     };
                     if let Some((k, h)) = found {
                         best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle: inst.triangle_base + k, instance: i as u32 });
@@ -116,6 +114,13 @@ impl<'a> CpuScene<'a> {
             }
         }
         best
+    }
+
+    /// The wide nodes `inst` is traced through in a frame of `layout`: None for binary
+    /// frames, and where the wide layout was not packed or the mesh has no wide tree (its
+    /// binary tree then serves, as on the GPU).
+    fn wide_nodes(&self, inst: &GpuInstance, layout: BvhLayout) -> Option<&[WideNode]> {
+        Some(self.packed.wide_nodes_of(inst)).filter(|nodes| layout == BvhLayout::Wide && !nodes.is_empty())
     }
 
     /// Whether anything of the first `instance_count` instances lies along `ray` in
@@ -140,8 +145,8 @@ impl<'a> CpuScene<'a> {
                     stats.triangles += 1;
                     intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max).is_some()
                 })
-            } else if layout == BvhLayout::Wide && !self.packed.wide_nodes_of(inst).is_empty() {
-                bvh::wide::any_hit(self.packed.wide_nodes_of(inst), tris, &local, 0.0, t_max, stats)
+            } else if let Some(nodes) = self.wide_nodes(inst, layout) {
+                bvh::wide::any_hit(nodes, tris, &local, 0.0, t_max, stats)
             } else {
                 bvh::any_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats)
             };

@@ -58,24 +58,9 @@ impl WideStats {
 }
 
 impl WideBvh {
-    /// Longest root-to-leaf path in nodes: 0 when empty. A traversal stacks at most this
-    /// many node groups.
+    /// Longest root-to-leaf path in nodes: 0 when empty.
     pub fn depth(&self) -> usize {
-        if self.nodes.is_empty() {
-            return 0;
-        }
-        let mut deepest = 0;
-        let mut stack = vec![(0u32, 1usize)];
-        while let Some((index, level)) = stack.pop() {
-            deepest = deepest.max(level);
-            let node = &self.nodes[index as usize];
-            for s in 0..WIDTH {
-                if let WideSlot::Inner(child) = node.slot(s) {
-                    stack.push((child, level + 1));
-                }
-            }
-        }
-        deepest
+        self.most_along_a_path(|_| 1)
     }
 
     /// The most stack entries the traversal can hold: over every root-to-node path, the
@@ -86,12 +71,20 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return 0;
         }
+        self.most_along_a_path(|node| node.meta.iter().filter(|&&m| m != 0).count().saturating_sub(1)) + 1
+    }
+
+    /// The largest sum of `per_node` over the nodes of a path from the root down (0 when
+    /// empty).
+    fn most_along_a_path(&self, per_node: impl Fn(&WideNode) -> usize) -> usize {
+        if self.nodes.is_empty() {
+            return 0;
+        }
         let mut most = 0;
         let mut stack = vec![(0u32, 0usize)];
         while let Some((index, above)) = stack.pop() {
             let node = &self.nodes[index as usize];
-            let filled = node.meta.iter().filter(|&&m| m != 0).count();
-            let here = above + filled.saturating_sub(1);
+            let here = above + per_node(node);
             most = most.max(here);
             for s in 0..WIDTH {
                 if let WideSlot::Inner(child) = node.slot(s) {
@@ -99,6 +92,6 @@ impl WideBvh {
                 }
             }
         }
-        most + 1
+        most
     }
 }

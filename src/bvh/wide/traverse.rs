@@ -88,23 +88,22 @@ fn walk(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max:
                 stats.nodes += 1;
                 // All eight boxes against the same t_max, as the shader does.
                 let mut keys = [0u32; WIDTH];
-                let mut hits = 0;
+                let mut hit_slots = 0u32;
                 for (s, key) in keys.iter_mut().enumerate() {
                     if node.meta[s] != 0 {
                         if let Some(t_enter) = node.child_box(s).intersect(ray, inv_dir, t_max) {
                             *key = sort_key(t_enter, s);
-                            hits += 1;
+                            hit_slots |= 1 << s;
                         }
                     }
                 }
+                let hits = hit_slots.count_ones();
                 if hits > 0 && first {
                     // An occlusion query takes any order: the slots in slot order, the last
                     // visited next, no sort (and no distances: its t_max never shrinks).
-                    for (s, &key) in keys.iter().enumerate() {
-                        if key != 0 || (s == 0 && keys.iter().filter(|&&k| k != 0).count() < hits) {
-                            stack[sp] = (reference(node, s), 0.0);
-                            sp += 1;
-                        }
+                    for s in (0..WIDTH).filter(|&s| hit_slots & (1 << s) != 0) {
+                        stack[sp] = (reference(node, s), 0.0);
+                        sp += 1;
                     }
                     sp -= 1;
                     entry = stack[sp];
