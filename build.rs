@@ -169,6 +169,9 @@ fn main() {
                 // Each without the AO view and the wide BVH, for the frames that use neither.
                 compile(&path, &contract, &[shader_compile::CORE_ONLY], "_core", &out_dir);
                 compile(&path, &contract, &[shader_compile::ROW_ORDER, shader_compile::CORE_ONLY], "_rows_core", &out_dir);
+                // Each with the wide traversal's leaf runs, for `--bvh wide-runs` frames.
+                compile(&path, &contract, &[shader_compile::LEAF_RUNS], "_runs", &out_dir);
+                compile(&path, &contract, &[shader_compile::ROW_ORDER, shader_compile::LEAF_RUNS], "_rows_runs", &out_dir);
             }
             std::fs::write(out_dir.join(format!("{stem}_layout.rs")), shader_layout(&module, &format!("shaders/{stem}.comp"))).unwrap();
         }

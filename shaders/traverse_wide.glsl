@@ -106,9 +106,18 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
             }
             live = n > 0u;
         }
+        // A leaf is tested in the round that reaches it. With LEAF_RUNS (the kernel of
+        // --bvh wide-runs) so is every leaf popped after it: the lane drains the leaves
+        // pending on top of its stack before its next node visit. The same entries in the
+        // same order either way; only how a warp's lanes share rounds differs. (A separate
+        // kernel: the loop cost the plain wide traversal 5% on the knots even when off.)
+#ifdef LEAF_RUNS
+        while (live && (entry.x & 0x80000000u) != 0u) {
+#else
         if (live && (entry.x & 0x80000000u) != 0u) {
-            // A leaf: its first two triangles loaded before either is tested, so that
-            // their fetches overlap (as test_leaves does).
+#endif
+            // Its first two triangles loaded before either is tested, so that their
+            // fetches overlap (as test_leaves does).
             uint k0 = tri_base + (entry.x & 0x1fffffffu);
             uint n = ((entry.x >> 29u) & 3u) + 1u;
             Triangle t0 = load_triangle(k0);
@@ -122,7 +131,17 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
                 cost.y += 1u;
                 if (first && found) return true;
             }
+#ifdef LEAF_RUNS
+            if (sp == 0u) {
+                live = false;
+                break;
+            }
+            sp -= 1u;
+            entry = stack[sp];
+            live = uintBitsToFloat(entry.y) <= hit.t;
+#else
             live = false;
+#endif
         }
         if (!live) {
             if (sp == 0u) break;

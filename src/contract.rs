@@ -48,6 +48,10 @@ contract! {
     /// Flag: with `FLAG_BVH`, traverse the compressed wide BVH (`--bvh wide`) instead of
     /// the binary one.
     FLAG_WIDE = 1 << 15;
+    /// Flag: with `FLAG_WIDE`, a ray tests the leaves pending on top of its stack back to
+    /// back before its next node visit (`--bvh wide-runs`): the host runs the kernel built
+    /// with `LEAF_RUNS` for such frames.
+    FLAG_LEAF_RUNS = 1 << 14;
     /// Where the samples per pixel sit in the flag word.
     SPP_SHIFT = 16;
     /// The samples-per-pixel bits once shifted down (8 bits).
@@ -86,7 +90,7 @@ contract! {
 
 // The fields of the flag word must not overlap, and every AOV code must fit its bits.
 const _: () = {
-    let flags = FLAG_BVH | FLAG_WIDE | FLAG_SMOOTH | FLAG_TEXTURES | FLAG_ENVIRONMENT | FLAG_ADAPTIVE | FLAG_ID_PASS;
+    let flags = FLAG_BVH | FLAG_WIDE | FLAG_LEAF_RUNS | FLAG_SMOOTH | FLAG_TEXTURES | FLAG_ENVIRONMENT | FLAG_ADAPTIVE | FLAG_ID_PASS;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);

@@ -120,11 +120,20 @@ pub enum BvhLayout {
     Binary,
     /// The compressed wide BVH: eight children per 80-byte node, 8-bit boxes.
     Wide,
+    /// The wide BVH traversed in leaf runs: a ray tests the leaves pending on top of its
+    /// stack back to back, in one round, before its next node visit. The same tests in the
+    /// same order: on the H100, 35% faster than `Wide` on Sponza, 2-12% slower on the knots.
+    WideRuns,
 }
 
 impl BvhLayout {
     /// Every layout, in the order the panel lists them.
-    pub const ALL: [BvhLayout; 2] = [BvhLayout::Binary, BvhLayout::Wide];
+    pub const ALL: [BvhLayout; 3] = [BvhLayout::Binary, BvhLayout::Wide, BvhLayout::WideRuns];
+
+    /// True for the layouts that read the wide tree (which must be packed for them).
+    pub fn is_wide(self) -> bool {
+        matches!(self, BvhLayout::Wide | BvhLayout::WideRuns)
+    }
 }
 
 /// What a render writes: the shaded colour or one of the primary-hit buffers.
@@ -183,7 +192,7 @@ macro_rules! name_enum {
     };
 }
 name_enum!(Accel, "acceleration", Accel::Brute => "brute", Accel::Bvh => "bvh", Accel::Vendor => "vendor");
-name_enum!(BvhLayout, "BVH layout", BvhLayout::Binary => "binary", BvhLayout::Wide => "wide");
+name_enum!(BvhLayout, "BVH layout", BvhLayout::Binary => "binary", BvhLayout::Wide => "wide", BvhLayout::WideRuns => "wide-runs");
 name_enum!(Aov, "AOV", Aov::Color => "color", Aov::Depth => "depth", Aov::Normal => "normal", Aov::PrimId => "prim-id", Aov::Cost => "cost", Aov::Samples => "samples", Aov::Ao => "ao");
 
 /// Saved as its name ("bvh", "brute"), as in `bench --json` reports.
@@ -199,7 +208,7 @@ impl<'de> Deserialize<'de> for Accel {
     }
 }
 
-/// Saved as its name ("binary", "wide"), as `Accel` is.
+/// Saved as its name ("binary", "wide", "wide-runs"), as `Accel` is.
 impl Serialize for BvhLayout {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         serializer.collect_str(self)

@@ -130,6 +130,7 @@ fn gpu_ao_matches_the_cpu_reference() {
         (RenderSettings { smooth: true, spp: 2, ..ao(40, 16, 1.0) }, "knot smooth, 2 spp, 16 rays"),
         (RenderSettings { accel: Accel::Brute, ..ao(32, 4, 0.25) }, "knot brute force"),
         (RenderSettings { bvh: BvhLayout::Wide, ..ao(48, 8, 0.5) }, "knot, 8 rays, wide BVH"),
+        (RenderSettings { bvh: BvhLayout::WideRuns, ..ao(48, 8, 0.5) }, "knot, 8 rays, wide BVH in leaf runs"),
     ] {
         let (gpu, cpu) = render_both(&knot, settings);
         assert_close(&gpu, &cpu, 1e-4, what);

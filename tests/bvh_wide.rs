@@ -271,6 +271,24 @@ fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
 }
 
 #[test]
+fn gpu_leaf_runs_test_what_the_wide_traversal_tests() {
+    // The leaf-runs kernel regroups the same tests into fewer rounds: the same image as the
+    // CPU reference, and the same nodes and triangles at every pixel as the plain kernel.
+    for (model, bounces) in [(PaperModel::TorusKnot, 2), (PaperModel::Geosphere, 1)] {
+        let scene = paper(model, 2);
+        let runs = RenderSettings { bvh: BvhLayout::WideRuns, ..wide_settings(32, bounces) };
+        let (gpu, cpu) = render_both(&scene, runs);
+        assert_close(&gpu, &cpu, &format!("{}: wide-runs GPU vs CPU", model.name()));
+        let (runs_cost, _) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..runs });
+        let (wide_cost, _) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, bounces) });
+        let differ = runs_cost.pixels.iter().zip(&wide_cost.pixels).filter(|(r, w)| r[..2] != w[..2]).count();
+        assert_eq!(differ, 0, "{}: leaf runs changed the counts of {differ} pixels", model.name());
+        assert!(runs_cost.pixels.iter().any(|p| p[1] > 2.0), "{}: leaves are tested", model.name());
+    }
+    common::assert_validation_clean(&common::ctx());
+}
+
+#[test]
 fn a_mesh_without_a_wide_tree_traces_its_binary_one_in_wide_frames() {
     // A mesh whose wide tree could overflow the traversal's stack keeps the binary layout
     // alone, beside meshes traced wide (here the mirror box): same image, the binary tree's

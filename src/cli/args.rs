@@ -83,8 +83,9 @@ pub(crate) struct SceneArgs {
     /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
     #[arg(long, default_value = "bvh")]
     pub accel: Accel,
-    /// BVH layout with --accel bvh: binary (two children per node) or wide (the compressed
-    /// eight-wide tree of Ylitie, Karras and Laine 2017).
+    /// BVH layout with --accel bvh: binary (two children per node), wide (the compressed
+    /// eight-wide tree of Ylitie, Karras and Laine 2017) or wide-runs (the wide tree, each
+    /// ray testing its pending leaves back to back: faster on architecture such as Sponza).
     #[arg(long, default_value = "binary")]
     pub bvh: BvhLayout,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.

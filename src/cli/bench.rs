@@ -67,7 +67,7 @@ pub struct BenchArgs {
     /// Accelerations to run, comma-separated: brute, bvh, vendor.
     #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
     pub(crate) accel: Vec<Accel>,
-    /// BVH layouts of the bvh rows, comma-separated: binary, wide (each bvh row is traced
+    /// BVH layouts of the bvh rows, comma-separated: binary, wide, wide-runs (each bvh row is traced
     /// with each; with --compare, the vendor's rows follow them).
     #[arg(long, value_delimiter = ',', default_value = "binary")]
     pub(crate) bvh: Vec<BvhLayout>,

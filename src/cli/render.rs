@@ -9,7 +9,7 @@ use super::args::RenderArgs;
 use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::tracer::heat_map::heat_map;
 use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
-use crate::render_settings::{Accel, Aov, BvhLayout};
+use crate::render_settings::{Accel, Aov};
 use crate::tracer::{cpu, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
@@ -127,7 +127,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         source.label(),
         spec.models,
         scene.triangle_count(),
-        if settings.accel == Accel::Bvh && settings.bvh == BvhLayout::Wide { "bvh (wide)".to_string() } else { settings.accel.to_string() },
+        if settings.accel == Accel::Bvh && settings.bvh.is_wide() { format!("bvh ({})", settings.bvh) } else { settings.accel.to_string() },
     );
     Ok(())
 }

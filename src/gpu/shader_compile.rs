@@ -100,6 +100,11 @@ pub(crate) const ROW_ORDER: &str = "ROW_ORDER";
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
 pub(crate) const CORE_ONLY: &str = "CORE_ONLY";
 
+/// Defined for the trace kernel's leaf-runs variant (`--bvh wide-runs`): the wide traversal
+/// tests the leaves pending on top of a ray's stack back to back (`traverse_wide.glsl`).
+#[allow(dead_code)] // the crate compiles it only in build.rs
+pub(crate) const LEAF_RUNS: &str = "LEAF_RUNS";
+
 /// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.

@@ -5,7 +5,7 @@
 //! with the vendor's ray tracing pipeline (`khr_rt::pipeline_pass`).
 
 use std::ops::Range;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use ash::vk;
 
@@ -31,6 +31,10 @@ static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_r
 /// Each with `CORE_ONLY` defined: no AO view, no wide BVH (see `shader_compile::CORE_ONLY`).
 static TRACE_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv"));
 static TRACE_ROWS_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv"));
+
+/// Each with `LEAF_RUNS` defined: the wide traversal in leaf runs (`--bvh wide-runs`).
+static TRACE_RUNS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_runs.spv"));
+static TRACE_ROWS_RUNS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_runs.spv"));
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
 static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
@@ -195,6 +199,10 @@ pub(crate) struct TracePass {
     /// Our kernels' core variant, for frames without the AO view and the wide BVH; None
     /// for the vendor's kernel and after a reload (the reloaded shader then runs every frame).
     core: Option<vk::Pipeline>,
+    /// Our kernels' leaf-runs variant, for `--bvh wide-runs` frames: created by the first such
+    /// frame (most sessions never ask for it); None inside when that failed or for the
+    /// vendor's kernel, and such frames then run `pipeline` (the plain wide traversal).
+    runs: OnceLock<Option<vk::Pipeline>>,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
@@ -220,7 +228,7 @@ impl TracePass {
             Kernel::RayQuery => None,
         };
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
-        Ok(Self { ctx: ctx.clone(), kernel, pipeline, core, layout, set_layout, pool, set })
+        Ok(Self { ctx: ctx.clone(), kernel, pipeline, core, runs: OnceLock::new(), layout, set_layout, pool, set })
     }
 
     /// The kernel the pass runs.
@@ -278,6 +286,11 @@ impl TracePass {
             if let Some(core) = self.core.take() {
                 self.ctx.device.destroy_pipeline(core, None);
             }
+            if let Some(runs) = self.runs.take().flatten() {
+                self.ctx.device.destroy_pipeline(runs, None);
+            }
+            // Still none: the reloaded shader then runs leaf-runs frames too.
+            self.runs = OnceLock::from(None);
         }
         Ok(())
     }
@@ -320,6 +333,7 @@ impl TracePass {
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
         let pipeline = match self.core {
             Some(core) if !needs_full_kernel(pc) => core,
+            _ if pc.dims[3] & contract::FLAG_LEAF_RUNS != 0 => self.runs_pipeline().unwrap_or(self.pipeline),
             _ => self.pipeline,
         };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
@@ -331,6 +345,23 @@ impl TracePass {
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(pc));
             device.cmd_dispatch_base(cmd, base_x, 0, 0, groups_x, groups_y, 1);
         }
+    }
+}
+
+impl TracePass {
+    /// The leaf-runs variant of our kernel, created on first use (None: the vendor's kernel,
+    /// or its creation failed, which is logged once).
+    fn runs_pipeline(&self) -> Option<vk::Pipeline> {
+        *self.runs.get_or_init(|| {
+            let code = match self.kernel {
+                Kernel::Ours => TRACE_RUNS_SPV,
+                Kernel::OursInRowOrder => TRACE_ROWS_RUNS_SPV,
+                Kernel::RayQuery => return None,
+            };
+            create_pipeline(&self.ctx, self.layout, &words(code))
+                .map_err(|e| log::warn!("the leaf-runs kernel failed ({e}); wide-runs frames trace the plain wide traversal"))
+                .ok()
+        })
     }
 }
 
@@ -378,6 +409,9 @@ impl Drop for TracePass {
         unsafe {
             if let Some(core) = self.core {
                 d.destroy_pipeline(core, None);
+            }
+            if let Some(runs) = self.runs.get().copied().flatten() {
+                d.destroy_pipeline(runs, None);
             }
             destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }

@@ -82,7 +82,7 @@ struct TracingPart {
     blend: f32,
     #[serde(serialize_with = "ser_display", deserialize_with = "de_from_str")]
     accel: Accel,
-    /// `--bvh`: binary or wide; written only when wide, so older presets read the same.
+    /// `--bvh`: binary, wide or wide-runs; written only when not binary, so older presets read the same.
     #[serde(skip_serializing_if = "is_binary", serialize_with = "ser_display", deserialize_with = "de_from_str")]
     bvh: BvhLayout,
 }

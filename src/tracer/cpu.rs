@@ -120,7 +120,7 @@ impl<'a> CpuScene<'a> {
     /// frames, and where the wide layout was not packed or the mesh has no wide tree (its
     /// binary tree then serves, as on the GPU).
     fn wide_nodes(&self, inst: &GpuInstance, layout: BvhLayout) -> Option<&[WideNode]> {
-        Some(self.packed.wide_nodes_of(inst)).filter(|nodes| layout == BvhLayout::Wide && !nodes.is_empty())
+        Some(self.packed.wide_nodes_of(inst)).filter(|nodes| layout.is_wide() && !nodes.is_empty())
     }
 
     /// Whether anything of the first `instance_count` instances lies along `ray` in

@@ -74,7 +74,8 @@ impl FrameParams {
         let mut f = s.aov.code() << contract::AOV_SHIFT | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
         for (on, bit) in [
             (s.accel == Accel::Bvh, contract::FLAG_BVH),
-            (s.accel == Accel::Bvh && s.bvh == BvhLayout::Wide, contract::FLAG_WIDE),
+            (s.accel == Accel::Bvh && s.bvh.is_wide(), contract::FLAG_WIDE),
+            (s.accel == Accel::Bvh && s.bvh == BvhLayout::WideRuns, contract::FLAG_LEAF_RUNS),
             (s.smooth, contract::FLAG_SMOOTH),
             (s.textures, contract::FLAG_TEXTURES),
             (self.environment, contract::FLAG_ENVIRONMENT),

@@ -249,10 +249,10 @@ impl PackedScene {
         Self::pack(scene, PreparedScene::new(scene, false))
     }
 
-    /// [`PackedScene::new`] for frames of `layout`: with [`BvhLayout::Wide`], both layouts
+    /// [`PackedScene::new`] for frames of `layout`: with a wide one, both trees
     /// are packed (a frame may then pick either); binary alone otherwise.
     pub fn for_layout(scene: &Scene, layout: BvhLayout) -> Self {
-        Self::pack(scene, PreparedScene::new(scene, layout == BvhLayout::Wide))
+        Self::pack(scene, PreparedScene::new(scene, layout.is_wide()))
     }
 
     /// [`PackedScene::for_layout`] as a load's build and pack phases, reported to `progress`
@@ -261,7 +261,7 @@ impl PackedScene {
     /// meshes (`ComputeTracer::set_loaded_scene`): the CPU tracer cannot trace the result.
     pub(crate) fn for_loading(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
-        let prepared = PreparedScene::new(scene, layout == BvhLayout::Wide);
+        let prepared = PreparedScene::new(scene, layout.is_wide());
         progress.begin(Phase::Pack)?;
         Ok(Self::pack_with(scene, prepared, true))
     }

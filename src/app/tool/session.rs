@@ -6,7 +6,7 @@ use crate::progress::Phase;
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
-use crate::render_settings::{Accel, Aov, BvhLayout};
+use crate::render_settings::{Accel, Aov};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
@@ -139,7 +139,7 @@ impl Session {
         // The wide layout is packed only on request (its collapse takes as long as the
         // build): a model loaded without it is loaded again, once; binary frames meanwhile.
         let settings = &params.scene.settings;
-        if settings.accel == Accel::Bvh && settings.bvh == BvhLayout::Wide && !self.wide_asked && self.loader.status().is_none() {
+        if settings.accel == Accel::Bvh && settings.bvh.is_wide() && !self.wide_asked && self.loader.status().is_none() {
             if let Some(source) = self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone()) {
                 self.wide_asked = true;
                 self.start_load(source, params, panel);
