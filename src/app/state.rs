@@ -127,6 +127,8 @@ pub(crate) struct Params {
     pub(crate) accumulate: bool,
     /// The A/B split view (S): off, or A left of a line and B right of it.
     pub(crate) split: SplitView,
+    /// Pick `scene.settings.bvh` by timing each layout (`tool/auto_layout.rs`).
+    pub(crate) bvh_auto: bool,
 }
 
 impl Params {
@@ -150,6 +152,7 @@ impl Params {
             environment_file: spec.environment.clone().filter(|e| *e != EnvironmentSource::Sky),
             accumulate: !scripted,
             split: SplitView::default(),
+            bvh_auto: false,
             scene,
         }
     }
@@ -259,6 +262,8 @@ impl Params {
     /// split view) stays.
     pub(crate) fn apply_preset(&mut self, spec: &SceneSpec) {
         let fresh = Params::new(spec, true);
+        // A preset that names a layout wants it, not the measured choice.
+        self.bvh_auto &= spec.settings.bvh == crate::render_settings::BvhLayout::Binary;
         self.resolution = fresh.resolution;
         self.custom = fresh.custom;
         self.scene = SceneSpec { model: self.scene.model.clone(), ..fresh.scene };

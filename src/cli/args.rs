@@ -86,6 +86,7 @@ pub(crate) struct SceneArgs {
     /// BVH layout with --accel bvh: binary (two children per node), wide (the compressed
     /// eight-wide tree of Ylitie, Karras and Laine 2017) or wide-runs (the wide tree, each
     /// ray testing its pending leaves back to back: faster on architecture such as Sponza).
+    /// Without it the window times each on the model shown and keeps the fastest.
     #[arg(long, default_value = "binary")]
     pub bvh: BvhLayout,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
@@ -363,6 +364,8 @@ impl ViewArgs {
         for w in &warnings {
             log::warn!("{w}");
         }
+        let scripted = self.frames.is_some() || self.benchmark.is_some();
+        let auto_layout = !scripted && !self.scene.given("bvh") && spec.settings.bvh == BvhLayout::Binary;
         Ok(crate::app::ViewOptions {
             spec,
             preset: self.scene.preset.clone(),
@@ -380,6 +383,7 @@ impl ViewArgs {
             stats_csv: self.stats_csv.clone(),
             no_persist: self.no_persist,
             split: self.split_view()?,
+            auto_layout,
         })
     }
 

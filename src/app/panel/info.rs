@@ -23,6 +23,8 @@ pub(crate) struct VendorInfo {
 pub(crate) struct PanelInfo<'a> {
     /// The tracing device's name.
     pub(crate) device: &'a str,
+    /// The measured choice of BVH layout, in words, while the panel's layout is "auto".
+    pub(crate) auto_layout: Option<String>,
     /// The tracing GPU's shader clock in MHz: the latest reading and the highest seen.
     pub(crate) clock_mhz: Option<(f64, f64)>,
     /// The model shown (None before the first load).

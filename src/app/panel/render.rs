@@ -94,13 +94,30 @@ impl Section for RenderPanel {
             }
             if params.scene.settings.accel == Accel::Bvh {
                 ui.label("BVH layout");
-                egui::ComboBox::new("bvh_layout", "").selected_text(params.scene.settings.bvh.to_string()).show_ui(ui, |ui| {
+                let bvh = params.scene.settings.bvh;
+                let shown = if params.bvh_auto { format!("auto ({bvh})") } else { bvh.to_string() };
+                let response = egui::ComboBox::new("bvh_layout", "").selected_text(shown).show_ui(ui, |ui| {
+                    if ui.selectable_label(params.bvh_auto, "auto").clicked() {
+                        params.bvh_auto = true;
+                    }
                     for layout in BvhLayout::ALL {
-                        ui.selectable_value(&mut params.scene.settings.bvh, layout, layout.to_string());
+                        if ui.selectable_label(!params.bvh_auto && bvh == layout, layout.to_string()).clicked() {
+                            params.bvh_auto = false;
+                            params.scene.settings.bvh = layout;
+                        }
                     }
                 })
-                .response
-                .on_hover_text("binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again)");
+                .response;
+                let layouts = "binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again); wide-runs: the wide tree, each ray testing its pending leaves back to back (faster on architecture such as Sponza, slower on scanned meshes); auto: times each on this model and view and keeps the fastest";
+                match &info.auto_layout {
+                    Some(choice) => response.on_hover_text(format!("{choice}\n\n{layouts}")),
+                    None => response.on_hover_text(layouts),
+                };
+                if let Some(choice) = &info.auto_layout {
+                    ui.end_row();
+                    ui.label("");
+                    ui.label(RichText::new(choice).small().weak());
+                }
                 ui.end_row();
             }
             ui.label("View");

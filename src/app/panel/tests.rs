@@ -38,6 +38,7 @@ impl Fixture {
 /// The facts a panel shows, with nothing loaded or measured.
 fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
     PanelInfo {
+        auto_layout: None,
         device: "test device",
         clock_mhz: None,
         model: None,

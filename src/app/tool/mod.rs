@@ -3,7 +3,8 @@
 //! the tracer holds) and the [`ScriptedRun`]. One `redraw` per displayed frame.
 //!
 //! - `input`: mouse and keys between events; `script`: `--frames` runs and exiting;
-//! - `session`: the model, its loader and what the tracer holds;
+//! - `session`: the model, its loader and what the tracer holds; `auto_layout`: the BVH
+//!   layout picked by timing each;
 //! - `progressive`: long frames traced in bands over several display frames;
 //! - `devices`: the presenting and tracing devices ([`Gpu`]); `events`: window events;
 //! - `ui`: the UI pass ([`UiPass`]: egui, the panel, the Open dialog);
@@ -20,6 +21,7 @@ use winit::dpi::LogicalSize;
 use winit::event_loop::ActiveEventLoop;
 use winit::window::Window;
 
+pub(crate) mod auto_layout;
 mod captures;
 mod devices;
 mod events;
@@ -97,6 +99,7 @@ impl Tool {
         let mut params = Params::new(&options.spec, options.scripted());
         params.hud_visible = options.hud;
         params.split = options.split;
+        params.bvh_auto = options.auto_layout;
         let physical = window.inner_size();
         // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
         // owning it is dropped first (see `shut_down`).
@@ -233,6 +236,9 @@ impl Tool {
         }
         self.ui.egui_state.handle_platform_output(&self.window, full.platform_output);
         let area = self.area();
+        if self.timing.benchmarks.progress().is_none() {
+            self.session.pick_layout(&mut self.params, area);
+        }
         self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.ui.panel)?;
         self.gpu.presenter.set_vsync(self.params.vsync);
         self.timing.benchmarks.before_frame(&mut self.params, area, &mut self.ui.panel.benchmark.outcome)?;
@@ -290,6 +296,9 @@ impl Tool {
         // Before the frame is logged: its row carries the latest GPU time.
         if let Some((ms, _)) = frame_time {
             self.timing.stats.push_gpu(t, ms, timed_settings);
+            if let Some(settings) = timed_settings {
+                self.session.auto_layout.frame_timed(ms, settings);
+            }
         }
         if outcome.presented {
             if let Some(last) = self.timing.last_frame {

@@ -6,12 +6,13 @@ use crate::progress::Phase;
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
-use crate::render_settings::{Accel, Aov};
+use crate::render_settings::{Accel, Aov, BvhLayout};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
 use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
+use crate::app::tool::auto_layout::{AutoLayout, Work};
 use crate::app::panel::PanelState;
 use crate::app::panel::widgets::{group, Status};
 use crate::app::state::{Params, Resolution};
@@ -55,16 +56,27 @@ pub(crate) struct Session {
     pub(crate) accumulation: Accumulation,
     /// The model shown was sent to be loaded again with the wide layout (once per model).
     wide_asked: bool,
+    /// Models installed so far (the measured layout choice starts over at each).
+    installs: u64,
+    /// The measured choice of BVH layout, when `Params::bvh_auto`.
+    pub(crate) auto_layout: AutoLayout,
 }
 
 impl Session {
     /// Start loading `source`, now the scene's model (the current one stays on screen
     /// until the new one is ready).
     pub(crate) fn start_load(&mut self, source: ModelSource, params: &mut Params, panel: &mut PanelState) {
+        // The measured choice loads binary first (the quickest first frame); the wide tree follows.
+        let layout = if params.bvh_auto { BvhLayout::Binary } else { params.scene.settings.bvh };
+        self.load_with(source, layout, params, panel);
+    }
+
+    /// [`Session::start_load`] with the layouts to pack for `layout`.
+    fn load_with(&mut self, source: ModelSource, layout: BvhLayout, params: &mut Params, panel: &mut PanelState) {
         panel.model.status = None;
         panel.model.warnings.clear();
         params.scene.model = source.clone();
-        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light, params.scene.settings.bvh);
+        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light, layout);
     }
 
     /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays. The
@@ -129,6 +141,7 @@ impl Session {
         self.applied.environment = None;
         self.accumulation = Accumulation::default();
         self.wide_asked = false;
+        self.installs += 1;
         self.model = Some(Model { source, scene, packed, has_wide });
         Ok(title)
     }
@@ -139,10 +152,11 @@ impl Session {
         // The wide layout is packed only on request (its collapse takes as long as the
         // build): a model loaded without it is loaded again, once; binary frames meanwhile.
         let settings = &params.scene.settings;
-        if settings.accel == Accel::Bvh && settings.bvh.is_wide() && !self.wide_asked && self.loader.status().is_none() {
+        let wants_wide = settings.bvh.is_wide() || params.bvh_auto;
+        if settings.accel == Accel::Bvh && wants_wide && !self.wide_asked && self.loader.status().is_none() {
             if let Some(source) = self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone()) {
                 self.wide_asked = true;
-                self.start_load(source, params, panel);
+                self.load_with(source, BvhLayout::Wide, params, panel);
             }
         }
         let size = params.render_size(area);
@@ -188,6 +202,17 @@ impl Session {
             self.accumulation = Accumulation::default();
         }
         Ok(())
+    }
+
+    /// With `Params::bvh_auto`, set the layout the next frame traces: binary until the wide
+    /// tree is loaded, then each in turn until all are timed, then the fastest. Not while the
+    /// split view is on (its halves would share the frame's time).
+    pub(crate) fn pick_layout(&mut self, params: &mut Params, area: [u32; 2]) {
+        let Some(model) = self.model.as_ref().filter(|_| params.bvh_auto && !params.split.enabled) else { return };
+        let work = Work::new(params.settings_for(area), params.scene.models, params.scene.mirror_box, self.installs);
+        if let Some(layout) = self.auto_layout.next_layout(work, model.has_wide) {
+            params.scene.settings.bvh = layout;
+        }
     }
 
     /// This frame's parameters (None without a model), split or not, counting accumulated

@@ -53,6 +53,7 @@ impl Tool {
         let device = devices::describe(&self.gpu.ctx, &self.gpu.trace_ctx);
         let info = PanelInfo {
             device: &device,
+            auto_layout: self.params.bvh_auto.then(|| self.session.auto_layout.describe()),
             model: self.session.model.as_ref().map(|m| &m.source),
             triangles,
             vertices,
