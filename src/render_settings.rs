@@ -126,6 +126,12 @@ pub enum BvhLayout {
     WideRuns,
 }
 
+/// What traced a frame, as tables and logs name it: the acceleration ("bvh", "brute",
+/// "vendor"), or the wide layout's name for our BVH in a wide layout ("wide", "wide-runs").
+pub fn tracer_label(accel: Accel, bvh: BvhLayout) -> String {
+    if accel == Accel::Bvh && bvh.is_wide() { bvh.to_string() } else { accel.to_string() }
+}
+
 impl BvhLayout {
     /// Every layout, in the order the panel lists them.
     pub const ALL: [BvhLayout; 3] = [BvhLayout::Binary, BvhLayout::Wide, BvhLayout::WideRuns];

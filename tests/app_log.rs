@@ -49,6 +49,29 @@ fn stats_csv_has_a_row_per_frame() {
 }
 
 #[test]
+fn the_window_times_each_bvh_layout_and_keeps_one() {
+    // `--bvh auto`: binary frames until the wide tree is loaded, then each layout in turn
+    // until every one has frames timed, then the fastest for the rest of the run.
+    let x = Xvfb::start();
+    let dir = TempDir::new("stats-auto");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.args(["--width", "48", "--height", "48", "--bounces", "1", "--window", "640x480"]);
+    cmd.args(["--bvh", "auto", "--frames", "60", "--stats-csv", "frames.csv"]);
+    let out = spawn(cmd).wait(Duration::from_secs(300));
+    assert_clean_exit(&out);
+    let rows = rows(&dir.path().join("frames.csv"));
+    let at = column(&rows[0], "acceleration");
+    let traced: Vec<&str> = rows[1..].iter().filter(|r| r[0] == "frame").map(|r| r[at].as_str()).collect();
+    assert_eq!(traced.len(), 60, "{rows:?}");
+    assert_eq!(traced[0], "bvh", "the first frame is the binary tree's: {traced:?}");
+    for layout in ["bvh", "wide", "wide-runs"] {
+        assert!(traced.iter().filter(|&&l| l == layout).count() >= 5, "{layout} timed: {traced:?}");
+    }
+    let last = traced[59];
+    assert!(traced[45..].iter().all(|&l| l == last), "one layout kept at the end: {traced:?}");
+}
+
+#[test]
 fn a_key_that_changes_a_parameter_gives_a_change_row() {
     let x = Xvfb::start();
     let dir = TempDir::new("stats-change");

@@ -32,6 +32,6 @@ fn is_binary(layout: &BvhLayout) -> bool {
 impl WorkloadHeader {
     /// The acceleration as tables print it: "wide" for our wide BVH, else the accel's name.
     pub fn accel_label(&self) -> String {
-        if self.accel == Accel::Bvh && self.bvh.is_wide() { self.bvh.to_string() } else { self.accel.to_string() }
+        crate::render_settings::tracer_label(self.accel, self.bvh)
     }
 }

@@ -85,10 +85,11 @@ pub(crate) struct SceneArgs {
     pub accel: Accel,
     /// BVH layout with --accel bvh: binary (two children per node), wide (the compressed
     /// eight-wide tree of Ylitie, Karras and Laine 2017) or wide-runs (the wide tree, each
-    /// ray testing its pending leaves back to back: faster on architecture such as Sponza).
-    /// Without it the window times each on the model shown and keeps the fastest.
+    /// ray testing its pending leaves back to back: faster on architecture such as Sponza);
+    /// `view` also takes auto (time each on the model shown, keep the fastest), which is
+    /// what it does without the flag unless scripted.
     #[arg(long, default_value = "binary")]
-    pub bvh: BvhLayout,
+    pub bvh: BvhChoice,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
     pub device: Option<usize>,
@@ -210,8 +211,8 @@ impl SceneArgs {
         if given("accel") {
             s.accel = self.accel;
         }
-        if given("bvh") {
-            s.bvh = self.bvh;
+        if let (true, BvhChoice::Layout(layout)) = (given("bvh"), self.bvh) {
+            s.bvh = layout;
         }
         if given("smooth") {
             s.smooth = self.smooth;
@@ -279,6 +280,29 @@ impl Cli {
 /// The ids of the arguments given on the command line (not defaults).
 fn given_flags(matches: &ArgMatches) -> HashSet<String> {
     matches.ids().filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine)).map(|id| id.to_string()).collect()
+}
+
+/// `--bvh`: a BVH layout, or `auto`: the window times each and keeps the fastest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhChoice {
+    /// Picked by timing each (`view` only).
+    Auto,
+    /// This layout.
+    Layout(BvhLayout),
+}
+
+impl std::str::FromStr for BvhChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            _ => s.parse().map(Self::Layout).map_err(|_| {
+                let names: Vec<String> = BvhLayout::ALL.iter().map(|l| l.to_string()).collect();
+                format!("unknown BVH layout '{s}' (expected one of: {}, auto)", names.join(", "))
+            }),
+        }
+    }
 }
 
 /// `meshtracer view`.
@@ -365,7 +389,11 @@ impl ViewArgs {
             log::warn!("{w}");
         }
         let scripted = self.frames.is_some() || self.benchmark.is_some();
-        let auto_layout = !scripted && !self.scene.given("bvh") && spec.settings.bvh == BvhLayout::Binary;
+        let auto_layout = match self.scene.bvh {
+            _ if !self.scene.given("bvh") => !scripted && spec.settings.bvh == BvhLayout::Binary,
+            BvhChoice::Auto => true,
+            BvhChoice::Layout(_) => false,
+        };
         Ok(crate::app::ViewOptions {
             spec,
             preset: self.scene.preset.clone(),
@@ -438,6 +466,9 @@ impl RenderArgs {
     /// The scene spec to render: the `--preset` (if any) with the flags given beside it,
     /// and the preset's warnings.
     pub fn spec(&self) -> anyhow::Result<(SceneSpec, Vec<String>)> {
+        if self.scene.bvh == BvhChoice::Auto {
+            anyhow::bail!("--bvh auto times each layout over many frames, which only the window (view) does; render takes binary, wide or wide-runs");
+        }
         let (mut spec, warnings) = self.scene.resolve(self.aov, self.scene.given("aov"))?;
         if let Some(n) = self.accumulate {
             spec.accumulate = n;
@@ -477,6 +508,27 @@ mod tests {
         assert_eq!(options.benchmark_json.as_deref(), Some(std::path::Path::new("b.jsonl")));
         assert!(view_args(&["--benchmark", "0"]).is_err());
         assert!(view_args(&["--benchmark", "5", "--frames", "5"]).unwrap_err().to_string().contains("cannot be used with"));
+    }
+
+    #[test]
+    fn the_window_picks_the_layout_unless_told_or_scripted() {
+        // As main parses: the flags given are noted (an unnoted parse counts every flag as given).
+        let parse = |extra: &[&str]| match Cli::try_parse_from_noting_flags(["meshtracer", "view"].iter().chain(extra)).unwrap().command {
+            Some(Command::View(args)) => args.options().unwrap(),
+            other => panic!("not a view command: {other:?}"),
+        };
+        let auto = |extra: &[&str]| parse(extra).auto_layout;
+        let bare = Cli::try_parse_from_noting_flags(["meshtracer"]).unwrap().view.options().unwrap();
+        assert!(bare.auto_layout, "`meshtracer` alone (cargo run) opens with the measured choice");
+        assert!(auto(&[]), "no --bvh: the window times each layout");
+        assert!(!auto(&["--frames", "3"]), "a script traces what it asks for");
+        assert!(auto(&["--bvh", "auto", "--frames", "3"]), "unless it asks for auto");
+        assert!(!auto(&["--bvh", "wide-runs"]));
+        assert_eq!(parse(&["--bvh", "wide"]).spec.settings.bvh, BvhLayout::Wide);
+        let e = render_args(&["--bvh", "auto"]).unwrap().spec().unwrap_err().to_string();
+        assert!(e.contains("--bvh auto") && e.contains("only the window"), "{e}");
+        let e = view_args(&["--bvh", "eight"]).unwrap_err().to_string();
+        assert!(e.contains("eight") && e.contains("wide-runs, auto"), "{e}");
     }
 
     #[test]

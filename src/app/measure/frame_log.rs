@@ -11,7 +11,8 @@
 //! frame,42,0.701,2.514,16.669,512x512,3,1,bvh,20480,1048576,1980,,
 //! ```
 //!
-//! `gpu_clock_mhz` is the tracing GPU's shader clock as last read (`gpu_clock`; empty on CPU
+//! `acceleration` is bvh, brute or vendor, or for our BVH in a wide layout the layout's name
+//! (wide, wide-runs). `gpu_clock_mhz` is the tracing GPU's shader clock as last read (`gpu_clock`; empty on CPU
 //! devices): a GPU that idles between frames is clocked down and traces slower.
 //!
 //! A change row comes just before the first frame traced with the new value. A value that
@@ -26,7 +27,7 @@ use std::path::{Path, PathBuf};
 use crate::app::measure::frame_stats::FrameStats;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, Resolution};
-use crate::render_settings::{Accel, RenderSettings};
+use crate::render_settings::{tracer_label, Accel, BvhLayout, RenderSettings};
 
 /// The CSV header line.
 pub(crate) const HEADER: &str = "row,frame,time_s,gpu_ms,frame_ms,resolution,bounces,spp,acceleration,triangles,rays,gpu_clock_mhz,parameter,change";
@@ -48,6 +49,8 @@ pub(crate) struct FrameRow {
     pub(crate) spp: u32,
     /// BVH or brute force.
     pub(crate) accel: Accel,
+    /// The BVH layout (the column names it for a wide one).
+    pub(crate) bvh: BvhLayout,
     /// Triangles in the scene (all copies).
     pub(crate) triangles: u64,
     /// Rays the frame traces at most (every pixel, sample and bounce).
@@ -148,7 +151,7 @@ pub(crate) fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
         r.size[1],
         r.bounces,
         r.spp,
-        r.accel,
+        tracer_label(r.accel, r.bvh),
         r.triangles,
         r.rays,
         r.gpu_clock_mhz.map_or(String::new(), |m| format!("{m:.0}"))
@@ -276,6 +279,7 @@ impl FrameRow {
             bounces: settings.bounces,
             spp: settings.spp,
             accel: settings.accel,
+            bvh: settings.bvh,
             triangles,
             rays: settings.max_rays(),
             gpu_clock_mhz,
@@ -377,7 +381,7 @@ mod tests {
     use crate::scene::spec::SceneSpec;
 
     fn row(t: f64, bounces: u32) -> FrameRow {
-        FrameRow { time_s: t, gpu_ms: Some(1.5), frame_ms: Some(16.6667), size: [512, 256], bounces, spp: 1, accel: Accel::Bvh, triangles: 20480, rays: 512 * 256 * (bounces as u64 + 1), gpu_clock_mhz: Some(1980.4) }
+        FrameRow { time_s: t, gpu_ms: Some(1.5), frame_ms: Some(16.6667), size: [512, 256], bounces, spp: 1, accel: Accel::Bvh, bvh: BvhLayout::Binary, triangles: 20480, rays: 512 * 256 * (bounces as u64 + 1), gpu_clock_mhz: Some(1980.4) }
     }
 
     fn params() -> Params {
