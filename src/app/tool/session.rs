@@ -129,7 +129,10 @@ impl Session {
             std::mem::take(&mut packed.wide_nodes),
         );
         crate::memory::free_in_background(freed);
-        let text = format!("loaded {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
+        // The same model again, now with the wide tree: the wide layout's (or auto's) load.
+        let again = self.model.as_ref().is_some_and(|m| m.source == source && !m.has_wide) && has_wide;
+        let what = if again { "loaded the wide BVH layout of" } else { "loaded" };
+        let text = format!("{what} {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
         panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
             None => Status::ok(text),
