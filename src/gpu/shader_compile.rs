@@ -102,7 +102,7 @@ pub(crate) const CORE_ONLY: &str = "CORE_ONLY";
 
 /// Defined for the trace kernel's leaf-runs variant (`--bvh wide-runs`): the wide traversal
 /// tests the leaves pending on top of a ray's stack back to back (`traverse_wide.glsl`).
-#[allow(dead_code)] // the crate compiles it only in build.rs
+#[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
 pub(crate) const LEAF_RUNS: &str = "LEAF_RUNS";
 
 /// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from

@@ -349,6 +349,12 @@ impl TracePass {
 }
 
 impl TracePass {
+    /// Whether the leaf-runs kernel has been created (by a `--bvh wide-runs` frame).
+    #[cfg(test)]
+    pub(crate) fn runs_created(&self) -> bool {
+        self.runs.get().is_some_and(Option::is_some)
+    }
+
     /// The leaf-runs variant of our kernel, created on first use (None: the vendor's kernel,
     /// or its creation failed, which is logged once).
     fn runs_pipeline(&self) -> Option<vk::Pipeline> {
@@ -445,6 +451,19 @@ mod tests {
         assert!(!needs_full_kernel(&push(contract::FLAG_BVH)));
         assert!(needs_full_kernel(&push(contract::FLAG_BVH | contract::FLAG_WIDE)));
         assert!(needs_full_kernel(&push(contract::AOV_AO << contract::AOV_SHIFT)));
+    }
+
+    #[test]
+    fn the_leaf_runs_variant_is_built_from_the_same_sources_and_differs() {
+        use super::super::shader_compile::{self, LEAF_RUNS, ROW_ORDER};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
+        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
+        for (defines, built) in [(&[LEAF_RUNS][..], TRACE_RUNS_SPV), (&[ROW_ORDER, LEAF_RUNS][..], TRACE_ROWS_RUNS_SPV)] {
+            let runs = shader_compile::compile(&path, &contract, defines).unwrap();
+            let bytes: Vec<u8> = runs.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+            assert!(bytes == built, "run-time SPIR-V of {defines:?} differs from build.rs's");
+        }
+        assert!(TRACE_RUNS_SPV != TRACE_SPV && TRACE_ROWS_RUNS_SPV != TRACE_ROWS_SPV, "LEAF_RUNS changes the kernel");
     }
 
     #[test]
