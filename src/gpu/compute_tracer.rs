@@ -509,25 +509,24 @@ impl Drop for ComputeTracer {
 mod tests {
     use super::*;
     use crate::gpu::ContextOptions;
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::render_settings::RenderSettings;
+    use crate::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
     use crate::scene::primitives::PaperModel;
 
     #[test]
     fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
         let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
-        let mut mesh = PaperModel::TorusKnot.mesh();
-        prepare_model(&mut mesh);
-        let scene = paper_scene(mesh, 1, LightOrbit::default());
+        let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
         let packed = PackedScene::for_layout(&scene, BvhLayout::Wide);
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
-        let settings = crate::render_settings::RenderSettings { width: 32, height: 32, bounces: 1, ..Default::default() };
+        let settings = RenderSettings { width: 32, height: 32, bounces: 1, ..Default::default() };
         for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
-            tracer.render(&FrameParams::new(&scene, crate::render_settings::RenderSettings { bvh, ..settings })).unwrap();
+            tracer.render(&FrameParams::new(&scene, RenderSettings { bvh, ..settings })).unwrap();
         }
         assert!(!tracer.pass.runs_created(), "no leaf-runs kernel before a frame asks for it");
-        let (runs, _) = tracer.render(&FrameParams::new(&scene, crate::render_settings::RenderSettings { bvh: BvhLayout::WideRuns, ..settings })).unwrap();
+        let (runs, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::WideRuns, ..settings })).unwrap();
         assert!(tracer.pass.runs_created(), "a wide-runs frame made and ran the leaf-runs kernel");
-        let (wide, _) = tracer.render(&FrameParams::new(&scene, crate::render_settings::RenderSettings { bvh: BvhLayout::Wide, ..settings })).unwrap();
+        let (wide, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::Wide, ..settings })).unwrap();
         assert!(runs.compare(&wide, 1e-4).fraction_over <= 0.002);
         drop(tracer);
         assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());

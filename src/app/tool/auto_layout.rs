@@ -15,6 +15,9 @@ use crate::render_settings::{Accel, BvhLayout, RenderSettings};
 /// Timed frames of each layout before the choice.
 const FRAMES_PER_LAYOUT: usize = 5;
 
+/// How many layouts a trial times (`BvhLayout::ALL`).
+const LAYOUTS: usize = BvhLayout::ALL.len();
+
 /// Frames a trial may take before it settles for what it has (frames whose GPU time never
 /// comes back, say).
 const MAX_TRIAL_FRAMES: u32 = 90;
@@ -49,9 +52,17 @@ enum Stage {
     /// Waiting for the model's wide tree (binary frames meanwhile).
     Waiting,
     /// Tracing `BvhLayout::ALL[current]`; the GPU times of each layout's frames so far.
-    Trial { current: usize, times: [Vec<f64>; 3], frames: u32 },
+    Trial { current: usize, times: [Vec<f64>; LAYOUTS], frames: u32 },
     /// Done: the layout kept and each layout's median time (None: not measured).
-    Chosen { layout: BvhLayout, medians: [Option<f64>; 3] },
+    Chosen { layout: BvhLayout, medians: [Option<f64>; LAYOUTS] },
+}
+
+impl Stage {
+    /// The end of a trial with these times: the layout of the least median.
+    fn chosen(times: &[Vec<f64>; LAYOUTS]) -> Stage {
+        let medians = times.clone().map(median);
+        Stage::Chosen { layout: fastest(medians), medians }
+    }
 }
 
 /// The measured choice of BVH layout (see the module doc).
@@ -86,12 +97,11 @@ impl AutoLayout {
             Stage::Waiting => Some(BvhLayout::Binary),
             Stage::Trial { current, times, frames } => {
                 *frames += 1;
-                if *frames > MAX_TRIAL_FRAMES {
-                    let medians = times.clone().map(median);
-                    self.stage = Stage::Chosen { layout: fastest(medians), medians };
-                    return self.next_layout(work, has_wide);
+                if *frames <= MAX_TRIAL_FRAMES {
+                    return Some(BvhLayout::ALL[*current]);
                 }
-                Some(BvhLayout::ALL[*current])
+                self.stage = Stage::chosen(times);
+                self.next_layout(work, has_wide)
             }
             Stage::Chosen { layout, .. } => Some(*layout),
         }
@@ -107,11 +117,10 @@ impl AutoLayout {
         times[k].push(ms);
         // On to the next layout once this one has a frame timed; done when each has enough.
         if k == *current {
-            *current = (k + 1) % BvhLayout::ALL.len();
+            *current = (k + 1) % LAYOUTS;
         }
         if times.iter().all(|t| t.len() >= FRAMES_PER_LAYOUT) {
-            let medians = times.clone().map(median);
-            self.stage = Stage::Chosen { layout: fastest(medians), medians };
+            self.stage = Stage::chosen(times);
         }
     }
 
@@ -151,7 +160,7 @@ fn median(mut times: Vec<f64>) -> Option<f64> {
 }
 
 /// The layout of the least median; binary when none was measured.
-fn fastest(medians: [Option<f64>; 3]) -> BvhLayout {
+fn fastest(medians: [Option<f64>; LAYOUTS]) -> BvhLayout {
     BvhLayout::ALL
         .iter()
         .zip(medians)
