@@ -83,6 +83,11 @@ impl Aabb {
         o.is_empty() || (o.min.cmpge(self.min - slack).all() && o.max.cmple(self.max + slack).all())
     }
 
+    /// True when the two boxes share a point (touching counts).
+    pub(crate) fn overlaps(&self, o: &Aabb) -> bool {
+        self.min.cmple(o.max).all() && o.min.cmple(self.max).all()
+    }
+
     /// Slab test: the entry distance if the ray meets the box within `(0, t_max)`.
     pub(crate) fn intersect(&self, ray: &Ray, inv_dir: Vec3, t_max: f32) -> Option<f32> {
         let t0 = (self.min - ray.origin) * inv_dir;

@@ -8,7 +8,7 @@ use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, TraversalStats};
 use meshtracer::geometry::{intersect_triangle, Aabb, Ray, TriHit};
 use meshtracer::scene::primitives::PaperModel;
 
-use common::random::{soup, Rng};
+use common::random::{room, soup, Rng};
 
 fn bounds(tris: &[[Vec3; 3]]) -> Aabb {
     tris.iter().fold(Aabb::EMPTY, |b, t| b.union(Aabb::from_points(t)))
@@ -57,10 +57,12 @@ fn random_rays(rng: &mut Rng, tris: &[[Vec3; 3]], count: usize) -> Vec<Ray> {
         .collect()
 }
 
-/// Every wide node's decoded child boxes contain the exact boxes of what they hold, and
-/// every triangle sits in exactly one leaf slot.
-fn check_boxes(wide: &WideBvh, bvh: &Bvh, tris: &[[Vec3; 3]]) {
-    let mut seen = vec![0u32; tris.len()];
+/// Every wide node's decoded child boxes contain the exact boxes of what they hold (where
+/// the build cut triangles, overlap them and together cover them), and every triangle slot
+/// sits in exactly one leaf.
+fn check_boxes(wide: &WideBvh, bvh: &Bvh, tris: &[[Vec3; 3]], cut: bool) {
+    let mut seen = vec![0u32; bvh.prim_indices.len()];
+    let mut covered = vec![Aabb::EMPTY; tris.len()];
     let mut stack = vec![(0u32, None::<Aabb>)];
     while let Some((index, parent_slot)) = stack.pop().filter(|_| !wide.nodes.is_empty()) {
         let node = &wide.nodes[index as usize];
@@ -74,8 +76,11 @@ fn check_boxes(wide: &WideBvh, bvh: &Bvh, tris: &[[Vec3; 3]]) {
                     assert!((1..=3).contains(&count));
                     for k in first..first + count {
                         seen[k as usize] += 1;
-                        let exact = Aabb::from_points(&tris[bvh.prim_indices[k as usize] as usize]);
-                        assert!(inside(&exact, &decoded), "triangle {k} {exact:?} outside its slot {decoded:?}");
+                        let p = bvh.prim_indices[k as usize] as usize;
+                        let exact = Aabb::from_points(&tris[p]);
+                        covered[p] = covered[p].union(decoded);
+                        let ok = if cut { overlap(&exact, &decoded) } else { inside(&exact, &decoded) };
+                        assert!(ok, "triangle {k} {exact:?} outside its slot {decoded:?}");
                     }
                 }
             }
@@ -87,7 +92,14 @@ fn check_boxes(wide: &WideBvh, bvh: &Bvh, tris: &[[Vec3; 3]]) {
             assert!(node_box.min.cmpge(slot.min - step).all() && node_box.max.cmple(slot.max + step).all(), "node {index} leaves its slot");
         }
     }
-    assert!(seen.iter().all(|&n| n == 1), "every triangle in exactly one leaf");
+    assert!(seen.iter().all(|&n| n == 1), "every triangle slot in exactly one leaf");
+    for (p, t) in tris.iter().enumerate() {
+        assert!(tris.len() <= 1 || inside(&Aabb::from_points(t), &covered[p]), "triangle {p}'s slots do not cover it");
+    }
+}
+
+fn overlap(a: &Aabb, b: &Aabb) -> bool {
+    a.min.cmple(b.max).all() && b.min.cmple(a.max).all()
 }
 
 fn inside(inner: &Aabb, outer: &Aabb) -> bool {
@@ -100,7 +112,7 @@ fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, options: &BuildOption
     let mut bvh = Bvh::build(tris, options);
     let wide = wide::collapse(&mut bvh);
     bvh.validate_with(tris, options).unwrap_or_else(|e| panic!("{name}: reordered binary tree: {e}"));
-    check_boxes(&wide, &bvh, tris);
+    check_boxes(&wide, &bvh, tris, options.split_budget > 0.0);
     assert!(wide.stack_need() <= wide::STACK_SIZE, "{name}: the traversal may need {} stack entries", wide.stack_need());
     assert!(wide.stack_need() >= wide.depth(), "{name}: a path's every node is pending at its end");
     let targets = hittable(tris);
@@ -152,6 +164,21 @@ fn random_soup_matches_binary_and_brute_force() {
 }
 
 #[test]
+fn cut_triangles_match_binary_and_brute_force() {
+    // A room of huge triangles around small ones: the build cuts the huge ones into pieces
+    // that several leaves hold, and both trees still find what brute force finds.
+    let tris = room(&mut Rng(5), 2000);
+    let cut = BuildOptions { split_budget: 0.3, ..tracing() };
+    assert!(Bvh::build(&tris, &cut).prim_indices.len() > tris.len() + 100, "the room's big triangles are cut");
+    let (binary, wide) = check_mesh("room, cut", &tris, 6000, &cut);
+    let (whole_binary, whole_wide) = check_mesh("room", &tris, 6000, &tracing());
+    // The same rays take fewer steps through the trees of pieces.
+    let steps = |s: TraversalStats| s.nodes + s.triangles;
+    assert!(steps(binary) < steps(whole_binary), "binary: {binary:?} cut, {whole_binary:?} whole");
+    assert!(steps(wide) < steps(whole_wide), "wide: {wide:?} cut, {whole_wide:?} whole");
+}
+
+#[test]
 fn empty_and_single_triangle() {
     let mut bvh = Bvh::build(&[], &tracing());
     let wide = wide::collapse(&mut bvh);
@@ -194,7 +221,7 @@ fn huge_and_tiny_coordinates() {
         let big = soup(&mut rng, 800, extent, extent * 0.3);
         let mut bvh = Bvh::build(&big, &tracing());
         let wide = wide::collapse(&mut bvh);
-        check_boxes(&wide, &bvh, &big);
+        check_boxes(&wide, &bvh, &big, false);
     }
 }
 

@@ -23,6 +23,7 @@ mod parallel;
 mod phases;
 mod prim;
 mod small;
+mod split;
 mod top;
 
 use glam::Vec3;
@@ -51,22 +52,32 @@ pub struct BuildOptions {
     pub traversal_cost: f32,
     /// SAH cost of one ray/triangle test.
     pub intersection_cost: f32,
+    /// Extra primitives cut from large triangles before the build, as a share of the
+    /// triangle count (`build/split.rs`; 0: none, every triangle referenced once). Builds of
+    /// `SAMPLED_TOP_MIN_PRIMS` triangles or more (the fast path for big meshes) cut none.
+    pub split_budget: f32,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        Self { max_leaf_size: 4, bins: 16, traversal_cost: 1.0, intersection_cost: 1.0 }
+        Self { max_leaf_size: 4, bins: 16, traversal_cost: 1.0, intersection_cost: 1.0, split_budget: 0.0 }
     }
 }
 
+/// The tracers' budget of extra references from cut triangles (`build/split.rs`): on the
+/// H100 a budget of 0.3 traced Crytek Sponza in 0.54-0.56 of the time of the uncut tree
+/// (framed, and in the mirror box with 2 bounces); 0.1 gave 0.70-0.83, 0.6 no more than 0.3.
+const TRACING_SPLIT_BUDGET: f32 = 0.3;
+
 impl BuildOptions {
-    /// What the tracers build with: leaves of at most 2 triangles. On the H100 this traced
-    /// primary rays 7-11% faster than leaves of 4 on 0.2M-4M-triangle meshes (1 gave 13% on
-    /// the 4M knot but doubled the dragon's time; 8 was 18-25% slower) and made no
-    /// difference on the paper's scenes: big meshes pay for triangle bytes more than for
-    /// node visits (docs/BENCHMARKS.md).
+    /// What the tracers build with: leaves of at most 2 triangles, and large triangles cut
+    /// (`TRACING_SPLIT_BUDGET`). On the H100 leaves of 2 traced primary rays 7-11% faster
+    /// than leaves of 4 on 0.2M-4M-triangle meshes (1 gave 13% on the 4M knot but doubled
+    /// the dragon's time; 8 was 18-25% slower) and made no difference on the paper's
+    /// scenes: big meshes pay for triangle bytes more than for node visits
+    /// (docs/BENCHMARKS.md).
     pub(crate) fn for_tracing() -> Self {
-        Self { max_leaf_size: 2, ..Self::default() }
+        Self { max_leaf_size: 2, split_budget: TRACING_SPLIT_BUDGET, ..Self::default() }
     }
 }
 
@@ -101,7 +112,7 @@ impl Bvh {
     fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
         let clock = PhaseClock::start();
         if count < top::SAMPLED_TOP_MIN_PRIMS {
-            let prims = (0..count).into_par_iter().map(|i| Prim::of_triangle(corners(i), i as u32)).collect();
+            let prims = split::split_prims(count, &corners, options.split_budget);
             clock.mark("prim boxes");
             let bvh = build_from_prims(prims, options, &clock);
             return (bvh, clock.finish());
@@ -324,7 +335,7 @@ fn ceil_log2(n: usize) -> usize {
 
 /// Object-median split along the widest centroid axis; when all centroids coincide, any
 /// halving is as good as another, so the range is just cut in two. Ties go by original
-/// index, so that the halves do not depend on the order the partitions left the range in
+/// index (then box: `Prim::tie_break`), so that the halves do not depend on the order the partitions left the range in
 /// (which differs between the sequential and the parallel partition).
 fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
     let mid = prims.len() / 2;
@@ -332,10 +343,10 @@ fn median_split(prims: &mut [Prim], info: &NodeInfo) -> Split {
     if extent.max_element() > 0.0 {
         let axis = extent.max_position();
         prims.select_nth_unstable_by(mid, |a, b| {
-            a.centroid()[axis].total_cmp(&b.centroid()[axis]).then(a.index.cmp(&b.index))
+            a.centroid()[axis].total_cmp(&b.centroid()[axis]).then_with(|| a.tie_break(b))
         });
     } else {
-        prims.select_nth_unstable_by_key(mid, |p| p.index);
+        prims.select_nth_unstable_by(mid, Prim::tie_break);
     }
     Split { mid, left: NodeInfo::of(&prims[..mid]), right: NodeInfo::of(&prims[mid..]) }
 }

@@ -1,5 +1,7 @@
-//! The structural checker: every primitive referenced once, boxes nested, leaves within
-//! the size limit, every node reached once and the depth within `MAX_DEPTH`. The tests,
+//! The structural checker: every primitive referenced once (at least once, each piece
+//! overlapping it and the pieces covering its box, where the build cut triangles), boxes
+//! nested, leaves within the size limit, every node reached once and the depth within
+//! `MAX_DEPTH`. The tests,
 //! the fuzzer and the BVH build benchmark check their trees with it.
 
 use glam::Vec3;
@@ -17,7 +19,9 @@ impl Bvh {
     /// Check the structural invariants; Err names the first broken one: every primitive referenced exactly
     /// once, child boxes inside the box recorded for their node in its parent, primitives inside their leaf's
     /// box, leaves within `max_leaf_size`, node indices in range, every node reached once (no cycles, no
-    /// orphans), depth within `MAX_DEPTH`.
+    /// orphans), depth within `MAX_DEPTH`. Where `options.split_budget` let the build cut triangles, a
+    /// primitive may be referenced more than once: each of its leaf boxes must overlap its box, and
+    /// together they must cover it.
     pub fn validate_with(&self, triangles: &[[Vec3; 3]], options: &BuildOptions) -> Result<(), String> {
         self.check(triangles.len(), |i| Aabb::from_points(&triangles[i]), options)
     }
@@ -28,18 +32,25 @@ impl Bvh {
     }
 
     fn check(&self, prim_count: usize, prim_box: impl Fn(usize) -> Aabb, options: &BuildOptions) -> Result<(), String> {
-        if self.prim_indices.len() != prim_count {
-            return Err(format!("prim_indices has {} entries for {prim_count} primitives", self.prim_indices.len()));
+        let split = options.split_budget > 0.0;
+        let slots = self.prim_indices.len();
+        if slots != prim_count && !(split && slots > prim_count) {
+            return Err(format!("prim_indices has {slots} entries for {prim_count} primitives"));
         }
         let mut seen = vec![false; prim_count];
         for (k, &p) in self.prim_indices.iter().enumerate() {
             let Some(s) = seen.get_mut(p as usize) else {
                 return Err(format!("prim_indices[{k}] = {p} is out of range"));
             };
-            if std::mem::replace(s, true) {
+            if std::mem::replace(s, true) && !split {
                 return Err(format!("primitive {p} appears twice in prim_indices (again at {k})"));
             }
         }
+        if let Some(p) = seen.iter().position(|s| !s) {
+            return Err(format!("primitive {p} is not in prim_indices"));
+        }
+        // Where pieces are allowed: the union of each primitive's leaf boxes.
+        let mut covered = vec![Aabb::EMPTY; if split { prim_count } else { 0 }];
         if prim_count == 0 {
             return match self.nodes.is_empty() {
                 true => Ok(()),
@@ -52,7 +63,7 @@ impl Bvh {
 
         let max_leaf = options.max_leaf_size.max(1);
         let mut node_seen = vec![false; self.nodes.len()];
-        let mut slot_seen = vec![false; prim_count];
+        let mut slot_seen = vec![false; slots];
         // (node, the box its parent records for it, level)
         let mut stack: Vec<(u32, Option<Aabb>, usize)> = vec![(0, None, 1)];
         while let Some((index, parent_box, level)) = stack.pop() {
@@ -91,15 +102,20 @@ impl Bvh {
                     return Err(format!("{here} is a leaf of {} > max_leaf_size = {max_leaf}", child.count));
                 }
                 let range = child.index as usize..child.index as usize + child.count as usize;
-                if range.end > prim_count {
-                    return Err(format!("{here} leaf range {range:?} exceeds {prim_count} primitives"));
+                if range.end > slots {
+                    return Err(format!("{here} leaf range {range:?} exceeds {slots} slots"));
                 }
                 for k in range {
                     if std::mem::replace(&mut slot_seen[k], true) {
                         return Err(format!("{here} references slot {k}, already in another leaf"));
                     }
                     let p = self.prim_indices[k] as usize;
-                    if !child.bounds.contains(&prim_box(p)) {
+                    if split {
+                        if !child.bounds.overlaps(&prim_box(p)) {
+                            return Err(format!("{here}: primitive {p} does not overlap the leaf box"));
+                        }
+                        covered[p] = covered[p].union(child.bounds);
+                    } else if !child.bounds.contains(&prim_box(p)) {
                         return Err(format!("{here}: primitive {p} is not inside the leaf box"));
                     }
                 }
@@ -110,6 +126,9 @@ impl Bvh {
         }
         if let Some(i) = node_seen.iter().position(|s| !s) {
             return Err(format!("node {i} is unreachable from the root"));
+        }
+        if let Some(p) = (0..covered.len()).find(|&p| !covered[p].contains(&prim_box(p))) {
+            return Err(format!("the leaf boxes of primitive {p} ({:?}) do not cover it ({:?})", covered[p], prim_box(p)));
         }
         Ok(())
     }

@@ -170,6 +170,8 @@ pub struct GpuInstance {
     pub scale: f32,
     pub node_base: u32,
     pub triangle_base: u32,
+    /// Triangle slots from `triangle_base` (more than the mesh's triangles where the build
+    /// cut some into pieces: one slot per leaf that holds a piece).
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
@@ -185,6 +187,7 @@ pub struct GpuInstance {
 pub struct PackedMesh {
     pub node_base: u32,
     pub triangle_base: u32,
+    /// Triangle slots in BVH order (see [`GpuInstance::triangle_count`]).
     pub triangle_count: u32,
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
@@ -351,6 +354,8 @@ impl PackedScene {
             .collect();
         self.materials.extend(materials);
         let triangle_base = self.meshes.last().map_or(0, |m| m.triangle_base + m.triangle_count);
+        // Slots, not triangles: a triangle the build cut into pieces fills one slot per leaf.
+        let triangle_count = bvh.prim_indices.len() as u32;
         if let Some(deferred) = &mut self.deferred {
             deferred.orders.push(bvh.prim_indices);
             deferred.bases.push((material_base, vertex_base));
@@ -376,7 +381,7 @@ impl PackedScene {
             wide_base,
             has_wide,
             triangle_base,
-            triangle_count: mesh.triangle_count() as u32,
+            triangle_count,
             prim_base,
             bounds: mesh.bounds(),
         });

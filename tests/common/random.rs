@@ -47,3 +47,30 @@ pub fn soup(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Vec<[Vec3; 3]> {
         })
         .collect()
 }
+
+/// An architectural scene, the case the build's triangle cutting is for: a room of a few
+/// huge triangles (floor, walls, ceiling and a slanted roof, in two triangles each) around
+/// `n` small random triangles, so that the huge ones have boxes far above the median.
+#[allow(dead_code)]
+pub fn room(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    let quad = |a: Vec3, b: Vec3, c: Vec3, d: Vec3| [[a, b, c], [a, c, d]];
+    let (lo, hi) = (Vec3::new(-10.0, 0.0, -6.0), Vec3::new(10.0, 8.0, 6.0));
+    let p = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let mut tris: Vec<[Vec3; 3]> = [
+        quad(p(lo.x, 0.0, lo.z), p(hi.x, 0.0, lo.z), p(hi.x, 0.0, hi.z), p(lo.x, 0.0, hi.z)),
+        quad(p(lo.x, 0.0, lo.z), p(lo.x, hi.y, lo.z), p(hi.x, hi.y, lo.z), p(hi.x, 0.0, lo.z)),
+        quad(p(lo.x, 0.0, lo.z), p(lo.x, 0.0, hi.z), p(lo.x, hi.y, hi.z), p(lo.x, hi.y, lo.z)),
+        // A roof slanted in two axes: the emptiest boxes.
+        quad(p(lo.x, hi.y, lo.z), p(hi.x, hi.y - 3.0, lo.z), p(hi.x, hi.y - 1.0, hi.z), p(lo.x, hi.y + 2.0, hi.z)),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    // Diagonal beams across the room.
+    for k in 0..4 {
+        let z = lo.z + 2.0 + 2.5 * k as f32;
+        tris.push([p(lo.x, 1.0, z), p(hi.x, 6.0, z + 0.5), p(hi.x, 6.2, z + 0.7)]);
+    }
+    tris.extend(soup(rng, n, 4.0, 0.3).into_iter().map(|t| t.map(|v| v + Vec3::new(0.0, 4.0, 0.0))));
+    tris
+}

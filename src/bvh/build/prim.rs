@@ -41,6 +41,21 @@ impl Prim {
         self.max.into()
     }
 
+    /// A total order between primitives that tie on a centroid: by triangle, then (for
+    /// pieces of one cut triangle) by box, so that builds do not depend on the order a
+    /// partition left them in. Equal only for identical primitives, which may go either way.
+    pub(super) fn tie_break(&self, other: &Prim) -> std::cmp::Ordering {
+        let corners = |p: &Prim| [p.min.x, p.min.y, p.min.z, p.max.x, p.max.y, p.max.z];
+        let (a, b) = (corners(self), corners(other));
+        self.index.cmp(&other.index).then_with(|| a.iter().zip(&b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal))
+    }
+
+    /// The box in SIMD form.
+    #[inline(always)]
+    pub(super) fn bounds(&self) -> Bounds {
+        Bounds { min: self.bounds_min(), max: self.bounds_max() }
+    }
+
     /// Box centre; halves first so that huge coordinates cannot overflow.
     #[inline(always)]
     pub(super) fn centroid(&self) -> Vec3A {

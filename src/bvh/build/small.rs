@@ -56,7 +56,7 @@ pub(super) fn exact_split(prims: &mut [Prim], node_bounds: &Bounds) -> Split {
 }
 
 /// Writes into `order` the positions of `prims` sorted by centroid on `axis`, ties by
-/// original index: each primitive's place is the number of primitives before it in that
+/// original index (then box): each primitive's place is the number of primitives before it in that
 /// order (a rank, with no branch to mispredict; a total order, so the ranks are a
 /// permutation even with NaNs).
 fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
@@ -67,7 +67,14 @@ fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
     }
     let keys = &keys[..prims.len()];
     for (i, &key) in keys.iter().enumerate() {
-        let rank = keys.iter().filter(|&&other| other < key).count();
+        // Equal keys are pieces of one cut triangle (same index) with the same centroid
+        // here: their boxes order them, and identical pieces their positions, so that the
+        // ranks stay a permutation.
+        let before = |j: usize| {
+            let other = keys[j];
+            other < key || (other == key && j != i && prims[j].tie_break(&prims[i]).then(j.cmp(&i)).is_lt())
+        };
+        let rank = (0..keys.len()).filter(|&j| before(j)).count();
         order[rank] = i as u8;
     }
 }
@@ -111,6 +118,20 @@ mod tests {
         assert_eq!(left, [1, 3, 5]);
         assert_eq!(split.left.bounds.max.x, 2.0);
         assert_eq!(split.right.bounds.min.x, 100.0);
+    }
+
+    #[test]
+    fn pieces_of_one_triangle_with_one_centroid_are_each_kept() {
+        // A cut wall: pieces of triangle 7, flat at x = 3 (one centroid on x), and two
+        // identical pieces; the order must stay a permutation (equal sort keys once lost
+        // pieces and doubled others).
+        let piece = |y: f32| Prim::new(Vec3::new(3.0, y, 0.0), Vec3::new(3.0, y + 1.0, 1.0), 7);
+        let mut prims: Vec<Prim> = [2.0, 0.0, 4.0, 1.0, 3.0, 1.0].into_iter().map(piece).collect();
+        let bounds = NodeInfo::of(&prims).bounds;
+        exact_split(&mut prims, &bounds);
+        let mut ys: Vec<f32> = prims.iter().map(|p| p.min.y).collect();
+        ys.sort_by(f32::total_cmp);
+        assert_eq!(ys, [0.0, 1.0, 1.0, 2.0, 3.0, 4.0]);
     }
 
     #[test]
