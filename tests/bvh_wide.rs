@@ -284,6 +284,17 @@ fn gpu_wide_traversal_matches_the_cpu_reference_and_the_binary_tree() {
 }
 
 #[test]
+fn gpu_traces_cut_triangles_as_the_cpu_reference_in_every_layout() {
+    let scene = common::room_scene();
+    let (slots, triangles) = common::slots_and_triangles(&scene);
+    assert!(slots > triangles, "the room's big triangles are cut ({slots} slots for {triangles} triangles)");
+    for bvh in [BvhLayout::Binary, BvhLayout::Wide, BvhLayout::WideRuns] {
+        let (gpu, cpu) = render_both(&scene, RenderSettings { bvh, ..wide_settings(64, 2) });
+        assert_close(&gpu, &cpu, &format!("room of cut triangles, {bvh:?}"));
+    }
+}
+
+#[test]
 fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
     let scene = paper(PaperModel::TorusKnot, 3);
     let (gpu, cpu) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 2) });

@@ -130,6 +130,23 @@ fn depth_and_primitive_id_outputs_match() {
 }
 
 #[test]
+fn a_scene_of_cut_triangles_matches() {
+    // Our build cuts the room's big triangles into pieces held by several leaves: the
+    // vendor must get each triangle once (the other slots inactive) and still name our
+    // slots by its primitive numbers, or the colours and the ids below would differ.
+    let scene = room_scene();
+    let (slots, triangles) = slots_and_triangles(&scene);
+    assert!(slots > triangles, "the room's big triangles are cut ({slots} slots for {triangles} triangles)");
+    let all = assert_all_close(&scene, settings(64, 2), "room of cut triangles");
+    let lit = all[0].1.pixels.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
+    assert!(lit > 64 * 64 / 4, "the room fills part of the frame ({lit} lit pixels)");
+    for (kernel, vendor, ours) in render_all(&scene, RenderSettings { aov: Aov::PrimId, ..settings(64, 0) }) {
+        let d = vendor.compare(&ours, 1e-3);
+        assert!(d.fraction_over <= 0.01, "room, prim-id ({kernel}): {d:?}");
+    }
+}
+
+#[test]
 fn a_new_model_count_or_model_rebuilds_the_structures_and_still_matches() {
     let ctx = ctx();
     let kernel = kernels(&ctx)[0];

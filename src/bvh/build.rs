@@ -65,19 +65,26 @@ impl Default for BuildOptions {
 }
 
 /// The tracers' budget of extra references from cut triangles (`build/split.rs`): on the
-/// H100 a budget of 0.3 traced Crytek Sponza in 0.54-0.56 of the time of the uncut tree
-/// (framed, and in the mirror box with 2 bounces); 0.1 gave 0.70-0.83, 0.6 no more than 0.3.
+/// H100 a budget of 0.3 traced Crytek Sponza in 0.55 (framed) and 0.47 (the mirror box, 2
+/// bounces) of the time of the uncut tree; 0.1 gave 0.70-0.83, 0.6 no more than 0.3.
 const TRACING_SPLIT_BUDGET: f32 = 0.3;
 
+/// Meshes of fewer triangles are not cut for tracing: the paper's scenes (up to 1.2K
+/// triangles) are also traced by brute force, which tests every slot (the cylinder's cut
+/// caps would have cost it 30% more tests), and a tree that small gains little.
+const TRACING_SPLIT_MIN_TRIANGLES: usize = 16 * 1024;
+
 impl BuildOptions {
-    /// What the tracers build with: leaves of at most 2 triangles, and large triangles cut
-    /// (`TRACING_SPLIT_BUDGET`). On the H100 leaves of 2 traced primary rays 7-11% faster
-    /// than leaves of 4 on 0.2M-4M-triangle meshes (1 gave 13% on the 4M knot but doubled
-    /// the dragon's time; 8 was 18-25% slower) and made no difference on the paper's
+    /// What the tracers build with over `triangles` triangles: leaves of at most 2
+    /// triangles, and large triangles cut (`TRACING_SPLIT_BUDGET`) in meshes of at least
+    /// `TRACING_SPLIT_MIN_TRIANGLES`. On the H100 leaves of 2 traced primary rays 7-11%
+    /// faster than leaves of 4 on 0.2M-4M-triangle meshes (1 gave 13% on the 4M knot but
+    /// doubled the dragon's time; 8 was 18-25% slower) and made no difference on the paper's
     /// scenes: big meshes pay for triangle bytes more than for node visits
     /// (docs/BENCHMARKS.md).
-    pub(crate) fn for_tracing() -> Self {
-        Self { max_leaf_size: 2, split_budget: TRACING_SPLIT_BUDGET, ..Self::default() }
+    pub(crate) fn for_tracing(triangles: usize) -> Self {
+        let split_budget = if triangles >= TRACING_SPLIT_MIN_TRIANGLES { TRACING_SPLIT_BUDGET } else { 0.0 };
+        Self { max_leaf_size: 2, split_budget, ..Self::default() }
     }
 }
 

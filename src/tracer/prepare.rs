@@ -34,7 +34,6 @@ impl PreparedScene {
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                let options = BuildOptions::for_tracing();
                 // With `wide`, both layouts, so that a frame may pick either: the wide tree is
                 // collapsed from the binary one, whose triangles it puts in its own leaf
                 // order. Only on request: the collapse takes as long as the build.
@@ -42,6 +41,7 @@ impl PreparedScene {
                     .meshes
                     .iter()
                     .map(|mesh| {
+                        let options = BuildOptions::for_tracing(mesh.triangle_count());
                         let mut bvh = Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
                         // A tree whose traversal could overflow the shader's stack (none of
                         // the meshes measured comes near) keeps the binary layout alone.

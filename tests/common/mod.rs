@@ -43,6 +43,32 @@ pub fn render_both(scene: &Scene, settings: RenderSettings) -> (Image, Image) {
     render_both_with(scene, settings, |_| {})
 }
 
+/// The paper's scene (mirror box, light orbit) around [`random::room`]: big walls, a
+/// slanted roof and beams around small triangles, the architecture whose big triangles the
+/// build cuts into pieces.
+pub fn room_scene() -> Scene {
+    // Enough triangles that the tracers cut (16K and up).
+    let tris = random::room(&mut random::Rng(23), 17_000);
+    let mut mesh = Mesh {
+        name: "room".into(),
+        positions: tris.iter().flatten().copied().collect(),
+        triangles: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+        triangle_materials: vec![0; tris.len()],
+        materials: vec![Material::default()],
+        ..Default::default()
+    };
+    mesh.compute_vertex_normals();
+    prepare_model(&mut mesh);
+    paper_scene(mesh, 1, LightOrbit::default())
+}
+
+/// Triangle slots of `scene` packed for tracing against its triangles: more where the
+/// build cut triangles into pieces.
+pub fn slots_and_triangles(scene: &Scene) -> (usize, usize) {
+    let packed = PackedScene::new(scene);
+    (packed.meshes.iter().map(|m| m.triangle_count as usize).sum(), scene.triangle_count())
+}
+
 /// A unit quad in the z = 0 plane facing +z, as one mesh with one material.
 pub fn quad_mesh(material: Material) -> Mesh {
     let mut m = Mesh {

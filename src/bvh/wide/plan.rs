@@ -244,7 +244,7 @@ mod tests {
                 [c, c + Vec3::new(next(), next(), 0.0), c + Vec3::new(0.0, next(), next())]
             })
             .collect();
-        let bvh = Bvh::build(&tris, &BuildOptions::for_tracing());
+        let bvh = Bvh::build(&tris, &BuildOptions::for_tracing(tris.len()));
         assert!(is_depth_first(&bvh) && bvh.nodes.len() >= PARALLEL_MIN_NODES);
         let n = bvh.nodes.len();
         let moved = |i: u32| if i == 0 { 0 } else { n as u32 - i };

@@ -162,9 +162,10 @@ impl VendorScene {
 
     /// A compacted bottom level over `triangles`, in their order (primitive k is triangle k).
     /// A triangle our build cut into pieces fills several slots: the vendor gets it once,
-    /// the later slots as inactive triangles (a NaN first coordinate, which the Vulkan
-    /// specification has the build skip), so that its structure holds each triangle once and
-    /// its primitive numbers still name our slots.
+    /// the later slots as points (three equal corners, which no ray hits), so that its
+    /// primitive numbers still name our slots. Not as inactive triangles (a NaN corner, as
+    /// the Vulkan specification allows): Mesa 25's lavapipe then traced wrong images. On the
+    /// H100 the vendor's times were the same either way (Sponza, 2026-11-27).
     fn build_bottom(&self, triangles: &[GpuTriangle]) -> Result<Structure, GpuError> {
         let mut seen = vec![false; triangles.iter().map(|t| t.prim as usize + 1).max().unwrap_or(0)];
         // Corners from the packed (v0, e1, e2): the triangles our tracer tests, to rounding.
@@ -174,7 +175,7 @@ impl VendorScene {
                 let [v0, e1, e2] = t.edges();
                 let corners = [v0, v0 + e1, v0 + e2].map(|v| v.to_array());
                 let first = !std::mem::replace(&mut seen[t.prim as usize], true);
-                if first { corners } else { [[f32::NAN; 3]; 3] }
+                if first { corners } else { [corners[0]; 3] }
             })
             .collect();
         let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
