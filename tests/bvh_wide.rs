@@ -246,7 +246,7 @@ fn torus_knot_matches_and_is_smaller() {
     // The expectations written down before the GPU is measured (see the report).
     println!("knot: {} triangles, binary {} nodes ({:.1} B/tri), wide {} nodes ({:.1} B/tri), {:.2} children per node, depth {}", stats.triangles, stats.binary_nodes, stats.binary_bytes_per_triangle(), stats.wide_nodes, stats.wide_bytes_per_triangle(), stats.mean_children, stats.wide_depth);
     let rays = 20_000.0;
-    let per_ray = |s: TraversalStats, node_bytes: f64| (s.nodes as f64 / rays, s.triangles as f64 / rays, (s.nodes as f64 * node_bytes + s.triangles as f64 * 48.0) / rays);
+    let per_ray = |s: TraversalStats, node_bytes: f64| (s.nodes as f64 / rays, s.triangles as f64 / rays, (s.nodes as f64 * node_bytes + s.triangles as f64 * 40.0) / rays);
     println!("binary per ray: {:.1} nodes, {:.1} triangles, {:.0} B", per_ray(binary, 64.0).0, per_ray(binary, 64.0).1, per_ray(binary, 64.0).2);
     println!("wide per ray: {:.1} nodes, {:.1} triangles, {:.0} B", per_ray(wide_counts, 80.0).0, per_ray(wide_counts, 80.0).1, per_ray(wide_counts, 80.0).2);
     assert!(stats.wide_nodes * 3 < stats.binary_nodes, "{stats:?}");
@@ -410,7 +410,7 @@ fn large_knot_statistics() {
         let rays = (side * side) as f64;
         for (name, c, node_bytes) in [("binary", binary, 64.0), ("wide", wide_counts, 80.0)] {
             let (nodes, tested) = (c.nodes as f64 / rays, c.triangles as f64 / rays);
-            println!("  {name}: {nodes:.1} nodes, {tested:.1} triangles per ray, {:.0} B per ray ({:.0}% of rays hit)", nodes * node_bytes + tested * 48.0, 100.0 * hits as f64 / rays);
+            println!("  {name}: {nodes:.1} nodes, {tested:.1} triangles per ray, {:.0} B per ray ({:.0}% of rays hit)", nodes * node_bytes + tested * 40.0, 100.0 * hits as f64 / rays);
         }
     }
 }

@@ -40,6 +40,9 @@ pub struct GpuTriangle {
     pub prim: u32,
 }
 
+// The size statistics count triangle bytes as the traversal reads them.
+const _: () = assert!(std::mem::size_of::<GpuTriangle>() == crate::bvh::wide::stats::TRIANGLE_BYTES);
+
 /// What the shading reads at a triangle's hit (16 bytes, one `uvec4`): its corners'
 /// indices into [`PackedVertices`] and its global material index.
 #[repr(C)]

@@ -25,7 +25,7 @@
 
 mod collapse;
 mod plan;
-mod stats;
+pub(crate) mod stats;
 mod traverse;
 
 pub use collapse::collapse;

@@ -4,14 +4,18 @@
 use super::{WideBvh, WideNode, WideSlot, WIDTH};
 use crate::bvh::{Bvh, BvhNode};
 
-/// Bytes of one triangle as the traversal reads it (`GpuTriangle`: v0, e1, e2).
-const TRIANGLE_BYTES: usize = 48;
+/// Bytes of one triangle as the traversal reads it (`GpuTriangle`: v0, e1, e2 and the
+/// triangle's index; `tracer/packed.rs` checks the two agree).
+pub(crate) const TRIANGLE_BYTES: usize = 40;
 
 /// Sizes of a wide tree and its binary source.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WideStats {
     /// Triangles of the mesh.
     pub triangles: usize,
+    /// Triangle slots in leaf order: more than `triangles` where the build cut triangles
+    /// into pieces (one slot, and one 40-byte record, per leaf holding a piece).
+    pub slots: usize,
     /// Nodes of the binary tree.
     pub binary_nodes: usize,
     /// Nodes of the wide tree.
@@ -29,8 +33,11 @@ impl WideStats {
     pub fn new(bvh: &Bvh, wide: &WideBvh) -> Self {
         let filled: usize = wide.nodes.iter().map(|n| n.meta.iter().filter(|&&m| m != 0).count()).sum();
         let leaves = wide.nodes.iter().map(|n| (0..WIDTH).filter(|&s| matches!(n.slot(s), WideSlot::Leaf { .. })).count()).sum();
+        // Every triangle has a slot at least; a cut one has several.
+        let triangles = bvh.prim_indices.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
         Self {
-            triangles: bvh.prim_indices.len(),
+            triangles,
+            slots: bvh.prim_indices.len(),
             binary_nodes: bvh.nodes.len(),
             wide_nodes: wide.nodes.len(),
             wide_leaves: leaves,
@@ -39,21 +46,22 @@ impl WideStats {
         }
     }
 
-    /// Node bytes plus triangle bytes the binary traversal reads, per triangle.
+    /// Node bytes plus triangle bytes the binary traversal reads, per triangle of the mesh.
     pub fn binary_bytes_per_triangle(&self) -> f64 {
         self.per_triangle(self.binary_nodes * std::mem::size_of::<BvhNode>())
     }
 
-    /// Node bytes plus triangle bytes the wide traversal reads, per triangle.
+    /// Node bytes plus triangle bytes the wide traversal reads, per triangle of the mesh.
     pub fn wide_bytes_per_triangle(&self) -> f64 {
         self.per_triangle(self.wide_nodes * std::mem::size_of::<WideNode>())
     }
 
+    /// Node bytes plus every slot's triangle record, over the mesh's triangles.
     fn per_triangle(&self, node_bytes: usize) -> f64 {
         if self.triangles == 0 {
             return 0.0;
         }
-        (node_bytes + self.triangles * TRIANGLE_BYTES) as f64 / self.triangles as f64
+        (node_bytes + self.slots * TRIANGLE_BYTES) as f64 / self.triangles as f64
     }
 }
 
