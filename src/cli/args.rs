@@ -85,7 +85,7 @@ pub(crate) struct SceneArgs {
     pub accel: Accel,
     /// BVH layout with --accel bvh: binary (two children per node), wide (the compressed
     /// eight-wide tree of Ylitie, Karras and Laine 2017) or wide-runs (the wide tree, each
-    /// ray testing its pending leaves back to back: faster on architecture such as Sponza);
+    /// ray testing its pending leaves back to back: faster where rays meet runs of leaves);
     /// `view` also takes auto (time each on the model shown, keep the fastest), which is
     /// what it does without the flag unless scripted.
     #[arg(long, default_value = "binary")]

@@ -108,7 +108,7 @@ impl Section for RenderPanel {
                     }
                 })
                 .response;
-                let layouts = "binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again); wide-runs: the wide tree, each ray testing its pending leaves back to back (faster on architecture such as Sponza, slower on scanned meshes); auto: times each on this model and view and keeps the fastest";
+                let layouts = "binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again); wide-runs: the wide tree, each ray testing its pending leaves back to back (faster where rays meet runs of leaves, as in some architecture; slower on scanned meshes); auto: times each on this model and view and keeps the fastest";
                 match &info.auto_layout {
                     Some(choice) => response.on_hover_text(format!("{choice}\n\n{layouts}")),
                     None => response.on_hover_text(layouts),
