@@ -291,12 +291,7 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         }
         let kernel = tracer.vendor_kernel().map_err(|why| GpuError::VendorUnavailable(why.to_string()))?;
         row.vendor_kernel = Some(kernel.to_string());
-        // The driver's structures stand in for our BVH in the build and memory columns.
         tracer.prepare(&crate::gpu::FrameTrace::whole(params))?;
-        if let Some(stats) = tracer.vendor_stats() {
-            row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
-            row.scene_bytes = stats.bytes;
-        }
     }
     if case.spec.camera.framed {
         // What share of the frame the model covers: its primitives come before the box's.
@@ -331,6 +326,14 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
     }
     if let (Some(guard), Some(before)) = (clock, clock_before) {
         row.gpu_clock_mhz = Some(before.min(guard.read()?));
+    }
+    if s.accel == Accel::Vendor {
+        // The driver's structures stand in for our BVH in the build and memory columns. Read
+        // after the frames: a tracer new to this row builds them with its first frame (its
+        // output image does not exist before), and the columns had shown our own figures.
+        let stats = tracer.vendor_stats().ok_or_else(|| GpuError::VendorUnavailable("the vendor's structures were not built".into()))?;
+        row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
+        row.scene_bytes = stats.bytes;
     }
     row.wall_ms = Timing::of(&wall).unwrap_or_default();
     row.gpu_ms = Timing::of(&gpu);
