@@ -155,7 +155,8 @@ fn cut_triangles_match_brute_force_and_save_steps() {
     let cut = BuildOptions { split_budget: 0.3, ..whole };
     let bvh = Bvh::build(&tris, &cut);
     let slots = bvh.prim_indices.len();
-    assert!(slots > tris.len() + 100 && slots <= tris.len() + tris.len() * 3 / 10, "{slots} slots for {} triangles", tris.len());
+    // The 12 big triangles (and a few of the small ones) take up to 4 pieces each.
+    assert!(slots > tris.len() + 20 && slots <= tris.len() + tris.len() * 3 / 10, "{slots} slots for {} triangles", tris.len());
     assert!(bvh.validate_with(&tris, &whole).is_err(), "an uncut tree names each triangle once");
     let (cut_stats, whole_stats) = (check_mesh("room, cut", &tris, 20_000, 12, &cut), check_mesh("room", &tris, 20_000, 12, &whole));
     assert!(cut_stats.nodes + cut_stats.triangles < whole_stats.nodes + whole_stats.triangles, "{cut_stats:?} against {whole_stats:?}");
