@@ -160,6 +160,30 @@ fn the_vendors_ao_matches_ours() {
 }
 
 #[test]
+fn ao_over_cut_triangles_matches_every_way() {
+    // The room's big triangles are cut into pieces that several leaves hold: an occlusion
+    // ray may meet one triangle in several leaves, brute force tests every slot, and the
+    // vendor holds each triangle once. All must see the same occlusion.
+    let room = room_scene();
+    let (slots, triangles) = slots_and_triangles(&room);
+    assert!(slots > triangles, "the room's big triangles are cut ({slots} slots for {triangles} triangles)");
+    let settings = ao(40, 8, 0.5);
+    let all = render_every_way(&room, settings);
+    let ours = &all[0].1;
+    for (what, image) in &all[1..] {
+        assert_close(image, ours, 1e-3, &format!("room: {what} against our BVH"));
+    }
+    for bvh in [BvhLayout::Wide, BvhLayout::WideRuns] {
+        let (gpu, cpu) = render_both(&room, RenderSettings { bvh, ..settings });
+        assert_close(&gpu, &cpu, 1e-4, &format!("room, {bvh:?}"));
+        assert_close(&gpu, ours, 1e-4, &format!("room, {bvh:?} against the binary tree"));
+    }
+    let open = ours.pixels.iter().filter(|p| p[3] == 1.0 && p[0] > 0.9).count();
+    let occluded = ours.pixels.iter().filter(|p| p[3] == 1.0 && p[0] < 0.7).count();
+    assert!(open > 0 && occluded > 0, "the room has open and occluded hits ({open}, {occluded})");
+}
+
+#[test]
 fn accumulation_averages_new_ao_rays_on_both_tracers() {
     let ctx = ctx();
     let scene = paper(PaperModel::TorusKnot, 1);

@@ -13,12 +13,12 @@
 //! (`CANDIDATE_FACTOR` times the median box): in a scan of even triangles (the dragon) no
 //! piece would be smaller than the leaves around it, and the extra references only cost
 //! (on the H100 a 30% budget spread over the dragon traced it 7% slower). Among those, the
-//! budget of extra references, a share of the triangle count and at most
-//! `CUTS_PER_CANDIDATE` a candidate, goes in proportion to how much a triangle's box
-//! surface exceeds the surface of the boxes that would bound it if cut into infinitely
-//! many pieces (its area projected on the three axes). Cuts fall on the
-//! planes of a power-of-two grid over the scene, the coarsest one crossing the piece's
-//! longest axis, so pieces of neighbouring triangles share planes that the SAH can find.
+//! budget of extra references (a share of the triangle count, and at most
+//! `CUTS_PER_CANDIDATE` a candidate) goes in proportion to how much a triangle's box
+//! surface exceeds the surface of the boxes that would bound it if cut into infinitely many
+//! pieces (its area projected on the three axes). Cuts fall on the planes of a power-of-two
+//! grid over the scene, the coarsest one crossing the piece's longest axis, so pieces of
+//! neighbouring triangles share planes that the SAH can find.
 
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
