@@ -72,7 +72,7 @@ fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
         // ranks stay a permutation.
         let before = |j: usize| {
             let other = keys[j];
-            other < key || (other == key && j != i && prims[j].tie_break(&prims[i]).then(j.cmp(&i)).is_lt())
+            other < key || (other == key && prims[j].tie_break(&prims[i]).then(j.cmp(&i)).is_lt())
         };
         let rank = (0..keys.len()).filter(|&j| before(j)).count();
         order[rank] = i as u8;

@@ -44,12 +44,12 @@ const MAX_GRID_LEVEL: i32 = 24;
 /// `budget * count` extra pieces cut from the triangles whose boxes are the emptiest.
 /// Without a budget, one primitive per triangle in index order.
 pub(super) fn split_prims(count: usize, corners: &(impl Fn(usize) -> [Vec3; 3] + Sync), budget: f32) -> Vec<Prim> {
-    let whole = |i: usize| Prim::of_triangle(corners(i), i as u32);
+    let whole: Vec<Prim> = (0..count).into_par_iter().map(|i| Prim::of_triangle(corners(i), i as u32)).collect();
     let extra = (budget.max(0.0) * count as f32) as u64;
     if extra == 0 {
-        return (0..count).into_par_iter().map(whole).collect();
+        return whole;
     }
-    let areas: Vec<f32> = (0..count).into_par_iter().map(|i| half_area(&whole(i).bounds())).collect();
+    let areas: Vec<f32> = whole.par_iter().map(|p| half_area(&p.bounds())).collect();
     let threshold = CANDIDATE_FACTOR * median(&areas);
     let weights: Vec<f32> =
         (0..count).into_par_iter().map(|i| if areas[i] > threshold { weight(corners(i)) } else { 0.0 }).collect();
@@ -59,23 +59,24 @@ pub(super) fn split_prims(count: usize, corners: &(impl Fn(usize) -> [Vec3; 3] +
     let extra = extra.min(CUTS_PER_CANDIDATE * candidates);
     let scale = cut_scale(&weights, extra);
     // The grid spans the triangles to cut (all finite).
-    let scene = (0..count)
-        .into_par_iter()
-        .filter(|&i| weights[i] > 0.0)
-        .map(|i| whole(i).bounds())
+    let scene = whole
+        .par_iter()
+        .zip(&weights)
+        .filter(|(_, &w)| w > 0.0)
+        .map(|(p, _)| p.bounds())
         .reduce(|| Bounds::EMPTY, Bounds::union);
     let grid = Grid { origin: scene.min, extent: scene.max - scene.min };
-    (0..count)
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let cuts = cuts_for(weights[i], scale);
+    whole
+        .par_iter()
+        .zip(&weights)
+        .flat_map_iter(|(&p, &w)| {
+            let cuts = cuts_for(w, scale);
             let mut out = Vec::with_capacity(cuts as usize + 1);
-            let p = whole(i);
             if cuts == 0 {
                 out.push(p);
             } else {
-                let tri = corners(i).map(Vec3A::from);
-                cut(&tri, p.bounds(), cuts, &grid, i as u32, &mut out);
+                let tri = corners(p.index as usize).map(Vec3A::from);
+                cut(&tri, p.bounds(), cuts, &grid, p.index, &mut out);
             }
             out
         })
