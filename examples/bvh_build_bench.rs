@@ -188,7 +188,7 @@ fn wide_report(mesh: &str, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
         .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2.max(b.2)));
     let r = rays.len().max(1) as f64;
     println!(
-        "{mesh:<28} {:<26} {ms:>10.1} {:>8} {:>9} {:>6} {:>9} {:>8.1} {:>8.1}  longest {longest}, stack need {}",
+        "{mesh:<28} {:<26} {ms:>10.1} {:>8} {:>9} {:>6} {:>9} {:>8.1} {:>8.1}  longest {longest}, stack need {}, tree hash {:016x}",
         "wide (collapsed)",
         "",
         "",
@@ -196,8 +196,19 @@ fn wide_report(mesh: &str, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
         wide.nodes.len(),
         nodes as f64 / r,
         triangles as f64 / r,
-        wide.stack_need()
+        wide.stack_need(),
+        tree_hash(&wide.nodes, &bvh.prim_indices)
     );
+}
+
+/// A hash of the wide nodes and the triangle order: equal hashes, the same tree (to check
+/// that a faster collapse makes the same one).
+fn tree_hash(nodes: &[meshtracer::bvh::wide::WideNode], prim_indices: &[u32]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    bytemuck::cast_slice::<_, u8>(nodes).hash(&mut h);
+    prim_indices.hash(&mut h);
+    h.finish()
 }
 
 /// obvhs' BVH2 (one box per node, children adjacent) in our layout (both child boxes in

@@ -7,32 +7,13 @@
 
 use glam::{DVec3, Vec3};
 
-use super::plan::{Plan, Planned};
+use super::plan::{Children, Plan, Planned};
 use super::{WideBvh, WideNode, INNER_META_BASE, MAX_LEAF_TRIANGLES, WIDTH};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
-
-/// A child of a wide node before it is placed: a binary node to make a wide node of, or
-/// a run of triangles (a binary leaf, a piece of one, or a small subtree made one leaf).
-#[derive(Clone, Copy, Debug)]
-enum Pending {
-    /// `bvh.nodes[index]`, with its box.
-    Binary { index: u32, bounds: Aabb },
-    /// Triangles `first .. first + count` in the binary tree's order.
-    Leaf { first: u32, count: u32, bounds: Aabb },
-    /// Every triangle (at most three) under `bvh.nodes[index]`.
-    Merged { index: u32, count: u32, bounds: Aabb },
-}
-
-impl Pending {
-    fn bounds(&self) -> Aabb {
-        match *self {
-            Pending::Binary { bounds, .. } | Pending::Leaf { bounds, .. } | Pending::Merged { bounds, .. } => bounds,
-        }
-    }
-}
 
 /// Collapse `bvh` into a compressed wide BVH and reorder `bvh`'s triangles (its
 /// `prim_indices` and leaf indices) into the wide tree's leaf order, which both trees then
@@ -45,7 +26,7 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
     let plan = Plan::new(bvh);
     // The top of the tree here, the subtrees below it on every core, then spliced in.
     let mut top = Collapser { bvh, plan: &plan, nodes: vec![WideNode::default()], order: Vec::new(), deferred: Some(Vec::new()) };
-    top.build(0, Pending::Binary { index: 0, bounds: root });
+    top.build(0, Planned::Node { index: 0, bounds: root });
     let deferred = top.deferred.take().unwrap_or_default();
     let subtrees: Vec<(usize, Collapser)> = deferred
         .into_par_iter()
@@ -55,10 +36,8 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
             (index, sub)
         })
         .collect();
-    let Collapser { mut nodes, mut order, .. } = top;
-    for (index, sub) in subtrees {
-        splice(&mut nodes, &mut order, index, sub);
-    }
+    let Collapser { nodes, order, .. } = top;
+    let (nodes, order) = splice(nodes, order, subtrees);
     reorder_binary(bvh, &order);
     WideBvh { nodes }
 }
@@ -68,23 +47,46 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
 /// sequential top stays short.
 const PARALLEL_MAX_TRIANGLES: u32 = 16 * 1024;
 
-/// Put `sub` (a subtree collapsed on its own, its root at its node 0) in place of
-/// `nodes[index]`: its other nodes go after `nodes`, its triangles after `order`.
-fn splice(nodes: &mut Vec<WideNode>, order: &mut Vec<u32>, index: usize, sub: Collapser) {
-    let (node_offset, triangle_offset) = (nodes.len() as u32 - 1, order.len() as u32);
-    for (k, mut node) in sub.nodes.into_iter().enumerate() {
-        // Local node i > 0 becomes node_offset + i; the root keeps `index`.
-        if node.imask() != 0 {
-            node.child_base += node_offset;
-        }
-        node.triangle_base += triangle_offset;
-        if k == 0 {
-            nodes[index] = node;
-        } else {
-            nodes.push(node);
-        }
+/// Put each subtree (collapsed on its own, its root at its node 0) in place of the top's
+/// node `index` it was deferred from: its other nodes go after the top's nodes, its
+/// triangles after the top's, subtree after subtree. Copied on every core.
+fn splice(mut nodes: Vec<WideNode>, mut order: Vec<u32>, subtrees: Vec<(usize, Collapser)>) -> (Vec<WideNode>, Vec<u32>) {
+    // Where each subtree's nodes (but its root) and triangles start.
+    let mut starts = Vec::with_capacity(subtrees.len());
+    let (mut node_end, mut triangle_end) = (nodes.len(), order.len());
+    for (_, sub) in &subtrees {
+        starts.push((node_end, triangle_end));
+        node_end += sub.nodes.len() - 1;
+        triangle_end += sub.order.len();
     }
-    order.extend(sub.order);
+    let (top_nodes, top_triangles) = (nodes.len(), order.len());
+    nodes.resize(node_end, WideNode::default());
+    order.resize(triangle_end, 0);
+    let (head, mut node_tail) = nodes.split_at_mut(top_nodes);
+    let mut triangle_tail = &mut order[top_triangles..];
+    let mut work = Vec::with_capacity(subtrees.len());
+    for ((index, sub), &(node_start, triangle_start)) in subtrees.into_iter().zip(&starts) {
+        let (node_out, rest) = std::mem::take(&mut node_tail).split_at_mut(sub.nodes.len() - 1);
+        let (triangle_out, more) = std::mem::take(&mut triangle_tail).split_at_mut(sub.order.len());
+        (node_tail, triangle_tail) = (rest, more);
+        // Local node i > 0 becomes node_start - 1 + i; the root goes to `index`.
+        let place = move |mut node: WideNode| {
+            if node.imask() != 0 {
+                node.child_base += node_start as u32 - 1;
+            }
+            node.triangle_base += triangle_start as u32;
+            node
+        };
+        head[index] = place(sub.nodes[0]);
+        work.push((sub, node_out, triangle_out, place));
+    }
+    work.into_par_iter().for_each(|(sub, node_out, triangle_out, place)| {
+        for (out, &node) in node_out.iter_mut().zip(&sub.nodes[1..]) {
+            *out = place(node);
+        }
+        triangle_out.copy_from_slice(&sub.order);
+    });
+    (nodes, order)
 }
 
 struct Collapser<'a> {
@@ -95,30 +97,30 @@ struct Collapser<'a> {
     order: Vec<u32>,
     /// For the top of the tree: binary subtrees left to collapse on their own, with the
     /// wide node each becomes. None: collapse everything here.
-    deferred: Option<Vec<(usize, Pending)>>,
+    deferred: Option<Vec<(usize, Planned)>>,
 }
 
 impl Collapser<'_> {
     /// Fill `nodes[index]` from `item`, then its inner children (depth first, so that the
     /// triangles of any subtree, a split binary leaf's included, end up contiguous).
-    fn build(&mut self, index: usize, item: Pending) {
+    fn build(&mut self, index: usize, item: Planned) {
         let children = self.children_of(item);
-        let slots = assign_slots(&children, item.bounds());
+        let slots = assign_slots(children.as_slice(), item.bounds());
         let mut node = frame(item.bounds());
         let child_base = self.nodes.len() as u32;
         let triangle_base = self.order.len() as u32;
-        let mut inner = Vec::new();
+        let mut inner = Children::default();
         for (s, child) in slots.iter().enumerate() {
             let Some(child) = child else { continue };
             quantize(&mut node, s, &child.bounds());
             // A leaf small enough for one slot goes in; anything else becomes an inner node.
             let offset = self.order.len() as u32 - triangle_base;
             match *child {
-                Pending::Leaf { first, count, .. } if count <= MAX_LEAF_TRIANGLES => {
+                Planned::Leaf { first, count, .. } if count <= MAX_LEAF_TRIANGLES => {
                     node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
                     self.order.extend(first..first + count);
                 }
-                Pending::Merged { index, count, .. } => {
+                Planned::Merged { index, count, .. } => {
                     node.meta[s] = (leaf_unary(count) << 5 | offset) as u8;
                     self.push_subtree(index);
                 }
@@ -133,12 +135,13 @@ impl Collapser<'_> {
         node.triangle_base = triangle_base;
         self.nodes[index] = node;
         // Inner children sit side by side in slot order (the traversal counts `imask` bits).
+        let inner = inner.as_slice();
         self.nodes.resize(self.nodes.len() + inner.len(), WideNode::default());
-        for (k, child) in inner.into_iter().enumerate() {
+        for (k, &child) in inner.iter().enumerate() {
             let at = child_base as usize + k;
             // Whole binary subtrees only: the pieces of a split leaf stay with their parent,
             // so that the leaf's triangles stay contiguous.
-            if let (Some(deferred), Pending::Binary { index, .. }) = (self.deferred.as_mut(), child) {
+            if let (Some(deferred), Planned::Node { index, .. }) = (self.deferred.as_mut(), child) {
                 if self.plan.triangles_under(index) <= PARALLEL_MAX_TRIANGLES {
                     deferred.push((at, child));
                     continue;
@@ -149,42 +152,32 @@ impl Collapser<'_> {
     }
 
     /// The (at most eight) children of the wide node made from `item`.
-    fn children_of(&self, item: Pending) -> Vec<Pending> {
+    fn children_of(&self, item: Planned) -> Children {
         match item {
-            Pending::Binary { index, .. } => self
-                .plan
-                .slots(self.bvh, index)
-                .into_iter()
-                .map(|p| match p {
-                    Planned::Node { index, bounds } => Pending::Binary { index, bounds },
-                    Planned::Leaf { first, count, bounds } => Pending::Leaf { first, count, bounds },
-                    Planned::Merged { index, count, bounds } => Pending::Merged { index, count, bounds },
-                })
-                .collect(),
+            Planned::Node { index, .. } => self.plan.slots(self.bvh, index),
             // At most three triangles always fit one slot: never a node of its own.
-            Pending::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
+            Planned::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
             // A leaf too big for a slot: split into pieces, each with the leaf's box.
-            Pending::Leaf { first, count, bounds } => {
+            Planned::Leaf { first, count, bounds } => {
                 let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 { MAX_LEAF_TRIANGLES } else { count.div_ceil(WIDTH as u32) };
-                (first..first + count)
-                    .step_by(per_piece as usize)
-                    .map(|start| Pending::Leaf { first: start, count: per_piece.min(first + count - start), bounds })
-                    .collect()
+                let mut pieces = Children::default();
+                for start in (first..first + count).step_by(per_piece as usize) {
+                    pieces.push(Planned::Leaf { first: start, count: per_piece.min(first + count - start), bounds });
+                }
+                pieces
             }
         }
     }
 
-    /// Place every triangle under binary node `index`, leaf by leaf.
+    /// Place every triangle under binary node `index`, leaf by leaf (a merged leaf's
+    /// subtree: at most three triangles, so the recursion is shallow).
     fn push_subtree(&mut self, index: u32) {
-        let mut stack = vec![index];
-        while let Some(n) = stack.pop() {
-            for child in self.bvh.nodes[n as usize].children() {
-                if child.is_leaf() {
-                    self.order.extend(child.index..child.index + child.count);
-                } else if child.is_inner() {
-                    stack.push(child.index);
-                }
-            }
+        let children = self.bvh.nodes[index as usize].children();
+        for child in children.iter().filter(|c| c.is_leaf()) {
+            self.order.extend(child.index..child.index + child.count);
+        }
+        for child in children.iter().rev().filter(|c| c.is_inner()) {
+            self.push_subtree(child.index);
         }
     }
 }
@@ -197,7 +190,7 @@ fn leaf_unary(count: u32) -> u32 {
 /// Places each child in one of the eight slots: slot `s` wants the child lying furthest
 /// towards corner `s` of the parent box (bit `i` set: the high side of axis `i`). Greedy
 /// over (child, slot) pairs, best first, which is close to the paper's assignment.
-fn assign_slots(children: &[Pending], parent: Aabb) -> [Option<Pending>; WIDTH] {
+fn assign_slots(children: &[Planned], parent: Aabb) -> [Option<Planned>; WIDTH] {
     let centre = parent.center().as_dvec3();
     let corner = |s: usize| DVec3::new(sign(s, 0), sign(s, 1), sign(s, 2));
     // Each pair as one integer key, so that sorting them is cheap: the score descending
@@ -278,18 +271,18 @@ fn quantize(node: &mut WideNode, s: usize, child: &Aabb) {
 /// leaves at their new ranges; every binary leaf's triangles stay side by side.
 fn reorder_binary(bvh: &mut Bvh, order: &[u32]) {
     debug_assert_eq!(order.len(), bvh.prim_indices.len(), "every triangle is placed once");
-    let mut new_position = vec![0u32; order.len()];
-    for (new, &old) in order.iter().enumerate() {
-        new_position[old as usize] = new as u32;
-    }
-    let first_new = |first: u32, count: u32| (first..first + count).map(|old| new_position[old as usize]).min().unwrap_or(first);
-    for node in &mut bvh.nodes {
+    // `order` is a permutation: each entry is written once, whichever thread writes it.
+    let new_position: Vec<AtomicU32> = (0..order.len()).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+    order.par_iter().enumerate().for_each(|(new, &old)| new_position[old as usize].store(new as u32, Relaxed));
+    let first_new = |first: u32, count: u32| (first..first + count).map(|old| new_position[old as usize].load(Relaxed)).min().unwrap_or(first);
+    bvh.nodes.par_iter_mut().for_each(|node| {
         if node.left_count > 0 {
             node.left_index = first_new(node.left_index, node.left_count);
         }
         if node.right_count > 0 {
             node.right_index = first_new(node.right_index, node.right_count);
         }
-    }
-    bvh.prim_indices = order.iter().map(|&old| bvh.prim_indices[old as usize]).collect();
+    });
+    let prim_indices: Vec<u32> = order.par_iter().map(|&old| bvh.prim_indices[old as usize]).collect();
+    bvh.prim_indices = prim_indices;
 }
