@@ -334,7 +334,7 @@ fn a_mesh_without_a_wide_tree_traces_its_binary_one_in_wide_frames() {
     use meshtracer::gpu::ComputeTracer;
     use meshtracer::tracer::{cpu, FrameParams, PackedScene};
     let scene = paper(PaperModel::TorusKnot, 1);
-    let mut packed = PackedScene::for_layout(&scene, BvhLayout::Wide);
+    let mut packed = PackedScene::with_both_layouts(&scene);
     let cost = FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 1) });
     let all_wide = cpu::render(&packed, &cost);
     packed.drop_wide_tree(0, &scene.instances);
@@ -373,6 +373,40 @@ fn a_scene_packed_without_the_wide_layout_traces_its_binary_tree() {
     assert_eq!(gpu_wide.pixels, gpu_binary.pixels);
     assert_eq!(cpu::render(&binary_only, &wide).pixels, cpu::render(&binary_only, &binary).pixels);
     drop(tracer);
+    common::assert_validation_clean(&ctx);
+}
+
+#[test]
+fn a_scene_packed_for_wide_frames_alone_drops_the_binary_nodes_and_traces_the_same() {
+    // `render` and `bench` pack only the layout they trace: the wide trees, and binary nodes
+    // only for a mesh without a wide tree. Wide frames match those of a scene holding both
+    // trees, binary frames are traced wide, on both tracers, and the GPU scene is smaller
+    // by the binary nodes.
+    use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::{cpu, FrameParams, PackedScene};
+    let scene = paper(PaperModel::TorusKnot, 2);
+    let (wide_only, both) = (PackedScene::for_layout(&scene, BvhLayout::Wide), PackedScene::with_both_layouts(&scene));
+    assert!(wide_only.has_wide() && !wide_only.has_binary());
+    assert!(both.has_wide() && both.has_binary());
+    assert!(PackedScene::for_layout(&scene, BvhLayout::Binary).has_binary());
+    assert_eq!(wide_only.traced_layout(BvhLayout::Binary), BvhLayout::Wide);
+    let wide = FrameParams::new(&scene, wide_settings(48, 2));
+    let binary = FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::Binary, ..wide_settings(48, 2) });
+    let ctx = common::ctx();
+    let mut both_tracer = ComputeTracer::with_scene(&ctx, &both).unwrap();
+    let (reference, _) = both_tracer.render(&wide).unwrap();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &wide_only).unwrap();
+    let binary_nodes = (both.nodes_bytes() - wide_only.nodes_bytes()) as u64;
+    assert!(binary_nodes > 0);
+    assert_eq!(tracer.scene_bytes() + binary_nodes, both_tracer.scene_bytes(), "the scene is smaller by the binary nodes");
+    let (gpu_wide, _) = tracer.render(&wide).unwrap();
+    let (gpu_binary, _) = tracer.render(&binary).unwrap();
+    assert_eq!(gpu_wide.pixels, reference.pixels, "wide frames as with both trees");
+    assert_eq!(gpu_binary.pixels, gpu_wide.pixels, "a binary frame is traced wide");
+    assert_close(&gpu_wide, &cpu::render(&wide_only, &wide), "wide-only scene, GPU vs CPU");
+    assert_eq!(cpu::render(&wide_only, &binary).pixels, cpu::render(&wide_only, &wide).pixels);
+    assert_eq!(cpu::render(&wide_only, &wide).pixels, cpu::render(&both, &wide).pixels);
+    drop((tracer, both_tracer));
     common::assert_validation_clean(&ctx);
 }
 

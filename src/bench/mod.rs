@@ -352,7 +352,8 @@ fn work_per_ray(tracer: &mut ComputeTracer, scene: &crate::scene::Scene, s: Rend
     let n = image.pixels.len().max(1) as f64;
     let nodes = image.pixels.iter().map(|p| p[0] as f64).sum::<f64>() / n;
     let tris = image.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / n;
-    let node_bytes = std::mem::size_of::<crate::bvh::BvhNode>() as f64;
+    // The layout traced: a scene packed with one layout traces it whatever the frame asks.
+    let node_bytes = if tracer.traced_layout(s.bvh).is_wide() { std::mem::size_of::<crate::bvh::wide::WideNode>() } else { std::mem::size_of::<crate::bvh::BvhNode>() } as f64;
     let tri_bytes = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as f64;
     let tail = PathTail::of(&image, crate::gpu::GROUP.width);
     Ok(format!(

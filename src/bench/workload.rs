@@ -20,13 +20,18 @@ pub struct WorkloadHeader {
     pub bounces: u32,
     /// Saved as "bvh" or "brute".
     pub accel: Accel,
-    /// The BVH layout of a "bvh" row; saved only when wide, so older reports read the same.
-    #[serde(default, skip_serializing_if = "is_binary")]
+    /// The BVH layout of a "bvh" row; saved only when wide and binary when absent, so
+    /// reports written before wide became the default read the same.
+    #[serde(default = "binary", skip_serializing_if = "is_binary")]
     pub bvh: BvhLayout,
 }
 
 fn is_binary(layout: &BvhLayout) -> bool {
     *layout == BvhLayout::Binary
+}
+
+fn binary() -> BvhLayout {
+    BvhLayout::Binary
 }
 
 impl WorkloadHeader {

@@ -83,12 +83,13 @@ pub(crate) struct SceneArgs {
     /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
     #[arg(long, default_value = "bvh")]
     pub accel: Accel,
-    /// BVH layout with --accel bvh: binary (two children per node), wide (the compressed
-    /// eight-wide tree of Ylitie, Karras and Laine 2017) or wide-runs (the wide tree, each
-    /// ray testing its pending leaves back to back: faster where rays meet runs of leaves);
+    /// BVH layout with --accel bvh: wide (the compressed eight-wide tree of Ylitie, Karras
+    /// and Laine 2017; the fastest on every framed and mirror-box row measured), binary (two
+    /// children per node; builds in half the time) or wide-runs (the wide tree, each ray
+    /// testing its pending leaves back to back: faster where rays meet runs of leaves);
     /// `view` also takes auto (time each on the model shown, keep the fastest), which is
     /// what it does without the flag unless scripted.
-    #[arg(long, default_value = "binary")]
+    #[arg(long, default_value = "wide")]
     pub bvh: BvhChoice,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
@@ -390,7 +391,8 @@ impl ViewArgs {
         }
         let scripted = self.frames.is_some() || self.benchmark.is_some();
         let auto_layout = match self.scene.bvh {
-            _ if !self.scene.given("bvh") => !scripted && spec.settings.bvh == BvhLayout::Binary,
+            // A preset's binary (also what one without a layout reads as) names none.
+            _ if !self.scene.given("bvh") => !scripted && (self.scene.preset.is_none() || spec.settings.bvh == BvhLayout::Binary),
             BvhChoice::Auto => true,
             BvhChoice::Layout(_) => false,
         };

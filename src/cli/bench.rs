@@ -68,8 +68,9 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_value = "brute,bvh")]
     pub(crate) accel: Vec<Accel>,
     /// BVH layouts of the bvh rows, comma-separated: binary, wide, wide-runs (each bvh row is traced
-    /// with each; with --compare, the vendor's rows follow them).
-    #[arg(long, value_delimiter = ',', default_value = "binary")]
+    /// with each; with --compare, the vendor's rows follow them). Without it, a preset's
+    /// layout, else wide.
+    #[arg(long, value_delimiter = ',', default_value = "wide")]
     pub(crate) bvh: Vec<BvhLayout>,
     /// Triangle counts of the generated meshes for --scaling, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "100,1000,10000,100000,1000000,4000000")]
@@ -100,7 +101,7 @@ pub struct BenchArgs {
     /// Measure the way from each model to its first frame instead (files or names as
     /// --model takes them, e.g. torusknot:10M): each phase (read, parse, build, pack,
     /// upload), the first frame at --size in the paper's scene, the whole wait and the peak
-    /// memory.
+    /// memory; with the binary tree, as the window's first frame, or each --bvh layout given.
     #[arg(long, value_name = "MODEL", num_args = 1.., conflicts_with_all = ["paper", "scaling", "features", "framed", "compare", "charts_from", "preset"])]
     pub(crate) load: Vec<String>,
     /// Benchmark exactly this preset (a TOML preset or a PNG this program wrote), one row
@@ -316,11 +317,19 @@ fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
     println!("each model in the paper's mirror box at {0}x{0}, {1} bounces: phase times, the first frame's GPU time, read start to first frame, peak memory (and beyond the file's size, per triangle)", args.size, args.bounces);
     let mut tracer = crate::gpu::ComputeTracer::new(&ctx, 0)?;
     let mut rows = Vec::new();
+    // The window's first frame is the binary tree's (it loads the wide one after): the
+    // default here too; `--bvh` loads those layouts instead, one row each.
+    let layouts = if args.given("bvh") { args.bvh.clone() } else { vec![BvhLayout::Binary] };
     for name in &args.load {
-        let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
-        (spec.settings.width, spec.settings.height, spec.settings.bounces) = (args.size, args.size, args.bounces);
-        let row = bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
-        rows.push(row);
+        for &layout in &layouts {
+            let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
+            (spec.settings.width, spec.settings.height, spec.settings.bounces, spec.settings.bvh) = (args.size, args.size, args.bounces, layout);
+            let mut row = bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
+            if layout != BvhLayout::Binary {
+                row.model = format!("{} ({layout})", row.model);
+            }
+            rows.push(row);
+        }
     }
     print!("{}", bench::load::table(&rows));
     let messages = ctx.validation_messages();

@@ -65,7 +65,9 @@ pub struct ComputeTracer {
     recorded_slots: u32,
     /// Triangles over all instances, for the work estimate that splits frames into bands.
     triangle_total: u64,
-    /// The scene uploaded holds the wide BVH layout (see `PackedScene::for_layout`).
+    /// The scene uploaded holds the binary and the wide BVH layout (see
+    /// `PackedScene::for_layout`).
+    has_binary: bool,
     has_wide: bool,
     /// The vendor path, or why the device cannot run it.
     vendor: Result<VendorTracer, String>,
@@ -103,6 +105,7 @@ impl ComputeTracer {
             timer,
             recorded_slots,
             triangle_total: 0,
+            has_binary: true,
             has_wide: false,
             vendor,
             meshes: Vec::new(),
@@ -139,7 +142,7 @@ impl ComputeTracer {
         }
         self.scene = Some(SceneBuffers::upload_loaded(&self.ctx, packed, scene)?);
         self.triangle_total = triangle_total(&packed.instances);
-        self.has_wide = packed.has_wide();
+        (self.has_binary, self.has_wide) = (packed.has_binary(), packed.has_wide());
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
         self.instances = packed.instances.clone();
         self.rebind();
@@ -193,8 +196,13 @@ impl ComputeTracer {
         self.scene.is_some() && self.output.is_some()
     }
 
+    /// The layout a frame asking for `layout` traces: the one uploaded where only one is.
+    pub fn traced_layout(&self, layout: BvhLayout) -> BvhLayout {
+        layout.traced_with(self.has_binary, self.has_wide)
+    }
+
     /// Bytes of device memory the scene uses.
-    pub(crate) fn scene_bytes(&self) -> u64 {
+    pub fn scene_bytes(&self) -> u64 {
         self.scene.as_ref().map_or(0, |s| s.bytes)
     }
 
@@ -310,10 +318,8 @@ impl ComputeTracer {
     /// `params` limited to the instances uploaded.
     fn clamped(&self, params: &FrameParams) -> FrameParams {
         let mut settings = params.settings;
-        if !self.has_wide {
-            // A scene packed without the wide layout traces its binary tree.
-            settings.bvh = BvhLayout::Binary;
-        }
+        // A scene packed with one layout traces that one.
+        settings.bvh = self.traced_layout(settings.bvh);
         FrameParams { instance_count: params.instance_count.min(self.instance_count()), settings, ..*params }
     }
 
@@ -517,7 +523,7 @@ mod tests {
     fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
         let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
         let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
-        let packed = PackedScene::for_layout(&scene, BvhLayout::Wide);
+        let packed = PackedScene::with_both_layouts(&scene);
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
         let settings = RenderSettings { width: 32, height: 32, bounces: 1, ..Default::default() };
         for bvh in [BvhLayout::Binary, BvhLayout::Wide] {

@@ -63,13 +63,15 @@ impl<'a> CpuScene<'a> {
         Self { packed, edges: packed.triangles.iter().map(|t| t.edges()).collect() }
     }
 
-    /// Closest hit over the first `instance_count` instances, in (0, inf), through the binary BVH.
+    /// Closest hit over the first `instance_count` instances, in (0, inf), through the binary
+    /// BVH (the wide one in a scene packed for wide frames alone).
     pub fn closest_hit(&self, ray: &Ray, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
         self.closest_hit_in(ray, accel, BvhLayout::Binary, instance_count, stats)
     }
 
-    /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout.
+    /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout, where packed.
     pub fn closest_hit_in(&self, ray: &Ray, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
+        let layout = self.packed.traced_layout(layout);
         let mut best: Option<SceneHit> = None;
         let inv_dir = safe_inverse(ray.dir);
         for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
@@ -127,6 +129,7 @@ impl<'a> CpuScene<'a> {
     /// (0, t_max): the AO view's occlusion query, the shader's `any_hit` (the vendor's
     /// frames with our BVH, as for closest hits), through `layout` where it is packed.
     pub fn any_hit(&self, ray: &Ray, t_max: f32, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> bool {
+        let layout = self.packed.traced_layout(layout);
         let inv_dir = safe_inverse(ray.dir);
         let brute = accel == Accel::Brute;
         for inst in self.packed.instances.iter().take(instance_count as usize) {

@@ -221,6 +221,9 @@ pub struct PackedScene {
     /// Where `wide_nodes` start in the node buffer, in 16-byte words (kept when the host
     /// copies are dropped after upload).
     wide_word_base: u32,
+    /// Packed for wide frames alone ([`PackedScene::for_layout`]) and some mesh has a wide
+    /// tree: such meshes have no binary nodes, and binary frames are traced as wide ones.
+    wide_only: bool,
     pub instances: Vec<GpuInstance>,
     pub meshes: Vec<PackedMesh>,
     /// Diffuse textures of all materials.
@@ -255,21 +258,30 @@ impl PackedScene {
         Self::pack(scene, PreparedScene::new(scene, false))
     }
 
-    /// [`PackedScene::new`] for frames of `layout`: with a wide one, both trees
-    /// are packed (a frame may then pick either); binary alone otherwise.
+    /// [`PackedScene::new`] for frames of `layout` alone, the least memory: a wide layout
+    /// packs the wide trees, and binary nodes only for a mesh without one (at 16M triangles
+    /// the binary nodes are a third of the scene: 1.15 GB instead of 1.69). A frame of a
+    /// layout not packed traces the one that is.
     pub fn for_layout(scene: &Scene, layout: BvhLayout) -> Self {
-        Self::pack(scene, PreparedScene::new(scene, layout.is_wide()))
+        Self::pack_with(scene, PreparedScene::new(scene, layout.is_wide()), false, layout.is_wide())
+    }
+
+    /// [`PackedScene::new`] with both trees, so that each frame may pick its layout (the
+    /// window, which switches between them).
+    pub fn with_both_layouts(scene: &Scene) -> Self {
+        Self::pack(scene, PreparedScene::new(scene, true))
     }
 
     /// [`PackedScene::for_layout`] as a load's build and pack phases, reported to `progress`
-    /// (the window's loader, `bench --load`); Err when the load was cancelled before either.
+    /// (the window's loader, `bench --load`), with both trees where `layout` is wide (the
+    /// window switches); Err when the load was cancelled before either.
     /// The triangles and hit records are left to the upload, which writes them from `scene`'s
     /// meshes (`ComputeTracer::set_loaded_scene`): the CPU tracer cannot trace the result.
     pub(crate) fn for_loading(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
         let prepared = PreparedScene::new(scene, layout.is_wide());
         progress.begin(Phase::Pack)?;
-        Ok(Self::pack_with(scene, prepared, true))
+        Ok(Self::pack_with(scene, prepared, true, false))
     }
 
     /// Make mesh `m` trace its binary tree in wide frames too, as a mesh whose wide tree could
@@ -277,6 +289,7 @@ impl PackedScene {
     /// [`PackedScene::set_instances`] takes them.
     #[doc(hidden)]
     pub fn drop_wide_tree(&mut self, m: usize, instances: &[Instance]) {
+        assert!(!self.wide_only, "a scene packed for wide frames alone has no binary tree to fall back on");
         self.meshes[m].has_wide = false;
         self.set_instances(instances);
     }
@@ -286,14 +299,26 @@ impl PackedScene {
         !self.wide_nodes.is_empty()
     }
 
+    /// False when packed for wide frames alone ([`PackedScene::for_layout`]): binary frames
+    /// then trace the wide trees.
+    pub fn has_binary(&self) -> bool {
+        !self.wide_only
+    }
+
+    /// The layout a frame asking for `layout` traces: the one packed where only one is.
+    pub fn traced_layout(&self, layout: BvhLayout) -> BvhLayout {
+        layout.traced_with(self.has_binary(), self.has_wide())
+    }
+
     /// Pack `scene` into flat arrays with what `prepared` built and decoded for it. Packing
     /// only copies and reorders: nothing here builds or decodes.
     pub(crate) fn pack(scene: &Scene, prepared: PreparedScene) -> Self {
-        Self::pack_with(scene, prepared, false)
+        Self::pack_with(scene, prepared, false, false)
     }
 
-    /// [`PackedScene::pack`], leaving the triangles and hit records to the upload when `defer`.
-    fn pack_with(scene: &Scene, prepared: PreparedScene, defer: bool) -> Self {
+    /// [`PackedScene::pack`], leaving the triangles and hit records to the upload when
+    /// `defer`, and the binary nodes of meshes with a wide tree out when `wide_only`.
+    fn pack_with(scene: &Scene, prepared: PreparedScene, defer: bool, wide_only: bool) -> Self {
         let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
         let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         if defer {
@@ -305,10 +330,11 @@ impl PackedScene {
         }
         let mut prim_base = 0u32;
         for ((mesh, bvh), wide) in scene.meshes.iter().zip(bvhs).zip(wide_bvhs) {
-            packed.push_mesh(mesh, bvh, wide, prim_base);
+            packed.push_mesh(mesh, bvh, wide, prim_base, wide_only);
             prim_base += mesh.triangle_count() as u32;
         }
         packed.vertices.finish();
+        packed.wide_only = wide_only && packed.meshes.iter().any(|m| m.has_wide);
         packed.wide_word_base = (std::mem::size_of_val(packed.nodes.as_slice()) / 16) as u32;
         packed.set_instances(&scene.instances);
         packed
@@ -332,7 +358,7 @@ impl PackedScene {
         }
     }
 
-    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: Option<WideBvh>, prim_base: u32) {
+    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: Option<WideBvh>, prim_base: u32, wide_only: bool) {
         let material_base = self.materials.len() as u32;
         let with_colors = !mesh.colors.is_empty() && mesh.colors.len() == mesh.positions.len();
         let vertex_base = self.vertices.push_mesh(mesh);
@@ -371,8 +397,11 @@ impl PackedScene {
             append(&mut self.shading, shading);
         }
         let node_base = self.nodes.len() as u32;
-        let node_count = bvh.nodes.len() as u32;
-        append(&mut self.nodes, bvh.nodes);
+        let keep_binary = !(wide_only && wide.is_some());
+        let node_count = if keep_binary { bvh.nodes.len() as u32 } else { 0 };
+        if keep_binary {
+            append(&mut self.nodes, bvh.nodes);
+        }
         let wide_base = self.wide_nodes.len() as u32;
         let has_wide = wide.is_some();
         if let Some(wide) = wide {
@@ -438,6 +467,11 @@ impl PackedScene {
             bytes(&self.instances),
             bytes(&self.textures.texels),
         ]
+    }
+
+    /// Bytes of the BVH nodes, both layouts (the GPU's node buffer).
+    pub fn nodes_bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.wide_nodes.as_slice())
     }
 
     /// Triangles of all meshes.
@@ -515,7 +549,8 @@ fn append<T>(to: &mut Vec<T>, mut from: Vec<T>) {
 
 impl PackedMesh {
     /// The mesh's BVH as built, put back together from `packed` (for validation: tests,
-    /// fuzzing; a scene whose arrays were freed after the upload has none).
+    /// fuzzing; a scene whose arrays were freed after the upload, or one packed for wide
+    /// frames alone, has none).
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
         let nodes = packed.nodes[self.node_base as usize..][..self.node_count as usize].to_vec();
         let range = self.triangle_base as usize..(self.triangle_base + self.triangle_count) as usize;

@@ -11,9 +11,9 @@ use crate::bvh::{Bvh, BvhChild};
 use crate::geometry::Aabb;
 
 /// SAH cost of visiting one wide node (the paper's).
-const NODE_COST: f64 = 1.0;
+const NODE_COST: f32 = 1.0;
 /// SAH cost of testing one triangle (the paper's).
-const TRIANGLE_COST: f64 = 0.3;
+const TRIANGLE_COST: f32 = 0.3;
 
 /// What one slot of a wide node holds, as the plan cuts the binary tree.
 #[derive(Clone, Copy, Debug)]
@@ -62,24 +62,42 @@ impl Children {
     }
 }
 
-/// What the plan knows of one binary node's subtree.
+/// What the plan knows of one binary node's subtree: 52 bytes, one per binary node (at 16M
+/// triangles, 8M of them).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Row {
-    /// `cost[i]`: the least cost of the subtree in at most `i` slots.
-    cost: [f64; WIDTH + 1],
+    /// `cost[i]`: the least cost of the subtree in at most `i` slots, its areas a share of
+    /// the root's (so that f32 holds any scene's).
+    cost: [f32; WIDTH + 1],
     /// `split[i]`: slots given to the left child when the subtree is spread over exactly its
     /// children (`i` >= 2, and 8 for a wide node made from the node).
     split: [u8; WIDTH + 1],
-    /// `how[1]`: 0 = one merged leaf, 1 = one wide node; `how[i >= 2]`: 0 = as with `i - 1`
-    /// slots, 1 = spread over the children (`split`).
-    how: [u8; WIDTH + 1],
+    /// Bit 1: clear = one merged leaf, set = one wide node; bit `i >= 2`: clear = as with
+    /// `i - 1` slots, set = spread over the children (`split`).
+    how: u16,
     /// Triangles under the node.
     triangles: u32,
 }
 
+const _: () = assert!(std::mem::size_of::<Row>() == 52);
+
 impl Default for Row {
     fn default() -> Self {
-        Self { cost: [f64::INFINITY; WIDTH + 1], split: [0; WIDTH + 1], how: [0; WIDTH + 1], triangles: 0 }
+        Self { cost: [f32::INFINITY; WIDTH + 1], split: [0; WIDTH + 1], how: 0, triangles: 0 }
+    }
+}
+
+impl Row {
+    /// Bit `i` of `how`.
+    fn how(&self, i: usize) -> bool {
+        self.how & (1 << i) != 0
+    }
+
+    /// The least cost with at most `i` slots, and whether it spreads over the children (or,
+    /// for one slot, makes a wide node).
+    fn set(&mut self, i: usize, cost: f32, spread: bool) {
+        self.cost[i] = cost;
+        self.how |= (spread as u16) << i;
     }
 }
 
@@ -94,6 +112,22 @@ pub(super) fn half_area(b: &Aabb) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
+/// Half areas as a share of the root's (1 where the root's is zero or not finite).
+#[derive(Clone, Copy)]
+struct AreaScale(f64);
+
+impl AreaScale {
+    fn of_root(root: &Aabb) -> Self {
+        let area = half_area(root);
+        Self(if area > 0.0 && area.is_finite() { 1.0 / area } else { 1.0 })
+    }
+
+    /// `b`'s half area as a share of the root's.
+    fn area(self, b: &Aabb) -> f32 {
+        (half_area(b) * self.0) as f32
+    }
+}
+
 /// Subtrees of at least this many binary nodes solve their two halves on two threads.
 const PARALLEL_MIN_NODES: usize = 8 * 1024;
 
@@ -105,11 +139,12 @@ impl Plan {
         // Filled on every core: at 16M triangles the rows are some 800 MB of fresh pages.
         let mut rows: Vec<Row> = (0..bvh.nodes.len()).into_par_iter().map(|_| Row::default()).collect();
         let Some(root) = bvh.nodes.first() else { return Plan { rows } };
-        let area = half_area(&root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds)));
+        let root = root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+        let scale = AreaScale::of_root(&root);
         if is_depth_first(bvh) {
-            solve_slice(bvh, 0, &mut rows, area);
+            solve_slice(bvh, 0, &mut rows, scale, scale.area(&root));
         } else {
-            solve_anywhere(bvh, 0, &mut rows, area);
+            solve_anywhere(bvh, 0, &mut rows, scale, scale.area(&root));
         }
         Plan { rows }
     }
@@ -141,7 +176,7 @@ impl Plan {
         }
         let n = child.index as usize;
         let mut i = slots;
-        while i >= 2 && self.rows[n].how[i] == 0 {
+        while i >= 2 && !self.rows[n].how(i) {
             i -= 1;
         }
         if i >= 2 {
@@ -149,7 +184,7 @@ impl Plan {
             let k = self.rows[n].split[i] as usize;
             self.gather(bvh, &left, k, out);
             self.gather(bvh, &right, i - k, out);
-        } else if self.rows[n].how[1] == 0 {
+        } else if !self.rows[n].how(1) {
             out.push(Planned::Merged { index: child.index, count: self.rows[n].triangles, bounds: child.bounds });
         } else {
             out.push(Planned::Node { index: child.index, bounds: child.bounds });
@@ -181,7 +216,7 @@ fn is_depth_first(bvh: &Bvh) -> bool {
 
 /// Solve binary node `index`'s subtree, laid out depth first in `rows` (its own row first),
 /// `area` the node box's half area.
-fn solve_slice(bvh: &Bvh, index: usize, rows: &mut [Row], area: f64) {
+fn solve_slice(bvh: &Bvh, index: usize, rows: &mut [Row], scale: AreaScale, area: f32) {
     let [left, right] = bvh.nodes[index].children();
     let total = rows.len();
     let (head, rest) = rows.split_first_mut().expect("a node's own row");
@@ -191,35 +226,35 @@ fn solve_slice(bvh: &Bvh, index: usize, rows: &mut [Row], area: f64) {
         (false, true) => (&mut [], rest),
         (false, false) => (&mut [], &mut []),
     };
-    let solve_left = |r: &mut [Row]| if left.is_inner() { solve_slice(bvh, left.index as usize, r, half_area(&left.bounds)) };
-    let solve_right = |r: &mut [Row]| if right.is_inner() { solve_slice(bvh, right.index as usize, r, half_area(&right.bounds)) };
+    let solve_left = |r: &mut [Row]| if left.is_inner() { solve_slice(bvh, left.index as usize, r, scale, scale.area(&left.bounds)) };
+    let solve_right = |r: &mut [Row]| if right.is_inner() { solve_slice(bvh, right.index as usize, r, scale, scale.area(&right.bounds)) };
     if total >= PARALLEL_MIN_NODES {
         rayon::join(|| solve_left(&mut *left_rows), || solve_right(&mut *right_rows));
     } else {
         solve_left(&mut *left_rows);
         solve_right(&mut *right_rows);
     }
-    *head = row(&left, left_rows.first(), &right, right_rows.first(), area);
+    *head = row(&left, left_rows.first(), &right, right_rows.first(), scale, area);
 }
 
 /// Solve binary node `index`'s subtree wherever its nodes lie, on this thread.
-fn solve_anywhere(bvh: &Bvh, index: usize, rows: &mut [Row], area: f64) {
+fn solve_anywhere(bvh: &Bvh, index: usize, rows: &mut [Row], scale: AreaScale, area: f32) {
     let [left, right] = bvh.nodes[index].children();
     for child in [left, right].iter().filter(|c| c.is_inner()) {
-        solve_anywhere(bvh, child.index as usize, rows, half_area(&child.bounds));
+        solve_anywhere(bvh, child.index as usize, rows, scale, scale.area(&child.bounds));
     }
     let inner_row = |c: &BvhChild| c.is_inner().then(|| rows[c.index as usize]);
-    rows[index] = row(&left, inner_row(&left).as_ref(), &right, inner_row(&right).as_ref(), area);
+    rows[index] = row(&left, inner_row(&left).as_ref(), &right, inner_row(&right).as_ref(), scale, area);
 }
 
 /// A node's row from its children's (`*_row`: an inner child's row): its least costs,
 /// splits and choices for 1..=8 slots, and the triangles under it.
-fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Option<&Row>, area: f64) -> Row {
+fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Option<&Row>, scale: AreaScale, area: f32) -> Row {
     let triangles = triangles_of(left, left_row) + triangles_of(right, right_row);
     // Spread over the children: i slots, k of them to the left.
     // Each child's costs for 0..=8 slots, looked up 45 times below.
-    let (l, r): ([f64; WIDTH + 1], [f64; WIDTH + 1]) = (child_costs(left, left_row), child_costs(right, right_row));
-    let mut spread = [(f64::INFINITY, 0u8); WIDTH + 1];
+    let (l, r): ([f32; WIDTH + 1], [f32; WIDTH + 1]) = (child_costs(left, left_row, scale), child_costs(right, right_row, scale));
+    let mut spread = [(f32::INFINITY, 0u8); WIDTH + 1];
     for (i, best) in spread.iter_mut().enumerate().skip(1) {
         for k in 0..=i {
             let c = l[k] + r[i - k];
@@ -228,13 +263,14 @@ fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Opt
             }
         }
     }
-    let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f64 * TRIANGLE_COST } else { f64::INFINITY };
+    let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f32 * TRIANGLE_COST } else { f32::INFINITY };
     let node = area * NODE_COST + spread[WIDTH].0;
     let mut out = Row { triangles, ..Row::default() };
-    (out.cost[1], out.how[1]) = if merged <= node { (merged, 0) } else { (node, 1) };
+    if merged <= node { out.set(1, merged, false) } else { out.set(1, node, true) }
     for (i, &(spread_cost, left_slots)) in spread.iter().enumerate().skip(2) {
         out.split[i] = left_slots;
-        (out.cost[i], out.how[i]) = if spread_cost < out.cost[i - 1] { (spread_cost, 1) } else { (out.cost[i - 1], 0) };
+        let fewer = out.cost[i - 1];
+        if spread_cost < fewer { out.set(i, spread_cost, true) } else { out.set(i, fewer, false) }
     }
     out
 }
@@ -244,7 +280,7 @@ fn triangles_of(child: &BvhChild, row: Option<&Row>) -> u32 {
 }
 
 /// The least cost of `child` in at most 0..=8 slots (an absent child costs nothing).
-fn child_costs(child: &BvhChild, row: Option<&Row>) -> [f64; WIDTH + 1] {
+fn child_costs(child: &BvhChild, row: Option<&Row>, scale: AreaScale) -> [f32; WIDTH + 1] {
     if child.is_empty() {
         return [0.0; WIDTH + 1];
     }
@@ -253,10 +289,10 @@ fn child_costs(child: &BvhChild, row: Option<&Row>) -> [f64; WIDTH + 1] {
         None => {
             // A leaf; one too big for one slot becomes a node of its pieces.
             let node = if child.count > MAX_LEAF_TRIANGLES { NODE_COST } else { 0.0 };
-            [half_area(&child.bounds) * (node + child.count as f64 * TRIANGLE_COST); WIDTH + 1]
+            [scale.area(&child.bounds) * (node + child.count as f32 * TRIANGLE_COST); WIDTH + 1]
         }
     };
-    costs[0] = f64::INFINITY;
+    costs[0] = f32::INFINITY;
     costs
 }
 
