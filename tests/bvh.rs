@@ -545,6 +545,47 @@ fn top_levels_planned_on_a_sample_cost_what_full_binning_costs() {
     }
 }
 
+/// Architecture at the size the builder plans on a sample: `room`'s walls around `small`
+/// small triangles, and `beams` long diagonal triangles across the room (their boxes far
+/// above the median, as a hall's mouldings and roof strips).
+fn hall(rng: &mut Rng, small: usize, beams: usize) -> Vec<[Vec3; 3]> {
+    let mut tris = room(rng, small);
+    for _ in 0..beams {
+        let a = Vec3::new(-10.0, rng.range(0.0, 8.0), rng.range(-6.0, 6.0));
+        let b = Vec3::new(10.0, rng.range(0.0, 8.0), a.z + rng.range(-1.0, 1.0));
+        tris.push([a, b, b + Vec3::new(0.0, 0.2, 0.2)]);
+    }
+    tris
+}
+
+#[test]
+fn big_architecture_is_cut_and_big_even_meshes_keep_the_sampled_build() {
+    // Builds of 512K triangles and more plan their top levels on a sample, uncut, unless a
+    // sample finds at least 1% of the triangles worth cutting: a hall with 2% long beams
+    // is cut (and built over its pieces), a knot is not. The cut tree is valid and finds
+    // what the uncut one finds.
+    let cut = BuildOptions { max_leaf_size: 2, split_budget: 0.3, ..BuildOptions::default() };
+    let whole = BuildOptions { split_budget: 0.0, ..cut };
+    let knot = knot_corners(600_000);
+    assert_eq!(Bvh::build(&knot, &cut).prim_indices.len(), knot.len(), "the knot has nothing worth cutting");
+    let tris = hall(&mut Rng(61), 590_000, 12_000);
+    let (bvh, uncut) = (Bvh::build(&tris, &cut), Bvh::build(&tris, &whole));
+    let slots = bvh.prim_indices.len();
+    assert!(slots > tris.len() + 12_000 && slots <= tris.len() + tris.len() * 3 / 10, "{slots} slots for {} triangles", tris.len());
+    assert_eq!(bvh.validate_with(&tris, &cut), Ok(()));
+    assert_eq!(uncut.prim_indices.len(), tris.len());
+    let (ordered, ordered_uncut) = (ordered_edges(&bvh, &tris), ordered_edges(&uncut, &tris));
+    let targets: Vec<[Vec3; 3]> = tris[tris.len() - 12_000..].to_vec();
+    let (mut hits, mut stats) = (0, TraversalStats::default());
+    for (r, ray) in random_rays(&mut Rng(62), &tris, &targets, 2_000).iter().enumerate() {
+        let got = bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut stats).map(|(_, h)| h.t);
+        let want = uncut.closest_hit(&ordered_uncut, ray, 0.0, f32::INFINITY, &mut stats).map(|(_, h)| h.t);
+        hits += got.is_some() as usize;
+        assert_eq!(got, want, "ray {r}: cut tree against uncut: {ray:?}");
+    }
+    assert!(hits > 1_000, "only {hits} hits");
+}
+
 #[test]
 fn sah_cost_stays_within_bounds() {
     // The costs of the builder before it was made parallel (2026-11-26; today's equal them

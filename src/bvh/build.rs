@@ -15,7 +15,7 @@
 //! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
 //! Builds of at least `SAMPLED_TOP_MIN_PRIMS` triangles instead plan those big top nodes on
 //! a sample and scatter the triangles into the buckets below them in one pass
-//! (`build/top.rs`). Nodes of at most `SMALL_NODE` primitives take the exact SAH split over
+//! (`build/top.rs`), unless they have large triangles to cut (`build/split.rs`). Nodes of at most `SMALL_NODE` primitives take the exact SAH split over
 //! every centroid plane instead of bins (`build/small.rs`).
 
 mod bins;
@@ -54,7 +54,8 @@ pub struct BuildOptions {
     pub intersection_cost: f32,
     /// Extra primitives cut from large triangles before the build, as a share of the
     /// triangle count (`build/split.rs`; 0: none, every triangle referenced once). Builds of
-    /// `SAMPLED_TOP_MIN_PRIMS` triangles or more (the fast path for big meshes) cut none.
+    /// `SAMPLED_TOP_MIN_PRIMS` triangles or more cut only where a sample finds at least 1%
+    /// of the triangles worth cutting (architecture); the rest keep the fast sampled path.
     pub split_budget: f32,
 }
 
@@ -118,7 +119,10 @@ impl Bvh {
 
     fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
         let clock = PhaseClock::start();
-        if count < top::SAMPLED_TOP_MIN_PRIMS {
+        // A big mesh worth cutting (architecture) takes the full binned build over its
+        // pieces; others plan their top levels on a sample, uncut.
+        let cut_big = || options.split_budget > 0.0 && split::worth_cutting(count, &corners);
+        if count < top::SAMPLED_TOP_MIN_PRIMS || cut_big() {
             let prims = split::split_prims(count, &corners, options.split_budget);
             clock.mark("prim boxes");
             let bvh = build_from_prims(prims, options, &clock);
