@@ -13,6 +13,7 @@ use crate::gpu::dispatch::FrameTrace;
 use crate::gpu::ComputeTracer;
 use crate::memory;
 use crate::progress::{read_peak_rss, Phase, Progress};
+use crate::render_settings::BvhLayout;
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::packed::PackedScene;
@@ -23,6 +24,9 @@ use crate::tracer::FrameParams;
 pub struct LoadRow {
     /// The model as `--model` names it.
     pub model: String,
+    /// The BVH layout loaded (binary when absent: reports written before it was recorded).
+    #[serde(default = "binary")]
+    pub bvh: BvhLayout,
     /// The file's size in bytes (0 for a generated model).
     pub file_bytes: u64,
     pub triangles: u64,
@@ -94,22 +98,23 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     }
     // The first frame after the last phase counts too.
     let peak_rss_bytes = phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
-    Ok(LoadRow { model: spec.model.label(), file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes, phase_peak_rss_bytes })
+    Ok(LoadRow { model: spec.model.label(), bvh: spec.settings.bvh, file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes, phase_peak_rss_bytes })
 }
 
 /// The table `bench --load` prints: a header and one line per row.
 pub fn table(rows: &[LoadRow]) -> String {
     let mut s = format!(
-        "{:<20} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7}\n",
-        "model", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file", "peak in"
+        "{:<20} {:<9} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7}\n",
+        "model", "bvh", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file", "peak in"
     );
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let mb = |b: u64| b as f64 / 1e6;
         let _ = writeln!(
             s,
-            "{:<20} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10} {:>7}",
+            "{:<20} {:<9} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10} {:>7}",
             truncate(&r.model, 20),
+            r.bvh.to_string(),
             r.triangles,
             mb(r.file_bytes),
             read,
@@ -129,13 +134,14 @@ pub fn table(rows: &[LoadRow]) -> String {
 
 /// The rows as CSV, one line each, with the device.
 pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
-    let mut s = String::from("model,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,read_peak_rss_bytes,parse_peak_rss_bytes,build_peak_rss_bytes,pack_peak_rss_bytes,upload_peak_rss_bytes,device,driver,date\n");
+    let mut s = String::from("model,bvh,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,read_peak_rss_bytes,parse_peak_rss_bytes,build_peak_rss_bytes,pack_peak_rss_bytes,upload_peak_rss_bytes,device,driver,date\n");
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let _ = writeln!(
             s,
-            "{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},{},\"{}\",\"{}\",{}",
+            "{},{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},{},\"{}\",\"{}\",{}",
             r.model,
+            r.bvh,
             r.triangles,
             r.file_bytes,
             r.first_frame_gpu_ms.map_or(String::new(), |v| format!("{v:.4}")),
@@ -148,6 +154,10 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
         );
     }
     s
+}
+
+fn binary() -> BvhLayout {
+    BvhLayout::Binary
 }
 
 fn truncate(s: &str, n: usize) -> String {
@@ -174,6 +184,7 @@ mod tests {
     fn the_table_and_csv_carry_every_phase() {
         let row = LoadRow {
             model: "knot".into(),
+            bvh: BvhLayout::Wide,
             file_bytes: 1_000_000,
             triangles: 1000,
             phase_s: [0.1, 0.2, 0.3, 0.4, 0.5],
@@ -186,9 +197,12 @@ mod tests {
         assert_eq!(row.peak_phase(), Some(Phase::Build));
         let table = table(std::slice::from_ref(&row));
         assert_eq!(table.lines().count(), 2);
-        for figure in ["0.100", "0.500", "1.50", "1.600", "120", "build"] {
+        for figure in ["wide", "0.100", "0.500", "1.50", "1.600", "120", "build"] {
             assert!(table.lines().nth(1).unwrap().contains(figure), "{figure} missing from {table}");
         }
+        let mut old_report = serde_json::to_value(&row).unwrap();
+        old_report.as_object_mut().unwrap().remove("bvh");
+        assert_eq!(serde_json::from_value::<LoadRow>(old_report).unwrap().bvh, BvhLayout::Binary, "a report from before the column");
         let env = Environment::default();
         let csv = csv(&env, &[row]);
         assert_eq!(csv.lines().nth(1).unwrap().split(',').count(), csv.lines().next().unwrap().split(',').count());

@@ -324,11 +324,7 @@ fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
         for &layout in &layouts {
             let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
             (spec.settings.width, spec.settings.height, spec.settings.bounces, spec.settings.bvh) = (args.size, args.size, args.bounces, layout);
-            let mut row = bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
-            if layout != BvhLayout::Binary {
-                row.model = format!("{} ({layout})", row.model);
-            }
-            rows.push(row);
+            rows.push(bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?);
         }
     }
     print!("{}", bench::load::table(&rows));
