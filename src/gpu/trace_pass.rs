@@ -43,6 +43,9 @@ static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query
 /// (`shaders/vendor/tlas.glsl`), after the storage buffers.
 pub(crate) const TLAS_BINDING: u32 = 11;
 
+/// Binding of the vendor shaders' slot map (`vendor_slots` in `shaders/vendor/tlas.glsl`).
+pub(crate) const VENDOR_SLOTS_BINDING: u32 = 18;
+
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Kernel {
@@ -81,7 +84,8 @@ pub(crate) fn built_in_trace_spirv() -> Vec<u32> {
 }
 
 /// The descriptor set layout of the trace shaders: every storage buffer the shader
-/// declares and, for the vendor shaders, the acceleration structure; seen by `stages`.
+/// declares and, for the vendor shaders, the acceleration structure and the slot map;
+/// seen by `stages`.
 pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, with_tlas: bool) -> Result<vk::DescriptorSetLayout, GpuError> {
     let mut bindings: Vec<_> = BINDINGS
         .iter()
@@ -95,22 +99,24 @@ pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, 
                 .descriptor_count(1)
                 .stage_flags(stages),
         );
+        bindings.push(vk::DescriptorSetLayoutBinding::default().binding(VENDOR_SLOTS_BINDING).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(1).stage_flags(stages));
     }
     pipeline::create_set_layout(ctx, &bindings, "creating the trace descriptor layout")
 }
 
 /// A pool holding one set of [`create_set_layout`]'s layout, and that set.
 pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout, with_tlas: bool) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
-    let mut sizes = vec![vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: BINDINGS.len() as u32 }];
+    let storage = BINDINGS.len() as u32 + with_tlas as u32;
+    let mut sizes = vec![vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: storage }];
     if with_tlas {
         sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 1 });
     }
     allocate_one_set(ctx, set_layout, &sizes, ["creating the trace descriptor pool", "allocating the trace descriptor set"])
 }
 
-/// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure.
-/// The GPU must not be using the set.
-pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
+/// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure
+/// and the slot map. The GPU must not be using the set.
+pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>) {
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
     let tiles = lock(&output.tiles);
     // Each binding the shader declares, by its block name (see shader_layout).
@@ -138,11 +144,15 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
             (b.binding, whole(buffer.buffer))
         })
         .collect();
+    let mut infos = infos;
+    if let Some((_, slots)) = vendor {
+        infos.push((VENDOR_SLOTS_BINDING, whole(slots)));
+    }
     let mut writes: Vec<_> = infos
         .iter()
         .map(|(binding, info)| vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info))
         .collect();
-    let structures = tlas.map(|t| [t]);
+    let structures = vendor.map(|(t, _)| [t]);
     let mut tlas_write = structures.as_ref().map(|s| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s));
     if let Some(w) = tlas_write.as_mut() {
         let mut write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(TLAS_BINDING).descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR).push_next(w);
@@ -296,10 +306,10 @@ impl TracePass {
     }
 
     /// Point the descriptor set at a scene, an output and (ray queries) the top-level
-    /// structure; the GPU must not be using the set.
-    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: Option<vk::AccelerationStructureKHR>) {
-        debug_assert_eq!(tlas.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
-        write_set(&self.ctx, self.set, scene, output, tlas);
+    /// structure and slot map; the GPU must not be using the set.
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>) {
+        debug_assert_eq!(vendor.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
+        write_set(&self.ctx, self.set, scene, output, vendor);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after

@@ -26,8 +26,11 @@ pub struct AccelStats {
     pub bottom_ms: f64,
     /// Wall time of the last top-level build.
     pub top_ms: f64,
-    /// Device bytes of all structures (compacted bottom levels and the top level).
+    /// Device bytes of all structures (compacted bottom levels and the top level) and of
+    /// the slot map (where a mesh is cut).
     pub bytes: u64,
+    /// Triangles given to the bottom levels: each once, however many slots it fills.
+    pub primitives: u64,
     /// What the last change rebuilt, in words ("bottom and top levels", "top level").
     pub rebuilt: &'static str,
 }
@@ -83,6 +86,11 @@ pub(crate) struct VendorScene {
     /// Bottom levels by the mesh's first triangle in `triangles[]` (what instances name).
     bottoms: HashMap<u32, Structure>,
     top: Option<Structure>,
+    /// Which of our slots each vendor primitive is (`vendor_slots` in `tlas.glsl`): word 0
+    /// is 1 where some mesh has cut triangles, and then word `1 + base + k` is the slot
+    /// (relative to the mesh's first, `base`) of its bottom level's primitive `k`; 0 and
+    /// nothing more where no mesh does (primitive k is slot k).
+    slots: GpuBuffer,
     /// What was built last.
     pub stats: AccelStats,
 }
@@ -98,16 +106,28 @@ impl VendorScene {
         // SAFETY: `props2` and the struct chained to it outlive the call.
         unsafe { ctx.instance.get_physical_device_properties2(ctx.physical_device, &mut props2) };
         let scratch_alignment = (properties.min_acceleration_structure_scratch_offset_alignment as u64).max(1);
-        let mut scene = Self { ctx: ctx.clone(), loader, scratch_alignment, bottoms: HashMap::new(), top: None, stats: AccelStats::default() };
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let slots = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&[0u32]), storage, "vendor slots")?;
+        let mut scene = Self { ctx: ctx.clone(), loader, scratch_alignment, bottoms: HashMap::new(), top: None, slots, stats: AccelStats::default() };
         let start = Instant::now();
         let size = std::mem::size_of::<GpuTriangle>() as u64;
+        let total = meshes.iter().map(|&(base, count)| base + count).max().unwrap_or(0);
+        let mut slot_map = vec![0u32; 1 + total as usize];
         for &(base, count) in meshes {
             if count == 0 || scene.bottoms.contains_key(&base) {
                 continue;
             }
             let bytes = triangles.download_range(base as u64 * size, count as u64 * size)?;
-            let bottom = scene.build_bottom(bytemuck::cast_slice(&bytes))?;
+            let (bottom, firsts) = scene.build_bottom(bytemuck::cast_slice(&bytes))?;
+            if firsts.len() < count as usize {
+                slot_map[0] = 1;
+            }
+            slot_map[1 + base as usize..][..firsts.len()].copy_from_slice(&firsts);
+            scene.stats.primitives += firsts.len() as u64;
             scene.bottoms.insert(base, bottom);
+        }
+        if slot_map[0] != 0 {
+            scene.slots = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&slot_map), storage, "vendor slots")?;
         }
         scene.stats.bottom_count = scene.bottoms.len() as u32;
         scene.stats.bottom_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -119,6 +139,11 @@ impl VendorScene {
     /// The top level, for the descriptor sets.
     pub(crate) fn top(&self) -> Option<vk::AccelerationStructureKHR> {
         self.top.as_ref().map(|t| t.handle)
+    }
+
+    /// The slot map the vendor's shaders read a hit's triangle through, for the descriptor sets.
+    pub(crate) fn slots(&self) -> vk::Buffer {
+        self.slots.buffer
     }
 
     /// Rebuild the top level over `instances` (the bottom levels stay).
@@ -156,27 +181,27 @@ impl VendorScene {
         self.top = Some(top);
         self.stats.top_ms = start.elapsed().as_secs_f64() * 1e3;
         self.stats.rebuilt = "top level";
-        self.stats.bytes = self.bottoms.values().chain(self.top.as_ref()).map(|s| s.buffer.size).sum();
+        // The slot map is the vendor path's too (4 bytes a slot, where a mesh is cut).
+        self.stats.bytes = self.bottoms.values().chain(self.top.as_ref()).map(|s| s.buffer.size).sum::<u64>() + self.slots.size;
         Ok(())
     }
 
-    /// A compacted bottom level over `triangles`, in their order (primitive k is triangle k).
-    /// A triangle our build cut into pieces fills several slots: the vendor gets it once,
-    /// the later slots as points (three equal corners, which no ray hits), so that its
-    /// primitive numbers still name our slots. Not as inactive triangles (a NaN corner, as
-    /// the Vulkan specification allows): Mesa 25's lavapipe then traced wrong images, and on
-    /// the H100 the vendor's times and bytes were the same either way (Sponza, 2026-11-27:
-    /// its structure 23.0 MB over 307,851 slots, where the uncut mesh's took 18).
-    fn build_bottom(&self, triangles: &[GpuTriangle]) -> Result<Structure, GpuError> {
+    /// A compacted bottom level over `triangles` (a mesh's slots), each triangle once: a
+    /// triangle our build cut into pieces fills several slots, and the vendor gets its
+    /// first. Returns the structure and, for each of its primitives, the slot it is
+    /// (relative to the first). Before, the later slots were given as points (three equal
+    /// corners), so that primitive k was slot k; the driver kept them (Sponza, H100: 23.0
+    /// MB over 307,851 slots, 18 MB over its 236,809 triangles), as it did NaN-inactive
+    /// triangles, which Mesa 25's lavapipe also traced into wrong images.
+    fn build_bottom(&self, triangles: &[GpuTriangle]) -> Result<(Structure, Vec<u32>), GpuError> {
         let mut seen = vec![false; triangles.iter().map(|t| t.prim as usize + 1).max().unwrap_or(0)];
+        let firsts: Vec<u32> = (0..triangles.len() as u32).filter(|&k| !std::mem::replace(&mut seen[triangles[k as usize].prim as usize], true)).collect();
         // Corners from the packed (v0, e1, e2): the triangles our tracer tests, to rounding.
-        let vertices: Vec<[f32; 3]> = triangles
+        let vertices: Vec<[f32; 3]> = firsts
             .iter()
-            .flat_map(|t| {
-                let [v0, e1, e2] = t.edges();
-                let corners = [v0, v0 + e1, v0 + e2].map(|v| v.to_array());
-                let first = !std::mem::replace(&mut seen[t.prim as usize], true);
-                if first { corners } else { [corners[0]; 3] }
+            .flat_map(|&k| {
+                let [v0, e1, e2] = triangles[k as usize].edges();
+                [v0, v0 + e1, v0 + e2].map(|v| v.to_array())
             })
             .collect();
         let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
@@ -191,7 +216,8 @@ impl VendorScene {
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
             .geometry(vk::AccelerationStructureGeometryDataKHR { triangles: data })
             .flags(vk::GeometryFlagsKHR::OPAQUE);
-        self.build_structure(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, triangles.len() as u32, true, "vendor bottom level")
+        let structure = self.build_structure(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, firsts.len() as u32, true, "vendor bottom level")?;
+        Ok((structure, firsts))
     }
 
     /// Build one structure of `kind` over `count` primitives of `geometry`, for fast

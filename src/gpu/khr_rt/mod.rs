@@ -190,12 +190,12 @@ impl VendorTracer {
 
     /// Point the passes at `scene`, `output` and the top level (the GPU is not using them).
     pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
-        let Some(tlas) = self.scene.as_ref().and_then(|s| s.top()) else { return };
+        let Some((tlas, slots)) = self.scene.as_ref().and_then(|s| Some((s.top()?, s.slots()))) else { return };
         if let Some(pass) = &self.query {
-            pass.bind(scene, output, Some(tlas));
+            pass.bind(scene, output, Some((tlas, slots)));
         }
         if let Some(pass) = &self.pipeline {
-            pass.bind(scene, output, tlas);
+            pass.bind(scene, output, tlas, slots);
         }
     }
 

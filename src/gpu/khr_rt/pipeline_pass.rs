@@ -53,10 +53,10 @@ impl PipelinePass {
         Ok(Self { ctx: ctx.clone(), loader, pipeline, layout, set_layout, pool, set, _table: table, raygen, miss, hit })
     }
 
-    /// Point the descriptor set at a scene, an output and the top level; the GPU must not
-    /// be using the set.
-    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR) {
-        crate::gpu::trace_pass::write_set(&self.ctx, self.set, scene, output, Some(tlas));
+    /// Point the descriptor set at a scene, an output, the top level and the slot map; the
+    /// GPU must not be using the set.
+    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, tlas: vk::AccelerationStructureKHR, slots: vk::Buffer) {
+        crate::gpu::trace_pass::write_set(&self.ctx, self.set, scene, output, Some((tlas, slots)));
     }
 
     /// Record the trace of `band` as the compute pass records its dispatch: after the last
