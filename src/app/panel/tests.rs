@@ -123,7 +123,7 @@ fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
         let vendor = VendorInfo {
             kernel: Some(VendorKernel::Query),
             kernels: vec![VendorKernel::Query, VendorKernel::Pipeline],
-            stats: Some(AccelStats { bottom_count: 27, bottom_ms: 1234.5, top_ms: 67.8, bytes: 799_000_000, rebuilt: "bottom and top levels" }),
+            stats: Some(AccelStats { bottom_count: 27, bottom_ms: 1234.5, top_ms: 67.8, bytes: 799_000_000, primitives: 10_000_000, rebuilt: "bottom and top levels" }),
             ..Default::default()
         };
         let mut fixture = Fixture::new(vendor);
