@@ -142,6 +142,17 @@ impl BvhLayout {
         matches!(self, BvhLayout::Wide | BvhLayout::WideRuns)
     }
 
+    /// The binary layout: what saved presets and reports without a layout mean (they were
+    /// written while it was the default), for serde's `default`.
+    pub(crate) fn binary() -> BvhLayout {
+        BvhLayout::Binary
+    }
+
+    /// Whether this is the binary layout (left out when saving, for serde's `skip_serializing_if`).
+    pub(crate) fn is_binary(&self) -> bool {
+        *self == BvhLayout::Binary
+    }
+
     /// The layout traced for a frame asking for this one, where a scene holds the binary
     /// trees (`has_binary`) and the wide ones (`has_wide`): the one held, where only one is.
     pub fn traced_with(self, has_binary: bool, has_wide: bool) -> BvhLayout {

@@ -25,7 +25,7 @@ pub struct LoadRow {
     /// The model as `--model` names it.
     pub model: String,
     /// The BVH layout loaded (binary when absent: reports written before it was recorded).
-    #[serde(default = "binary")]
+    #[serde(default = "BvhLayout::binary")]
     pub bvh: BvhLayout,
     /// The file's size in bytes (0 for a generated model).
     pub file_bytes: u64,
@@ -156,9 +156,6 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
     s
 }
 
-fn binary() -> BvhLayout {
-    BvhLayout::Binary
-}
 
 fn truncate(s: &str, n: usize) -> String {
     if s.chars().count() <= n { s.to_owned() } else { s.chars().take(n - 1).chain(['…']).collect() }

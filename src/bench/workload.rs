@@ -22,17 +22,11 @@ pub struct WorkloadHeader {
     pub accel: Accel,
     /// The BVH layout of a "bvh" row; saved only when wide and binary when absent, so
     /// reports written before wide became the default read the same.
-    #[serde(default = "binary", skip_serializing_if = "is_binary")]
+    #[serde(default = "BvhLayout::binary", skip_serializing_if = "BvhLayout::is_binary")]
     pub bvh: BvhLayout,
 }
 
-fn is_binary(layout: &BvhLayout) -> bool {
-    *layout == BvhLayout::Binary
-}
 
-fn binary() -> BvhLayout {
-    BvhLayout::Binary
-}
 
 impl WorkloadHeader {
     /// The acceleration as tables print it: "wide" for our wide BVH, else the accel's name.

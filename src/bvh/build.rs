@@ -15,8 +15,9 @@
 //! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
 //! Builds of at least `SAMPLED_TOP_MIN_PRIMS` triangles instead plan those big top nodes on
 //! a sample and scatter the triangles into the buckets below them in one pass
-//! (`build/top.rs`), unless they have large triangles to cut (`build/split.rs`). Nodes of at most `SMALL_NODE` primitives take the exact SAH split over
-//! every centroid plane instead of bins (`build/small.rs`).
+//! (`build/top.rs`), unless they have large triangles to cut (`build/split.rs`). Nodes of
+//! at most `SMALL_NODE` primitives take the exact SAH split over every centroid plane
+//! instead of bins (`build/small.rs`).
 
 mod bins;
 mod parallel;

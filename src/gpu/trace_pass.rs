@@ -120,7 +120,7 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
     let tiles = lock(&output.tiles);
     // Each binding the shader declares, by its block name (see shader_layout).
-    let infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
+    let mut infos: Vec<(u32, [vk::DescriptorBufferInfo; 1])> = BINDINGS
         .iter()
         .map(|b| {
             let buffer = match TraceBuffer::of(b) {
@@ -144,7 +144,6 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
             (b.binding, whole(buffer.buffer))
         })
         .collect();
-    let mut infos = infos;
     if let Some((_, slots)) = vendor {
         infos.push((VENDOR_SLOTS_BINDING, whole(slots)));
     }

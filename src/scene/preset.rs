@@ -84,17 +84,11 @@ struct TracingPart {
     accel: Accel,
     /// `--bvh`: binary, wide or wide-runs; written only when not binary and binary when
     /// absent, so presets written while binary was the default read the same.
-    #[serde(default = "binary", skip_serializing_if = "is_binary", serialize_with = "ser_display", deserialize_with = "de_from_str")]
+    #[serde(default = "BvhLayout::binary", skip_serializing_if = "BvhLayout::is_binary", serialize_with = "ser_display", deserialize_with = "de_from_str")]
     bvh: BvhLayout,
 }
 
-fn is_binary(layout: &BvhLayout) -> bool {
-    *layout == BvhLayout::Binary
-}
 
-fn binary() -> BvhLayout {
-    BvhLayout::Binary
-}
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]

@@ -452,7 +452,7 @@ impl PackedScene {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
-        let nodes = bytes(&self.nodes) + bytes(&self.wide_nodes);
+        let nodes = self.nodes_bytes() as u64;
         let v = &self.vertices;
         // Deferred arrays are as big as they will be once the upload writes them.
         let deferred = |written: u64, item: usize| if self.deferred.is_some() { self.triangle_count() as u64 * item as u64 } else { written };
