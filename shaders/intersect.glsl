@@ -56,10 +56,10 @@ vec3 safe_inverse(vec3 d) {
 // as leaf by leaf (a, then b).
 void test_leaves(vec3 o, vec3 d, uint a, uint na, uint b, uint nb, inout Hit hit, inout uvec2 cost) {
     Triangle ta0, ta1, tb0, tb1;
-    if (na > 0u) ta0 = load_triangle(a);
-    if (na > 1u) ta1 = load_triangle(a + 1u);
-    if (nb > 0u) tb0 = load_triangle(b);
-    if (nb > 1u) tb1 = load_triangle(b + 1u);
+    if (na > 0u) ta0 = load_triangle_halves(a);
+    if (na > 1u) ta1 = load_triangle_halves(a + 1u);
+    if (nb > 0u) tb0 = load_triangle_halves(b);
+    if (nb > 1u) tb1 = load_triangle_halves(b + 1u);
     if (na > 0u) intersect_loaded(o, d, ta0, a, hit);
     if (na > 1u) intersect_loaded(o, d, ta1, a + 1u, hit);
     for (uint i = 2u; i < na; i++) intersect_triangle(o, d, a + i, hit);

@@ -117,11 +117,11 @@ bool traverse_wide(vec3 o, vec3 d, uint word_base, uint tri_base, bool first, in
         if (live && (entry.x & 0x80000000u) != 0u) {
 #endif
             // Its first two triangles loaded before either is tested, so that their
-            // fetches overlap (as test_leaves does).
+            // fetches overlap (as test_leaves does), as 16-byte words.
             uint k0 = tri_base + (entry.x & 0x1fffffffu);
             uint n = ((entry.x >> 29u) & 3u) + 1u;
-            Triangle t0 = load_triangle(k0);
-            Triangle t1 = load_triangle(n > 1u ? k0 + 1u : k0);
+            Triangle t0, t1;
+            load_triangle_pair(k0, t0, t1);
             bool found = intersect_loaded(o, d, t0, k0, hit);
             if (n > 1u) found = intersect_loaded(o, d, t1, k0 + 1u, hit) || found;
             cost.y += min(n, 2u);

@@ -26,6 +26,10 @@ contract! {
     /// Entries in the wide BVH traversal's stack: one per pending child, so a visit pushes
     /// up to seven (`WideBvh::stack_need` of a traced tree stays within it).
     WIDE_STACK_SIZE = 128;
+    /// Bytes of padding after the last triangle: the shaders load triangles as 16-byte words
+    /// (`load_triangle`, `load_triangle_pair` for a wide leaf's first two, which may read
+    /// the words of a triangle past the last one).
+    TRIANGLE_READ_AHEAD = 48;
 
     // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
 

@@ -136,16 +136,19 @@ impl GpuBuffer {
     }
 
     /// A device-local buffer of `count` items, item `i` being `make(i)`, made on every core
-    /// straight into the staging memory: nothing of it is held on the host.
+    /// straight into the staging memory: nothing of it is held on the host. `padding` bytes
+    /// follow the items, zeroed.
     pub(crate) fn device_local_made<T: bytemuck::Pod + Send>(
         ctx: &Arc<GpuContext>,
         count: usize,
+        padding: usize,
         usage: vk::BufferUsageFlags,
         name: &'static str,
         make: impl Fn(usize) -> T + Sync,
     ) -> Result<Self, GpuError> {
         let item = std::mem::size_of::<T>();
-        let dst = GpuBuffer::new(ctx, (count * item) as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        let dst = GpuBuffer::new(ctx, (count * item + padding) as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        dst.upload_staged(count * item, padding, padding, |_, to| to.fill(0))?;
         // Whole items in each piece.
         let chunk = (UPLOAD_CHUNK / item).max(1) * item;
         dst.upload_staged(0, count * item, chunk, |at, to| {

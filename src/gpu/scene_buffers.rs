@@ -65,16 +65,19 @@ impl SceneBuffers {
         // Triangles are read back by the vendor path to build the driver's structures (no host
         // copy is kept); both by the test that checks what a load writes.
         let triangle_usage = storage | vk::BufferUsageFlags::TRANSFER_SRC;
+        // The shaders may read this far past the last triangle (the contract's
+        // TRIANGLE_READ_AHEAD).
+        const READ_AHEAD: usize = crate::contract::TRIANGLE_READ_AHEAD as usize;
         let (triangles, shading) = match (&packed.deferred, scene) {
             (Some(_), Some(scene)) => {
                 let count = packed.triangle_count();
-                let triangles = GpuBuffer::device_local_made(ctx, count, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k))?;
-                let shading = GpuBuffer::device_local_made(ctx, count, triangle_usage, "shading", |k| packed.deferred_shading(scene, k))?;
+                let triangles = GpuBuffer::device_local_made(ctx, count, READ_AHEAD, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k))?;
+                let shading = GpuBuffer::device_local_made(ctx, count, 0, triangle_usage, "shading", |k| packed.deferred_shading(scene, k))?;
                 (triangles, shading)
             }
             (Some(_), None) => panic!("a scene packed for loading is uploaded with its meshes"),
             (None, _) => (
-                GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.triangles), triangle_usage, "triangles")?,
+                GpuBuffer::device_local_with_parts(ctx, &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]], triangle_usage, "triangles")?,
                 GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), triangle_usage, "shading")?,
             ),
         };
@@ -183,7 +186,32 @@ mod tests {
         let shading: &[u8] = bytemuck::cast_slice(&full.shading);
         assert_eq!(written.triangles.download(triangles.len() as u64).unwrap(), triangles);
         assert_eq!(written.shading.download(shading.len() as u64).unwrap(), shading);
+        // Both ways of uploading end the triangles in the zeroed read-ahead.
+        let read_ahead = crate::contract::TRIANGLE_READ_AHEAD as usize;
+        let both = SceneBuffers::upload(&ctx, &full).unwrap();
+        for buffer in [&written.triangles, &both.triangles] {
+            let bytes = buffer.download((triangles.len() + read_ahead) as u64).unwrap();
+            assert_eq!(&bytes[..triangles.len()], triangles);
+            assert!(bytes[triangles.len()..].iter().all(|&b| b == 0));
+        }
         let m = ctx.validation_messages();
         assert!(m.is_empty(), "{m:?}");
+    }
+
+    /// The end of what `load_triangle_pair` in shaders/scene.glsl reads for a leaf starting
+    /// at triangle k: words 5k/2 to 5k/2 + 4, and one more for k odd.
+    fn pair_read_end(k: usize) -> usize {
+        16 * ((5 * k) / 2 + if k % 2 == 1 { 6 } else { 5 })
+    }
+
+    #[test]
+    fn the_read_ahead_covers_a_pair_starting_at_the_last_triangle() {
+        let read_ahead = crate::contract::TRIANGLE_READ_AHEAD as usize;
+        let size = std::mem::size_of::<crate::tracer::packed::GpuTriangle>();
+        for count in 1..64 {
+            assert!(pair_read_end(count - 1) <= count * size + read_ahead, "{count} triangles");
+        }
+        // And no more than the worst case needs.
+        assert_eq!((1..64).map(|n| pair_read_end(n - 1) - n * size).max(), Some(read_ahead));
     }
 }

@@ -51,6 +51,8 @@ const _: () = assert!(WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum TraceBuffer {
     Triangles,
+    /// The same triangle buffer read as 8-byte halves, for the binary traversal's leaves.
+    TriangleHalves,
     /// Each triangle's corners and material.
     Shading,
     VertexNormals,
@@ -74,8 +76,9 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 17] = [
+    pub const ALL: [TraceBuffer; 18] = [
         Self::Triangles,
+        Self::TriangleHalves,
         Self::Shading,
         Self::VertexNormals,
         Self::VertexTexcoords,
@@ -98,6 +101,7 @@ impl TraceBuffer {
     pub(crate) fn from_block(block: &str) -> Option<Self> {
         Some(match block {
             "Triangles" => Self::Triangles,
+            "TriangleHalves" => Self::TriangleHalves,
             "Shading" => Self::Shading,
             "VertexNormals" => Self::VertexNormals,
             "VertexTexcoords" => Self::VertexTexcoords,

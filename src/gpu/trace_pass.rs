@@ -124,7 +124,7 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
         .iter()
         .map(|b| {
             let buffer = match TraceBuffer::of(b) {
-                TraceBuffer::Triangles => &scene.triangles,
+                TraceBuffer::Triangles | TraceBuffer::TriangleHalves => &scene.triangles,
                 TraceBuffer::Shading => &scene.shading,
                 TraceBuffer::VertexNormals => &scene.vertex_normals,
                 TraceBuffer::VertexTexcoords => &scene.vertex_texcoords,

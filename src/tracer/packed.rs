@@ -446,7 +446,7 @@ impl PackedScene {
             .collect();
     }
 
-    /// Bytes of each GPU array: triangles, shading, normals, texture coordinates, colours,
+    /// Bytes of each GPU array: triangles (with the shaders' read-ahead), shading, normals, texture coordinates, colours,
     /// materials, nodes (both layouts), instances, texels.
     pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
         fn bytes<T>(v: &[T]) -> u64 {
@@ -457,7 +457,7 @@ impl PackedScene {
         // Deferred arrays are as big as they will be once the upload writes them.
         let deferred = |written: u64, item: usize| if self.deferred.is_some() { self.triangle_count() as u64 * item as u64 } else { written };
         [
-            deferred(bytes(&self.triangles), std::mem::size_of::<GpuTriangle>()),
+            deferred(bytes(&self.triangles), std::mem::size_of::<GpuTriangle>()) + crate::contract::TRIANGLE_READ_AHEAD as u64,
             deferred(bytes(&self.shading), std::mem::size_of::<GpuTriangleShading>()),
             bytes(&v.normals),
             bytes(&v.texcoords),
