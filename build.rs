@@ -169,6 +169,15 @@ fn main() {
                 // Each without the AO view and the wide BVH, for the frames that use neither.
                 compile(&path, &contract, &[shader_compile::CORE_ONLY], "_core", &out_dir);
                 compile(&path, &contract, &[shader_compile::ROW_ORDER, shader_compile::CORE_ONLY], "_rows_core", &out_dir);
+                // Each with the wide traversal alone, for wide frames.
+                compile(&path, &contract, &[shader_compile::WIDE_ONLY], "_wide", &out_dir);
+                compile(
+                    &path,
+                    &contract,
+                    &[shader_compile::ROW_ORDER, shader_compile::WIDE_ONLY],
+                    "_rows_wide",
+                    &out_dir,
+                );
                 // Each with the wide traversal's leaf runs, for `--bvh wide-runs` frames.
                 compile(&path, &contract, &[shader_compile::LEAF_RUNS], "_runs", &out_dir);
                 compile(&path, &contract, &[shader_compile::ROW_ORDER, shader_compile::LEAF_RUNS], "_rows_runs", &out_dir);

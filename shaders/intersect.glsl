@@ -136,6 +136,11 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
         vec3 lo = (o - inst.translation_scale.xyz) / s;
         vec3 ld = d / s;
         uint before = hit.tri;
+#ifdef WIDE_ONLY
+        // The wide kernel runs only wide BVH frames of scenes whose every mesh has a wide
+        // tree (TracePass picks it): the binary traversal and brute force are left out.
+        if (inst.offsets.z > 0u) traverse_wide(lo, ld, floatBitsToUint(inst.bounds_min.w), inst.offsets.y, false, hit, cost);
+#else
 #ifndef CORE_ONLY
         // The wide layout (`--bvh wide`); an empty mesh has no wide nodes, and a mesh
         // without a wide tree (EMPTY) takes the binary path below.
@@ -166,6 +171,7 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
             for (; k < n; k++) intersect_triangle(lo, ld, first + k, hit);
             cost.y += n;
         }
+#endif
         if (hit.tri != before) hit.instance = i;
     }
     return hit;

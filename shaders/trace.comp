@@ -10,6 +10,11 @@
 layout(local_size_x = 32, local_size_y = 4, local_size_z = 1) in;
 const uvec2 TILE = uvec2(32u, 4u);
 
+// The kernels that leave out the AO view (src/gpu/shader_compile.rs: CORE_ONLY, WIDE_ONLY).
+#if defined(CORE_ONLY) || defined(WIDE_ONLY)
+#define NO_AO_VIEW
+#endif
+
 #include "scene.glsl"
 #include "intersect.glsl"
 #include "trace.glsl"

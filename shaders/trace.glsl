@@ -110,7 +110,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
             color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
-#ifndef CORE_ONLY
+#ifndef NO_AO_VIEW
             if (bounce == 0u && aov == AOV_AO) aux = vec4(1.0, 1.0, 1.0, 0.0);  // open sky, no coverage
 #endif
             break;
@@ -140,7 +140,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                 }
             }
         }
-#ifndef CORE_ONLY
+#ifndef NO_AO_VIEW
         if (aov == AOV_AO) {
             aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, cost)), 1.0);
             break;

@@ -537,4 +537,29 @@ mod tests {
         drop(tracer);
         assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
     }
+
+    #[test]
+    fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
+        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
+        let settings = RenderSettings { width: 32, height: 32, bounces: 1, ..Default::default() };
+        let frame = |bvh| FrameParams::new(&scene, RenderSettings { bvh, ..settings });
+        let mut packed = PackedScene::with_both_layouts(&scene);
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+        let (binary, _) = tracer.render(&frame(BvhLayout::Binary)).unwrap();
+        assert!(!tracer.pass.wide_created(), "no wide kernel before a wide frame");
+        let (wide, _) = tracer.render(&frame(BvhLayout::Wide)).unwrap();
+        assert!(tracer.pass.wide_created(), "a wide frame made and ran the wide kernel");
+        assert!(wide.compare(&binary, 1e-4).fraction_over <= 0.002, "the same hits as the binary tree");
+        assert!(wide.compare(&crate::tracer::cpu::render(&packed, &frame(BvhLayout::Wide)), 1e-4).fraction_over <= 0.002, "GPU as CPU");
+        drop(tracer);
+        // A mesh without a wide tree needs the binary traversal, which the wide kernel lacks.
+        packed.drop_wide_tree(0, &scene.instances);
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+        let (fallback, _) = tracer.render(&frame(BvhLayout::Wide)).unwrap();
+        assert!(!tracer.pass.wide_created(), "the full kernel traced it");
+        assert!(fallback.compare(&binary, 1e-4).fraction_over <= 0.002);
+        drop(tracer);
+        assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+    }
 }

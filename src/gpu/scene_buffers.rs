@@ -32,6 +32,9 @@ pub struct SceneBuffers {
     pub(crate) instance_count: u32,
     /// Bytes of device memory the scene occupies.
     pub(crate) bytes: u64,
+    /// Whether every mesh with triangles has a wide tree, so that wide frames may run the
+    /// kernel without the binary traversal (`TracePass`).
+    pub(crate) every_mesh_wide: bool,
 }
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
@@ -108,6 +111,7 @@ impl SceneBuffers {
             environment,
             instance_count: 0,
             bytes: 0,
+            every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(&packed.instances)?;

@@ -100,6 +100,13 @@ pub(crate) const ROW_ORDER: &str = "ROW_ORDER";
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
 pub(crate) const CORE_ONLY: &str = "CORE_ONLY";
 
+/// Defined for the trace kernel's wide variant: the wide BVH's closest-hit traversal
+/// alone, without the binary traversal, brute force and the AO view, whose code made the
+/// wide frames 2-11% slower on the H100 (docs/BENCHMARKS.md, "Twentieth session"). It runs
+/// wide frames of scenes whose every mesh has a wide tree.
+#[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
+pub(crate) const WIDE_ONLY: &str = "WIDE_ONLY";
+
 /// Defined for the trace kernel's leaf-runs variant (`--bvh wide-runs`): the wide traversal
 /// tests the leaves pending on top of a ray's stack back to back (`traverse_wide.glsl`).
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)

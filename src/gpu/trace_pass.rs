@@ -5,6 +5,7 @@
 //! with the vendor's ray tracing pipeline (`khr_rt::pipeline_pass`).
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use ash::vk;
@@ -31,6 +32,11 @@ static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_r
 /// Each with `CORE_ONLY` defined: no AO view, no wide BVH (see `shader_compile::CORE_ONLY`).
 static TRACE_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv"));
 static TRACE_ROWS_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv"));
+
+/// Each with `WIDE_ONLY` defined: the wide traversal alone, for wide frames (see
+/// `shader_compile::WIDE_ONLY`).
+static TRACE_WIDE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide.spv"));
+static TRACE_ROWS_WIDE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide.spv"));
 
 /// Each with `LEAF_RUNS` defined: the wide traversal in leaf runs (`--bvh wide-runs`).
 static TRACE_RUNS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_runs.spv"));
@@ -212,6 +218,11 @@ pub(crate) struct TracePass {
     /// frame (most sessions never ask for it); None inside when that failed or for the
     /// vendor's kernel, and such frames then run `pipeline` (the plain wide traversal).
     runs: OnceLock<Option<vk::Pipeline>>,
+    /// Our kernels' wide variant, for wide frames without the AO view of a scene whose every
+    /// mesh has a wide tree: created by the first such frame; None inside as for `runs`.
+    wide: OnceLock<Option<vk::Pipeline>>,
+    /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
+    every_mesh_wide: AtomicBool,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
@@ -237,7 +248,19 @@ impl TracePass {
             Kernel::RayQuery => None,
         };
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
-        Ok(Self { ctx: ctx.clone(), kernel, pipeline, core, runs: OnceLock::new(), layout, set_layout, pool, set })
+        Ok(Self {
+            ctx: ctx.clone(),
+            kernel,
+            pipeline,
+            core,
+            runs: OnceLock::new(),
+            wide: OnceLock::new(),
+            every_mesh_wide: AtomicBool::new(false),
+            layout,
+            set_layout,
+            pool,
+            set,
+        })
     }
 
     /// The kernel the pass runs.
@@ -295,11 +318,13 @@ impl TracePass {
             if let Some(core) = self.core.take() {
                 self.ctx.device.destroy_pipeline(core, None);
             }
-            if let Some(runs) = self.runs.take().flatten() {
-                self.ctx.device.destroy_pipeline(runs, None);
+            for cell in [&mut self.runs, &mut self.wide] {
+                if let Some(variant) = cell.take().flatten() {
+                    self.ctx.device.destroy_pipeline(variant, None);
+                }
+                // Still none: the reloaded shader then runs these frames too.
+                *cell = OnceLock::from(None);
             }
-            // Still none: the reloaded shader then runs leaf-runs frames too.
-            self.runs = OnceLock::from(None);
         }
         Ok(())
     }
@@ -309,6 +334,7 @@ impl TracePass {
     pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>) {
         debug_assert_eq!(vendor.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
         write_set(&self.ctx, self.set, scene, output, vendor);
+        self.every_mesh_wide.store(scene.every_mesh_wide, Ordering::Relaxed);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
@@ -340,10 +366,11 @@ impl TracePass {
         let base_x = band.columns.start / GROUP.width;
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
-        let pipeline = match self.core {
-            Some(core) if !needs_full_kernel(pc) => core,
-            _ if pc.dims[3] & contract::FLAG_LEAF_RUNS != 0 => self.runs_pipeline().unwrap_or(self.pipeline),
-            _ => self.pipeline,
+        let pipeline = match (self.core, variant(pc, self.every_mesh_wide.load(Ordering::Relaxed))) {
+            (None, _) | (_, Variant::Full) => self.pipeline,
+            (Some(core), Variant::Core) => core,
+            (_, Variant::Wide) => self.variant_pipeline(&self.wide, [TRACE_WIDE_SPV, TRACE_ROWS_WIDE_SPV], "wide frames trace the full kernel"),
+            (_, Variant::Runs) => self.variant_pipeline(&self.runs, [TRACE_RUNS_SPV, TRACE_ROWS_RUNS_SPV], "wide-runs frames trace the plain wide traversal"),
         };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
         // outlive its execution (the owner waits for the GPU before dropping them) and the
@@ -364,27 +391,57 @@ impl TracePass {
         self.runs.get().is_some_and(Option::is_some)
     }
 
-    /// The leaf-runs variant of our kernel, created on first use (None: the vendor's kernel,
-    /// or its creation failed, which is logged once).
-    fn runs_pipeline(&self) -> Option<vk::Pipeline> {
-        *self.runs.get_or_init(|| {
+    /// Whether the wide kernel has been created (by a wide frame).
+    #[cfg(test)]
+    pub(crate) fn wide_created(&self) -> bool {
+        self.wide.get().is_some_and(Option::is_some)
+    }
+
+    /// A variant of our kernel held in `cell`, created on first use from `code` (the
+    /// kernel's and its row-order twin's SPIR-V); the full kernel where it cannot be (the
+    /// vendor's kernel, or its creation failed, which is logged once with `fallback`).
+    fn variant_pipeline(&self, cell: &OnceLock<Option<vk::Pipeline>>, code: [&[u8]; 2], fallback: &str) -> vk::Pipeline {
+        let made = cell.get_or_init(|| {
             let code = match self.kernel {
-                Kernel::Ours => TRACE_RUNS_SPV,
-                Kernel::OursInRowOrder => TRACE_ROWS_RUNS_SPV,
+                Kernel::Ours => code[0],
+                Kernel::OursInRowOrder => code[1],
                 Kernel::RayQuery => return None,
             };
-            create_pipeline(&self.ctx, self.layout, &words(code))
-                .map_err(|e| log::warn!("the leaf-runs kernel failed ({e}); wide-runs frames trace the plain wide traversal"))
-                .ok()
-        })
+            create_pipeline(&self.ctx, self.layout, &words(code)).map_err(|e| log::warn!("a trace kernel failed ({e}); {fallback}")).ok()
+        });
+        made.unwrap_or(self.pipeline)
     }
 }
 
-/// True when a frame of these push constants uses the code the core variant leaves out:
-/// the AO view or the wide BVH.
-fn needs_full_kernel(pc: &PushConstants) -> bool {
+/// Which of our kernels a frame runs: each leaves out code that costs every frame through
+/// its registers (`shader_compile::{CORE_ONLY, WIDE_ONLY, LEAF_RUNS}`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Variant {
+    /// Everything: the AO view, either layout, brute force.
+    Full,
+    /// No AO view and no wide BVH.
+    Core,
+    /// The wide BVH alone.
+    Wide,
+    /// The full kernel with the wide traversal in leaf runs.
+    Runs,
+}
+
+/// The kernel for a frame of these push constants over a scene whose every mesh has a wide
+/// tree or not.
+fn variant(pc: &PushConstants, every_mesh_wide: bool) -> Variant {
     let flags = pc.dims[3];
-    (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO || flags & contract::FLAG_WIDE != 0
+    let ao = (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO;
+    let wide = flags & contract::FLAG_BVH != 0 && flags & contract::FLAG_WIDE != 0;
+    if flags & contract::FLAG_LEAF_RUNS != 0 && wide {
+        Variant::Runs
+    } else if wide && every_mesh_wide && !ao {
+        Variant::Wide
+    } else if ao || flags & contract::FLAG_WIDE != 0 {
+        Variant::Full
+    } else {
+        Variant::Core
+    }
 }
 
 /// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
@@ -425,8 +482,8 @@ impl Drop for TracePass {
             if let Some(core) = self.core {
                 d.destroy_pipeline(core, None);
             }
-            if let Some(runs) = self.runs.get().copied().flatten() {
-                d.destroy_pipeline(runs, None);
+            for variant in [self.runs.get(), self.wide.get()].into_iter().flatten().flatten() {
+                d.destroy_pipeline(*variant, None);
             }
             destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
@@ -456,10 +513,38 @@ mod tests {
         assert!(bytes == TRACE_CORE_SPV, "run-time SPIR-V differs from build.rs's");
         // Smaller by the code it drops (the AO loop and the wide traversal).
         assert!(TRACE_CORE_SPV.len() + 1000 < TRACE_SPV.len(), "core {} vs full {} bytes", TRACE_CORE_SPV.len(), TRACE_SPV.len());
+    }
+
+    #[test]
+    fn the_wide_variant_leaves_out_the_binary_traversal_and_the_ao_view() {
+        use super::super::shader_compile::{self, ROW_ORDER, WIDE_ONLY};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
+        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
+        for (defines, built, full) in [(&[WIDE_ONLY][..], TRACE_WIDE_SPV, TRACE_SPV), (&[ROW_ORDER, WIDE_ONLY][..], TRACE_ROWS_WIDE_SPV, TRACE_ROWS_SPV)] {
+            let wide = shader_compile::compile(&path, &contract, defines).unwrap();
+            let bytes: Vec<u8> = wide.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
+            assert!(bytes == built, "run-time SPIR-V of {defines:?} differs from build.rs's");
+            assert!(built.len() + 1000 < full.len(), "wide {} vs full {} bytes", built.len(), full.len());
+        }
+    }
+
+    #[test]
+    fn each_frame_runs_the_kernel_that_has_its_code() {
         let push = |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
-        assert!(!needs_full_kernel(&push(contract::FLAG_BVH)));
-        assert!(needs_full_kernel(&push(contract::FLAG_BVH | contract::FLAG_WIDE)));
-        assert!(needs_full_kernel(&push(contract::AOV_AO << contract::AOV_SHIFT)));
+        let (bvh, wide, runs, ao) = (contract::FLAG_BVH, contract::FLAG_WIDE, contract::FLAG_LEAF_RUNS, contract::AOV_AO << contract::AOV_SHIFT);
+        for every_mesh_wide in [false, true] {
+            assert_eq!(variant(&push(bvh), every_mesh_wide), Variant::Core);
+            assert_eq!(variant(&push(0), every_mesh_wide), Variant::Core, "brute force");
+            assert_eq!(variant(&push(bvh | ao), every_mesh_wide), Variant::Full);
+            assert_eq!(variant(&push(bvh | wide | ao), every_mesh_wide), Variant::Full);
+            assert_eq!(variant(&push(bvh | wide | runs), every_mesh_wide), Variant::Runs);
+            assert_eq!(variant(&push(bvh | wide | runs | ao), every_mesh_wide), Variant::Runs);
+        }
+        // The wide kernel only where every mesh has a wide tree.
+        assert_eq!(variant(&push(bvh | wide), true), Variant::Wide);
+        assert_eq!(variant(&push(bvh | wide), false), Variant::Full);
+        // Brute force with the wide flag (not a BVH frame) keeps the full kernel.
+        assert_eq!(variant(&push(wide), true), Variant::Full);
     }
 
     #[test]
