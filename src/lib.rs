@@ -10,7 +10,7 @@
 
 /// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
 /// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
-pub(crate) mod contract;
+pub mod contract;
 pub(crate) mod bench;
 pub mod bvh;
 pub mod files;

@@ -178,10 +178,13 @@ fn bad_model_files_end_in_one_line_naming_the_file_and_line() {
 
 // --- 4. scenes too large for the device ------------------------------------------------------
 
-/// A packed scene whose triangle array is one triangle over `limit` bytes (no BVH: the
-/// check comes before anything reads it).
+/// Bytes the triangle buffer holds beyond its triangles (the shaders' read-ahead).
+const READ_AHEAD: u64 = meshtracer::contract::TRIANGLE_READ_AHEAD as u64;
+
+/// A packed scene whose triangle buffer (its triangles and the read-ahead) is one triangle
+/// over `limit` bytes (no BVH: the check comes before anything reads it).
 fn oversized_triangles(limit: u64) -> PackedScene {
-    let n = (limit / std::mem::size_of::<GpuTriangle>() as u64 + 1) as usize;
+    let n = ((limit - READ_AHEAD) / std::mem::size_of::<GpuTriangle>() as u64 + 1) as usize;
     let mut packed = PackedScene::default();
     packed.triangles = vec![GpuTriangle::default(); n];
     packed
@@ -196,7 +199,7 @@ fn a_scene_over_the_storage_buffer_range_is_refused_before_upload() {
     assert!(limit <= 1 << 31, "maxStorageBufferRange {limit} is too large to provoke cheaply");
 
     let packed = oversized_triangles(limit);
-    let bytes = std::mem::size_of_val(packed.triangles.as_slice()) as u64;
+    let bytes = std::mem::size_of_val(packed.triangles.as_slice()) as u64 + READ_AHEAD;
     let check = |r: Result<(), GpuError>, what: &str| match r {
         Err(GpuError::SceneTooLarge { buffer, bytes: b, limit: l }) => {
             assert_eq!((buffer, b, l), ("triangle", bytes, limit), "{what}");
@@ -228,8 +231,8 @@ fn a_scene_at_the_storage_buffer_range_is_accepted_by_the_check() {
     let ctx = common::ctx();
     let limit = ctx.info.max_storage_buffer_range;
     let mut packed = PackedScene::default();
-    packed.triangles = vec![GpuTriangle::default(); (limit / std::mem::size_of::<GpuTriangle>() as u64) as usize];
-    check_fits(&ctx, &packed).expect("a triangle array within the limit fits");
+    packed.triangles = vec![GpuTriangle::default(); ((limit - READ_AHEAD) / std::mem::size_of::<GpuTriangle>() as u64) as usize];
+    check_fits(&ctx, &packed).expect("a triangle buffer within the limit fits");
 }
 
 #[test]

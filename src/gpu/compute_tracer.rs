@@ -219,6 +219,17 @@ impl ComputeTracer {
         (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
     }
 
+    /// Start making the trace kernels that the first frame needing one would otherwise wait
+    /// for (the window: a CPU device's compiler takes seconds over one).
+    pub(crate) fn prepare_kernels_in_background(&self) {
+        self.pass.prepare_kernels_in_background();
+    }
+
+    /// Whether every trace kernel a frame may need is made, so that none waits for one.
+    pub(crate) fn kernels_ready(&self) -> bool {
+        self.pass.kernels_ready()
+    }
+
     /// Trace with `kernel` (one of ours) from now on: the tests run the GPU's tile order on
     /// lavapipe with it.
     #[cfg(test)]
@@ -514,6 +525,7 @@ impl Drop for ComputeTracer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::trace_kernels::Variant;
     use crate::gpu::ContextOptions;
     use crate::render_settings::RenderSettings;
     use crate::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
@@ -529,9 +541,9 @@ mod tests {
         for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
             tracer.render(&FrameParams::new(&scene, RenderSettings { bvh, ..settings })).unwrap();
         }
-        assert!(!tracer.pass.runs_created(), "no leaf-runs kernel before a frame asks for it");
+        assert!(!tracer.pass.made(Variant::Runs), "no leaf-runs kernel before a frame asks for it");
         let (runs, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::WideRuns, ..settings })).unwrap();
-        assert!(tracer.pass.runs_created(), "a wide-runs frame made and ran the leaf-runs kernel");
+        assert!(tracer.pass.made(Variant::Runs), "a wide-runs frame made and ran the leaf-runs kernel");
         let (wide, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { bvh: BvhLayout::Wide, ..settings })).unwrap();
         assert!(runs.compare(&wide, 1e-4).fraction_over <= 0.002);
         drop(tracer);
@@ -547,9 +559,9 @@ mod tests {
         let mut packed = PackedScene::with_both_layouts(&scene);
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
         let (binary, _) = tracer.render(&frame(BvhLayout::Binary)).unwrap();
-        assert!(!tracer.pass.wide_created(), "no wide kernel before a wide frame");
+        assert!(!tracer.pass.made(Variant::Wide), "no wide kernel before a wide frame");
         let (wide, _) = tracer.render(&frame(BvhLayout::Wide)).unwrap();
-        assert!(tracer.pass.wide_created(), "a wide frame made and ran the wide kernel");
+        assert!(tracer.pass.made(Variant::Wide), "a wide frame made and ran the wide kernel");
         assert!(wide.compare(&binary, 1e-4).fraction_over <= 0.002, "the same hits as the binary tree");
         assert!(wide.compare(&crate::tracer::cpu::render(&packed, &frame(BvhLayout::Wide)), 1e-4).fraction_over <= 0.002, "GPU as CPU");
         drop(tracer);
@@ -557,8 +569,31 @@ mod tests {
         packed.drop_wide_tree(0, &scene.instances);
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
         let (fallback, _) = tracer.render(&frame(BvhLayout::Wide)).unwrap();
-        assert!(!tracer.pass.wide_created(), "the full kernel traced it");
+        assert!(!tracer.pass.made(Variant::Wide), "the full kernel traced it");
         assert!(fallback.compare(&binary, 1e-4).fraction_over <= 0.002);
+        drop(tracer);
+        assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+    }
+
+    #[test]
+    fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
+        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
+        let packed = PackedScene::with_both_layouts(&scene);
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+        tracer.prepare_kernels_in_background();
+        let frame = |bvh| FrameParams::new(&scene, RenderSettings { width: 32, height: 32, bounces: 1, bvh, ..Default::default() });
+        // A wide frame takes the wide kernel, waiting for its thread if need be.
+        let (wide, _) = tracer.render(&frame(BvhLayout::Wide)).unwrap();
+        assert!(tracer.pass.made(Variant::Wide));
+        let start = Instant::now();
+        while !tracer.kernels_ready() {
+            assert!(start.elapsed().as_secs() < 300, "the background kernels never came");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        assert!(tracer.pass.made(Variant::Runs), "made without a wide-runs frame asking");
+        let (runs, _) = tracer.render(&frame(BvhLayout::WideRuns)).unwrap();
+        assert!(runs.compare(&wide, 1e-4).fraction_over <= 0.002);
         drop(tracer);
         assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
     }

@@ -28,6 +28,7 @@ pub(crate) mod shader_compile;
 pub(crate) mod shader_layout;
 pub(crate) mod tile_order;
 pub(crate) mod timer;
+pub(crate) mod trace_kernels;
 pub(crate) mod trace_pass;
 pub(crate) mod validation;
 

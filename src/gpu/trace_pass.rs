@@ -6,7 +6,7 @@
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 
@@ -16,31 +16,14 @@ use super::context::GpuContext;
 use super::dispatch::{Band, GROUP};
 use super::error::GpuError;
 use super::lock::lock;
-use super::pipeline::{self, allocate_one_set, create_compute_pipeline, create_layout, destroy_pipeline_objects, words};
+use super::pipeline::{self, allocate_one_set, create_layout, destroy_pipeline_objects, words};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
-use crate::contract;
+use super::trace_kernels::{create_pipeline, KernelVariants, TRACE_ROWS_SPV, TRACE_SPV};
+#[cfg(test)]
+use super::trace_kernels::Variant;
 use crate::tracer::frame::{FrameParams, PushConstants};
-
-/// SPIR-V compiled from `shaders/trace.comp` by build.rs.
-static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
-
-/// The same with `ROW_ORDER` defined (tiles in row order, no cost record).
-static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows.spv"));
-
-/// Each with `CORE_ONLY` defined: no AO view, no wide BVH (see `shader_compile::CORE_ONLY`).
-static TRACE_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv"));
-static TRACE_ROWS_CORE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv"));
-
-/// Each with `WIDE_ONLY` defined: the wide traversal alone, for wide frames (see
-/// `shader_compile::WIDE_ONLY`).
-static TRACE_WIDE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide.spv"));
-static TRACE_ROWS_WIDE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide.spv"));
-
-/// Each with `LEAF_RUNS` defined: the wide traversal in leaf runs (`--bvh wide-runs`).
-static TRACE_RUNS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_runs.spv"));
-static TRACE_ROWS_RUNS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_runs.spv"));
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
 static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
@@ -211,16 +194,9 @@ pub(crate) struct TracePass {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     pipeline: vk::Pipeline,
-    /// Our kernels' core variant, for frames without the AO view and the wide BVH; None
-    /// for the vendor's kernel and after a reload (the reloaded shader then runs every frame).
-    core: Option<vk::Pipeline>,
-    /// Our kernels' leaf-runs variant, for `--bvh wide-runs` frames: created by the first such
-    /// frame (most sessions never ask for it); None inside when that failed or for the
-    /// vendor's kernel, and such frames then run `pipeline` (the plain wide traversal).
-    runs: OnceLock<Option<vk::Pipeline>>,
-    /// Our kernels' wide variant, for wide frames without the AO view of a scene whose every
-    /// mesh has a wide tree: created by the first such frame; None inside as for `runs`.
-    wide: OnceLock<Option<vk::Pipeline>>,
+    /// Our kernel's core, wide and leaf-runs variants; None for the vendor's kernel and
+    /// after a reload (the reloaded shader then runs every frame).
+    variants: Option<KernelVariants>,
     /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
     every_mesh_wide: AtomicBool,
     layout: vk::PipelineLayout,
@@ -242,9 +218,8 @@ impl TracePass {
             Kernel::RayQuery => QUERY_SPV,
         });
         let pipeline = create_pipeline(ctx, layout, &code)?;
-        let core = match kernel {
-            Kernel::Ours => Some(create_pipeline(ctx, layout, &words(TRACE_CORE_SPV))?),
-            Kernel::OursInRowOrder => Some(create_pipeline(ctx, layout, &words(TRACE_ROWS_CORE_SPV))?),
+        let variants = match kernel {
+            Kernel::Ours | Kernel::OursInRowOrder => Some(KernelVariants::new(ctx, layout, kernel == Kernel::OursInRowOrder)?),
             Kernel::RayQuery => None,
         };
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
@@ -252,9 +227,7 @@ impl TracePass {
             ctx: ctx.clone(),
             kernel,
             pipeline,
-            core,
-            runs: OnceLock::new(),
-            wide: OnceLock::new(),
+            variants,
             every_mesh_wide: AtomicBool::new(false),
             layout,
             set_layout,
@@ -315,15 +288,9 @@ impl TracePass {
         // SAFETY: the GPU is idle, so nothing uses the old pipelines.
         unsafe {
             self.ctx.device.destroy_pipeline(std::mem::replace(&mut self.pipeline, pipeline), None);
-            if let Some(core) = self.core.take() {
-                self.ctx.device.destroy_pipeline(core, None);
-            }
-            for cell in [&mut self.runs, &mut self.wide] {
-                if let Some(variant) = cell.take().flatten() {
-                    self.ctx.device.destroy_pipeline(variant, None);
-                }
-                // Still none: the reloaded shader then runs these frames too.
-                *cell = OnceLock::from(None);
+            // None from now: the reloaded shader runs every frame.
+            if let Some(variants) = self.variants.take() {
+                variants.destroy();
             }
         }
         Ok(())
@@ -366,11 +333,9 @@ impl TracePass {
         let base_x = band.columns.start / GROUP.width;
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
-        let pipeline = match (self.core, variant(pc, self.every_mesh_wide.load(Ordering::Relaxed))) {
-            (None, _) | (_, Variant::Full) => self.pipeline,
-            (Some(core), Variant::Core) => core,
-            (_, Variant::Wide) => self.variant_pipeline(&self.wide, [TRACE_WIDE_SPV, TRACE_ROWS_WIDE_SPV], "wide frames trace the full kernel"),
-            (_, Variant::Runs) => self.variant_pipeline(&self.runs, [TRACE_RUNS_SPV, TRACE_ROWS_RUNS_SPV], "wide-runs frames trace the plain wide traversal"),
+        let pipeline = match &self.variants {
+            Some(variants) => variants.for_frame(pc, self.every_mesh_wide.load(Ordering::Relaxed), self.pipeline),
+            None => self.pipeline,
         };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
         // outlive its execution (the owner waits for the GPU before dropping them) and the
@@ -385,73 +350,24 @@ impl TracePass {
 }
 
 impl TracePass {
-    /// Whether the leaf-runs kernel has been created (by a `--bvh wide-runs` frame).
+    /// Start making the kernels that are otherwise made by the first frame needing them
+    /// (`KernelVariants::prepare_in_background`).
+    pub(crate) fn prepare_kernels_in_background(&self) {
+        if let Some(variants) = &self.variants {
+            variants.prepare_in_background();
+        }
+    }
+
+    /// Whether every kernel a frame may need is made (always, for the vendor's kernel).
+    pub(crate) fn kernels_ready(&self) -> bool {
+        self.variants.as_ref().is_none_or(KernelVariants::ready)
+    }
+
+    /// Whether the variant kernel of `v` (wide or leaf runs) has been made.
     #[cfg(test)]
-    pub(crate) fn runs_created(&self) -> bool {
-        self.runs.get().is_some_and(Option::is_some)
+    pub(crate) fn made(&self, v: Variant) -> bool {
+        self.variants.as_ref().is_some_and(|k| k.made(v))
     }
-
-    /// Whether the wide kernel has been created (by a wide frame).
-    #[cfg(test)]
-    pub(crate) fn wide_created(&self) -> bool {
-        self.wide.get().is_some_and(Option::is_some)
-    }
-
-    /// A variant of our kernel held in `cell`, created on first use from `code` (the
-    /// kernel's and its row-order twin's SPIR-V); the full kernel where it cannot be (the
-    /// vendor's kernel, or its creation failed, which is logged once with `fallback`).
-    fn variant_pipeline(&self, cell: &OnceLock<Option<vk::Pipeline>>, code: [&[u8]; 2], fallback: &str) -> vk::Pipeline {
-        let made = cell.get_or_init(|| {
-            let code = match self.kernel {
-                Kernel::Ours => code[0],
-                Kernel::OursInRowOrder => code[1],
-                Kernel::RayQuery => return None,
-            };
-            create_pipeline(&self.ctx, self.layout, &words(code)).map_err(|e| log::warn!("a trace kernel failed ({e}); {fallback}")).ok()
-        });
-        made.unwrap_or(self.pipeline)
-    }
-}
-
-/// Which of our kernels a frame runs: each leaves out code that costs every frame through
-/// its registers (`shader_compile::{CORE_ONLY, WIDE_ONLY, LEAF_RUNS}`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Variant {
-    /// Everything: the AO view, either layout, brute force.
-    Full,
-    /// No AO view and no wide BVH.
-    Core,
-    /// The wide BVH alone.
-    Wide,
-    /// The full kernel with the wide traversal in leaf runs.
-    Runs,
-}
-
-/// The kernel for a frame of these push constants over a scene whose every mesh has a wide
-/// tree or not.
-fn variant(pc: &PushConstants, every_mesh_wide: bool) -> Variant {
-    let flags = pc.dims[3];
-    let ao = (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO;
-    let wide = flags & contract::FLAG_BVH != 0 && flags & contract::FLAG_WIDE != 0;
-    if flags & contract::FLAG_LEAF_RUNS != 0 && wide {
-        Variant::Runs
-    } else if wide && every_mesh_wide && !ao {
-        Variant::Wide
-    } else if ao || flags & contract::FLAG_WIDE != 0 {
-        Variant::Full
-    } else {
-        Variant::Core
-    }
-}
-
-/// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
-fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline, GpuError> {
-    // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
-    let mut flags = vk::PipelineCreateFlags::DISPATCH_BASE;
-    if ctx.info.shader_statistics {
-        flags |= vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR;
-    }
-    create_compute_pipeline(ctx, layout, code, flags, ["loading the trace shader", "creating the trace pipeline"])
 }
 
 /// Compile `dir/trace.comp` (and what it includes) at run time for [`TracePass::reload`],
@@ -479,11 +395,8 @@ impl Drop for TracePass {
         // SAFETY: the owner (`ComputeTracer`) waits for the GPU before dropping the pass,
         // so nothing uses these objects.
         unsafe {
-            if let Some(core) = self.core {
-                d.destroy_pipeline(core, None);
-            }
-            for variant in [self.runs.get(), self.wide.get()].into_iter().flatten().flatten() {
-                d.destroy_pipeline(*variant, None);
+            if let Some(variants) = &self.variants {
+                variants.destroy();
             }
             destroy_pipeline_objects(d, self.pool, self.pipeline, self.layout, self.set_layout);
         }
@@ -501,63 +414,6 @@ mod tests {
         // The same assembly and compiler as build.rs: the very same SPIR-V.
         let bytes: Vec<u8> = spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
         assert!(bytes == TRACE_SPV, "run-time SPIR-V differs from build.rs's");
-    }
-
-    #[test]
-    fn the_core_variant_leaves_out_the_ao_view_and_the_wide_bvh() {
-        use super::super::shader_compile::{self, CORE_ONLY};
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
-        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
-        let core = shader_compile::compile(&path, &contract, &[CORE_ONLY]).unwrap();
-        let bytes: Vec<u8> = core.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
-        assert!(bytes == TRACE_CORE_SPV, "run-time SPIR-V differs from build.rs's");
-        // Smaller by the code it drops (the AO loop and the wide traversal).
-        assert!(TRACE_CORE_SPV.len() + 1000 < TRACE_SPV.len(), "core {} vs full {} bytes", TRACE_CORE_SPV.len(), TRACE_SPV.len());
-    }
-
-    #[test]
-    fn the_wide_variant_leaves_out_the_binary_traversal_and_the_ao_view() {
-        use super::super::shader_compile::{self, ROW_ORDER, WIDE_ONLY};
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
-        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
-        for (defines, built, full) in [(&[WIDE_ONLY][..], TRACE_WIDE_SPV, TRACE_SPV), (&[ROW_ORDER, WIDE_ONLY][..], TRACE_ROWS_WIDE_SPV, TRACE_ROWS_SPV)] {
-            let wide = shader_compile::compile(&path, &contract, defines).unwrap();
-            let bytes: Vec<u8> = wide.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
-            assert!(bytes == built, "run-time SPIR-V of {defines:?} differs from build.rs's");
-            assert!(built.len() + 1000 < full.len(), "wide {} vs full {} bytes", built.len(), full.len());
-        }
-    }
-
-    #[test]
-    fn each_frame_runs_the_kernel_that_has_its_code() {
-        let push = |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
-        let (bvh, wide, runs, ao) = (contract::FLAG_BVH, contract::FLAG_WIDE, contract::FLAG_LEAF_RUNS, contract::AOV_AO << contract::AOV_SHIFT);
-        for every_mesh_wide in [false, true] {
-            assert_eq!(variant(&push(bvh), every_mesh_wide), Variant::Core);
-            assert_eq!(variant(&push(0), every_mesh_wide), Variant::Core, "brute force");
-            assert_eq!(variant(&push(bvh | ao), every_mesh_wide), Variant::Full);
-            assert_eq!(variant(&push(bvh | wide | ao), every_mesh_wide), Variant::Full);
-            assert_eq!(variant(&push(bvh | wide | runs), every_mesh_wide), Variant::Runs);
-            assert_eq!(variant(&push(bvh | wide | runs | ao), every_mesh_wide), Variant::Runs);
-        }
-        // The wide kernel only where every mesh has a wide tree.
-        assert_eq!(variant(&push(bvh | wide), true), Variant::Wide);
-        assert_eq!(variant(&push(bvh | wide), false), Variant::Full);
-        // Brute force with the wide flag (not a BVH frame) keeps the full kernel.
-        assert_eq!(variant(&push(wide), true), Variant::Full);
-    }
-
-    #[test]
-    fn the_leaf_runs_variant_is_built_from_the_same_sources_and_differs() {
-        use super::super::shader_compile::{self, LEAF_RUNS, ROW_ORDER};
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
-        let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
-        for (defines, built) in [(&[LEAF_RUNS][..], TRACE_RUNS_SPV), (&[ROW_ORDER, LEAF_RUNS][..], TRACE_ROWS_RUNS_SPV)] {
-            let runs = shader_compile::compile(&path, &contract, defines).unwrap();
-            let bytes: Vec<u8> = runs.spirv.iter().flat_map(|w| w.to_le_bytes()).collect();
-            assert!(bytes == built, "run-time SPIR-V of {defines:?} differs from build.rs's");
-        }
-        assert!(TRACE_RUNS_SPV != TRACE_SPV && TRACE_ROWS_RUNS_SPV != TRACE_ROWS_SPV, "LEAF_RUNS changes the kernel");
     }
 
     #[test]

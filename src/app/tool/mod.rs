@@ -106,6 +106,8 @@ impl Tool {
         let devices = unsafe { devices::open(options, display, window_handle, [physical.width, physical.height], params.vsync) }?;
         let devices::WindowDevices { presenter, ctx, trace_ctx } = devices;
         let tracer = ComputeTracer::new(&trace_ctx, FRAMES_IN_FLIGHT as u32)?;
+        // While the model loads: lavapipe's compiler takes seconds over a kernel.
+        tracer.prepare_kernels_in_background();
         let clock = ClockWatch::new(&trace_ctx);
 
         let egui_ctx = egui::Context::default();
@@ -237,7 +239,7 @@ impl Tool {
         self.ui.egui_state.handle_platform_output(&self.window, full.platform_output);
         let area = self.area();
         if self.timing.benchmarks.progress().is_none() {
-            self.session.pick_layout(&mut self.params, area);
+            self.session.pick_layout(&mut self.params, area, self.gpu.tracer.kernels_ready());
         }
         self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.ui.panel)?;
         self.gpu.presenter.set_vsync(self.params.vsync);

@@ -208,12 +208,14 @@ impl Session {
     }
 
     /// With `Params::bvh_auto`, set the layout the next frame traces: binary until the wide
-    /// tree is loaded, then each in turn until all are timed, then the fastest. Not while the
-    /// split view is on (its halves would share the frame's time).
-    pub(crate) fn pick_layout(&mut self, params: &mut Params, area: [u32; 2]) {
+    /// tree is loaded and the tracer's kernels are made (`kernels_ready`: the trial neither
+    /// waits for one nor times a layout on a stand-in), then each in turn until all are
+    /// timed, then the fastest. Not while the split view is on (its halves would share the
+    /// frame's time).
+    pub(crate) fn pick_layout(&mut self, params: &mut Params, area: [u32; 2], kernels_ready: bool) {
         let Some(model) = self.model.as_ref().filter(|_| params.bvh_auto && !params.split.enabled) else { return };
         let work = Work::new(params.settings_for(area), params.scene.models, params.scene.mirror_box, self.installs);
-        if let Some(layout) = self.auto_layout.next_layout(work, model.has_wide) {
+        if let Some(layout) = self.auto_layout.next_layout(work, model.has_wide && kernels_ready) {
             params.scene.settings.bvh = layout;
         }
     }
