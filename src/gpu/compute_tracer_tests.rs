@@ -1,0 +1,78 @@
+//! Unit tests of `compute_tracer.rs`: which trace kernel a frame runs, and when it is made.
+
+use super::*;
+use crate::gpu::trace_kernels::Variant;
+use crate::gpu::ContextOptions;
+use crate::render_settings::RenderSettings;
+use crate::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
+use crate::scene::primitives::PaperModel;
+
+/// A validated context and the paper's torus knot in its mirror box.
+fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
+    let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
+    (ctx, scene)
+}
+
+/// A 32x32 frame of `scene`, one bounce, traced with `bvh`.
+fn small_frame(scene: &Scene, bvh: BvhLayout) -> FrameParams {
+    FrameParams::new(scene, RenderSettings { width: 32, height: 32, bounces: 1, bvh, ..Default::default() })
+}
+
+#[test]
+fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
+    let (ctx, scene) = knot_in_the_box();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+    for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
+        tracer.render(&small_frame(&scene, bvh)).unwrap();
+    }
+    assert!(!tracer.pass.made(Variant::Runs), "no leaf-runs kernel before a frame asks for it");
+    let (runs, _) = tracer.render(&small_frame(&scene, BvhLayout::WideRuns)).unwrap();
+    assert!(tracer.pass.made(Variant::Runs), "a wide-runs frame made and ran the leaf-runs kernel");
+    let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();
+    assert!(runs.compare(&wide, 1e-4).fraction_over <= 0.002);
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
+
+#[test]
+fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
+    let (ctx, scene) = knot_in_the_box();
+    let mut packed = PackedScene::with_both_layouts(&scene);
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    let (binary, _) = tracer.render(&small_frame(&scene, BvhLayout::Binary)).unwrap();
+    assert!(!tracer.pass.made(Variant::Wide), "no wide kernel before a wide frame");
+    let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();
+    assert!(tracer.pass.made(Variant::Wide), "a wide frame made and ran the wide kernel");
+    assert!(wide.compare(&binary, 1e-4).fraction_over <= 0.002, "the same hits as the binary tree");
+    assert!(wide.compare(&crate::tracer::cpu::render(&packed, &small_frame(&scene, BvhLayout::Wide)), 1e-4).fraction_over <= 0.002, "GPU as CPU");
+    drop(tracer);
+    // A mesh without a wide tree needs the binary traversal, which the wide kernel lacks.
+    packed.drop_wide_tree(0, &scene.instances);
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    let (fallback, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();
+    assert!(!tracer.pass.made(Variant::Wide), "the full kernel traced it");
+    assert!(fallback.compare(&binary, 1e-4).fraction_over <= 0.002);
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
+
+#[test]
+fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
+    let (ctx, scene) = knot_in_the_box();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+    tracer.prepare_kernels_in_background();
+    // A wide frame takes the wide kernel, waiting for its thread if need be.
+    let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();
+    assert!(tracer.pass.made(Variant::Wide));
+    let start = Instant::now();
+    while !tracer.kernels_ready() {
+        assert!(start.elapsed().as_secs() < 300, "the background kernels never came");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(tracer.pass.made(Variant::Runs), "made without a wide-runs frame asking");
+    let (runs, _) = tracer.render(&small_frame(&scene, BvhLayout::WideRuns)).unwrap();
+    assert!(runs.compare(&wide, 1e-4).fraction_over <= 0.002);
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
