@@ -156,7 +156,6 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
     s
 }
 
-
 fn truncate(s: &str, n: usize) -> String {
     if s.chars().count() <= n { s.to_owned() } else { s.chars().take(n - 1).chain(['…']).collect() }
 }

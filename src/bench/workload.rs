@@ -26,8 +26,6 @@ pub struct WorkloadHeader {
     pub bvh: BvhLayout,
 }
 
-
-
 impl WorkloadHeader {
     /// The acceleration as tables print it: "wide" for our wide BVH, else the accel's name.
     pub fn accel_label(&self) -> String {
