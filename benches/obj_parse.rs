@@ -15,13 +15,16 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
-use meshtracer::scene::obj::{load_obj, load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions};
+use meshtracer::scene::obj::{
+    load_obj, load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions,
+};
 use meshtracer::scene::primitives::{large_torus_knot, write_obj};
 
 /// The OBJ text of a torus knot with at least `triangles` triangles, and its exact count.
 fn obj_text(triangles: usize) -> (String, usize) {
     let mesh = large_torus_knot(triangles);
-    let path = std::env::temp_dir().join(format!("meshtracer-bench-{}-{triangles}.obj", std::process::id()));
+    let path = std::env::temp_dir()
+        .join(format!("meshtracer-bench-{}-{triangles}.obj", std::process::id()));
     write_obj(&mesh, &path).expect("write the OBJ");
     let text = std::fs::read_to_string(&path).expect("read the OBJ back");
     let _ = std::fs::remove_file(&path);
@@ -37,8 +40,14 @@ fn parse(c: &mut Criterion) {
         type Loader = fn(&str) -> meshtracer::scene::obj::LoadedObj;
         let loaders: [(&str, Loader); 3] = [
             ("parallel", |t| load_obj_from_str(t, "bench.obj", None).expect("parse")),
-            ("one_chunk", |t| load_obj_from_str_chunked(t, "bench.obj", None, &LoadOptions::default(), usize::MAX).expect("parse")),
-            ("tobj", |t| load_obj_from_str_tobj(t, "bench.obj", None, &LoadOptions::default()).expect("parse")),
+            ("one_chunk", |t| {
+                load_obj_from_str_chunked(t, "bench.obj", None, &LoadOptions::default(), usize::MAX)
+                    .expect("parse")
+            }),
+            ("tobj", |t| {
+                load_obj_from_str_tobj(t, "bench.obj", None, &LoadOptions::default())
+                    .expect("parse")
+            }),
         ];
         for (name, load) in loaders {
             group.bench_with_input(BenchmarkId::new(name, triangles), &text, |b, text| {
@@ -68,7 +77,12 @@ fn main() {
     let start = Instant::now();
     let loaded = if tobj {
         let text = std::fs::read_to_string(path).expect("read OBJ_FILE");
-        load_obj_from_str_tobj(&text, &path.display().to_string(), path.parent(), &LoadOptions::default())
+        load_obj_from_str_tobj(
+            &text,
+            &path.display().to_string(),
+            path.parent(),
+            &LoadOptions::default(),
+        )
     } else {
         load_obj(path)
     };

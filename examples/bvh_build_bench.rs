@@ -21,14 +21,20 @@
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats, STACK_SIZE};
+use meshtracer::bvh::{
+    ordered_edges, BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats, STACK_SIZE,
+};
 use meshtracer::geometry::{Aabb, Ray};
 use obvhs::{bvh2::builder::build_bvh2_from_tris, bvh2::Bvh2, triangle::Triangle, BvhBuildParams};
 use rayon::prelude::*;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let args = if args.is_empty() { vec!["100000".into(), "1000000".into(), "4000000".into()] } else { args };
+    let args = if args.is_empty() {
+        vec!["100000".into(), "1000000".into(), "4000000".into()]
+    } else {
+        args
+    };
     println!("threads: {}", rayon::current_num_threads());
     println!(
         "{:<28} {:<26} {:>10} {:>8} {:>9} {:>6} {:>9} {:>8} {:>8}",
@@ -71,7 +77,8 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
     options.max_leaf_size = env("BENCH_LEAF").unwrap_or(options.max_leaf_size);
     let runs = env("BENCH_RUNS").unwrap_or(if tris.len() > 2_000_000 { 3 } else { 5 });
     let only_ours = std::env::var_os("BENCH_ONLY_OURS").is_some();
-    let rays = if std::env::var_os("BENCH_QUICK").is_some() { vec![] } else { probe_rays(tris, 100_000) };
+    let rays =
+        if std::env::var_os("BENCH_QUICK").is_some() { vec![] } else { probe_rays(tris, 100_000) };
 
     let ((ours, phases), t) = best_of(runs, || Bvh::build_timed(tris, &options));
     report(&name, "ours (binned SAH)", t, &ours, tris, &rays);
@@ -79,7 +86,8 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
         wide_report(&name, &ours, tris, &rays);
     }
     if std::env::var_os("BENCH_PHASES").is_some() {
-        let list: Vec<String> = phases.iter().map(|(p, d)| format!("{p} {:.1}", d.as_secs_f64() * 1e3)).collect();
+        let list: Vec<String> =
+            phases.iter().map(|(p, d)| format!("{p} {:.1}", d.as_secs_f64() * 1e3)).collect();
         println!("  phases (ms): {}", list.join(", "));
     }
 
@@ -89,11 +97,15 @@ fn bench(name: &str, tris: &[[Vec3; 3]]) {
         .collect();
     let presets = [
         ("obvhs medium_build", BvhBuildParams::medium_build()),
-        ("obvhs medium, leaf<=4", BvhBuildParams { max_prims_per_leaf: 4, ..BvhBuildParams::medium_build() }),
+        (
+            "obvhs medium, leaf<=4",
+            BvhBuildParams { max_prims_per_leaf: 4, ..BvhBuildParams::medium_build() },
+        ),
         ("obvhs fast_build", BvhBuildParams::fast_build()),
     ];
     for (label, params) in presets.into_iter().filter(|_| !only_ours) {
-        let (bvh2, t) = best_of(runs, || build_bvh2_from_tris(&otris, params, &mut Duration::default()));
+        let (bvh2, t) =
+            best_of(runs, || build_bvh2_from_tris(&otris, params, &mut Duration::default()));
         report(&name, label, t, &from_obvhs(&bvh2), tris, &rays);
     }
 }
@@ -132,13 +144,18 @@ fn process_cpu_time() -> Duration {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     // Fields after the ")" that ends the command name: utime and stime are the 12th and 13th.
     let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
-    let ticks: u64 = fields.get(11..13).map_or(0, |f| f.iter().filter_map(|x| x.parse::<u64>().ok()).sum());
+    let ticks: u64 =
+        fields.get(11..13).map_or(0, |f| f.iter().filter_map(|x| x.parse::<u64>().ok()).sum());
     Duration::from_millis(ticks * 10)
 }
 
 fn report(mesh: &str, builder: &str, t: Timing, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
     if std::env::var_os("BENCH_QUICK").is_some() {
-        println!("{mesh:<28} {builder:<26} {:>10.1} {:>8.0}", t.wall.as_secs_f64() * 1e3, t.cpu.as_secs_f64() * 1e3);
+        println!(
+            "{mesh:<28} {builder:<26} {:>10.1} {:>8.0}",
+            t.wall.as_secs_f64() * 1e3,
+            t.cpu.as_secs_f64() * 1e3
+        );
         return;
     }
     let options = BuildOptions { max_leaf_size: 255, ..Default::default() };
@@ -156,7 +173,10 @@ fn report(mesh: &str, builder: &str, t: Timing, bvh: &Bvh, tris: &[[Vec3; 3]], r
                 (s.nodes as u64, s.triangles as u64)
             })
             .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-        (format!("{:.1}", stats.0 as f64 / rays.len() as f64), format!("{:.1}", stats.1 as f64 / rays.len() as f64))
+        (
+            format!("{:.1}", stats.0 as f64 / rays.len() as f64),
+            format!("{:.1}", stats.1 as f64 / rays.len() as f64),
+        )
     } else {
         ("(deep)".into(), "(deep)".into())
     };
@@ -182,7 +202,14 @@ fn wide_report(mesh: &str, bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) {
         .par_iter()
         .map(|ray| {
             let mut s = TraversalStats::default();
-            meshtracer::bvh::wide::closest_hit(&wide.nodes, &ordered, ray, 0.0, f32::INFINITY, &mut s);
+            meshtracer::bvh::wide::closest_hit(
+                &wide.nodes,
+                &ordered,
+                ray,
+                0.0,
+                f32::INFINITY,
+                &mut s,
+            );
             (s.nodes as u64, s.triangles as u64, (s.nodes + s.triangles) as u64)
         })
         .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2.max(b.2)));
@@ -231,7 +258,11 @@ fn from_obvhs(b: &Bvh2) -> Bvh {
         let slot = nodes.len();
         if let Some((p, side)) = patch {
             let node: &mut BvhNode = &mut nodes[p];
-            if side == 0 { node.left_index = slot as u32 } else { node.right_index = slot as u32 }
+            if side == 0 {
+                node.left_index = slot as u32
+            } else {
+                node.right_index = slot as u32
+            }
         }
         let first = b.nodes[i].first_index as usize;
         nodes.push(BvhNode::new(child(first), child(first + 1)));
@@ -274,7 +305,10 @@ fn torus(n: usize) -> Vec<[Vec3; 3]> {
     let minor = ((quads as f32 * 0.35).sqrt().ceil() as usize).max(3);
     let major = quads.div_ceil(minor).max(3);
     let p = |i: usize, j: usize| {
-        let (u, v) = (std::f32::consts::TAU * i as f32 / major as f32, std::f32::consts::TAU * j as f32 / minor as f32);
+        let (u, v) = (
+            std::f32::consts::TAU * i as f32 / major as f32,
+            std::f32::consts::TAU * j as f32 / minor as f32,
+        );
         let ring = 1.0 + 0.35 * v.cos();
         Vec3::new(ring * u.cos(), 0.35 * v.sin(), ring * u.sin())
     };

@@ -14,7 +14,12 @@ fn main() -> anyhow::Result<()> {
         let start = Instant::now();
         let mesh = large_torus_knot(million * 1_000_000);
         let ms = start.elapsed().as_secs_f64() * 1e3;
-        println!("{}: {} vertices, {} triangles generated in {ms:.0} ms", mesh.name, mesh.vertex_count(), mesh.triangle_count());
+        println!(
+            "{}: {} vertices, {} triangles generated in {ms:.0} ms",
+            mesh.name,
+            mesh.vertex_count(),
+            mesh.triangle_count()
+        );
     }
     for path in std::env::args().skip(1) {
         let start = Instant::now();

@@ -19,9 +19,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Parser;
 use meshtracer::gpu::buffer::GpuBuffer;
-use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
-use meshtracer::scene::paper::{instances, load_paper_scene, LightOrbit, ModelSource, MAX_MODELS};
+use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
 use meshtracer::render_settings::RenderSettings;
+use meshtracer::scene::paper::{instances, load_paper_scene, LightOrbit, ModelSource, MAX_MODELS};
 use meshtracer::tracer::{FrameParams, PackedScene};
 
 #[derive(Parser, Debug)]
@@ -63,8 +63,12 @@ struct Args {
 
 /// Resident memory of this process in KiB.
 fn rss_kib() -> anyhow::Result<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").context("reading /proc/self/status")?;
-    let line = status.lines().find(|l| l.starts_with("VmRSS:")).context("no VmRSS in /proc/self/status")?;
+    let status =
+        std::fs::read_to_string("/proc/self/status").context("reading /proc/self/status")?;
+    let line = status
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))
+        .context("no VmRSS in /proc/self/status")?;
     line.split_whitespace().nth(1).context("malformed VmRSS")?.parse().context("malformed VmRSS")
 }
 
@@ -104,15 +108,35 @@ fn main() -> anyhow::Result<()> {
     let source = ModelSource::parse(&args.model);
     let (mut scene, _) = load_paper_scene(&source, MAX_MODELS, LightOrbit::default())?;
     let mut packed = PackedScene::new(&scene);
-    let options = ContextOptions { validation: args.validation, sync_validation: args.validation, ..Default::default() };
+    let options = ContextOptions {
+        validation: args.validation,
+        sync_validation: args.validation,
+        ..Default::default()
+    };
     let ctx = GpuContext::new(&options)?;
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
     let sizes = [args.size, args.size / 2, args.size * 3 / 4 + 1, args.size / 4 + 3];
     println!(
         "soak: {} frames of {} on {} ({}), sizes {:?}, model count and size change every {} frames",
-        args.frames, source.label(), ctx.info.name, ctx.info.driver, sizes, args.every
+        args.frames,
+        source.label(),
+        ctx.info.name,
+        ctx.info.driver,
+        sizes,
+        args.every
     );
-    println!("{:>8} {:>9} {:>10} {:>6} {:>7} {:>12} {:>12} {:>4} {:>9}", "frame", "seconds", "RSS KiB", "allocs", "blocks", "alloc bytes", "capacity", "fds", "ms/frame");
+    println!(
+        "{:>8} {:>9} {:>10} {:>6} {:>7} {:>12} {:>12} {:>4} {:>9}",
+        "frame",
+        "seconds",
+        "RSS KiB",
+        "allocs",
+        "blocks",
+        "alloc bytes",
+        "capacity",
+        "fds",
+        "ms/frame"
+    );
 
     let start = Instant::now();
     let mut last = (start, 0u64);
@@ -132,16 +156,24 @@ fn main() -> anyhow::Result<()> {
         if frame % args.every == 0 {
             if args.plant_leak {
                 let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
-                std::mem::forget(GpuBuffer::new(&ctx, 4096, usage, gpu_allocator::MemoryLocation::GpuOnly, "planted leak")?);
+                std::mem::forget(GpuBuffer::new(
+                    &ctx,
+                    4096,
+                    usage,
+                    gpu_allocator::MemoryLocation::GpuOnly,
+                    "planted leak",
+                )?);
                 std::hint::black_box(Box::leak(vec![1u8; 1 << 20].into_boxed_slice()));
             }
             scene.instances = instances(models);
             packed.set_instances(&scene.instances);
             tracer.set_instances(&packed.instances)?;
         }
-        let settings = RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() };
+        let settings =
+            RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() };
         let mut params = FrameParams::new(&scene, settings);
-        params.light_position = LightOrbit { angle_deg: frame as f32 * 3.0, ..LightOrbit::default() }.position();
+        params.light_position =
+            LightOrbit { angle_deg: frame as f32 * 3.0, ..LightOrbit::default() }.position();
         tracer.trace(&params)?;
         frame += 1;
         if frame % args.every == 0 {
@@ -155,13 +187,25 @@ fn main() -> anyhow::Result<()> {
             last = (Instant::now(), frame);
             println!(
                 "{:>8} {:>9.1} {:>10} {:>6} {:>7} {:>12} {:>12} {:>4} {:>9.3}",
-                r.frame, start.elapsed().as_secs_f64(), r.rss_kib, r.allocations, r.blocks, r.allocated_bytes, r.capacity_bytes, r.fds, ms
+                r.frame,
+                start.elapsed().as_secs_f64(),
+                r.rss_kib,
+                r.allocations,
+                r.blocks,
+                r.allocated_bytes,
+                r.capacity_bytes,
+                r.fds,
+                ms
             );
             if frame >= args.warmup {
                 match baseline {
                     None => baseline = Some(r),
                     Some(b) => {
-                        if r.allocations > b.allocations || r.blocks > b.blocks || r.allocated_bytes > b.allocated_bytes || r.fds > b.fds {
+                        if r.allocations > b.allocations
+                            || r.blocks > b.blocks
+                            || r.allocated_bytes > b.allocated_bytes
+                            || r.fds > b.fds
+                        {
                             failures.push(format!(
                                 "frame {}: {} allocations in {} blocks ({} bytes), {} fds; baseline {} in {} ({} bytes), {} fds",
                                 r.frame, r.allocations, r.blocks, r.allocated_bytes, r.fds, b.allocations, b.blocks, b.allocated_bytes, b.fds
@@ -178,7 +222,10 @@ fn main() -> anyhow::Result<()> {
     drop(tracer);
     let messages = ctx.validation_messages();
     let elapsed = start.elapsed().as_secs_f64();
-    println!("traced {frame} frames in {elapsed:.1} s ({:.2} ms/frame; checksum {checksum:.1})", elapsed * 1e3 / frame.max(1) as f64);
+    println!(
+        "traced {frame} frames in {elapsed:.1} s ({:.2} ms/frame; checksum {checksum:.1})",
+        elapsed * 1e3 / frame.max(1) as f64
+    );
     if args.validation {
         println!("validation messages: {}", messages.len());
         if let Some(m) = messages.first() {
@@ -189,9 +236,15 @@ fn main() -> anyhow::Result<()> {
         bail!("no report after the warm-up of {} frames: run more --frames", args.warmup);
     };
     let end = report(&ctx, frame)?;
-    println!("after freeing the tracer: {} allocations, {} blocks, {} bytes", end.allocations, end.blocks, end.allocated_bytes);
+    println!(
+        "after freeing the tracer: {} allocations, {} blocks, {} bytes",
+        end.allocations, end.blocks, end.allocated_bytes
+    );
     if end.allocations != 0 {
-        failures.push(format!("{} allocations still live after the tracer was dropped", end.allocations));
+        failures.push(format!(
+            "{} allocations still live after the tracer was dropped",
+            end.allocations
+        ));
     }
     let peak = worst.map_or(b.rss_kib, |w| w.rss_kib.max(b.rss_kib));
     let growth = (peak as f64 - b.rss_kib as f64) / b.rss_kib as f64 * 100.0;
@@ -200,7 +253,10 @@ fn main() -> anyhow::Result<()> {
         b.rss_kib, b.frame, peak, args.rss_tolerance, b.allocations
     );
     if growth > args.rss_tolerance {
-        failures.push(format!("resident memory grew {growth:.1}% after warm-up (allowed {}%)", args.rss_tolerance));
+        failures.push(format!(
+            "resident memory grew {growth:.1}% after warm-up (allowed {}%)",
+            args.rss_tolerance
+        ));
     }
     if !failures.is_empty() {
         for f in &failures {

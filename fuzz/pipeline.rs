@@ -14,9 +14,12 @@
 use std::path::Path;
 
 use glam::Vec3;
-use meshtracer::scene::obj::{load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj, ObjError};
-use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::render_settings::RenderSettings;
+use meshtracer::scene::obj::{
+    load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj,
+    ObjError,
+};
+use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::tracer::{cpu, FrameParams, PackedScene};
 
 /// Inputs longer than this are ignored, so that every run stays fast.
@@ -76,7 +79,10 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
     if before.extent().max_element() > 0.0 {
         // Normalised to MODEL_RADIUS: neither collapsed to a point nor blown up.
         let half = mesh.bounds().extent().max_element() * 0.5;
-        assert!(half > 0.0 && half <= 2.0 * MODEL_RADIUS, "a model over {before:?} has half-extent {half} after normalisation");
+        assert!(
+            half > 0.0 && half <= 2.0 * MODEL_RADIUS,
+            "a model over {before:?} has half-extent {half} after normalisation"
+        );
     }
     let models = 1 + (data.len() as u32 % MAX_MODELS);
     let scene = paper_scene(mesh, models, LightOrbit::default());
@@ -92,16 +98,27 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         let range = pm.triangle_base as usize..(pm.triangle_base + pm.triangle_count) as usize;
         let mut prims: Vec<u32> = packed.triangles[range].iter().map(|t| t.prim).collect();
         prims.sort_unstable();
-        assert!(prims.iter().copied().eq(0..mesh.triangle_count() as u32), "prim ids of {} are not 0..{}", mesh.name, mesh.triangle_count());
+        assert!(
+            prims.iter().copied().eq(0..mesh.triangle_count() as u32),
+            "prim ids of {} are not 0..{}",
+            mesh.name,
+            mesh.triangle_count()
+        );
         total += mesh.triangle_count();
     }
     assert_eq!(packed.triangles.len(), total);
     assert_eq!(packed.shading.len(), total);
     let vertices = packed.vertices.normals.len() as u32;
-    assert!(packed.shading.iter().flat_map(|s| s.corners).all(|k| k < vertices), "a corner names a vertex past the end");
+    assert!(
+        packed.shading.iter().flat_map(|s| s.corners).all(|k| k < vertices),
+        "a corner names a vertex past the end"
+    );
     assert_eq!(packed.instances.len(), scene.instances.len());
     let material_count = packed.materials.len() as u32;
-    assert!(packed.shading.iter().all(|s| s.material < material_count), "a triangle names a material past the end");
+    assert!(
+        packed.shading.iter().all(|s| s.material < material_count),
+        "a triangle names a material past the end"
+    );
 
     // A few rays through the fresh BVH: primary and one bounce.
     let settings = RenderSettings { width: 4, height: 4, bounces: 1, ..Default::default() };
@@ -141,12 +158,21 @@ fn check_mesh(mesh: &meshtracer::scene::Mesh) {
     assert!(!mesh.materials.is_empty(), "a loaded mesh has no material");
     assert_eq!(mesh.triangle_materials.len(), mesh.triangle_count());
     assert_eq!(mesh.normals.len(), n, "one normal per vertex");
-    assert!(mesh.texcoords.is_empty() || mesh.texcoords.len() == n, "texcoords for some vertices only");
+    assert!(
+        mesh.texcoords.is_empty() || mesh.texcoords.len() == n,
+        "texcoords for some vertices only"
+    );
     for (i, t) in mesh.triangles.iter().enumerate() {
-        assert!(t.iter().all(|&k| (k as usize) < n), "triangle {i} {t:?} indexes past {n} vertices");
+        assert!(
+            t.iter().all(|&k| (k as usize) < n),
+            "triangle {i} {t:?} indexes past {n} vertices"
+        );
     }
     let materials = mesh.materials.len() as u32;
-    assert!(mesh.triangle_materials.iter().all(|&m| m < materials), "a triangle's material is out of range");
+    assert!(
+        mesh.triangle_materials.iter().all(|&m| m < materials),
+        "a triangle's material is out of range"
+    );
     assert!(mesh.positions.iter().all(|p| p.is_finite()), "a loaded vertex is not finite");
     assert!(mesh.normals.iter().all(|v| v.is_finite()), "a loaded normal is not finite");
 }

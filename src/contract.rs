@@ -94,7 +94,14 @@ contract! {
 
 // The fields of the flag word must not overlap, and every AOV code must fit its bits.
 const _: () = {
-    let flags = FLAG_BVH | FLAG_WIDE | FLAG_LEAF_RUNS | FLAG_SMOOTH | FLAG_TEXTURES | FLAG_ENVIRONMENT | FLAG_ADAPTIVE | FLAG_ID_PASS;
+    let flags = FLAG_BVH
+        | FLAG_WIDE
+        | FLAG_LEAF_RUNS
+        | FLAG_SMOOTH
+        | FLAG_TEXTURES
+        | FLAG_ENVIRONMENT
+        | FLAG_ADAPTIVE
+        | FLAG_ID_PASS;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);

@@ -37,7 +37,8 @@ impl Default for Aabb {
 
 impl Aabb {
     /// The empty box (contains nothing; any `grow` replaces it).
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb =
+        Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
     /// The box of a set of points.
     pub fn from_points(points: &[Vec3]) -> Self {
@@ -66,7 +67,11 @@ impl Aabb {
 
     /// Edge lengths (zero for the empty box).
     pub fn extent(&self) -> Vec3 {
-        if self.is_empty() { Vec3::ZERO } else { self.max - self.min }
+        if self.is_empty() {
+            Vec3::ZERO
+        } else {
+            self.max - self.min
+        }
     }
 
     /// Surface area (0 for the empty box); only the tests use it, the SAH builder has its
@@ -119,7 +124,14 @@ pub struct TriHit {
 /// both faces count (the mirror box is seen from inside). Edge-on and degenerate
 /// triangles (|det| tiny) never hit.
 #[inline]
-pub fn intersect_triangle(ray: &Ray, v0: Vec3, e1: Vec3, e2: Vec3, t_min: f32, t_max: f32) -> Option<TriHit> {
+pub fn intersect_triangle(
+    ray: &Ray,
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<TriHit> {
     let p = ray.dir.cross(e2);
     let det = e1.dot(p);
     if det.abs() < 1e-12 {
@@ -156,10 +168,34 @@ mod tests {
     fn triangle_misses_outside_edges_and_behind() {
         let v0 = Vec3::ZERO;
         let down = Vec3::new(0.0, 0.0, -1.0);
-        assert!(intersect_triangle(&Ray::new(Vec3::new(0.8, 0.8, 1.0), down), v0, Vec3::X, Vec3::Y, 0.0, 1e30).is_none());
-        assert!(intersect_triangle(&Ray::new(Vec3::new(0.2, 0.2, -1.0), down), v0, Vec3::X, Vec3::Y, 0.0, 1e30).is_none());
+        assert!(intersect_triangle(
+            &Ray::new(Vec3::new(0.8, 0.8, 1.0), down),
+            v0,
+            Vec3::X,
+            Vec3::Y,
+            0.0,
+            1e30
+        )
+        .is_none());
+        assert!(intersect_triangle(
+            &Ray::new(Vec3::new(0.2, 0.2, -1.0), down),
+            v0,
+            Vec3::X,
+            Vec3::Y,
+            0.0,
+            1e30
+        )
+        .is_none());
         // Degenerate (zero-area) triangle never hits.
-        assert!(intersect_triangle(&Ray::new(Vec3::new(0.0, 0.0, 1.0), down), v0, Vec3::X, Vec3::X * 2.0, 0.0, 1e30).is_none());
+        assert!(intersect_triangle(
+            &Ray::new(Vec3::new(0.0, 0.0, 1.0), down),
+            v0,
+            Vec3::X,
+            Vec3::X * 2.0,
+            0.0,
+            1e30
+        )
+        .is_none());
     }
 
     #[test]

@@ -8,18 +8,18 @@
 //!   trace pass that runs `shaders/trace.comp`.
 //! - [`app`]: the interactive egui tool on top; [`cli`]: the thin command line.
 
+pub mod app;
+pub(crate) mod bench;
+pub mod bvh;
+pub mod cli;
 /// The constants the host and the shaders share (flag bits, AOV codes, `EMPTY`): the one
 /// source of truth, which build.rs also writes out as the shaders' `contract.glsl`.
 pub mod contract;
-pub(crate) mod bench;
-pub mod bvh;
 pub mod files;
 pub mod geometry;
+pub mod gpu;
 pub mod memory;
 pub mod progress;
 pub mod render_settings;
 pub mod scene;
-pub mod gpu;
 pub mod tracer;
-pub mod app;
-pub mod cli;

@@ -27,7 +27,8 @@ pub enum Phase {
 
 impl Phase {
     /// Every phase, in order.
-    pub const ALL: [Phase; 5] = [Phase::Read, Phase::Parse, Phase::Build, Phase::Pack, Phase::Upload];
+    pub const ALL: [Phase; 5] =
+        [Phase::Read, Phase::Parse, Phase::Build, Phase::Pack, Phase::Upload];
 
     /// The phase's name in the panel and the tables.
     pub fn name(self) -> &'static str {
@@ -76,7 +77,8 @@ impl Snapshot {
 
     /// Seconds `phase` took (0 when it did not run).
     pub fn seconds(&self, phase: Phase) -> f64 {
-        self.phases.iter().filter(|p| p.phase == phase).fold(0.0, |sum, p| sum + p.seconds) // not .sum(): an empty f64 sum is -0.0
+        self.phases.iter().filter(|p| p.phase == phase).fold(0.0, |sum, p| sum + p.seconds)
+        // not .sum(): an empty f64 sum is -0.0
     }
 }
 
@@ -118,7 +120,11 @@ impl Progress {
 
     /// Err when cancelled: the worker returns it where stopping is safe.
     pub fn checkpoint(&self) -> Result<(), Cancelled> {
-        if self.is_cancelled() { Err(Cancelled) } else { Ok(()) }
+        if self.is_cancelled() {
+            Err(Cancelled)
+        } else {
+            Ok(())
+        }
     }
 
     /// Record from now on each phase's peak resident memory ([`PhaseTime::peak_rss_bytes`]):
@@ -161,7 +167,12 @@ impl Progress {
         let phases = self
             .phases()
             .iter()
-            .map(|r| PhaseTime { phase: r.phase, seconds: r.took.unwrap_or_else(|| (now - r.start).as_secs_f64()), done: r.took.is_some(), peak_rss_bytes: r.peak_rss })
+            .map(|r| PhaseTime {
+                phase: r.phase,
+                seconds: r.took.unwrap_or_else(|| (now - r.start).as_secs_f64()),
+                done: r.took.is_some(),
+                peak_rss_bytes: r.peak_rss,
+            })
             .collect();
         Snapshot { phases, fraction: f32::from_bits(self.shared.fraction.load(Ordering::Relaxed)) }
     }
@@ -210,7 +221,10 @@ mod tests {
         p.begin(Phase::Parse).unwrap();
         assert_eq!(p.snapshot().fraction, 0.0, "a new phase starts at 0");
         let s = p.snapshot();
-        assert_eq!(s.phases.iter().map(|t| (t.phase, t.done)).collect::<Vec<_>>(), [(Phase::Read, true), (Phase::Parse, false)]);
+        assert_eq!(
+            s.phases.iter().map(|t| (t.phase, t.done)).collect::<Vec<_>>(),
+            [(Phase::Read, true), (Phase::Parse, false)]
+        );
         p.finish();
         assert!(p.snapshot().phases.iter().all(|t| t.done));
         assert!(p.snapshot().total_seconds() >= p.snapshot().seconds(Phase::Read));

@@ -37,7 +37,11 @@ impl Range {
 
     /// Whether `v` is inside (NaN never is).
     pub fn contains(&self, v: f64) -> bool {
-        if self.open { v > self.lo && v < self.hi } else { v >= self.lo && v <= self.hi }
+        if self.open {
+            v > self.lo && v < self.hi
+        } else {
+            v >= self.lo && v <= self.hi
+        }
     }
 
     /// A flag's text as a number inside the range: "'x' is not a number", or [`Self::check`]'s
@@ -49,7 +53,11 @@ impl Range {
 
     /// `Ok(())` inside the range, else "`shown` is out of range (0..=180 degrees)".
     pub fn check(&self, v: f64, shown: impl fmt::Display) -> Result<(), String> {
-        if self.contains(v) { Ok(()) } else { Err(format!("{shown} is out of range ({self})")) }
+        if self.contains(v) {
+            Ok(())
+        } else {
+            Err(format!("{shown} is out of range ({self})"))
+        }
     }
 }
 
@@ -130,7 +138,11 @@ pub enum BvhLayout {
 /// What traced a frame, as tables and logs name it: the acceleration ("bvh", "brute",
 /// "vendor"), or the wide layout's name for our BVH in a wide layout ("wide", "wide-runs").
 pub fn tracer_label(accel: Accel, bvh: BvhLayout) -> String {
-    if accel == Accel::Bvh && bvh.is_wide() { bvh.to_string() } else { accel.to_string() }
+    if accel == Accel::Bvh && bvh.is_wide() {
+        bvh.to_string()
+    } else {
+        accel.to_string()
+    }
 }
 
 impl BvhLayout {
@@ -283,7 +295,21 @@ pub const DEFAULT_AO_RADIUS: f32 = 0.25;
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 512, height: 512, bounces: 2, blend: 0.5, accel: Accel::Bvh, bvh: BvhLayout::Wide, aov: Aov::Color, smooth: false, textures: true, spp: 1, adaptive: false, ao_samples: DEFAULT_AO_SAMPLES, ao_radius: DEFAULT_AO_RADIUS }
+        Self {
+            width: 512,
+            height: 512,
+            bounces: 2,
+            blend: 0.5,
+            accel: Accel::Bvh,
+            bvh: BvhLayout::Wide,
+            aov: Aov::Color,
+            smooth: false,
+            textures: true,
+            spp: 1,
+            adaptive: false,
+            ao_samples: DEFAULT_AO_SAMPLES,
+            ao_radius: DEFAULT_AO_RADIUS,
+        }
     }
 }
 
@@ -305,7 +331,8 @@ impl RenderSettings {
     /// reflected rays, or in the AO view one primary ray and `ao_samples` AO rays
     /// (adaptive sampling traces fewer).
     pub(crate) fn max_rays(&self) -> u64 {
-        let per_sample = if self.aov == Aov::Ao { 1 + self.ao_samples as u64 } else { self.bounces as u64 + 1 };
+        let per_sample =
+            if self.aov == Aov::Ao { 1 + self.ao_samples as u64 } else { self.bounces as u64 + 1 };
         self.width as u64 * self.height as u64 * per_sample * self.spp as u64
     }
 }
@@ -316,7 +343,9 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_bad_names_list_choices() {
-        for a in [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost, Aov::Samples, Aov::Ao] {
+        for a in
+            [Aov::Color, Aov::Depth, Aov::Normal, Aov::PrimId, Aov::Cost, Aov::Samples, Aov::Ao]
+        {
             assert_eq!(a.to_string().parse::<Aov>().unwrap(), a);
         }
         assert_eq!("BVH".parse::<Accel>().unwrap(), Accel::Bvh);
@@ -330,7 +359,10 @@ mod tests {
             assert_eq!(serde_json::to_string(&accel).unwrap(), json);
             assert_eq!(serde_json::from_str::<Accel>(json).unwrap(), accel);
         }
-        assert!(serde_json::from_str::<Accel>("\"kd\"").unwrap_err().to_string().contains("brute, bvh"));
+        assert!(serde_json::from_str::<Accel>("\"kd\"")
+            .unwrap_err()
+            .to_string()
+            .contains("brute, bvh"));
         assert_eq!(format!("[{:<5}]", Accel::Bvh), "[bvh  ]");
     }
 
@@ -345,7 +377,10 @@ mod tests {
         assert!(RenderSettings { blend: f32::NAN, ..ok }.validate().is_err());
         assert!(RenderSettings { spp: 0, ..ok }.validate().unwrap_err().contains("1..=64"));
         assert!(RenderSettings { ao_samples: 0, ..ok }.validate().unwrap_err().contains("1..=256"));
-        assert!(RenderSettings { ao_radius: -1.0, ..ok }.validate().unwrap_err().contains("ao radius -1 is out of range (0..1000 scene units)"));
+        assert!(RenderSettings { ao_radius: -1.0, ..ok }
+            .validate()
+            .unwrap_err()
+            .contains("ao radius -1 is out of range (0..1000 scene units)"));
         assert!(RenderSettings { ao_radius: f32::NAN, ..ok }.validate().is_err());
         let ao = RenderSettings { aov: Aov::Ao, ao_samples: 16, bounces: 2, ..ok };
         assert_eq!(ao.max_rays(), 512 * 512 * 17, "the AO view traces no bounces");
@@ -353,13 +388,26 @@ mod tests {
 
     #[test]
     fn ranges_read_as_their_messages_say() {
-        assert_eq!(CREASE_ANGLE_DEGREES.check(180.5, "180.5").unwrap_err(), "180.5 is out of range (0..=180 degrees)");
-        assert_eq!(FOV_DEGREES.check(179.0, "fov 179").unwrap_err(), "fov 179 is out of range (1..179 degrees)");
-        assert!(FOV_DEGREES.check(90.0, "").is_ok() && BLEND.check(1.0, "").is_ok() && CREASE_ANGLE_DEGREES.check(0.0, "").is_ok());
+        assert_eq!(
+            CREASE_ANGLE_DEGREES.check(180.5, "180.5").unwrap_err(),
+            "180.5 is out of range (0..=180 degrees)"
+        );
+        assert_eq!(
+            FOV_DEGREES.check(179.0, "fov 179").unwrap_err(),
+            "fov 179 is out of range (1..179 degrees)"
+        );
+        assert!(
+            FOV_DEGREES.check(90.0, "").is_ok()
+                && BLEND.check(1.0, "").is_ok()
+                && CREASE_ANGLE_DEGREES.check(0.0, "").is_ok()
+        );
         assert!(BLEND.check(f64::NAN, "NaN").is_err(), "NaN is in no range");
         assert_eq!(BOUNCES.to_string(), "0..=8");
         assert_eq!(AO_RADIUS.parse_f32("0.5"), Ok(0.5));
-        assert_eq!(AO_RADIUS.parse_f32("-1").unwrap_err(), "-1 is out of range (0..1000 scene units)");
+        assert_eq!(
+            AO_RADIUS.parse_f32("-1").unwrap_err(),
+            "-1 is out of range (0..1000 scene units)"
+        );
         assert_eq!(AO_RADIUS.parse_f32("wide").unwrap_err(), "'wide' is not a number");
         assert!(AO_RADIUS.parse_f32("nan").is_err() && AO_RADIUS.parse_f32("inf").is_err());
     }

@@ -24,22 +24,44 @@ fn an_f12_screenshot_after_accumulation_renders_again_from_its_preset() {
         app.assert_alive();
         press(&x.display, &window, &["F12"]);
         std::thread::sleep(Duration::from_millis(700));
-        pngs(dir.path(), "meshtracer_").into_iter().find(|p| !p.to_string_lossy().ends_with("_window.png"))
+        pngs(dir.path(), "meshtracer_")
+            .into_iter()
+            .find(|p| !p.to_string_lossy().ends_with("_window.png"))
     });
     press(&x.display, &window, &["ctrl+q"]);
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
 
-    let text = meshtracer::files::image_files::png_settings(&std::fs::read(&shot).unwrap()).unwrap().expect("the screenshot carries its preset");
+    let text = meshtracer::files::image_files::png_settings(&std::fs::read(&shot).unwrap())
+        .unwrap()
+        .expect("the screenshot carries its preset");
     let (spec, _) = meshtracer::scene::preset::from_text(&text).unwrap();
-    assert!(spec.accumulate > 1, "the window accumulated frames, the preset says {}:\n{text}", spec.accumulate);
+    assert!(
+        spec.accumulate > 1,
+        "the window accumulated frames, the preset says {}:\n{text}",
+        spec.accumulate
+    );
     let shot_path = shot.to_string_lossy().into_owned();
     let again = headless_render(dir.path(), &["--preset", &shot_path], "again.png");
-    let single = headless_render(dir.path(), &["--preset", &shot_path, "--accumulate", "1"], "single.png");
+    let single =
+        headless_render(dir.path(), &["--preset", &shot_path, "--accumulate", "1"], "single.png");
     let shot = load(&shot);
     // Within a frame of the count the window had (the capture may hold one more or less):
     // at most 0.5% of the pixels off by more than 8.
-    let off = |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 8)).count();
+    let off = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 8))
+            .count()
+    };
     let limit = (shot.width() * shot.height()) as usize / 200;
-    assert!(off(&shot, &again) <= limit, "render --preset differs from the screenshot on {} pixels", off(&shot, &again));
-    assert!(off(&shot, &single) > limit, "one frame looks like the average ({} pixels off): the test proves nothing", off(&shot, &single));
+    assert!(
+        off(&shot, &again) <= limit,
+        "render --preset differs from the screenshot on {} pixels",
+        off(&shot, &again)
+    );
+    assert!(
+        off(&shot, &single) > limit,
+        "one frame looks like the average ({} pixels off): the test proves nothing",
+        off(&shot, &single)
+    );
 }

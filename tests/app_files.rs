@@ -34,15 +34,16 @@ fn start(x: &Xvfb, dir: &Path) -> (Running, String, PathBuf) {
 /// must also say two bounces: a tool key that fired while the dialog showed would not.
 fn f12_of(x: &Xvfb, window: &str, dir: &Path, app: &mut Running, label: &str) -> image::RgbaImage {
     let infix = format!("_{label}_x1_96x96_b2_");
-    let shot = wait_until(Duration::from_secs(120), &format!("an F12 screenshot of {label}"), || {
-        app.assert_alive();
-        press(&x.display, window, &["F12"]);
-        std::thread::sleep(Duration::from_millis(700));
-        pngs(dir, "meshtracer_").into_iter().find(|p| {
-            let name = p.file_name().unwrap().to_string_lossy().to_string();
-            name.contains(&infix) && !name.ends_with("_window.png")
-        })
-    });
+    let shot =
+        wait_until(Duration::from_secs(120), &format!("an F12 screenshot of {label}"), || {
+            app.assert_alive();
+            press(&x.display, window, &["F12"]);
+            std::thread::sleep(Duration::from_millis(700));
+            pngs(dir, "meshtracer_").into_iter().find(|p| {
+                let name = p.file_name().unwrap().to_string_lossy().to_string();
+                name.contains(&infix) && !name.ends_with("_window.png")
+            })
+        });
     load(&shot)
 }
 
@@ -67,12 +68,22 @@ fn an_obj_dropped_on_the_window_is_traced_as_render_traces_it() {
     let before = f12_of(&x, &window, dir.path(), &mut app, "geosphere");
 
     let outcome = xdnd::drop_files(&x.display, &window, &[&cube], Duration::from_secs(60)).unwrap();
-    assert_eq!(outcome, xdnd::DropOutcome { accepted: true, finished_ok: true, data_requested: true });
+    assert_eq!(
+        outcome,
+        xdnd::DropOutcome { accepted: true, finished_ok: true, data_requested: true }
+    );
     let after = f12_of(&x, &window, dir.path(), &mut app, "cube");
 
     let reference = cube_reference(dir.path());
-    assert!(max_diff(&before, &reference) > 1, "the cube looks like the geosphere: the test proves nothing");
-    assert!(max_diff(&after, &reference) <= 1, "the dropped cube differs from `render --model cube.obj` by {}", max_diff(&after, &reference));
+    assert!(
+        max_diff(&before, &reference) > 1,
+        "the cube looks like the geosphere: the test proves nothing"
+    );
+    assert!(
+        max_diff(&after, &reference) <= 1,
+        "the dropped cube differs from `render --model cube.obj` by {}",
+        max_diff(&after, &reference)
+    );
     quit(&x, &window, app);
 }
 
@@ -98,7 +109,14 @@ fn an_obj_picked_in_the_open_dialog_by_keys_is_traced_as_render_traces_it() {
     let after = f12_of(&x, &window, dir.path(), &mut app, "cube");
 
     let reference = cube_reference(dir.path());
-    assert!(max_diff(&before, &reference) > 1, "the cube looks like the geosphere: the test proves nothing");
-    assert!(max_diff(&after, &reference) <= 1, "the cube picked in the dialog differs from `render --model cube.obj` by {}", max_diff(&after, &reference));
+    assert!(
+        max_diff(&before, &reference) > 1,
+        "the cube looks like the geosphere: the test proves nothing"
+    );
+    assert!(
+        max_diff(&after, &reference) <= 1,
+        "the cube picked in the dialog differs from `render --model cube.obj` by {}",
+        max_diff(&after, &reference)
+    );
     quit(&x, &window, app);
 }

@@ -8,15 +8,20 @@ use std::time::Duration;
 
 use app_support::*;
 
-const FLAGS: [&str; 8] = ["--width", "128", "--height", "128", "--bounces", "2", "--window", "640x480"];
+const FLAGS: [&str; 8] =
+    ["--width", "128", "--height", "128", "--bounces", "2", "--window", "640x480"];
 
 fn rows(path: &Path) -> Vec<Vec<String>> {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let text = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
     text.lines().map(|l| l.split(',').map(str::to_string).collect()).collect()
 }
 
 fn column(header: &[String], name: &str) -> usize {
-    header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
 }
 
 #[test]
@@ -27,7 +32,11 @@ fn stats_csv_has_a_row_per_frame() {
     cmd.args(FLAGS).args(["--frames", "5", "--stats-csv", "frames.csv"]);
     let out = spawn(cmd).wait(Duration::from_secs(180));
     assert_clean_exit(&out);
-    assert!(String::from_utf8_lossy(&out.stdout).contains("wrote 5 frames to frames.csv"), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("wrote 5 frames to frames.csv"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
 
     let rows = rows(&dir.path().join("frames.csv"));
     let header = &rows[0];
@@ -62,7 +71,8 @@ fn the_window_times_each_bvh_layout_and_keeps_one() {
     assert_clean_exit(&out);
     let rows = rows(&dir.path().join("frames.csv"));
     let at = column(&rows[0], "acceleration");
-    let traced: Vec<&str> = rows[1..].iter().filter(|r| r[0] == "frame").map(|r| r[at].as_str()).collect();
+    let traced: Vec<&str> =
+        rows[1..].iter().filter(|r| r[0] == "frame").map(|r| r[at].as_str()).collect();
     assert_eq!(traced.len(), 60, "{rows:?}");
     assert_eq!(traced[0], "bvh", "the first frame is the binary tree's: {traced:?}");
     for layout in ["bvh", "wide", "wide-runs"] {
@@ -84,7 +94,13 @@ fn a_key_that_changes_a_parameter_gives_a_change_row() {
     // Traced frames before the key (the model may still be loading).
     wait_until(Duration::from_secs(90), "frames in the log", || {
         app.assert_alive();
-        (std::fs::read_to_string(&log).unwrap_or_default().lines().filter(|l| l.starts_with("frame,")).count() >= 3).then_some(())
+        (std::fs::read_to_string(&log)
+            .unwrap_or_default()
+            .lines()
+            .filter(|l| l.starts_with("frame,"))
+            .count()
+            >= 3)
+            .then_some(())
     });
     press(&x.display, &window, &["Prior"]);
     wait_until(Duration::from_secs(60), "the change row", || {
@@ -99,7 +115,10 @@ fn a_key_that_changes_a_parameter_gives_a_change_row() {
     let changes: Vec<&Vec<String>> = rows.iter().filter(|r| r[0] == "change").collect();
     assert_eq!(changes.len(), 1, "{changes:?}");
     let change = changes[0];
-    assert_eq!((change[column(header, "parameter")].as_str(), change[column(header, "change")].as_str()), ("bounces", "2->3"));
+    assert_eq!(
+        (change[column(header, "parameter")].as_str(), change[column(header, "change")].as_str()),
+        ("bounces", "2->3")
+    );
     // The change row comes just before the first frame traced with three bounces.
     let at = rows.iter().position(|r| r[0] == "change").unwrap();
     let bounces = column(header, "bounces");
@@ -107,7 +126,10 @@ fn a_key_that_changes_a_parameter_gives_a_change_row() {
     assert_eq!(rows[at + 1][0], "frame");
     assert_eq!(rows[at + 1][bounces], "3");
     assert_eq!(rows[at + 1][column(header, "frame")], change[column(header, "frame")]);
-    assert!(rows[at + 1..].iter().all(|r| r[bounces] == "3"), "every later frame has three bounces");
+    assert!(
+        rows[at + 1..].iter().all(|r| r[bounces] == "3"),
+        "every later frame has three bounces"
+    );
 }
 
 #[test]
@@ -120,7 +142,10 @@ fn the_window_size_is_remembered_unless_no_persist() {
         let mut app = spawn(cmd);
         let window = wait_for_window(&x.display, &mut app);
         let out = xdotool(&x.display, &["getwindowgeometry", &window]);
-        let geometry = String::from_utf8_lossy(&out.stdout).lines().find_map(|l| l.trim().strip_prefix("Geometry: ").map(str::to_string)).unwrap();
+        let geometry = String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("Geometry: ").map(str::to_string))
+            .unwrap();
         press(&x.display, &window, &["ctrl+q"]);
         assert_clean_exit(&app.wait(Duration::from_secs(120)));
         geometry
@@ -145,7 +170,13 @@ fn the_window_size_is_remembered_unless_no_persist() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("settings.toml")).collect();
     assert_eq!(warnings.len(), 1, "{stderr}");
-    assert!(warnings[0].starts_with("warning: ignoring the remembered settings") && warnings[0].ends_with("using the defaults"), "{stderr}");
+    assert!(
+        warnings[0].starts_with("warning: ignoring the remembered settings")
+            && warnings[0].ends_with("using the defaults"),
+        "{stderr}"
+    );
     // The file is written afresh at exit.
-    assert!(std::fs::read_to_string(dir.path().join("config/settings.toml")).unwrap().contains("window = ["));
+    assert!(std::fs::read_to_string(dir.path().join("config/settings.toml"))
+        .unwrap()
+        .contains("window = ["));
 }

@@ -26,7 +26,18 @@ fn an_absolute_path_typed_in_one_burst_after_ctrl_o_loads_its_model() {
     let cube = models.join("cube.obj");
     std::fs::write(&cube, CUBE).unwrap();
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(["--width", "512", "--height", "512", "--bounces", "2", "--window", "640x480", "--frames", "1000000"]);
+    cmd.args([
+        "--width",
+        "512",
+        "--height",
+        "512",
+        "--bounces",
+        "2",
+        "--window",
+        "640x480",
+        "--frames",
+        "1000000",
+    ]);
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
 
@@ -42,8 +53,13 @@ fn an_absolute_path_typed_in_one_burst_after_ctrl_o_loads_its_model() {
         app.assert_alive();
         press(&x.display, &window, &["F12"]);
         std::thread::sleep(Duration::from_millis(1500));
-        let names: Vec<String> = pngs(dir.path(), "meshtracer_").iter().map(|p| p.file_name().unwrap().to_string_lossy().to_string()).collect();
-        names.into_iter().find(|n| n.contains("_cube_x1_512x512_b2_") && !n.ends_with("_window.png"))
+        let names: Vec<String> = pngs(dir.path(), "meshtracer_")
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().to_string())
+            .collect();
+        names
+            .into_iter()
+            .find(|n| n.contains("_cube_x1_512x512_b2_") && !n.ends_with("_window.png"))
     });
     assert!(!shot.is_empty());
     press(&x.display, &window, &["ctrl+q"]);

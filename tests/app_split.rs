@@ -27,7 +27,14 @@ fn the_split_views_halves_differ_as_set() {
     let x = Xvfb::start();
     let dir = TempDir::new("split");
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(view_args(&["--frames", "1000000", "--split", "0.5", "--split-b", "bounces=0,smooth=on"]));
+    cmd.args(view_args(&[
+        "--frames",
+        "1000000",
+        "--split",
+        "0.5",
+        "--split-b",
+        "bounces=0,smooth=on",
+    ]));
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
     let half = f12(&x, &window, dir.path(), &mut app);
@@ -37,7 +44,27 @@ fn the_split_views_halves_differ_as_set() {
     // which the split snaps to the nearest multiple of the work group's width.
     press(&x.display, &window, &["h"]);
     std::thread::sleep(Duration::from_millis(500));
-    let drag = ["mousemove", "--window", &window, "320", "240", "mousedown", "1", "mousemove", "--window", &window, "250", "240", "mousemove", "--window", &window, "140", "240", "mouseup", "1"];
+    let drag = [
+        "mousemove",
+        "--window",
+        &window,
+        "320",
+        "240",
+        "mousedown",
+        "1",
+        "mousemove",
+        "--window",
+        &window,
+        "250",
+        "240",
+        "mousemove",
+        "--window",
+        &window,
+        "140",
+        "240",
+        "mouseup",
+        "1",
+    ];
     assert!(xdotool(&x.display, &drag).status.success());
     let moved = f12(&x, &window, dir.path(), &mut app);
 
@@ -54,14 +81,29 @@ fn the_split_views_halves_differ_as_set() {
     let dragged = (16.0 / group as f64).round() as u32 * group;
     assert!(dragged < 64, "the drag must move the line");
     for (name, img, line) in [("at 0.5", &half, 64), ("dragged", &moved, dragged)] {
-        assert!(columns_diff(img, &a, 0..line) <= 1, "split {name}: left of column {line} differs from `render` (A) by {}", columns_diff(img, &a, 0..line));
-        assert!(columns_diff(img, &b, line..128) <= 1, "split {name}: right of column {line} differs from `render` (B) by {}", columns_diff(img, &b, line..128));
+        assert!(
+            columns_diff(img, &a, 0..line) <= 1,
+            "split {name}: left of column {line} differs from `render` (A) by {}",
+            columns_diff(img, &a, 0..line)
+        );
+        assert!(
+            columns_diff(img, &b, line..128) <= 1,
+            "split {name}: right of column {line} differs from `render` (B) by {}",
+            columns_diff(img, &b, line..128)
+        );
     }
     // The columns between the two lines changed sides with the drag: they must tell A from B.
     for columns in [dragged..64, 64..128] {
-        assert!(columns_diff(&a, &b, columns.clone()) > 30, "A and B look alike in columns {columns:?}: the test proves nothing");
+        assert!(
+            columns_diff(&a, &b, columns.clone()) > 30,
+            "A and B look alike in columns {columns:?}: the test proves nothing"
+        );
     }
-    assert!(max_diff(&whole, &a) <= 1, "with the split off the frame differs from `render` (A) by {}", max_diff(&whole, &a));
+    assert!(
+        max_diff(&whole, &a) <= 1,
+        "with the split off the frame differs from `render` (A) by {}",
+        max_diff(&whole, &a)
+    );
 }
 
 #[test]
@@ -73,19 +115,44 @@ fn a_split_frame_traced_in_bands_has_each_half_as_set() {
     let dir = TempDir::new("split-bands");
     let mut cmd = meshtracer(&x.display, dir.path());
     cmd.env("MESHTRACER_TESTS_PER_SUBMISSION", "20000");
-    cmd.args(view_args(&["--accel", "brute", "--split", "0.3", "--split-b", "bounces=1,spp=4,adaptive=on", "--frames", "2", "--screenshot", "split.png"]));
+    cmd.args(view_args(&[
+        "--accel",
+        "brute",
+        "--split",
+        "0.3",
+        "--split-b",
+        "bounces=1,spp=4,adaptive=on",
+        "--frames",
+        "2",
+        "--screenshot",
+        "split.png",
+    ]));
     assert_clean_exit(&spawn(cmd).wait(Duration::from_secs(300)));
     let split = load(&dir.path().join("split.png"));
     let a_flags = with_accel("brute");
     let a = headless_render(dir.path(), &a_flags, "a.png");
-    let b_flags: Vec<&str> = with_bounces("1").into_iter().chain(["--accel", "brute", "--spp", "4", "--adaptive"]).collect();
+    let b_flags: Vec<&str> = with_bounces("1")
+        .into_iter()
+        .chain(["--accel", "brute", "--spp", "4", "--adaptive"])
+        .collect();
     let b = headless_render(dir.path(), &b_flags, "b.png");
     // 0.3 of 128 is column 38.4: the halves meet at the nearest multiple of the group's width
     // (dispatches start at a group's edge).
     let group = meshtracer::gpu::GROUP.width;
     let line = (38.4 / group as f64).round() as u32 * group;
-    assert!(columns_diff(&split, &a, 0..line) <= 1, "left of column {line} differs from `render` (A) by {}", columns_diff(&split, &a, 0..line));
+    assert!(
+        columns_diff(&split, &a, 0..line) <= 1,
+        "left of column {line} differs from `render` (A) by {}",
+        columns_diff(&split, &a, 0..line)
+    );
     // The line's own column compares its key with the column left of it, traced as A: it may differ.
-    assert!(columns_diff(&split, &b, line + 1..128) <= 1, "right of column {line} differs from `render` (B) by {}", columns_diff(&split, &b, line + 1..128));
-    assert!(columns_diff(&a, &b, line + 1..128) > 30, "A and B look alike: the test proves nothing");
+    assert!(
+        columns_diff(&split, &b, line + 1..128) <= 1,
+        "right of column {line} differs from `render` (B) by {}",
+        columns_diff(&split, &b, line + 1..128)
+    );
+    assert!(
+        columns_diff(&a, &b, line + 1..128) > 30,
+        "A and B look alike: the test proves nothing"
+    );
 }

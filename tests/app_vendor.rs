@@ -12,7 +12,10 @@ fn accelerations(csv: &str) -> Vec<String> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
     let col = header.iter().position(|h| *h == "acceleration").expect("an acceleration column");
-    lines.map(|l| l.split(',').nth(col).unwrap_or("").to_string()).filter(|a| !a.is_empty()).collect()
+    lines
+        .map(|l| l.split(',').nth(col).unwrap_or("").to_string())
+        .filter(|a| !a.is_empty())
+        .collect()
 }
 
 #[test]
@@ -37,10 +40,18 @@ fn the_a_key_reaches_the_vendors_tracing_live_and_it_traces_as_render_does() {
     for a in ["wide", "brute", "vendor"] {
         assert!(accels.iter().any(|x| x == a), "no {a} frame in the log: {accels:?}");
     }
-    assert_eq!(accels.last().map(String::as_str), Some("vendor"), "the last frames are the vendor's");
+    assert_eq!(
+        accels.last().map(String::as_str),
+        Some("vendor"),
+        "the last frames are the vendor's"
+    );
     let flags = with_accel("vendor");
     let render = headless_render(dir.path(), &flags, "vendor.png");
-    assert!(max_diff(&vendor, &render) <= 1, "the window's vendor frame differs from `render --accel vendor` by {}", max_diff(&vendor, &render));
+    assert!(
+        max_diff(&vendor, &render) <= 1,
+        "the window's vendor frame differs from `render --accel vendor` by {}",
+        max_diff(&vendor, &render)
+    );
 }
 
 #[test]
@@ -49,7 +60,14 @@ fn a_split_view_sets_the_vendors_tracing_against_ours() {
     let x = Xvfb::start();
     let dir = TempDir::new("vendor-split");
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(view_args(&["--frames", "1000000", "--split", "0.5", "--split-b", "accel=vendor,bounces=0"]));
+    cmd.args(view_args(&[
+        "--frames",
+        "1000000",
+        "--split",
+        "0.5",
+        "--split-b",
+        "accel=vendor,bounces=0",
+    ]));
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
     let shot = f12(&x, &window, dir.path(), &mut app);
@@ -59,10 +77,21 @@ fn a_split_view_sets_the_vendors_tracing_against_ours() {
     let a = headless_render(dir.path(), &SCENE, "a.png");
     let b_flags = ["--width", "128", "--height", "128", "--bounces", "0", "--accel", "vendor"];
     let b = headless_render(dir.path(), &b_flags, "b.png");
-    let crop = |img: &image::RgbaImage, x: u32, w: u32| image::imageops::crop_imm(img, x, 0, w, 128).to_image();
-    assert!(max_diff(&crop(&shot, 0, 64), &crop(&a, 0, 64)) <= 1, "the left half is not our BVH's frame");
-    assert!(max_diff(&crop(&shot, 64, 64), &crop(&b, 64, 64)) <= 1, "the right half is not the vendor's frame");
-    assert!(max_diff(&crop(&a, 64, 64), &crop(&b, 64, 64)) > 30, "A and B look alike: the test proves nothing");
+    let crop = |img: &image::RgbaImage, x: u32, w: u32| {
+        image::imageops::crop_imm(img, x, 0, w, 128).to_image()
+    };
+    assert!(
+        max_diff(&crop(&shot, 0, 64), &crop(&a, 0, 64)) <= 1,
+        "the left half is not our BVH's frame"
+    );
+    assert!(
+        max_diff(&crop(&shot, 64, 64), &crop(&b, 64, 64)) <= 1,
+        "the right half is not the vendor's frame"
+    );
+    assert!(
+        max_diff(&crop(&a, 64, 64), &crop(&b, 64, 64)) > 30,
+        "A and B look alike: the test proves nothing"
+    );
 }
 
 #[test]
@@ -70,10 +99,20 @@ fn without_the_extensions_the_window_falls_back_to_the_bvh() {
     let x = Xvfb::start();
     let dir = TempDir::new("vendor-none");
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.env("MESHTRACER_NO_VENDOR_RT", "1").args(view_args(&["--accel", "vendor", "--frames", "3", "--stats-csv", "frames.csv"]));
+    cmd.env("MESHTRACER_NO_VENDOR_RT", "1").args(view_args(&[
+        "--accel",
+        "vendor",
+        "--frames",
+        "3",
+        "--stats-csv",
+        "frames.csv",
+    ]));
     let out = spawn(cmd).wait(Duration::from_secs(120));
     assert_clean_exit(&out);
     let log = std::fs::read_to_string(dir.path().join("frames.csv")).unwrap();
     let accels = accelerations(&log);
-    assert!(!accels.is_empty() && accels.iter().all(|a| a == "wide"), "frames were traced with {accels:?}");
+    assert!(
+        !accels.is_empty() && accels.iter().all(|a| a == "wide"),
+        "frames were traced with {accels:?}"
+    );
 }

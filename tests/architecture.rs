@@ -9,7 +9,21 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The top-level modules from the bottom up.
-const LAYERS: &[&str] = &["contract", "geometry", "memory", "progress", "render_settings", "files", "bvh", "scene", "tracer", "gpu", "bench", "app", "cli"];
+const LAYERS: &[&str] = &[
+    "contract",
+    "geometry",
+    "memory",
+    "progress",
+    "render_settings",
+    "files",
+    "bvh",
+    "scene",
+    "tracer",
+    "gpu",
+    "bench",
+    "app",
+    "cli",
+];
 
 type Module = Vec<String>;
 
@@ -49,7 +63,11 @@ fn code_of(text: &str) -> String {
             out.push_str("\"\"");
         } else if b[i] == b'\'' && i + 2 < b.len() && (b[i + 2] == b'\'' || b[i + 1] == b'\\') {
             // A char literal ('"', '\n'), not a lifetime.
-            i = if b[i + 1] == b'\\' { text[i + 3..].find('\'').map_or(text.len(), |j| i + 3 + j + 1) } else { i + 3 };
+            i = if b[i + 1] == b'\\' {
+                text[i + 3..].find('\'').map_or(text.len(), |j| i + 3 + j + 1)
+            } else {
+                i + 3
+            };
             out.push_str("' '");
         } else if b[i] == b'"' {
             i += 1;
@@ -88,7 +106,9 @@ fn code_of(text: &str) -> String {
 /// Every path a `use` tree names, braces expanded: `a::{b, c::d}` is `a::b`, `a::c::d`.
 fn expand(tree: &str) -> Vec<String> {
     let tree = tree.trim();
-    let Some(open) = tree.find('{') else { return vec![tree.split(" as ").next().unwrap().trim().to_string()] };
+    let Some(open) = tree.find('{') else {
+        return vec![tree.split(" as ").next().unwrap().trim().to_string()];
+    };
     let (prefix, inner) = (&tree[..open], &tree[open + 1..tree.rfind('}').unwrap()]);
     let (mut parts, mut depth, mut start) = (Vec::new(), 0, 0);
     for (i, c) in inner.char_indices() {
@@ -103,7 +123,12 @@ fn expand(tree: &str) -> Vec<String> {
         }
     }
     parts.push(&inner[start..]);
-    parts.iter().filter(|p| !p.trim().is_empty()).flat_map(|p| expand(p)).map(|p| format!("{prefix}{p}")).collect()
+    parts
+        .iter()
+        .filter(|p| !p.trim().is_empty())
+        .flat_map(|p| expand(p))
+        .map(|p| format!("{prefix}{p}"))
+        .collect()
 }
 
 /// The paths one file's code names that start at `crate`, `super` or `self`.
@@ -111,7 +136,11 @@ fn named_paths(code: &str) -> Vec<String> {
     let mut paths = Vec::new();
     for stmt in code.split(';') {
         let t = stmt.trim_start();
-        let t = t.strip_prefix("pub(crate) ").or_else(|| t.strip_prefix("pub(super) ")).or_else(|| t.strip_prefix("pub ")).unwrap_or(t);
+        let t = t
+            .strip_prefix("pub(crate) ")
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .or_else(|| t.strip_prefix("pub "))
+            .unwrap_or(t);
         if let Some(tree) = t.strip_prefix("use ") {
             paths.extend(expand(tree));
         }
@@ -123,7 +152,9 @@ fn named_paths(code: &str) -> Vec<String> {
             if before.is_ascii_alphanumeric() || before == b'_' || before == b':' {
                 continue;
             }
-            let end = code[i..].find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')).map_or(code.len(), |j| i + j);
+            let end = code[i..]
+                .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+                .map_or(code.len(), |j| i + j);
             paths.push(code[i..end].to_string());
         }
     }
@@ -163,20 +194,29 @@ fn import_graph() -> BTreeMap<Module, BTreeSet<Module>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     rust_files(&src, &mut files);
-    let modules: BTreeMap<Module, PathBuf> = files.iter().map(|f| (module_of(&src, f), f.clone())).collect();
+    let modules: BTreeMap<Module, PathBuf> =
+        files.iter().map(|f| (module_of(&src, f), f.clone())).collect();
     let known: BTreeSet<Module> = modules.keys().cloned().collect();
     modules
         .iter()
         .map(|(m, f)| {
             let code = code_of(&std::fs::read_to_string(f).unwrap());
-            let targets = named_paths(&code).iter().filter_map(|p| resolve(m, p, &known)).filter(|t| t != m).collect();
+            let targets = named_paths(&code)
+                .iter()
+                .filter_map(|p| resolve(m, p, &known))
+                .filter(|t| t != m)
+                .collect();
             (m.clone(), targets)
         })
         .collect()
 }
 
 fn name(m: &Module) -> String {
-    if m.is_empty() { "crate".into() } else { m.join("::") }
+    if m.is_empty() {
+        "crate".into()
+    } else {
+        m.join("::")
+    }
 }
 
 #[test]
@@ -244,7 +284,13 @@ fn no_file_imports_itself_round_a_circle() {
             }
         }
     }
-    let mut walk = Walk { graph: &graph, index: BTreeMap::new(), low: BTreeMap::new(), stack: Vec::new(), circles: Vec::new() };
+    let mut walk = Walk {
+        graph: &graph,
+        index: BTreeMap::new(),
+        low: BTreeMap::new(),
+        stack: Vec::new(),
+        circles: Vec::new(),
+    };
     for m in graph.keys() {
         if !walk.index.contains_key(m) {
             walk.visit(m);
@@ -257,7 +303,9 @@ fn no_file_imports_itself_round_a_circle() {
 #[test]
 fn the_reader_sees_a_circle_and_an_upward_import() {
     // The checker itself, on a made-up crate: a <-> b, and bvh importing tracer.
-    let known: BTreeSet<Module> = [vec!["bvh".to_string()], vec!["tracer".into()], vec!["tracer".into(), "frame".into()]].into();
+    let known: BTreeSet<Module> =
+        [vec!["bvh".to_string()], vec!["tracer".into()], vec!["tracer".into(), "frame".into()]]
+            .into();
     let code = code_of("// use crate::gpu;\nuse crate::tracer::{frame::Accel, Image};\n#[cfg(test)]\nmod tests { use crate::app; }\nfn f() { super::tracer::frame::x(); }");
     let paths = named_paths(&code);
     let from = vec!["bvh".to_string()];

@@ -12,7 +12,8 @@ const CHARTS: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart
 
 /// A fresh, empty scratch folder for this test.
 fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("meshtracer-bench-cli-{}-{tag}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("meshtracer-bench-cli-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -43,13 +44,23 @@ fn assert_success(out: &Output, what: &str) {
 /// and many colours (axes, text, coloured series), not a blank or a flat image.
 fn check_chart(path: &Path) {
     assert!(path.is_file(), "{} was not written", path.display());
-    let img = image::open(path).unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display())).to_rgb8();
+    let img = image::open(path)
+        .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()))
+        .to_rgb8();
     let (w, h) = img.dimensions();
     assert!(w >= 800 && h >= 500, "{}: {w}x{h}", path.display());
     let pixels = img.pixels().count();
     let inked = img.pixels().filter(|p| p.0.iter().any(|&c| c < 200)).count();
-    assert!(inked * 100 > pixels, "{}: only {inked} of {pixels} pixels are not white", path.display());
-    assert!(inked * 2 < pixels, "{}: {inked} of {pixels} pixels are inked, not a chart", path.display());
+    assert!(
+        inked * 100 > pixels,
+        "{}: only {inked} of {pixels} pixels are not white",
+        path.display()
+    );
+    assert!(
+        inked * 2 < pixels,
+        "{}: {inked} of {pixels} pixels are inked, not a chart",
+        path.display()
+    );
     let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
     colours.sort_unstable();
     colours.dedup();
@@ -69,18 +80,37 @@ fn paper_tables_tiny_with_json_csv_and_charts() {
     let csv = dir.join("bench.csv");
     let charts = dir.join("charts");
     let args = [
-        "bench", "--paper", "--resolutions", "32", "--frames", "2", "--warmup", "1", "--accel", "brute,bvh",
-        "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap(), "--charts", charts.to_str().unwrap(),
+        "bench",
+        "--paper",
+        "--resolutions",
+        "32",
+        "--frames",
+        "2",
+        "--warmup",
+        "1",
+        "--accel",
+        "brute,bvh",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--charts",
+        charts.to_str().unwrap(),
     ];
     let out = meshtracer(&args, true);
     assert_success(&out, "bench --paper");
 
-    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written")).expect("valid JSON");
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written"))
+            .expect("valid JSON");
     assert_eq!(report["frames"], 2);
     assert_eq!(report["warmup"], 1);
     let env = &report["environment"];
     for key in ["device", "driver", "vulkan", "date"] {
-        assert!(env[key].as_str().is_some_and(|s| !s.is_empty()), "environment.{key} missing: {env}");
+        assert!(
+            env[key].as_str().is_some_and(|s| !s.is_empty()),
+            "environment.{key} missing: {env}"
+        );
     }
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len(), 16, "4 models + 4 copy counts, for each of 2 accelerations");
@@ -99,7 +129,10 @@ fn paper_tables_tiny_with_json_csv_and_charts() {
         assert!(r["triangles"].as_u64().unwrap() > 12, "{r}");
         assert_eq!(r["rays_per_frame"], 32 * 32 * 3, "{r}");
         // The paper's figures belong to 512² and 1024² rows only.
-        assert!(r["paper_fps"].is_null() && r["paper_ms"].is_null(), "paper figures on a 32x32 row: {r}");
+        assert!(
+            r["paper_fps"].is_null() && r["paper_ms"].is_null(),
+            "paper figures on a 32x32 row: {r}"
+        );
         let wall = r["wall_ms"]["median"].as_f64().unwrap();
         assert!(wall > 0.0, "{r}");
         let gpu = &r["gpu_ms"];
@@ -108,9 +141,15 @@ fn paper_tables_tiny_with_json_csv_and_charts() {
             assert!(gpu[q].as_f64().unwrap() > 0.0, "{r}");
         }
         assert!(gpu["p10"].as_f64() <= gpu["p90"].as_f64(), "{r}");
-        assert!(r["mrays_per_s"].as_f64().unwrap() > 0.0 && r["fps"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(
+            r["mrays_per_s"].as_f64().unwrap() > 0.0 && r["fps"].as_f64().unwrap() > 0.0,
+            "{r}"
+        );
         // lavapipe, like NVIDIA's driver, has the shader clock the clock guard reads.
-        assert!(r["gpu_clock_mhz"].as_f64().is_some_and(|mhz| mhz > 0.0), "no shader clock reading: {r}");
+        assert!(
+            r["gpu_clock_mhz"].as_f64().is_some_and(|mhz| mhz > 0.0),
+            "no shader clock reading: {r}"
+        );
         match series {
             "table1" => assert_eq!(models, 1, "{r}"),
             "table2" => assert_eq!(model, "geosphere", "{r}"),
@@ -120,10 +159,16 @@ fn paper_tables_tiny_with_json_csv_and_charts() {
     }
     for accel in ["brute", "bvh"] {
         for model in ["geosphere", "torusknot", "sphere", "cylinder"] {
-            assert!(seen.contains(&("table1".into(), model.into(), 1, accel.into())), "table1 {model} {accel} missing");
+            assert!(
+                seen.contains(&("table1".into(), model.into(), 1, accel.into())),
+                "table1 {model} {accel} missing"
+            );
         }
         for n in 1..=4 {
-            assert!(seen.contains(&("table2".into(), "geosphere".into(), n, accel.into())), "table2 x{n} {accel} missing");
+            assert!(
+                seen.contains(&("table2".into(), "geosphere".into(), n, accel.into())),
+                "table2 x{n} {accel} missing"
+            );
         }
     }
 
@@ -146,10 +191,11 @@ fn paper_tables_tiny_with_json_csv_and_charts() {
 fn charts_from_the_committed_h100_reports() {
     let results = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results");
     let dir = scratch("from");
-    let files: Vec<String> = ["scaling.json", "scaling_brute.json", "paper.json", "primary.json", "features.json"]
-        .iter()
-        .map(|f| results.join(f).to_str().unwrap().to_string())
-        .collect();
+    let files: Vec<String> =
+        ["scaling.json", "scaling_brute.json", "paper.json", "primary.json", "features.json"]
+            .iter()
+            .map(|f| results.join(f).to_str().unwrap().to_string())
+            .collect();
     let mut args = vec!["bench", "--charts-from"];
     args.extend(files.iter().map(String::as_str));
     args.extend(["--charts", dir.to_str().unwrap()]);
@@ -167,12 +213,19 @@ fn charts_from_the_committed_h100_reports() {
 fn charts_from_needs_a_folder_and_a_report() {
     let out = meshtracer(&["bench", "--charts-from", "nothing.json"], false);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--charts"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--charts"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 
     let dir = scratch("bad");
     let bad = dir.join("bad.json");
     std::fs::write(&bad, "{\"rows\": 3}").unwrap();
-    let out = meshtracer(&["bench", "--charts-from", bad.to_str().unwrap(), "--charts", dir.to_str().unwrap()], false);
+    let out = meshtracer(
+        &["bench", "--charts-from", bad.to_str().unwrap(), "--charts", dir.to_str().unwrap()],
+        false,
+    );
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("bad.json") && !stderr.contains("panicked"), "{stderr}");
@@ -185,7 +238,23 @@ fn framed_series_fills_the_frame_with_the_model() {
     // in until the model covers most of it, and says how much.
     let dir = scratch("framed");
     let json = dir.join("framed.json");
-    let out = meshtracer(&["bench", "--framed", "--triangles", "2000", "--size", "32", "--frames", "1", "--warmup", "0", "--json", json.to_str().unwrap()], true);
+    let out = meshtracer(
+        &[
+            "bench",
+            "--framed",
+            "--triangles",
+            "2000",
+            "--size",
+            "32",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+        true,
+    );
     assert_success(&out, "bench --framed");
     let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let rows = report["rows"].as_array().unwrap();
@@ -194,9 +263,16 @@ fn framed_series_fills_the_frame_with_the_model() {
     assert_eq!(row["series"], "framed");
     assert_eq!(row["bounces"], 0);
     let label = row["features"].as_str().unwrap();
-    let percent: f64 = label.trim_start_matches("framed, ").trim_end_matches("% model").parse().unwrap_or_else(|_| panic!("label {label:?}"));
+    let percent: f64 = label
+        .trim_start_matches("framed, ")
+        .trim_end_matches("% model")
+        .parse()
+        .unwrap_or_else(|_| panic!("label {label:?}"));
     assert!((40.0..=100.0).contains(&percent), "the model should cover most of the frame: {label}");
-    assert!(row["gpu_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0) || row["wall_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0));
+    assert!(
+        row["gpu_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0)
+            || row["wall_ms"]["median"].as_f64().is_some_and(|ms| ms > 0.0)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -210,7 +286,22 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
     let ply = dir.join("tri.ply");
     std::fs::write(&ply, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").unwrap();
     let (json, csv) = (dir.join("load.json"), dir.join("load.csv"));
-    let out = meshtracer(&["bench", "--load", obj.to_str().unwrap(), "torusknot:2000", ply.to_str().unwrap(), "--size", "32", "--json", json.to_str().unwrap(), "--csv", csv.to_str().unwrap()], true);
+    let out = meshtracer(
+        &[
+            "bench",
+            "--load",
+            obj.to_str().unwrap(),
+            "torusknot:2000",
+            ply.to_str().unwrap(),
+            "--size",
+            "32",
+            "--json",
+            json.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+        true,
+    );
     assert_success(&out, "bench --load");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("read s") && stdout.contains("to frame s"), "{stdout}");
@@ -219,10 +310,15 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
     assert_eq!(rows.len(), 3);
     assert_eq!(rows[0]["triangles"], 2, "a quad is two triangles");
     assert_eq!(rows[2]["triangles"], 1);
-    assert!(rows[2]["phase_s"][0].as_f64().unwrap() > 0.0, "a PLY is read, then parsed: {}", rows[2]);
+    assert!(
+        rows[2]["phase_s"][0].as_f64().unwrap() > 0.0,
+        "a PLY is read, then parsed: {}",
+        rows[2]
+    );
     assert_eq!(rows[0]["file_bytes"], std::fs::metadata(&obj).unwrap().len());
     for row in rows {
-        let phases: Vec<f64> = row["phase_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let phases: Vec<f64> =
+            row["phase_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
         assert_eq!(phases.len(), 5);
         assert!(phases.iter().all(|&s| s >= 0.0));
         let total = row["to_first_frame_s"].as_f64().unwrap();

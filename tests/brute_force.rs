@@ -13,23 +13,36 @@ use std::process::Command;
 
 use common::Scratch;
 
-const SCENE: [&str; 8] = ["--model", "torusknot:30k", "--width", "32", "--height", "32", "--bounces", "2"];
+const SCENE: [&str; 8] =
+    ["--model", "torusknot:30k", "--width", "32", "--height", "32", "--bounces", "2"];
 
 /// `meshtracer render SCENE EXTRA -o NAME` under the validation layer, on `icd` if given.
 fn render(dir: &Path, icd: Option<&str>, extra: &[&str], name: &str) -> image::RgbImage {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
-    cmd.current_dir(dir).env("MESHTRACER_VALIDATION", "1").arg("render").args(SCENE).args(extra).args(["-o", name]);
+    cmd.current_dir(dir)
+        .env("MESHTRACER_VALIDATION", "1")
+        .arg("render")
+        .args(SCENE)
+        .args(extra)
+        .args(["-o", name]);
     if let Some(icd) = icd {
         cmd.env("VK_DRIVER_FILES", icd).env("VK_ICD_FILENAMES", icd);
     }
     let out = cmd.output().unwrap();
-    assert!(out.status.success(), "render {extra:?} on {icd:?}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "render {extra:?} on {icd:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     image::open(dir.join(name)).unwrap().to_rgb8()
 }
 
 /// Pixels whose largest channel difference exceeds 2/255.
 fn pixels_off(a: &image::RgbImage, b: &image::RgbImage) -> usize {
-    a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2)).count()
+    a.pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2))
+        .count()
 }
 
 fn brute_equals_bvh_and_cpu(icd: Option<&str>, tag: &str) {
@@ -39,9 +52,21 @@ fn brute_equals_bvh_and_cpu(icd: Option<&str>, tag: &str) {
     let brute = render(&dir.0, icd, &["--accel", "brute"], "brute.png");
     // Ties between triangles at shared edges may go either way: at most 1% of pixels.
     let tolerance = cpu.len() / 3 / 100;
-    assert!(pixels_off(&bvh, &cpu) <= tolerance, "{tag}: BVH vs CPU: {} pixels off", pixels_off(&bvh, &cpu));
-    assert!(pixels_off(&brute, &cpu) <= tolerance, "{tag}: brute force vs CPU: {} pixels off", pixels_off(&brute, &cpu));
-    assert!(pixels_off(&brute, &bvh) <= tolerance, "{tag}: brute force vs BVH: {} pixels off", pixels_off(&brute, &bvh));
+    assert!(
+        pixels_off(&bvh, &cpu) <= tolerance,
+        "{tag}: BVH vs CPU: {} pixels off",
+        pixels_off(&bvh, &cpu)
+    );
+    assert!(
+        pixels_off(&brute, &cpu) <= tolerance,
+        "{tag}: brute force vs CPU: {} pixels off",
+        pixels_off(&brute, &cpu)
+    );
+    assert!(
+        pixels_off(&brute, &bvh) <= tolerance,
+        "{tag}: brute force vs BVH: {} pixels off",
+        pixels_off(&brute, &bvh)
+    );
 }
 
 #[test]
@@ -52,7 +77,9 @@ fn brute_force_equals_the_bvh_and_the_cpu_on_a_30k_mesh() {
 #[test]
 fn brute_force_equals_the_bvh_and_the_cpu_on_mesa_22s_lavapipe() {
     let Ok(icd) = std::env::var("MESHTRACER_MESA22_ICD") else {
-        eprintln!("MESHTRACER_MESA22_ICD is not set: Mesa 22's lavapipe not tried here (.ci/run sets it)");
+        eprintln!(
+            "MESHTRACER_MESA22_ICD is not set: Mesa 22's lavapipe not tried here (.ci/run sets it)"
+        );
         return;
     };
     assert!(Path::new(&icd).is_file(), "MESHTRACER_MESA22_ICD={icd} is no file");

@@ -4,7 +4,9 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats, MAX_DEPTH};
+use meshtracer::bvh::{
+    ordered_edges, BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats, MAX_DEPTH,
+};
 use meshtracer::geometry::{intersect_triangle, Aabb, Ray, TriHit};
 
 mod common;
@@ -13,11 +15,13 @@ use common::random::{room, soup, Rng};
 
 // --- meshes -------------------------------------------------------------------------------
 
-
 /// A closed UV sphere with `rings` x `segments` quads (two triangles each).
 fn sphere(rings: usize, segments: usize, radius: f32) -> Vec<[Vec3; 3]> {
     let p = |i: usize, j: usize| {
-        let (theta, phi) = (std::f32::consts::PI * i as f32 / rings as f32, std::f32::consts::TAU * j as f32 / segments as f32);
+        let (theta, phi) = (
+            std::f32::consts::PI * i as f32 / rings as f32,
+            std::f32::consts::TAU * j as f32 / segments as f32,
+        );
         Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius
     };
     let mut tris = Vec::new();
@@ -96,13 +100,23 @@ fn hittable(tris: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
         .map(|&[a, b, c]| {
             let (e1, e2) = (b - a, c - a);
             let degenerate = e1.cross(e2).length() <= 1e-5 * e1.length() * e2.length();
-            if degenerate { [a, a, a] } else { [a, b, c] }
+            if degenerate {
+                [a, a, a]
+            } else {
+                [a, b, c]
+            }
         })
         .collect()
 }
 
 /// Builds, validates and checks `rays` random rays against brute force; returns the stats.
-fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, seed: u64, options: &BuildOptions) -> TraversalStats {
+fn check_mesh(
+    name: &str,
+    tris: &[[Vec3; 3]],
+    rays: usize,
+    seed: u64,
+    options: &BuildOptions,
+) -> TraversalStats {
     let bvh = Bvh::build(tris, options);
     bvh.validate_with(tris, options).unwrap_or_else(|e| panic!("{name}: {e}"));
     let (original, tris) = (tris, &hittable(tris)[..]);
@@ -124,7 +138,11 @@ fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, seed: u64, options: &
                 let close = (g.t - w.t).abs() <= 1e-5 * w.t.abs().max(1e-30);
                 let index = bvh.prim_indices[k as usize];
                 // Same triangle, or a tie (coincident triangles, a shared edge) at the same t.
-                assert!(close, "{name} ray {r}: bvh t = {} (tri {index}) vs brute t = {} (tri {i}): {ray:?}", g.t, w.t);
+                assert!(
+                    close,
+                    "{name} ray {r}: bvh t = {} (tri {index}) vs brute t = {} (tri {i}): {ray:?}",
+                    g.t, w.t
+                );
                 if index == i {
                     assert_eq!(g, w, "{name} ray {r}: same triangle, different hit");
                 }
@@ -132,7 +150,10 @@ fn check_mesh(name: &str, tris: &[[Vec3; 3]], rays: usize, seed: u64, options: &
             (g, w) => panic!("{name} ray {r}: bvh {g:?} vs brute force {w:?}: {ray:?}"),
         }
     }
-    assert!(tris.len() < 2 || hits > rays / 10 || name.contains("degenerate"), "{name}: only {hits} hits");
+    assert!(
+        tris.len() < 2 || hits > rays / 10 || name.contains("degenerate"),
+        "{name}: only {hits} hits"
+    );
     stats
 }
 
@@ -156,10 +177,20 @@ fn cut_triangles_match_brute_force_and_save_steps() {
     let bvh = Bvh::build(&tris, &cut);
     let slots = bvh.prim_indices.len();
     // The 12 big triangles (and a few of the small ones) take up to 4 pieces each.
-    assert!(slots > tris.len() + 20 && slots <= tris.len() + tris.len() * 3 / 10, "{slots} slots for {} triangles", tris.len());
+    assert!(
+        slots > tris.len() + 20 && slots <= tris.len() + tris.len() * 3 / 10,
+        "{slots} slots for {} triangles",
+        tris.len()
+    );
     assert!(bvh.validate_with(&tris, &whole).is_err(), "an uncut tree names each triangle once");
-    let (cut_stats, whole_stats) = (check_mesh("room, cut", &tris, 20_000, 12, &cut), check_mesh("room", &tris, 20_000, 12, &whole));
-    assert!(cut_stats.nodes + cut_stats.triangles < whole_stats.nodes + whole_stats.triangles, "{cut_stats:?} against {whole_stats:?}");
+    let (cut_stats, whole_stats) = (
+        check_mesh("room, cut", &tris, 20_000, 12, &cut),
+        check_mesh("room", &tris, 20_000, 12, &whole),
+    );
+    assert!(
+        cut_stats.nodes + cut_stats.triangles < whole_stats.nodes + whole_stats.triangles,
+        "{cut_stats:?} against {whole_stats:?}"
+    );
 }
 
 #[test]
@@ -181,7 +212,13 @@ fn leaf_sizes_and_bin_counts_match_brute_force() {
     let tris = soup(&mut Rng(7), 800, 5.0, 1.0);
     for (leaf, bins) in [(1, 2), (2, 8), (8, 32), (16, 16)] {
         let options = BuildOptions { max_leaf_size: leaf, bins, ..Default::default() };
-        check_mesh(&format!("soup leaf {leaf} bins {bins}"), &tris, 2_000, 8 + leaf as u64, &options);
+        check_mesh(
+            &format!("soup leaf {leaf} bins {bins}"),
+            &tris,
+            2_000,
+            8 + leaf as u64,
+            &options,
+        );
     }
 }
 
@@ -211,7 +248,11 @@ fn random_small_sets_property() {
                 _ => [t[0], t[0], t[0]], // a point
             });
         }
-        let options = BuildOptions { max_leaf_size: 1 + rng.below(6) as u32, bins: 2 + rng.below(31) as u32, ..Default::default() };
+        let options = BuildOptions {
+            max_leaf_size: 1 + rng.below(6) as u32,
+            bins: 2 + rng.below(31) as u32,
+            ..Default::default()
+        };
         check_mesh(&format!("case {case}"), &tris, 200, rng.next_u64() | 1, &options);
     }
 }
@@ -224,7 +265,9 @@ fn empty_input() {
     assert!(bvh.nodes.is_empty() && bvh.prim_indices.is_empty());
     assert_eq!(bvh.validate(&[]), Ok(()));
     let ray = Ray::new(Vec3::ZERO, Vec3::X);
-    assert!(bvh.closest_hit(&[], &ray, 0.0, f32::INFINITY, &mut TraversalStats::default()).is_none());
+    assert!(bvh
+        .closest_hit(&[], &ray, 0.0, f32::INFINITY, &mut TraversalStats::default())
+        .is_none());
     assert_eq!(Bvh::build_from_boxes(&[], &BuildOptions::default()).nodes.len(), 0);
 }
 
@@ -261,7 +304,10 @@ fn zero_area_triangles() {
 #[test]
 fn all_coplanar() {
     let mut rng = Rng(13);
-    let tris: Vec<[Vec3; 3]> = soup(&mut rng, 2000, 10.0, 0.7).into_iter().map(|t| t.map(|p| Vec3::new(p.x, p.y, 1.5))).collect();
+    let tris: Vec<[Vec3; 3]> = soup(&mut rng, 2000, 10.0, 0.7)
+        .into_iter()
+        .map(|t| t.map(|p| Vec3::new(p.x, p.y, 1.5)))
+        .collect();
     check_mesh("coplanar", &tris, 10_000, 14, &BuildOptions::default());
     check_mesh("grid", &grid(30, -2.0), 5_000, 15, &BuildOptions::default());
 }
@@ -304,7 +350,10 @@ fn huge_coordinate_ranges() {
         })
         .collect();
     let bvh = Bvh::build(&exp, &BuildOptions { max_leaf_size: 1, ..Default::default() });
-    assert_eq!(bvh.validate_with(&exp, &BuildOptions { max_leaf_size: 1, ..Default::default() }), Ok(()));
+    assert_eq!(
+        bvh.validate_with(&exp, &BuildOptions { max_leaf_size: 1, ..Default::default() }),
+        Ok(())
+    );
     assert!(bvh.depth() <= MAX_DEPTH, "depth {}", bvh.depth());
 }
 
@@ -327,7 +376,8 @@ fn many_identical_triangles_build_fast() {
 #[test]
 fn boxes_build() {
     let mut rng = Rng(19);
-    let boxes: Vec<Aabb> = soup(&mut rng, 3000, 50.0, 2.0).iter().map(|t| Aabb::from_points(t)).collect();
+    let boxes: Vec<Aabb> =
+        soup(&mut rng, 3000, 50.0, 2.0).iter().map(|t| Aabb::from_points(t)).collect();
     let options = BuildOptions::default();
     let bvh = Bvh::build_from_boxes(&boxes, &options);
     assert_eq!(bvh.validate_boxes(&boxes, &options), Ok(()));
@@ -372,7 +422,12 @@ fn validate_reports_corruption() {
 
     // Shrink a leaf's box: its triangles stick out.
     let mut bvh = good.clone();
-    let (i, side) = bvh.nodes.iter().enumerate().find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s))).unwrap();
+    let (i, side) = bvh
+        .nodes
+        .iter()
+        .enumerate()
+        .find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s)))
+        .unwrap();
     let mut c = bvh.nodes[i].child(side);
     c.bounds.min = c.bounds.center();
     set_child(&mut bvh.nodes[i], side, c);
@@ -400,7 +455,12 @@ fn validate_reports_corruption() {
 
     // A leaf grown past max_leaf_size (and overlapping its neighbour).
     let mut bvh = good.clone();
-    let (i, side) = bvh.nodes.iter().enumerate().find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s))).unwrap();
+    let (i, side) = bvh
+        .nodes
+        .iter()
+        .enumerate()
+        .find_map(|(i, n)| (0..2).find(|&s| n.child(s).is_leaf()).map(|s| (i, s)))
+        .unwrap();
     let mut c = bvh.nodes[i].child(side);
     c.count = 5;
     set_child(&mut bvh.nodes[i], side, c);
@@ -422,8 +482,15 @@ fn validate_reports_corruption() {
 
 /// An independent object-median tree (widest axis, halves by count), for comparison.
 fn median_tree(tris: &[[Vec3; 3]], max_leaf: usize) -> Bvh {
-    fn build(tris: &[[Vec3; 3]], order: &mut [u32], first: u32, max_leaf: usize, nodes: &mut Vec<BvhNode>) -> BvhChild {
-        let bounds = order.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb::from_points(&tris[i as usize])));
+    fn build(
+        tris: &[[Vec3; 3]],
+        order: &mut [u32],
+        first: u32,
+        max_leaf: usize,
+        nodes: &mut Vec<BvhNode>,
+    ) -> BvhChild {
+        let bounds =
+            order.iter().fold(Aabb::EMPTY, |b, &i| b.union(Aabb::from_points(&tris[i as usize])));
         if order.len() <= max_leaf {
             return BvhChild { bounds, index: first, count: order.len() as u32 };
         }
@@ -467,7 +534,11 @@ fn sah_cost_beats_median_and_single_leaf() {
     // A root over one leaf costs exactly that, by construction.
     let few = &tris[..3];
     let leaf = Bvh::build(few, &options);
-    assert!((leaf.sah_cost(&options) - (options.traversal_cost + 3.0 * options.intersection_cost)).abs() < 1e-5);
+    assert!(
+        (leaf.sah_cost(&options) - (options.traversal_cost + 3.0 * options.intersection_cost))
+            .abs()
+            < 1e-5
+    );
 }
 
 #[test]
@@ -479,7 +550,8 @@ fn big_parallel_build_fits_small_worker_stacks() {
     // its bin sets moved to the heap.
     let mut rng = Rng(21);
     let tris = soup(&mut rng, 2_000_000, 100.0, 0.3);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(4).stack_size(256 * 1024).build().unwrap();
+    let pool =
+        rayon::ThreadPoolBuilder::new().num_threads(4).stack_size(256 * 1024).build().unwrap();
     let bvh = pool.install(|| Bvh::build(&tris, &BuildOptions::default()));
     assert_eq!(bvh.prim_indices.len(), tris.len());
     assert!(bvh.depth() <= MAX_DEPTH);
@@ -512,8 +584,14 @@ fn build_is_the_same_on_one_thread_and_on_several() {
         assert_eq!(one.validate(tris), Ok(()), "{name}");
         for threads in [2, 5] {
             let many = build(threads);
-            assert!(one.nodes == many.nodes, "{name}: the nodes differ between 1 and {threads} threads");
-            assert!(one.prim_indices == many.prim_indices, "{name}: the order differs between 1 and {threads} threads");
+            assert!(
+                one.nodes == many.nodes,
+                "{name}: the nodes differ between 1 and {threads} threads"
+            );
+            assert!(
+                one.prim_indices == many.prim_indices,
+                "{name}: the order differs between 1 and {threads} threads"
+            );
         }
     }
 }
@@ -567,11 +645,19 @@ fn big_architecture_is_cut_and_big_even_meshes_keep_the_sampled_build() {
     let cut = BuildOptions { max_leaf_size: 2, split_budget: 0.3, ..BuildOptions::default() };
     let whole = BuildOptions { split_budget: 0.0, ..cut };
     let knot = knot_corners(600_000);
-    assert_eq!(Bvh::build(&knot, &cut).prim_indices.len(), knot.len(), "the knot has nothing worth cutting");
+    assert_eq!(
+        Bvh::build(&knot, &cut).prim_indices.len(),
+        knot.len(),
+        "the knot has nothing worth cutting"
+    );
     let tris = hall(&mut Rng(61), 590_000, 12_000);
     let (bvh, uncut) = (Bvh::build(&tris, &cut), Bvh::build(&tris, &whole));
     let slots = bvh.prim_indices.len();
-    assert!(slots > tris.len() + 12_000 && slots <= tris.len() + tris.len() * 3 / 10, "{slots} slots for {} triangles", tris.len());
+    assert!(
+        slots > tris.len() + 12_000 && slots <= tris.len() + tris.len() * 3 / 10,
+        "{slots} slots for {} triangles",
+        tris.len()
+    );
     assert_eq!(bvh.validate_with(&tris, &cut), Ok(()));
     assert_eq!(uncut.prim_indices.len(), tris.len());
     let (ordered, ordered_uncut) = (ordered_edges(&bvh, &tris), ordered_edges(&uncut, &tris));
@@ -579,7 +665,9 @@ fn big_architecture_is_cut_and_big_even_meshes_keep_the_sampled_build() {
     let (mut hits, mut stats) = (0, TraversalStats::default());
     for (r, ray) in random_rays(&mut Rng(62), &tris, &targets, 2_000).iter().enumerate() {
         let got = bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut stats).map(|(_, h)| h.t);
-        let want = uncut.closest_hit(&ordered_uncut, ray, 0.0, f32::INFINITY, &mut stats).map(|(_, h)| h.t);
+        let want = uncut
+            .closest_hit(&ordered_uncut, ray, 0.0, f32::INFINITY, &mut stats)
+            .map(|(_, h)| h.t);
         hits += got.is_some() as usize;
         assert_eq!(got, want, "ray {r}: cut tree against uncut: {ray:?}");
     }

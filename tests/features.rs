@@ -8,11 +8,11 @@ mod common;
 use common::*;
 use glam::{Vec2, Vec3};
 use meshtracer::gpu::ComputeTracer;
+use meshtracer::render_settings::{Aov, RenderSettings};
 use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
 use meshtracer::scene::{Camera, EnvironmentSource, Instance, Material, PointLight, Scene};
 use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
-use meshtracer::render_settings::{Aov, RenderSettings};
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 fn settings(size: u32) -> RenderSettings {
@@ -33,7 +33,8 @@ fn smooth_shading_matches_cpu_and_hides_facets() {
     }
     let scene = open_scene(sphere, 1, LightOrbit::default());
     let (flat, _) = render_both(&scene, RenderSettings { bounces: 0, ..settings(96) });
-    let (smooth, smooth_cpu) = render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(96) });
+    let (smooth, smooth_cpu) =
+        render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(96) });
     assert_close(&smooth, &smooth_cpu, "smooth");
     // Steps above 0.1 per pixel: facet edges of the flat sphere (about 270 here); the
     // smooth sphere's steepest honest gradient, at its rim, stays mostly below it.
@@ -57,14 +58,20 @@ fn smooth_terminator_has_no_stair_steps() {
     let scene = Scene {
         meshes: vec![sphere],
         instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
-        camera: Camera { position: Vec3::new(0.0, 0.0, 3.2), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 45.0 },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 3.2),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+        },
         light: PointLight { position: Vec3::new(10.0, 4.0, -1.0), color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
     };
     let size = 128;
-    let (gpu, cpu) = render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(size) });
+    let (gpu, cpu) =
+        render_both(&scene, RenderSettings { bounces: 0, smooth: true, ..settings(size) });
     assert_close(&gpu, &cpu, "smooth sphere at the terminator");
     for (tracer, img) in [("GPU", &gpu), ("CPU", &cpu)] {
         // The criterion, on the red channel, for every pair of horizontal neighbours (x, x+1)
@@ -78,12 +85,17 @@ fn smooth_terminator_has_no_stair_steps() {
         for y in 1..size - 1 {
             let (mut lit, mut dark) = (false, false);
             for x in 1..size - 2 {
-                if (x - 1..=x + 2).any(|xx| background(xx, y) || background(xx, y - 1) || background(xx, y + 1)) {
+                if (x - 1..=x + 2)
+                    .any(|xx| background(xx, y) || background(xx, y - 1) || background(xx, y + 1))
+                {
                     continue;
                 }
                 let (here, towards_light) = (img.get(x, y)[0], img.get(x + 1, y)[0]);
                 assert!(here <= towards_light + 1e-4, "{tracer}: row {y} gets brighter away from the light at x = {x}: {towards_light} -> {here}");
-                assert!(towards_light - here <= 0.05, "{tracer}: row {y} steps down at x = {x}: {towards_light} -> {here}");
+                assert!(
+                    towards_light - here <= 0.05,
+                    "{tracer}: row {y} steps down at x = {x}: {towards_light} -> {here}"
+                );
                 lit |= here > ambient + 0.2;
                 dark |= here < ambient + 1e-4;
             }
@@ -93,15 +105,32 @@ fn smooth_terminator_has_no_stair_steps() {
     }
 }
 
-fn checker_quad_scene(dir: &std::path::Path, cells: u32, distance: f32) -> meshtracer::scene::Scene {
+fn checker_quad_scene(
+    dir: &std::path::Path,
+    cells: u32,
+    distance: f32,
+) -> meshtracer::scene::Scene {
     // A cells x cells checker: red and blue texels.
-    let tex = image::RgbaImage::from_fn(cells, cells, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([0, 0, 255, 255]) });
+    let tex = image::RgbaImage::from_fn(cells, cells, |x, y| {
+        if (x + y) % 2 == 0 {
+            image::Rgba([255, 0, 0, 255])
+        } else {
+            image::Rgba([0, 0, 255, 255])
+        }
+    });
     let path = dir.join(format!("checker{cells}.png"));
     tex.save(&path).unwrap();
-    let m = Material { diffuse: Vec3::ONE, specular: Vec3::ZERO, mirror: 0.0, diffuse_texture: Some(path), ..Material::default() };
+    let m = Material {
+        diffuse: Vec3::ONE,
+        specular: Vec3::ZERO,
+        mirror: 0.0,
+        diffuse_texture: Some(path),
+        ..Material::default()
+    };
     let mut scene = quad_scene(m, distance, Vec3::new(0.0, 0.0, distance));
     scene.ambient = 0.0;
-    scene.meshes[0].texcoords = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+    scene.meshes[0].texcoords =
+        vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
     scene
 }
 
@@ -133,9 +162,16 @@ fn dds_textures_are_read() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("red.dds");
     write_dxt1_dds(&path, 0xF800);
-    let m = Material { diffuse: Vec3::ONE, specular: Vec3::ZERO, mirror: 0.0, diffuse_texture: Some(path), ..Material::default() };
+    let m = Material {
+        diffuse: Vec3::ONE,
+        specular: Vec3::ZERO,
+        mirror: 0.0,
+        diffuse_texture: Some(path),
+        ..Material::default()
+    };
     let mut scene = quad_scene(m, 3.0, Vec3::new(0.0, 0.0, 3.0));
-    scene.meshes[0].texcoords = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
+    scene.meshes[0].texcoords =
+        vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
     let packed = PackedScene::new(&scene);
     std::fs::remove_dir_all(&dir).ok();
     assert!(packed.warnings.is_empty(), "{:?}", packed.warnings);
@@ -157,7 +193,8 @@ fn textured_quad_shows_the_checker_texels() {
     assert!(top_left[0] > 0.85 && top_left[2] < 0.1, "top-left {top_left:?} should be red");
     assert!(top_right[2] > 0.85 && top_right[0] < 0.1, "top-right {top_right:?} should be blue");
     // Texture off: the material's Kd (white).
-    let (plain, _) = render_both(&scene, RenderSettings { bounces: 0, textures: false, ..settings(65) });
+    let (plain, _) =
+        render_both(&scene, RenderSettings { bounces: 0, textures: false, ..settings(65) });
     let c = plain.get(23, 23);
     assert!(c[0] > 0.9 && c[1] > 0.9 && c[2] > 0.9, "untextured {c:?}");
     // Far away, a fine checker is minified to its mip average (purple), not aliased.
@@ -165,7 +202,10 @@ fn textured_quad_shows_the_checker_texels() {
     let (gpu, cpu) = render_both(&far, RenderSettings { bounces: 0, ..settings(65) });
     assert_close(&gpu, &cpu, "minified quad");
     let c = gpu.get(32, 32);
-    assert!((c[0] - c[2]).abs() < 0.1 && c[0] > 0.3, "minified checker should average to purple: {c:?}");
+    assert!(
+        (c[0] - c[2]).abs() < 0.1 && c[0] > 0.3,
+        "minified checker should average to purple: {c:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -198,7 +238,10 @@ fn environment_is_seen_on_misses_and_in_mirrors() {
     let (gpu, cpu) = render_both(&mirror, mirror_settings);
     assert_close(&gpu, &cpu, "mirror");
     let centre = gpu.get(32, 32);
-    assert!(centre[2] > 0.2 && centre[2] >= centre[0], "the mirror should show sky colours: {centre:?}");
+    assert!(
+        centre[2] > 0.2 && centre[2] >= centre[0],
+        "the mirror should show sky colours: {centre:?}"
+    );
     // Without the environment the same mirror shows black.
     mirror.environment = None;
     let (dark, _) = render_both(&mirror, mirror_settings);
@@ -226,9 +269,15 @@ fn hdr_environment_keeps_values_above_one() {
     std::fs::remove_dir_all(&dir).ok();
     assert_close(&gpu, &cpu, "HDR environment");
     let centre = gpu.get(24, 24);
-    assert!((0..3).all(|c| (centre[c] - 1.0).abs() < 0.01), "a quarter of radiance 4 is 1: {centre:?}");
+    assert!(
+        (0..3).all(|c| (centre[c] - 1.0).abs() < 0.01),
+        "a quarter of radiance 4 is 1: {centre:?}"
+    );
     let miss = gpu.get(0, 0);
-    assert!((0..3).all(|c| (miss[c] - 4.0).abs() < 0.04), "misses see the sky's own radiance: {miss:?}");
+    assert!(
+        (0..3).all(|c| (miss[c] - 4.0).abs() < 0.04),
+        "misses see the sky's own radiance: {miss:?}"
+    );
 }
 
 #[test]
@@ -270,13 +319,20 @@ fn adaptive_sampling_spends_samples_on_edges_only() {
     let (gpu, cpu) = render_both(&scene, s);
     assert_close(&gpu, &cpu, "adaptive colour");
     let (counts, counts_cpu) = render_both(&scene, RenderSettings { aov: Aov::Samples, ..s });
-    let disagree = counts.pixels.iter().zip(&counts_cpu.pixels).filter(|(a, b)| a[0] != b[0]).count();
-    assert!(disagree as f32 <= 0.002 * (64 * 64) as f32, "both tracers choose the same pixels: {disagree} differ");
+    let disagree =
+        counts.pixels.iter().zip(&counts_cpu.pixels).filter(|(a, b)| a[0] != b[0]).count();
+    assert!(
+        disagree as f32 <= 0.002 * (64 * 64) as f32,
+        "both tracers choose the same pixels: {disagree} differ"
+    );
     let total: f32 = counts.pixels.iter().map(|p| p[0]).sum();
     let edges = counts.pixels.iter().filter(|p| p[0] == 8.0).count();
     assert!(counts.pixels.iter().all(|p| p[0] == 1.0 || p[0] == 8.0));
     assert!(edges > 50, "the model's silhouette and facets are edges: {edges}");
-    assert!(total < 0.5 * 8.0 * 64.0 * 64.0, "adaptive should spend far fewer samples than uniform: {total}");
+    assert!(
+        total < 0.5 * 8.0 * 64.0 * 64.0,
+        "adaptive should spend far fewer samples than uniform: {total}"
+    );
 }
 
 #[test]
@@ -289,7 +345,10 @@ fn adaptive_sampling_finds_edges_seen_only_in_the_mirrors() {
     let (mirrored, mirrored_cpu) = render_both(&scene, s);
     for (gpu, cpu) in [(&direct, &direct_cpu), (&mirrored, &mirrored_cpu)] {
         let disagree = gpu.pixels.iter().zip(&cpu.pixels).filter(|(a, b)| a[0] != b[0]).count();
-        assert!(disagree as f32 <= 0.002 * (64 * 64) as f32, "both tracers choose the same pixels: {disagree} differ");
+        assert!(
+            disagree as f32 <= 0.002 * (64 * 64) as f32,
+            "both tracers choose the same pixels: {disagree} differ"
+        );
     }
     let edge = |img: &Image, i: usize| img.pixels[i][0] == 8.0;
     let n = 64 * 64;

@@ -13,14 +13,28 @@ use common::Scratch;
 
 /// `meshtracer ARGS` in `dir` under the validation layer, with a clean log setting.
 fn run_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshtracer")).current_dir(dir).env("MESHTRACER_VALIDATION", "1").env_remove("RUST_LOG").args(args).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+        .current_dir(dir)
+        .env("MESHTRACER_VALIDATION", "1")
+        .env_remove("RUST_LOG")
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 /// The same through `sh`, with the file-size limit at `blocks` KiB and SIGXFSZ ignored, so
 /// a write past it fails as a full disk does instead of killing the process.
 fn run_size_limited(dir: &Path, blocks: u32, args: &[&str]) -> Output {
     let script = format!("trap '' XFSZ; ulimit -f {blocks}; exec \"$0\" \"$@\"");
-    Command::new("sh").current_dir(dir).env("MESHTRACER_VALIDATION", "1").arg("-c").arg(script).arg(env!("CARGO_BIN_EXE_meshtracer")).args(args).output().unwrap()
+    Command::new("sh")
+        .current_dir(dir)
+        .env("MESHTRACER_VALIDATION", "1")
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_meshtracer"))
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 fn stderr(out: &Output) -> String {
@@ -61,12 +75,21 @@ fn a_preset_must_be_a_regular_file_of_sensible_size() {
     std::os::unix::fs::symlink("/dev/zero", dir.join("zero.toml")).unwrap();
     let fifo = dir.join("fifo.toml");
     assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
-    std::fs::write(dir.join("big.toml"), format!("version = 1\n#{}\n", "x".repeat(2 << 20))).unwrap();
-    for (name, why) in [("zero.toml", "not a regular file"), ("fifo.toml", "not a regular file"), ("big.toml", "larger than 1 MiB")] {
+    std::fs::write(dir.join("big.toml"), format!("version = 1\n#{}\n", "x".repeat(2 << 20)))
+        .unwrap();
+    for (name, why) in [
+        ("zero.toml", "not a regular file"),
+        ("fifo.toml", "not a regular file"),
+        ("big.toml", "larger than 1 MiB"),
+    ] {
         let out = run_in(&dir.0, &["render", "--preset", name, "-o", "x.png"]);
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(1), "{name}: {err}");
-        assert!(err.starts_with(&format!("error: cannot read the preset {name}: ")) && err.contains(why), "{name}: {err}");
+        assert!(
+            err.starts_with(&format!("error: cannot read the preset {name}: "))
+                && err.contains(why),
+            "{name}: {err}"
+        );
     }
 }
 
@@ -75,7 +98,10 @@ fn a_fifo_as_model_is_refused_at_once() {
     let dir = Scratch::new("fifo-model");
     assert!(Command::new("mkfifo").arg(dir.join("m.obj")).status().unwrap().success());
     // The old loader opened the file before checking it and waited for a writer forever.
-    let out = run_in(&dir.0, &["render", "--model", "m.obj", "--width", "8", "--height", "8", "-o", "x.png"]);
+    let out = run_in(
+        &dir.0,
+        &["render", "--model", "m.obj", "--width", "8", "--height", "8", "-o", "x.png"],
+    );
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("m.obj") && err.contains("not a regular file"), "{err}");
@@ -100,29 +126,49 @@ fn a_file_size_limit_is_named_before_the_vulkan_driver_meets_it() {
     let err = stderr(&out);
     // (512 or 1024 bytes: a block of `ulimit -f` is either, shell by shell.)
     let first = err.lines().next().unwrap_or_default();
-    assert!(first.starts_with("warning: the file-size limit (ulimit -f) is ") && (first.contains("1024 bytes;") || first.contains("512 bytes;")), "{err}");
+    assert!(
+        first.starts_with("warning: the file-size limit (ulimit -f) is ")
+            && (first.contains("1024 bytes;") || first.contains("512 bytes;")),
+        "{err}"
+    );
 }
 
 #[test]
 fn a_failed_write_keeps_the_users_file_and_leaves_nothing_half_written() {
     let dir = Scratch::new("failed-write");
     let old = b"the user's own file, not to be lost".to_vec();
-    for (out_name, aov) in [("shot.png", "color"), ("shot.jpg", "color"), ("depth.exr", "depth"), ("normal.exr", "normal")] {
+    for (out_name, aov) in [
+        ("shot.png", "color"),
+        ("shot.jpg", "color"),
+        ("depth.exr", "depth"),
+        ("normal.exr", "normal"),
+    ] {
         std::fs::write(dir.join(out_name), &old).unwrap();
         // 1 KiB: the 64x64 image's file does not fit. The CPU tracer traces it: lavapipe's
         // own memory files would meet the limit first.
-        let out = run_size_limited(&dir.0, 1, &["render", "--cpu", "--width", "64", "--height", "64", "--aov", aov, "-o", out_name]);
+        let out = run_size_limited(
+            &dir.0,
+            1,
+            &["render", "--cpu", "--width", "64", "--height", "64", "--aov", aov, "-o", out_name],
+        );
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(1), "{out_name}: {err}");
         assert!(err.starts_with(&format!("error: cannot write {out_name}: ")), "{out_name}: {err}");
         assert!(!err.contains("decoding"), "a write is no decoding: {err}");
-        assert_eq!(std::fs::read(dir.join(out_name)).unwrap(), old, "{out_name} was changed by a failed write");
+        assert_eq!(
+            std::fs::read(dir.join(out_name)).unwrap(),
+            old,
+            "{out_name} was changed by a failed write"
+        );
         assert_eq!(dir.names(), [out_name.to_string()], "a temporary was left behind");
         std::fs::remove_file(dir.join(out_name)).unwrap();
     }
     // A link to a device is refused and kept (the old EXR writer unlinked it).
     std::os::unix::fs::symlink("/dev/full", dir.join("full.exr")).unwrap();
-    let out = run_in(&dir.0, &["render", "--width", "8", "--height", "8", "--aov", "depth", "-o", "full.exr"]);
+    let out = run_in(
+        &dir.0,
+        &["render", "--width", "8", "--height", "8", "--aov", "depth", "-o", "full.exr"],
+    );
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(std::fs::symlink_metadata(dir.join("full.exr")).unwrap().file_type().is_symlink());
 }
@@ -131,10 +177,28 @@ fn a_failed_write_keeps_the_users_file_and_leaves_nothing_half_written() {
 fn the_output_path_is_checked_before_tracing() {
     let dir = Scratch::new("output-first");
     // A big brute-force frame that would take minutes on lavapipe: the error comes first.
-    let out = run_in(&dir.0, &["render", "--width", "4096", "--height", "4096", "--accel", "brute", "--spp", "64", "-o", "no/such/folder/x.png"]);
+    let out = run_in(
+        &dir.0,
+        &[
+            "render",
+            "--width",
+            "4096",
+            "--height",
+            "4096",
+            "--accel",
+            "brute",
+            "--spp",
+            "64",
+            "-o",
+            "no/such/folder/x.png",
+        ],
+    );
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.starts_with("error: cannot write no/such/folder/x.png: no such file or directory"), "{err}");
+    assert!(
+        err.starts_with("error: cannot write no/such/folder/x.png: no such file or directory"),
+        "{err}"
+    );
     assert!(dir.names().is_empty());
 }
 
@@ -146,15 +210,25 @@ fn loader_warnings_are_printed_once_and_file_text_cannot_drive_the_terminal() {
     let long = "m".repeat(50_000);
     let obj = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl evil\x1b]0;pwned\x07name\nf 1 2 3\nusemtl {long}\nf 3 2 1\n");
     std::fs::write(dir.join("m.obj"), obj).unwrap();
-    let out = run_in(&dir.0, &["render", "--model", "m.obj", "--width", "8", "--height", "8", "-o", "x.png"]);
+    let out = run_in(
+        &dir.0,
+        &["render", "--model", "m.obj", "--width", "8", "--height", "8", "-o", "x.png"],
+    );
     let err = stderr(&out);
     assert!(out.status.success(), "{err}");
     let warnings: Vec<&str> = err.lines().filter(|l| l.contains("usemtl")).collect();
     assert_eq!(warnings.len(), 2, "each warning once:\n{err}");
     assert!(warnings.iter().all(|w| w.starts_with("warning: m.obj: `usemtl ")), "{err}");
-    assert!(!err.contains('\x1b') && !err.contains('\x07'), "control characters reached the terminal: {err:?}");
+    assert!(
+        !err.contains('\x1b') && !err.contains('\x07'),
+        "control characters reached the terminal: {err:?}"
+    );
     assert!(warnings[0].contains("evil\\u{1b}]0;pwned\\u{7}name"), "{}", warnings[0]);
-    assert!(warnings[1].len() < 1000, "a 50,000-character name is cut: {} characters", warnings[1].len());
+    assert!(
+        warnings[1].len() < 1000,
+        "a 50,000-character name is cut: {} characters",
+        warnings[1].len()
+    );
 }
 
 #[test]
@@ -172,6 +246,13 @@ fn bad_numbers_in_a_preset_say_what_is_wrong() {
         assert!(err.contains(expect), "{text}: {err}");
     }
     // "1 bounce", not "1 bounces".
-    let out = run_in(&dir.0, &["render", "--width", "8", "--height", "8", "--bounces", "1", "-o", "x.png"]);
-    assert!(String::from_utf8_lossy(&out.stdout).contains(" 1 bounce,"), "{}", String::from_utf8_lossy(&out.stdout));
+    let out = run_in(
+        &dir.0,
+        &["render", "--width", "8", "--height", "8", "--bounces", "1", "-o", "x.png"],
+    );
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains(" 1 bounce,"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
 }

@@ -21,11 +21,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use ash::vk;
 use meshtracer::gpu::scene_buffers::{check_fits, SceneBuffers};
-use meshtracer::gpu::{ContextOptions, GpuContext, GpuError, ComputeTracer};
-use meshtracer::tracer::packed::{GpuTriangle, GpuTriangleShading};
-use meshtracer::scene::primitives::PaperModel;
-use meshtracer::render_settings::MAX_RESOLUTION;
+use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext, GpuError};
 use meshtracer::render_settings::RenderSettings;
+use meshtracer::render_settings::MAX_RESOLUTION;
+use meshtracer::scene::primitives::PaperModel;
+use meshtracer::tracer::packed::{GpuTriangle, GpuTriangleShading};
 use meshtracer::tracer::{FrameParams, PackedScene};
 
 // --- helpers ---------------------------------------------------------------------------
@@ -48,7 +48,11 @@ impl Drop for Scratch {
 
 fn scratch(tag: &str) -> Scratch {
     static N: AtomicUsize = AtomicUsize::new(0);
-    let dir = std::env::temp_dir().join(format!("meshtracer-hardening-{}-{tag}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
+    let dir = std::env::temp_dir().join(format!(
+        "meshtracer-hardening-{}-{tag}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     Scratch(dir)
@@ -70,11 +74,18 @@ fn meshtracer(args: &[&str], env: &[(&str, &str)]) -> Output {
 fn one_line_error(out: &Output, what: &str) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{what}: exited successfully; stderr: {stderr}");
-    assert!(out.status.code().is_some_and(|c| c != 0 && c != 101), "{what}: exit status {:?} (101 = panic); stderr: {stderr}", out.status);
+    assert!(
+        out.status.code().is_some_and(|c| c != 0 && c != 101),
+        "{what}: exit status {:?} (101 = panic); stderr: {stderr}",
+        out.status
+    );
     for bad in ["panicked", "backtrace", "RUST_BACKTRACE", "internal error"] {
         assert!(!stderr.contains(bad), "{what}: stderr mentions {bad:?}: {stderr}");
     }
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty() && !l.starts_with("For more information, try")).collect();
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with("For more information, try"))
+        .collect();
     assert_eq!(lines.len(), 1, "{what}: expected one line of error, got:\n{stderr}");
     assert!(lines[0].starts_with("error: "), "{what}: {}", lines[0]);
     lines[0].to_string()
@@ -93,17 +104,29 @@ fn a_planted_validation_error_is_caught_by_vuid() {
     // Its own context: the planted error must not leak into the other tests' shared one.
     let ctx = GpuContext::new(&ContextOptions::validated()).expect("a validated context");
     assert!(ctx.validation_enabled());
-    assert!(ctx.validation_messages().is_empty(), "a fresh context is clean: {:?}", ctx.validation_messages());
+    assert!(
+        ctx.validation_messages().is_empty(),
+        "a fresh context is clean: {:?}",
+        ctx.validation_messages()
+    );
     // Invalid but harmless to the driver: a concurrently shared buffer that names no queue
     // family (sharingMode CONCURRENT needs queueFamilyIndexCount > 1). lavapipe ignores
     // the sharing mode, so the call itself works and the buffer is destroyed normally.
-    let info = vk::BufferCreateInfo::default().size(64).usage(vk::BufferUsageFlags::STORAGE_BUFFER).sharing_mode(vk::SharingMode::CONCURRENT);
-    let buffer = unsafe { ctx.device.create_buffer(&info, None) }.expect("lavapipe creates the buffer anyway");
+    let info = vk::BufferCreateInfo::default()
+        .size(64)
+        .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+        .sharing_mode(vk::SharingMode::CONCURRENT);
+    let buffer = unsafe { ctx.device.create_buffer(&info, None) }
+        .expect("lavapipe creates the buffer anyway");
     unsafe { ctx.device.destroy_buffer(buffer, None) };
     let messages = ctx.validation_messages();
-    assert!(!messages.is_empty(), "the validation layer reported nothing for an invalid VkBufferCreateInfo");
+    assert!(
+        !messages.is_empty(),
+        "the validation layer reported nothing for an invalid VkBufferCreateInfo"
+    );
     let caught = messages.iter().find(|m| m.contains("VUID-VkBufferCreateInfo-sharingMode-"));
-    let caught = caught.unwrap_or_else(|| panic!("no message names the VUID of the planted error: {messages:#?}"));
+    let caught = caught
+        .unwrap_or_else(|| panic!("no message names the VUID of the planted error: {messages:#?}"));
     eprintln!("the planted error was reported as: {caught}");
 }
 
@@ -147,9 +170,11 @@ fn out_of_range_flags_are_refused_with_the_allowed_range() {
 #[test]
 fn bad_model_files_end_in_one_line_naming_the_file_and_line() {
     let dir = scratch("files");
-    let garbage: Vec<u8> = (0..512u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8 | 0x80).collect();
+    let garbage: Vec<u8> =
+        (0..512u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8 | 0x80).collect();
     std::fs::write(dir.join("garbage.obj"), garbage).unwrap();
-    std::fs::write(dir.join("index.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 9\n").unwrap();
+    std::fs::write(dir.join("index.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 9\n")
+        .unwrap();
     std::fs::write(dir.join("truncated.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 2").unwrap();
     std::fs::write(dir.join("cut.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2").unwrap();
     std::fs::write(dir.join("nan.obj"), "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n").unwrap();
@@ -159,8 +184,14 @@ fn bad_model_files_end_in_one_line_naming_the_file_and_line() {
     let cases: Vec<(String, Vec<String>)> = vec![
         (path("missing.obj"), vec![path("missing.obj"), "No such file".into()]),
         (path("folder.obj"), vec![path("folder.obj"), "directory".into()]),
-        (path("garbage.obj"), vec![path("garbage.obj"), "not an OBJ text file".into(), "line 1".into()]),
-        (path("index.obj"), vec![path("index.obj"), "line 6".into(), "index 9 is out of range".into()]),
+        (
+            path("garbage.obj"),
+            vec![path("garbage.obj"), "not an OBJ text file".into(), "line 1".into()],
+        ),
+        (
+            path("index.obj"),
+            vec![path("index.obj"), "line 6".into(), "index 9 is out of range".into()],
+        ),
         (path("truncated.obj"), vec![path("truncated.obj"), "line 5".into(), "cut short".into()]),
         (path("cut.obj"), vec![path("cut.obj"), "line 4".into(), "cut short".into()]),
         (path("nan.obj"), vec![path("nan.obj"), "line 2".into(), "not a finite number".into()]),
@@ -168,7 +199,21 @@ fn bad_model_files_end_in_one_line_naming_the_file_and_line() {
     ];
     let out_path = dir.join("out.png");
     for (model, needles) in &cases {
-        let out = meshtracer(&["render", "--cpu", "--width", "8", "--height", "8", "--model", model, "-o", out_path.to_str().unwrap()], &[]);
+        let out = meshtracer(
+            &[
+                "render",
+                "--cpu",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--model",
+                model,
+                "-o",
+                out_path.to_str().unwrap(),
+            ],
+            &[],
+        );
         let line = one_line_error(&out, model);
         let needles: Vec<&str> = needles.iter().map(String::as_str).collect();
         assert_mentions(&line, &needles, model);
@@ -205,11 +250,15 @@ fn a_scene_over_the_storage_buffer_range_is_refused_before_upload() {
             assert_eq!((buffer, b, l), ("triangle", bytes, limit), "{what}");
         }
         Err(e) => panic!("{what}: expected SceneTooLarge, got: {e}"),
-        Ok(()) => panic!("{what}: a {bytes}-byte triangle buffer was accepted with a {limit}-byte limit"),
+        Ok(()) => {
+            panic!("{what}: a {bytes}-byte triangle buffer was accepted with a {limit}-byte limit")
+        }
     };
     check(check_fits(&ctx, &packed), "check_fits");
     check(SceneBuffers::upload(&ctx, &packed).map(drop), "SceneBuffers::upload");
-    let err = ComputeTracer::with_scene(&ctx, &packed).err().expect("ComputeTracer::new refuses the scene");
+    let err = ComputeTracer::with_scene(&ctx, &packed)
+        .err()
+        .expect("ComputeTracer::new refuses the scene");
     check(Err(err), "ComputeTracer::with_scene");
     let msg = ComputeTracer::with_scene(&ctx, &packed).err().unwrap().to_string();
     assert_mentions(&msg, &["triangle buffer", &bytes.to_string(), &limit.to_string()], "message");
@@ -231,7 +280,11 @@ fn a_scene_at_the_storage_buffer_range_is_accepted_by_the_check() {
     let ctx = common::ctx();
     let limit = ctx.info.max_storage_buffer_range;
     let mut packed = PackedScene::default();
-    packed.triangles = vec![GpuTriangle::default(); ((limit - READ_AHEAD) / std::mem::size_of::<GpuTriangle>() as u64) as usize];
+    packed.triangles = vec![
+        GpuTriangle::default();
+        ((limit - READ_AHEAD) / std::mem::size_of::<GpuTriangle>() as u64)
+            as usize
+    ];
     check_fits(&ctx, &packed).expect("a triangle buffer within the limit fits");
 }
 
@@ -244,7 +297,8 @@ fn an_output_image_over_the_storage_buffer_range_is_refused() {
     let ctx = GpuContext::new(&ContextOptions::validated()).expect("a validated context");
     let limit = ctx.info.max_storage_buffer_range;
     let width = 4096u32;
-    let height = u32::try_from(limit / 16 / width as u64 + 8).unwrap_or(u32::MAX).min(MAX_RESOLUTION);
+    let height =
+        u32::try_from(limit / 16 / width as u64 + 8).unwrap_or(u32::MAX).min(MAX_RESOLUTION);
     let bytes = width as u64 * height as u64 * 16;
     if bytes <= limit {
         eprintln!("this device's storage-buffer range ({limit} bytes) holds any allowed image: nothing to provoke");
@@ -253,7 +307,10 @@ fn an_output_image_over_the_storage_buffer_range_is_refused() {
     let scene = common::paper(PaperModel::Geosphere, 1);
     let packed = PackedScene::new(&scene);
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
-    let mut params = FrameParams::new(&scene, RenderSettings { width, height, bounces: 0, ..RenderSettings::default() });
+    let mut params = FrameParams::new(
+        &scene,
+        RenderSettings { width, height, bounces: 0, ..RenderSettings::default() },
+    );
     params.instance_count = 0; // if it does trace, every ray misses at once
     let result = tracer.trace(&params);
     let messages = ctx.validation_messages();
@@ -288,12 +345,16 @@ fn device_lost_and_out_of_memory_have_their_own_one_sentence_errors() {
     assert!(matches!(other, GpuError::Vulkan { what: "creating a fence", .. }), "{other:?}");
     // Through the `?`-helper as every call site uses it.
     use meshtracer::gpu::error::VkContext;
-    let via: Result<(), GpuError> = Err(vk::Result::ERROR_DEVICE_LOST).during("waiting for the GPU");
+    let via: Result<(), GpuError> =
+        Err(vk::Result::ERROR_DEVICE_LOST).during("waiting for the GPU");
     assert!(matches!(via, Err(GpuError::DeviceLost("waiting for the GPU"))));
 
     let messages = [
         (lost.to_string(), vec!["VK_ERROR_DEVICE_LOST", "tracing a frame"]),
-        (GpuError::vk("creating a buffer", vk::Result::ERROR_OUT_OF_DEVICE_MEMORY).to_string(), vec!["out of memory", "creating a buffer"]),
+        (
+            GpuError::vk("creating a buffer", vk::Result::ERROR_OUT_OF_DEVICE_MEMORY).to_string(),
+            vec!["out of memory", "creating a buffer"],
+        ),
     ];
     for (msg, needles) in &messages {
         assert_mentions(msg, needles, "GpuError");
@@ -330,8 +391,15 @@ fn an_unwritable_output_path_is_one_line_naming_it() {
 fn no_vulkan_driver_gives_the_one_line_install_hint() {
     let dir = scratch("nodriver");
     let out_path = dir.join("x.png");
-    let env = [("VK_ICD_FILENAMES", "/nonexistent.json"), ("VK_DRIVER_FILES", "/nonexistent.json"), ("VK_ADD_DRIVER_FILES", "")];
-    for cmd in [&["render", "--width", "8", "--height", "8", "-o", out_path.to_str().unwrap()][..], &["devices"][..]] {
+    let env = [
+        ("VK_ICD_FILENAMES", "/nonexistent.json"),
+        ("VK_DRIVER_FILES", "/nonexistent.json"),
+        ("VK_ADD_DRIVER_FILES", ""),
+    ];
+    for cmd in [
+        &["render", "--width", "8", "--height", "8", "-o", out_path.to_str().unwrap()][..],
+        &["devices"][..],
+    ] {
         let what = cmd.join(" ");
         let line = one_line_error(&meshtracer(cmd, &env), &what);
         assert_mentions(&line, &["install a Vulkan driver", "lavapipe"], &what);
@@ -350,7 +418,11 @@ fn replay(data: &[u8], what: &str) -> Result<pipeline::Outcome, String> {
     let dir = scratch("replay");
     let result = std::panic::catch_unwind(|| pipeline::run(data, &dir));
     result.map_err(|p| {
-        let msg = p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default();
+        let msg = p
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default();
         format!("{what}: {msg}")
     })
 }
@@ -372,7 +444,12 @@ fn every_fuzz_regression_input_runs_through_the_pipeline() {
             failures.push(e);
         }
     }
-    assert!(failures.is_empty(), "{} of {count} regression inputs fail:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {count} regression inputs fail:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
 
 /// An n-gon face over `n` vertices on a circle.
@@ -395,7 +472,8 @@ fn handcrafted_nasty_inputs_are_traced_or_refused_with_a_line() {
     let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     let big_polygon = ngon(1000);
     let many_identical = tri.to_string() + &"f 1 2 3\n".repeat(3000);
-    let many_points = (0..2000).map(|i| format!("v {i} {i} {i}\n")).collect::<String>() + &"f 1 1 1\n".repeat(500);
+    let many_points = (0..2000).map(|i| format!("v {i} {i} {i}\n")).collect::<String>()
+        + &"f 1 1 1\n".repeat(500);
     type Expect<'a> = &'a dyn Fn(&pipeline::Outcome) -> bool;
     let cases: Vec<(&str, Vec<u8>, Expect)> = vec![
         // Coordinates whose extent or centre overflows f32 when the model is normalised.
@@ -440,5 +518,11 @@ fn handcrafted_nasty_inputs_are_traced_or_refused_with_a_line() {
             Err(e) => failures.push(e),
         }
     }
-    assert!(failures.is_empty(), "{} of {} nasty inputs fail:\n{}", failures.len(), cases.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} nasty inputs fail:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
 }

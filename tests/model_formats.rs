@@ -15,7 +15,8 @@ struct TempDir(PathBuf);
 
 impl TempDir {
     fn new(tag: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("meshtracer-formats-{tag}-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-formats-{tag}-{}", std::process::id()));
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
@@ -97,11 +98,17 @@ fn ply_bytes(enc: Encoding, verts: &[[f32; 6]], faces: &[Vec<u32>]) -> Vec<u8> {
     };
     for v in verts {
         if enc == Encoding::Ascii {
-            out.extend(format!("{} {} {} 200 {} {} {}\n", v[0], v[1], v[2], v[3], v[4], v[5]).bytes());
+            out.extend(
+                format!("{} {} {} 200 {} {} {}\n", v[0], v[1], v[2], v[3], v[4], v[5]).bytes(),
+            );
             continue;
         }
         for c in &v[..3] {
-            if pos_type == "double" { put(&mut out, (*c as f64).to_le_bytes().to_vec()) } else { put(&mut out, c.to_le_bytes().to_vec()) }
+            if pos_type == "double" {
+                put(&mut out, (*c as f64).to_le_bytes().to_vec())
+            } else {
+                put(&mut out, c.to_le_bytes().to_vec())
+            }
         }
         out.push(200);
         for c in &v[3..] {
@@ -115,7 +122,11 @@ fn ply_bytes(enc: Encoding, verts: &[[f32; 6]], faces: &[Vec<u32>]) -> Vec<u8> {
             continue;
         }
         out.push(7);
-        if enc == Encoding::Big { put(&mut out, (f.len() as u16).to_le_bytes().to_vec()) } else { out.push(f.len() as u8) }
+        if enc == Encoding::Big {
+            put(&mut out, (f.len() as u16).to_le_bytes().to_vec())
+        } else {
+            out.push(f.len() as u8)
+        }
         for i in f {
             put(&mut out, i.to_le_bytes().to_vec());
         }
@@ -140,7 +151,12 @@ fn assert_same_geometry(a: &Mesh, b: &Mesh, what: &str) {
     assert_eq!(ca.len(), cb.len(), "{what}: triangle count");
     for (i, (x, y)) in ca.iter().zip(&cb).enumerate() {
         for k in 0..3 {
-            assert!((x[k] - y[k]).length() < 1e-5, "{what}: triangle {i} corner {k}: {} vs {}", x[k], y[k]);
+            assert!(
+                (x[k] - y[k]).length() < 1e-5,
+                "{what}: triangle {i} corner {k}: {} vs {}",
+                x[k],
+                y[k]
+            );
         }
     }
 }
@@ -154,11 +170,19 @@ fn ply_in_every_encoding_loads_as_its_obj_twin() {
     let dir = TempDir::new("ply");
     let (verts, faces) = shape();
     let obj = load_obj(&dir.write("twin.obj", obj_text(&verts, &faces))).unwrap().mesh;
-    for (enc, name) in [(Encoding::Ascii, "ascii.ply"), (Encoding::Little, "little.ply"), (Encoding::Big, "BIG.PLY")] {
+    for (enc, name) in [
+        (Encoding::Ascii, "ascii.ply"),
+        (Encoding::Little, "little.ply"),
+        (Encoding::Big, "BIG.PLY"),
+    ] {
         let path = dir.write(name, ply_bytes(enc, &verts, &faces));
         let loaded = load_model_file(&path, &LoadOptions::default()).unwrap();
         assert_same_geometry(&obj, &loaded.mesh, name);
-        assert_eq!(loaded.mesh.triangles.len(), 2 + 1 + 3 + 1, "quads split in two, pentagons in three");
+        assert_eq!(
+            loaded.mesh.triangles.len(),
+            2 + 1 + 3 + 1,
+            "quads split in two, pentagons in three"
+        );
         assert!(loaded.mesh.has_file_normals, "{name}: nx/ny/nz are kept");
         assert!(loaded.warnings.iter().all(|w| !w.contains('\n')), "{:?}", loaded.warnings);
     }
@@ -173,7 +197,10 @@ fn ply_and_obj_render_the_same_image() {
     let render = |model: &str, out: &str| {
         let run = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
             .current_dir(&dir.0)
-            .args(["render", "--cpu", "--width", "32", "--height", "32", "--smooth", "--model", model, "-o", out])
+            .args([
+                "render", "--cpu", "--width", "32", "--height", "32", "--smooth", "--model", model,
+                "-o", out,
+            ])
             .output()
             .unwrap();
         assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
@@ -186,7 +213,12 @@ fn ply_and_obj_render_the_same_image() {
 
 /// A quad (four vertices, two triangles by u16 indices) and a triangle without indices.
 fn gltf_bin() -> (Vec<u8>, [Vec3; 4]) {
-    let quad = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+    let quad = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
     let mut bin = Vec::new();
     for p in quad {
         bin.extend(p.to_array().iter().flat_map(|c| c.to_le_bytes()));
@@ -233,8 +265,16 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
     assert!((loaded.mesh.materials[0].diffuse - Vec3::new(0.8, 0.1, 0.1)).length() < 1e-6);
 
     // The OBJ twin: the quad placed by hand by each node's world matrix, in scene order.
-    let node1 = Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_xyzw(0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2), Vec3::ZERO);
-    let worlds = [Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)), node1, node1 * Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0))];
+    let node1 = Mat4::from_scale_rotation_translation(
+        Vec3::splat(2.0),
+        Quat::from_xyzw(0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2),
+        Vec3::ZERO,
+    );
+    let worlds = [
+        Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)),
+        node1,
+        node1 * Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)),
+    ];
     let mut obj = String::new();
     for (k, w) in worlds.iter().enumerate() {
         for p in quad {
@@ -265,16 +305,30 @@ fn gltf_base_colour_textures_are_paths_beside_the_file() {
             &format!(r#""materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}}], "textures": [{{"source": 0}}], "images": [{{"uri": "{uri}"}}],"#),
         )
     };
-    let loaded = load_model_file(&dir.write("tex.gltf", textured("wood%20grain.png")), &LoadOptions::default()).unwrap();
+    let loaded = load_model_file(
+        &dir.write("tex.gltf", textured("wood%20grain.png")),
+        &LoadOptions::default(),
+    )
+    .unwrap();
     let material = &loaded.mesh.materials[0];
     assert_eq!(material.diffuse_texture.as_deref(), Some(dir.0.join("wood grain.png").as_path()));
     assert_eq!((material.name.as_str(), material.diffuse), ("material 0", Vec3::ONE));
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
 
-    for (name, uri, warning) in [("missing.gltf", "nowhere.png", "texture `nowhere.png` of material 0 not found"), ("embedded.gltf", "data:image/png;base64,AAAA", "embedded texture")] {
-        let loaded = load_model_file(&dir.write(name, textured(uri)), &LoadOptions::default()).unwrap();
+    for (name, uri, warning) in [
+        ("missing.gltf", "nowhere.png", "texture `nowhere.png` of material 0 not found"),
+        ("embedded.gltf", "data:image/png;base64,AAAA", "embedded texture"),
+    ] {
+        let loaded =
+            load_model_file(&dir.write(name, textured(uri)), &LoadOptions::default()).unwrap();
         assert_eq!(loaded.mesh.materials[0].diffuse_texture, None);
-        assert!(loaded.warnings.len() == 1 && loaded.warnings[0].contains(name) && loaded.warnings[0].contains(warning), "{:?}", loaded.warnings);
+        assert!(
+            loaded.warnings.len() == 1
+                && loaded.warnings[0].contains(name)
+                && loaded.warnings[0].contains(warning),
+            "{:?}",
+            loaded.warnings
+        );
     }
 }
 
@@ -325,11 +379,31 @@ fn broken_ply_files_are_one_line_naming_the_file() {
     let ascii = String::from_utf8(ply_bytes(Encoding::Ascii, &verts, &faces)).unwrap();
     let little = ply_bytes(Encoding::Little, &verts, &faces);
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
-        ("more.ply", replace_bytes(&little, "element vertex 7", "element vertex 4000000000"), "the header claims 4000000000 `vertex`"),
-        ("format.ply", ascii.replace("format ascii", "format ebcdic").into_bytes(), "line 2: unknown format `ebcdic`"),
-        ("type.ply", ascii.replace("property uchar red", "property half red").into_bytes(), "line 9: unknown property type `half`"),
-        ("range.ply", ascii.replace("7 3 3 2 4", "7 3 3 2 99").into_bytes(), "face vertex index 99 is out of range (the file has 7 vertices)"),
-        ("corners.ply", ascii.replace("7 3 3 2 4", "7 2 3 2 4").into_bytes(), "a face has 2 corners; at least 3 are needed"),
+        (
+            "more.ply",
+            replace_bytes(&little, "element vertex 7", "element vertex 4000000000"),
+            "the header claims 4000000000 `vertex`",
+        ),
+        (
+            "format.ply",
+            ascii.replace("format ascii", "format ebcdic").into_bytes(),
+            "line 2: unknown format `ebcdic`",
+        ),
+        (
+            "type.ply",
+            ascii.replace("property uchar red", "property half red").into_bytes(),
+            "line 9: unknown property type `half`",
+        ),
+        (
+            "range.ply",
+            ascii.replace("7 3 3 2 4", "7 3 3 2 99").into_bytes(),
+            "face vertex index 99 is out of range (the file has 7 vertices)",
+        ),
+        (
+            "corners.ply",
+            ascii.replace("7 3 3 2 4", "7 2 3 2 4").into_bytes(),
+            "a face has 2 corners; at least 3 are needed",
+        ),
         ("cut.ply", little[..little.len() - 9].to_vec(), "cut short"),
         ("notply.ply", b"solid cube\nfacet normal 0 0 1\n".to_vec(), "not a PLY file"),
     ];
@@ -340,7 +414,10 @@ fn broken_ply_files_are_one_line_naming_the_file() {
     let mut bad_index = little.clone();
     let at = bad_index.len() - 16 - 4; // the last face's last index (before two edges)
     bad_index[at..at + 4].copy_from_slice(&1000u32.to_le_bytes());
-    assert_one_line_error(&dir.write("index.ply", bad_index), "face 3: face vertex index 1000 is out of range");
+    assert_one_line_error(
+        &dir.write("index.ply", bad_index),
+        "face 3: face vertex index 1000 is out of range",
+    );
 }
 
 #[test]
@@ -348,29 +425,54 @@ fn broken_gltf_files_are_one_line_naming_the_file() {
     let dir = TempDir::new("bad-gltf");
     let (bin, _) = gltf_bin();
     dir.write("quad.bin", &bin);
-    assert_one_line_error(&dir.write("missing.gltf", gltf_json("nowhere.bin", "VEC3")), "cannot read its buffer");
-    assert_one_line_error(&dir.write("type.gltf", gltf_json("quad.bin", "VEC2")), "accessor 0 (POSITION) is of type Vec2, expected Vec3");
+    assert_one_line_error(
+        &dir.write("missing.gltf", gltf_json("nowhere.bin", "VEC3")),
+        "cannot read its buffer",
+    );
+    assert_one_line_error(
+        &dir.write("type.gltf", gltf_json("quad.bin", "VEC2")),
+        "accessor 0 (POSITION) is of type Vec2, expected Vec3",
+    );
     let past = gltf_json("quad.bin", "VEC3").replace(r#""count": 6"#, r#""count": 60"#);
-    assert_one_line_error(&dir.write("past.gltf", past), "accessor 1 (indices) runs past the end of its buffer view 1");
-    let short = gltf_json("quad.bin", "VEC3").replace(r#""byteLength": 60"#, r#""byteLength": 600"#);
-    assert_one_line_error(&dir.write("short.gltf", short), "buffer 0 holds 60 bytes, but its byteLength is 600");
+    assert_one_line_error(
+        &dir.write("past.gltf", past),
+        "accessor 1 (indices) runs past the end of its buffer view 1",
+    );
+    let short =
+        gltf_json("quad.bin", "VEC3").replace(r#""byteLength": 60"#, r#""byteLength": 600"#);
+    assert_one_line_error(
+        &dir.write("short.gltf", short),
+        "buffer 0 holds 60 bytes, but its byteLength is 600",
+    );
     assert_one_line_error(&dir.write("json.gltf", "{\"asset\": "), "not a valid glTF 2.0 file");
     let no_accessor = r#"{"asset": {"version": "2.0"}, "meshes": [{"primitives": [{"attributes": {"POSITION": 7}}]}]}"#;
-    assert_one_line_error(&dir.write("accessor.gltf", no_accessor), "POSITION is accessor 7, but the file has 0 accessors");
+    assert_one_line_error(
+        &dir.write("accessor.gltf", no_accessor),
+        "POSITION is accessor 7, but the file has 0 accessors",
+    );
     let dangling = gltf_json("quad.bin", "VEC3").replace(r#""indices": 1"#, r#""indices": 9"#);
     assert_one_line_error(&dir.write("dangling.gltf", dangling), "not a valid glTF 2.0 file");
     let mut glb = glb_bytes(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin);
     let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
     glb[20 + json_len..24 + json_len].copy_from_slice(&100_000u32.to_le_bytes());
-    assert_one_line_error(&dir.write("chunk.glb", &glb), "claims 100000 bytes, past the end of the file");
+    assert_one_line_error(
+        &dir.write("chunk.glb", &glb),
+        "claims 100000 bytes, past the end of the file",
+    );
     glb[8..12].copy_from_slice(&5u32.to_le_bytes());
-    assert_one_line_error(&dir.write("header.glb", &glb), "the .glb header gives a length of 5 bytes");
+    assert_one_line_error(
+        &dir.write("header.glb", &glb),
+        "the .glb header gives a length of 5 bytes",
+    );
 }
 
 #[test]
 fn unknown_extensions_list_the_formats() {
     let dir = TempDir::new("ext");
-    assert_one_line_error(&dir.write("cube.stl", "solid"), "expected an OBJ (.obj), PLY (.ply) or glTF 2.0 (.gltf, .glb) file");
+    assert_one_line_error(
+        &dir.write("cube.stl", "solid"),
+        "expected an OBJ (.obj), PLY (.ply) or glTF 2.0 (.gltf, .glb) file",
+    );
 }
 
 #[test]
@@ -381,8 +483,11 @@ fn a_fifo_named_ply_is_refused_at_once() {
     // Opening a FIFO for reading waits for a writer: the check must come before.
     let (tx, rx) = std::sync::mpsc::channel();
     let p = path.clone();
-    std::thread::spawn(move || tx.send(load_model_file(&p, &LoadOptions::default()).map(|_| ()).map_err(|e| e.to_string())));
-    let result = rx.recv_timeout(std::time::Duration::from_secs(10)).expect("loading a FIFO blocked");
+    std::thread::spawn(move || {
+        tx.send(load_model_file(&p, &LoadOptions::default()).map(|_| ()).map_err(|e| e.to_string()))
+    });
+    let result =
+        rx.recv_timeout(std::time::Duration::from_secs(10)).expect("loading a FIFO blocked");
     let e = result.unwrap_err();
     assert!(e.contains("pipe.ply") && e.contains("not a regular file"), "{e}");
 }
@@ -439,7 +544,8 @@ fn plain_ply(format: &str, verts: &[[f32; 8]], tris: &[[i32; 3]]) -> Vec<u8> {
         tris.len()
     )
     .into_bytes();
-    let word = |out: &mut Vec<u8>, b: [u8; 4]| out.extend(if big { [b[3], b[2], b[1], b[0]] } else { b });
+    let word =
+        |out: &mut Vec<u8>, b: [u8; 4]| out.extend(if big { [b[3], b[2], b[1], b[0]] } else { b });
     for v in verts {
         if format == "ascii" {
             out.extend(format!("{}\n", v.map(|c| c.to_string()).join(" ")).bytes());
@@ -477,9 +583,19 @@ fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
             [[at(0, 0), at(1, 0), at(1, 1)], [at(0, 0), at(1, 1), at(0, 1)]]
         })
         .collect();
-    let ascii = load_model_file(&dir.write("grid.ply", plain_ply("ascii", &verts, &tris)), &LoadOptions::default()).unwrap().mesh;
+    let ascii = load_model_file(
+        &dir.write("grid.ply", plain_ply("ascii", &verts, &tris)),
+        &LoadOptions::default(),
+    )
+    .unwrap()
+    .mesh;
     for format in ["binary_little_endian", "binary_big_endian"] {
-        let binary = load_model_file(&dir.write(&format!("{format}.ply"), plain_ply(format, &verts, &tris)), &LoadOptions::default()).unwrap().mesh;
+        let binary = load_model_file(
+            &dir.write(&format!("{format}.ply"), plain_ply(format, &verts, &tris)),
+            &LoadOptions::default(),
+        )
+        .unwrap()
+        .mesh;
         assert_eq!(binary.positions, ascii.positions, "{format}");
         assert_eq!(binary.normals, ascii.normals, "{format}");
         assert_eq!(binary.texcoords, ascii.texcoords, "{format}");
@@ -489,6 +605,14 @@ fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
     // Anything wrong in it is still found and named by the reader that says what.
     let mut bad = tris.clone();
     bad[1000][2] = 99_999;
-    let err = load_model_file(&dir.write("bad.ply", plain_ply("binary_little_endian", &verts, &bad)), &LoadOptions::default()).unwrap_err().to_string();
-    assert!(err.contains("face 1000") && err.contains("99999") && err.contains("out of range"), "{err}");
+    let err = load_model_file(
+        &dir.write("bad.ply", plain_ply("binary_little_endian", &verts, &bad)),
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("face 1000") && err.contains("99999") && err.contains("out of range"),
+        "{err}"
+    );
 }

@@ -7,7 +7,9 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use meshtracer::scene::obj::{load_obj, load_obj_from_str, load_obj_with, LoadOptions, LoadedObj, ObjError};
+use meshtracer::scene::obj::{
+    load_obj, load_obj_from_str, load_obj_with, LoadOptions, LoadedObj, ObjError,
+};
 use meshtracer::scene::primitives::{write_obj, PaperModel};
 use meshtracer::scene::Mesh;
 
@@ -52,13 +54,18 @@ fn polygon_with_more_corners_becomes_a_fan() {
     let text = "v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n";
     let mesh = load(text).mesh;
     let p = [v(0., 0., 0.), v(2., 0., 0.), v(3., 1., 0.), v(1., 2., 0.), v(-1., 1., 0.)];
-    assert_eq!(triangle_corners(&mesh), [[p[0], p[1], p[2]], [p[0], p[2], p[3]], [p[0], p[3], p[4]]]);
+    assert_eq!(
+        triangle_corners(&mesh),
+        [[p[0], p[1], p[2]], [p[0], p[2], p[3]], [p[0], p[3], p[4]]]
+    );
 }
 
 #[test]
 fn negative_indices_count_back_from_the_last_vertex() {
-    let absolute = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4 5 6\n").mesh;
-    let relative = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n").mesh;
+    let absolute =
+        load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4 5 6\n").mesh;
+    let relative =
+        load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n").mesh;
     assert_eq!(triangle_corners(&relative), triangle_corners(&absolute));
     assert_eq!(relative.triangle_count(), 2);
     assert_eq!(relative.corners(1)[0], v(0., 0., 1.));
@@ -128,7 +135,8 @@ fn lines_and_points_are_not_triangles() {
 
 #[test]
 fn windows_line_endings_comments_and_a_bom_are_fine() {
-    let mesh = load("\u{feff}# comment\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\ns off\r\nf 1 2 3\r\n").mesh;
+    let mesh =
+        load("\u{feff}# comment\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\ns off\r\nf 1 2 3\r\n").mesh;
     assert_eq!(mesh.triangle_count(), 1);
     assert_eq!(mesh.corners(0)[1], v(1., 0., 0.));
 }
@@ -162,7 +170,11 @@ fn missing_mtl_is_a_warning_and_the_default_material_is_used() {
     assert_eq!(loaded.mesh.materials.len(), 1);
     assert_eq!(loaded.mesh.materials[0].diffuse, meshtracer::scene::Material::default().diffuse);
     assert_eq!(loaded.mesh.triangle_materials, [0]);
-    assert!(loaded.warnings.iter().any(|w| w.contains("does-not-exist.mtl")), "{:?}", loaded.warnings);
+    assert!(
+        loaded.warnings.iter().any(|w| w.contains("does-not-exist.mtl")),
+        "{:?}",
+        loaded.warnings
+    );
     // And `usemtl shiny` found nothing to use.
     assert!(loaded.warnings.iter().any(|w| w.contains("usemtl shiny")), "{:?}", loaded.warnings);
 }
@@ -182,9 +194,15 @@ fn missing_texture_is_a_warning() {
 
 #[test]
 fn mtllib_without_a_folder_is_a_warning() {
-    let loaded = load_obj_from_str("mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "inline.obj", None).unwrap();
+    let loaded =
+        load_obj_from_str("mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "inline.obj", None)
+            .unwrap();
     assert_eq!(loaded.mesh.materials.len(), 1);
-    assert!(loaded.warnings.iter().any(|w| w.contains("inline.obj") && w.contains("x.mtl")), "{:?}", loaded.warnings);
+    assert!(
+        loaded.warnings.iter().any(|w| w.contains("inline.obj") && w.contains("x.mtl")),
+        "{:?}",
+        loaded.warnings
+    );
 }
 
 #[test]
@@ -197,7 +215,10 @@ fn malformed_mtl_colours_do_not_stop_the_load() {
     let loaded = load_obj_from_str(obj, "odd.obj", Some(&dir)).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     let grey = &loaded.mesh.materials[0];
-    assert_eq!((grey.name.as_str(), grey.diffuse, grey.shininess), ("grey", Vec3::splat(0.25), 5.0));
+    assert_eq!(
+        (grey.name.as_str(), grey.diffuse, grey.shininess),
+        ("grey", Vec3::splat(0.25), 5.0)
+    );
     assert!(loaded.warnings.iter().any(|w| w.contains("odd.mtl line 3")), "{:?}", loaded.warnings);
 }
 
@@ -255,11 +276,23 @@ fn faces_naming_normals_the_file_never_defines_get_computed_ones() {
     let text = std::fs::read_to_string(data("missing_normals.obj")).unwrap();
     let stripped: String = text
         .lines()
-        .map(|l| if l.starts_with("f ") { l.split(' ').map(|c| c.rsplit_once('/').map_or(c, |(head, _)| head)).collect::<Vec<_>>().join(" ") } else { l.to_owned() })
+        .map(|l| {
+            if l.starts_with("f ") {
+                l.split(' ')
+                    .map(|c| c.rsplit_once('/').map_or(c, |(head, _)| head))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            } else {
+                l.to_owned()
+            }
+        })
         .map(|l| l + "\n")
         .collect();
     let plain = load(&stripped).mesh;
-    assert_eq!((plain.positions, plain.normals, plain.texcoords, plain.triangles), (mesh.positions, mesh.normals, mesh.texcoords, mesh.triangles));
+    assert_eq!(
+        (plain.positions, plain.normals, plain.texcoords, plain.triangles),
+        (mesh.positions, mesh.normals, mesh.texcoords, mesh.triangles)
+    );
 }
 
 #[test]
@@ -272,13 +305,19 @@ fn smoothing_groups_decide_which_faces_share_a_computed_normal() {
         let positions = mesh.corners(t);
         if face.y.abs() > 0.5 {
             // Top (s 2, alone in its group) and bottom (s off): flat, hard edges all round.
-            assert!(corners.iter().all(|&n| n == face), "triangle {t}: {corners:?} should all be {face}");
+            assert!(
+                corners.iter().all(|&n| n == face),
+                "triangle {t}: {corners:?} should all be {face}"
+            );
         } else {
             // Sides (s 1): each corner averages the two sides that meet there (weighted by
             // the areas of their triangles at the corner), level since the top and bottom
             // take no part, pointing out between the two sides.
             for (n, p) in corners.iter().zip(positions) {
-                assert!(n.y == 0.0 && n.x * p.x > 0.1 && n.z * p.z > 0.1, "triangle {t} corner {p}: {n}");
+                assert!(
+                    n.y == 0.0 && n.x * p.x > 0.1 && n.z * p.z > 0.1,
+                    "triangle {t} corner {p}: {n}"
+                );
             }
         }
     }
@@ -287,7 +326,14 @@ fn smoothing_groups_decide_which_faces_share_a_computed_normal() {
     assert_eq!(mesh.vertex_count(), 16);
     // Without the `s` lines, the same box is smooth all over: no flat top.
     let text = std::fs::read_to_string(data("smoothing_groups.obj")).unwrap();
-    let blob = load(&text.lines().filter(|l| !l.starts_with("s ")).map(|l| format!("{l}\n")).collect::<String>()).mesh;
+    let blob = load(
+        &text
+            .lines()
+            .filter(|l| !l.starts_with("s "))
+            .map(|l| format!("{l}\n"))
+            .collect::<String>(),
+    )
+    .mesh;
     let (top, face) = corner_and_face_normals(&blob, 8);
     assert!(face.y > 0.99 && top.iter().all(|n| n.y < 0.9), "{top:?}");
 }
@@ -296,7 +342,9 @@ fn smoothing_groups_decide_which_faces_share_a_computed_normal() {
 fn faces_before_the_first_smoothing_group_and_in_group_zero_are_flat() {
     // Two triangles folded along their shared edge: smooth in one group, flat otherwise.
     let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\n";
-    let folded = |statements: [&str; 2]| load(&format!("{head}{}f 1 2 3\n{}f 2 4 3\n", statements[0], statements[1])).mesh;
+    let folded = |statements: [&str; 2]| {
+        load(&format!("{head}{}f 1 2 3\n{}f 2 4 3\n", statements[0], statements[1])).mesh
+    };
     for (statements, smooth) in [
         (["s 1\n", ""], true),
         (["s 4\n", "s 4\n"], true),
@@ -321,14 +369,26 @@ fn a_crease_angle_keeps_sharp_edges_in_files_without_normals_or_groups() {
     let wide = load_obj_with(&cube, &LoadOptions { crease_angle: Some(100.0) }).unwrap().mesh;
     for t in 0..creased.triangle_count() {
         let (corners, face) = corner_and_face_normals(&creased, t);
-        assert!(corners.iter().all(|n| close(*n, face)), "triangle {t}: {corners:?} should all be {face}");
+        assert!(
+            corners.iter().all(|n| close(*n, face)),
+            "triangle {t}: {corners:?} should all be {face}"
+        );
         // Above 90 degrees every edge of the cube is smoothed, as without the option.
-        assert_eq!(corner_and_face_normals(&wide, t).0, corner_and_face_normals(&smooth, t).0, "triangle {t}");
+        assert_eq!(
+            corner_and_face_normals(&wide, t).0,
+            corner_and_face_normals(&smooth, t).0,
+            "triangle {t}"
+        );
     }
     assert_eq!(creased.vertex_count(), 24, "each corner of the cube with three normals");
     // Shallow bends smooth within the angle: a strip of three squares bent by 20 degrees
     // and then 80.
-    let (c20, s20, c80, s80) = (20f32.to_radians().cos(), 20f32.to_radians().sin(), 100f32.to_radians().cos(), 100f32.to_radians().sin());
+    let (c20, s20, c80, s80) = (
+        20f32.to_radians().cos(),
+        20f32.to_radians().sin(),
+        100f32.to_radians().cos(),
+        100f32.to_radians().sin(),
+    );
     let text = format!(
         "v 0 0 0\nv 0 1 0\nv 1 0 0\nv 1 1 0\nv {x2} 0 {z2}\nv {x2} 1 {z2}\nv {x3} 0 {z3}\nv {x3} 1 {z3}\nf 1 3 4 2\nf 3 5 6 4\nf 5 7 8 6\n",
         x2 = 1.0 + c20,
@@ -338,16 +398,28 @@ fn a_crease_angle_keeps_sharp_edges_in_files_without_normals_or_groups() {
     );
     let bent = load_obj_from_str_with_crease(&text, 45.0);
     let normal_at = |t: usize, k: usize| corner_and_face_normals(&bent, t).0[k];
-    let faces: Vec<Vec3> = (0..bent.triangle_count()).map(|t| corner_and_face_normals(&bent, t).1).collect();
+    let faces: Vec<Vec3> =
+        (0..bent.triangle_count()).map(|t| corner_and_face_normals(&bent, t).1).collect();
     // Triangle 0 is (1, 3, 2) of the first square: its corner at vertex 3 is on the
     // 20-degree bend, where both triangles of the first square and one of the second meet.
-    assert!(close(normal_at(0, 1), (2.0 * faces[0] + faces[2]).normalize()), "{:?}", normal_at(0, 1));
+    assert!(
+        close(normal_at(0, 1), (2.0 * faces[0] + faces[2]).normalize()),
+        "{:?}",
+        normal_at(0, 1)
+    );
     // Triangle 2 is (3, 5, 4) of the second square: its corner at vertex 5 is on the 80-degree bend, kept sharp.
     assert!(close(normal_at(2, 1), faces[2]), "{:?}", normal_at(2, 1));
 }
 
 fn load_obj_from_str_with_crease(text: &str, degrees: f32) -> Mesh {
-    meshtracer::scene::obj::load_obj_from_str_with(text, "test.obj", None, &LoadOptions { crease_angle: Some(degrees) }).unwrap().mesh
+    meshtracer::scene::obj::load_obj_from_str_with(
+        text,
+        "test.obj",
+        None,
+        &LoadOptions { crease_angle: Some(degrees) },
+    )
+    .unwrap()
+    .mesh
 }
 
 #[test]
@@ -367,7 +439,10 @@ fn assert_names(e: &ObjError, file: &str, line: Option<usize>) {
     let message = e.to_string();
     assert!(message.contains(file), "message does not name {file}: {message}");
     if let Some(n) = line {
-        assert!(message.contains(&format!("line {n}:")), "message does not name line {n}: {message}");
+        assert!(
+            message.contains(&format!("line {n}:")),
+            "message does not name line {n}: {message}"
+        );
     }
     assert!(!message.contains('\n'), "message is not one sentence: {message}");
 }
@@ -403,7 +478,10 @@ fn binary_data_is_not_text() {
 fn face_index_out_of_range_names_the_line() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\nf 1 2 3\n\n# next\nf 1 2 9\n";
     let e = load_obj_from_str(text, "bunny.obj", None).unwrap_err();
-    assert_eq!(e.to_string(), "bunny.obj line 12: face vertex index 9 is out of range (the file has 8 vertices so far)");
+    assert_eq!(
+        e.to_string(),
+        "bunny.obj line 12: face vertex index 9 is out of range (the file has 8 vertices so far)"
+    );
     assert!(matches!(e, ObjError::IndexOutOfRange { line: 12, count: 8, .. }), "{e:?}");
 }
 
@@ -419,7 +497,10 @@ fn every_kind_of_bad_vertex_index_is_out_of_range() {
         "f 1/9 2/1 4/1",                 // nor do bad ones change the error
     ] {
         let e = load_err(&format!("{head}{face}\n"));
-        assert!(matches!(e, ObjError::IndexOutOfRange { line: 6, kind: "vertex", .. }), "{face}: {e:?}");
+        assert!(
+            matches!(e, ObjError::IndexOutOfRange { line: 6, kind: "vertex", .. }),
+            "{face}: {e:?}"
+        );
         assert_names(&e, "test.obj", Some(6));
     }
     // A face may only use what was defined before it.
@@ -431,9 +512,9 @@ fn every_kind_of_bad_vertex_index_is_out_of_range() {
 fn out_of_range_texture_coordinates_and_normals_are_left_out_with_a_warning() {
     let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
     let cases = [
-        ("f 1/2 2/1 3/1", "texture coordinate"),          // vt past the end
-        ("f 1/0 2/1 3/1", "texture coordinate"),          // zero vt (overflows inside tobj)
-        ("f 1//1 2//-2 3//1", "normal"),                  // relative vn before the first
+        ("f 1/2 2/1 3/1", "texture coordinate"), // vt past the end
+        ("f 1/0 2/1 3/1", "texture coordinate"), // zero vt (overflows inside tobj)
+        ("f 1//1 2//-2 3//1", "normal"),         // relative vn before the first
         ("f 1//4611686018427387904 2//1 3//1", "normal"), // overflows `3 * vn` inside tobj
     ];
     for (face, kind) in cases {
@@ -441,7 +522,10 @@ fn out_of_range_texture_coordinates_and_normals_are_left_out_with_a_warning() {
         assert_eq!(loaded.mesh.triangle_count(), 1, "{face}");
         assert_eq!(loaded.warnings.len(), 1, "{face}: {:?}", loaded.warnings);
         let w = &loaded.warnings[0];
-        assert!(w.starts_with("test.obj line 6: ") && w.contains(&format!("face {kind} index")), "{face}: {w}");
+        assert!(
+            w.starts_with("test.obj line 6: ") && w.contains(&format!("face {kind} index")),
+            "{face}: {w}"
+        );
         // The whole face goes without: no texture coordinates, computed normals.
         assert!(loaded.mesh.texcoords.is_empty(), "{face}");
         assert!(!loaded.mesh.has_file_normals, "{face}");
@@ -449,14 +533,24 @@ fn out_of_range_texture_coordinates_and_normals_are_left_out_with_a_warning() {
     }
     // The message counts in good English.
     let w = &load(&format!("{head}f 1/2 2/1 3/1\n")).warnings[0];
-    assert!(w.contains("index 2 is out of range (the file has 1 texture coordinate so far)"), "{w}");
+    assert!(
+        w.contains("index 2 is out of range (the file has 1 texture coordinate so far)"),
+        "{w}"
+    );
     // Texture coordinates and normals named when the file has none at all: one warning
     // each, naming the first face; every face is drawn.
-    let loaded = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1/1/1 2/2/2 3/3/3\nf 2/2/2 4/4/4 3/3/3\n");
+    let loaded =
+        load("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1/1/1 2/2/2 3/3/3\nf 2/2/2 4/4/4 3/3/3\n");
     assert_eq!(loaded.mesh.triangle_count(), 2);
     assert_eq!(loaded.warnings.len(), 2, "{:?}", loaded.warnings);
     assert!(loaded.warnings[0].contains("line 5: face texture coordinate index 1 is out of range (the file has 0 texture coordinates so far)"), "{}", loaded.warnings[0]);
-    assert!(loaded.warnings[1].contains("line 5: face normal index 1") && loaded.warnings[1].contains("the face and 1 more like it are drawn with computed normals"), "{}", loaded.warnings[1]);
+    assert!(
+        loaded.warnings[1].contains("line 5: face normal index 1")
+            && loaded.warnings[1]
+                .contains("the face and 1 more like it are drawn with computed normals"),
+        "{}",
+        loaded.warnings[1]
+    );
 }
 
 #[test]
@@ -505,12 +599,21 @@ fn vertex_colours_on_some_vertices_only_name_the_first_odd_one() {
     assert!(matches!(e, ObjError::Parse { line: 3, .. }), "{e:?}");
     assert!(e.to_string().contains("colour"), "{e}");
     // All or none is fine.
-    assert_eq!(load("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n").mesh.triangle_count(), 1);
+    assert_eq!(
+        load("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n").mesh.triangle_count(),
+        1
+    );
 }
 
 #[test]
 fn a_file_without_faces_is_refused() {
-    for text in ["", "# nothing\n", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "v 0 0 0\nv 1 0 0\nl 1 2\n", "hello world\nthis is not an obj\n"] {
+    for text in [
+        "",
+        "# nothing\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
+        "v 0 0 0\nv 1 0 0\nl 1 2\n",
+        "hello world\nthis is not an obj\n",
+    ] {
         let e = load_err(text);
         assert!(matches!(e, ObjError::NoFaces { .. }), "{text:?}: {e:?}");
         assert_names(&e, "test.obj", None);
@@ -537,7 +640,9 @@ fn a_vertex_weight_is_ignored() {
     // `v x y z w`: w weighs a rational curve's control point; a mesh keeps x, y, z (#29:
     // tinyobjloader's cube-vertex-w-component.obj drew a spike when divided by it).
     let plain = load_obj_from_str("v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n", "a.obj", None).unwrap();
-    let weighted = load_obj_from_str("v 0 0 0 0\nv 2 0 0 0.5\nv 0 2 0 1e-45\nf 1 2 3\n", "b.obj", None).unwrap();
+    let weighted =
+        load_obj_from_str("v 0 0 0 0\nv 2 0 0 0.5\nv 0 2 0 1e-45\nf 1 2 3\n", "b.obj", None)
+            .unwrap();
     assert_eq!(plain.mesh.positions, weighted.mesh.positions);
     assert!(weighted.warnings.is_empty(), "{:?}", weighted.warnings);
 }
@@ -596,8 +701,9 @@ fn paper_model_assets_load_back_with_the_generated_counts() {
         if rewrite {
             write_obj(&generated, &path).unwrap();
         }
-        let loaded =
-            load_obj(&path).unwrap_or_else(|e| panic!("{e} (MESHTRACER_WRITE_ASSETS=1 cargo test --test obj_loader regenerates it)"));
+        let loaded = load_obj(&path).unwrap_or_else(|e| {
+            panic!("{e} (MESHTRACER_WRITE_ASSETS=1 cargo test --test obj_loader regenerates it)")
+        });
         assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
         let mesh = loaded.mesh;
         assert_eq!(mesh.vertex_count(), generated.vertex_count(), "{}", model.name());
@@ -605,6 +711,11 @@ fn paper_model_assets_load_back_with_the_generated_counts() {
         assert_eq!(mesh.triangle_count(), model.paper_counts().1, "{}", model.name());
         assert!(mesh.has_file_normals);
         // Same triangles, and floats written exactly: the file holds the generator's mesh.
-        assert_eq!(triangle_corners(&mesh), triangle_corners(&generated), "{} is stale", path.display());
+        assert_eq!(
+            triangle_corners(&mesh),
+            triangle_corners(&generated),
+            "{} is stale",
+            path.display()
+        );
     }
 }

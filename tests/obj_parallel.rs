@@ -7,7 +7,9 @@
 
 use std::path::{Path, PathBuf};
 
-use meshtracer::scene::obj::{load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj, ObjError};
+use meshtracer::scene::obj::{
+    load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj, ObjError,
+};
 
 /// Everything a load gives, exactly: the mesh (floats as written by Debug, which
 /// round-trips them) and warnings, or the error's sentence.
@@ -20,7 +22,12 @@ fn outcome(result: Result<LoadedObj, ObjError>) -> String {
 
 /// Check one text: chunks of every size in `sizes` and one chunk agree with tobj. True
 /// when it loaded.
-fn check(text: &str, base_dir: Option<&Path>, options: &LoadOptions, sizes: impl IntoIterator<Item = usize>) -> bool {
+fn check(
+    text: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+    sizes: impl IntoIterator<Item = usize>,
+) -> bool {
     let expected = outcome(load_obj_from_str_tobj(text, "t.obj", base_dir, options));
     let whole = outcome(load_obj_from_str_chunked(text, "t.obj", base_dir, options, usize::MAX));
     assert_eq!(whole, expected, "one chunk differs from tobj on:\n{text}");
@@ -128,7 +135,13 @@ fn random_obj(rng: &mut Rng, bad: bool) -> String {
     // Faces name elements defined before them: out of range only when `bad` (or, for
     // texture coordinates and normals, as a warning).
     let index = |rng: &mut Rng, count: usize, strict: bool| -> String {
-        match rng.below(if bad { 14 } else if strict { 10 } else { 13 }) {
+        match rng.below(if bad {
+            14
+        } else if strict {
+            10
+        } else {
+            13
+        }) {
             0..=2 if count > 0 => format!("-{}", 1 + rng.below(count)),
             10 => "0".into(),
             11 => format!("{}", count + 1),
@@ -141,19 +154,31 @@ fn random_obj(rng: &mut Rng, bad: bool) -> String {
         let line = match rng.below(20) {
             0..=5 => {
                 v += 1;
-                let extras: &[&str] = if bad { &[" 1", " 0.5 0.5 0.5", " nan", " 2 3", " x", " 0.5 x 1", ""] } else { &["", "", "", " 1", " 2"] };
+                let extras: &[&str] = if bad {
+                    &[" 1", " 0.5 0.5 0.5", " nan", " 2 3", " x", " 0.5 x 1", ""]
+                } else {
+                    &["", "", "", " 1", " 2"]
+                };
                 let extra = rng.pick(extras);
-                let y = rng.pick(if bad { &["0", "1.5", "-2e1", "inf", "x"] } else { &["0", "1.5", "-2e1", "0", "+3"] });
+                let y = rng.pick(if bad {
+                    &["0", "1.5", "-2e1", "inf", "x"]
+                } else {
+                    &["0", "1.5", "-2e1", "0", "+3"]
+                });
                 format!("v {} {y} {}{extra}", rng.below(5), rng.below(3))
             }
             6 => {
                 vt += 1;
-                let second: &[&str] = if bad { &["1", "0", "x", ""] } else { &["1", "0", "0.25 7"] };
+                let second: &[&str] =
+                    if bad { &["1", "0", "x", ""] } else { &["1", "0", "0.25 7"] };
                 format!("vt 0.{} {}", rng.below(10), rng.pick(second))
             }
             7 => {
                 vn += 1;
-                format!("vn 0 {} 1", rng.pick(if bad { &["0", "1", "-1", "nan"] } else { &["0", "1", "-1", "0"] }))
+                format!(
+                    "vn 0 {} 1",
+                    rng.pick(if bad { &["0", "1", "-1", "nan"] } else { &["0", "1", "-1", "0"] })
+                )
             }
             8..=12 if v > 0 => {
                 let corners = if bad { 2 + rng.below(4) } else { 3 + rng.below(3) };
@@ -162,18 +187,29 @@ fn random_obj(rng: &mut Rng, bad: bool) -> String {
                     0 => index(rng, v, true),
                     1 => format!("{}/{}", index(rng, v, true), index(rng, vt, false)),
                     2 => format!("{}//{}", index(rng, v, true), index(rng, vn, false)),
-                    _ => format!("{}/{}/{}", index(rng, v, true), index(rng, vt, false), index(rng, vn, false)),
+                    _ => format!(
+                        "{}/{}/{}",
+                        index(rng, v, true),
+                        index(rng, vt, false),
+                        index(rng, vn, false)
+                    ),
                 };
                 let list: Vec<String> = (0..corners).map(|_| corner(rng)).collect();
                 format!("f {}", list.join(" "))
             }
             13 => {
-                let names: &[&str] = if bad { &["usemtl red", "usemtl blue", "usemtl other", "usemtl "] } else { &["usemtl red", "usemtl blue", "usemtl other"] };
+                let names: &[&str] = if bad {
+                    &["usemtl red", "usemtl blue", "usemtl other", "usemtl "]
+                } else {
+                    &["usemtl red", "usemtl blue", "usemtl other"]
+                };
                 rng.pick(names).into()
             }
             14 => rng.pick(&["s 1", "s off", "s 2", "s 0"]).into(),
             15 => rng.pick(&["o a", "g b", "g", "o"]).into(),
-            16 => rng.pick(&["# comment", "", "   ", "l 1 2", "vp 1 2", "mtllib materials/cube.mtl"]).into(),
+            16 => rng
+                .pick(&["# comment", "", "   ", "l 1 2", "vp 1 2", "mtllib materials/cube.mtl"])
+                .into(),
             _ => rng.pick(&["g a \\", "\tv 0 0 1", "# f 1 2 3 \\", "s 1 \\"]).into(),
         };
         text.push_str(&line);
@@ -189,7 +225,8 @@ fn random_obj(rng: &mut Rng, bad: bool) -> String {
 fn random_texts_parse_the_same_at_every_cut_and_match_tobj() {
     let base = data_dir().join("obj");
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let rounds = std::env::var("OBJ_RANDOM_ROUNDS").ok().and_then(|n| n.parse().ok()).unwrap_or(600);
+    let rounds =
+        std::env::var("OBJ_RANDOM_ROUNDS").ok().and_then(|n| n.parse().ok()).unwrap_or(600);
     let mut loaded = 0;
     for round in 0..rounds {
         let text = random_obj(&mut rng, round % 3 == 0);

@@ -10,11 +10,13 @@ use std::collections::HashSet;
 use glam::Vec3;
 use meshtracer::bvh::TraversalStats;
 use meshtracer::geometry::Ray;
+use meshtracer::render_settings::Accel;
 use meshtracer::scene::obj::load_obj_from_str;
-use meshtracer::scene::paper::{model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS};
+use meshtracer::scene::paper::{
+    model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS,
+};
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::cpu::{CpuScene, SceneHit};
-use meshtracer::render_settings::Accel;
 use meshtracer::tracer::PackedScene;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
@@ -25,7 +27,8 @@ use proptest::test_runner::{Config, RngSeed};
 /// cases (rays grazing an edge exactly, near-coincident triangles) at a rate of about one
 /// run in fifty. `PROPTEST_RNG_SEED=N` explores other seeds.
 fn config(cases: u32) -> Config {
-    let seed = std::env::var("PROPTEST_RNG_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x6d65_7368);
+    let seed =
+        std::env::var("PROPTEST_RNG_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x6d65_7368);
     Config { cases, failure_persistence: None, rng_seed: RngSeed::Fixed(seed), ..Config::default() }
 }
 
@@ -39,15 +42,22 @@ fn model_offsets_are_distinct_inside_the_box_and_grow_by_appending() {
         assert_eq!(o.len(), n.min(MAX_MODELS) as usize, "n = {n}");
         // Adding a model never moves the others.
         assert_eq!(o[..], all[..o.len()], "n = {n}");
-        let distinct: HashSet<[u32; 3]> = o.iter().map(|v| v.to_array().map(f32::to_bits)).collect();
+        let distinct: HashSet<[u32; 3]> =
+            o.iter().map(|v| v.to_array().map(f32::to_bits)).collect();
         assert_eq!(distinct.len(), o.len(), "n = {n}: two models share a place");
         for (i, off) in o.iter().enumerate() {
-            assert!(off.abs().max_element() + MODEL_RADIUS < BOX_HALF_SIZE, "n = {n}: model {i} at {off} leaves the box");
+            assert!(
+                off.abs().max_element() + MODEL_RADIUS < BOX_HALF_SIZE,
+                "n = {n}: model {i} at {off} leaves the box"
+            );
         }
         // Models of radius MODEL_RADIUS (boxes of half-size MODEL_RADIUS) never overlap.
         for (i, a) in o.iter().enumerate() {
             for b in &o[i + 1..] {
-                assert!((*a - *b).abs().max_element() >= 2.0 * MODEL_RADIUS, "n = {n}: {a} and {b} overlap");
+                assert!(
+                    (*a - *b).abs().max_element() >= 2.0 * MODEL_RADIUS,
+                    "n = {n}: {a} and {b} overlap"
+                );
             }
         }
     }
@@ -88,7 +98,9 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
                 positions: positions.into_iter().map(|(x, y, z)| Vec3::new(x, y, z)).collect(),
                 triangles: triangles.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
                 triangle_materials,
-                materials: (0..m).map(|i| Material { name: format!("m{i}"), ..Default::default() }).collect(),
+                materials: (0..m)
+                    .map(|i| Material { name: format!("m{i}"), ..Default::default() })
+                    .collect(),
                 ..Default::default()
             };
             mesh.compute_vertex_normals();
@@ -98,8 +110,9 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
 
 fn arb_instances(meshes: usize) -> impl Strategy<Value = Vec<Instance>> {
     prop::collection::vec(
-        (0..meshes, (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0), 0.1f32..4.0)
-            .prop_map(|(mesh, (x, y, z), scale)| Instance { mesh, translation: Vec3::new(x, y, z), scale }),
+        (0..meshes, (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0), 0.1f32..4.0).prop_map(
+            |(mesh, (x, y, z), scale)| Instance { mesh, translation: Vec3::new(x, y, z), scale },
+        ),
         1..6,
     )
 }
@@ -108,7 +121,12 @@ fn scene_of(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Scene {
     Scene {
         meshes,
         instances,
-        camera: Camera { position: Vec3::new(0.0, 0.0, 30.0), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 60.0 },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, 30.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 60.0,
+        },
         light: PointLight { position: Vec3::new(0.0, 20.0, 0.0), color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
@@ -276,7 +294,11 @@ proptest! {
 
 #[test]
 fn normalising_a_point_or_an_empty_mesh_does_not_divide_by_zero() {
-    let mut point = Mesh { positions: vec![Vec3::splat(5.0); 3], triangles: vec![[0, 1, 2]], ..Default::default() };
+    let mut point = Mesh {
+        positions: vec![Vec3::splat(5.0); 3],
+        triangles: vec![[0, 1, 2]],
+        ..Default::default()
+    };
     point.normalize_to(1.0);
     assert!(point.positions.iter().all(|p| *p == Vec3::ZERO), "{:?}", point.positions);
     let mut empty = Mesh::default();

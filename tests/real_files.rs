@@ -11,9 +11,9 @@ use std::process::Command;
 
 use common::*;
 use glam::Vec3;
+use meshtracer::render_settings::{Aov, RenderSettings};
 use meshtracer::scene::obj::load_obj;
 use meshtracer::scene::{Camera, Instance, Mesh, PointLight, Scene};
-use meshtracer::render_settings::{Aov, RenderSettings};
 use meshtracer::tracer::Image;
 
 fn data(name: &str) -> PathBuf {
@@ -64,12 +64,27 @@ fn texture_options_are_read_and_applied_on_both_tracers() {
     let names: Vec<&str> = mesh.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, ["plain", "offset", "clamped", "scaled"]);
     for m in &mesh.materials {
-        assert_eq!(m.diffuse_texture.as_deref(), Some(data("halves.png").as_path()), "{}: options taken for the file name", m.name);
+        assert_eq!(
+            m.diffuse_texture.as_deref(),
+            Some(data("halves.png").as_path()),
+            "{}: options taken for the file name",
+            m.name
+        );
     }
     // The options that are read and not applied: one warning per material, naming them.
     assert_eq!(loaded.warnings.len(), 2, "{:?}", loaded.warnings);
-    assert!(loaded.warnings[0].contains("material offset") && loaded.warnings[0].contains("-colorspace"), "{}", loaded.warnings[0]);
-    assert!(loaded.warnings[1].contains("material scaled") && loaded.warnings[1].contains("-bm, -texres"), "{}", loaded.warnings[1]);
+    assert!(
+        loaded.warnings[0].contains("material offset")
+            && loaded.warnings[0].contains("-colorspace"),
+        "{}",
+        loaded.warnings[0]
+    );
+    assert!(
+        loaded.warnings[1].contains("material scaled")
+            && loaded.warnings[1].contains("-bm, -texres"),
+        "{}",
+        loaded.warnings[1]
+    );
 
     // The grid spans ±2.1; at this distance the image spans ±2.3.
     let distance = 2.3 / 30f32.to_radians().tan();
@@ -88,7 +103,11 @@ fn texture_options_are_read_and_applied_on_both_tracers() {
         let got = quarters(x, y);
         for (q, (&c, red)) in got.iter().zip(&expect).enumerate() {
             let ok = if *red { is_red(c) } else { is_blue(c) };
-            assert!(ok, "{what}: quarter {q} should be {}: {got:?}", if *red { "red" } else { "blue" });
+            assert!(
+                ok,
+                "{what}: quarter {q} should be {}: {got:?}",
+                if *red { "red" } else { "blue" }
+            );
         }
     };
     check("plain", left, top, [true, true, false, false]);
@@ -99,7 +118,10 @@ fn texture_options_are_read_and_applied_on_both_tracers() {
 
 /// The pixels that hit the model, as (x, y).
 fn hits(prim: &Image) -> Vec<(u32, u32)> {
-    (0..prim.height).flat_map(|y| (0..prim.width).map(move |x| (x, y))).filter(|&(x, y)| prim.get(x, y)[0] >= 0.0).collect()
+    (0..prim.height)
+        .flat_map(|y| (0..prim.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| prim.get(x, y)[0] >= 0.0)
+        .collect()
 }
 
 /// The triangle a pixel of a prim-id image hit.
@@ -116,7 +138,12 @@ fn normal_at(normals: &Image, x: u32, y: u32) -> Vec3 {
 fn faces_naming_missing_normals_are_drawn_with_computed_ones() {
     let loaded = load_obj(&data("missing_normals.obj")).unwrap();
     assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
-    assert!(loaded.warnings[0].contains("missing_normals.obj line 18: face normal index 1 is out of range"), "{}", loaded.warnings[0]);
+    assert!(
+        loaded.warnings[0]
+            .contains("missing_normals.obj line 18: face normal index 1 is out of range"),
+        "{}",
+        loaded.warnings[0]
+    );
     let eye = Vec3::new(2.5, 2.0, 3.5);
     let scene = scene_looking(loaded.mesh, eye, Vec3::ZERO, eye);
     let smooth = RenderSettings { smooth: true, ..settings(48) };
@@ -174,17 +201,26 @@ fn smoothing_groups_keep_hard_edges_under_smooth_shading() {
             let step = (n - m).length();
             if is_side(p) && is_side(q) && p / 2 != q / 2 {
                 // From one side to the next: the normals meet, no visible edge.
-                assert!(step < 0.25, "pixels {x},{y} and {ox},{oy} across the sides' edge: {n} then {m}");
+                assert!(
+                    step < 0.25,
+                    "pixels {x},{y} and {ox},{oy} across the sides' edge: {n} then {m}"
+                );
                 across_sides += 1;
             }
             if is_top(p) != is_top(q) {
                 // From the top to a side: a hard edge.
-                assert!(step > 1.0, "pixels {x},{y} and {ox},{oy} across the top's edge: {n} then {m}");
+                assert!(
+                    step > 1.0,
+                    "pixels {x},{y} and {ox},{oy} across the top's edge: {n} then {m}"
+                );
                 across_top_edge += 1;
             }
         }
     }
-    assert!(across_sides > 5 && across_top_edge > 20, "edges seen: {across_sides} between sides, {across_top_edge} round the top");
+    assert!(
+        across_sides > 5 && across_top_edge > 20,
+        "edges seen: {across_sides} between sides, {across_top_edge} round the top"
+    );
     // The sides are not flat: their normals turn across each face.
     let spread = side_normals.iter().map(|n| n.dot(side_normals[0])).fold(1.0f32, f32::min);
     assert!(spread < 0.5, "side normals barely vary: {spread}");
@@ -203,13 +239,28 @@ fn escaped_mtllib_names_give_both_squares_their_colours() {
     let to_pixel = |w: f32| ((w / 2.3 * 0.5 + 0.5) * size as f32) as u32;
     let (left, right) = (gpu.get(to_pixel(-1.1), size / 2), gpu.get(to_pixel(1.1), size / 2));
     assert!(is_red(left), "the left square takes red from the first library: {left:?}");
-    assert!(right[1] > 0.5 && right[0] < 0.2 && right[2] < 0.2, "the right square takes green from `escaped second.mtl`: {right:?}");
+    assert!(
+        right[1] > 0.5 && right[0] < 0.2 && right[2] < 0.2,
+        "the right square takes green from `escaped second.mtl`: {right:?}"
+    );
 }
 
 /// Run the binary's `render --cpu` on `model` with `flags`, returning the image.
 fn render_cpu(model: &Path, flags: &[&str], out: &Path) -> image::RgbaImage {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_meshtracer"));
-    cmd.args(["render", "--cpu", "--width", "48", "--height", "48", "--bounces", "0", "--no-box", "--eye", "2.5,2,3"]);
+    cmd.args([
+        "render",
+        "--cpu",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "--bounces",
+        "0",
+        "--no-box",
+        "--eye",
+        "2.5,2,3",
+    ]);
     cmd.arg("--model").arg(model).arg("-o").arg(out).args(flags);
     let run = cmd.output().expect("the binary runs");
     assert!(run.status.success(), "render {flags:?}: {}", String::from_utf8_lossy(&run.stderr));
@@ -222,15 +273,22 @@ fn crease_angle_flag_keeps_a_cube_without_normals_sharp_under_smooth() {
     std::fs::create_dir_all(&dir).unwrap();
     let cube = data("cube.obj");
     let flat = render_cpu(&cube, &[], &dir.join("flat.png"));
-    let creased = render_cpu(&cube, &["--smooth", "--crease-angle", "30"], &dir.join("creased.png"));
+    let creased =
+        render_cpu(&cube, &["--smooth", "--crease-angle", "30"], &dir.join("creased.png"));
     let blob = render_cpu(&cube, &["--smooth"], &dir.join("blob.png"));
     let _ = std::fs::remove_dir_all(&dir);
     // Pixels whose channels differ by more than `by` (of 255).
     let differ = |a: &image::RgbaImage, b: &image::RgbaImage, by: u8| {
-        a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(&u, v)| u.abs_diff(v) > by)).count()
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(&u, v)| u.abs_diff(v) > by))
+            .count()
     };
     // Every edge of the cube bends by 90 degrees: with the angle at 30, smooth shading
     // keeps every face flat; without it, the cube rounds off.
     assert_eq!(differ(&flat, &creased, 2), 0, "--crease-angle 30 should shade the cube as flat");
-    assert!(differ(&flat, &blob, 8) > 100, "without --crease-angle the cube should be smooth all over");
+    assert!(
+        differ(&flat, &blob, 8) > 100,
+        "without --crease-angle the cube should be smooth all over"
+    );
 }

@@ -10,21 +10,50 @@ use std::process::Command;
 use common::Scratch;
 
 use meshtracer::cli::{Cli, Command as Cmd};
+use meshtracer::files::image_files::png_settings;
 use meshtracer::scene::preset;
 use meshtracer::scene::spec::SceneSpec;
-use meshtracer::files::image_files::png_settings;
 
 /// `meshtracer render ARGS` in `dir` under the validation layer; panics unless it succeeds.
 fn render(dir: &Path, args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer")).current_dir(dir).env("MESHTRACER_VALIDATION", "1").arg("render").args(args).output().unwrap();
-    assert!(out.status.success(), "render {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+        .current_dir(dir)
+        .env("MESHTRACER_VALIDATION", "1")
+        .arg("render")
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "render {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn settings_of(path: &Path) -> String {
-    png_settings(&std::fs::read(path).unwrap()).unwrap().unwrap_or_else(|| panic!("{} has no settings chunk", path.display()))
+    png_settings(&std::fs::read(path).unwrap())
+        .unwrap()
+        .unwrap_or_else(|| panic!("{} has no settings chunk", path.display()))
 }
 
-const SCENE: [&str; 16] = ["--width", "96", "--height", "64", "--bounces", "3", "--smooth", "--light-angle", "150", "--models", "2", "--eye", "1,2,5", "--fov", "50", "--adaptive"];
+const SCENE: [&str; 16] = [
+    "--width",
+    "96",
+    "--height",
+    "64",
+    "--bounces",
+    "3",
+    "--smooth",
+    "--light-angle",
+    "150",
+    "--models",
+    "2",
+    "--eye",
+    "1,2,5",
+    "--fov",
+    "50",
+    "--adaptive",
+];
 
 #[test]
 fn a_png_carries_its_preset_and_preset_renders_it_again() {
@@ -33,20 +62,28 @@ fn a_png_carries_its_preset_and_preset_renders_it_again() {
     let text = settings_of(&dir.join("first.png"));
     let (spec, unknown) = preset::from_text(&text).unwrap();
     assert!(unknown.is_empty());
-    assert_eq!((spec.settings.width, spec.settings.height, spec.settings.bounces, spec.models), (96, 64, 3, 2));
+    assert_eq!(
+        (spec.settings.width, spec.settings.height, spec.settings.bounces, spec.models),
+        (96, 64, 3, 2)
+    );
     assert!(spec.settings.smooth && spec.settings.adaptive && spec.settings.spp == 4);
     assert_eq!(spec.light.angle_deg, 150.0);
     assert_eq!(spec.camera.eye, Some(glam::Vec3::new(1.0, 2.0, 5.0)));
     assert_eq!(spec.camera.fov, Some(50.0));
     // Exactly the preset text: a PNG is a preset.
     assert_eq!(text, spec.to_preset_text());
-    for table in ["version = 1", "[model]", "[image]", "[tracing]", "[shading]", "[light]", "[camera]"] {
+    for table in
+        ["version = 1", "[model]", "[image]", "[tracing]", "[shading]", "[light]", "[camera]"]
+    {
         assert!(text.lines().any(|l| l == table), "no {table} in:\n{text}");
     }
 
     // The same image again from the PNG alone, preset chunk included.
     render(&dir.0, &["--preset", "first.png", "-o", "again.png"]);
-    let (a, b) = (image::open(dir.join("first.png")).unwrap().to_rgba8(), image::open(dir.join("again.png")).unwrap().to_rgba8());
+    let (a, b) = (
+        image::open(dir.join("first.png")).unwrap().to_rgba8(),
+        image::open(dir.join("again.png")).unwrap().to_rgba8(),
+    );
     assert_eq!(a.dimensions(), (96, 64));
     assert!(a == b, "`render --preset first.png` made another image");
     assert_eq!(settings_of(&dir.join("again.png")), text);
@@ -55,13 +92,28 @@ fn a_png_carries_its_preset_and_preset_renders_it_again() {
     render(&dir.0, &["--preset", "first.png", "--bounces", "0", "-o", "flat.png"]);
     let (changed, _) = preset::from_text(&settings_of(&dir.join("flat.png"))).unwrap();
     assert_eq!(changed.settings.bounces, 0);
-    assert_eq!(SceneSpec { settings: meshtracer::render_settings::RenderSettings { bounces: 3, ..changed.settings }, ..changed }, spec);
-    assert!(image::open(dir.join("flat.png")).unwrap().to_rgba8() != a, "--bounces 0 over the preset changed nothing");
+    assert_eq!(
+        SceneSpec {
+            settings: meshtracer::render_settings::RenderSettings {
+                bounces: 3,
+                ..changed.settings
+            },
+            ..changed
+        },
+        spec
+    );
+    assert!(
+        image::open(dir.join("flat.png")).unwrap().to_rgba8() != a,
+        "--bounces 0 over the preset changed nothing"
+    );
 
     // The text as a preset file is the same preset.
     std::fs::write(dir.join("look.toml"), &text).unwrap();
     render(&dir.0, &["--preset", "look.toml", "-o", "from_file.png"]);
-    assert!(image::open(dir.join("from_file.png")).unwrap().to_rgba8() == a, "the preset file made another image");
+    assert!(
+        image::open(dir.join("from_file.png")).unwrap().to_rgba8() == a,
+        "the preset file made another image"
+    );
 }
 
 /// `meshtracer ARGS` in `dir` (no validation layer: these runs fail before any GPU work).
@@ -72,15 +124,22 @@ fn run_in(dir: &Path, args: &[&str]) -> std::process::Output {
 #[test]
 fn a_saved_preset_renders_like_the_same_flags() {
     let dir = Scratch::new("saved");
-    let flags: Vec<&str> = [&SCENE[..], &["--env", "sky", "--no-box", "--blend", "0.25", "--accel", "brute"]].concat();
+    let flags: Vec<&str> =
+        [&SCENE[..], &["--env", "sky", "--no-box", "--blend", "0.25", "--accel", "brute"]].concat();
     // The spec these flags make, saved the way the panel saves it.
-    let cli = Cli::try_parse_from_noting_flags([&["meshtracer", "render"][..], &flags, &["-o", "x.png"]].concat()).unwrap();
+    let cli = Cli::try_parse_from_noting_flags(
+        [&["meshtracer", "render"][..], &flags, &["-o", "x.png"]].concat(),
+    )
+    .unwrap();
     let Some(Cmd::Render(args)) = cli.command else { panic!("not a render command") };
     let (spec, _) = args.spec().unwrap();
     preset::save(&spec, &dir.join("look.toml"), false).unwrap();
     render(&dir.0, &[&flags[..], &["-o", "flags.png"]].concat());
     render(&dir.0, &["--preset", "look.toml", "-o", "preset.png"]);
-    let (a, b) = (image::open(dir.join("flags.png")).unwrap().to_rgba8(), image::open(dir.join("preset.png")).unwrap().to_rgba8());
+    let (a, b) = (
+        image::open(dir.join("flags.png")).unwrap().to_rgba8(),
+        image::open(dir.join("preset.png")).unwrap().to_rgba8(),
+    );
     assert!(a == b, "the saved preset renders another image than its flags");
 }
 
@@ -95,9 +154,17 @@ fn a_bad_preset_is_one_line_naming_file_key_and_line() {
         }
         let out = run_in(&dir.0, &args);
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.code().is_some_and(|c| c != 0 && c != 101), "{command}: {:?}: {stderr}", out.status);
+        assert!(
+            out.status.code().is_some_and(|c| c != 0 && c != 101),
+            "{command}: {:?}: {stderr}",
+            out.status
+        );
         let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-        assert_eq!(lines, ["error: preset bad.toml: line 4, key 'tracing.bounces': 12 is out of range (0..=8)"], "{command}");
+        assert_eq!(
+            lines,
+            ["error: preset bad.toml: line 4, key 'tracing.bounces': 12 is out of range (0..=8)"],
+            "{command}"
+        );
     }
     // A preset that is not TOML at all, and one that is missing.
     std::fs::write(dir.join("broken.toml"), "[image\nwidth = 5\n").unwrap();
@@ -106,17 +173,32 @@ fn a_bad_preset_is_one_line_naming_file_key_and_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.starts_with("error: preset broken.toml: line 1"), "{stderr}");
     let out = run_in(&dir.0, &["render", "--preset", "missing.toml", "-o", "x.png"]);
-    assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: cannot read the preset missing.toml: "));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .starts_with("error: cannot read the preset missing.toml: "));
 }
 
 #[test]
 fn unknown_preset_keys_are_warned_about_and_ignored() {
     let dir = Scratch::new("unknown");
-    std::fs::write(dir.join("typo.toml"), "version = 1\n[image]\nwidth = 32\nheight = 24\n[shading]\nsmoth = true\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer")).current_dir(&dir.0).env("MESHTRACER_VALIDATION", "1").args(["render", "--preset", "typo.toml", "-o", "x.png"]).output().unwrap();
+    std::fs::write(
+        dir.join("typo.toml"),
+        "version = 1\n[image]\nwidth = 32\nheight = 24\n[shading]\nsmoth = true\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+        .current_dir(&dir.0)
+        .env("MESHTRACER_VALIDATION", "1")
+        .args(["render", "--preset", "typo.toml", "-o", "x.png"])
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("warning: preset typo.toml: unknown key 'shading.smoth' on line 6 is ignored"), "{stderr}");
+    assert!(
+        stderr.contains(
+            "warning: preset typo.toml: unknown key 'shading.smoth' on line 6 is ignored"
+        ),
+        "{stderr}"
+    );
     let (spec, _) = preset::from_text(&settings_of(&dir.join("x.png"))).unwrap();
     assert_eq!((spec.settings.width, spec.settings.height, spec.settings.smooth), (32, 24, false));
 }
@@ -128,17 +210,36 @@ fn bench_runs_a_preset_with_flags_over_it() {
     let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
         .current_dir(&dir.0)
         .env("MESHTRACER_VALIDATION", "1")
-        .args(["bench", "--preset", "look.toml", "--frames", "2", "--warmup", "1", "--accel", "bvh,brute", "--size", "40", "--json", "out.json"])
+        .args([
+            "bench",
+            "--preset",
+            "look.toml",
+            "--frames",
+            "2",
+            "--warmup",
+            "1",
+            "--accel",
+            "bvh,brute",
+            "--size",
+            "40",
+            "--json",
+            "out.json",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap();
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2, "one row per --accel given");
     for (row, accel) in rows.iter().zip(["bvh", "brute"]) {
         assert_eq!(row["series"], "preset");
         assert_eq!(row["accel"], accel);
-        assert_eq!((row["width"].as_u64(), row["height"].as_u64(), row["bounces"].as_u64()), (Some(40), Some(40), Some(1)), "{row}");
+        assert_eq!(
+            (row["width"].as_u64(), row["height"].as_u64(), row["bounces"].as_u64()),
+            (Some(40), Some(40), Some(1)),
+            "{row}"
+        );
     }
 }
 
@@ -149,12 +250,17 @@ fn jpeg_output_is_rgb_and_close_to_the_png() {
     render(&dir.0, &["--width", "64", "--height", "48", "-o", "out.jpg"]);
     render(&dir.0, &["--width", "64", "--height", "48", "-o", "out.JPEG"]);
     let jpeg = image::open(dir.join("out.jpg")).unwrap();
-    assert_eq!(image::ImageFormat::from_path(dir.join("out.jpg")).unwrap(), image::ImageFormat::Jpeg);
+    assert_eq!(
+        image::ImageFormat::from_path(dir.join("out.jpg")).unwrap(),
+        image::ImageFormat::Jpeg
+    );
     assert_eq!(jpeg.color(), image::ColorType::Rgb8, "JPEG has no alpha");
     assert_eq!((jpeg.width(), jpeg.height()), (64, 48));
     let png = image::open(dir.join("out.png")).unwrap().to_rgb8();
     let jpeg = jpeg.to_rgb8();
-    let mean = png.as_raw().iter().zip(jpeg.as_raw()).map(|(a, b)| a.abs_diff(*b) as f64).sum::<f64>() / png.as_raw().len() as f64;
+    let mean =
+        png.as_raw().iter().zip(jpeg.as_raw()).map(|(a, b)| a.abs_diff(*b) as f64).sum::<f64>()
+            / png.as_raw().len() as f64;
     assert!(mean < 6.0, "the JPEG differs from the PNG by {mean:.1} on average");
     assert!(image::open(dir.join("out.JPEG")).is_ok());
 }
@@ -175,10 +281,15 @@ fn depth_exr_is_one_channel_z_and_normals_stay_rgb() {
     assert_eq!(z.len(), 40 * 30);
     // The paper's scene from inside the mirror box: every primary ray hits, at a distance
     // between the model (about 3 away) and the far corners of the box.
-    assert!(z.iter().all(|&d| d > 1.0 && d < 14.0), "depth out of the box: {:?}", z.iter().copied().fold((f32::MAX, f32::MIN), |(lo, hi), d| (lo.min(d), hi.max(d))));
+    assert!(
+        z.iter().all(|&d| d > 1.0 && d < 14.0),
+        "depth out of the box: {:?}",
+        z.iter().copied().fold((f32::MAX, f32::MIN), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    );
 
     let normal = read_all_flat_layers_from_file(dir.join("normal.exr")).unwrap();
-    let mut names: Vec<String> = normal.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    let mut names: Vec<String> =
+        normal.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
     names.sort();
     assert_eq!(names, ["A", "B", "G", "R"], "the normal EXR's channels");
 }
@@ -187,13 +298,25 @@ fn depth_exr_is_one_channel_z_and_normals_stay_rgb() {
 fn other_extensions_get_one_line_listing_the_formats() {
     let dir = Scratch::new("bmp");
     for name in ["x.bmp", "x.tif", "noext"] {
-        let out = Command::new(env!("CARGO_BIN_EXE_meshtracer")).current_dir(&dir.0).args(["render", "--width", "8", "--height", "8", "-o", name]).output().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+            .current_dir(&dir.0)
+            .args(["render", "--width", "8", "--height", "8", "-o", name])
+            .output()
+            .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.code().is_some_and(|c| c != 0 && c != 101), "{name}: {:?}: {stderr}", out.status);
+        assert!(
+            out.status.code().is_some_and(|c| c != 0 && c != 101),
+            "{name}: {:?}: {stderr}",
+            out.status
+        );
         let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
         assert_eq!(lines.len(), 1, "{name}: expected one line, got:\n{stderr}");
         for needle in [name, ".png", ".jpg", ".exr"] {
-            assert!(lines[0].contains(needle), "{name}: the line does not mention {needle}: {}", lines[0]);
+            assert!(
+                lines[0].contains(needle),
+                "{name}: the line does not mention {needle}: {}",
+                lines[0]
+            );
         }
         assert!(!dir.join(name).exists(), "{name} was written anyway");
     }
@@ -211,11 +334,24 @@ fn an_accumulated_image_carries_its_frame_count_and_renders_again() {
     render(&dir.0, &["--preset", "acc.png", "--cpu", "-o", "cpu.png"]);
     render(&dir.0, &["--width", "48", "--height", "32", "-o", "one.png"]);
     let load = |n: &str| image::open(dir.join(n)).unwrap().to_rgba8();
-    let (acc, again, cpu, one) = (load("acc.png"), load("again.png"), load("cpu.png"), load("one.png"));
+    let (acc, again, cpu, one) =
+        (load("acc.png"), load("again.png"), load("cpu.png"), load("one.png"));
     assert!(acc == again, "render --preset of an accumulated image traces another image");
-    let off = |a: &image::RgbaImage, b: &image::RgbaImage| a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2)).count();
-    assert!(off(&acc, &cpu) <= acc.len() / 4 / 100, "GPU vs CPU accumulation: {} pixels off", off(&acc, &cpu));
-    assert!(off(&acc, &one) > 0, "six jittered frames average to the one centred frame: the test proves nothing");
+    let off = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2))
+            .count()
+    };
+    assert!(
+        off(&acc, &cpu) <= acc.len() / 4 / 100,
+        "GPU vs CPU accumulation: {} pixels off",
+        off(&acc, &cpu)
+    );
+    assert!(
+        off(&acc, &one) > 0,
+        "six jittered frames average to the one centred frame: the test proves nothing"
+    );
 }
 
 #[test]

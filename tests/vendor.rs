@@ -17,22 +17,33 @@ use std::process::Command;
 use common::*;
 use meshtracer::gpu::khr_rt::VendorKernel;
 use meshtracer::gpu::{ComputeTracer, GpuContext};
+use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::scene::obj::load_obj;
 use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{EnvironmentSource, Scene};
-use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::tracer::{FrameParams, Image, PackedScene};
 
 const THRESHOLD: f32 = 1e-3;
 
 fn settings(size: u32, bounces: u32) -> RenderSettings {
-    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel: Accel::Bvh, aov: Aov::Color, ..RenderSettings::default() }
+    RenderSettings {
+        width: size,
+        height: size,
+        bounces,
+        blend: 0.5,
+        accel: Accel::Bvh,
+        aov: Aov::Color,
+        ..RenderSettings::default()
+    }
 }
 
 fn assert_close(vendor: &Image, ours: &Image, what: &str) {
     let d = vendor.compare(ours, THRESHOLD);
-    assert!(d.fraction_over <= 0.01 && d.mean < 1e-3, "{what}: vendor and compute BVH differ: {d:?}");
+    assert!(
+        d.fraction_over <= 0.01 && d.mean < 1e-3,
+        "{what}: vendor and compute BVH differ: {d:?}"
+    );
 }
 
 /// Every kind of vendor tracing the device has; CI's lavapipe must have one at least.
@@ -52,7 +63,9 @@ fn render_all(scene: &Scene, settings: RenderSettings) -> Vec<(VendorKernel, Ima
     let mut out = Vec::new();
     for kernel in kernels(&ctx) {
         tracer.set_vendor_kernel(kernel).expect("a kind the device has");
-        let (vendor, _) = tracer.render(&FrameParams::new(scene, RenderSettings { accel: Accel::Vendor, ..settings })).expect("trace with the vendor's");
+        let (vendor, _) = tracer
+            .render(&FrameParams::new(scene, RenderSettings { accel: Accel::Vendor, ..settings }))
+            .expect("trace with the vendor's");
         out.push((kernel, vendor, ours.clone()));
     }
     drop(tracer);
@@ -60,7 +73,11 @@ fn render_all(scene: &Scene, settings: RenderSettings) -> Vec<(VendorKernel, Ima
     out
 }
 
-fn assert_all_close(scene: &Scene, settings: RenderSettings, what: &str) -> Vec<(VendorKernel, Image, Image)> {
+fn assert_all_close(
+    scene: &Scene,
+    settings: RenderSettings,
+    what: &str,
+) -> Vec<(VendorKernel, Image, Image)> {
     let all = render_all(scene, settings);
     for (kernel, vendor, ours) in &all {
         assert_close(vendor, ours, &format!("{what} ({kernel})"));
@@ -81,7 +98,11 @@ fn the_papers_scene_matches_the_compute_bvh() {
 #[test]
 fn one_and_twenty_seven_copies_match() {
     for count in [1, 27] {
-        assert_all_close(&paper(PaperModel::Geosphere, count), settings(48, 2), &format!("{count} copies"));
+        assert_all_close(
+            &paper(PaperModel::Geosphere, count),
+            settings(48, 2),
+            &format!("{count} copies"),
+        );
     }
 }
 
@@ -101,7 +122,11 @@ fn vertex_colours_match() {
     // a wrong triangle would show the wrong colours.
     let mut mesh = PaperModel::TorusKnot.mesh();
     prepare_model(&mut mesh);
-    mesh.colors = mesh.positions.iter().map(|p| [(p.x.abs() * 255.0) as u8, 64, (p.z.abs() * 255.0) as u8, 255]).collect();
+    mesh.colors = mesh
+        .positions
+        .iter()
+        .map(|p| [(p.x.abs() * 255.0) as u8, 64, (p.z.abs() * 255.0) as u8, 255])
+        .collect();
     let scene = open_scene(mesh, 1, LightOrbit::default());
     assert_all_close(&scene, RenderSettings { smooth: true, ..settings(48, 2) }, "vertex colours");
 }
@@ -115,14 +140,18 @@ fn a_textured_mesh_matches() {
     let all = assert_all_close(&scene, settings(48, 1), "textured");
     let (_, vendor, _) = &all[0];
     let lit = vendor.pixels.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
-    assert!(lit > 48 * 48 / 10, "the textured mesh should cover part of the frame ({lit} lit pixels)");
+    assert!(
+        lit > 48 * 48 / 10,
+        "the textured mesh should cover part of the frame ({lit} lit pixels)"
+    );
 }
 
 #[test]
 fn depth_and_primitive_id_outputs_match() {
     let scene = paper(PaperModel::Sphere, 2);
     for aov in [Aov::Depth, Aov::PrimId, Aov::Normal] {
-        for (kernel, vendor, ours) in render_all(&scene, RenderSettings { aov, ..settings(48, 0) }) {
+        for (kernel, vendor, ours) in render_all(&scene, RenderSettings { aov, ..settings(48, 0) })
+        {
             let d = vendor.compare(&ours, 1e-3);
             assert!(d.fraction_over <= 0.01, "{aov} ({kernel}): {d:?}");
         }
@@ -136,18 +165,28 @@ fn a_scene_of_cut_triangles_matches() {
     // colours and the ids below would differ.
     let scene = room_scene();
     let (slots, triangles) = slots_and_triangles(&scene);
-    assert!(slots > triangles, "the room's big triangles are cut ({slots} slots for {triangles} triangles)");
+    assert!(
+        slots > triangles,
+        "the room's big triangles are cut ({slots} slots for {triangles} triangles)"
+    );
     let all = assert_all_close(&scene, settings(64, 2), "room of cut triangles");
     let lit = all[0].1.pixels.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
     assert!(lit > 64 * 64 / 4, "the room fills part of the frame ({lit} lit pixels)");
-    for (kernel, vendor, ours) in render_all(&scene, RenderSettings { aov: Aov::PrimId, ..settings(64, 0) }) {
+    for (kernel, vendor, ours) in
+        render_all(&scene, RenderSettings { aov: Aov::PrimId, ..settings(64, 0) })
+    {
         let d = vendor.compare(&ours, 1e-3);
         assert!(d.fraction_over <= 0.01, "room, prim-id ({kernel}): {d:?}");
     }
     // The driver's structures hold each triangle once, not each slot.
     let ctx = ctx();
     let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(&scene)).expect("upload");
-    tracer.render(&FrameParams::new(&scene, RenderSettings { accel: Accel::Vendor, ..settings(16, 0) })).expect("trace with the vendor's");
+    tracer
+        .render(&FrameParams::new(
+            &scene,
+            RenderSettings { accel: Accel::Vendor, ..settings(16, 0) },
+        ))
+        .expect("trace with the vendor's");
     let mesh_triangles: usize = scene.meshes.iter().map(|m| m.triangle_count()).sum();
     assert_eq!(tracer.vendor_stats().unwrap().primitives, mesh_triangles as u64);
     drop(tracer);
@@ -198,7 +237,17 @@ fn meshtracer() -> Command {
 fn without_the_extensions_render_and_bench_end_with_one_line() {
     let out = std::env::temp_dir().join(format!("meshtracer-vendor-{}.png", std::process::id()));
     for args in [
-        vec!["render", "--accel", "vendor", "--width", "16", "--height", "16", "-o", out.to_str().unwrap()],
+        vec![
+            "render",
+            "--accel",
+            "vendor",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "-o",
+            out.to_str().unwrap(),
+        ],
         vec!["bench", "--compare", "--resolutions", "16", "--frames", "1", "--warmup", "0"],
     ] {
         let o = meshtracer().args(&args).env("MESHTRACER_NO_VENDOR_RT", "1").output().unwrap();
@@ -206,7 +255,10 @@ fn without_the_extensions_render_and_bench_end_with_one_line() {
         let err = String::from_utf8_lossy(&o.stderr);
         let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
         assert_eq!(lines.len(), 1, "{args:?}: one line, got {err}");
-        assert!(lines[0].contains("vendor's ray tracing is switched off") && !err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            lines[0].contains("vendor's ray tracing is switched off") && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
     }
     assert!(!out.exists(), "no image is written");
 }
@@ -217,14 +269,31 @@ fn bench_compare_gives_the_ratio_for_each_row() {
     std::fs::create_dir_all(&dir).unwrap();
     let json = dir.join("compare.json");
     let o = meshtracer()
-        .args(["bench", "--compare", "--framed", "--triangles", "2000", "--bvh", "binary,wide", "--size", "32", "--frames", "2", "--warmup", "1", "--validation", "--json"])
+        .args([
+            "bench",
+            "--compare",
+            "--framed",
+            "--triangles",
+            "2000",
+            "--bvh",
+            "binary,wide",
+            "--size",
+            "32",
+            "--frames",
+            "2",
+            "--warmup",
+            "1",
+            "--validation",
+            "--json",
+        ])
         .arg(&json)
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
     assert!(stdout.contains("ours (BVH) / vendor"), "{stdout}");
-    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let rows = report["rows"].as_array().unwrap();
     let vendor: Vec<_> = rows.iter().filter(|r| r["accel"] == "vendor").collect();
     let ctx = ctx();
@@ -236,10 +305,17 @@ fn bench_compare_gives_the_ratio_for_each_row() {
     // The vendor rows' build and memory columns are the driver's structures, not our scene:
     // the vendor row after the wide one starts a tracer of its own (the binary packing
     // again), which builds them with its first frame; they were once read before it.
-    let ours: Vec<u64> = rows.iter().filter(|r| r["accel"] == "bvh").map(|r| r["scene_bytes"].as_u64().unwrap()).collect();
+    let ours: Vec<u64> = rows
+        .iter()
+        .filter(|r| r["accel"] == "bvh")
+        .map(|r| r["scene_bytes"].as_u64().unwrap())
+        .collect();
     for r in &vendor {
         let bytes = r["scene_bytes"].as_u64().unwrap();
-        assert!(bytes > 0 && !ours.contains(&bytes), "the vendor's bytes {bytes} are one of ours {ours:?}: {r}");
+        assert!(
+            bytes > 0 && !ours.contains(&bytes),
+            "the vendor's bytes {bytes} are one of ours {ours:?}: {r}"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

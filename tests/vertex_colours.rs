@@ -14,7 +14,8 @@ use meshtracer::scene::Mesh;
 
 /// Four vertices of a quad (two triangles) and their colours.
 const QUAD: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
-const COLOURS: [[u8; 4]; 4] = [[255, 0, 0, 255], [0, 255, 0, 128], [0, 0, 255, 0], [12, 34, 56, 78]];
+const COLOURS: [[u8; 4]; 4] =
+    [[255, 0, 0, 255], [0, 255, 0, 128], [0, 0, 255, 0], [12, 34, 56, 78]];
 
 #[derive(Clone, Copy, PartialEq)]
 enum Encoding {
@@ -26,7 +27,12 @@ enum Encoding {
 /// A PLY quad whose vertices carry `colour_props` (header lines) with values `colour(i)`,
 /// each written by `write` in its type; `extra_face_flag` adds a face property, which the
 /// parallel binary reader does not take (so the general reader reads the file).
-fn ply(enc: Encoding, colour_props: &str, colour: impl Fn(usize) -> Vec<Value>, extra_face_flag: bool) -> Vec<u8> {
+fn ply(
+    enc: Encoding,
+    colour_props: &str,
+    colour: impl Fn(usize) -> Vec<Value>,
+    extra_face_flag: bool,
+) -> Vec<u8> {
     let format = match enc {
         Encoding::Ascii => "ascii",
         Encoding::Little => "binary_little_endian",
@@ -74,7 +80,8 @@ impl Value {
     }
 }
 
-const UCHAR_RGBA: &str = "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n";
+const UCHAR_RGBA: &str =
+    "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n";
 
 fn uchar_rgba(i: usize) -> Vec<Value> {
     COLOURS[i].iter().map(|&b| Value::U8(b)).collect()
@@ -102,16 +109,28 @@ fn uchar_colours_read_the_same_in_every_encoding_and_reader() {
 fn float_colours_scale_round_and_clamp_and_alpha_defaults_to_opaque() {
     let props = "property float red\nproperty float green\nproperty float blue\n";
     let values = [[0.0, 0.5, 1.0], [1.5, -0.5, 0.25], [0.2, 0.4, 0.6], [1.0, 1.0, 1.0]];
-    let expected = [[0, 128, 255, 255], [255, 0, 64, 255], [51, 102, 153, 255], [255, 255, 255, 255]];
+    let expected =
+        [[0, 128, 255, 255], [255, 0, 64, 255], [51, 102, 153, 255], [255, 255, 255, 255]];
     for enc in [Encoding::Ascii, Encoding::Little, Encoding::Big] {
         for general in [false, true] {
-            let mesh = load(&ply(enc, props, |i| values[i].iter().map(|&f| Value::F32(f)).collect(), general), "f.ply");
+            let mesh = load(
+                &ply(enc, props, |i| values[i].iter().map(|&f| Value::F32(f)).collect(), general),
+                "f.ply",
+            );
             assert_eq!(mesh.colors, expected);
         }
     }
     // The short spellings read the same.
     let short = "property uchar r\nproperty uchar g\nproperty uchar b\n";
-    let mesh = load(&ply(Encoding::Little, short, |i| COLOURS[i][..3].iter().map(|&b| Value::U8(b)).collect(), false), "s.ply");
+    let mesh = load(
+        &ply(
+            Encoding::Little,
+            short,
+            |i| COLOURS[i][..3].iter().map(|&b| Value::U8(b)).collect(),
+            false,
+        ),
+        "s.ply",
+    );
     assert_eq!(mesh.colors, COLOURS.map(|[r, g, b, _]| [r, g, b, 255]));
 }
 
@@ -131,7 +150,12 @@ fn files_without_colours_keep_colors_empty_and_the_default_material() {
 fn a_colour_that_is_a_list_is_one_line_naming_the_file() {
     let props = "property list uchar uchar red\nproperty uchar green\nproperty uchar blue\n";
     for enc in [Encoding::Ascii, Encoding::Little, Encoding::Big] {
-        let bytes = ply(enc, props, |_| vec![Value::U8(1), Value::U8(5), Value::U8(6), Value::U8(7)], false);
+        let bytes = ply(
+            enc,
+            props,
+            |_| vec![Value::U8(1), Value::U8(5), Value::U8(6), Value::U8(7)],
+            false,
+        );
         let e = load_ply_from_bytes(&bytes, "list.ply").unwrap_err().to_string();
         assert!(e.starts_with("list.ply"), "{e}");
         assert!(e.contains("`red` is a list"), "{e}");
@@ -144,7 +168,12 @@ fn gltf_bin() -> Vec<u8> {
     let mut bin: Vec<u8> = QUAD.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
     bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
     bin.extend(COLOURS.iter().flatten());
-    bin.extend([[1.0f32, 0.5, 0.0], [0.0, 0.25, 1.0], [2.0, -1.0, 0.2], [0.4, 0.6, 0.8]].iter().flatten().flat_map(|c| c.to_le_bytes()));
+    bin.extend(
+        [[1.0f32, 0.5, 0.0], [0.0, 0.25, 1.0], [2.0, -1.0, 0.2], [0.4, 0.6, 0.8]]
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes()),
+    );
     bin
 }
 
@@ -186,7 +215,8 @@ fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
     fs::write(&path, gltf_json(r#", "normalized": true"#)).unwrap();
     let mesh = load_gltf(&path).unwrap().mesh;
     let floats = [[255, 128, 0, 255], [0, 64, 255, 255], [255, 0, 51, 255], [102, 153, 204, 255]];
-    let expected: Vec<[u8; 4]> = COLOURS.iter().chain(&[[255; 4]; 4]).chain(&floats).copied().collect();
+    let expected: Vec<[u8; 4]> =
+        COLOURS.iter().chain(&[[255; 4]; 4]).chain(&floats).copied().collect();
     assert_eq!(mesh.colors, expected);
     assert_eq!(mesh.colors.len(), mesh.positions.len());
 
@@ -211,11 +241,15 @@ fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
     use meshtracer::scene::primitives::{uv_sphere, write_obj};
     let dir = Scratch::new("obj");
     let mut sphere = uv_sphere(16, 8);
-    sphere.colors = (0..sphere.positions.len()).map(|i| [(i * 37 % 256) as u8, (i * 101 % 256) as u8, (255 - i % 256) as u8, 255]).collect();
+    sphere.colors = (0..sphere.positions.len())
+        .map(|i| [(i * 37 % 256) as u8, (i * 101 % 256) as u8, (255 - i % 256) as u8, 255])
+        .collect();
     let expected = corner_colours(&sphere);
     let path = dir.join("sphere.obj");
     // With file normals, and without them smoothed within a crease angle (vertices split).
-    for (normals, options) in [(true, LoadOptions::default()), (false, LoadOptions { crease_angle: Some(20.0) })] {
+    for (normals, options) in
+        [(true, LoadOptions::default()), (false, LoadOptions { crease_angle: Some(20.0) })]
+    {
         let mut mesh = sphere.clone();
         if !normals {
             mesh.normals.clear();
@@ -226,8 +260,15 @@ fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
         assert_eq!(corner_colours(&oracle), expected, "tobj, normals {normals}");
         // One chunk, and many (a model over several chunks is de-duplicated in parallel).
         for chunk_bytes in [usize::MAX, 256] {
-            let parallel = load_obj_from_str_chunked(&text, "sphere.obj", None, &options, chunk_bytes).unwrap().mesh;
-            assert_eq!(corner_colours(&parallel), expected, "chunks of {chunk_bytes} bytes, normals {normals}");
+            let parallel =
+                load_obj_from_str_chunked(&text, "sphere.obj", None, &options, chunk_bytes)
+                    .unwrap()
+                    .mesh;
+            assert_eq!(
+                corner_colours(&parallel),
+                expected,
+                "chunks of {chunk_bytes} bytes, normals {normals}"
+            );
             assert_eq!(parallel.colors, oracle.colors);
         }
     }
@@ -235,7 +276,11 @@ fn obj_colours_written_by_write_obj_read_back_through_both_parsers() {
     sphere.colors.clear();
     write_obj(&sphere, &path).unwrap();
     let text = fs::read_to_string(&path).unwrap();
-    assert!(load_obj_from_str_chunked(&text, "plain.obj", None, &LoadOptions::default(), 256).unwrap().mesh.colors.is_empty());
+    assert!(load_obj_from_str_chunked(&text, "plain.obj", None, &LoadOptions::default(), 256)
+        .unwrap()
+        .mesh
+        .colors
+        .is_empty());
 }
 
 #[test]
@@ -247,7 +292,8 @@ fn obj_colour_lines_with_an_unreadable_value_shift_the_rest_as_tobj_does() {
     let oracle = load_obj_from_str_tobj(text, "shift.obj", None, &options).unwrap().mesh;
     assert_eq!(oracle.colors, [[128, 255, 0, 255], [0, 0, 255, 255], [0, 0, 0, 255]]);
     for chunk_bytes in [usize::MAX, 1] {
-        let parallel = load_obj_from_str_chunked(text, "shift.obj", None, &options, chunk_bytes).unwrap().mesh;
+        let parallel =
+            load_obj_from_str_chunked(text, "shift.obj", None, &options, chunk_bytes).unwrap().mesh;
         assert_eq!(parallel.colors, oracle.colors, "chunks of {chunk_bytes} bytes");
     }
 }

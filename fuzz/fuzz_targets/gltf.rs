@@ -16,7 +16,10 @@ fuzz_target!(|data: &[u8]| {
         assert!(mesh.texcoords.is_empty() || mesh.texcoords.len() == mesh.positions.len());
         assert_eq!(mesh.triangle_materials.len(), mesh.triangles.len());
         assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < mesh.positions.len()));
-        assert!(mesh.triangle_materials.iter().all(|&m| (m as usize) < mesh.materials.len().max(1)));
+        assert!(mesh
+            .triangle_materials
+            .iter()
+            .all(|&m| (m as usize) < mesh.materials.len().max(1)));
         assert!(mesh.positions.iter().all(|p| p.is_finite()));
     }
 });

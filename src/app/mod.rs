@@ -38,9 +38,9 @@ use winit::window::WindowId;
 
 use tool::Tool;
 
+pub(crate) use options::parse_window_size;
 pub use options::ViewOptions;
 pub use views::split::{SplitB, SplitView};
-pub(crate) use options::parse_window_size;
 
 /// The hint every "cannot open the tool" error carries.
 pub(crate) const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
@@ -77,7 +77,11 @@ impl App {
             return Err(e);
         }
         if !messages.is_empty() {
-            anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+            anyhow::bail!(
+                "the Vulkan validation layer reported {} problem(s), the first: {}",
+                messages.len(),
+                messages[0]
+            );
         }
         Ok(())
     }
@@ -94,8 +98,15 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn device_event(&mut self, _event_loop: &ActiveEventLoop, _id: winit::event::DeviceId, event: winit::event::DeviceEvent) {
-        if let (Some(tool), winit::event::DeviceEvent::Button { button, state }) = (self.tool.as_mut(), event) {
+    fn device_event(
+        &mut self,
+        _event_loop: &ActiveEventLoop,
+        _id: winit::event::DeviceId,
+        event: winit::event::DeviceEvent,
+    ) {
+        if let (Some(tool), winit::event::DeviceEvent::Button { button, state }) =
+            (self.tool.as_mut(), event)
+        {
             tool.raw_button(button, state);
         }
     }
@@ -117,7 +128,9 @@ impl ApplicationHandler for App {
             } else {
                 // Minimized or hidden: check back now and then (model loads still finish),
                 // tracing nothing meanwhile.
-                event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + Duration::from_millis(100)));
+                event_loop.set_control_flow(ControlFlow::WaitUntil(
+                    Instant::now() + Duration::from_millis(100),
+                ));
                 tool.window.request_redraw();
             }
         }
@@ -148,6 +161,11 @@ mod tests {
         assert_eq!(os_message(e), "Failed to open connection to X server");
         assert_eq!(os_message("plain."), "plain");
         let full = headless_error("cannot open a window", e).to_string();
-        assert_eq!(full, format!("cannot open a window (Failed to open connection to X server); {HEADLESS_HINT}"));
+        assert_eq!(
+            full,
+            format!(
+                "cannot open a window (Failed to open connection to X server); {HEADLESS_HINT}"
+            )
+        );
     }
 }

@@ -75,7 +75,6 @@ pub(crate) fn parse_window_size(s: &str) -> Result<[u32; 2], String> {
     Ok([w, h])
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,12 +4,12 @@
 use glam::Vec3;
 use winit::keyboard::KeyCode;
 
-pub(crate) use crate::gpu::present::PixelRect;
 use crate::app::views::split::SplitView;
+pub(crate) use crate::gpu::present::PixelRect;
+use crate::render_settings::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
 use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
 use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::{Camera, EnvironmentSource};
-use crate::render_settings::{Accel, Aov, MAX_BOUNCES, MAX_RESOLUTION, RenderSettings};
 
 /// Square render-resolution presets.
 pub(crate) const PRESETS: [u32; 4] = [256, 512, 1024, 2048];
@@ -46,7 +46,15 @@ pub(crate) enum ViewMode {
 
 impl ViewMode {
     /// Every view, in the panel's order (the cost view with the BVH-node counter).
-    pub(crate) const ALL: [ViewMode; 7] = [ViewMode::Color, ViewMode::Cost(CostMetric::Nodes), ViewMode::Depth, ViewMode::Normal, ViewMode::PrimId, ViewMode::Samples, ViewMode::Ao];
+    pub(crate) const ALL: [ViewMode; 7] = [
+        ViewMode::Color,
+        ViewMode::Cost(CostMetric::Nodes),
+        ViewMode::Depth,
+        ViewMode::Normal,
+        ViewMode::PrimId,
+        ViewMode::Samples,
+        ViewMode::Ao,
+    ];
 
     /// The output the tracer writes for this view.
     pub(crate) fn aov(self) -> Aov {
@@ -136,9 +144,19 @@ impl Params {
     /// with the light paused at `--light-angle`, so its screenshots match `render`.
     pub(crate) fn new(spec: &SceneSpec, scripted: bool) -> Self {
         let s = &spec.settings;
-        let resolution = if s.width == s.height && PRESETS.contains(&s.width) { Resolution::Square(s.width) } else { Resolution::Custom };
-        let settings = RenderSettings { bounces: s.bounces.min(MAX_BOUNCES), blend: s.blend.clamp(0.0, 1.0), aov: Aov::Color, ..*s };
-        let scene = SceneSpec { settings, models: spec.models.clamp(1, MAX_MODELS), ..spec.clone() };
+        let resolution = if s.width == s.height && PRESETS.contains(&s.width) {
+            Resolution::Square(s.width)
+        } else {
+            Resolution::Custom
+        };
+        let settings = RenderSettings {
+            bounces: s.bounces.min(MAX_BOUNCES),
+            blend: s.blend.clamp(0.0, 1.0),
+            aov: Aov::Color,
+            ..*s
+        };
+        let scene =
+            SceneSpec { settings, models: spec.models.clamp(1, MAX_MODELS), ..spec.clone() };
         Self {
             resolution,
             custom: [s.width, s.height],
@@ -176,7 +194,8 @@ impl Params {
     /// Move the light along its orbit by `dt` seconds (unless paused).
     pub(crate) fn advance_light(&mut self, dt: f32) {
         if !self.light_paused {
-            self.scene.light.angle_deg = (self.scene.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
+            self.scene.light.angle_deg =
+                (self.scene.light.angle_deg + self.light_speed * dt).rem_euclid(360.0);
         }
     }
 
@@ -217,7 +236,11 @@ impl Params {
     /// The farthest the eye may be from the origin: inside the mirror box when it is on
     /// (outside, the user sees the box's back faces or black), a few box sizes otherwise.
     pub(crate) fn max_eye_distance(&self) -> f32 {
-        if self.scene.mirror_box { BOX_HALF_SIZE * 0.95 } else { BOX_HALF_SIZE * 4.0 }
+        if self.scene.mirror_box {
+            BOX_HALF_SIZE * 0.95
+        } else {
+            BOX_HALF_SIZE * 4.0
+        }
     }
 
     /// Pull the eye back towards the target until it is within [`Self::max_eye_distance`]
@@ -245,7 +268,8 @@ impl Params {
 
     /// Brute force visits no BVH nodes: the cost view counts triangles there.
     pub(crate) fn fit_cost_metric(&mut self) {
-        if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.scene.settings.accel) {
+        if let (ViewMode::Cost(metric), Accel::Brute) = (&mut self.view, self.scene.settings.accel)
+        {
             *metric = CostMetric::Triangles;
         }
     }
@@ -282,7 +306,12 @@ impl Params {
         let c = &self.camera;
         SceneSpec {
             model,
-            camera: CameraSpec { eye: Some(c.position), target: Some(c.target), fov: Some(c.vfov_deg), framed: false },
+            camera: CameraSpec {
+                eye: Some(c.position),
+                target: Some(c.target),
+                fov: Some(c.vfov_deg),
+                framed: false,
+            },
             settings,
             accumulate: 1,
             ..self.scene.clone()
@@ -336,7 +365,13 @@ pub(crate) const SHORTCUTS: &[(&str, &str)] = &[
 impl Params {
     /// Apply a key press (egui did not want the keyboard). `previous` remembers the
     /// resolution to go back to when `M` leaves "match window".
-    pub(crate) fn apply_key(&mut self, key: KeyCode, shift: bool, ctrl: bool, previous: &mut Resolution) -> KeyAction {
+    pub(crate) fn apply_key(
+        &mut self,
+        key: KeyCode,
+        shift: bool,
+        ctrl: bool,
+        previous: &mut Resolution,
+    ) -> KeyAction {
         match key {
             KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
             KeyCode::F12 => return KeyAction::ScreenshotTrace,
@@ -350,16 +385,33 @@ impl Params {
             KeyCode::Escape => return KeyAction::CancelLoad,
             KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
             KeyCode::KeyI => self.hud_visible = !self.hud_visible,
-            KeyCode::PageUp => self.scene.settings.bounces = (self.scene.settings.bounces + 1).min(MAX_BOUNCES),
-            KeyCode::PageDown => self.scene.settings.bounces = self.scene.settings.bounces.saturating_sub(1),
-            KeyCode::BracketLeft => self.scene.settings.blend = ((self.scene.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0,
-            KeyCode::BracketRight => self.scene.settings.blend = ((self.scene.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0,
-            KeyCode::Equal | KeyCode::NumpadAdd => self.scene.models = (self.scene.models + 1).min(MAX_MODELS),
-            KeyCode::Minus | KeyCode::NumpadSubtract => self.scene.models = self.scene.models.saturating_sub(1).max(1),
+            KeyCode::PageUp => {
+                self.scene.settings.bounces = (self.scene.settings.bounces + 1).min(MAX_BOUNCES)
+            }
+            KeyCode::PageDown => {
+                self.scene.settings.bounces = self.scene.settings.bounces.saturating_sub(1)
+            }
+            KeyCode::BracketLeft => {
+                self.scene.settings.blend =
+                    ((self.scene.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0
+            }
+            KeyCode::BracketRight => {
+                self.scene.settings.blend =
+                    ((self.scene.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0
+            }
+            KeyCode::Equal | KeyCode::NumpadAdd => {
+                self.scene.models = (self.scene.models + 1).min(MAX_MODELS)
+            }
+            KeyCode::Minus | KeyCode::NumpadSubtract => {
+                self.scene.models = self.scene.models.saturating_sub(1).max(1)
+            }
             KeyCode::KeyA => {
                 // BVH, brute force, vendor, and round (a device without the vendor's ray
                 // tracing falls back to the BVH with a note in the panel).
-                let next = Accel::ALL.iter().position(|&a| a == self.scene.settings.accel).map_or(0, |i| (i + 1) % Accel::ALL.len());
+                let next = Accel::ALL
+                    .iter()
+                    .position(|&a| a == self.scene.settings.accel)
+                    .map_or(0, |i| (i + 1) % Accel::ALL.len());
                 self.scene.settings.accel = Accel::ALL[next];
                 self.fit_cost_metric();
             }
@@ -397,7 +449,12 @@ pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
     let scale = (area.width as f64 / image[0] as f64).min(area.height as f64 / image[1] as f64);
     let width = ((image[0] as f64 * scale).round() as u32).clamp(1, area.width);
     let height = ((image[1] as f64 * scale).round() as u32).clamp(1, area.height);
-    PixelRect { x: area.x + ((area.width - width) / 2) as i32, y: area.y + ((area.height - height) / 2) as i32, width, height }
+    PixelRect {
+        x: area.x + ((area.width - width) / 2) as i32,
+        y: area.y + ((area.height - height) / 2) as i32,
+        width,
+        height,
+    }
 }
 
 #[cfg(test)]
@@ -414,11 +471,16 @@ mod tests {
 
     #[test]
     fn command_line_sets_the_start() {
-        let p = params(|s| s.settings = RenderSettings { width: 512, height: 512, bounces: 3, ..s.settings });
+        let p = params(|s| {
+            s.settings = RenderSettings { width: 512, height: 512, bounces: 3, ..s.settings }
+        });
         assert_eq!(p.resolution, Resolution::Square(512));
         assert_eq!(p.scene.settings.bounces, 3);
         assert!(!p.light_paused);
-        let spec = SceneSpec { settings: RenderSettings { width: 128, height: 96, ..Default::default() }, ..Default::default() };
+        let spec = SceneSpec {
+            settings: RenderSettings { width: 128, height: 96, ..Default::default() },
+            ..Default::default()
+        };
         let p = Params::new(&spec, true);
         assert_eq!(p.resolution, Resolution::Custom);
         assert_eq!(p.render_size([10, 10]), [128, 96]);
@@ -438,7 +500,8 @@ mod tests {
 
     #[test]
     fn keys_change_parameters_within_range() {
-        let mut p = params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
+        let mut p =
+            params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
         let mut prev = p.resolution;
         p.apply_key(KeyCode::PageUp, false, false, &mut prev);
         assert_eq!(p.scene.settings.bounces, 8);
@@ -465,11 +528,30 @@ mod tests {
     fn ctrl_chords_other_than_quit_and_open_leave_everything_alone() {
         let mut p = params(|_| {});
         let mut prev = p.resolution;
-        let before = format!("{:?}", (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible));
-        for key in [KeyCode::KeyA, KeyCode::KeyC, KeyCode::KeyV, KeyCode::KeyS, KeyCode::KeyM, KeyCode::KeyR, KeyCode::KeyB, KeyCode::KeyH, KeyCode::Equal] {
+        let before = format!(
+            "{:?}",
+            (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)
+        );
+        for key in [
+            KeyCode::KeyA,
+            KeyCode::KeyC,
+            KeyCode::KeyV,
+            KeyCode::KeyS,
+            KeyCode::KeyM,
+            KeyCode::KeyR,
+            KeyCode::KeyB,
+            KeyCode::KeyH,
+            KeyCode::Equal,
+        ] {
             assert_eq!(p.apply_key(key, false, true, &mut prev), KeyAction::None, "Ctrl+{key:?}");
         }
-        assert_eq!(format!("{:?}", (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)), before);
+        assert_eq!(
+            format!(
+                "{:?}",
+                (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)
+            ),
+            before
+        );
         assert_eq!(p.apply_key(KeyCode::KeyO, false, true, &mut prev), KeyAction::OpenModel);
         // Without Ctrl, A is the acceleration's key.
         p.apply_key(KeyCode::KeyA, false, false, &mut prev);
@@ -480,9 +562,11 @@ mod tests {
     fn escape_asks_to_stop_a_load() {
         let mut p = params(|_| {});
         let mut previous = Resolution::Square(512);
-        assert_eq!(p.apply_key(KeyCode::Escape, false, false, &mut previous), KeyAction::CancelLoad);
+        assert_eq!(
+            p.apply_key(KeyCode::Escape, false, false, &mut previous),
+            KeyAction::CancelLoad
+        );
     }
-
 
     #[test]
     fn light_moves_unless_paused() {
@@ -501,8 +585,15 @@ mod tests {
         for _ in 0..20 {
             p.zoom_camera(-1.0);
         }
-        assert!(p.camera.position.abs().max_element() <= BOX_HALF_SIZE * 0.95 + 1e-4, "{:?}", p.camera.position);
-        assert!((p.camera.position - p.camera.target).length() > 1.0, "the eye still sees the model from afar");
+        assert!(
+            p.camera.position.abs().max_element() <= BOX_HALF_SIZE * 0.95 + 1e-4,
+            "{:?}",
+            p.camera.position
+        );
+        assert!(
+            (p.camera.position - p.camera.target).length() > 1.0,
+            "the eye still sees the model from afar"
+        );
         // Without the box, farther is allowed but bounded.
         p.scene.mirror_box = false;
         for _ in 0..100 {
@@ -523,7 +614,11 @@ mod tests {
         p.apply_key(KeyCode::KeyC, false, false, &mut prev);
         assert_eq!(p.view, ViewMode::Cost(CostMetric::Nodes));
         p.apply_key(KeyCode::KeyA, false, false, &mut prev);
-        assert_eq!(p.view, ViewMode::Cost(CostMetric::Triangles), "nodes are all zero without a BVH");
+        assert_eq!(
+            p.view,
+            ViewMode::Cost(CostMetric::Triangles),
+            "nodes are all zero without a BVH"
+        );
     }
 
     #[test]
@@ -532,15 +627,34 @@ mod tests {
             models: 3,
             mirror_box: false,
             light: LightOrbit { angle_deg: 99.0, radius: 1.5, height: -0.5 },
-            camera: CameraSpec { eye: Some(Vec3::new(1.0, 2.0, 3.0)), target: Some(Vec3::new(0.0, 0.5, 0.0)), fov: Some(35.0), framed: false },
+            camera: CameraSpec {
+                eye: Some(Vec3::new(1.0, 2.0, 3.0)),
+                target: Some(Vec3::new(0.0, 0.5, 0.0)),
+                fov: Some(35.0),
+                framed: false,
+            },
             environment: Some(EnvironmentSource::Sky),
-            settings: RenderSettings { width: 320, height: 200, bounces: 4, blend: 0.7, accel: Accel::Brute, smooth: true, spp: 8, adaptive: true, textures: false, ..Default::default() },
+            settings: RenderSettings {
+                width: 320,
+                height: 200,
+                bounces: 4,
+                blend: 0.7,
+                accel: Accel::Brute,
+                smooth: true,
+                spp: 8,
+                adaptive: true,
+                textures: false,
+                ..Default::default()
+            },
             ..SceneSpec::default()
         };
         let mut p = params(|_| {});
         p.vsync = false;
         p.apply_preset(&spec);
-        assert!(p.light_paused && !p.vsync, "the light stops at the preset's angle; the display stays");
+        assert!(
+            p.light_paused && !p.vsync,
+            "the light stops at the preset's angle; the display stays"
+        );
         let saved = p.scene_spec(spec.model.clone(), p.settings_for([800, 600]));
         assert_eq!(saved, spec);
         p.camera.position = Vec3::ONE;
@@ -552,7 +666,10 @@ mod tests {
     fn letterbox_keeps_aspect_and_centres() {
         let area = PixelRect { x: 200, y: 0, width: 400, height: 300 };
         assert_eq!(fit_rect([100, 100], area), PixelRect { x: 250, y: 0, width: 300, height: 300 });
-        assert_eq!(fit_rect([800, 200], area), PixelRect { x: 200, y: 100, width: 400, height: 100 });
+        assert_eq!(
+            fit_rect([800, 200], area),
+            PixelRect { x: 200, y: 100, width: 400, height: 100 }
+        );
         assert_eq!(fit_rect([10, 10], PixelRect { width: 0, ..area }).width, 0);
     }
 }

@@ -53,7 +53,10 @@ impl<C: ClockSource> ClockGuard<C> {
     /// Run `busy` (a frame of the row about to be measured) for [`SETTLE_STEP`] at a time
     /// until the clock is at least [`CLOCKED_DOWN`] of the highest seen, or the limit
     /// ([`SETTLE_LIMIT`]) has passed. Returns the clock reached, in MHz.
-    pub fn settle(&mut self, mut busy: impl FnMut() -> Result<(), GpuError>) -> Result<f64, GpuError> {
+    pub fn settle(
+        &mut self,
+        mut busy: impl FnMut() -> Result<(), GpuError>,
+    ) -> Result<f64, GpuError> {
         let start = Instant::now();
         loop {
             let mhz = self.read()?;
@@ -99,15 +102,22 @@ mod tests {
         }
     }
 
-    fn guard(low: f64, busy_steps: u32) -> (ClockGuard<ScriptedClock>, std::rc::Rc<std::cell::Cell<u32>>) {
+    fn guard(
+        low: f64,
+        busy_steps: u32,
+    ) -> (ClockGuard<ScriptedClock>, std::rc::Rc<std::cell::Cell<u32>>) {
         let busy = std::rc::Rc::new(std::cell::Cell::new(0));
-        let clock = ScriptedClock { low, high: 1980.0, busy_steps, busy: busy.clone(), readings: 0 };
+        let clock =
+            ScriptedClock { low, high: 1980.0, busy_steps, busy: busy.clone(), readings: 0 };
         // Start from a run that has already seen the full clock.
         (ClockGuard { probe: clock, highest: 1980.0, limit: Duration::from_millis(400) }, busy)
     }
 
     /// A frame of GPU work as the guard sees it: counted in `counter`, `ms` long.
-    fn frame(counter: &std::rc::Rc<std::cell::Cell<u32>>, ms: u64) -> impl FnMut() -> Result<(), GpuError> {
+    fn frame(
+        counter: &std::rc::Rc<std::cell::Cell<u32>>,
+        ms: u64,
+    ) -> impl FnMut() -> Result<(), GpuError> {
         let counter = counter.clone();
         move || {
             counter.set(counter.get() + 1);
@@ -140,7 +150,11 @@ mod tests {
         let start = Instant::now();
         let mhz = g.settle(frame(&busy, 5)).unwrap();
         assert_eq!(mhz, 600.0, "reports the clock it had");
-        assert!(start.elapsed() >= Duration::from_millis(400), "gave up before the limit: {:?}", start.elapsed());
+        assert!(
+            start.elapsed() >= Duration::from_millis(400),
+            "gave up before the limit: {:?}",
+            start.elapsed()
+        );
         assert!(busy.get() > 0);
         assert_eq!(g.highest, 1980.0, "a low reading does not lower the reference");
     }

@@ -56,7 +56,12 @@ impl LoadRow {
 
     /// The phase whose peak was the load's (None without the phases' peaks).
     pub fn peak_phase(&self) -> Option<Phase> {
-        let (i, _) = self.phase_peak_rss_bytes.iter().enumerate().filter_map(|(i, p)| p.map(|p| (i, p))).max_by_key(|&(_, p)| p)?;
+        let (i, _) = self
+            .phase_peak_rss_bytes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| p.map(|p| (i, p)))
+            .max_by_key(|&(_, p)| p)?;
         Some(Phase::ALL[i])
     }
 }
@@ -74,7 +79,8 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let progress = Progress::default();
     progress.track_peak_memory();
     let start = Instant::now();
-    let (mesh, _warnings) = spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
+    let (mesh, _warnings) =
+        spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
     let triangles = mesh.triangle_count() as u64;
     let scene = spec.scene_with(mesh);
     let packed = PackedScene::for_loading(&scene, spec.settings.bvh, &progress)?;
@@ -94,18 +100,47 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let mut phase_peak_rss_bytes = [None; 5];
     for ((slot, peak), phase) in phase_s.iter_mut().zip(&mut phase_peak_rss_bytes).zip(Phase::ALL) {
         *slot = snapshot.seconds(phase);
-        *peak = snapshot.phases.iter().filter(|p| p.phase == phase).filter_map(|p| p.peak_rss_bytes).max();
+        *peak = snapshot
+            .phases
+            .iter()
+            .filter(|p| p.phase == phase)
+            .filter_map(|p| p.peak_rss_bytes)
+            .max();
     }
     // The first frame after the last phase counts too.
-    let peak_rss_bytes = phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
-    Ok(LoadRow { model: spec.model.label(), bvh: spec.settings.bvh, file_bytes, triangles, phase_s, first_frame_gpu_ms: timing.gpu_ms, to_first_frame_s, peak_rss_bytes, phase_peak_rss_bytes })
+    let peak_rss_bytes =
+        phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
+    Ok(LoadRow {
+        model: spec.model.label(),
+        bvh: spec.settings.bvh,
+        file_bytes,
+        triangles,
+        phase_s,
+        first_frame_gpu_ms: timing.gpu_ms,
+        to_first_frame_s,
+        peak_rss_bytes,
+        phase_peak_rss_bytes,
+    })
 }
 
 /// The table `bench --load` prints: a header and one line per row.
 pub fn table(rows: &[LoadRow]) -> String {
     let mut s = format!(
         "{:<20} {:<9} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7}\n",
-        "model", "bvh", "triangles", "file MB", "read s", "parse s", "build s", "pack s", "upload s", "frame ms", "to frame s", "peak MB", "B/tri+file", "peak in"
+        "model",
+        "bvh",
+        "triangles",
+        "file MB",
+        "read s",
+        "parse s",
+        "build s",
+        "pack s",
+        "upload s",
+        "frame ms",
+        "to frame s",
+        "peak MB",
+        "B/tri+file",
+        "peak in"
     );
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
@@ -157,7 +192,11 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
 }
 
 fn truncate(s: &str, n: usize) -> String {
-    if s.chars().count() <= n { s.to_owned() } else { s.chars().take(n - 1).chain(['…']).collect() }
+    if s.chars().count() <= n {
+        s.to_owned()
+    } else {
+        s.chars().take(n - 1).chain(['…']).collect()
+    }
 }
 
 /// The rows as a file: `bench --load --json`.
@@ -187,21 +226,37 @@ mod tests {
             first_frame_gpu_ms: Some(1.5),
             to_first_frame_s: 1.6,
             peak_rss_bytes: Some(1_120_000),
-            phase_peak_rss_bytes: [Some(900_000), Some(1_000_000), Some(1_120_000), Some(1_100_000), None],
+            phase_peak_rss_bytes: [
+                Some(900_000),
+                Some(1_000_000),
+                Some(1_120_000),
+                Some(1_100_000),
+                None,
+            ],
         };
         assert_eq!(row.peak_bytes_per_triangle_beyond_file(), Some(120.0));
         assert_eq!(row.peak_phase(), Some(Phase::Build));
         let table = table(std::slice::from_ref(&row));
         assert_eq!(table.lines().count(), 2);
         for figure in ["wide", "0.100", "0.500", "1.50", "1.600", "120", "build"] {
-            assert!(table.lines().nth(1).unwrap().contains(figure), "{figure} missing from {table}");
+            assert!(
+                table.lines().nth(1).unwrap().contains(figure),
+                "{figure} missing from {table}"
+            );
         }
         let mut old_report = serde_json::to_value(&row).unwrap();
         old_report.as_object_mut().unwrap().remove("bvh");
-        assert_eq!(serde_json::from_value::<LoadRow>(old_report).unwrap().bvh, BvhLayout::Binary, "a report from before the column");
+        assert_eq!(
+            serde_json::from_value::<LoadRow>(old_report).unwrap().bvh,
+            BvhLayout::Binary,
+            "a report from before the column"
+        );
         let env = Environment::default();
         let csv = csv(&env, &[row]);
-        assert_eq!(csv.lines().nth(1).unwrap().split(',').count(), csv.lines().next().unwrap().split(',').count());
+        assert_eq!(
+            csv.lines().nth(1).unwrap().split(',').count(),
+            csv.lines().next().unwrap().split(',').count()
+        );
     }
 
     #[test]
@@ -210,5 +265,4 @@ mod tests {
             assert!(read_peak_rss().is_some_and(|b| b > 0));
         }
     }
-
 }

@@ -3,8 +3,8 @@
 //! reported as GPU time (timestamps around the dispatch) and wall-clock frame time.
 
 pub mod charts;
-pub mod load;
 pub mod clock_guard;
+pub mod load;
 pub mod paper_tables;
 pub mod report;
 pub mod timing;
@@ -17,14 +17,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
-use clock_guard::{ClockGuard, CLOCKED_DOWN};
-use timing::Timing;
-use workload::WorkloadHeader;
+use crate::render_settings::{Accel, Aov, RenderSettings};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
-use crate::render_settings::{Accel, Aov, RenderSettings};
 use crate::tracer::{budget, FrameParams, PackedScene};
+use clock_guard::{ClockGuard, CLOCKED_DOWN};
+use timing::Timing;
+use workload::WorkloadHeader;
 
 /// One benchmark configuration: a scene spec and how to report it.
 #[derive(Clone, Debug)]
@@ -47,7 +47,14 @@ impl Case {
     /// A row of `series` on a paper model with default shading.
     pub fn new(series: &str, model: ModelSource, models: u32, settings: RenderSettings) -> Self {
         let spec = SceneSpec { model, models, settings, ..SceneSpec::default() };
-        Self { series: series.into(), spec, generated: None, paper: None, features: String::new(), vendor_kernel: None }
+        Self {
+            series: series.into(),
+            spec,
+            generated: None,
+            paper: None,
+            features: String::new(),
+            vendor_kernel: None,
+        }
     }
 
     /// The same row with the camera moved in until the model fills the frame.
@@ -117,7 +124,10 @@ pub fn vendor_pairs(rows: &[Row]) -> Vec<(usize, usize)> {
     let mut pairs = Vec::new();
     for (j, theirs) in rows.iter().enumerate().filter(|(_, r)| r.workload.accel == Accel::Vendor) {
         let mut ours: Vec<usize> = Vec::new();
-        for i in (0..j).rev().filter(|&i| rows[i].workload.accel == Accel::Bvh && rows[i].scene_and_rays() == theirs.scene_and_rays()) {
+        for i in (0..j).rev().filter(|&i| {
+            rows[i].workload.accel == Accel::Bvh
+                && rows[i].scene_and_rays() == theirs.scene_and_rays()
+        }) {
             if ours.iter().all(|&k| rows[k].workload.bvh != rows[i].workload.bvh) {
                 ours.push(i);
             }
@@ -143,7 +153,9 @@ pub fn pair_with_vendor(rows: &mut [Row]) {
 /// clock was lowered (and did not come back in time), so their times are not the tracer's.
 pub fn clocked_down(rows: &[Row]) -> Vec<&Row> {
     let highest = rows.iter().filter_map(|r| r.gpu_clock_mhz).fold(0.0, f64::max);
-    rows.iter().filter(|r| r.gpu_clock_mhz.is_some_and(|mhz| mhz < CLOCKED_DOWN * highest)).collect()
+    rows.iter()
+        .filter(|r| r.gpu_clock_mhz.is_some_and(|mhz| mhz < CLOCKED_DOWN * highest))
+        .collect()
 }
 
 /// Options of a run.
@@ -183,7 +195,12 @@ struct Loaded {
 }
 
 /// Run `cases` on `ctx`, calling `progress` after each row.
-pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut progress: impl FnMut(usize, &Row)) -> anyhow::Result<Vec<Row>> {
+pub fn run(
+    ctx: &Arc<GpuContext>,
+    cases: &[Case],
+    options: &RunOptions,
+    mut progress: impl FnMut(usize, &Row),
+) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::with_capacity(cases.len());
     let mut loaded: Option<Loaded> = None;
     // The uploaded scene is reused while mesh (and so BVH) stays the same.
@@ -246,7 +263,14 @@ pub fn run(ctx: &Arc<GpuContext>, cases: &[Case], options: &RunOptions, mut prog
 
 /// Trace `case`'s warm-up and measured frames; with a clock guard, the GPU is first kept busy
 /// until its clock is up, and the row reports the lower of the clocks before and after.
-fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scene::Scene, case: &Case, options: &RunOptions, mut clock: Option<&mut ClockGuard>) -> Result<Row, GpuError> {
+fn measure(
+    tracer: &mut ComputeTracer,
+    packed: &PackedScene,
+    scene: &crate::scene::Scene,
+    case: &Case,
+    options: &RunOptions,
+    mut clock: Option<&mut ClockGuard>,
+) -> Result<Row, GpuError> {
     let s = case.spec.settings;
     let triangles = scene.triangle_count() as u64;
     let rays = s.max_rays();
@@ -289,7 +313,8 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         if let Some(kernel) = case.vendor_kernel {
             tracer.set_vendor_kernel(kernel)?;
         }
-        let kernel = tracer.vendor_kernel().map_err(|why| GpuError::VendorUnavailable(why.to_string()))?;
+        let kernel =
+            tracer.vendor_kernel().map_err(|why| GpuError::VendorUnavailable(why.to_string()))?;
         row.vendor_kernel = Some(kernel.to_string());
         tracer.prepare(&crate::gpu::FrameTrace::whole(params))?;
     }
@@ -299,9 +324,11 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         let (image, _) = tracer.render(&ids)?;
         let model_triangles = scene.meshes[0].triangle_count() as f32;
         let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
-        let framed = format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
+        let framed =
+            format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
         // After the case's own label (the AO series names its rays), if it has one.
-        row.features = if case.features.is_empty() { framed } else { format!("{}, {framed}", case.features) };
+        row.features =
+            if case.features.is_empty() { framed } else { format!("{}, {framed}", case.features) };
     }
     // The driver's traversal reports no cost.
     if options.verbose && s.accel != Accel::Vendor {
@@ -331,7 +358,9 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
         // The driver's structures stand in for our BVH in the build and memory columns. Read
         // after the frames: a tracer new to this row builds them with its first frame (its
         // output image does not exist before), and the columns had shown our own figures.
-        let stats = tracer.vendor_stats().ok_or_else(|| GpuError::VendorUnavailable("the vendor's structures were not built".into()))?;
+        let stats = tracer.vendor_stats().ok_or_else(|| {
+            GpuError::VendorUnavailable("the vendor's structures were not built".into())
+        })?;
         row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
         row.scene_bytes = stats.bytes;
     }
@@ -346,14 +375,23 @@ fn measure(tracer: &mut ComputeTracer, packed: &PackedScene, scene: &crate::scen
 
 /// Mean BVH nodes visited and triangles tested per pixel (the cost AOV, summed over the
 /// path's rays), and the bytes of node and triangle records that makes.
-fn work_per_ray(tracer: &mut ComputeTracer, scene: &crate::scene::Scene, s: RenderSettings) -> Result<String, GpuError> {
-    let cost = FrameParams::new(scene, RenderSettings { aov: Aov::Cost, spp: 1, adaptive: false, ..s });
+fn work_per_ray(
+    tracer: &mut ComputeTracer,
+    scene: &crate::scene::Scene,
+    s: RenderSettings,
+) -> Result<String, GpuError> {
+    let cost =
+        FrameParams::new(scene, RenderSettings { aov: Aov::Cost, spp: 1, adaptive: false, ..s });
     let (image, _) = tracer.render(&cost)?;
     let n = image.pixels.len().max(1) as f64;
     let nodes = image.pixels.iter().map(|p| p[0] as f64).sum::<f64>() / n;
     let tris = image.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / n;
     // The layout traced: a scene packed with one layout traces it whatever the frame asks.
-    let node_bytes = if tracer.traced_layout(s.bvh).is_wide() { std::mem::size_of::<crate::bvh::wide::WideNode>() } else { std::mem::size_of::<crate::bvh::BvhNode>() } as f64;
+    let node_bytes = if tracer.traced_layout(s.bvh).is_wide() {
+        std::mem::size_of::<crate::bvh::wide::WideNode>()
+    } else {
+        std::mem::size_of::<crate::bvh::BvhNode>()
+    } as f64;
     let tri_bytes = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as f64;
     let tail = PathTail::of(&image, crate::gpu::GROUP.width);
     Ok(format!(
@@ -388,11 +426,21 @@ impl PathTail {
         let mut runs: Vec<f32> = image
             .pixels
             .chunks(image.width.max(1) as usize)
-            .flat_map(|row| row.chunks(run.max(1) as usize).map(|r| r.iter().map(steps).fold(0.0, f32::max)))
+            .flat_map(|row| {
+                row.chunks(run.max(1) as usize).map(|r| r.iter().map(steps).fold(0.0, f32::max))
+            })
             .collect();
         runs.sort_by(f32::total_cmp);
-        let rank = |q: f64| runs.get(((q * runs.len() as f64).ceil() as usize).clamp(1, runs.len().max(1)) - 1).copied().unwrap_or(0.0);
-        Self { longest: runs.last().copied().unwrap_or(0.0), run_median: rank(0.5), run_p999: rank(0.999) }
+        let rank = |q: f64| {
+            runs.get(((q * runs.len() as f64).ceil() as usize).clamp(1, runs.len().max(1)) - 1)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        Self {
+            longest: runs.last().copied().unwrap_or(0.0),
+            run_median: rank(0.5),
+            run_p999: rank(0.999),
+        }
     }
 }
 
@@ -404,7 +452,8 @@ mod tests {
     fn path_tail_takes_each_runs_costliest_pixel() {
         // Two rows of 64 pixels: four runs of 32. One grazing ray of 900 nodes and 100
         // triangles; every other pixel 8 + 2.
-        let mut image = crate::tracer::Image { width: 64, height: 2, pixels: vec![[8.0, 2.0, 0.0, 1.0]; 128] };
+        let mut image =
+            crate::tracer::Image { width: 64, height: 2, pixels: vec![[8.0, 2.0, 0.0, 1.0]; 128] };
         image.pixels[70] = [900.0, 100.0, 0.0, 1.0];
         image.pixels[3] = [20.0, 5.0, 0.0, 1.0];
         let tail = PathTail::of(&image, 32);
@@ -413,7 +462,11 @@ mod tests {
         assert_eq!(tail.run_median, 10.0);
         assert_eq!(tail.run_p999, 1000.0);
         // A frame narrower than a run: one run per row.
-        let narrow = crate::tracer::Image { width: 3, height: 1, pixels: vec![[1.0, 1.0, 0.0, 1.0], [4.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]] };
+        let narrow = crate::tracer::Image {
+            width: 3,
+            height: 1,
+            pixels: vec![[1.0, 1.0, 0.0, 1.0], [4.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]],
+        };
         let tail = PathTail::of(&narrow, 32);
         assert_eq!((tail.longest, tail.run_median, tail.run_p999), (4.0, 4.0, 4.0));
         // An empty image has no paths.
@@ -423,7 +476,10 @@ mod tests {
 
     #[test]
     fn rows_below_the_share_of_the_highest_clock_are_clocked_down() {
-        let row = |mhz: Option<f64>| Row { gpu_clock_mhz: mhz, ..serde_json::from_str::<Row>(ROW_JSON).unwrap() };
+        let row = |mhz: Option<f64>| Row {
+            gpu_clock_mhz: mhz,
+            ..serde_json::from_str::<Row>(ROW_JSON).unwrap()
+        };
         let rows = [row(Some(1980.0)), row(Some(600.0)), row(None), row(Some(1800.0))];
         let low = clocked_down(&rows);
         assert_eq!(low.len(), 1);
@@ -440,9 +496,11 @@ mod tests {
         assert_eq!(row.workload.model, "dragon");
         // Written since: the timings' min, mean and max (read as 0 from an older row).
         let newer = ROW_JSON
-            .replace("null}", r#"null,"vendor_kernel":null,"ours_over_vendor":null,"gpu_clock_mhz":null}"#)
+            .replace(
+                "null}",
+                r#"null,"vendor_kernel":null,"ours_over_vendor":null,"gpu_clock_mhz":null}"#,
+            )
             .replace(r#"_ms":{"median""#, r#"_ms":{"min":0.0,"mean":0.0,"max":0.0,"median""#);
         assert_eq!(serde_json::to_string(&row).unwrap(), newer);
     }
 }
-

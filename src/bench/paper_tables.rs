@@ -4,10 +4,10 @@
 use std::sync::Arc;
 
 use super::Case;
-use crate::scene::paper::ModelSource;
-use crate::scene::EnvironmentSource;
-use crate::scene::primitives::{large_torus_knot, PaperModel};
 use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::scene::paper::ModelSource;
+use crate::scene::primitives::{large_torus_knot, PaperModel};
+use crate::scene::EnvironmentSource;
 
 /// Table 1: (model, [(fps, ms) at 512x512, (fps, ms) at 1024x1024]).
 pub const TABLE1: [(PaperModel, [(f64, f64); 2]); 4] = [
@@ -26,7 +26,15 @@ pub const TABLE2: [(u32, [(f64, f64); 2]); 4] = [
 ];
 
 fn settings(size: u32, bounces: u32, accel: Accel) -> RenderSettings {
-    RenderSettings { width: size, height: size, bounces, blend: 0.5, accel, aov: Aov::Color, ..RenderSettings::default() }
+    RenderSettings {
+        width: size,
+        height: size,
+        bounces,
+        blend: 0.5,
+        accel,
+        aov: Aov::Color,
+        ..RenderSettings::default()
+    }
 }
 
 /// Both tables at the given resolutions (the paper's: 512, 1024) for each acceleration.
@@ -40,7 +48,10 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
                     1024 => Some(figures[1]),
                     _ => None,
                 };
-                cases.push(Case { paper, ..Case::new("table1", ModelSource::Paper(model), 1, settings(size, 2, accel)) });
+                cases.push(Case {
+                    paper,
+                    ..Case::new("table1", ModelSource::Paper(model), 1, settings(size, 2, accel))
+                });
             }
         }
         for (count, figures) in TABLE2 {
@@ -50,7 +61,15 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
                     1024 => Some(figures[1]),
                     _ => None,
                 };
-                cases.push(Case { paper, ..Case::new("table2", ModelSource::Paper(PaperModel::Geosphere), count, settings(size, 2, accel)) });
+                cases.push(Case {
+                    paper,
+                    ..Case::new(
+                        "table2",
+                        ModelSource::Paper(PaperModel::Geosphere),
+                        count,
+                        settings(size, 2, accel),
+                    )
+                });
             }
         }
     }
@@ -59,12 +78,21 @@ pub fn paper_cases(resolutions: &[u32], accels: &[Accel]) -> Vec<Case> {
 
 /// Frame time against triangle count (generated torus knots), resolution, bounces and
 /// model count; `extra` .obj files join the triangle series.
-pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32, bounces: u32) -> Vec<Case> {
+pub fn scaling_cases(
+    triangle_counts: &[usize],
+    extra: &[ModelSource],
+    accels: &[Accel],
+    size: u32,
+    bounces: u32,
+) -> Vec<Case> {
     let mut cases = Vec::new();
     for &n in triangle_counts {
         let mesh = Arc::new(large_torus_knot(n));
         for &accel in accels {
-            cases.push(Case { generated: Some(mesh.clone()), ..Case::new("triangles", ModelSource::default(), 1, settings(size, bounces, accel)) });
+            cases.push(Case {
+                generated: Some(mesh.clone()),
+                ..Case::new("triangles", ModelSource::default(), 1, settings(size, bounces, accel))
+            });
         }
     }
     for source in extra {
@@ -74,13 +102,28 @@ pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &
     }
     for &accel in accels {
         for res in [256, 512, 1024, 2048] {
-            cases.push(Case::new("resolution", ModelSource::Paper(PaperModel::Cylinder), 1, settings(res, 2, accel)));
+            cases.push(Case::new(
+                "resolution",
+                ModelSource::Paper(PaperModel::Cylinder),
+                1,
+                settings(res, 2, accel),
+            ));
         }
         for b in 0..=8 {
-            cases.push(Case::new("bounces", ModelSource::Paper(PaperModel::Cylinder), 1, settings(size, b, accel)));
+            cases.push(Case::new(
+                "bounces",
+                ModelSource::Paper(PaperModel::Cylinder),
+                1,
+                settings(size, b, accel),
+            ));
         }
         for m in [1, 2, 4, 7, 14, 27] {
-            cases.push(Case::new("models", ModelSource::Paper(PaperModel::Geosphere), m, settings(size, 2, accel)));
+            cases.push(Case::new(
+                "models",
+                ModelSource::Paper(PaperModel::Geosphere),
+                m,
+                settings(size, 2, accel),
+            ));
         }
     }
     cases
@@ -88,12 +131,23 @@ pub fn scaling_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &
 
 /// Primary rays only with the camera moved in until the model fills the frame, as in the
 /// vendor's figure (a 4M-triangle mesh filling 1024x1024): every ray meets the mesh's BVH.
-pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32) -> Vec<Case> {
+pub fn framed_cases(
+    triangle_counts: &[usize],
+    extra: &[ModelSource],
+    accels: &[Accel],
+    size: u32,
+) -> Vec<Case> {
     let mut cases = Vec::new();
     for &n in triangle_counts {
         let mesh = Arc::new(large_torus_knot(n));
         for &accel in accels {
-            cases.push(Case { generated: Some(mesh.clone()), ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, accel)) }.framed());
+            cases.push(
+                Case {
+                    generated: Some(mesh.clone()),
+                    ..Case::new("framed", ModelSource::default(), 1, settings(size, 0, accel))
+                }
+                .framed(),
+            );
         }
     }
     for source in extra {
@@ -108,13 +162,25 @@ pub fn framed_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[
 /// `samples` occlusion rays of length `radius`, any-hit queries (ours with early exit, the
 /// vendor's terminating on the first hit), so `--compare` times our AO against the
 /// vendor's on the rays the issue had not measured: incoherent ones.
-pub fn ao_cases(triangle_counts: &[usize], extra: &[ModelSource], accels: &[Accel], size: u32, samples: u32, radius: f32) -> Vec<Case> {
+pub fn ao_cases(
+    triangle_counts: &[usize],
+    extra: &[ModelSource],
+    accels: &[Accel],
+    size: u32,
+    samples: u32,
+    radius: f32,
+) -> Vec<Case> {
     framed_cases(triangle_counts, extra, accels, size)
         .into_iter()
         .map(|mut case| {
             case.series = "ao".into();
             case.features = format!("ao {samples} rays, r {radius}");
-            case.spec.settings = RenderSettings { aov: Aov::Ao, ao_samples: samples, ao_radius: radius, ..case.spec.settings };
+            case.spec.settings = RenderSettings {
+                aov: Aov::Ao,
+                ao_samples: samples,
+                ao_radius: radius,
+                ..case.spec.settings
+            };
             case
         })
         .collect()
@@ -135,11 +201,20 @@ pub fn feature_cases(size: u32, model: ModelSource, textured: Option<ModelSource
     ];
     let mut cases: Vec<Case> = variants
         .iter()
-        .map(|(label, s, env)| Case { features: label.to_string(), ..Case::new("features", model.clone(), 1, *s) }.with_environment(env.then_some(EnvironmentSource::Sky)))
+        .map(|(label, s, env)| {
+            Case { features: label.to_string(), ..Case::new("features", model.clone(), 1, *s) }
+                .with_environment(env.then_some(EnvironmentSource::Sky))
+        })
         .collect();
     if let Some(t) = textured {
-        cases.push(Case { features: "untextured".into(), ..Case::new("features", t.clone(), 1, base) });
-        cases.push(Case { features: "textures".into(), ..Case::new("features", t, 1, RenderSettings { textures: true, ..base }) });
+        cases.push(Case {
+            features: "untextured".into(),
+            ..Case::new("features", t.clone(), 1, base)
+        });
+        cases.push(Case {
+            features: "textures".into(),
+            ..Case::new("features", t, 1, RenderSettings { textures: true, ..base })
+        });
     }
     cases
 }

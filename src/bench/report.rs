@@ -60,12 +60,26 @@ pub fn format_row(r: &Row) -> String {
         _ => String::new(),
     };
     if let Some(why) = &r.skipped {
-        return format!("{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}", r.series, r.workload.model, r.workload.models, r.workload.triangles, r.workload.width, r.workload.height, r.workload.bounces, r.workload.accel_label());
+        return format!(
+            "{:<10} {:<12} x{:<2} {:>9} {:>5}x{:<5} b{} {:<6} skipped: {why}",
+            r.series,
+            r.workload.model,
+            r.workload.models,
+            r.workload.triangles,
+            r.workload.width,
+            r.workload.height,
+            r.workload.bounces,
+            r.workload.accel_label()
+        );
     }
     let gpu = r.gpu_ms.map_or("      -".into(), |g| format!("{:>9.3}", g.median));
     let mut notes = r.features.clone();
     if let Some(kernel) = &r.vendor_kernel {
-        notes = [notes.as_str(), kernel.as_str()].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join(", ");
+        notes = [notes.as_str(), kernel.as_str()]
+            .into_iter()
+            .filter(|s| !s.is_empty())
+            .collect::<Vec<_>>()
+            .join(", ");
     }
     if let (Some(ratio), Accel::Vendor) = (r.ours_over_vendor, r.workload.accel) {
         notes.push_str(&format!(" (ours/vendor {ratio:.2})"));
@@ -81,7 +95,19 @@ pub fn format_row(r: &Row) -> String {
 pub fn header() -> String {
     format!(
         "{:<10} {:<12} {:<3} {:>9} {:>11} {:<2} {:<6} {:>9} {:>9} {:>8} {:>9} {:>5}   {}",
-        "series", "model", "n", "triangles", "resolution", "b", "accel", "gpu ms", "frame ms", "fps", "Mrays/s", "MHz", "paper (GTX 1080 Ti, brute force)"
+        "series",
+        "model",
+        "n",
+        "triangles",
+        "resolution",
+        "b",
+        "accel",
+        "gpu ms",
+        "frame ms",
+        "fps",
+        "Mrays/s",
+        "MHz",
+        "paper (GTX 1080 Ti, brute force)"
     )
 }
 

@@ -30,13 +30,24 @@ impl Timing {
         sorted.sort_by(|a, b| a.total_cmp(b));
         let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
         let mean = samples.iter().sum::<f64>() / samples.len() as f64;
-        Some(Self { min: sorted[0], mean, max: sorted[sorted.len() - 1], median: at(0.5), p10: at(0.1), p90: at(0.9) })
+        Some(Self {
+            min: sorted[0],
+            mean,
+            max: sorted[sorted.len() - 1],
+            median: at(0.5),
+            p10: at(0.1),
+            p90: at(0.9),
+        })
     }
 }
 
 /// Million rays per second for `rays` rays traced in `ms` milliseconds (0 without a time).
 pub fn mrays_per_second(rays: u64, ms: f64) -> f64 {
-    if ms > 0.0 { rays as f64 / (ms * 1e-3) / 1e6 } else { 0.0 }
+    if ms > 0.0 {
+        rays as f64 / (ms * 1e-3) / 1e6
+    } else {
+        0.0
+    }
 }
 
 #[cfg(test)]
@@ -58,7 +69,8 @@ mod tests {
     fn old_json_reads_with_the_missing_fields_as_zero() {
         let bench: Timing = serde_json::from_str(r#"{"median":6.0,"p10":2.0,"p90":10.0}"#).unwrap();
         assert_eq!((bench.median, bench.mean), (6.0, 0.0));
-        let window: Timing = serde_json::from_str(r#"{"min":1.0,"mean":2.0,"max":3.0,"p90":2.5}"#).unwrap();
+        let window: Timing =
+            serde_json::from_str(r#"{"min":1.0,"mean":2.0,"max":3.0,"p90":2.5}"#).unwrap();
         assert_eq!((window.mean, window.p90, window.median), (2.0, 2.5, 0.0));
     }
 }

@@ -62,7 +62,13 @@ pub struct BuildOptions {
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        Self { max_leaf_size: 4, bins: 16, traversal_cost: 1.0, intersection_cost: 1.0, split_budget: 0.0 }
+        Self {
+            max_leaf_size: 4,
+            bins: 16,
+            traversal_cost: 1.0,
+            intersection_cost: 1.0,
+            split_budget: 0.0,
+        }
     }
 }
 
@@ -85,7 +91,8 @@ impl BuildOptions {
     /// scenes: big meshes pay for triangle bytes more than for node visits
     /// (docs/BENCHMARKS.md).
     pub(crate) fn for_tracing(triangles: usize) -> Self {
-        let split_budget = if triangles >= TRACING_SPLIT_MIN_TRIANGLES { TRACING_SPLIT_BUDGET } else { 0.0 };
+        let split_budget =
+            if triangles >= TRACING_SPLIT_MIN_TRIANGLES { TRACING_SPLIT_BUDGET } else { 0.0 };
         Self { max_leaf_size: 2, split_budget, ..Self::default() }
     }
 }
@@ -108,17 +115,28 @@ impl Bvh {
     /// then the thread time of the top splits and of the sequential subtrees (for the build
     /// benchmark).
     #[doc(hidden)]
-    pub fn build_timed(triangles: &[[Vec3; 3]], options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
+    pub fn build_timed(
+        triangles: &[[Vec3; 3]],
+        options: &BuildOptions,
+    ) -> (Bvh, Vec<(&'static str, Duration)>) {
         Self::build_indexed_timed(triangles.len(), |i| triangles[i], options)
     }
 
     /// [`Bvh::build`] over `count` triangles whose corners `corners(i)` gives: no array of
     /// corner triples is made (36 bytes a triangle the caller need not hold).
-    pub fn build_indexed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> Bvh {
+    pub fn build_indexed(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3; 3] + Sync,
+        options: &BuildOptions,
+    ) -> Bvh {
         Self::build_indexed_timed(count, corners, options).0
     }
 
-    fn build_indexed_timed(count: usize, corners: impl Fn(usize) -> [Vec3; 3] + Sync, options: &BuildOptions) -> (Bvh, Vec<(&'static str, Duration)>) {
+    fn build_indexed_timed(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3; 3] + Sync,
+        options: &BuildOptions,
+    ) -> (Bvh, Vec<(&'static str, Duration)>) {
         let clock = PhaseClock::start();
         // A big mesh worth cutting (architecture) takes the full binned build over its
         // pieces; others plan their top levels on a sample, uncut.
@@ -177,7 +195,10 @@ impl NodeInfo {
     }
 
     fn union(self, o: NodeInfo) -> NodeInfo {
-        NodeInfo { bounds: self.bounds.union(o.bounds), centroids: self.centroids.union(o.centroids) }
+        NodeInfo {
+            bounds: self.bounds.union(o.bounds),
+            centroids: self.centroids.union(o.centroids),
+        }
     }
 }
 
@@ -199,10 +220,8 @@ fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &PhaseC
     if prims.is_empty() {
         return Bvh::default();
     }
-    let info = prims
-        .par_chunks(64 * 1024)
-        .map(NodeInfo::of)
-        .reduce(|| NodeInfo::EMPTY, NodeInfo::union);
+    let info =
+        prims.par_chunks(64 * 1024).map(NodeInfo::of).reduce(|| NodeInfo::EMPTY, NodeInfo::union);
     clock.mark("root bounds");
     let root = Builder::new(options, clock).build_parallel(&mut prims, 0, info, 1);
     clock.mark("tree");
@@ -257,8 +276,14 @@ impl Builder<'_> {
         nodes.push(BvhNode::default()); // filled in once both children exist
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
         let left = self.build_subtree(left_prims, first, split.left, level + 1, nodes, bins);
-        let right =
-            self.build_subtree(right_prims, first + split.mid as u32, split.right, level + 1, nodes, bins);
+        let right = self.build_subtree(
+            right_prims,
+            first + split.mid as u32,
+            split.right,
+            level + 1,
+            nodes,
+            bins,
+        );
         nodes[slot] = BvhNode::new(left.to_child(), right.to_child());
         ChildRef { bounds: info.bounds, index: slot as u32, count: 0 }
     }
@@ -266,14 +291,24 @@ impl Builder<'_> {
     /// As `build_subtree`, but forks big subtrees onto the other thread and splits big nodes
     /// on all threads. Each sequential subtree gets its own node vector; the result is a list
     /// of them in depth-first order.
-    fn build_parallel(&self, prims: &mut [Prim], first: u32, info: NodeInfo, level: usize) -> Fragment {
+    fn build_parallel(
+        &self,
+        prims: &mut [Prim],
+        first: u32,
+        info: NodeInfo,
+        level: usize,
+    ) -> Fragment {
         if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
             // At most n - 1 inner nodes: reserved, not touched, and never grown by copying.
             let mut nodes = Vec::with_capacity(prims.len().saturating_sub(1));
-            let child = self
-                .clock
-                .subtree(|| self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed()));
-            return Fragment { child, len: nodes.len() as u32, chunks: vec![Chunk { offset: 0, nodes }] };
+            let child = self.clock.subtree(|| {
+                self.build_subtree(prims, first, info, level, &mut nodes, &mut BinSet::boxed())
+            });
+            return Fragment {
+                child,
+                len: nodes.len() as u32,
+                chunks: vec![Chunk { offset: 0, nodes }],
+            };
         }
         let split = self.clock.top_split(|| self.split(prims, &info, level, &mut BinSet::boxed()));
         let (left_prims, right_prims) = prims.split_at_mut(split.mid);
@@ -300,7 +335,8 @@ impl Builder<'_> {
             // The centroid box handed down is loose (see `sah_split`), so all centroids may
             // share a bin of it where the exact box still separates them: retry with that.
             let exact = NodeInfo::of(prims);
-            let loose = exact.centroids.min != info.centroids.min || exact.centroids.max != info.centroids.max;
+            let loose = exact.centroids.min != info.centroids.min
+                || exact.centroids.max != info.centroids.max;
             if loose {
                 if let Some((split, _)) = self.sah_split(prims, &exact, bins) {
                     return split;
@@ -312,7 +348,12 @@ impl Builder<'_> {
 
     /// The best binned-SAH split, and the test that sent each primitive to its side; `None`
     /// when binning cannot separate the primitives.
-    fn sah_split(&self, prims: &mut [Prim], info: &NodeInfo, bins: &mut BinSet) -> Option<(Split, LeftOf)> {
+    fn sah_split(
+        &self,
+        prims: &mut [Prim],
+        info: &NodeInfo,
+        bins: &mut BinSet,
+    ) -> Option<(Split, LeftOf)> {
         let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
@@ -333,10 +374,16 @@ impl Builder<'_> {
         let axis_bins = &bins.bins[axis][..n_bins];
         let side = |bins: &[Bin]| {
             let bounds = bins.iter().fold(Bounds::EMPTY, |b, bin| b.union(bin.bounds));
-            let centroids = Bounds { min: bounds.min.max(info.centroids.min), max: bounds.max.min(info.centroids.max) };
+            let centroids = Bounds {
+                min: bounds.min.max(info.centroids.min),
+                max: bounds.max.min(info.centroids.max),
+            };
             NodeInfo { bounds, centroids }
         };
-        Some((Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) }, left_of))
+        Some((
+            Split { mid, left: side(&axis_bins[..plane]), right: side(&axis_bins[plane..]) },
+            left_of,
+        ))
     }
 }
 
@@ -378,7 +425,11 @@ mod tests {
         (0..n)
             .map(|_| {
                 let c = Vec3::new(next(), next(), next()) * 10.0;
-                [c, c + Vec3::new(next(), next(), next()) * 0.3, c + Vec3::new(next(), next(), next()) * 0.3]
+                [
+                    c,
+                    c + Vec3::new(next(), next(), next()) * 0.3,
+                    c + Vec3::new(next(), next(), next()) * 0.3,
+                ]
             })
             .collect()
     }
@@ -441,13 +492,17 @@ mod tests {
             })
             .collect();
         let bvh = Bvh::build(&tris, &BuildOptions { max_leaf_size: 1, ..Default::default() });
-        assert_eq!(bvh.validate_with(&tris, &BuildOptions { max_leaf_size: 1, ..Default::default() }), Ok(()));
+        assert_eq!(
+            bvh.validate_with(&tris, &BuildOptions { max_leaf_size: 1, ..Default::default() }),
+            Ok(())
+        );
         assert!(bvh.depth() <= MAX_DEPTH);
     }
 
     #[test]
     fn boxes_build_is_valid() {
-        let boxes: Vec<Aabb> = soup(500, 11).iter().map(|t| Aabb::from_points(t)).chain([Aabb::EMPTY]).collect();
+        let boxes: Vec<Aabb> =
+            soup(500, 11).iter().map(|t| Aabb::from_points(t)).chain([Aabb::EMPTY]).collect();
         let o = BuildOptions::default();
         let bvh = Bvh::build_from_boxes(&boxes, &o);
         assert_eq!(bvh.validate_boxes(&boxes, &o), Ok(()));

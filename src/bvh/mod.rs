@@ -14,13 +14,13 @@ mod validate;
 pub mod wide;
 
 pub use build::BuildOptions;
-pub use traverse::{ordered_edges, TraversalStats};
 pub(crate) use traverse::{any_hit, closest_hit};
+pub use traverse::{ordered_edges, TraversalStats};
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::geometry::Aabb;
 use crate::contract;
+use crate::geometry::Aabb;
 
 /// Marks an absent child (its box must not be tested); the shader's `EMPTY`.
 pub(crate) const EMPTY: u32 = contract::EMPTY;

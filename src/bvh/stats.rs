@@ -1,6 +1,6 @@
 //! Tree statistics for reports and tests: the SAH cost, the depth and the leaf count.
 
-use super::{Bvh, BuildOptions};
+use super::{BuildOptions, Bvh};
 use crate::geometry::Aabb;
 
 impl Bvh {
@@ -12,7 +12,11 @@ impl Bvh {
             let e = b.extent().as_dvec3();
             2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
         };
-        let root_box = root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+        let root_box = root
+            .children()
+            .iter()
+            .filter(|c| !c.is_empty())
+            .fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
         // f64 so that 1e30-sized boxes do not overflow; a zero-area root (all primitives on one
         // point or line) weighs every node fully.
         let root_area = area(&root_box);

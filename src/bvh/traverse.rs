@@ -35,7 +35,14 @@ impl Bvh {
 /// (root first, child and leaf indices relative to the mesh's node and triangle bases) over
 /// its BVH-ordered (v0, e1, e2) triangles `ordered`; returns (k, hit) with `k` indexing
 /// `ordered`. Adds to `stats` what the shader adds to its cost: one per node, one per triangle.
-pub fn closest_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
+pub fn closest_hit(
+    nodes: &[BvhNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+) -> Option<(u32, TriHit)> {
     walk(nodes, ordered, ray, t_min, t_max, stats, Stop::AtClosest)
 }
 
@@ -43,7 +50,14 @@ pub fn closest_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f
 /// as for [`closest_hit`]): the AO view's occlusion query, the reference for
 /// `traverse_bvh_any` in `shaders/intersect.glsl`. The same walk as [`closest_hit`] (leaves
 /// tested as their box is hit, the near inner child next), ended by the first hit found.
-pub fn any_hit(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+pub fn any_hit(
+    nodes: &[BvhNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+) -> bool {
     walk(nodes, ordered, ray, t_min, t_max, stats, Stop::AtFirst).is_some()
 }
 
@@ -55,7 +69,15 @@ enum Stop {
 }
 
 /// The traversal both queries share (the shader's `traverse_bvh` and `traverse_bvh_any`).
-fn walk(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats, stop: Stop) -> Option<(u32, TriHit)> {
+fn walk(
+    nodes: &[BvhNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+    stop: Stop,
+) -> Option<(u32, TriHit)> {
     if nodes.is_empty() {
         return None;
     }
@@ -71,7 +93,13 @@ fn walk(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: 
         stats.nodes += 1;
         // Both boxes first, against the same t_max: a hit in the left leaf does not cull the
         // right box (as in the shader, whose cost AOV counts these tests).
-        let enter = |child: &BvhChild| if child.is_empty() { None } else { child.bounds.intersect(ray, inv_dir, t_max) };
+        let enter = |child: &BvhChild| {
+            if child.is_empty() {
+                None
+            } else {
+                child.bounds.intersect(ray, inv_dir, t_max)
+            }
+        };
         let (mut t_left, mut t_right) = (enter(&left), enter(&right));
         for (child, t_enter) in [(&left, &mut t_left), (&right, &mut t_right)] {
             if t_enter.is_some() && child.is_leaf() {
@@ -92,7 +120,8 @@ fn walk(nodes: &[BvhNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: 
         // Inner children: the near one next (the left one on a tie), the far one stacked.
         node = match (t_left, t_right) {
             (Some(l), Some(r)) => {
-                let (near, far) = if l <= r { (left.index, right.index) } else { (right.index, left.index) };
+                let (near, far) =
+                    if l <= r { (left.index, right.index) } else { (right.index, left.index) };
                 stack[sp] = far;
                 sp += 1;
                 near
@@ -134,10 +163,22 @@ mod tests {
         let ordered = ordered_edges(&bvh, &tris);
         let mut stats = TraversalStats::default();
         let down = Vec3::new(0.0, 0.0, -1.0);
-        let hit = bvh.closest_hit(&ordered, &Ray::new(Vec3::new(0.2, 0.2, 3.0), down), 0.0, f32::INFINITY, &mut stats);
+        let hit = bvh.closest_hit(
+            &ordered,
+            &Ray::new(Vec3::new(0.2, 0.2, 3.0), down),
+            0.0,
+            f32::INFINITY,
+            &mut stats,
+        );
         assert_eq!(hit.map(|(k, h)| (k, h.t)), Some((0, 3.0)));
         assert_eq!(stats, TraversalStats { nodes: 1, triangles: 1 });
-        let miss = bvh.closest_hit(&ordered, &Ray::new(Vec3::new(2.0, 2.0, 3.0), down), 0.0, f32::INFINITY, &mut stats);
+        let miss = bvh.closest_hit(
+            &ordered,
+            &Ray::new(Vec3::new(2.0, 2.0, 3.0), down),
+            0.0,
+            f32::INFINITY,
+            &mut stats,
+        );
         assert!(miss.is_none());
         assert_eq!(stats.nodes, 2);
     }
@@ -152,16 +193,31 @@ mod tests {
         let bvh = Bvh::build(&tris, &BuildOptions::default());
         let ordered = ordered_edges(&bvh, &tris);
         let mut stats = TraversalStats::default();
-        for (origin, dir) in [(Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z), (Vec3::new(0.2, 0.2, -5.0), Vec3::Z), (Vec3::new(5.0, 5.0, 5.0), Vec3::X)] {
+        for (origin, dir) in [
+            (Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z),
+            (Vec3::new(0.2, 0.2, -5.0), Vec3::Z),
+            (Vec3::new(5.0, 5.0, 5.0), Vec3::X),
+        ] {
             let ray = Ray::new(origin, dir);
             for t_max in [0.5, 4.0, 36.5, 37.5, 1e3, f32::INFINITY] {
                 let closest = bvh.closest_hit(&ordered, &ray, 0.0, t_max, &mut stats).is_some();
-                assert_eq!(any_hit(&bvh.nodes, &ordered, &ray, 0.0, t_max, &mut stats), closest, "{origin} {dir} t_max {t_max}");
+                assert_eq!(
+                    any_hit(&bvh.nodes, &ordered, &ray, 0.0, t_max, &mut stats),
+                    closest,
+                    "{origin} {dir} t_max {t_max}"
+                );
             }
         }
         // Early exit: every triangle lies across the ray from above, so the first tested ends it.
         let mut one = TraversalStats::default();
-        assert!(any_hit(&bvh.nodes, &ordered, &Ray::new(Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z), 0.0, f32::INFINITY, &mut one));
+        assert!(any_hit(
+            &bvh.nodes,
+            &ordered,
+            &Ray::new(Vec3::new(0.25, 0.25, 100.0), Vec3::NEG_Z),
+            0.0,
+            f32::INFINITY,
+            &mut one
+        ));
         assert_eq!(one.triangles, 1, "{one:?}");
     }
 

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use super::{Bvh, BuildOptions, MAX_DEPTH};
+use super::{BuildOptions, Bvh, MAX_DEPTH};
 use crate::geometry::Aabb;
 
 impl Bvh {
@@ -22,7 +22,11 @@ impl Bvh {
     /// orphans), depth within `MAX_DEPTH`. Where `options.split_budget` let the build cut triangles, a
     /// primitive may be referenced more than once: each of its leaf boxes must overlap its box, and
     /// together they must cover it.
-    pub fn validate_with(&self, triangles: &[[Vec3; 3]], options: &BuildOptions) -> Result<(), String> {
+    pub fn validate_with(
+        &self,
+        triangles: &[[Vec3; 3]],
+        options: &BuildOptions,
+    ) -> Result<(), String> {
         self.check(triangles.len(), |i| Aabb::from_points(&triangles[i]), options)
     }
 
@@ -31,7 +35,12 @@ impl Bvh {
         self.check(boxes.len(), |i| boxes[i], options)
     }
 
-    fn check(&self, prim_count: usize, prim_box: impl Fn(usize) -> Aabb, options: &BuildOptions) -> Result<(), String> {
+    fn check(
+        &self,
+        prim_count: usize,
+        prim_box: impl Fn(usize) -> Aabb,
+        options: &BuildOptions,
+    ) -> Result<(), String> {
         let split = options.split_budget > 0.0;
         let slots = self.prim_indices.len();
         if slots != prim_count && !(split && slots > prim_count) {
@@ -79,7 +88,9 @@ impl Bvh {
                 if child.is_empty() {
                     let lone_leaf = index == 0 && side == "right" && node.child(0).is_leaf();
                     if !lone_leaf {
-                        return Err(format!("{here} is EMPTY (only a root over a single leaf may have one)"));
+                        return Err(format!(
+                            "{here} is EMPTY (only a root over a single leaf may have one)"
+                        ));
                     }
                     continue;
                 }
@@ -88,18 +99,28 @@ impl Bvh {
                 }
                 if let Some(pb) = parent_box {
                     if !pb.contains(&child.bounds) {
-                        return Err(format!("{here} box {:?} is not inside its node's box {pb:?}", child.bounds));
+                        return Err(format!(
+                            "{here} box {:?} is not inside its node's box {pb:?}",
+                            child.bounds
+                        ));
                     }
                 }
                 if child.is_inner() {
                     if child.index as usize >= self.nodes.len() {
-                        return Err(format!("{here} points to node {} of {}", child.index, self.nodes.len()));
+                        return Err(format!(
+                            "{here} points to node {} of {}",
+                            child.index,
+                            self.nodes.len()
+                        ));
                     }
                     stack.push((child.index, Some(child.bounds), level + 1));
                     continue;
                 }
                 if child.count > max_leaf {
-                    return Err(format!("{here} is a leaf of {} > max_leaf_size = {max_leaf}", child.count));
+                    return Err(format!(
+                        "{here} is a leaf of {} > max_leaf_size = {max_leaf}",
+                        child.count
+                    ));
                 }
                 let range = child.index as usize..child.index as usize + child.count as usize;
                 if range.end > slots {
@@ -112,7 +133,9 @@ impl Bvh {
                     let p = self.prim_indices[k] as usize;
                     if split {
                         if !child.bounds.overlaps(&prim_box(p)) {
-                            return Err(format!("{here}: primitive {p} does not overlap the leaf box"));
+                            return Err(format!(
+                                "{here}: primitive {p} does not overlap the leaf box"
+                            ));
                         }
                         covered[p] = covered[p].union(child.bounds);
                     } else if !child.bounds.contains(&prim_box(p)) {
@@ -128,7 +151,11 @@ impl Bvh {
             return Err(format!("node {i} is unreachable from the root"));
         }
         if let Some(p) = (0..covered.len()).find(|&p| !covered[p].contains(&prim_box(p))) {
-            return Err(format!("the leaf boxes of primitive {p} ({:?}) do not cover it ({:?})", covered[p], prim_box(p)));
+            return Err(format!(
+                "the leaf boxes of primitive {p} ({:?}) do not cover it ({:?})",
+                covered[p],
+                prim_box(p)
+            ));
         }
         Ok(())
     }

@@ -6,12 +6,14 @@ use std::path::PathBuf;
 use clap::parser::ValueSource;
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 
+use crate::render_settings::{
+    self as knobs, Accel, Aov, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP,
+};
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP};
 
 /// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
 /// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
@@ -45,7 +47,11 @@ fn parse_unit(s: &str) -> Result<f32, String> {
 
 fn parse_finite(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
-    if v.is_finite() { Ok(v) } else { Err(format!("{s} is not a finite number")) }
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{s} is not a finite number"))
+    }
 }
 
 /// The scene and frame: what `view`, `render` and `bench` share.
@@ -169,7 +175,11 @@ impl SceneArgs {
 
     /// The scene spec to use: the `--preset` (if any) with the flags given beside it over
     /// it, writing `aov` (over a preset only if `aov_given`); and the preset's warnings.
-    pub(crate) fn resolve(&self, aov: Aov, aov_given: bool) -> anyhow::Result<(SceneSpec, Vec<String>)> {
+    pub(crate) fn resolve(
+        &self,
+        aov: Aov,
+        aov_given: bool,
+    ) -> anyhow::Result<(SceneSpec, Vec<String>)> {
         let Some(path) = &self.preset else {
             return Ok((self.spec(aov), Vec::new()));
         };
@@ -280,7 +290,11 @@ impl Cli {
 
 /// The ids of the arguments given on the command line (not defaults).
 fn given_flags(matches: &ArgMatches) -> HashSet<String> {
-    matches.ids().filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine)).map(|id| id.to_string()).collect()
+    matches
+        .ids()
+        .filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine))
+        .map(|id| id.to_string())
+        .collect()
 }
 
 /// `--bvh`: a BVH layout, or `auto`: the window times each and keeps the fastest.
@@ -371,7 +385,10 @@ pub struct ViewArgs {
 /// must take the file, before the session rather than at its end.
 fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
-        anyhow::bail!("{flag} {}: screenshots are written as PNG; give a path ending in .png", path.display());
+        anyhow::bail!(
+            "{flag} {}: screenshots are written as PNG; give a path ending in .png",
+            path.display()
+        );
     }
     crate::files::check_writable(path)
 }
@@ -379,8 +396,15 @@ fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
 impl ViewArgs {
     /// The tool's options: the CLI sits on top of the app, not the other way round.
     pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
-        let window = self.window.as_deref().map(crate::app::parse_window_size).transpose().map_err(anyhow::Error::msg)?;
-        for (flag, path) in [("--screenshot", &self.screenshot), ("--screenshot-ui", &self.screenshot_ui)] {
+        let window = self
+            .window
+            .as_deref()
+            .map(crate::app::parse_window_size)
+            .transpose()
+            .map_err(anyhow::Error::msg)?;
+        for (flag, path) in
+            [("--screenshot", &self.screenshot), ("--screenshot-ui", &self.screenshot_ui)]
+        {
             if let Some(path) = path {
                 check_png_output(flag, path)?;
             }
@@ -392,7 +416,9 @@ impl ViewArgs {
         let scripted = self.frames.is_some() || self.benchmark.is_some();
         let auto_layout = match self.scene.bvh {
             // A preset's binary (also what one without a layout reads as) names none.
-            _ if !self.scene.given("bvh") => !scripted && (self.scene.preset.is_none() || spec.settings.bvh == BvhLayout::Binary),
+            _ if !self.scene.given("bvh") => {
+                !scripted && (self.scene.preset.is_none() || spec.settings.bvh == BvhLayout::Binary)
+            }
             BvhChoice::Auto => true,
             BvhChoice::Layout(_) => false,
         };
@@ -484,7 +510,8 @@ mod tests {
     use super::*;
 
     fn render_args(extra: &[&str]) -> Result<RenderArgs, clap::Error> {
-        let cli = Cli::try_parse_from(["meshtracer", "render", "-o", "out.png"].iter().chain(extra))?;
+        let cli =
+            Cli::try_parse_from(["meshtracer", "render", "-o", "out.png"].iter().chain(extra))?;
         match cli.command {
             Some(Command::Render(args)) => Ok(args),
             other => panic!("not a render command: {other:?}"),
@@ -502,25 +529,37 @@ mod tests {
     #[test]
     fn benchmark_flag_takes_an_optional_frame_count() {
         assert_eq!(view_args(&[]).unwrap().options().unwrap().benchmark, None);
-        assert_eq!(view_args(&["--benchmark"]).unwrap().benchmark, Some(crate::app::benchmark::DEFAULT_FRAMES));
+        assert_eq!(
+            view_args(&["--benchmark"]).unwrap().benchmark,
+            Some(crate::app::benchmark::DEFAULT_FRAMES)
+        );
         let args = view_args(&["--benchmark", "7", "--benchmark-json", "b.jsonl"]).unwrap();
         let options = args.options().unwrap();
         assert_eq!(options.benchmark, Some(7));
         assert!(options.scripted(), "a benchmark starts with the light still");
         assert_eq!(options.benchmark_json.as_deref(), Some(std::path::Path::new("b.jsonl")));
         assert!(view_args(&["--benchmark", "0"]).is_err());
-        assert!(view_args(&["--benchmark", "5", "--frames", "5"]).unwrap_err().to_string().contains("cannot be used with"));
+        assert!(view_args(&["--benchmark", "5", "--frames", "5"])
+            .unwrap_err()
+            .to_string()
+            .contains("cannot be used with"));
     }
 
     #[test]
     fn the_window_picks_the_layout_unless_told_or_scripted() {
         // As main parses: the flags given are noted (an unnoted parse counts every flag as given).
-        let parse = |extra: &[&str]| match Cli::try_parse_from_noting_flags(["meshtracer", "view"].iter().chain(extra)).unwrap().command {
+        let parse = |extra: &[&str]| match Cli::try_parse_from_noting_flags(
+            ["meshtracer", "view"].iter().chain(extra),
+        )
+        .unwrap()
+        .command
+        {
             Some(Command::View(args)) => args.options().unwrap(),
             other => panic!("not a view command: {other:?}"),
         };
         let auto = |extra: &[&str]| parse(extra).auto_layout;
-        let bare = Cli::try_parse_from_noting_flags(["meshtracer"]).unwrap().view.options().unwrap();
+        let bare =
+            Cli::try_parse_from_noting_flags(["meshtracer"]).unwrap().view.options().unwrap();
         assert!(bare.auto_layout, "`meshtracer` alone (cargo run) opens with the measured choice");
         assert!(auto(&[]), "no --bvh: the window times each layout");
         assert!(!auto(&["--frames", "3"]), "a script traces what it asks for");
@@ -537,8 +576,17 @@ mod tests {
     fn split_flags_turn_the_split_on() {
         let off = view_args(&[]).unwrap().options().unwrap().split;
         assert!(!off.enabled);
-        let on = view_args(&["--split", "0.25", "--split-b", "bounces=0,smooth=off"]).unwrap().options().unwrap().split;
-        assert!(on.enabled && on.position == 0.25 && on.b.bounces == Some(0) && on.b.smooth == Some(false));
+        let on = view_args(&["--split", "0.25", "--split-b", "bounces=0,smooth=off"])
+            .unwrap()
+            .options()
+            .unwrap()
+            .split;
+        assert!(
+            on.enabled
+                && on.position == 0.25
+                && on.b.bounces == Some(0)
+                && on.b.smooth == Some(false)
+        );
         let alone = view_args(&["--split-b", "accel=brute"]).unwrap().options().unwrap().split;
         assert!(alone.enabled && alone.position == 0.5);
         assert!(view_args(&["--split"]).unwrap().options().unwrap().split.enabled);
@@ -550,9 +598,15 @@ mod tests {
 
     #[test]
     fn crease_angle_reaches_the_spec_and_is_checked() {
-        assert_eq!(render_args(&[]).unwrap().scene.spec(Aov::Color).load_options.crease_angle, None);
+        assert_eq!(
+            render_args(&[]).unwrap().scene.spec(Aov::Color).load_options.crease_angle,
+            None
+        );
         let args = render_args(&["--crease-angle", "30"]).unwrap();
-        assert_eq!(args.scene.spec(Aov::Color).load_options, LoadOptions { crease_angle: Some(30.0) });
+        assert_eq!(
+            args.scene.spec(Aov::Color).load_options,
+            LoadOptions { crease_angle: Some(30.0) }
+        );
         for bad in ["-1", "180.5", "nan", "sharp"] {
             let e = render_args(&["--crease-angle", bad]).unwrap_err().to_string();
             assert!(e.contains("--crease-angle") && e.contains(bad), "{bad}: {e}");
@@ -561,9 +615,19 @@ mod tests {
 
     #[test]
     fn a_negative_number_is_out_of_range_not_an_unknown_flag() {
-        for (flag, range) in [("--bounces", "0..=8"), ("--width", "1..=8192"), ("--spp", "1..=64"), ("--models", "1..="), ("--ao-samples", "1..=256"), ("--ao-radius", "0..1000")] {
+        for (flag, range) in [
+            ("--bounces", "0..=8"),
+            ("--width", "1..=8192"),
+            ("--spp", "1..=64"),
+            ("--models", "1..="),
+            ("--ao-samples", "1..=256"),
+            ("--ao-radius", "0..1000"),
+        ] {
             let e = render_args(&[flag, "-1"]).unwrap_err().to_string();
-            assert!(e.contains(flag) && e.contains(range) && !e.contains("unexpected argument"), "{flag}: {e}");
+            assert!(
+                e.contains(flag) && e.contains(range) && !e.contains("unexpected argument"),
+                "{flag}: {e}"
+            );
         }
         let e = render_args(&["--blend", "-0.5"]).unwrap_err().to_string();
         assert!(e.contains("out of range (0..=1)"), "{e}");
@@ -573,8 +637,15 @@ mod tests {
     fn a_screenshot_path_must_be_a_png() {
         for flag in ["--screenshot", "--screenshot-ui"] {
             let e = view_args(&[flag, "shot.bmp"]).unwrap().options().unwrap_err().to_string();
-            assert!(e.starts_with(&format!("{flag} shot.bmp: screenshots are written as PNG")), "{e}");
-            let e = view_args(&[flag, "/no/such/folder/x.png"]).unwrap().options().unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("{flag} shot.bmp: screenshots are written as PNG")),
+                "{e}"
+            );
+            let e = view_args(&[flag, "/no/such/folder/x.png"])
+                .unwrap()
+                .options()
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("cannot write /no/such/folder/x.png"), "{e}");
         }
     }

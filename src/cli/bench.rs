@@ -10,10 +10,10 @@ use crate::bench::report::{self, Report};
 use crate::bench::{self, charts, paper_tables, Case, RunOptions};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ContextOptions, GpuContext};
+use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
-use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]
@@ -144,12 +144,16 @@ impl BenchArgs {
             spec.settings.bounces = self.bounces;
         }
         spec.validate().map_err(|e| anyhow::anyhow!("preset {}: {e}", path.display()))?;
-        let accels = if self.given("accel") { self.accel.clone() } else { vec![spec.settings.accel] };
+        let accels =
+            if self.given("accel") { self.accel.clone() } else { vec![spec.settings.accel] };
         let cases = accels
             .into_iter()
             .map(|accel| Case {
                 series: "preset".into(),
-                spec: SceneSpec { settings: RenderSettings { accel, ..spec.settings }, ..spec.clone() },
+                spec: SceneSpec {
+                    settings: RenderSettings { accel, ..spec.settings },
+                    ..spec.clone()
+                },
                 generated: None,
                 paper: None,
                 features: features_label(&spec),
@@ -196,7 +200,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         (true, false) => vec![Accel::Bvh],
         (false, _) => args.accel.clone(),
     };
-    let framed_accels = if args.given("accel") || args.compare { accels.clone() } else { vec![Accel::Bvh] };
+    let framed_accels =
+        if args.given("accel") || args.compare { accels.clone() } else { vec![Accel::Bvh] };
     if let Some(path) = &args.preset {
         let (preset_cases, warnings) = args.preset_cases(path)?;
         for w in &warnings {
@@ -207,30 +212,67 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         cases.extend(paper_tables::paper_cases(&args.resolutions, &accels));
     }
     if args.scaling {
-        cases.extend(paper_tables::scaling_cases(&args.triangles, &extra, &accels, args.size, args.bounces));
+        cases.extend(paper_tables::scaling_cases(
+            &args.triangles,
+            &extra,
+            &accels,
+            args.size,
+            args.bounces,
+        ));
     }
     if args.framed {
-        cases.extend(paper_tables::framed_cases(&args.triangles, &extra, &framed_accels, args.size));
+        cases.extend(paper_tables::framed_cases(
+            &args.triangles,
+            &extra,
+            &framed_accels,
+            args.size,
+        ));
     }
     if args.ao {
-        cases.extend(paper_tables::ao_cases(&args.triangles, &extra, &framed_accels, args.size, args.ao_samples, args.ao_radius));
+        cases.extend(paper_tables::ao_cases(
+            &args.triangles,
+            &extra,
+            &framed_accels,
+            args.size,
+            args.ao_samples,
+            args.ao_radius,
+        ));
     }
     if args.features {
         let textured = extra.first().cloned();
-        cases.extend(paper_tables::feature_cases(args.size, ModelSource::Paper(crate::scene::primitives::PaperModel::Sphere), textured));
+        cases.extend(paper_tables::feature_cases(
+            args.size,
+            ModelSource::Paper(crate::scene::primitives::PaperModel::Sphere),
+            textured,
+        ));
     }
-    let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
+    let ctx = GpuContext::new(&ContextOptions {
+        validation: args.validation,
+        device_index: args.device,
+        ..Default::default()
+    })?;
     let support = &ctx.info.vendor;
     let wants_vendor = args.compare || cases.iter().any(|c| c.spec.settings.accel == Accel::Vendor);
     if wants_vendor && !support.available() {
         anyhow::bail!("{}", support.missing.clone().unwrap_or_default());
     }
     if let Some(k) = args.vendor_kernel.iter().find(|k| !k.supported(support)) {
-        anyhow::bail!("{} does not offer the vendor kernel '{k}' (it has: {})", ctx.info.name, VendorKernel::ALL.iter().filter(|k| k.supported(support)).map(|k| k.to_string()).collect::<Vec<_>>().join(", "));
+        anyhow::bail!(
+            "{} does not offer the vendor kernel '{k}' (it has: {})",
+            ctx.info.name,
+            VendorKernel::ALL
+                .iter()
+                .filter(|k| k.supported(support))
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
     let kernels: Vec<Option<VendorKernel>> = match (args.vendor_kernel.is_empty(), args.compare) {
         (false, _) => args.vendor_kernel.iter().copied().map(Some).collect(),
-        (true, true) => VendorKernel::ALL.into_iter().filter(|k| k.supported(support)).map(Some).collect(),
+        (true, true) => {
+            VendorKernel::ALL.into_iter().filter(|k| k.supported(support)).map(Some).collect()
+        }
         (true, false) => vec![None],
     };
     let cases: Vec<Case> = cases
@@ -260,23 +302,42 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         })
         .collect();
     let env = bench::environment(&ctx);
-    println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
+    println!(
+        "device: {} ({}), driver {}, Vulkan {}, {}",
+        env.device, env.device_type, env.driver, env.vulkan, env.date
+    );
     println!("{} rows, {} warm-up + {} measured frames each; gpu ms = timestamps around the trace dispatch, frame ms = submit..wait wall clock (medians); MHz = the shader clock during the row (the lower of two probes, before and after; each row first waits for the clock to come up)", cases.len(), args.warmup, args.frames);
     println!("{}", report::header());
     let total = cases.len();
     let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let rows = bench::run(&ctx, &cases, &RunOptions { frames: args.frames, warmup: args.warmup, verbose: args.verbose }, |i, row| {
-        println!("{}", report::format_row(row));
-        // Progress only on a terminal: piped or captured stderr stays clean.
-        if progress {
-            eprint!("\r[{}/{}]\r", i + 1, total);
-        }
-    })?;
+    let rows = bench::run(
+        &ctx,
+        &cases,
+        &RunOptions { frames: args.frames, warmup: args.warmup, verbose: args.verbose },
+        |i, row| {
+            println!("{}", report::format_row(row));
+            // Progress only on a terminal: piped or captured stderr stays clean.
+            if progress {
+                eprint!("\r[{}/{}]\r", i + 1, total);
+            }
+        },
+    )?;
     let mut rows = rows;
     let slow = bench::clocked_down(&rows);
     if !slow.is_empty() {
         let highest = rows.iter().filter_map(|r| r.gpu_clock_mhz).fold(0.0, f64::max);
-        let names: Vec<String> = slow.iter().map(|r| format!("{} {} {} ({:.0} MHz)", r.series, r.workload.model, r.workload.accel, r.gpu_clock_mhz.unwrap_or_default())).collect();
+        let names: Vec<String> = slow
+            .iter()
+            .map(|r| {
+                format!(
+                    "{} {} {} ({:.0} MHz)",
+                    r.series,
+                    r.workload.model,
+                    r.workload.accel,
+                    r.gpu_clock_mhz.unwrap_or_default()
+                )
+            })
+            .collect();
         println!(
             "\nnote: {} row(s) ran with the GPU clocked below {:.0}% of this run's highest shader clock ({highest:.0} MHz), so their times are the clock's, not the tracer's; run them again: {}",
             slow.len(),
@@ -291,10 +352,17 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let messages = ctx.validation_messages();
     if !messages.is_empty() {
-        anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+        anyhow::bail!(
+            "the Vulkan validation layer reported {} problem(s), the first: {}",
+            messages.len(),
+            messages[0]
+        );
     }
     if let Some(path) = &args.json {
-        report::write_json(path, &Report { environment: &env, frames: args.frames, warmup: args.warmup, rows: &rows })?;
+        report::write_json(
+            path,
+            &Report { environment: &env, frames: args.frames, warmup: args.warmup, rows: &rows },
+        )?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.csv {
@@ -311,9 +379,16 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 
 /// `--load MODEL...`: each model's way to its first frame, one row each, one tracer for all.
 fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
-    let ctx = GpuContext::new(&ContextOptions { validation: args.validation, device_index: args.device, ..Default::default() })?;
+    let ctx = GpuContext::new(&ContextOptions {
+        validation: args.validation,
+        device_index: args.device,
+        ..Default::default()
+    })?;
     let env = bench::environment(&ctx);
-    println!("device: {} ({}), driver {}, Vulkan {}, {}", env.device, env.device_type, env.driver, env.vulkan, env.date);
+    println!(
+        "device: {} ({}), driver {}, Vulkan {}, {}",
+        env.device, env.device_type, env.driver, env.vulkan, env.date
+    );
     println!("each model in the paper's mirror box at {0}x{0}, {1} bounces: phase times, the first frame's GPU time, read start to first frame, peak memory (and beyond the file's size, per triangle)", args.size, args.bounces);
     let mut tracer = crate::gpu::ComputeTracer::new(&ctx, 0)?;
     let mut rows = Vec::new();
@@ -323,17 +398,28 @@ fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
     for name in &args.load {
         for &layout in &layouts {
             let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
-            (spec.settings.width, spec.settings.height, spec.settings.bounces, spec.settings.bvh) = (args.size, args.size, args.bounces, layout);
-            rows.push(bench::load::measure(&spec, &mut tracer).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?);
+            (spec.settings.width, spec.settings.height, spec.settings.bounces, spec.settings.bvh) =
+                (args.size, args.size, args.bounces, layout);
+            rows.push(
+                bench::load::measure(&spec, &mut tracer)
+                    .map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?,
+            );
         }
     }
     print!("{}", bench::load::table(&rows));
     let messages = ctx.validation_messages();
     if !messages.is_empty() {
-        anyhow::bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+        anyhow::bail!(
+            "the Vulkan validation layer reported {} problem(s), the first: {}",
+            messages.len(),
+            messages[0]
+        );
     }
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&bench::load::LoadReport { environment: &env, rows: &rows })?;
+        let text = serde_json::to_string_pretty(&bench::load::LoadReport {
+            environment: &env,
+            rows: &rows,
+        })?;
         bench::load::write(path, &text)?;
         println!("wrote {}", path.display());
     }
@@ -346,12 +432,19 @@ fn run_load(args: &BenchArgs) -> anyhow::Result<()> {
 
 /// `--charts-from FILE.json ... --charts DIR`: the charts of saved reports, no GPU needed.
 fn charts_from_files(args: &BenchArgs) -> anyhow::Result<()> {
-    let dir = args.charts.as_ref().ok_or_else(|| anyhow::anyhow!("--charts-from needs --charts DIR"))?;
+    let dir =
+        args.charts.as_ref().ok_or_else(|| anyhow::anyhow!("--charts-from needs --charts DIR"))?;
     let mut environments = Vec::new();
     let mut rows = Vec::new();
     for path in &args.charts_from {
         let saved = charts::load_report(path)?;
-        println!("{}: {} rows ({}, {})", path.display(), saved.rows.len(), saved.environment.device, saved.environment.date);
+        println!(
+            "{}: {} rows ({}, {})",
+            path.display(),
+            saved.rows.len(),
+            saved.environment.device,
+            saved.environment.date
+        );
         environments.push(saved.environment);
         rows.extend(saved.rows);
     }

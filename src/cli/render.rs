@@ -6,10 +6,10 @@ use std::io::IsTerminal;
 use anyhow::bail;
 
 use super::args::RenderArgs;
-use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
-use crate::tracer::heat_map::heat_map;
 use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
+use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::render_settings::{Accel, Aov};
+use crate::tracer::heat_map::heat_map;
 use crate::tracer::{cpu, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
@@ -26,7 +26,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // cost and samples may also be a heat map (PNG or JPEG).
     let heat_map_image = format != OutputFormat::Exr && matches!(aov, Aov::Cost | Aov::Samples);
     if format != OutputFormat::Exr && !heat_map_image && !matches!(aov, Aov::Color | Aov::Ao) {
-        bail!("the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr");
+        bail!(
+            "the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr"
+        );
     }
     spec.validate().map_err(anyhow::Error::msg)?;
     let settings = spec.settings;
@@ -41,7 +43,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let (scene, warnings) = spec.load()?;
     if progress {
-        eprintln!("loaded {} triangles in {:.2} s; building the BVH ...", scene.triangle_count(), started.elapsed().as_secs_f64());
+        eprintln!(
+            "loaded {} triangles in {:.2} s; building the BVH ...",
+            scene.triangle_count(),
+            started.elapsed().as_secs_f64()
+        );
     }
     let packed = PackedScene::for_layout(&scene, settings.bvh);
     if progress {
@@ -60,13 +66,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
         (image, format!("CPU reference, {:.1} ms", start.elapsed().as_secs_f64() * 1e3))
     } else {
-        let options = ContextOptions { validation: args.validation, device_index: args.scene.device, ..Default::default() };
+        let options = ContextOptions {
+            validation: args.validation,
+            device_index: args.scene.device,
+            ..Default::default()
+        };
         let ctx = GpuContext::new(&options)?;
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;
         if let Some(kernel) = args.vendor_kernel {
             tracer.set_vendor_kernel(kernel)?;
         }
-        if tracer.kernel().orders_tiles() && settings.accel != crate::render_settings::Accel::Vendor {
+        if tracer.kernel().orders_tiles() && settings.accel != crate::render_settings::Accel::Vendor
+        {
             // A first frame records what each tile costs, so that the frame kept (and timed)
             // takes its tiles costliest first, as every later frame of `view` and `bench` does.
             tracer.trace(&params)?;
@@ -76,7 +87,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         for frame_index in 0..spec.accumulate - 1 {
             tracer.trace(&FrameParams { frame_index, ..params })?;
         }
-        let (image, timing) = tracer.render(&FrameParams { frame_index: spec.accumulate - 1, ..params })?;
+        let (image, timing) =
+            tracer.render(&FrameParams { frame_index: spec.accumulate - 1, ..params })?;
         // One frame straight after the upload, so the GPU's clock may still be down (see
         // bench::clock_guard): say which clock the time was taken at.
         // A CPU device (lavapipe) has no shader clock worth naming: its "clock" is the
@@ -91,20 +103,32 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         };
         let messages = ctx.validation_messages();
         if !messages.is_empty() {
-            bail!("the Vulkan validation layer reported {} problem(s), the first: {}", messages.len(), messages[0]);
+            bail!(
+                "the Vulkan validation layer reported {} problem(s), the first: {}",
+                messages.len(),
+                messages[0]
+            );
         }
-        let mut gpu = timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
-        if let (crate::render_settings::Accel::Vendor, Ok(kernel), Some(stats)) = (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats()) {
-            gpu = format!("vendor {kernel}, structures built in {:.1} ms, {gpu}", stats.bottom_ms + stats.top_ms);
+        let mut gpu =
+            timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
+        if let (crate::render_settings::Accel::Vendor, Ok(kernel), Some(stats)) =
+            (settings.accel, tracer.vendor_kernel(), tracer.vendor_stats())
+        {
+            gpu = format!(
+                "vendor {kernel}, structures built in {:.1} ms, {gpu}",
+                stats.bottom_ms + stats.top_ms
+            );
         }
         (image, format!("{}, {gpu}", ctx.info.name))
     };
     if heat_map_image {
         // Cost: nodes visited with the BVH, triangles tested with brute force.
-        let channel = usize::from(aov == Aov::Cost && settings.accel == crate::render_settings::Accel::Brute);
+        let channel =
+            usize::from(aov == Aov::Cost && settings.accel == crate::render_settings::Accel::Brute);
         let values: Vec<f32> = image.pixels.iter().map(|p| p[channel]).collect();
         let map = heat_map(&values);
-        let rgba = image::RgbaImage::from_raw(image.width, image.height, map.rgba).expect("size matches");
+        let rgba =
+            image::RgbaImage::from_raw(image.width, image.height, map.rgba).expect("size matches");
         if format == OutputFormat::Jpeg {
             save_jpeg(&rgba, &args.output)?;
         } else {
@@ -127,7 +151,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         source.label(),
         spec.models,
         scene.triangle_count(),
-        if settings.accel == Accel::Bvh && settings.bvh.is_wide() { format!("bvh ({})", settings.bvh) } else { settings.accel.to_string() },
+        if settings.accel == Accel::Bvh && settings.bvh.is_wide() {
+            format!("bvh ({})", settings.bvh)
+        } else {
+            settings.accel.to_string()
+        },
     );
     Ok(())
 }

@@ -41,7 +41,11 @@ impl OutputFormat {
 
 /// Encode 8-bit RGBA as PNG, with `settings` (if any) in an iTXt chunk keyworded
 /// [`SETTINGS_KEYWORD`].
-pub(crate) fn encode_png(rgba: &image::RgbaImage, settings: Option<&str>, out: impl Write) -> Result<(), png::EncodingError> {
+pub(crate) fn encode_png(
+    rgba: &image::RgbaImage,
+    settings: Option<&str>,
+    out: impl Write,
+) -> Result<(), png::EncodingError> {
     let mut encoder = png::Encoder::new(out, rgba.width(), rgba.height());
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
@@ -55,36 +59,63 @@ pub(crate) fn encode_png(rgba: &image::RgbaImage, settings: Option<&str>, out: i
 }
 
 /// Write 8-bit RGBA as a PNG file carrying `settings` (see [`encode_png`]).
-pub(crate) fn save_png(rgba: &image::RgbaImage, settings: Option<&str>, path: &Path) -> anyhow::Result<()> {
+pub(crate) fn save_png(
+    rgba: &image::RgbaImage,
+    settings: Option<&str>,
+    path: &Path,
+) -> anyhow::Result<()> {
     write_atomic(path, |out| Ok(encode_png(rgba, settings, out)?))
 }
 
 /// Write 8-bit colour as an RGB JPEG (alpha dropped).
 pub(crate) fn save_jpeg(rgba: &image::RgbaImage, path: &Path) -> anyhow::Result<()> {
     let rgb = image::DynamicImage::ImageRgba8(rgba.clone()).into_rgb8();
-    write_atomic(path, |out| Ok(image::codecs::jpeg::JpegEncoder::new_with_quality(out, 95).encode_image(&rgb)?))
+    write_atomic(path, |out| {
+        Ok(image::codecs::jpeg::JpegEncoder::new_with_quality(out, 95).encode_image(&rgb)?)
+    })
 }
 
 /// Write linear RGBA floats (`width * height`, row 0 at the top) as a 32-bit float
 /// OpenEXR. Through the exr crate directly: `image`'s encoder calls a failed write
 /// "decoding".
-pub(crate) fn save_exr_rgba(width: u32, height: u32, pixels: &[[f32; 4]], path: &Path) -> anyhow::Result<()> {
+pub(crate) fn save_exr_rgba(
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 4]],
+    path: &Path,
+) -> anyhow::Result<()> {
     use exr::prelude::*;
     let w = width as usize;
     let channels = SpecificChannels::rgba(|p: Vec2<usize>| {
         let [r, g, b, a] = pixels[p.y() * w + p.x()];
         (r, g, b, a)
     });
-    let layer = Layer::new((w, height as usize), LayerAttributes::default(), Encoding::FAST_LOSSLESS, channels);
+    let layer = Layer::new(
+        (w, height as usize),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        channels,
+    );
     write_atomic(path, |out| Ok(Image::from_layer(layer).write().to_buffered(out)?))
 }
 
 /// Write one float per pixel as a single-channel 32-bit float OpenEXR, channel `Z` (a
 /// depth buffer, as compositors expect it).
-pub(crate) fn save_exr_depth(width: u32, height: u32, depth: Vec<f32>, path: &Path) -> anyhow::Result<()> {
+pub(crate) fn save_exr_depth(
+    width: u32,
+    height: u32,
+    depth: Vec<f32>,
+    path: &Path,
+) -> anyhow::Result<()> {
     use exr::prelude::*;
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Z", FlatSamples::F32(depth))]));
-    let layer = Layer::new((width as usize, height as usize), LayerAttributes::default(), Encoding::FAST_LOSSLESS, channels);
+    let channels =
+        AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Z", FlatSamples::F32(depth))]));
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        channels,
+    );
     write_atomic(path, |out| Ok(Image::from_layer(layer).write().to_buffered(out)?))
 }
 
@@ -101,9 +132,16 @@ const PNG_READ_LIMIT: usize = (MAX_RESOLUTION as usize).pow(2) * 4 + (16 << 20);
 /// PNG without one. The error is the decoder's, for bytes that are not a PNG, for an image
 /// bigger than any we write, or for a settings text over [`MAX_SETTINGS_TEXT`].
 pub fn png_settings(bytes: &[u8]) -> Result<Option<String>, png::DecodingError> {
-    let mut reader = png::Decoder::new_with_limits(std::io::Cursor::new(bytes), png::Limits { bytes: PNG_READ_LIMIT }).read_info()?;
+    let mut reader = png::Decoder::new_with_limits(
+        std::io::Cursor::new(bytes),
+        png::Limits { bytes: PNG_READ_LIMIT },
+    )
+    .read_info()?;
     // Text chunks may also follow the image data: read it all.
-    let size = reader.output_buffer_size().filter(|&n| n <= PNG_READ_LIMIT).ok_or(png::DecodingError::LimitsExceeded)?;
+    let size = reader
+        .output_buffer_size()
+        .filter(|&n| n <= PNG_READ_LIMIT)
+        .ok_or(png::DecodingError::LimitsExceeded)?;
     let mut buffer = vec![0; size];
     reader.next_frame(&mut buffer)?;
     reader.finish()?;
@@ -119,5 +157,9 @@ pub fn png_settings(bytes: &[u8]) -> Result<Option<String>, png::DecodingError> 
         c.decompress_text_with_limit(MAX_SETTINGS_TEXT)?;
         return c.get_text().map(Some);
     }
-    Ok(info.uncompressed_latin1_text.iter().find(|c| c.keyword == SETTINGS_KEYWORD).map(|c| c.text.clone()))
+    Ok(info
+        .uncompressed_latin1_text
+        .iter()
+        .find(|c| c.keyword == SETTINGS_KEYWORD)
+        .map(|c| c.text.clone()))
 }

@@ -17,7 +17,8 @@ use anyhow::Context;
 /// naming `what` and why it cannot be read. Checked before opening: opening a FIFO or a
 /// device for reading can block or never end.
 pub(crate) fn regular_file_size(path: &Path, what: &str) -> Result<u64, String> {
-    let meta = fs::metadata(path).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    let meta = fs::metadata(path)
+        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
     if !meta.is_file() {
         return Err(format!("cannot read {what} {}: not a regular file", path.display()));
     }
@@ -28,14 +29,23 @@ pub(crate) fn regular_file_size(path: &Path, what: &str) -> Result<u64, String> 
 /// not a regular file, is one sentence naming `what`.
 pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, String> {
     let size = regular_file_size(path, what)?;
-    let too_big = || format!("cannot read {what} {}: larger than {} (a {what} is at most that)", path.display(), bytes_text(cap));
+    let too_big = || {
+        format!(
+            "cannot read {what} {}: larger than {} (a {what} is at most that)",
+            path.display(),
+            bytes_text(cap)
+        )
+    };
     if size > cap {
         return Err(too_big());
     }
-    let file = File::open(path).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    let file = File::open(path)
+        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
     // The size may change between the check and the read: read one byte past the cap.
     let mut bytes = Vec::with_capacity(size as usize);
-    file.take(cap + 1).read_to_end(&mut bytes).map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+    file.take(cap + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
     if bytes.len() as u64 > cap {
         return Err(too_big());
     }
@@ -71,8 +81,13 @@ pub(crate) fn read_regular_file_parallel(path: &Path) -> std::io::Result<Vec<u8>
     }
     let file = File::open(path)?;
     let mut bytes = vec![0u8; len];
-    let parts: Vec<(usize, &mut [u8])> = bytes.chunks_mut(PART).enumerate().map(|(i, part)| (i * PART, part)).collect();
-    if parts.into_par_iter().try_for_each(|(offset, part)| read_exact_at(&file, part, offset as u64)).is_err() {
+    let parts: Vec<(usize, &mut [u8])> =
+        bytes.chunks_mut(PART).enumerate().map(|(i, part)| (i * PART, part)).collect();
+    if parts
+        .into_par_iter()
+        .try_for_each(|(offset, part)| read_exact_at(&file, part, offset as u64))
+        .is_err()
+    {
         // Shrunk since it was checked, or a read failed: the plain read says what is there.
         return read_regular_file(path);
     }
@@ -114,12 +129,17 @@ pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage,
 /// Write `path` through `write`: into a temporary file beside it, synced, then renamed
 /// over `path`. On any failure `path` is left as it was and the temporary is removed; the
 /// error says "cannot write PATH: why".
-pub(crate) fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> anyhow::Result<()>) -> anyhow::Result<()> {
+pub(crate) fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let path_shown = path.display().to_string();
     // A link is written through (the link stays, its file is replaced); a device, FIFO
     // or folder under the name is refused rather than replaced or written into.
     let path = &match fs::metadata(path) {
-        Ok(meta) if !meta.is_file() => anyhow::bail!("cannot write {path_shown}: it is not a regular file"),
+        Ok(meta) if !meta.is_file() => {
+            anyhow::bail!("cannot write {path_shown}: it is not a regular file")
+        }
         Ok(_) => fs::canonicalize(path).with_context(|| format!("cannot write {path_shown}"))?,
         Err(_) => path.to_path_buf(),
     };
@@ -184,7 +204,8 @@ fn temporary_beside(path: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU32, Ordering};
     static NEXT: AtomicU32 = AtomicU32::new(0);
     let name = path.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    let unique = format!(".{name}.{}-{}.tmp", std::process::id(), NEXT.fetch_add(1, Ordering::Relaxed));
+    let unique =
+        format!(".{name}.{}-{}.tmp", std::process::id(), NEXT.fetch_add(1, Ordering::Relaxed));
     path.with_file_name(unique)
 }
 
@@ -211,7 +232,8 @@ mod tests {
     use super::*;
 
     fn temp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("meshtracer-files-{name}-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-files-{name}-{}", std::process::id()));
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).unwrap();
         dir
@@ -227,7 +249,10 @@ mod tests {
             anyhow::bail!("disk full")
         })
         .unwrap_err();
-        assert!(format!("{err:#}").starts_with(&format!("cannot write {}: disk full", path.display())), "{err:#}");
+        assert!(
+            format!("{err:#}").starts_with(&format!("cannot write {}: disk full", path.display())),
+            "{err:#}"
+        );
         assert_eq!(fs::read(&path).unwrap(), b"old");
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1, "no temporary left behind");
         write_bytes_atomic(&path, b"new").unwrap();

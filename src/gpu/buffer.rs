@@ -31,9 +31,18 @@ const BUFFER_ALIGNMENT: u64 = 256;
 
 impl GpuBuffer {
     /// Create a buffer of `size` bytes in `location`.
-    pub fn new(ctx: &Arc<GpuContext>, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation, name: &'static str) -> Result<Self, GpuError> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+        name: &'static str,
+    ) -> Result<Self, GpuError> {
         let size = size.max(16);
-        let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let device = &ctx.device;
         // SAFETY: plain object creation on a live device; destroyed in Drop or below.
         let buffer = unsafe { device.create_buffer(&info, None) }.during("creating a buffer")?;
@@ -60,7 +69,9 @@ impl GpuBuffer {
             }
         };
         // SAFETY: the allocation satisfies the buffer's requirements and is bound once.
-        if let Err(r) = unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) } {
+        if let Err(r) =
+            unsafe { device.bind_buffer_memory(buffer, allocation.memory(), allocation.offset()) }
+        {
             // Free both, as GpuImage does: nothing else owns them yet.
             let _ = ctx.allocator().free(allocation);
             // SAFETY: the buffer was never used.
@@ -90,7 +101,11 @@ impl GpuBuffer {
     /// context with buffer device addresses: the vendor path).
     pub(crate) fn device_address(&self) -> vk::DeviceAddress {
         // SAFETY: the buffer is live and, by the caller's contract, has the usage.
-        unsafe { self.ctx.device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.buffer)) }
+        unsafe {
+            self.ctx.device.get_buffer_device_address(
+                &vk::BufferDeviceAddressInfo::default().buffer(self.buffer),
+            )
+        }
     }
 
     /// The mapped bytes of a host-visible buffer.
@@ -100,15 +115,31 @@ impl GpuBuffer {
     }
 
     /// A device-local storage buffer filled with `data` through a staging copy (paper 3.2).
-    pub(crate) fn device_local_with(ctx: &Arc<GpuContext>, data: &[u8], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+    pub(crate) fn device_local_with(
+        ctx: &Arc<GpuContext>,
+        data: &[u8],
+        usage: vk::BufferUsageFlags,
+        name: &'static str,
+    ) -> Result<Self, GpuError> {
         Self::device_local_with_parts(ctx, &[data], usage, name)
     }
 
     /// A device-local storage buffer holding `parts` back to back, each copied from where it
     /// lies (no joined copy on the host).
-    pub(crate) fn device_local_with_parts(ctx: &Arc<GpuContext>, parts: &[&[u8]], usage: vk::BufferUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+    pub(crate) fn device_local_with_parts(
+        ctx: &Arc<GpuContext>,
+        parts: &[&[u8]],
+        usage: vk::BufferUsageFlags,
+        name: &'static str,
+    ) -> Result<Self, GpuError> {
         let size: usize = parts.iter().map(|p| p.len()).sum();
-        let dst = GpuBuffer::new(ctx, size as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        let dst = GpuBuffer::new(
+            ctx,
+            size as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            name,
+        )?;
         let mut offset = 0;
         for part in parts {
             dst.upload_in_pieces(part, offset, UPLOAD_CHUNK)?;
@@ -131,7 +162,9 @@ impl GpuBuffer {
             // On every core: one thread filled a 10M-triangle scene's 1.5 GB at a third of
             // the rate the copies to the device ran.
             let from = &data[at..at + to.len()];
-            to.par_chunks_mut(1 << 20).zip(from.par_chunks(1 << 20)).for_each(|(to, from)| to.copy_from_slice(from));
+            to.par_chunks_mut(1 << 20)
+                .zip(from.par_chunks(1 << 20))
+                .for_each(|(to, from)| to.copy_from_slice(from));
         })
     }
 
@@ -147,7 +180,13 @@ impl GpuBuffer {
         make: impl Fn(usize) -> T + Sync,
     ) -> Result<Self, GpuError> {
         let item = std::mem::size_of::<T>();
-        let dst = GpuBuffer::new(ctx, (count * item + padding) as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly, name)?;
+        let dst = GpuBuffer::new(
+            ctx,
+            (count * item + padding) as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+            name,
+        )?;
         dst.upload_staged(count * item, padding, padding, |_, to| to.fill(0))?;
         // Whole items in each piece.
         let chunk = (UPLOAD_CHUNK / item).max(1) * item;
@@ -161,19 +200,35 @@ impl GpuBuffer {
     /// Write `len` bytes at `offset` of this (device-local) buffer through a staging buffer of
     /// at most `chunk` bytes, refilled: `fill(at, piece)` writes bytes `at..at + piece.len()`
     /// of the data into the mapped staging memory.
-    fn upload_staged(&self, offset: usize, len: usize, chunk: usize, fill: impl Fn(usize, &mut [u8])) -> Result<(), GpuError> {
+    fn upload_staged(
+        &self,
+        offset: usize,
+        len: usize,
+        chunk: usize,
+        fill: impl Fn(usize, &mut [u8]),
+    ) -> Result<(), GpuError> {
         if len == 0 {
             return Ok(());
         }
         assert!((offset + len) as u64 <= self.size, "upload larger than the buffer");
         let chunk = chunk.clamp(1, len);
-        let mut staging = GpuBuffer::new(&self.ctx, chunk as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "staging")?;
+        let mut staging = GpuBuffer::new(
+            &self.ctx,
+            chunk as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+            "staging",
+        )?;
         for at in (0..len).step_by(chunk) {
             let piece = chunk.min(len - at);
             fill(at, &mut staging.mapped().expect("staging memory is mapped")[..piece]);
             let device = &self.ctx.device;
             self.ctx.one_shot(|cmd| {
-                let region = [vk::BufferCopy { src_offset: 0, dst_offset: (offset + at) as u64, size: piece as u64 }];
+                let region = [vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: (offset + at) as u64,
+                    size: piece as u64,
+                }];
                 // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
                 unsafe { device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region) };
                 // Make the copy visible to the compute shader that reads the buffer next.
@@ -190,12 +245,25 @@ impl GpuBuffer {
 
     /// Read `len` bytes from `offset` on back from this (device-local) buffer.
     pub(crate) fn download_range(&self, offset: u64, len: u64) -> Result<Vec<u8>, GpuError> {
-        let mut staging = GpuBuffer::new(&self.ctx, len, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu, "readback")?;
+        let mut staging = GpuBuffer::new(
+            &self.ctx,
+            len,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+            "readback",
+        )?;
         let device = &self.ctx.device;
         self.ctx.one_shot(|cmd| {
             barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::TransferRead]);
             // SAFETY: as in `upload`.
-            unsafe { device.cmd_copy_buffer(cmd, self.buffer, staging.buffer, &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }]) };
+            unsafe {
+                device.cmd_copy_buffer(
+                    cmd,
+                    self.buffer,
+                    staging.buffer,
+                    &[vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }],
+                )
+            };
             barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::HostRead]);
         })?;
         Ok(staging.mapped().expect("readback memory is mapped")[..len as usize].to_vec())
@@ -220,10 +288,15 @@ mod tests {
 
     #[test]
     fn an_upload_in_pieces_arrives_whole() {
-        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let ctx = GpuContext::new(&ContextOptions::validated())
+            .expect("Vulkan with the validation layer");
         let data: Vec<u8> = (0..10_000u32).map(|i| (i * 7 + i / 256) as u8).collect();
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-        let buffer = GpuBuffer::new(&ctx, data.len() as u64, usage, MemoryLocation::GpuOnly, "pieces").unwrap();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_SRC
+            | vk::BufferUsageFlags::TRANSFER_DST;
+        let buffer =
+            GpuBuffer::new(&ctx, data.len() as u64, usage, MemoryLocation::GpuOnly, "pieces")
+                .unwrap();
         // 3,000-byte pieces: three whole ones and a short last one.
         buffer.upload_in_pieces(&data, 0, 3000).unwrap();
         assert_eq!(buffer.download(data.len() as u64).unwrap(), data);

@@ -13,8 +13,11 @@ use super::barrier::{self, Access};
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
+use super::pipeline::{
+    allocate_one_set, create_compute_pipeline, create_layout, create_set_layout,
+    destroy_pipeline_objects, words,
+};
 use super::timer::GpuTimer;
-use super::pipeline::{allocate_one_set, create_compute_pipeline, create_layout, create_set_layout, destroy_pipeline_objects, words};
 
 static CLOCK_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/probe_clock.spv"));
 
@@ -68,14 +71,21 @@ impl ClockProbe {
         }
         let Some(timer) = GpuTimer::new(ctx, 1)? else { return Ok(None) };
         let device = &ctx.device;
-        let result = GpuBuffer::new(ctx, 16, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuToCpu, "clock probe")?;
+        let result = GpuBuffer::new(
+            ctx,
+            16,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuToCpu,
+            "clock probe",
+        )?;
         let binding = [vk::DescriptorSetLayoutBinding::default()
             .binding(0)
             .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
             .descriptor_count(1)
             .stage_flags(vk::ShaderStageFlags::COMPUTE)];
         // Destroyed in Drop (or below on error).
-        let set_layout = create_set_layout(ctx, &binding, "creating the clock probe's descriptor layout")?;
+        let set_layout =
+            create_set_layout(ctx, &binding, "creating the clock probe's descriptor layout")?;
         let mut probe = Self {
             ctx: ctx.clone(),
             pipeline: vk::Pipeline::null(),
@@ -87,7 +97,13 @@ impl ClockProbe {
             timer,
         };
         // From here on Drop destroys whatever was made (null handles are ignored).
-        probe.layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<ProbeConstants>(), "creating the clock probe's pipeline layout")?;
+        probe.layout = create_layout(
+            ctx,
+            set_layout,
+            vk::ShaderStageFlags::COMPUTE,
+            std::mem::size_of::<ProbeConstants>(),
+            "creating the clock probe's pipeline layout",
+        )?;
         probe.pipeline = create_compute_pipeline(
             ctx,
             probe.layout,
@@ -95,10 +111,29 @@ impl ClockProbe {
             vk::PipelineCreateFlags::empty(),
             ["loading the clock probe", "creating the clock probe's pipeline"],
         )?;
-        let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 }];
-        (probe.pool, probe.set) = allocate_one_set(ctx, set_layout, &sizes, ["creating the clock probe's descriptor pool", "allocating the clock probe's descriptor set"])?;
-        let buffer_info = [vk::DescriptorBufferInfo { buffer: probe.result.buffer, offset: 0, range: vk::WHOLE_SIZE }];
-        let write = [vk::WriteDescriptorSet::default().dst_set(probe.set).dst_binding(0).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_info)];
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::STORAGE_BUFFER,
+            descriptor_count: 1,
+        }];
+        (probe.pool, probe.set) = allocate_one_set(
+            ctx,
+            set_layout,
+            &sizes,
+            [
+                "creating the clock probe's descriptor pool",
+                "allocating the clock probe's descriptor set",
+            ],
+        )?;
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: probe.result.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let write = [vk::WriteDescriptorSet::default()
+            .dst_set(probe.set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&buffer_info)];
         // SAFETY: the set is not in use; the buffer is live.
         unsafe { device.update_descriptor_sets(&write, &[]) };
         Ok(Some(probe))
@@ -114,14 +149,29 @@ impl ClockProbe {
             // which comes after this waited-for submission; the constants fit the range.
             unsafe {
                 device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-                device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
-                device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&constants));
+                device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    0,
+                    &[self.set],
+                    &[],
+                );
+                device.cmd_push_constants(
+                    cmd,
+                    self.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(&constants),
+                );
                 device.cmd_dispatch(cmd, 1, 1, 1);
             }
             self.timer.end(cmd, 0);
             barrier::buffers(device, cmd, &[Access::ComputeWrite], &[Access::HostRead]);
         })?;
-        let gpu_ms = self.timer.read_ms(0).ok_or_else(|| GpuError::vk("reading the clock probe's timestamps", vk::Result::NOT_READY))?;
+        let gpu_ms = self.timer.read_ms(0).ok_or_else(|| {
+            GpuError::vk("reading the clock probe's timestamps", vk::Result::NOT_READY)
+        })?;
         let bytes = self.result.mapped().expect("GpuToCpu memory is mapped");
         let low = u32::from_le_bytes(bytes[0..4].try_into().unwrap());
         let high = u32::from_le_bytes(bytes[4..8].try_into().unwrap());
@@ -149,8 +199,11 @@ mod tests {
     /// dependent fmas take at least one cycle each, and no GPU or CPU clocks above 10 GHz.
     #[test]
     fn the_probe_counts_cycles_at_a_plausible_rate() {
-        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
-        let mut probe = ClockProbe::new(&ctx).unwrap().expect("the device offers VK_KHR_shader_clock and timestamps");
+        let ctx = GpuContext::new(&ContextOptions::validated())
+            .expect("Vulkan with the validation layer");
+        let mut probe = ClockProbe::new(&ctx)
+            .unwrap()
+            .expect("the device offers VK_KHR_shader_clock and timestamps");
         let first = probe.measure().unwrap();
         let second = probe.measure().unwrap();
         for r in [first, second] {

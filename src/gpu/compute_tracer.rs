@@ -13,17 +13,17 @@ use ash::vk;
 
 use super::barrier::{self, Access};
 use super::context::GpuContext;
+use super::dispatch::{Band, FrameTrace, GROUP};
 use super::error::{GpuError, VkContext};
+use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
 use super::lock::lock;
 use super::scene_buffers::SceneBuffers;
 use super::tile_order::TileRect;
 use super::timer::GpuTimer;
-use super::dispatch::{Band, FrameTrace, GROUP};
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
-use super::khr_rt::{AccelStats, VendorKernel, VendorTracer};
+use crate::render_settings::{Accel, BvhLayout};
 use crate::scene::Scene;
 use crate::tracer::budget;
-use crate::render_settings::{Accel, BvhLayout};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
 use crate::tracer::packed::{GpuInstance, PackedScene};
@@ -88,14 +88,22 @@ impl ComputeTracer {
         let pass = TracePass::new(ctx, Kernel::ours_for(&ctx.info))?;
         let timer = GpuTimer::new(ctx, (recorded_slots + 1) * PAIRS_PER_SLOT)?;
         let device = &ctx.device;
-        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on a live device; each object is destroyed in Drop.
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .during("creating a command pool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
         // SAFETY: as above; the buffer is freed with its pool.
-        let cmd = unsafe { device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        let cmd = unsafe { device.allocate_command_buffers(&alloc) }
+            .during("allocating a command buffer")?[0];
         // SAFETY: as above.
-        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }.during("creating a fence")?;
+        let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .during("creating a fence")?;
         let vendor = VendorTracer::new(ctx);
         Ok(Self {
             ctx: ctx.clone(),
@@ -130,11 +138,19 @@ impl ComputeTracer {
 
     /// [`ComputeTracer::set_scene`] for a scene packed for loading
     /// (`PackedScene::for_loading`): its triangles are written from `scene`'s meshes.
-    pub(crate) fn set_loaded_scene(&mut self, packed: &PackedScene, scene: &Scene) -> Result<(), GpuError> {
+    pub(crate) fn set_loaded_scene(
+        &mut self,
+        packed: &PackedScene,
+        scene: &Scene,
+    ) -> Result<(), GpuError> {
         self.set_scene_from(packed, Some(scene))
     }
 
-    fn set_scene_from(&mut self, packed: &PackedScene, scene: Option<&Scene>) -> Result<(), GpuError> {
+    fn set_scene_from(
+        &mut self,
+        packed: &PackedScene,
+        scene: Option<&Scene>,
+    ) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.scene = None;
         if let Ok(v) = &mut self.vendor {
@@ -300,7 +316,8 @@ impl ComputeTracer {
         if !frame.parts().iter().any(|(_, p, _)| p.settings.accel == Accel::Vendor) {
             return Ok(());
         }
-        let vendor = self.vendor.as_mut().map_err(|why| GpuError::VendorUnavailable(why.clone()))?;
+        let vendor =
+            self.vendor.as_mut().map_err(|why| GpuError::VendorUnavailable(why.clone()))?;
         if let (Some(scene), Some(output)) = (&self.scene, &self.output) {
             vendor.prepare(scene, output, &self.meshes, &self.instances)?;
         }
@@ -311,14 +328,20 @@ impl ComputeTracer {
     /// the costlier part of a split frame, as if it covered the whole width.
     pub(crate) fn rows_per_submission(&self, frame: &FrameTrace) -> u32 {
         let budget = self.tests_per_submission();
-        let rows = |p: &FrameParams| budget::rows_per_submission(&p.settings, self.triangle_total, GROUP.height, budget);
+        let rows = |p: &FrameParams| {
+            budget::rows_per_submission(&p.settings, self.triangle_total, GROUP.height, budget)
+        };
         frame.parts().iter().map(|(_, p, _)| rows(p)).min().unwrap_or_else(|| rows(&frame.params))
     }
 
     /// Ray-triangle tests one submission may ask of this tracer's device (a CPU device's
     /// budget is far smaller: see [`budget::CPU_TESTS_PER_SUBMISSION`]).
     pub(crate) fn tests_per_submission(&self) -> f64 {
-        budget::tests_per_submission(if self.ctx.info.is_cpu() { budget::DeviceKind::Cpu } else { budget::DeviceKind::Gpu })
+        budget::tests_per_submission(if self.ctx.info.is_cpu() {
+            budget::DeviceKind::Cpu
+        } else {
+            budget::DeviceKind::Gpu
+        })
     }
 
     /// The frame fits one submission (the window records it into its own frame).
@@ -331,7 +354,11 @@ impl ComputeTracer {
         let mut settings = params.settings;
         // A scene packed with one layout traces that one.
         settings.bvh = self.traced_layout(settings.bvh);
-        FrameParams { instance_count: params.instance_count.min(self.instance_count()), settings, ..*params }
+        FrameParams {
+            instance_count: params.instance_count.min(self.instance_count()),
+            settings,
+            ..*params
+        }
     }
 
     /// Record the trace of `band` of a frame into `cmd`, each part of a split frame with
@@ -343,7 +370,13 @@ impl ComputeTracer {
     /// the costs the slot's last frame recorded (`tile_order.rs`), so the slot's earlier
     /// commands must be done. The trace pass adds the barriers it needs; the outputs are
     /// left as `Access::ComputeWrite` for whoever reads them next. Needs [`Self::is_ready`].
-    pub(crate) fn record(&self, cmd: vk::CommandBuffer, frame: &FrameTrace, band: &Band, timer_slot: Option<u32>) -> TimedParts {
+    pub(crate) fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        frame: &FrameTrace,
+        band: &Band,
+        timer_slot: Option<u32>,
+    ) -> TimedParts {
         let tile_slot = timer_slot.unwrap_or(self.recorded_slots);
         // Our pass over `band`, its tiles ordered by the slot's last costs.
         let trace = |params: &FrameParams, band: &Band| {
@@ -359,7 +392,10 @@ impl ComputeTracer {
         let mut any = false;
         // Timer pair `part * 2 + pass` of the slot, pass 0 the main pass and 1 the pre-pass.
         let mut time = |part: usize, pass: usize, record: &dyn Fn()| {
-            let timer = self.timer.as_ref().zip(timer_slot.map(|s| s * PAIRS_PER_SLOT + (part * 2 + pass) as u32));
+            let timer = self
+                .timer
+                .as_ref()
+                .zip(timer_slot.map(|s| s * PAIRS_PER_SLOT + (part * 2 + pass) as u32));
             if let Some((t, pair)) = timer {
                 t.begin(cmd, pair, any);
             }
@@ -370,9 +406,15 @@ impl ComputeTracer {
             }
             any = true;
         };
-        let parts: Vec<_> = frame.parts().into_iter().map(|(i, p, columns)| (i, self.clamped(p), columns)).collect();
+        let parts: Vec<_> = frame
+            .parts()
+            .into_iter()
+            .map(|(i, p, columns)| (i, self.clamped(p), columns))
+            .collect();
         // Each part with the tracer its acceleration asks for.
-        let vendor = |p: &FrameParams| self.vendor.as_ref().ok().filter(|_| p.settings.accel == Accel::Vendor);
+        let vendor = |p: &FrameParams| {
+            self.vendor.as_ref().ok().filter(|_| p.settings.accel == Accel::Vendor)
+        };
         if band.rows.start == 0 && band.columns.start == 0 {
             for (i, params, columns) in parts.iter().filter(|(_, p, _)| p.settings.adaptive) {
                 match vendor(params) {
@@ -403,7 +445,10 @@ impl ComputeTracer {
         let Some(t) = &self.timer else { return [None; 2] };
         let part = |i: usize| {
             let passes = (0..2).filter(|&p| timed[i][p]);
-            let ms: Option<f64> = passes.clone().map(|p| t.read_ms(timer_slot * PAIRS_PER_SLOT + (i * 2 + p) as u32)).sum();
+            let ms: Option<f64> = passes
+                .clone()
+                .map(|p| t.read_ms(timer_slot * PAIRS_PER_SLOT + (i * 2 + p) as u32))
+                .sum();
             ms.filter(|_| passes.count() > 0)
         };
         [part(0), part(1)]
@@ -416,8 +461,16 @@ impl ComputeTracer {
         // SAFETY: the command buffer and fence are ours and idle (every submission is
         // waited for before this returns), so they may be reset and re-recorded.
         unsafe {
-            device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
-            device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording commands")?;
+            device
+                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
+                .during("resetting a command buffer")?;
+            device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .during("recording commands")?;
             record(cmd);
             device.end_command_buffer(cmd).during("recording commands")?;
             let cmds = [cmd];
@@ -443,7 +496,11 @@ impl ComputeTracer {
         self.prepare(frame)?;
         let band = self.rows_per_submission(frame);
         let timed = self.timer.is_some();
-        let mut timing = TraceTiming { gpu_ms: timed.then_some(0.0), parts_ms: (timed && frame.split.is_some()).then_some([0.0; 2]), ..Default::default() };
+        let mut timing = TraceTiming {
+            gpu_ms: timed.then_some(0.0),
+            parts_ms: (timed && frame.split.is_some()).then_some([0.0; 2]),
+            ..Default::default()
+        };
         let start = Instant::now();
         let mut row = 0;
         while row < s.height {
@@ -466,7 +523,11 @@ impl ComputeTracer {
     /// Trace `band` of a frame now in one submission and wait for it; the milliseconds of
     /// each part it traced. The frame's resolution must be set and the tracer prepared
     /// for it ([`Self::prepare`]).
-    pub(crate) fn trace_band(&self, frame: &FrameTrace, band: &Band) -> Result<PartTimes, GpuError> {
+    pub(crate) fn trace_band(
+        &self,
+        frame: &FrameTrace,
+        band: &Band,
+    ) -> Result<PartTimes, GpuError> {
         let slot = self.recorded_slots;
         let mut parts = [[false; 2]; 2];
         self.submit_and_wait(|cmd| parts = self.record(cmd, frame, band, Some(slot)))?;
@@ -479,7 +540,10 @@ impl ComputeTracer {
     }
 
     /// Trace a frame, split or not, and read back the float image.
-    pub(crate) fn render_frame(&mut self, frame: &FrameTrace) -> Result<(Image, TraceTiming), GpuError> {
+    pub(crate) fn render_frame(
+        &mut self,
+        frame: &FrameTrace,
+    ) -> Result<(Image, TraceTiming), GpuError> {
         let timing = self.trace_frame(frame)?;
         Ok((self.read_image()?, timing))
     }
@@ -494,14 +558,19 @@ impl ComputeTracer {
         let out = self.traced_output()?;
         let bytes = out.float.download(out.width as u64 * out.height as u64 * 16)?;
         let floats: &[f32] = bytemuck::cast_slice(&bytes);
-        Ok(Image { width: out.width, height: out.height, pixels: floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect() })
+        Ok(Image {
+            width: out.width,
+            height: out.height,
+            pixels: floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
+        })
     }
 
     /// Read the 8-bit colour output of the last frame (RGBA bytes, row 0 at the top).
     pub(crate) fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
         let out = self.traced_output()?;
         let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
-        image::RgbaImage::from_raw(out.width, out.height, bytes).ok_or(GpuError::NotReady("the colour readback has the wrong size"))
+        image::RgbaImage::from_raw(out.width, out.height, bytes)
+            .ok_or(GpuError::NotReady("the colour readback has the wrong size"))
     }
 }
 

@@ -9,20 +9,27 @@ use crate::scene::primitives::PaperModel;
 
 /// A validated context and the paper's torus knot in its mirror box.
 fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
-    let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
-    let (scene, _) = load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default()).unwrap();
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let (scene, _) =
+        load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default())
+            .unwrap();
     (ctx, scene)
 }
 
 /// A 32x32 frame of `scene`, one bounce, traced with `bvh`.
 fn small_frame(scene: &Scene, bvh: BvhLayout) -> FrameParams {
-    FrameParams::new(scene, RenderSettings { width: 32, height: 32, bounces: 1, bvh, ..Default::default() })
+    FrameParams::new(
+        scene,
+        RenderSettings { width: 32, height: 32, bounces: 1, bvh, ..Default::default() },
+    )
 }
 
 #[test]
 fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
     let (ctx, scene) = knot_in_the_box();
-    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+    let mut tracer =
+        ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
     for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
         tracer.render(&small_frame(&scene, bvh)).unwrap();
     }
@@ -45,7 +52,15 @@ fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
     let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();
     assert!(tracer.pass.made(Variant::Wide), "a wide frame made and ran the wide kernel");
     assert!(wide.compare(&binary, 1e-4).fraction_over <= 0.002, "the same hits as the binary tree");
-    assert!(wide.compare(&crate::tracer::cpu::render(&packed, &small_frame(&scene, BvhLayout::Wide)), 1e-4).fraction_over <= 0.002, "GPU as CPU");
+    assert!(
+        wide.compare(
+            &crate::tracer::cpu::render(&packed, &small_frame(&scene, BvhLayout::Wide)),
+            1e-4
+        )
+        .fraction_over
+            <= 0.002,
+        "GPU as CPU"
+    );
     drop(tracer);
     // A mesh without a wide tree needs the binary traversal, which the wide kernel lacks.
     packed.drop_wide_tree(0, &scene.instances);
@@ -60,7 +75,8 @@ fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
 #[test]
 fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
     let (ctx, scene) = knot_in_the_box();
-    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+    let mut tracer =
+        ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
     tracer.prepare_kernels_in_background();
     // A wide frame takes the wide kernel, waiting for its thread if need be.
     let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();

@@ -36,7 +36,9 @@ impl ContextOptions {
     }
 
     fn validation_wanted(&self) -> bool {
-        self.validation || self.sync_validation_wanted() || std::env::var("MESHTRACER_VALIDATION").is_ok_and(|v| v == "1")
+        self.validation
+            || self.sync_validation_wanted()
+            || std::env::var("MESHTRACER_VALIDATION").is_ok_and(|v| v == "1")
     }
 
     fn sync_validation_wanted(&self) -> bool {
@@ -97,28 +99,46 @@ impl VendorSupport {
 pub(crate) const NO_VENDOR_ENV: &str = "MESHTRACER_NO_VENDOR_RT";
 
 /// Which ray tracing extensions and features `pd` offers, all of them needed together.
-fn vendor_support(instance: &ash::Instance, pd: vk::PhysicalDevice, props: &vk::PhysicalDeviceProperties) -> VendorSupport {
+fn vendor_support(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    props: &vk::PhysicalDeviceProperties,
+) -> VendorSupport {
     let name = props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned();
     let missing = |why: String| VendorSupport { missing: Some(why), ..Default::default() };
     if std::env::var(NO_VENDOR_ENV).is_ok_and(|v| v == "1") {
         return missing(format!("the vendor's ray tracing is switched off ({NO_VENDOR_ENV}=1)"));
     }
     if props.api_version < vk::API_VERSION_1_2 {
-        return missing(format!("{name} supports only Vulkan {}.{}; the vendor's ray tracing needs 1.2", vk::api_version_major(props.api_version), vk::api_version_minor(props.api_version)));
+        return missing(format!(
+            "{name} supports only Vulkan {}.{}; the vendor's ray tracing needs 1.2",
+            vk::api_version_major(props.api_version),
+            vk::api_version_minor(props.api_version)
+        ));
     }
     // SAFETY: a plain query of a physical device of this live instance.
-    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let extensions =
+        unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
     let has = |ext: &CStr| extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ext));
     let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
     let mut rt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default();
     let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
     let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
-    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut rq).push_next(&mut rt).push_next(&mut accel).push_next(&mut v12);
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut rq)
+        .push_next(&mut rt)
+        .push_next(&mut accel)
+        .push_next(&mut v12);
     // SAFETY: the feature structs chained to `features` outlive the call.
     unsafe { instance.get_physical_device_features2(pd, &mut features) };
-    let structures = has(ash::khr::acceleration_structure::NAME) && has(ash::khr::deferred_host_operations::NAME) && accel.acceleration_structure == vk::TRUE && v12.buffer_device_address == vk::TRUE;
+    let structures = has(ash::khr::acceleration_structure::NAME)
+        && has(ash::khr::deferred_host_operations::NAME)
+        && accel.acceleration_structure == vk::TRUE
+        && v12.buffer_device_address == vk::TRUE;
     let ray_query = structures && has(ash::khr::ray_query::NAME) && rq.ray_query == vk::TRUE;
-    let pipeline = structures && has(ash::khr::ray_tracing_pipeline::NAME) && rt.ray_tracing_pipeline == vk::TRUE;
+    let pipeline = structures
+        && has(ash::khr::ray_tracing_pipeline::NAME)
+        && rt.ray_tracing_pipeline == vk::TRUE;
     if ray_query || pipeline {
         return VendorSupport { ray_query, pipeline, missing: None };
     }
@@ -147,7 +167,8 @@ pub struct GpuContext {
 }
 
 /// A surface-creating callback, run between instance and device creation.
-pub(crate) type SurfaceFactory<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
+pub(crate) type SurfaceFactory<'a> =
+    &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, GpuError>;
 
 fn load_entry() -> Result<ash::Entry, GpuError> {
     // SAFETY: loading the system's Vulkan loader library; no other invariants.
@@ -157,7 +178,9 @@ fn load_entry() -> Result<ash::Entry, GpuError> {
 /// A failed `vkCreateInstance`: the loader found no driver (ICD) at all, or something else.
 fn instance_error(r: vk::Result) -> GpuError {
     match r {
-        vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => GpuError::NoDevice,
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => {
+            GpuError::NoDevice
+        }
         r => GpuError::vk("creating the Vulkan instance", r),
     }
 }
@@ -184,7 +207,10 @@ pub(crate) fn list_devices() -> Result<Vec<String>, GpuError> {
     let entry = load_entry()?;
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
     // SAFETY: the create info and the application info it points to outlive the call.
-    let instance = unsafe { entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None) }.map_err(instance_error)?;
+    let instance = unsafe {
+        entry.create_instance(&vk::InstanceCreateInfo::default().application_info(&app), None)
+    }
+    .map_err(instance_error)?;
     // SAFETY: the instance was just created and is destroyed only below.
     let names = unsafe {
         let devices = instance.enumerate_physical_devices().unwrap_or_default();
@@ -210,7 +236,10 @@ impl GpuContext {
     }
 
     /// Create instance, optional surface (via `make_surface`), device and allocator.
-    pub(crate) fn with_surface(options: &ContextOptions, make_surface: Option<SurfaceFactory>) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
+    pub(crate) fn with_surface(
+        options: &ContextOptions,
+        make_surface: Option<SurfaceFactory>,
+    ) -> Result<(Arc<Self>, Option<vk::SurfaceKHR>), GpuError> {
         static WARNED: std::sync::Once = std::sync::Once::new();
         WARNED.call_once(warn_of_a_file_size_limit);
         let entry = load_entry()?;
@@ -220,7 +249,8 @@ impl GpuContext {
         let mut layers: Vec<*const c_char> = Vec::new();
         if validation {
             // SAFETY: a plain query of the loaded entry.
-            let available = unsafe { entry.enumerate_instance_layer_properties() }.during("listing instance layers")?;
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .during("listing instance layers")?;
             if !available.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
                 return Err(GpuError::ValidationLayerMissing);
             }
@@ -235,8 +265,12 @@ impl GpuContext {
             .engine_name(c"meshtracer")
             .api_version(vk::API_VERSION_1_3);
         let sync_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync_features);
-        let mut create = vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layers).enabled_extension_names(&extensions);
+        let mut features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync_features);
+        let mut create = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
         if validation && options.sync_validation_wanted() {
             create = create.push_next(&mut features);
         }
@@ -249,7 +283,8 @@ impl GpuContext {
             let info = validation::messenger_info(&validation_log);
             // SAFETY: the instance is live; the user data is the `ValidationLog` the
             // context keeps until it destroys the messenger.
-            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }.during("creating the debug messenger")?;
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .during("creating the debug messenger")?;
             Some((loader, messenger))
         } else {
             None
@@ -262,7 +297,11 @@ impl GpuContext {
                 None => None,
             };
             let surface_loader = ash::khr::surface::Instance::new(&entry, &instance);
-            let picked = pick_device(&instance, options.device_index, surface.map(|s| (&surface_loader, s)))?;
+            let picked = pick_device(
+                &instance,
+                options.device_index,
+                surface.map(|s| (&surface_loader, s)),
+            )?;
             Ok::<_, GpuError>((surface, picked))
         })();
         let (surface, (physical_device, queue_family, index)) = match result {
@@ -284,9 +323,13 @@ impl GpuContext {
         let props = unsafe { instance.get_physical_device_properties(physical_device) };
         let presentation = options.presentation;
         let priorities = [1.0];
-        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
         let mut device_extensions: Vec<*const c_char> = Vec::new();
-        let mut features13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .synchronization2(true);
         let mut device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
         if presentation {
             device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
@@ -294,10 +337,13 @@ impl GpuContext {
         }
         // The vendor's ray tracing, enabled wherever the device has it.
         let vendor = vendor_support(&instance, physical_device, &props);
-        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
-        let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut features12 =
+            vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+        let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
         let mut query_features = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
-        let mut pipeline_features = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
+        let mut pipeline_features =
+            vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
         if vendor.available() {
             device_extensions.push(ash::khr::acceleration_structure::NAME.as_ptr());
             device_extensions.push(ash::khr::deferred_host_operations::NAME.as_ptr());
@@ -313,14 +359,17 @@ impl GpuContext {
         }
         // The driver's own statistics of the compiled shader, where it offers them.
         let shader_statistics = has_pipeline_statistics(&instance, physical_device);
-        let mut statistics_features = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default().pipeline_executable_info(true);
+        let mut statistics_features =
+            vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
+                .pipeline_executable_info(true);
         if shader_statistics {
             device_extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
             device_info = device_info.push_next(&mut statistics_features);
         }
         // The shader clock, for measuring the GPU's clock rate (the driver may lower it).
         let shader_clock = has_subgroup_clock(&instance, physical_device);
-        let mut clock_features = vk::PhysicalDeviceShaderClockFeaturesKHR::default().shader_subgroup_clock(true);
+        let mut clock_features =
+            vk::PhysicalDeviceShaderClockFeaturesKHR::default().shader_subgroup_clock(true);
         if shader_clock {
             device_extensions.push(ash::khr::shader_clock::NAME.as_ptr());
             device_info = device_info.push_next(&mut clock_features);
@@ -328,7 +377,8 @@ impl GpuContext {
         device_info = device_info.enabled_extension_names(&device_extensions);
         // SAFETY: the create info and the queue info, priorities, extension names and
         // features it points to outlive the call.
-        let device = unsafe { instance.create_device(physical_device, &device_info, None) }.during("creating the Vulkan device")?;
+        let device = unsafe { instance.create_device(physical_device, &device_info, None) }
+            .during("creating the Vulkan device")?;
         // SAFETY: the device was created with one queue of this family.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
 
@@ -343,10 +393,19 @@ impl GpuContext {
         })
         .map_err(|source| GpuError::Allocation { what: "the allocator", source })?;
 
-        let info = DeviceInfo { index, vendor, shader_statistics, shader_clock, ..device_info_of(&instance, physical_device, queue_family, &props) };
-        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let info = DeviceInfo {
+            index,
+            vendor,
+            shader_statistics,
+            shader_clock,
+            ..device_info_of(&instance, physical_device, queue_family, &props)
+        };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
-        let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating a command pool")?;
+        let one_shot_pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .during("creating a command pool")?;
 
         Ok((
             Arc::new(Self {
@@ -383,11 +442,16 @@ impl GpuContext {
     }
 
     /// Submit to the queue (under the queue lock).
-    pub(crate) fn submit(&self, submits: &[vk::SubmitInfo], fence: vk::Fence) -> Result<(), GpuError> {
+    pub(crate) fn submit(
+        &self,
+        submits: &[vk::SubmitInfo],
+        fence: vk::Fence,
+    ) -> Result<(), GpuError> {
         let _guard = lock(&self.queue_lock);
         // SAFETY: the queue lock is held, as Vulkan requires of queue use; the submits and
         // the fence belong to this device.
-        unsafe { self.device.queue_submit(self.queue, submits, fence) }.during("submitting GPU work")
+        unsafe { self.device.queue_submit(self.queue, submits, fence) }
+            .during("submitting GPU work")
     }
 
     /// Hold the queue lock (for `vkQueuePresentKHR` and other direct queue use).
@@ -396,24 +460,40 @@ impl GpuContext {
     }
 
     /// Record commands with `record`, submit them and wait for completion.
-    pub(crate) fn one_shot<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R, GpuError> {
+    pub(crate) fn one_shot<R>(
+        &self,
+        record: impl FnOnce(vk::CommandBuffer) -> R,
+    ) -> Result<R, GpuError> {
         let pool = lock(&self.one_shot_pool);
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(*pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(1);
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(*pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
         // SAFETY: the pool lock is held, so no other thread uses the pool.
-        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }.during("allocating a command buffer")?[0];
+        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
+            .during("allocating a command buffer")?[0];
         // SAFETY: `cmd` was just allocated and is recorded, submitted and waited for here,
         // under the pool lock; the fence is destroyed after the wait.
         let result = (|| unsafe {
             self.device
-                .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
                 .during("recording commands")?;
             let r = record(cmd);
             self.device.end_command_buffer(cmd).during("recording commands")?;
-            let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None).during("creating a fence")?;
+            let fence = self
+                .device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .during("creating a fence")?;
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             let submitted = self.submit(&submit, fence);
-            let waited = submitted.and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX).during("waiting for the GPU"));
+            let waited = submitted.and_then(|_| {
+                self.device.wait_for_fences(&[fence], true, u64::MAX).during("waiting for the GPU")
+            });
             self.device.destroy_fence(fence, None);
             waited.map(|_| r)
         })();
@@ -456,7 +536,8 @@ fn pick_device(
     surface: Option<(&ash::khr::surface::Instance, vk::SurfaceKHR)>,
 ) -> Result<(vk::PhysicalDevice, u32, usize), GpuError> {
     // SAFETY: a plain query of the live instance.
-    let devices = unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
+    let devices =
+        unsafe { instance.enumerate_physical_devices() }.during("listing Vulkan devices")?;
     if devices.is_empty() {
         return Err(GpuError::NoDevice);
     }
@@ -475,19 +556,25 @@ fn pick_device(
         })
     };
     if let Some(i) = index {
-        let pd = *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
+        let pd =
+            *devices.get(i).ok_or(GpuError::BadDeviceIndex { index: i, count: devices.len() })?;
         return queue_for(pd).map(|q| (pd, q, i)).ok_or(GpuError::NoDevice);
     }
     // SAFETY: a query on a physical device of this instance.
-    let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }.device_type {
+    let rank = |pd: vk::PhysicalDevice| match unsafe { instance.get_physical_device_properties(pd) }
+        .device_type
+    {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,
         vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
         vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
         vk::PhysicalDeviceType::CPU => 3,
         _ => 4,
     };
-    let mut candidates: Vec<(i32, vk::PhysicalDevice, u32, usize)> =
-        devices.iter().enumerate().filter_map(|(i, &pd)| queue_for(pd).map(|q| (rank(pd), pd, q, i))).collect();
+    let mut candidates: Vec<(i32, vk::PhysicalDevice, u32, usize)> = devices
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &pd)| queue_for(pd).map(|q| (rank(pd), pd, q, i)))
+        .collect();
     candidates.sort_by_key(|c| c.0);
     candidates.first().map(|&(_, pd, q, i)| (pd, q, i)).ok_or(GpuError::NoDevice)
 }
@@ -498,12 +585,23 @@ fn driver_of(instance: &ash::Instance, pd: vk::PhysicalDevice) -> String {
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
     // SAFETY: `props2` and the driver properties chained to it outlive the call.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
-    let driver_name = driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let driver_info = driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let driver_name = driver_props
+        .driver_name_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let driver_info = driver_props
+        .driver_info_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     format!("{driver_name} {driver_info}").trim().to_string()
 }
 
-fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family: u32, props: &vk::PhysicalDeviceProperties) -> DeviceInfo {
+fn device_info_of(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    queue_family: u32,
+    props: &vk::PhysicalDeviceProperties,
+) -> DeviceInfo {
     // SAFETY: queries on a physical device of this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     // SAFETY: as above.
@@ -520,7 +618,12 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
         name: props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().into_owned(),
         device_type: device_type_name(props.device_type).into(),
         driver: driver_of(instance, pd),
-        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        ),
         max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
         max_image_dimension_2d: props.limits.max_image_dimension2_d,
         timestamp_period_ns: props.limits.timestamp_period,
@@ -535,7 +638,8 @@ fn device_info_of(instance: &ash::Instance, pd: vk::PhysicalDevice, queue_family
 /// Whether `pd` offers the device extension `name`.
 fn has_extension(instance: &ash::Instance, pd: vk::PhysicalDevice, name: &CStr) -> bool {
     // SAFETY: a plain query of a physical device of this live instance.
-    let extensions = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let extensions =
+        unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
     extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(name))
 }
 

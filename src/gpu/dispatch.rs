@@ -44,7 +44,8 @@ impl Band {
     /// The part of the band in `columns` (None when they do not meet).
     pub(crate) fn within(&self, columns: &Range<u32>) -> Option<Band> {
         let columns = self.columns.start.max(columns.start)..self.columns.end.min(columns.end);
-        (!columns.is_empty() && !self.rows.is_empty()).then(|| Band { rows: self.rows.clone(), columns })
+        (!columns.is_empty() && !self.rows.is_empty())
+            .then(|| Band { rows: self.rows.clone(), columns })
     }
 }
 

@@ -35,7 +35,9 @@ impl GpuError {
     pub fn vk(what: &'static str, result: vk::Result) -> Self {
         match result {
             vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(what),
-            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => GpuError::OutOfMemory(what),
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                GpuError::OutOfMemory(what)
+            }
             _ => GpuError::Vulkan { what, result },
         }
     }

@@ -12,12 +12,23 @@ use super::error::{GpuError, VkContext};
 
 /// The whole colour subresource of a single-level 2D image.
 pub(crate) fn color_range() -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange { aspect_mask: vk::ImageAspectFlags::COLOR, base_mip_level: 0, level_count: 1, base_array_layer: 0, layer_count: 1 }
+    vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
 }
 
 /// The colour layer of a single-level 2D image, for copies and blits.
 pub(crate) fn color_layers() -> vk::ImageSubresourceLayers {
-    vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 }
+    vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
 }
 
 /// A device-local 2D image with one mip level; freed on drop.
@@ -31,7 +42,14 @@ pub(crate) struct GpuImage {
 
 impl GpuImage {
     /// Create a `width` x `height` image of `format` with optimal tiling.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, format: vk::Format, usage: vk::ImageUsageFlags, name: &'static str) -> Result<Self, GpuError> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        width: u32,
+        height: u32,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        name: &'static str,
+    ) -> Result<Self, GpuError> {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
@@ -66,7 +84,9 @@ impl GpuImage {
         };
         // SAFETY: the allocation is fresh and meets the image's size and alignment
         // requirements.
-        if let Err(r) = unsafe { device.bind_image_memory(image, allocation.memory(), allocation.offset()) } {
+        if let Err(r) =
+            unsafe { device.bind_image_memory(image, allocation.memory(), allocation.offset()) }
+        {
             let _ = ctx.allocator().free(allocation);
             // SAFETY: binding failed, so nothing uses the image; its allocation was freed
             // above.
@@ -87,4 +107,3 @@ impl Drop for GpuImage {
         unsafe { self.ctx.device.destroy_image(self.image, None) };
     }
 }
-

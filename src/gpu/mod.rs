@@ -33,9 +33,9 @@ pub(crate) mod trace_pass;
 pub(crate) mod validation;
 
 pub(crate) use clock_probe::ClockProbe;
-pub use compute_tracer::{ComputeTracer, TraceTiming};
 pub(crate) use compute_tracer::PartTimes;
+pub use compute_tracer::{ComputeTracer, TraceTiming};
 pub use context::{ContextOptions, DeviceInfo, GpuContext, VendorSupport};
-pub use dispatch::{FrameTrace, GroupSize, SplitTrace, GROUP};
 pub(crate) use dispatch::Band;
+pub use dispatch::{FrameTrace, GroupSize, SplitTrace, GROUP};
 pub use error::GpuError;

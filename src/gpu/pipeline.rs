@@ -15,9 +15,19 @@ pub(crate) fn words(bytes: &[u8]) -> Vec<u32> {
 
 /// A descriptor set layout of `bindings`; `what` names the step for errors. The caller
 /// destroys it.
-pub(crate) fn create_set_layout(ctx: &GpuContext, bindings: &[vk::DescriptorSetLayoutBinding], what: &'static str) -> Result<vk::DescriptorSetLayout, GpuError> {
+pub(crate) fn create_set_layout(
+    ctx: &GpuContext,
+    bindings: &[vk::DescriptorSetLayoutBinding],
+    what: &'static str,
+) -> Result<vk::DescriptorSetLayout, GpuError> {
     // SAFETY: plain object creation on the live device; the bindings outlive the call.
-    unsafe { ctx.device.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings), None) }.during(what)
+    unsafe {
+        ctx.device.create_descriptor_set_layout(
+            &vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings),
+            None,
+        )
+    }
+    .during(what)
 }
 
 /// A pool of `sizes` holding one set of `set_layout`, and that set; `what` names the two
@@ -30,10 +40,22 @@ pub(crate) fn allocate_one_set(
     what: [&'static str; 2],
 ) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
     // SAFETY: plain object creation on the live device; the caller destroys the pool.
-    let pool = unsafe { ctx.device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(sizes), None) }.during(what[0])?;
+    let pool = unsafe {
+        ctx.device.create_descriptor_pool(
+            &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(sizes),
+            None,
+        )
+    }
+    .during(what[0])?;
     let set_layouts = [set_layout];
     // SAFETY: the pool holds exactly this one set of this layout.
-    let set = unsafe { ctx.device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts)) };
+    let set = unsafe {
+        ctx.device.allocate_descriptor_sets(
+            &vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(pool)
+                .set_layouts(&set_layouts),
+        )
+    };
     match set {
         Ok(set) => Ok((pool, set[0])),
         Err(r) => {
@@ -56,19 +78,40 @@ pub(crate) fn create_layout(
     let push = [vk::PushConstantRange::default().stage_flags(stages).size(push_bytes as u32)];
     let set_layouts = [set_layout];
     // SAFETY: the set layout is live; the arrays outlive the call.
-    unsafe { ctx.device.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push), None) }.during(what)
+    unsafe {
+        ctx.device.create_pipeline_layout(
+            &vk::PipelineLayoutCreateInfo::default()
+                .set_layouts(&set_layouts)
+                .push_constant_ranges(&push),
+            None,
+        )
+    }
+    .during(what)
 }
 
 /// A compute pipeline running `main` of the SPIR-V `code` with `layout`; `what` names the
 /// two steps for errors: loading the shader module, creating the pipeline.
-pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32], flags: vk::PipelineCreateFlags, what: [&'static str; 2]) -> Result<vk::Pipeline, GpuError> {
+pub(crate) fn create_compute_pipeline(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    code: &[u32],
+    flags: vk::PipelineCreateFlags,
+    what: [&'static str; 2],
+) -> Result<vk::Pipeline, GpuError> {
     let device = &ctx.device;
     // SAFETY: the words are SPIR-V that naga (or glslang) wrote and validated.
-    let module = unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None) }.during(what[0])?;
-    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+    let module = unsafe {
+        device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None)
+    }
+    .during(what[0])?;
+    let stage = vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::COMPUTE)
+        .module(module)
+        .name(c"main");
     let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
     // SAFETY: the module and the layout are live; the create infos outlive the call.
-    let pipeline = unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+    let pipeline =
+        unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
     // SAFETY: the pipeline, created or not, no longer needs the module.
     unsafe { device.destroy_shader_module(module, None) };
     Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
@@ -79,7 +122,13 @@ pub(crate) fn create_compute_pipeline(ctx: &GpuContext, layout: vk::PipelineLayo
 ///
 /// # Safety
 /// The GPU must be done with all of them (the owner waited for it).
-pub(crate) unsafe fn destroy_pipeline_objects(d: &ash::Device, pool: vk::DescriptorPool, pipeline: vk::Pipeline, layout: vk::PipelineLayout, set_layout: vk::DescriptorSetLayout) {
+pub(crate) unsafe fn destroy_pipeline_objects(
+    d: &ash::Device,
+    pool: vk::DescriptorPool,
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+) {
     // SAFETY: the caller promises the GPU no longer uses these objects.
     unsafe {
         d.destroy_descriptor_pool(pool, None);

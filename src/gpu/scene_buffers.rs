@@ -39,7 +39,17 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
-    let names = ["triangle", "shading", "vertex normal", "texture coordinate", "vertex colour", "material", "BVH node", "instance", "texture"];
+    let names = [
+        "triangle",
+        "shading",
+        "vertex normal",
+        "texture coordinate",
+        "vertex colour",
+        "material",
+        "BVH node",
+        "instance",
+        "texture",
+    ];
     let limit = ctx.info.max_storage_buffer_range;
     for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
         if bytes > limit {
@@ -48,7 +58,11 @@ pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError
     }
     let total: u64 = packed.buffer_sizes().iter().sum();
     if ctx.info.device_local_bytes > 0 && total > ctx.info.device_local_bytes / 10 * 9 {
-        return Err(GpuError::SceneTooLarge { buffer: "whole scene", bytes: total, limit: ctx.info.device_local_bytes / 10 * 9 });
+        return Err(GpuError::SceneTooLarge {
+            buffer: "whole scene",
+            bytes: total,
+            limit: ctx.info.device_local_bytes / 10 * 9,
+        });
     }
     Ok(())
 }
@@ -62,7 +76,11 @@ impl SceneBuffers {
     /// Upload the packed scene; one packed for loading ([`PackedScene::for_loading`]) has its
     /// triangles and hit records written here from `scene`'s meshes, the ones it was packed
     /// from.
-    pub(crate) fn upload_loaded(ctx: &Arc<GpuContext>, packed: &PackedScene, scene: Option<&Scene>) -> Result<Self, GpuError> {
+    pub(crate) fn upload_loaded(
+        ctx: &Arc<GpuContext>,
+        packed: &PackedScene,
+        scene: Option<&Scene>,
+    ) -> Result<Self, GpuError> {
         check_fits(ctx, packed)?;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         // Triangles are read back by the vendor path to build the driver's structures (no host
@@ -74,29 +92,96 @@ impl SceneBuffers {
         let (triangles, shading) = match (&packed.deferred, scene) {
             (Some(_), Some(scene)) => {
                 let count = packed.triangle_count();
-                let triangles = GpuBuffer::device_local_made(ctx, count, READ_AHEAD, triangle_usage, "triangles", |k| packed.deferred_triangle(scene, k))?;
-                let shading = GpuBuffer::device_local_made(ctx, count, 0, triangle_usage, "shading", |k| packed.deferred_shading(scene, k))?;
+                let triangles = GpuBuffer::device_local_made(
+                    ctx,
+                    count,
+                    READ_AHEAD,
+                    triangle_usage,
+                    "triangles",
+                    |k| packed.deferred_triangle(scene, k),
+                )?;
+                let shading =
+                    GpuBuffer::device_local_made(ctx, count, 0, triangle_usage, "shading", |k| {
+                        packed.deferred_shading(scene, k)
+                    })?;
                 (triangles, shading)
             }
             (Some(_), None) => panic!("a scene packed for loading is uploaded with its meshes"),
             (None, _) => (
-                GpuBuffer::device_local_with_parts(ctx, &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]], triangle_usage, "triangles")?,
-                GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.shading), triangle_usage, "shading")?,
+                GpuBuffer::device_local_with_parts(
+                    ctx,
+                    &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]],
+                    triangle_usage,
+                    "triangles",
+                )?,
+                GpuBuffer::device_local_with(
+                    ctx,
+                    bytemuck::cast_slice(&packed.shading),
+                    triangle_usage,
+                    "shading",
+                )?,
             ),
         };
         let v = &packed.vertices;
-        let vertex_normals = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.normals), storage, "vertex normals")?;
-        let vertex_texcoords = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.texcoords), storage, "vertex texcoords")?;
-        let vertex_colors = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&v.colors), storage, "vertex colours")?;
-        let materials = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.materials), storage, "materials")?;
+        let vertex_normals = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&v.normals),
+            storage,
+            "vertex normals",
+        )?;
+        let vertex_texcoords = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&v.texcoords),
+            storage,
+            "vertex texcoords",
+        )?;
+        let vertex_colors = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&v.colors),
+            storage,
+            "vertex colours",
+        )?;
+        let materials = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&packed.materials),
+            storage,
+            "materials",
+        )?;
         // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
         // ones as 16-byte words (`wide_nodes`).
-        let nodes = GpuBuffer::device_local_with_parts(ctx, &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)], storage, "bvh nodes")?;
-        let capacity = (INSTANCE_CAPACITY.max(packed.instances.len()) * std::mem::size_of::<GpuInstance>()) as u64;
-        let instances = GpuBuffer::new(ctx, capacity, storage | vk::BufferUsageFlags::TRANSFER_DST, gpu_allocator::MemoryLocation::GpuOnly, "instances")?;
-        let texels = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.texels), storage, "texels")?;
-        let texture_infos = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.textures.infos), storage, "texture infos")?;
-        let environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&packed.environment_words()), storage, "environment")?;
+        let nodes = GpuBuffer::device_local_with_parts(
+            ctx,
+            &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)],
+            storage,
+            "bvh nodes",
+        )?;
+        let capacity = (INSTANCE_CAPACITY.max(packed.instances.len())
+            * std::mem::size_of::<GpuInstance>()) as u64;
+        let instances = GpuBuffer::new(
+            ctx,
+            capacity,
+            storage | vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuOnly,
+            "instances",
+        )?;
+        let texels = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&packed.textures.texels),
+            storage,
+            "texels",
+        )?;
+        let texture_infos = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&packed.textures.infos),
+            storage,
+            "texture infos",
+        )?;
+        let environment = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&packed.environment_words()),
+            storage,
+            "environment",
+        )?;
         let mut s = Self {
             triangles,
             shading,
@@ -142,10 +227,19 @@ impl SceneBuffers {
 
     /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);
     /// the GPU must not be using it.
-    pub(crate) fn set_environment(&mut self, ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<(), GpuError> {
+    pub(crate) fn set_environment(
+        &mut self,
+        ctx: &Arc<GpuContext>,
+        packed: &PackedScene,
+    ) -> Result<(), GpuError> {
         let words = packed.environment_words();
         self.bytes -= self.environment.size;
-        self.environment = GpuBuffer::device_local_with(ctx, bytemuck::cast_slice(&words), vk::BufferUsageFlags::STORAGE_BUFFER, "environment")?;
+        self.environment = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&words),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            "environment",
+        )?;
         self.bytes += self.environment.size;
         Ok(())
     }
@@ -175,15 +269,20 @@ mod tests {
     fn a_scene_packed_for_loading_uploads_the_same_bytes() {
         // Triangles and hit records written into the staging memory from the meshes equal
         // the host arrays of a full packing, for the model and the mirror box after it.
-        let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+        let ctx = GpuContext::new(&ContextOptions::validated())
+            .expect("Vulkan with the validation layer");
         let mut mesh = PaperModel::TorusKnot.mesh();
         prepare_model(&mut mesh);
         mesh.texcoords = mesh.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect();
         mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
         let scene = paper_scene(mesh, 2, LightOrbit::default());
         let full = PackedScene::new(&scene);
-        let loading = PackedScene::for_loading(&scene, BvhLayout::Binary, &Progress::default()).unwrap();
-        assert!(loading.triangles.is_empty() && loading.shading.is_empty(), "nothing of them on the host");
+        let loading =
+            PackedScene::for_loading(&scene, BvhLayout::Binary, &Progress::default()).unwrap();
+        assert!(
+            loading.triangles.is_empty() && loading.shading.is_empty(),
+            "nothing of them on the host"
+        );
         assert_eq!(loading.buffer_sizes(), full.buffer_sizes());
         let written = SceneBuffers::upload_loaded(&ctx, &loading, Some(&scene)).unwrap();
         let triangles: &[u8] = bytemuck::cast_slice(&full.triangles);

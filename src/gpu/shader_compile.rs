@@ -61,7 +61,8 @@ impl Expanded {
         if depth >= 8 {
             return Err(format!("{}: #include nesting is deeper than 8", path.display()));
         }
-        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         for (n, line) in text.lines().enumerate() {
             if let Some(rest) = line.trim_start().strip_prefix("#include") {
                 let name = rest.trim().trim_matches('"');
@@ -73,7 +74,11 @@ impl Expanded {
                         self.push(l, PathBuf::from(CONTRACT_HEADER), i + 1);
                     }
                 } else {
-                    return Err(format!("{}:{}: cannot find the included file {name}", path.display(), n + 1));
+                    return Err(format!(
+                        "{}:{}: cannot find the included file {name}",
+                        path.display(),
+                        n + 1
+                    ));
                 }
             }
             // The include line itself stays as an empty line, keeping the count simple.
@@ -115,7 +120,11 @@ pub(crate) const LEAF_RUNS: &str = "LEAF_RUNS";
 /// Compile the compute shader at `path` with the macros `defines` set (its includes expanded, `contract.glsl` from
 /// `contract` unless one lies beside it). An error is one message starting with the
 /// `file:line` of the first problem, naga's full report below it.
-pub(crate) fn compile(path: &Path, contract: &str, defines: &[&str]) -> Result<CompiledShader, String> {
+pub(crate) fn compile(
+    path: &Path,
+    contract: &str,
+    defines: &[&str],
+) -> Result<CompiledShader, String> {
     let src = expand(path, contract)?;
     let mut frontend = naga::front::glsl::Frontend::default();
     let mut options = naga::front::glsl::Options::from(naga::ShaderStage::Compute);
@@ -127,12 +136,16 @@ pub(crate) fn compile(path: &Path, contract: &str, defines: &[&str]) -> Result<C
         };
         format!("{}: {what}\n{}", src.locate(line), e.emit_to_string(&src.text))
     })?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-        .validate(&module)
-        .map_err(|e| {
-            let line = e.spans().next().map(|(span, _)| span.location(&src.text).line_number).unwrap_or(0);
-            format!("{}: {}\n{}", src.locate(line), e.as_inner(), e.emit_to_string(&src.text))
-        })?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| {
+        let line =
+            e.spans().next().map(|(span, _)| span.location(&src.text).line_number).unwrap_or(0);
+        format!("{}: {}\n{}", src.locate(line), e.as_inner(), e.emit_to_string(&src.text))
+    })?;
     let mut spv_options = naga::back::spv::Options::default();
     // Debug info would only grow the binary; bounds checks stay off (we index with validated data).
     spv_options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
@@ -172,7 +185,11 @@ fn drop_local_array_initializers(words: &mut Vec<u32>) {
             }
             _ => {}
         }
-        if opcode == OP_VARIABLE && inst.len() == 5 && inst[3] == STORAGE_FUNCTION && array_pointers.contains(&inst[1]) {
+        if opcode == OP_VARIABLE
+            && inst.len() == 5
+            && inst[3] == STORAGE_FUNCTION
+            && array_pointers.contains(&inst[1])
+        {
             keep.push((4 << 16) | OP_VARIABLE);
             keep.extend_from_slice(&inst[1..4]);
         } else {
@@ -187,8 +204,12 @@ fn drop_local_array_initializers(words: &mut Vec<u32>) {
 /// and sizes. Two shaders with the same text fit the same pipeline layout and host structs.
 pub(crate) fn layout_signature(module: &naga::Module) -> Result<String, String> {
     let mut layouter = naga::proc::Layouter::default();
-    layouter.update(module.to_ctx()).map_err(|e| format!("cannot lay out the shader's types: {e}"))?;
-    let [entry] = module.entry_points.as_slice() else { return Err("the shader must have exactly one entry point".into()) };
+    layouter
+        .update(module.to_ctx())
+        .map_err(|e| format!("cannot lay out the shader's types: {e}"))?;
+    let [entry] = module.entry_points.as_slice() else {
+        return Err("the shader must have exactly one entry point".into());
+    };
     let mut lines = vec![format!("work group {:?}", entry.workgroup_size)];
     let mut bindings = Vec::new();
     for (_, var) in module.global_variables.iter() {
@@ -197,14 +218,26 @@ pub(crate) fn layout_signature(module: &naga::Module) -> Result<String, String> 
         match var.space {
             naga::AddressSpace::Storage { access } => {
                 let b = var.binding.as_ref().ok_or("a storage buffer has no binding")?;
-                let read_only = if access.contains(naga::StorageAccess::STORE) { "" } else { " readonly" };
-                bindings.push((b.group, b.binding, format!("set {} binding {}: {name}{read_only}", b.group, b.binding)));
+                let read_only =
+                    if access.contains(naga::StorageAccess::STORE) { "" } else { " readonly" };
+                bindings.push((
+                    b.group,
+                    b.binding,
+                    format!("set {} binding {}: {name}{read_only}", b.group, b.binding),
+                ));
             }
             naga::AddressSpace::PushConstant => {
                 let mut line = format!("push constants {name}, {} bytes:", layouter[var.ty].size);
                 if let naga::TypeInner::Struct { members, .. } = &ty.inner {
                     for m in members {
-                        write!(line, " {}@{}+{}", m.name.as_deref().unwrap_or("?"), m.offset, layouter[m.ty].size).unwrap();
+                        write!(
+                            line,
+                            " {}@{}+{}",
+                            m.name.as_deref().unwrap_or("?"),
+                            m.offset,
+                            layouter[m.ty].size
+                        )
+                        .unwrap();
                     }
                 }
                 lines.push(line);
@@ -264,7 +297,12 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
 
         // naga's own output zero-initializes the array; ours does not, one word shorter.
-        let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all()).validate(&compiled.module).unwrap();
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&compiled.module)
+        .unwrap();
         let mut options = naga::back::spv::Options::default();
         options.flags.remove(naga::back::spv::WriterFlags::DEBUG);
         let raw = naga::back::spv::write_vec(&compiled.module, &info, &options, None).unwrap();

@@ -45,7 +45,10 @@ pub(crate) const GROUP_WIDTH: u32 = WORKGROUP_SIZE[0];
 pub(crate) const GROUP_HEIGHT: u32 = WORKGROUP_SIZE[1];
 
 // Dispatches cover the frame in GROUP_WIDTH x GROUP_HEIGHT tiles.
-const _: () = assert!(WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT > 0, "trace.comp's work group must be flat");
+const _: () = assert!(
+    WORKGROUP_SIZE[2] == 1 && GROUP_WIDTH > 0 && GROUP_HEIGHT > 0,
+    "trace.comp's work group must be flat"
+);
 
 /// A buffer that the trace pass binds; `TracePass::bind` says which GPU buffer each is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,8 +128,12 @@ impl TraceBuffer {
     /// The buffer of a reflected binding; a name unknown to [`from_block`](Self::from_block)
     /// is a shader/host mismatch, which the tests catch before any GPU runs.
     pub(crate) fn of(binding: &ShaderBinding) -> Self {
-        Self::from_block(binding.block)
-            .unwrap_or_else(|| panic!("trace.comp binds a buffer block `{}` that the host does not know", binding.block))
+        Self::from_block(binding.block).unwrap_or_else(|| {
+            panic!(
+                "trace.comp binds a buffer block `{}` that the host does not know",
+                binding.block
+            )
+        })
     }
 }
 
@@ -164,14 +171,19 @@ mod tests {
     #[test]
     fn work_group_is_flat_and_the_host_tiles_with_it() {
         assert_eq!(WORKGROUP_SIZE, [GROUP_WIDTH, GROUP_HEIGHT, 1]);
-        assert_eq!(crate::gpu::dispatch::GROUP, crate::gpu::dispatch::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT });
+        assert_eq!(
+            crate::gpu::dispatch::GROUP,
+            crate::gpu::dispatch::GroupSize { width: GROUP_WIDTH, height: GROUP_HEIGHT }
+        );
     }
 
     #[test]
     fn the_tracers_tile_is_its_work_group() {
         // trace.comp maps groups to tiles with a constant of its own (naga's SPIR-V for
         // gl_WorkGroupSize does not validate), which must stay the work group's size.
-        let trace = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/trace.comp")).unwrap();
+        let trace =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/trace.comp"))
+                .unwrap();
         let line = format!("const uvec2 TILE = uvec2({GROUP_WIDTH}u, {GROUP_HEIGHT}u);");
         assert!(trace.contains(&line), "trace.comp must declare {line}");
     }
@@ -179,7 +191,11 @@ mod tests {
     #[test]
     fn the_vendor_query_shader_has_the_tracers_work_group() {
         // Both pipelines are recorded by the same dispatch, which tiles the frame with GROUP.
-        let query = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/vendor/query.comp")).unwrap();
+        let query = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/shaders/vendor/query.comp"
+        ))
+        .unwrap();
         let line = format!("layout(local_size_x = {GROUP_WIDTH}, local_size_y = {GROUP_HEIGHT}, local_size_z = 1) in;");
         assert!(query.contains(&line), "vendor/query.comp must declare {line}");
     }
@@ -219,27 +235,49 @@ mod tests {
     /// field at its member's offset, the fields filling every member and the whole struct
     /// (a member or field added on one side only leaves bytes unaccounted for).
     fn check_twin(glsl: &str, (size, fields): (usize, Vec<Field>)) {
-        let s = STRUCTS.iter().find(|s| s.name == glsl).unwrap_or_else(|| panic!("trace.comp has no struct {glsl}"));
+        let s = STRUCTS
+            .iter()
+            .find(|s| s.name == glsl)
+            .unwrap_or_else(|| panic!("trace.comp has no struct {glsl}"));
         assert_eq!(size, s.size as usize, "{glsl}: size");
         let index = |name: &str, field: &str| {
-            s.members.iter().position(|m| m.name == name).unwrap_or_else(|| panic!("{glsl} has no member {name} (for field {field})"))
+            s.members
+                .iter()
+                .position(|m| m.name == name)
+                .unwrap_or_else(|| panic!("{glsl} has no member {name} (for field {field})"))
         };
         // Bytes of each member that the Rust fields account for.
         let mut covered = vec![0; s.members.len()];
         for f in &fields {
             let first = index(f.first, f.name);
             let m = &s.members[first];
-            assert_eq!(f.offset, m.offset as usize + f.within, "{glsl}.{} + {}: offset of field {}", m.name, f.within, f.name);
+            assert_eq!(
+                f.offset,
+                m.offset as usize + f.within,
+                "{glsl}.{} + {}: offset of field {}",
+                m.name,
+                f.within,
+                f.name
+            );
             match f.last {
                 None => {
-                    assert!(f.within + f.size <= m.size as usize, "{glsl}.{}: field {} runs past the member", m.name, f.name);
+                    assert!(
+                        f.within + f.size <= m.size as usize,
+                        "{glsl}.{}: field {} runs past the member",
+                        m.name,
+                        f.name
+                    );
                     covered[first] += f.size;
                 }
                 Some(last) => {
                     let last = index(last, f.name);
                     let span = &s.members[first..=last];
                     let bytes: u32 = span.iter().map(|m| m.size).sum();
-                    assert_eq!(f.size, bytes as usize, "{glsl}: field {} against members {}..={}", f.name, f.first, s.members[last].name);
+                    assert_eq!(
+                        f.size, bytes as usize,
+                        "{glsl}: field {} against members {}..={}",
+                        f.name, f.first, s.members[last].name
+                    );
                     for (c, m) in covered[first..=last].iter_mut().zip(span) {
                         *c += m.size as usize;
                     }
@@ -249,15 +287,38 @@ mod tests {
         for (m, &bytes) in s.members.iter().zip(&covered) {
             assert_eq!(bytes, m.size as usize, "{glsl}.{}: bytes covered by Rust fields", m.name);
         }
-        assert_eq!(fields.iter().map(|f| f.size).sum::<usize>(), size, "{glsl}: Rust fields not mapped to a member");
+        assert_eq!(
+            fields.iter().map(|f| f.size).sum::<usize>(),
+            size,
+            "{glsl}: Rust fields not mapped to a member"
+        );
     }
 
     #[test]
     fn rust_twins_match_the_shader_structs_member_by_member() {
         let twins = [
-            ("PackedTriangle", twin!(GpuTriangle { v0: "w", e1: "w" + 12, e2: "w" + 24, prim: "w" + 36 })),
-            ("TriangleShading", twin!(GpuTriangleShading { corners: "corners", material: "material" })),
-            ("Material", twin!(GpuMaterial { diffuse: "diffuse_mirror", mirror: "diffuse_mirror" + 12, specular: "specular_shininess", shininess: "specular_shininess" + 12, texture: "texture", texture_flags: "texture" + 4, _pad: "texture" + 8, uv_scale: "uv_transform", uv_offset: "uv_transform" + 8 })),
+            (
+                "PackedTriangle",
+                twin!(GpuTriangle { v0: "w", e1: "w" + 12, e2: "w" + 24, prim: "w" + 36 }),
+            ),
+            (
+                "TriangleShading",
+                twin!(GpuTriangleShading { corners: "corners", material: "material" }),
+            ),
+            (
+                "Material",
+                twin!(GpuMaterial {
+                    diffuse: "diffuse_mirror",
+                    mirror: "diffuse_mirror" + 12,
+                    specular: "specular_shininess",
+                    shininess: "specular_shininess" + 12,
+                    texture: "texture",
+                    texture_flags: "texture" + 4,
+                    _pad: "texture" + 8,
+                    uv_scale: "uv_transform",
+                    uv_offset: "uv_transform" + 8
+                }),
+            ),
             (
                 "BvhNode",
                 twin!(BvhNode {
@@ -304,7 +365,11 @@ mod tests {
             checked.push(glsl);
         }
         for s in STRUCTS {
-            assert!(checked.contains(&s.name), "trace.comp shares struct {} with the host, which has no twin checked here", s.name);
+            assert!(
+                checked.contains(&s.name),
+                "trace.comp shares struct {} with the host, which has no twin checked here",
+                s.name
+            );
         }
     }
 }

@@ -29,8 +29,8 @@ use gpu_allocator::MemoryLocation;
 
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
-use super::error::GpuError;
 use super::dispatch::{Band, GROUP};
+use super::error::GpuError;
 
 /// A rectangle of tiles (in tile units) that one dispatch covers.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -42,7 +42,9 @@ pub(crate) struct TileRect {
 impl TileRect {
     /// The two rects share a tile.
     fn overlaps(&self, other: &TileRect) -> bool {
-        let apart = |a: &Range<u32>, b: &Range<u32>| a.is_empty() || b.is_empty() || a.end <= b.start || b.end <= a.start;
+        let apart = |a: &Range<u32>, b: &Range<u32>| {
+            a.is_empty() || b.is_empty() || a.end <= b.start || b.end <= a.start
+        };
         !apart(&self.columns, &other.columns) && !apart(&self.rows, &other.rows)
     }
 
@@ -58,7 +60,9 @@ impl TileRect {
 /// A tile's cost: its row samples added.
 fn tile_cost(samples: &[u32], tile: u32) -> u32 {
     let rows = GROUP.height as usize;
-    samples[tile as usize * rows..(tile as usize + 1) * rows].iter().fold(0u32, |a, &c| a.saturating_add(c))
+    samples[tile as usize * rows..(tile as usize + 1) * rows]
+        .iter()
+        .fold(0u32, |a, &c| a.saturating_add(c))
 }
 
 /// Cost classes: 0 for nothing, then four per octave (quarter-octave steps, ~19% apart).
@@ -82,7 +86,12 @@ pub(crate) fn cost_class(cost: u32) -> usize {
 /// [`cost_class`], ties in row order. Entries outside `rect` are left alone. `costs` and
 /// `order` hold one entry per tile of a frame `tiles_x` tiles wide.
 #[cfg(test)]
-pub(crate) fn order_costliest_first(costs: &[u32], order: &mut [u32], tiles_x: u32, rect: &TileRect) {
+pub(crate) fn order_costliest_first(
+    costs: &[u32],
+    order: &mut [u32],
+    tiles_x: u32,
+    rect: &TileRect,
+) {
     let ranks = ranks(rect, |t| costs[t as usize], tiles_x);
     order_by_rank(&ranks, order, tiles_x, rect);
 }
@@ -92,7 +101,9 @@ pub(crate) fn order_costliest_first(costs: &[u32], order: &mut [u32], tiles_x: u
 fn ranks(rect: &TileRect, cost: impl Fn(u32) -> u32, tiles_x: u32) -> Vec<u8> {
     let mut ranks = Vec::with_capacity(rect.columns.len() * rect.rows.len());
     for r in rect.rows.clone() {
-        ranks.extend(rect.columns.clone().map(|c| (COST_CLASSES - cost_class(cost(r * tiles_x + c))) as u8));
+        ranks.extend(
+            rect.columns.clone().map(|c| (COST_CLASSES - cost_class(cost(r * tiles_x + c))) as u8),
+        );
     }
     ranks
 }
@@ -151,15 +162,28 @@ pub(crate) struct TileSchedule {
 
 impl TileSchedule {
     /// Row order and no costs for `slots` slots of a `width` x `height` frame.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        width: u32,
+        height: u32,
+        slots: u32,
+    ) -> Result<Self, GpuError> {
         let tiles_x = width.div_ceil(GROUP.width);
         let tiles = tiles_x * height.div_ceil(GROUP.height);
         let bytes = tiles as u64 * slots as u64 * 4;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let mut order = GpuBuffer::new(ctx, bytes, usage, MemoryLocation::CpuToGpu, "tile order")?;
-        let mut costs = GpuBuffer::new(ctx, bytes * GROUP.height as u64, usage, MemoryLocation::GpuToCpu, "tile costs")?;
+        let mut costs = GpuBuffer::new(
+            ctx,
+            bytes * GROUP.height as u64,
+            usage,
+            MemoryLocation::GpuToCpu,
+            "tile costs",
+        )?;
         let identity = (0..slots).flat_map(|_| 0..tiles);
-        for (entry, tile) in order.mapped().expect("tile order is host-visible").chunks_exact_mut(4).zip(identity) {
+        for (entry, tile) in
+            order.mapped().expect("tile order is host-visible").chunks_exact_mut(4).zip(identity)
+        {
             entry.copy_from_slice(&tile.to_le_bytes());
         }
         costs.mapped().expect("tile costs are host-visible").fill(0);
@@ -196,7 +220,8 @@ impl TileSchedule {
         let tiles_x = self.tiles_x;
         let samples = self.samples(slot);
         let ranks = ranks(rect, |t| tile_cost(samples, t), tiles_x);
-        let unchanged = self.ordered[slot as usize].iter().any(|o| o.rect == *rect && o.ranks == ranks);
+        let unchanged =
+            self.ordered[slot as usize].iter().any(|o| o.rect == *rect && o.ranks == ranks);
         if !unchanged {
             order_by_rank(&ranks, self.slot_order_mut(slot), tiles_x, rect);
             let ordered = &mut self.ordered[slot as usize];
@@ -257,7 +282,12 @@ mod tests {
         sorted.sort_unstable();
         assert_eq!(sorted, inside);
         let class = |t: u32| cost_class(costs[t as usize]);
-        assert!(dispatched.windows(2).all(|w| class(w[0]) > class(w[1]) || (class(w[0]) == class(w[1]) && w[0] < w[1])), "{dispatched:?}");
+        assert!(
+            dispatched
+                .windows(2)
+                .all(|w| class(w[0]) > class(w[1]) || (class(w[0]) == class(w[1]) && w[0] < w[1])),
+            "{dispatched:?}"
+        );
     }
 
     #[test]
@@ -282,15 +312,15 @@ mod tests {
     }
 
     mod on_the_gpu {
+        use super::super::cost_class;
         use crate::gpu::dispatch::{FrameTrace, SplitTrace};
         use crate::gpu::trace_pass::Kernel;
         use crate::gpu::GROUP;
-        use super::super::cost_class;
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
+        use crate::render_settings::{Aov, RenderSettings};
         use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
         use crate::scene::primitives::PaperModel;
-        use crate::render_settings::{Aov, RenderSettings};
-use crate::tracer::{FrameParams, PackedScene};
+        use crate::tracer::{FrameParams, PackedScene};
 
         /// The paper's box around its torus knot, at a size that is no whole number of tiles.
         fn knot_in_the_box() -> (crate::scene::Scene, PackedScene) {
@@ -307,7 +337,8 @@ use crate::tracer::{FrameParams, PackedScene};
 
         #[test]
         fn tiles_record_their_cost_and_are_then_traced_costliest_first_to_the_same_pixels() {
-            let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+            let ctx = GpuContext::new(&ContextOptions::validated())
+                .expect("Vulkan with the validation layer");
             let (scene, packed) = knot_in_the_box();
             let params = FrameParams::new(&scene, settings());
             let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
@@ -317,7 +348,9 @@ use crate::tracer::{FrameParams, PackedScene};
             let (first_costs, row_order) = tracer.headless_tiles();
             assert!(row_order.iter().enumerate().all(|(i, &t)| t == i as u32), "{row_order:?}");
             // What each tile recorded is what the cost view counts over its pixels.
-            let (cost, _) = tracer.render(&FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..settings() })).unwrap();
+            let (cost, _) = tracer
+                .render(&FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..settings() }))
+                .unwrap();
             let (costs, order) = tracer.headless_tiles();
             let tiles_x = 80u32.div_ceil(GROUP.width);
             // Each tile's rows sampled in their middle pixel (none past the frame's edge).
@@ -325,16 +358,25 @@ use crate::tracer::{FrameParams, PackedScene};
             for (i, p) in cost.pixels.iter().enumerate() {
                 let (x, y) = (i as u32 % 80, i as u32 / 80);
                 if x % GROUP.width == GROUP.width / 2 {
-                    sums[((y / GROUP.height) * tiles_x + x / GROUP.width) as usize] += (p[0] + p[1]) as u32;
+                    sums[((y / GROUP.height) * tiles_x + x / GROUP.width) as usize] +=
+                        (p[0] + p[1]) as u32;
                 }
             }
             assert_eq!(costs, sums);
-            assert!(costs.iter().any(|&c| c != costs[0]), "some tiles cost more than others: {costs:?}");
+            assert!(
+                costs.iter().any(|&c| c != costs[0]),
+                "some tiles cost more than others: {costs:?}"
+            );
             // The colour and the cost view count the same work; the second frame took the
             // tiles by the first one's, costliest first.
             assert_eq!(first_costs, costs);
             assert_ne!(order, row_order, "the order changed once costs were known");
-            assert!(order.windows(2).all(|w| cost_class(costs[w[0] as usize]) >= cost_class(costs[w[1] as usize])), "costliest first: {order:?}");
+            assert!(
+                order
+                    .windows(2)
+                    .all(|w| cost_class(costs[w[0] as usize]) >= cost_class(costs[w[1] as usize])),
+                "costliest first: {order:?}"
+            );
             let (ordered, _) = tracer.render(&params).unwrap();
             assert_eq!(ordered.pixels, first.pixels, "the order changes no pixel");
             drop(tracer);
@@ -345,7 +387,8 @@ use crate::tracer::{FrameParams, PackedScene};
         #[test]
         fn an_order_is_sorted_again_only_when_the_costs_rank_the_tiles_differently() {
             use super::super::{TileRect, TileSchedule};
-            let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+            let ctx = GpuContext::new(&ContextOptions::validated())
+                .expect("Vulkan with the validation layer");
             // 3 x 2 tiles, one slot.
             let mut tiles = TileSchedule::new(&ctx, GROUP.width * 3, GROUP.height * 2, 1).unwrap();
             let set_costs = |tiles: &mut TileSchedule, costs: [u32; 6]| {
@@ -360,7 +403,8 @@ use crate::tracer::{FrameParams, PackedScene};
             assert_eq!(tiles.slot_order(0), [1, 4, 2, 5, 0, 3]);
             // The same ranks (costs within the same classes): the order in place stands.
             let marked = [5, 4, 3, 2, 1, 0];
-            bytemuck::cast_slice_mut::<u8, u32>(tiles.order.mapped().unwrap())[..6].copy_from_slice(&marked);
+            bytemuck::cast_slice_mut::<u8, u32>(tiles.order.mapped().unwrap())[..6]
+                .copy_from_slice(&marked);
             set_costs(&mut tiles, [1, 51, 3, 0, 9, 2]);
             tiles.order(0, &whole);
             assert_eq!(tiles.slot_order(0), marked, "sorted again for the same ranks");
@@ -377,18 +421,27 @@ use crate::tracer::{FrameParams, PackedScene};
 
         #[test]
         fn a_split_frame_is_the_same_in_tile_order_and_in_row_order() {
-            let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+            let ctx = GpuContext::new(&ContextOptions::validated())
+                .expect("Vulkan with the validation layer");
             let (scene, packed) = knot_in_the_box();
             let left = FrameParams::new(&scene, settings());
-            let right = FrameParams::new(&scene, RenderSettings { bounces: 0, smooth: true, ..settings() });
-            let frame = FrameTrace { params: left, split: Some(SplitTrace { column: GROUP.width, params: right }) };
+            let right =
+                FrameParams::new(&scene, RenderSettings { bounces: 0, smooth: true, ..settings() });
+            let frame = FrameTrace {
+                params: left,
+                split: Some(SplitTrace { column: GROUP.width, params: right }),
+            };
             let mut images = Vec::new();
             for kernel in [Kernel::OursInRowOrder, Kernel::Ours] {
                 let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
                 tracer.use_kernel(kernel).unwrap();
                 // Three frames: the last two ordered by the costs before them.
-                let frames: Vec<_> = (0..3).map(|_| tracer.render_frame(&frame).unwrap().0).collect();
-                assert!(frames.windows(2).all(|w| w[0].pixels == w[1].pixels), "{kernel:?}: frames agree");
+                let frames: Vec<_> =
+                    (0..3).map(|_| tracer.render_frame(&frame).unwrap().0).collect();
+                assert!(
+                    frames.windows(2).all(|w| w[0].pixels == w[1].pixels),
+                    "{kernel:?}: frames agree"
+                );
                 images.push(frames.into_iter().next().unwrap());
             }
             assert_eq!(images[0].pixels, images[1].pixels);
@@ -407,7 +460,10 @@ use crate::tracer::{FrameParams, PackedScene};
 
     #[test]
     fn a_band_covers_the_tiles_its_pixels_touch() {
-        let band = Band { rows: GROUP.height..GROUP.height * 3 + 1, columns: GROUP.width..GROUP.width * 2 + 5 };
+        let band = Band {
+            rows: GROUP.height..GROUP.height * 3 + 1,
+            columns: GROUP.width..GROUP.width * 2 + 5,
+        };
         assert_eq!(TileRect::of_band(&band), rect(1..3, 1..4));
     }
 }

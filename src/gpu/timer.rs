@@ -21,9 +21,12 @@ impl GpuTimer {
         if ctx.info.timestamp_valid_bits == 0 {
             return Ok(None);
         }
-        let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(slots * 2);
+        let info = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::TIMESTAMP)
+            .query_count(slots * 2);
         // SAFETY: plain object creation on the live device; destroyed in Drop.
-        let pool = unsafe { ctx.device.create_query_pool(&info, None) }.during("creating a timestamp query pool")?;
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }
+            .during("creating a timestamp query pool")?;
         Ok(Some(Self { ctx: ctx.clone(), pool, slots }))
     }
 
@@ -32,7 +35,11 @@ impl GpuTimer {
     /// second part of a split frame is timed without the first).
     pub(crate) fn begin(&self, cmd: vk::CommandBuffer, slot: u32, after_previous: bool) {
         assert!(slot < self.slots);
-        let stage = if after_previous { vk::PipelineStageFlags::BOTTOM_OF_PIPE } else { vk::PipelineStageFlags::TOP_OF_PIPE };
+        let stage = if after_previous {
+            vk::PipelineStageFlags::BOTTOM_OF_PIPE
+        } else {
+            vk::PipelineStageFlags::TOP_OF_PIPE
+        };
         // SAFETY: `cmd` is recording (the caller's) and both queries of the slot are in the
         // pool (asserted above).
         unsafe {
@@ -45,7 +52,14 @@ impl GpuTimer {
     pub(crate) fn end(&self, cmd: vk::CommandBuffer, slot: u32) {
         assert!(slot < self.slots);
         // SAFETY: as in `begin`.
-        unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, slot * 2 + 1) };
+        unsafe {
+            self.ctx.device.cmd_write_timestamp(
+                cmd,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                self.pool,
+                slot * 2 + 1,
+            )
+        };
     }
 
     /// Milliseconds between begin and end of `slot`, once the GPU has finished it (None if not yet).
@@ -56,7 +70,9 @@ impl GpuTimer {
         // With availability each query yields (value, available).
         // SAFETY: both queries of the slot are in the pool (asserted above) and `data`
         // holds a (value, availability) pair of u64 for each, as the flags ask.
-        let ok = unsafe { self.ctx.device.get_query_pool_results(self.pool, slot * 2, &mut data, flags) };
+        let ok = unsafe {
+            self.ctx.device.get_query_pool_results(self.pool, slot * 2, &mut data, flags)
+        };
         if ok.is_err() || data[0][1] == 0 || data[1][1] == 0 {
             return None;
         }

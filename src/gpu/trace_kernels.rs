@@ -14,8 +14,8 @@ use ash::vk;
 use super::context::GpuContext;
 use super::error::GpuError;
 use super::lock::lock;
-use super::pipeline::words;
 use super::pipeline::create_compute_pipeline;
+use super::pipeline::words;
 use crate::contract;
 use crate::tracer::frame::PushConstants;
 
@@ -23,17 +23,27 @@ use crate::tracer::frame::PushConstants;
 pub(super) static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
 
 /// The same with `ROW_ORDER` defined (tiles in row order, no cost record).
-pub(super) static TRACE_ROWS_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows.spv"));
+pub(super) static TRACE_ROWS_SPV: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows.spv"));
 
 /// Each with `CORE_ONLY` defined: no AO view, no wide BVH (see `shader_compile::CORE_ONLY`);
 /// the first for GPUs (costliest tiles first), the second with `ROW_ORDER` for CPU devices.
-static TRACE_CORE_SPV: [&[u8]; 2] = [include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv")), include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv"))];
+static TRACE_CORE_SPV: [&[u8]; 2] = [
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_core.spv")),
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core.spv")),
+];
 
 /// Each with `WIDE_ONLY` defined: the wide traversal alone (see `shader_compile::WIDE_ONLY`).
-static TRACE_WIDE_SPV: [&[u8]; 2] = [include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide.spv")), include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide.spv"))];
+static TRACE_WIDE_SPV: [&[u8]; 2] = [
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide.spv")),
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide.spv")),
+];
 
 /// Each with `LEAF_RUNS` defined: the wide traversal in leaf runs (`--bvh wide-runs`).
-static TRACE_RUNS_SPV: [&[u8]; 2] = [include_bytes!(concat!(env!("OUT_DIR"), "/trace_runs.spv")), include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_runs.spv"))];
+static TRACE_RUNS_SPV: [&[u8]; 2] = [
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_runs.spv")),
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_runs.spv")),
+];
 
 /// Which of our kernels a frame runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,21 +95,42 @@ pub(crate) struct KernelVariants {
 impl KernelVariants {
     /// The variants for pipelines of `layout`; `row_order` for a CPU device's kernels. Makes
     /// the core kernel now.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, layout: vk::PipelineLayout, row_order: bool) -> Result<Self, GpuError> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        layout: vk::PipelineLayout,
+        row_order: bool,
+    ) -> Result<Self, GpuError> {
         let order = row_order as usize;
         let core = create_pipeline(ctx, layout, &words(TRACE_CORE_SPV[order]))?;
-        Ok(Self { ctx: ctx.clone(), layout, order, core, wide: Lazy::default(), runs: Lazy::default(), jobs: Mutex::new(Vec::new()) })
+        Ok(Self {
+            ctx: ctx.clone(),
+            layout,
+            order,
+            core,
+            wide: Lazy::default(),
+            runs: Lazy::default(),
+            jobs: Mutex::new(Vec::new()),
+        })
     }
 
     /// The pipeline for a frame of `pc` (`full`: the pass's full kernel); a wide or
     /// leaf-runs kernel not made yet is made now, or waited for if a background thread is
     /// making it.
-    pub(crate) fn for_frame(&self, pc: &PushConstants, every_mesh_wide: bool, full: vk::Pipeline) -> vk::Pipeline {
+    pub(crate) fn for_frame(
+        &self,
+        pc: &PushConstants,
+        every_mesh_wide: bool,
+        full: vk::Pipeline,
+    ) -> vk::Pipeline {
         let made = match variant(pc, every_mesh_wide) {
             Variant::Full => return full,
             Variant::Core => return self.core,
-            Variant::Wide => self.wide.get_or_init(|| make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")),
-            Variant::Runs => self.runs.get_or_init(|| make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")),
+            Variant::Wide => self
+                .wide
+                .get_or_init(|| make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")),
+            Variant::Runs => self.runs.get_or_init(|| {
+                make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")
+            }),
         };
         made.unwrap_or(full)
     }
@@ -108,15 +139,20 @@ impl KernelVariants {
     /// first frame that needs one does not wait for the driver's compiler.
     pub(crate) fn prepare_in_background(&self) {
         let mut jobs = lock(&self.jobs);
-        for (cell, code, name) in [(&self.wide, TRACE_WIDE_SPV, "wide"), (&self.runs, TRACE_RUNS_SPV, "leaf-runs")] {
-            let (cell, ctx, layout, code) = (cell.clone(), self.ctx.clone(), self.layout, code[self.order]);
+        for (cell, code, name) in
+            [(&self.wide, TRACE_WIDE_SPV, "wide"), (&self.runs, TRACE_RUNS_SPV, "leaf-runs")]
+        {
+            let (cell, ctx, layout, code) =
+                (cell.clone(), self.ctx.clone(), self.layout, code[self.order]);
             let job = std::thread::Builder::new().name(format!("{name} kernel")).spawn(move || {
                 cell.get_or_init(|| make(&ctx, layout, code, name));
             });
             match job {
                 Ok(job) => jobs.push(job),
                 // Made on first use instead.
-                Err(e) => log::warn!("could not start making the {name} kernel in the background ({e})"),
+                Err(e) => {
+                    log::warn!("could not start making the {name} kernel in the background ({e})")
+                }
             }
         }
     }
@@ -155,18 +191,35 @@ impl KernelVariants {
 }
 
 /// The compute pipeline of `code` (SPIR-V of `trace.comp`) with `layout`.
-pub(super) fn create_pipeline(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline, GpuError> {
+pub(super) fn create_pipeline(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    code: &[u32],
+) -> Result<vk::Pipeline, GpuError> {
     // DISPATCH_BASE: a band may start at a column other than 0 (vkCmdDispatchBase).
     let mut flags = vk::PipelineCreateFlags::DISPATCH_BASE;
     if ctx.info.shader_statistics {
         flags |= vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR;
     }
-    create_compute_pipeline(ctx, layout, code, flags, ["loading the trace shader", "creating the trace pipeline"])
+    create_compute_pipeline(
+        ctx,
+        layout,
+        code,
+        flags,
+        ["loading the trace shader", "creating the trace pipeline"],
+    )
 }
 
 /// Make the kernel `name` from `code`; None, logged, when the driver fails it.
-fn make(ctx: &GpuContext, layout: vk::PipelineLayout, code: &[u8], name: &str) -> Option<vk::Pipeline> {
-    create_pipeline(ctx, layout, &words(code)).map_err(|e| log::warn!("the {name} kernel failed ({e}); its frames trace the full kernel")).ok()
+fn make(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    code: &[u8],
+    name: &str,
+) -> Option<vk::Pipeline> {
+    create_pipeline(ctx, layout, &words(code))
+        .map_err(|e| log::warn!("the {name} kernel failed ({e}); its frames trace the full kernel"))
+        .ok()
 }
 
 #[cfg(test)]
@@ -178,29 +231,54 @@ mod tests {
     fn compiled(defines: &[&str]) -> Vec<u8> {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/trace.comp");
         let contract = shader_compile::contract_glsl(contract::ALL, "src/contract.rs");
-        shader_compile::compile(&path, &contract, defines).unwrap().spirv.iter().flat_map(|w| w.to_le_bytes()).collect()
+        shader_compile::compile(&path, &contract, defines)
+            .unwrap()
+            .spirv
+            .iter()
+            .flat_map(|w| w.to_le_bytes())
+            .collect()
     }
 
     #[test]
     fn each_variant_is_built_from_the_same_sources_and_smaller_than_the_full_kernel() {
         let full = [TRACE_SPV, TRACE_ROWS_SPV];
         for (define, built) in [(CORE_ONLY, TRACE_CORE_SPV), (WIDE_ONLY, TRACE_WIDE_SPV)] {
-            for (order, defines) in [vec![define], vec![ROW_ORDER, define]].into_iter().enumerate() {
-                assert!(compiled(&defines) == built[order], "run-time SPIR-V of {defines:?} differs from build.rs's");
+            for (order, defines) in [vec![define], vec![ROW_ORDER, define]].into_iter().enumerate()
+            {
+                assert!(
+                    compiled(&defines) == built[order],
+                    "run-time SPIR-V of {defines:?} differs from build.rs's"
+                );
                 // Smaller by the code it drops (the AO view and a traversal or two).
-                assert!(built[order].len() + 1000 < full[order].len(), "{defines:?}: {} vs full {} bytes", built[order].len(), full[order].len());
+                assert!(
+                    built[order].len() + 1000 < full[order].len(),
+                    "{defines:?}: {} vs full {} bytes",
+                    built[order].len(),
+                    full[order].len()
+                );
             }
         }
-        for (order, defines) in [vec![LEAF_RUNS], vec![ROW_ORDER, LEAF_RUNS]].into_iter().enumerate() {
-            assert!(compiled(&defines) == TRACE_RUNS_SPV[order], "run-time SPIR-V of {defines:?} differs from build.rs's");
+        for (order, defines) in
+            [vec![LEAF_RUNS], vec![ROW_ORDER, LEAF_RUNS]].into_iter().enumerate()
+        {
+            assert!(
+                compiled(&defines) == TRACE_RUNS_SPV[order],
+                "run-time SPIR-V of {defines:?} differs from build.rs's"
+            );
             assert!(TRACE_RUNS_SPV[order] != full[order], "LEAF_RUNS changes the kernel");
         }
     }
 
     #[test]
     fn each_frame_runs_the_kernel_that_has_its_code() {
-        let push = |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
-        let (bvh, wide, runs, ao) = (contract::FLAG_BVH, contract::FLAG_WIDE, contract::FLAG_LEAF_RUNS, contract::AOV_AO << contract::AOV_SHIFT);
+        let push =
+            |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
+        let (bvh, wide, runs, ao) = (
+            contract::FLAG_BVH,
+            contract::FLAG_WIDE,
+            contract::FLAG_LEAF_RUNS,
+            contract::AOV_AO << contract::AOV_SHIFT,
+        );
         for every_mesh_wide in [false, true] {
             assert_eq!(variant(&push(bvh), every_mesh_wide), Variant::Core);
             assert_eq!(variant(&push(0), every_mesh_wide), Variant::Core, "brute force");

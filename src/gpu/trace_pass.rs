@@ -20,9 +20,9 @@ use super::pipeline::{self, allocate_one_set, create_layout, destroy_pipeline_ob
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
-use super::trace_kernels::{create_pipeline, KernelVariants, TRACE_ROWS_SPV, TRACE_SPV};
 #[cfg(test)]
 use super::trace_kernels::Variant;
+use super::trace_kernels::{create_pipeline, KernelVariants, TRACE_ROWS_SPV, TRACE_SPV};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
@@ -75,10 +75,20 @@ pub(crate) fn built_in_trace_spirv() -> Vec<u32> {
 /// The descriptor set layout of the trace shaders: every storage buffer the shader
 /// declares and, for the vendor shaders, the acceleration structure and the slot map;
 /// seen by `stages`.
-pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, with_tlas: bool) -> Result<vk::DescriptorSetLayout, GpuError> {
+pub(crate) fn create_set_layout(
+    ctx: &GpuContext,
+    stages: vk::ShaderStageFlags,
+    with_tlas: bool,
+) -> Result<vk::DescriptorSetLayout, GpuError> {
     let mut bindings: Vec<_> = BINDINGS
         .iter()
-        .map(|b| vk::DescriptorSetLayoutBinding::default().binding(b.binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(1).stage_flags(stages))
+        .map(|b| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(b.binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages)
+        })
         .collect();
     if with_tlas {
         bindings.push(
@@ -88,24 +98,51 @@ pub(crate) fn create_set_layout(ctx: &GpuContext, stages: vk::ShaderStageFlags, 
                 .descriptor_count(1)
                 .stage_flags(stages),
         );
-        bindings.push(vk::DescriptorSetLayoutBinding::default().binding(VENDOR_SLOTS_BINDING).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(1).stage_flags(stages));
+        bindings.push(
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(VENDOR_SLOTS_BINDING)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages),
+        );
     }
     pipeline::create_set_layout(ctx, &bindings, "creating the trace descriptor layout")
 }
 
 /// A pool holding one set of [`create_set_layout`]'s layout, and that set.
-pub(crate) fn allocate_set(ctx: &GpuContext, set_layout: vk::DescriptorSetLayout, with_tlas: bool) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
+pub(crate) fn allocate_set(
+    ctx: &GpuContext,
+    set_layout: vk::DescriptorSetLayout,
+    with_tlas: bool,
+) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
     let storage = BINDINGS.len() as u32 + with_tlas as u32;
-    let mut sizes = vec![vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: storage }];
+    let mut sizes = vec![vk::DescriptorPoolSize {
+        ty: vk::DescriptorType::STORAGE_BUFFER,
+        descriptor_count: storage,
+    }];
     if with_tlas {
-        sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 1 });
+        sizes.push(vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+            descriptor_count: 1,
+        });
     }
-    allocate_one_set(ctx, set_layout, &sizes, ["creating the trace descriptor pool", "allocating the trace descriptor set"])
+    allocate_one_set(
+        ctx,
+        set_layout,
+        &sizes,
+        ["creating the trace descriptor pool", "allocating the trace descriptor set"],
+    )
 }
 
 /// Point `set` at a scene, an output and (for the vendor shaders) the top-level structure
 /// and the slot map. The GPU must not be using the set.
-pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneBuffers, output: &TraceOutput, vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>) {
+pub(crate) fn write_set(
+    ctx: &GpuContext,
+    set: vk::DescriptorSet,
+    scene: &SceneBuffers,
+    output: &TraceOutput,
+    vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>,
+) {
     let whole = |buffer| [vk::DescriptorBufferInfo { buffer, offset: 0, range: vk::WHOLE_SIZE }];
     let tiles = lock(&output.tiles);
     // Each binding the shader declares, by its block name (see shader_layout).
@@ -138,19 +175,30 @@ pub(crate) fn write_set(ctx: &GpuContext, set: vk::DescriptorSet, scene: &SceneB
     }
     let mut writes: Vec<_> = infos
         .iter()
-        .map(|(binding, info)| vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*binding).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(info))
+        .map(|(binding, info)| {
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(*binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .buffer_info(info)
+        })
         .collect();
     let structures = vendor.map(|(t, _)| [t]);
-    let mut tlas_write = structures.as_ref().map(|s| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s));
+    let mut tlas_write = structures.as_ref().map(|s| {
+        vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s)
+    });
     if let Some(w) = tlas_write.as_mut() {
-        let mut write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(TLAS_BINDING).descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR).push_next(w);
+        let mut write = vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(TLAS_BINDING)
+            .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+            .push_next(w);
         write.descriptor_count = 1;
         writes.push(write);
     }
     // SAFETY: the caller guarantees the set is not in use; the buffers and the structure are live.
     unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
 }
-
 
 /// Output buffers at one resolution: packed 8-bit colour and float RGBA, and the order the
 /// trace pass takes the tiles in.
@@ -169,11 +217,20 @@ pub(crate) struct TraceOutput {
 impl TraceOutput {
     /// Output buffers for `width` x `height` pixels, with a tile order for each of `slots`
     /// frame slots.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, width: u32, height: u32, slots: u32) -> Result<Self, GpuError> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        width: u32,
+        height: u32,
+        slots: u32,
+    ) -> Result<Self, GpuError> {
         let pixels = width as u64 * height as u64;
         let limit = ctx.info.max_storage_buffer_range;
         if pixels * 16 > limit {
-            return Err(GpuError::SceneTooLarge { buffer: "frame output (16 bytes per pixel)", bytes: pixels * 16, limit });
+            return Err(GpuError::SceneTooLarge {
+                buffer: "frame output (16 bytes per pixel)",
+                bytes: pixels * 16,
+                limit,
+            });
         }
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let loc = gpu_allocator::MemoryLocation::GpuOnly;
@@ -211,7 +268,13 @@ impl TracePass {
     pub(crate) fn new(ctx: &Arc<GpuContext>, kernel: Kernel) -> Result<Self, GpuError> {
         let with_tlas = kernel == Kernel::RayQuery;
         let set_layout = create_set_layout(ctx, vk::ShaderStageFlags::COMPUTE, with_tlas)?;
-        let layout = create_layout(ctx, set_layout, vk::ShaderStageFlags::COMPUTE, std::mem::size_of::<PushConstants>(), "creating the trace pipeline layout")?;
+        let layout = create_layout(
+            ctx,
+            set_layout,
+            vk::ShaderStageFlags::COMPUTE,
+            std::mem::size_of::<PushConstants>(),
+            "creating the trace pipeline layout",
+        )?;
         let code = words(match kernel {
             Kernel::Ours => TRACE_SPV,
             Kernel::OursInRowOrder => TRACE_ROWS_SPV,
@@ -219,7 +282,9 @@ impl TracePass {
         });
         let pipeline = create_pipeline(ctx, layout, &code)?;
         let variants = match kernel {
-            Kernel::Ours | Kernel::OursInRowOrder => Some(KernelVariants::new(ctx, layout, kernel == Kernel::OursInRowOrder)?),
+            Kernel::Ours | Kernel::OursInRowOrder => {
+                Some(KernelVariants::new(ctx, layout, kernel == Kernel::OursInRowOrder)?)
+            }
             Kernel::RayQuery => None,
         };
         let (pool, set) = allocate_set(ctx, set_layout, with_tlas)?;
@@ -248,23 +313,37 @@ impl TracePass {
         if !self.ctx.info.shader_statistics {
             return Vec::new();
         }
-        let loader = ash::khr::pipeline_executable_properties::Device::new(&self.ctx.instance, &self.ctx.device);
+        let loader = ash::khr::pipeline_executable_properties::Device::new(
+            &self.ctx.instance,
+            &self.ctx.device,
+        );
         let pipeline = vk::PipelineInfoKHR::default().pipeline(self.pipeline);
         // SAFETY: the pipeline is live and was created with CAPTURE_STATISTICS.
-        let executables = unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
+        let executables =
+            unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
         let mut lines = Vec::new();
         for index in 0..executables.len() as u32 {
-            let info = vk::PipelineExecutableInfoKHR::default().pipeline(self.pipeline).executable_index(index);
+            let info = vk::PipelineExecutableInfoKHR::default()
+                .pipeline(self.pipeline)
+                .executable_index(index);
             // SAFETY: as above; `index` is one of the pipeline's executables.
-            let statistics = unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
+            let statistics =
+                unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
             for st in statistics {
-                let name = st.name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let name = st
+                    .name_as_c_str()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default();
                 // SAFETY: `format` says which member of the union the driver wrote.
                 let value = unsafe {
                     match st.format {
-                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => (st.value.b32 == vk::TRUE).to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => {
+                            (st.value.b32 == vk::TRUE).to_string()
+                        }
                         vk::PipelineExecutableStatisticFormatKHR::INT64 => st.value.i64.to_string(),
-                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => st.value.u64.to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => {
+                            st.value.u64.to_string()
+                        }
                         _ => format!("{:.3}", st.value.f64),
                     }
                 };
@@ -298,8 +377,17 @@ impl TracePass {
 
     /// Point the descriptor set at a scene, an output and (ray queries) the top-level
     /// structure and slot map; the GPU must not be using the set.
-    pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput, vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>) {
-        debug_assert_eq!(vendor.is_some(), self.kernel == Kernel::RayQuery, "ray queries need the structure, our tracer none");
+    pub(crate) fn bind(
+        &self,
+        scene: &SceneBuffers,
+        output: &TraceOutput,
+        vendor: Option<(vk::AccelerationStructureKHR, vk::Buffer)>,
+    ) {
+        debug_assert_eq!(
+            vendor.is_some(),
+            self.kernel == Kernel::RayQuery,
+            "ray queries need the structure, our tracer none"
+        );
         write_set(&self.ctx, self.set, scene, output, vendor);
         self.every_mesh_wide.store(scene.every_mesh_wide, Ordering::Relaxed);
     }
@@ -309,8 +397,19 @@ impl TracePass {
     /// sampling's keys) and copies read the outputs. The outputs are left as
     /// `Access::ComputeWrite`. `tile_base`: the frame slot's first entry of the tile order
     /// (`TileSchedule::order`; the vendor's query shader has none and ignores it).
-    pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band, tile_base: u32) {
-        barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
+    pub(crate) fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        params: &FrameParams,
+        band: &Band,
+        tile_base: u32,
+    ) {
+        barrier::buffers(
+            &self.ctx.device,
+            cmd,
+            &[Access::ComputeWrite, Access::TransferRead],
+            &[Access::ComputeRead, Access::ComputeWrite],
+        );
         // Rows are offset through the push constants, columns through the dispatch base.
         let mut pc = params.push_constants(band.rows.start);
         pc.cam_up[3] = f32::from_bits(tile_base);
@@ -320,11 +419,25 @@ impl TracePass {
     /// Record adaptive sampling's pre-pass over `columns` (all rows): the key of each
     /// pixel's path (primary hit and mirror bounces), which the main pass compares with the
     /// neighbours'. Recorded before a frame's first main band, with the same barrier.
-    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
-        barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite, Access::TransferRead], &[Access::ComputeRead, Access::ComputeWrite]);
+    pub(crate) fn record_ids(
+        &self,
+        cmd: vk::CommandBuffer,
+        params: &FrameParams,
+        columns: &Range<u32>,
+    ) {
+        barrier::buffers(
+            &self.ctx.device,
+            cmd,
+            &[Access::ComputeWrite, Access::TransferRead],
+            &[Access::ComputeRead, Access::ComputeWrite],
+        );
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::contract::FLAG_ID_PASS;
-        self.dispatch(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
+        self.dispatch(
+            cmd,
+            &pc,
+            &Band { rows: 0..params.settings.height, columns: columns.clone() },
+        );
     }
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
@@ -334,7 +447,9 @@ impl TracePass {
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
         let pipeline = match &self.variants {
-            Some(variants) => variants.for_frame(pc, self.every_mesh_wide.load(Ordering::Relaxed), self.pipeline),
+            Some(variants) => {
+                variants.for_frame(pc, self.every_mesh_wide.load(Ordering::Relaxed), self.pipeline)
+            }
             None => self.pipeline,
         };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
@@ -342,8 +457,21 @@ impl TracePass {
         // push constants fit the layout's range.
         unsafe {
             device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
-            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(pc));
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            device.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(pc),
+            );
             device.cmd_dispatch_base(cmd, base_x, 0, 0, groups_x, groups_y, 1);
         }
     }
@@ -374,13 +502,18 @@ impl TracePass {
 /// as `kernel` (one of ours) builds it. A shader whose bindings, push constants or work
 /// group differ from the built-in one's is refused: the host's buffers and structs are
 /// built for that interface.
-pub(crate) fn compile_trace_shader(dir: &std::path::Path, kernel: Kernel) -> Result<Vec<u32>, String> {
+pub(crate) fn compile_trace_shader(
+    dir: &std::path::Path,
+    kernel: Kernel,
+) -> Result<Vec<u32>, String> {
     use super::shader_compile;
     let contract = shader_compile::contract_glsl(crate::contract::ALL, "src/contract.rs");
-    let defines: &[&str] = if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
+    let defines: &[&str] =
+        if kernel == Kernel::OursInRowOrder { &[shader_compile::ROW_ORDER] } else { &[] };
     let shader = shader_compile::compile(&dir.join("trace.comp"), &contract, defines)?;
     let signature = shader_compile::layout_signature(&shader.module)?;
-    if let Some((new, old)) = signature.lines().zip(LAYOUT_SIGNATURE.lines()).find(|(a, b)| a != b) {
+    if let Some((new, old)) = signature.lines().zip(LAYOUT_SIGNATURE.lines()).find(|(a, b)| a != b)
+    {
         return Err(format!("the edited shader changes the interface the host is built for (`{old}` became `{new}`); rebuild meshtracer for that"));
     }
     if signature.lines().count() != LAYOUT_SIGNATURE.lines().count() {
@@ -419,7 +552,8 @@ mod tests {
     #[test]
     fn a_broken_shader_names_its_file_and_line_and_a_changed_interface_is_refused() {
         let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-        let dir = std::env::temp_dir().join(format!("meshtracer-shader-test-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-shader-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         for file in super::super::shader_compile::shader_files(&src).unwrap() {
             std::fs::copy(&file, dir.join(file.file_name().unwrap())).unwrap();
@@ -431,7 +565,8 @@ mod tests {
         assert!(e.lines().next().unwrap().contains(&format!("shade.glsl:{line}")), "{e}");
         std::fs::write(dir.join("shade.glsl"), shade).unwrap();
         let scene = std::fs::read_to_string(dir.join("scene.glsl")).unwrap();
-        std::fs::write(dir.join("scene.glsl"), scene.replacen("readonly buffer", "buffer", 1)).unwrap();
+        std::fs::write(dir.join("scene.glsl"), scene.replacen("readonly buffer", "buffer", 1))
+            .unwrap();
         let e = compile_trace_shader(&dir, Kernel::Ours).unwrap_err();
         assert!(e.contains("interface"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();

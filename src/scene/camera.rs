@@ -32,7 +32,12 @@ impl Camera {
         let up = right.cross(forward);
         let half_h = (self.vfov_deg.to_radians() * 0.5).tan();
         let aspect = width as f32 / height.max(1) as f32;
-        CameraBasis { origin: self.position, forward, right: right * half_h * aspect, up: up * half_h }
+        CameraBasis {
+            origin: self.position,
+            forward,
+            right: right * half_h * aspect,
+            up: up * half_h,
+        }
     }
 
     /// The same view direction, moved towards the target until a sphere of `radius` around
@@ -52,7 +57,8 @@ impl Camera {
         let right = forward.cross(self.up).normalize_or(Vec3::X);
         let up = right.cross(forward);
         // The view's height at the target's distance: what one image height spans there.
-        let span = 2.0 * (self.target - self.position).length() * (self.vfov_deg.to_radians() * 0.5).tan();
+        let span =
+            2.0 * (self.target - self.position).length() * (self.vfov_deg.to_radians() * 0.5).tan();
         let shift = (-dx * right + dy * up) * span;
         self.position += shift;
         self.target += shift;
@@ -66,7 +72,8 @@ impl Camera {
         let cur_yaw = offset.z.atan2(offset.x);
         let p = (cur_pitch + pitch).clamp(-1.5, 1.5);
         let y = cur_yaw + yaw;
-        self.position = self.target + dist * Vec3::new(p.cos() * y.cos(), p.sin(), p.cos() * y.sin());
+        self.position =
+            self.target + dist * Vec3::new(p.cos() * y.cos(), p.sin(), p.cos() * y.sin());
     }
 }
 
@@ -121,23 +128,43 @@ mod tests {
 
     #[test]
     fn projection_inverts_ray_generation() {
-        let c = Camera { position: Vec3::new(1.0, 2.0, 5.0), target: Vec3::new(0.0, 0.5, 0.0), up: Vec3::Y, vfov_deg: 50.0 };
+        let c = Camera {
+            position: Vec3::new(1.0, 2.0, 5.0),
+            target: Vec3::new(0.0, 0.5, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 50.0,
+        };
         let b = c.basis(320, 200);
         for (sx, sy) in [(10.5, 20.25), (160.0, 100.0), (300.0, 190.0)] {
             let r = b.ray_at(sx, sy, 320, 200);
             let (px, py) = b.project(r.origin + r.dir * 3.7, 320, 200).unwrap();
-            assert!((px - sx).abs() < 1e-3 && (py - sy).abs() < 1e-3, "({px}, {py}) for ({sx}, {sy})");
+            assert!(
+                (px - sx).abs() < 1e-3 && (py - sy).abs() < 1e-3,
+                "({px}, {py}) for ({sx}, {sy})"
+            );
         }
-        assert_eq!(b.project(c.position - (c.target - c.position), 320, 200), None, "behind the camera");
+        assert_eq!(
+            b.project(c.position - (c.target - c.position), 320, 200),
+            None,
+            "behind the camera"
+        );
     }
 
     #[test]
     fn panning_moves_eye_and_target_together_across_the_view() {
-        let mut c = Camera { position: Vec3::new(0.0, 0.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 90.0 };
+        let mut c = Camera {
+            position: Vec3::new(0.0, 0.0, 4.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 90.0,
+        };
         c.pan(0.25, 0.0);
         // Height spanned at distance 4 with a 90° view: 8; a quarter of it, to the left.
         assert!((c.target - Vec3::new(-2.0, 0.0, 0.0)).length() < 1e-5, "{:?}", c.target);
-        assert!((c.position - c.target - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-5, "the view direction stays");
+        assert!(
+            (c.position - c.target - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-5,
+            "the view direction stays"
+        );
         c.pan(0.0, 0.5);
         assert!((c.target.y - 4.0).abs() < 1e-5, "dragging down moves the view up: {:?}", c.target);
     }
@@ -153,7 +180,12 @@ mod tests {
 
     #[test]
     fn centre_pixel_looks_at_target() {
-        let cam = Camera { position: Vec3::new(0.0, 0.0, 5.0), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 60.0 };
+        let cam = Camera {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 60.0,
+        };
         let b = cam.basis(3, 3);
         let r = b.primary_ray(1, 1, 3, 3);
         assert!((r.dir - Vec3::NEG_Z).length() < 1e-6);

@@ -29,17 +29,25 @@ const MAX_VERTICES: usize = 1 << 28;
 
 /// Load a `.gltf` or `.glb` file; buffers and textures are found relative to its folder.
 pub fn load_gltf(path: &Path) -> Result<LoadedObj, ObjError> {
-    let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes =
+        read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     let name = path.display().to_string();
     load_gltf_from_bytes(&bytes, &name, path.parent())
 }
 
 /// Load a glTF from bytes in memory (`name` for messages; `base_dir` resolves external
 /// buffers and images, and without it only embedded buffers can be read).
-pub fn load_gltf_from_bytes(bytes: &[u8], name: &str, base_dir: Option<&Path>) -> Result<LoadedObj, ObjError> {
+pub fn load_gltf_from_bytes(
+    bytes: &[u8],
+    name: &str,
+    base_dir: Option<&Path>,
+) -> Result<LoadedObj, ObjError> {
     let invalid = |reason: String| ObjError::Invalid { name: name.to_owned(), reason };
-    let (json, blob) = if bytes.starts_with(b"glTF") { split_glb(bytes).map_err(invalid)? } else { (bytes, None) };
-    let not_gltf = |e: &dyn std::fmt::Display| invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string())));
+    let (json, blob) =
+        if bytes.starts_with(b"glTF") { split_glb(bytes).map_err(invalid)? } else { (bytes, None) };
+    let not_gltf = |e: &dyn std::fmt::Display| {
+        invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string())))
+    };
     let root = ::gltf::json::Root::from_slice(json).map_err(|e| not_gltf(&e))?;
     check_position_indices(&root).map_err(invalid)?;
     let document = Document::from_json(root).map_err(|e| not_gltf(&e))?;
@@ -67,10 +75,15 @@ fn check_position_indices(root: &::gltf::json::Root) -> Result<(), String> {
 
 /// The JSON chunk and the optional BIN chunk of a binary glTF, every length checked.
 fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
-    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+    let word = |at: usize| {
+        bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
     let (version, length) = (word(4), word(8));
     if version != Some(2) {
-        return Err(format!("a .glb of version {} (only 2 is read)", version.map_or("?".into(), |v| v.to_string())));
+        return Err(format!(
+            "a .glb of version {} (only 2 is read)",
+            version.map_or("?".into(), |v| v.to_string())
+        ));
     }
     let length = length.unwrap_or(0);
     if length < 12 || length > bytes.len() {
@@ -83,7 +96,9 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
             return Err(format!("a .glb chunk header at byte {at} is cut short"));
         };
         let start = at + 8;
-        let end = start.checked_add(size).filter(|&e| e <= length).ok_or(format!("a .glb chunk at byte {at} claims {size} bytes, past the end of the file"))?;
+        let end = start.checked_add(size).filter(|&e| e <= length).ok_or(format!(
+            "a .glb chunk at byte {at} claims {size} bytes, past the end of the file"
+        ))?;
         chunks.push((kind, &bytes[start..end]));
         // Chunks are padded to four bytes.
         at = end.div_ceil(4) * 4;
@@ -91,31 +106,51 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
     const JSON: usize = 0x4E4F_534A;
     const BIN: usize = 0x004E_4942;
     match chunks.as_slice() {
-        [(JSON, json), rest @ ..] => Ok((json, rest.iter().find(|(k, _)| *k == BIN).map(|(_, b)| *b))),
+        [(JSON, json), rest @ ..] => {
+            Ok((json, rest.iter().find(|(k, _)| *k == BIN).map(|(_, b)| *b)))
+        }
         _ => Err("the .glb's first chunk is not its JSON chunk".to_owned()),
     }
 }
 
 /// Every buffer's bytes, each at least its declared `byteLength`.
-fn read_buffers(document: &Document, blob: Option<&[u8]>, base_dir: Option<&Path>) -> Result<Vec<Vec<u8>>, String> {
+fn read_buffers(
+    document: &Document,
+    blob: Option<&[u8]>,
+    base_dir: Option<&Path>,
+) -> Result<Vec<Vec<u8>>, String> {
     let mut out = Vec::new();
     for b in document.buffers() {
         let data = match b.source() {
-            buffer::Source::Bin => blob.ok_or(format!("buffer {} refers to the .glb's binary chunk, which the file does not have", b.index()))?.to_vec(),
-            buffer::Source::Uri(uri) if uri.starts_with("data:") => {
-                decode_data_uri(uri).ok_or(format!("buffer {} has a data URI that is not base64", b.index()))?
-            }
+            buffer::Source::Bin => blob
+                .ok_or(format!(
+                    "buffer {} refers to the .glb's binary chunk, which the file does not have",
+                    b.index()
+                ))?
+                .to_vec(),
+            buffer::Source::Uri(uri) if uri.starts_with("data:") => decode_data_uri(uri)
+                .ok_or(format!("buffer {} has a data URI that is not base64", b.index()))?,
             buffer::Source::Uri(uri) => {
-                let dir = base_dir.ok_or(format!("buffer {} is an external file, which cannot be read here", b.index()))?;
+                let dir = base_dir.ok_or(format!(
+                    "buffer {} is an external file, which cannot be read here",
+                    b.index()
+                ))?;
                 let path = dir.join(percent_decode(uri));
-                let shown = crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
-                let mut data = read_regular_file(&path).map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?;
+                let shown =
+                    crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
+                let mut data = read_regular_file(&path)
+                    .map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?;
                 data.truncate(b.length());
                 data
             }
         };
         if data.len() < b.length() {
-            return Err(format!("buffer {} holds {} bytes, but its byteLength is {}", b.index(), data.len(), b.length()));
+            return Err(format!(
+                "buffer {} holds {} bytes, but its byteLength is {}",
+                b.index(),
+                data.len(),
+                b.length()
+            ));
         }
         out.push(data);
     }
@@ -124,7 +159,12 @@ fn read_buffers(document: &Document, blob: Option<&[u8]>, base_dir: Option<&Path
 
 /// The bytes of an accessor, from its first element on, and its stride, after checking
 /// its type and that all of it lies inside its view and buffer.
-fn accessor_bytes<'b>(acc: &Accessor, buffers: &'b [Vec<u8>], what: &str, dims: Dimensions) -> Result<(&'b [u8], usize), String> {
+fn accessor_bytes<'b>(
+    acc: &Accessor,
+    buffers: &'b [Vec<u8>],
+    what: &str,
+    dims: Dimensions,
+) -> Result<(&'b [u8], usize), String> {
     let at = || format!("accessor {} ({what})", acc.index());
     if acc.dimensions() != dims {
         return Err(format!("{} is of type {:?}, expected {dims:?}", at(), acc.dimensions()));
@@ -135,16 +175,38 @@ fn accessor_bytes<'b>(acc: &Accessor, buffers: &'b [Vec<u8>], what: &str, dims: 
     let view = acc.view().ok_or_else(|| format!("{} has no buffer view", at()))?;
     let data = &buffers[view.buffer().index()];
     let view_end = view.offset().checked_add(view.length()).filter(|&e| e <= data.len());
-    let view_bytes = view_end.map(|e| &data[view.offset()..e]).ok_or_else(|| format!("buffer view {} runs past the end of buffer {}", view.index(), view.buffer().index()))?;
+    let view_bytes = view_end.map(|e| &data[view.offset()..e]).ok_or_else(|| {
+        format!(
+            "buffer view {} runs past the end of buffer {}",
+            view.index(),
+            view.buffer().index()
+        )
+    })?;
     let elem = acc.data_type().size() * dims.multiplicity();
     let stride = view.stride().unwrap_or(elem);
     if stride < elem {
-        return Err(format!("buffer view {} has a stride of {stride} bytes, less than an element of {}", view.index(), at()));
+        return Err(format!(
+            "buffer view {} has a stride of {stride} bytes, less than an element of {}",
+            view.index(),
+            at()
+        ));
     }
     let count = acc.count();
-    let needed = if count == 0 { Some(0) } else { (count - 1).checked_mul(stride).and_then(|n| n.checked_add(elem)).and_then(|n| n.checked_add(acc.offset())) };
+    let needed = if count == 0 {
+        Some(0)
+    } else {
+        (count - 1)
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(elem))
+            .and_then(|n| n.checked_add(acc.offset()))
+    };
     if needed.is_none_or(|n| n > view_bytes.len()) {
-        return Err(format!("{} runs past the end of its buffer view {} ({count} elements from byte {})", at(), view.index(), acc.offset()));
+        return Err(format!(
+            "{} runs past the end of its buffer view {} ({count} elements from byte {})",
+            at(),
+            view.index(),
+            acc.offset()
+        ));
     }
     Ok((&view_bytes[acc.offset()..], stride))
 }
@@ -163,7 +225,12 @@ fn component(bytes: &[u8], stride: usize, kind: DataType, i: usize, c: usize) ->
 }
 
 /// An accessor's values as f32, normalized integers scaled to [0, 1] or [-1, 1].
-fn read_accessor(acc: &Accessor, buffers: &[Vec<u8>], what: &str, dims: Dimensions) -> Result<Vec<f32>, String> {
+fn read_accessor(
+    acc: &Accessor,
+    buffers: &[Vec<u8>],
+    what: &str,
+    dims: Dimensions,
+) -> Result<Vec<f32>, String> {
     let (bytes, stride) = accessor_bytes(acc, buffers, what, dims)?;
     let (kind, width) = (acc.data_type(), dims.multiplicity());
     let scale = match kind {
@@ -177,36 +244,59 @@ fn read_accessor(acc: &Accessor, buffers: &[Vec<u8>], what: &str, dims: Dimensio
     };
     let mut out = Vec::with_capacity(acc.count() * width);
     for i in 0..acc.count() {
-        out.extend((0..width).map(|c| component(bytes, stride, kind, i, c) / scale).map(|v| if acc.normalized() { v.max(-1.0) } else { v } as f32));
+        out.extend(
+            (0..width)
+                .map(|c| component(bytes, stride, kind, i, c) / scale)
+                .map(|v| if acc.normalized() { v.max(-1.0) } else { v } as f32),
+        );
     }
     Ok(out)
 }
 
 /// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
 /// glTF allows) as RGBA8, alpha 255 where absent; `count` is the primitive's vertex count.
-fn read_colors(acc: &Accessor, buffers: &[Vec<u8>], count: usize, at: &str) -> Result<Vec<[u8; 4]>, String> {
+fn read_colors(
+    acc: &Accessor,
+    buffers: &[Vec<u8>],
+    count: usize,
+    at: &str,
+) -> Result<Vec<[u8; 4]>, String> {
     let dims = acc.dimensions();
     if !matches!(dims, Dimensions::Vec3 | Dimensions::Vec4) {
-        return Err(format!("accessor {} (COLOR_0) is of type {dims:?}, expected Vec3 or Vec4", acc.index()));
+        return Err(format!(
+            "accessor {} (COLOR_0) is of type {dims:?}, expected Vec3 or Vec4",
+            acc.index()
+        ));
     }
     let kind = acc.data_type();
-    if !(kind == DataType::F32 || (acc.normalized() && matches!(kind, DataType::U8 | DataType::U16))) {
+    if !(kind == DataType::F32
+        || (acc.normalized() && matches!(kind, DataType::U8 | DataType::U16)))
+    {
         return Err(format!("accessor {} (COLOR_0) has component type {kind:?}; glTF allows float or normalized unsigned byte or short", acc.index()));
     }
     let values = read_accessor(acc, buffers, "COLOR_0", dims)?;
     let width = dims.multiplicity();
     if values.len() / width != count {
-        return Err(format!("{at}: COLOR_0 has {} elements, POSITION {count}", values.len() / width));
+        return Err(format!(
+            "{at}: COLOR_0 has {} elements, POSITION {count}",
+            values.len() / width
+        ));
     }
     let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-    Ok(values.chunks_exact(width).map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]).collect())
+    Ok(values
+        .chunks_exact(width)
+        .map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))])
+        .collect())
 }
 
 /// Triangle indices of a primitive (unsigned integer scalars).
 fn read_indices(acc: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
     let kind = acc.data_type();
     if !matches!(kind, DataType::U8 | DataType::U16 | DataType::U32) {
-        return Err(format!("accessor {} (indices) has component type {kind:?}, not an unsigned integer", acc.index()));
+        return Err(format!(
+            "accessor {} (indices) has component type {kind:?}, not an unsigned integer",
+            acc.index()
+        ));
     }
     let (bytes, stride) = accessor_bytes(acc, buffers, "indices", Dimensions::Scalar)?;
     Ok((0..acc.count()).map(|i| component(bytes, stride, kind, i, 0) as u32).collect())
@@ -217,25 +307,35 @@ fn world_nodes<'a>(document: &'a Document) -> Result<Vec<(Node<'a>, Mat4)>, Stri
     let roots: Vec<Node> = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => {
-            let children: std::collections::HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            let children: std::collections::HashSet<usize> =
+                document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
             document.nodes().filter(|n| !children.contains(&n.index())).collect()
         }
     };
     let mut out = Vec::new();
-    let mut stack: Vec<(Node, Mat4, usize)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(Node, Mat4, usize)> =
+        roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > MAX_DEPTH || out.len() + stack.len() + node.children().len() >= MAX_NODE_VISITS {
             return Err(format!("the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node instances (a cycle?)"));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        stack.extend(node.children().collect::<Vec<_>>().into_iter().rev().map(|c| (c, world, depth + 1)));
+        stack.extend(
+            node.children().collect::<Vec<_>>().into_iter().rev().map(|c| (c, world, depth + 1)),
+        );
         out.push((node, world));
     }
     Ok(out)
 }
 
 /// Every triangle primitive of the placed nodes, in world space, as one mesh.
-fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Option<&Path>, warnings: &mut Vec<String>) -> Result<Mesh, String> {
+fn build_mesh(
+    document: &Document,
+    buffers: &[Vec<u8>],
+    name: &str,
+    base_dir: Option<&Path>,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh, String> {
     let mut mesh = Mesh { name: name.to_owned(), ..Default::default() };
     let mut normals: Vec<Vec3> = Vec::new();
     let mut all_normals = true;
@@ -265,14 +365,21 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
             if base + count > MAX_VERTICES {
                 return Err(format!("the scene places more than {MAX_VERTICES} vertices"));
             }
-            mesh.positions.extend(p.chunks_exact(3).map(|c| world.transform_point3(Vec3::from_slice(c))));
+            mesh.positions
+                .extend(p.chunks_exact(3).map(|c| world.transform_point3(Vec3::from_slice(c))));
             match prim.get(&Semantic::Normals) {
                 Some(acc) if all_normals => {
                     let n = read_accessor(&acc, buffers, "NORMAL", Dimensions::Vec3)?;
                     if n.len() != p.len() {
-                        return Err(format!("{at}: NORMAL has {} elements, POSITION {count}", n.len() / 3));
+                        return Err(format!(
+                            "{at}: NORMAL has {} elements, POSITION {count}",
+                            n.len() / 3
+                        ));
                     }
-                    normals.extend(n.chunks_exact(3).map(|c| (normal_matrix * Vec3::from_slice(c)).normalize_or_zero()));
+                    normals.extend(
+                        n.chunks_exact(3)
+                            .map(|c| (normal_matrix * Vec3::from_slice(c)).normalize_or_zero()),
+                    );
                 }
                 _ => all_normals = false,
             }
@@ -280,7 +387,10 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
             if let Some(acc) = prim.get(&Semantic::TexCoords(0)) {
                 let t = read_accessor(&acc, buffers, "TEXCOORD_0", Dimensions::Vec2)?;
                 if t.len() / 2 != count {
-                    return Err(format!("{at}: TEXCOORD_0 has {} elements, POSITION {count}", t.len() / 2));
+                    return Err(format!(
+                        "{at}: TEXCOORD_0 has {} elements, POSITION {count}",
+                        t.len() / 2
+                    ));
                 }
                 texcoords.extend(t.chunks_exact(2).map(Vec2::from_slice));
                 any_texcoords = true;
@@ -296,7 +406,9 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
                 None => (0..count as u32).collect(),
             };
             if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-                return Err(format!("{at}: index {bad} is out of range (the primitive has {count} vertices)"));
+                return Err(format!(
+                    "{at}: index {bad} is out of range (the primitive has {count} vertices)"
+                ));
             }
             let next = material_slots.len() as u32;
             let slot = *material_slots.entry(prim.material().index()).or_insert_with(|| {
@@ -338,13 +450,21 @@ fn build_mesh(document: &Document, buffers: &[Vec<u8>], name: &str, base_dir: Op
 
 /// Our Blinn–Phong material for a glTF metallic-roughness one: the base colour is the
 /// diffuse colour (and texture), metals tint the highlight, roughness widens it.
-fn convert_material(m: &::gltf::Material, base_dir: Option<&Path>, name: &str, warnings: &mut Vec<String>) -> Material {
+fn convert_material(
+    m: &::gltf::Material,
+    base_dir: Option<&Path>,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Material {
     let Some(index) = m.index() else { return Material::default() };
     let pbr = m.pbr_metallic_roughness();
     let base = Vec3::from_slice(&pbr.base_color_factor()[..3]);
     let metal = pbr.metallic_factor().clamp(0.0, 1.0);
     let alpha = pbr.roughness_factor().clamp(0.01, 1.0).powi(2);
-    let label = m.name().map_or_else(|| format!("material {index}"), |n| crate::files::shown(n, crate::files::MAX_QUOTED_NAME));
+    let label = m.name().map_or_else(
+        || format!("material {index}"),
+        |n| crate::files::shown(n, crate::files::MAX_QUOTED_NAME),
+    );
     let mut out = Material {
         name: label.clone(),
         diffuse: if base.is_finite() { base } else { Material::default().diffuse },
@@ -398,7 +518,10 @@ fn percent_decode(uri: &str) -> String {
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
-        let hex = b.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok()).and_then(|h| u8::from_str_radix(h, 16).ok());
+        let hex = b
+            .get(i + 1..i + 3)
+            .and_then(|h| std::str::from_utf8(h).ok())
+            .and_then(|h| u8::from_str_radix(h, 16).ok());
         match (b[i], hex) {
             (b'%', Some(v)) => {
                 out.push(v);

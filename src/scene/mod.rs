@@ -265,13 +265,20 @@ impl Scene {
         self.bounds_by(instances, |mesh| self.meshes[mesh].bounds())
     }
 
-    fn bounds_by<'a>(&'a self, instances: impl Iterator<Item = &'a Instance>, mesh_bounds: impl Fn(usize) -> Aabb) -> Aabb {
+    fn bounds_by<'a>(
+        &'a self,
+        instances: impl Iterator<Item = &'a Instance>,
+        mesh_bounds: impl Fn(usize) -> Aabb,
+    ) -> Aabb {
         instances.fold(Aabb::EMPTY, |acc, inst| {
             let b = mesh_bounds(inst.mesh);
             if b.is_empty() {
                 return acc;
             }
-            acc.union(Aabb { min: b.min * inst.scale + inst.translation, max: b.max * inst.scale + inst.translation })
+            acc.union(Aabb {
+                min: b.min * inst.scale + inst.translation,
+                max: b.max * inst.scale + inst.translation,
+            })
         })
     }
 }
@@ -283,7 +290,15 @@ mod tests {
     #[test]
     fn bounds_in_pieces_equal_the_box_of_all_points() {
         // Several pieces, and a length that is not a multiple of four.
-        let positions: Vec<Vec3> = (0..200_003u64).map(|i| Vec3::new((i * 7919 % 1000) as f32, -((i * 104_729 % 777) as f32), (i % 13) as f32 * 0.5)).collect();
+        let positions: Vec<Vec3> = (0..200_003u64)
+            .map(|i| {
+                Vec3::new(
+                    (i * 7919 % 1000) as f32,
+                    -((i * 104_729 % 777) as f32),
+                    (i % 13) as f32 * 0.5,
+                )
+            })
+            .collect();
         let mesh = Mesh { positions, ..Default::default() };
         assert_eq!(mesh.bounds(), Aabb::from_points(&mesh.positions));
         assert!(Mesh::default().bounds().is_empty());

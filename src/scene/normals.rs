@@ -42,7 +42,10 @@ pub(crate) fn area_weighted_normals(positions: &[Vec3], triangles: &[[u32; 3]]) 
     let spans: Vec<(usize, usize)> = triangles
         .par_chunks(CHUNK_TRIANGLES)
         .map(|chunk| {
-            chunk.iter().flatten().fold((usize::MAX, 0), |(lo, hi), &k| (lo.min(k as usize), hi.max(k as usize + 1)))
+            chunk
+                .iter()
+                .flatten()
+                .fold((usize::MAX, 0), |(lo, hi), &k| (lo.min(k as usize), hi.max(k as usize + 1)))
         })
         .collect();
     let total: usize = spans.iter().map(|(lo, hi)| hi - lo).sum();
@@ -80,7 +83,11 @@ pub(crate) fn area_weighted_normals(positions: &[Vec3], triangles: &[[u32; 3]]) 
 }
 
 /// The one-thread loop: every face added to its corners in triangle order.
-fn serial(positions: &[Vec3], triangles: &[[u32; 3]], face: impl Fn(&[u32; 3]) -> Vec3) -> Vec<Vec3> {
+fn serial(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    face: impl Fn(&[u32; 3]) -> Vec3,
+) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; positions.len()];
     for t in triangles {
         let f = face(t);
@@ -98,11 +105,22 @@ mod tests {
     /// A grid of `w` x `h` quads on a bumpy surface, in row order (as files list them).
     fn grid(w: u32, h: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         let positions = (0..=h)
-            .flat_map(|y| (0..=w).map(move |x| Vec3::new(x as f32, ((x * 7 + y * 13) % 5) as f32 * 0.3, y as f32 * 1.1)))
+            .flat_map(|y| {
+                (0..=w).map(move |x| {
+                    Vec3::new(x as f32, ((x * 7 + y * 13) % 5) as f32 * 0.3, y as f32 * 1.1)
+                })
+            })
             .collect();
         let v = |x: u32, y: u32| y * (w + 1) + x;
         let triangles = (0..h)
-            .flat_map(|y| (0..w).flat_map(move |x| [[v(x, y), v(x + 1, y), v(x, y + 1)], [v(x + 1, y), v(x + 1, y + 1), v(x, y + 1)]]))
+            .flat_map(|y| {
+                (0..w).flat_map(move |x| {
+                    [
+                        [v(x, y), v(x + 1, y), v(x, y + 1)],
+                        [v(x + 1, y), v(x + 1, y + 1), v(x, y + 1)],
+                    ]
+                })
+            })
             .collect();
         (positions, triangles)
     }
@@ -127,7 +145,8 @@ mod tests {
             assert!((*got - *want).abs().max_element() < 1e-5, "{got} vs {want}");
         }
         assert_eq!(*one.last().unwrap(), Vec3::Y);
-        let bits = |n: &[Vec3]| n.iter().flat_map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        let bits =
+            |n: &[Vec3]| n.iter().flat_map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>();
         for threads in [2, 3, 8] {
             assert_eq!(bits(&in_pool(threads)), bits(&one), "{threads} threads");
         }
@@ -147,6 +166,9 @@ mod tests {
             let [a, b, c] = t.map(|k| positions[k as usize]);
             (b - a).cross(c - a)
         };
-        assert_eq!(area_weighted_normals(&positions, &triangles), serial(&positions, &triangles, face));
+        assert_eq!(
+            area_weighted_normals(&positions, &triangles),
+            serial(&positions, &triangles, face)
+        );
     }
 }

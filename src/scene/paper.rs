@@ -51,8 +51,12 @@ impl ModelSource {
         match self {
             ModelSource::Paper(m) => m.name().to_string(),
             // Named by what it has: `torusknot:1` makes 512 triangles.
-            ModelSource::Generated(n) => format!("torusknot-{}", super::primitives::large_torus_knot_triangles(*n)),
-            ModelSource::File(p) => p.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned()),
+            ModelSource::Generated(n) => {
+                format!("torusknot-{}", super::primitives::large_torus_knot_triangles(*n))
+            }
+            ModelSource::File(p) => {
+                p.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned())
+            }
         }
     }
 
@@ -77,7 +81,11 @@ impl ModelSource {
 
     /// [`ModelSource::load_with`], reporting its phase to `progress` (and stopping before
     /// it when the load was cancelled); the error is one sentence.
-    pub(crate) fn load_with_progress(&self, options: &LoadOptions, progress: &Progress) -> Result<(Mesh, Vec<String>), String> {
+    pub(crate) fn load_with_progress(
+        &self,
+        options: &LoadOptions,
+        progress: &Progress,
+    ) -> Result<(Mesh, Vec<String>), String> {
         let (mut mesh, warnings) = match self {
             ModelSource::File(p) => {
                 let loaded = load_model_file_reporting(p, options, progress)?;
@@ -95,20 +103,27 @@ impl ModelSource {
 
 /// [`load_model_file`], reporting the read and the parse to `progress` as separate phases;
 /// the error is one sentence.
-fn load_model_file_reporting(path: &Path, options: &LoadOptions, progress: &Progress) -> Result<LoadedObj, String> {
+fn load_model_file_reporting(
+    path: &Path,
+    options: &LoadOptions,
+    progress: &Progress,
+) -> Result<LoadedObj, String> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     let begin = |phase| progress.begin(phase).map_err(|e| e.to_string());
     let read = || -> Result<Vec<u8>, String> {
         begin(Phase::Read)?;
-        let bytes = read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
+        let bytes = read_regular_file_parallel(path)
+            .map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
         begin(Phase::Parse)?;
         Ok(bytes)
     };
     let name = path.display().to_string();
     match ext.as_deref() {
-        Some("obj") => super::obj::load_obj_from_bytes(read()?, &name, path.parent(), options).map_err(|e| e.to_string()),
+        Some("obj") => super::obj::load_obj_from_bytes(read()?, &name, path.parent(), options)
+            .map_err(|e| e.to_string()),
         Some("ply") => super::ply::load_ply_from_bytes(&read()?, &name).map_err(|e| e.to_string()),
-        Some("gltf" | "glb") => super::gltf::load_gltf_from_bytes(&read()?, &name, path.parent()).map_err(|e| e.to_string()),
+        Some("gltf" | "glb") => super::gltf::load_gltf_from_bytes(&read()?, &name, path.parent())
+            .map_err(|e| e.to_string()),
         _ => {
             begin(Phase::Parse)?;
             load_model_file(path, options).map_err(|e| e.to_string())
@@ -182,7 +197,10 @@ pub(crate) fn mirror_material() -> Material {
 pub fn prepare_model(mesh: &mut Mesh) {
     mesh.normalize_to(MODEL_RADIUS);
     let default = Material::default();
-    let all_default = mesh.materials.iter().all(|m| Material { name: default.name.clone(), ..m.clone() } == default);
+    let all_default = mesh
+        .materials
+        .iter()
+        .all(|m| Material { name: default.name.clone(), ..m.clone() } == default);
     if all_default {
         for m in &mut mesh.materials {
             *m = Material { name: m.name.clone(), ..model_material() };
@@ -242,11 +260,15 @@ pub fn model_offsets(count: u32) -> Vec<Vec3> {
 /// smooth shading.
 pub(crate) fn mirror_box(half: f32) -> Mesh {
     let h = half;
-    let positions: Vec<Vec3> = (0..8).map(|i| Vec3::new(
-        if i & 1 != 0 { h } else { -h },
-        if i & 2 != 0 { h } else { -h },
-        if i & 4 != 0 { h } else { -h },
-    )).collect();
+    let positions: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 != 0 { h } else { -h },
+                if i & 2 != 0 { h } else { -h },
+                if i & 4 != 0 { h } else { -h },
+            )
+        })
+        .collect();
     // Each face as a quad wound to face the inside, split as the paper splits quads.
     let quads: [[u32; 4]; 6] = [
         [0, 2, 6, 4], // -x
@@ -282,7 +304,12 @@ pub(crate) fn mirror_box(half: f32) -> Mesh {
 
 /// The camera the scene opens with: inside the box, looking at the centre model.
 pub(crate) fn default_camera() -> Camera {
-    Camera { position: Vec3::new(2.2, 1.5, 3.3), target: Vec3::new(0.0, 0.0, 0.0), up: Vec3::Y, vfov_deg: 60.0 }
+    Camera {
+        position: Vec3::new(2.2, 1.5, 3.3),
+        target: Vec3::new(0.0, 0.0, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+    }
 }
 
 /// The model's index in the paper scene's mesh list; the mirror box is [`MIRROR_BOX_MESH`].
@@ -296,7 +323,11 @@ pub fn instances(model_count: u32) -> Vec<Instance> {
     model_offsets(model_count)
         .into_iter()
         .map(|t| Instance { mesh: MODEL_MESH, translation: t, scale: 1.0 })
-        .chain(std::iter::once(Instance { mesh: MIRROR_BOX_MESH, translation: Vec3::ZERO, scale: 1.0 }))
+        .chain(std::iter::once(Instance {
+            mesh: MIRROR_BOX_MESH,
+            translation: Vec3::ZERO,
+            scale: 1.0,
+        }))
         .collect()
 }
 
@@ -320,7 +351,11 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 }
 
 /// Convenience: the paper's scene for a model source.
-pub fn load_paper_scene(source: &ModelSource, model_count: u32, light: LightOrbit) -> Result<(Scene, Vec<String>), ObjError> {
+pub fn load_paper_scene(
+    source: &ModelSource,
+    model_count: u32,
+    light: LightOrbit,
+) -> Result<(Scene, Vec<String>), ObjError> {
     let (mesh, warnings) = source.load()?;
     Ok((paper_scene(mesh, model_count, light), warnings))
 }
@@ -335,7 +370,14 @@ mod tests {
         assert_eq!(ModelSource::parse("torusknot:250k"), ModelSource::Generated(250_000));
         for n in [1, 1000, 250_000] {
             let label = ModelSource::Generated(n).label();
-            assert_eq!(label, format!("torusknot-{}", super::super::primitives::large_torus_knot(n).triangle_count()), "the name counts what is made");
+            assert_eq!(
+                label,
+                format!(
+                    "torusknot-{}",
+                    super::super::primitives::large_torus_knot(n).triangle_count()
+                ),
+                "the name counts what is made"
+            );
         }
         assert_eq!(ModelSource::parse("torusknot"), ModelSource::Paper(PaperModel::TorusKnot));
         // Out of range or not a number: taken as a file name (which then fails to open).

@@ -24,7 +24,8 @@ use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSetting
 pub(crate) const VERSION: u32 = 1;
 
 /// The first lines of every preset: what the file is and how to use it.
-const HEADER: &str = "# meshtracer preset: `meshtracer view|render|bench --preset THIS_FILE`; flags beside it\n\
+const HEADER: &str =
+    "# meshtracer preset: `meshtracer view|render|bench --preset THIS_FILE`; flags beside it\n\
 # override it. Keys left out keep their defaults; a relative path is read from this file's folder\n\
 # (or, failing that, the working folder).\n";
 
@@ -84,11 +85,14 @@ struct TracingPart {
     accel: Accel,
     /// `--bvh`: binary, wide or wide-runs; written only when not binary and binary when
     /// absent, so presets written while binary was the default read the same.
-    #[serde(default = "BvhLayout::binary", skip_serializing_if = "BvhLayout::is_binary", serialize_with = "ser_display", deserialize_with = "de_from_str")]
+    #[serde(
+        default = "BvhLayout::binary",
+        skip_serializing_if = "BvhLayout::is_binary",
+        serialize_with = "ser_display",
+        deserialize_with = "de_from_str"
+    )]
     bvh: BvhLayout,
 }
-
-
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -136,12 +140,38 @@ impl File {
         let camera = spec.camera.camera();
         File {
             version: VERSION,
-            model: ModelPart { source: spec.model.clone(), crease_angle: spec.load_options.crease_angle, copies: spec.models, mirror_box: spec.mirror_box },
-            image: ImagePart { width: s.width, height: s.height, aov: s.aov, ao_samples: s.ao_samples, ao_radius: s.ao_radius },
+            model: ModelPart {
+                source: spec.model.clone(),
+                crease_angle: spec.load_options.crease_angle,
+                copies: spec.models,
+                mirror_box: spec.mirror_box,
+            },
+            image: ImagePart {
+                width: s.width,
+                height: s.height,
+                aov: s.aov,
+                ao_samples: s.ao_samples,
+                ao_radius: s.ao_radius,
+            },
             tracing: TracingPart { bounces: s.bounces, blend: s.blend, accel: s.accel, bvh: s.bvh },
-            shading: ShadingPart { smooth: s.smooth, textures: s.textures, spp: s.spp, adaptive: s.adaptive, accumulate: spec.accumulate, environment: spec.environment.clone() },
-            light: LightPart { angle: spec.light.angle_deg, radius: spec.light.radius, height: spec.light.height },
-            camera: CameraPart { eye: camera.position.to_array(), target: camera.target.to_array(), fov: camera.vfov_deg },
+            shading: ShadingPart {
+                smooth: s.smooth,
+                textures: s.textures,
+                spp: s.spp,
+                adaptive: s.adaptive,
+                accumulate: spec.accumulate,
+                environment: spec.environment.clone(),
+            },
+            light: LightPart {
+                angle: spec.light.angle_deg,
+                radius: spec.light.radius,
+                height: spec.light.height,
+            },
+            camera: CameraPart {
+                eye: camera.position.to_array(),
+                target: camera.target.to_array(),
+                fov: camera.vfov_deg,
+            },
         }
     }
 
@@ -152,8 +182,17 @@ impl File {
             load_options: LoadOptions { crease_angle: model.crease_angle },
             models: model.copies,
             mirror_box: model.mirror_box,
-            light: LightOrbit { radius: light.radius, height: light.height, angle_deg: light.angle },
-            camera: CameraSpec { eye: Some(Vec3::from(camera.eye)), target: Some(Vec3::from(camera.target)), fov: Some(camera.fov), framed: false },
+            light: LightOrbit {
+                radius: light.radius,
+                height: light.height,
+                angle_deg: light.angle,
+            },
+            camera: CameraSpec {
+                eye: Some(Vec3::from(camera.eye)),
+                target: Some(Vec3::from(camera.target)),
+                fov: Some(camera.fov),
+                framed: false,
+            },
             environment: shading.environment,
             settings: RenderSettings {
                 width: image.width,
@@ -206,7 +245,9 @@ fn ser_display<T: std::fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok
     s.serialize_str(v.to_string().trim())
 }
 
-fn de_from_str<'de, T: std::str::FromStr<Err = String>, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+fn de_from_str<'de, T: std::str::FromStr<Err = String>, D: Deserializer<'de>>(
+    d: D,
+) -> Result<T, D::Error> {
     String::deserialize(d)?.parse().map_err(D::Error::custom)
 }
 
@@ -254,7 +295,13 @@ fn de_light_height<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
 
 fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     let v = i64::deserialize(d)?;
-    if v == VERSION as i64 { Ok(VERSION) } else { Err(D::Error::custom(format!("format version {v} is not one this meshtracer reads (it reads version {VERSION})"))) }
+    if v == VERSION as i64 {
+        Ok(VERSION)
+    } else {
+        Err(D::Error::custom(format!(
+            "format version {v} is not one this meshtracer reads (it reads version {VERSION})"
+        )))
+    }
 }
 
 fn de_copies<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
@@ -307,7 +354,11 @@ fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
 
 /// A number as a message shows it: 1e308 as "1e308", not three hundred digits.
 fn number_text(v: f64) -> String {
-    if v.abs() >= 1e9 { format!("{v:e}") } else { v.to_string() }
+    if v.abs() >= 1e9 {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
 }
 
 fn de_blend<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
@@ -391,17 +442,29 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     let doc = toml::de::DeTable::parse(text).map_err(|e| {
         let line = e.span().map(|s| line_of(s.start));
         // A syntax error: the key is the line's text before its `=`, if it has one.
-        let key = line.and_then(|l| text.lines().nth(l - 1)).and_then(|l| l.split_once('=')).map(|(k, _)| k.trim().to_string()).filter(|k| !k.is_empty());
+        let key = line
+            .and_then(|l| text.lines().nth(l - 1))
+            .and_then(|l| l.split_once('='))
+            .map(|(k, _)| k.trim().to_string())
+            .filter(|k| !k.is_empty());
         PresetError { line, key, message: first_line(e.message()) }
     })?;
     let file: File = toml::from_str(text).map_err(|e| {
         let span = e.span();
-        PresetError { line: span.as_ref().map(|s| line_of(s.start)), key: span.and_then(|s| key_at(doc.get_ref(), &s)), message: first_line(e.message()) }
+        PresetError {
+            line: span.as_ref().map(|s| line_of(s.start)),
+            key: span.and_then(|s| key_at(doc.get_ref(), &s)),
+            message: first_line(e.message()),
+        }
     })?;
     let spec = file.into_spec();
     spec.validate().map_err(|message| {
         let key = "camera.target";
-        PresetError { line: key_span(doc.get_ref(), key).map(|s| line_of(s.start)), key: Some(key.into()), message }
+        PresetError {
+            line: key_span(doc.get_ref(), key).map(|s| line_of(s.start)),
+            key: Some(key.into()),
+            message,
+        }
     })?;
     // Every key the format has: the default file with the optional keys set.
     let mut all = File::default();
@@ -410,7 +473,9 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     all.tracing.bvh = BvhLayout::Wide;
     let known = toml::Table::try_from(all).expect("a preset always serializes");
     let mut unknown = Vec::new();
-    unknown_keys(doc.get_ref(), &known, "", &mut |key, span| unknown.push(UnknownKey { key, line: line_of(span.start) }));
+    unknown_keys(doc.get_ref(), &known, "", &mut |key, span| {
+        unknown.push(UnknownKey { key, line: line_of(span.start) })
+    });
     Ok((spec, unknown))
 }
 
@@ -419,7 +484,11 @@ fn first_line(message: &str) -> String {
 }
 
 fn join(prefix: &str, key: &str) -> String {
-    if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") }
+    if prefix.is_empty() {
+        key.to_string()
+    } else {
+        format!("{prefix}.{key}")
+    }
 }
 
 /// The dotted key whose value (or name) holds `span`'s start: the innermost one. Tables
@@ -450,12 +519,19 @@ fn key_span(table: &toml::de::DeTable, key: &str) -> Option<Range<usize>> {
 }
 
 /// Call `found` for each key of `doc` that `known` (the serialized default) lacks.
-fn unknown_keys(doc: &toml::de::DeTable, known: &toml::Table, prefix: &str, found: &mut impl FnMut(String, Range<usize>)) {
+fn unknown_keys(
+    doc: &toml::de::DeTable,
+    known: &toml::Table,
+    prefix: &str,
+    found: &mut impl FnMut(String, Range<usize>),
+) {
     for (key, value) in doc.iter() {
         let name = key.get_ref();
         match (known.get(&**name), value.get_ref()) {
             (None, _) => found(join(prefix, name), key.span()),
-            (Some(toml::Value::Table(k)), toml::de::DeValue::Table(t)) => unknown_keys(t, k, &join(prefix, name), found),
+            (Some(toml::Value::Table(k)), toml::de::DeValue::Table(t)) => {
+                unknown_keys(t, k, &join(prefix, name), found)
+            }
             _ => {}
         }
     }
@@ -501,11 +577,15 @@ pub fn read(path: &Path) -> Result<Loaded, String> {
             Err(e) => return Err(format!("preset {shown}: not a readable PNG: {e}")),
         }
     } else {
-        String::from_utf8(bytes).map_err(|_| format!("preset {shown}: neither a PNG nor a TOML text file"))?
+        String::from_utf8(bytes)
+            .map_err(|_| format!("preset {shown}: neither a PNG nor a TOML text file"))?
     };
     let (mut spec, unknown) = from_text(&text).map_err(|e| format!("preset {shown}: {e}"))?;
     resolve_paths(&mut spec, path.parent().unwrap_or(Path::new("")));
-    let warnings = unknown.iter().map(|u| format!("preset {shown}: unknown key '{}' on line {} is ignored", u.key, u.line)).collect();
+    let warnings = unknown
+        .iter()
+        .map(|u| format!("preset {shown}: unknown key '{}' on line {} is ignored", u.key, u.line))
+        .collect();
     Ok(Loaded { spec, warnings })
 }
 
@@ -568,8 +648,9 @@ pub fn save(spec: &SceneSpec, path: &Path, overwrite: bool) -> Result<(), SaveEr
     if !overwrite && path.exists() {
         return Err(SaveError::Exists(path.to_path_buf()));
     }
-    crate::files::write_bytes_atomic(path, to_text(&absolute_paths(spec)).as_bytes())
-        .map_err(|e| SaveError::Io(format!("could not write the preset {}: {}", path.display(), e.root_cause())))
+    crate::files::write_bytes_atomic(path, to_text(&absolute_paths(spec)).as_bytes()).map_err(|e| {
+        SaveError::Io(format!("could not write the preset {}: {}", path.display(), e.root_cause()))
+    })
 }
 
 #[cfg(test)]

@@ -10,7 +10,12 @@ fn rich_spec() -> SceneSpec {
         models: 7,
         mirror_box: false,
         light: LightOrbit { radius: 3.25, height: -1.5, angle_deg: 123.456 },
-        camera: CameraSpec { eye: Some(Vec3::new(0.1, -2.0, 3.3)), target: Some(Vec3::new(0.0, 0.25, 0.0)), fov: Some(37.5), framed: false },
+        camera: CameraSpec {
+            eye: Some(Vec3::new(0.1, -2.0, 3.3)),
+            target: Some(Vec3::new(0.0, 0.25, 0.0)),
+            fov: Some(37.5),
+            framed: false,
+        },
         environment: Some(EnvironmentSource::File("skies/noon.hdr".into())),
         settings: RenderSettings {
             width: 640,
@@ -36,8 +41,24 @@ fn presets_round_trip() {
     let spec = rich_spec();
     let text = to_text(&spec);
     assert!(text.starts_with("# meshtracer preset"), "{text}");
-    assert!(!to_text(&SceneSpec::default()).contains("crease_angle"), "an unset crease angle is left out");
-    for needle in ["version = 1\n", "[model]\n", "crease_angle = 30.0\n", "source = 'models/my \"bunny\".obj'", "copies = 7\n", "[camera]\n", "accel = \"brute\"\n", "aov = \"prim-id\"\n", "environment = \"skies/noon.hdr\"\n", "angle = 123.456\n", "ao_samples = 32\n", "ao_radius = 0.125\n"] {
+    assert!(
+        !to_text(&SceneSpec::default()).contains("crease_angle"),
+        "an unset crease angle is left out"
+    );
+    for needle in [
+        "version = 1\n",
+        "[model]\n",
+        "crease_angle = 30.0\n",
+        "source = 'models/my \"bunny\".obj'",
+        "copies = 7\n",
+        "[camera]\n",
+        "accel = \"brute\"\n",
+        "aov = \"prim-id\"\n",
+        "environment = \"skies/noon.hdr\"\n",
+        "angle = 123.456\n",
+        "ao_samples = 32\n",
+        "ao_radius = 0.125\n",
+    ] {
         assert!(text.contains(needle), "no {needle:?} in:\n{text}");
     }
     let (back, unknown) = from_text(&text).unwrap();
@@ -47,8 +68,15 @@ fn presets_round_trip() {
     // Generated models, the sky and the defaults too; an unset or framed camera is written
     // resolved, so it reads back as the same camera spelled out.
     for spec in [
-        SceneSpec { model: ModelSource::Generated(250_000), environment: Some(EnvironmentSource::Sky), ..SceneSpec::default() },
-        SceneSpec { camera: CameraSpec { framed: true, ..CameraSpec::default() }, ..SceneSpec::default() },
+        SceneSpec {
+            model: ModelSource::Generated(250_000),
+            environment: Some(EnvironmentSource::Sky),
+            ..SceneSpec::default()
+        },
+        SceneSpec {
+            camera: CameraSpec { framed: true, ..CameraSpec::default() },
+            ..SceneSpec::default()
+        },
         SceneSpec::default(),
     ] {
         let (back, _) = from_text(&to_text(&spec)).unwrap();
@@ -60,7 +88,8 @@ fn presets_round_trip() {
 
 #[test]
 fn keys_left_out_keep_their_defaults() {
-    let (spec, unknown) = from_text("version = 1\n[tracing]\nbounces = 4\n[light]\nangle = 10\n").unwrap();
+    let (spec, unknown) =
+        from_text("version = 1\n[tracing]\nbounces = 4\n[light]\nangle = 10\n").unwrap();
     assert!(unknown.is_empty());
     assert_eq!(spec.settings.bounces, 4);
     assert_eq!(spec.light.angle_deg, 10.0);
@@ -68,13 +97,21 @@ fn keys_left_out_keep_their_defaults() {
     assert_eq!(spec.settings.width, default.settings.width);
     assert_eq!(spec.camera.camera(), default.camera.camera());
     // No version at all reads as this version; an empty file is the default scene.
-    assert_eq!(from_text("").unwrap().0, SceneSpec { camera: default.camera.resolved(), ..default });
+    assert_eq!(
+        from_text("").unwrap().0,
+        SceneSpec { camera: default.camera.resolved(), ..default }
+    );
 }
 
 #[test]
 fn a_bad_value_names_its_key_and_line() {
     for (text, line, key, says) in [
-        ("version = 1\n[tracing]\nbounces = 12\n", 3, "tracing.bounces", "12 is out of range (0..=8)"),
+        (
+            "version = 1\n[tracing]\nbounces = 12\n",
+            3,
+            "tracing.bounces",
+            "12 is out of range (0..=8)",
+        ),
         ("[image]\nwidth = 64\nheight = 0\n", 3, "image.height", "out of range (1..=8192)"),
         ("[tracing]\naccel = \"fast\"\n", 2, "tracing.accel", "unknown acceleration 'fast'"),
         ("[tracing]\nblend = 2\n", 2, "tracing.blend", "out of range (0..=1)"),
@@ -83,12 +120,22 @@ fn a_bad_value_names_its_key_and_line() {
         ("[camera]\nfov = 500\n", 2, "camera.fov", "out of range"),
         ("[model]\nsource = \"geosphre\"\n", 2, "model.source", "geosphere, torusknot"),
         ("[model]\ncopies = -3\n", 2, "model.copies", "out of range (1..=27)"),
-        ("[model]\ncrease_angle = 200\n", 2, "model.crease_angle", "out of range (0..=180 degrees)"),
+        (
+            "[model]\ncrease_angle = 200\n",
+            2,
+            "model.crease_angle",
+            "out of range (0..=180 degrees)",
+        ),
         ("version = 2\n", 1, "version", "format version 2"),
         ("[camera]\neye = [0, 0, 0]\ntarget = [0, 0, 0]\n", 3, "camera.target", "same point"),
         ("[image]\nwidth 64\n", 2, "", "expected"),
         ("[image]\nao_samples = 0\n", 2, "image.ao_samples", "0 is out of range (1..=256)"),
-        ("[image]\nao_radius = -1\n", 2, "image.ao_radius", "-1 is out of range (0..1000 scene units)"),
+        (
+            "[image]\nao_radius = -1\n",
+            2,
+            "image.ao_radius",
+            "-1 is out of range (0..1000 scene units)",
+        ),
     ] {
         let e = from_text(text).unwrap_err();
         assert_eq!(e.line, Some(line), "{text:?}: {e}");
@@ -133,16 +180,31 @@ fn saving_renames_into_place_and_asks_before_overwriting() {
     // Errors name the file: unreadable, unwritable, bad value, a PNG without settings.
     std::fs::write(dir.join("bad.toml"), "[tracing]\nbounces = 99\n").unwrap();
     let e = read(&dir.join("bad.toml")).unwrap_err();
-    assert!(e.starts_with(&format!("preset {}: line 2, key 'tracing.bounces'", dir.join("bad.toml").display())), "{e}");
+    assert!(
+        e.starts_with(&format!(
+            "preset {}: line 2, key 'tracing.bounces'",
+            dir.join("bad.toml").display()
+        )),
+        "{e}"
+    );
     assert!(read(&dir.join("missing.toml")).unwrap_err().contains("missing.toml"));
     let e = save(&spec, &dir.join("no/such/dir.toml"), false).unwrap_err();
-    assert!(e.to_string().starts_with("could not write the preset") && e.to_string().contains("dir.toml"), "{e}");
+    assert!(
+        e.to_string().starts_with("could not write the preset")
+            && e.to_string().contains("dir.toml"),
+        "{e}"
+    );
     image::RgbaImage::new(2, 2).save(dir.join("plain.png")).unwrap();
     assert!(read(&dir.join("plain.png")).unwrap_err().contains("has no meshtracer settings"));
     std::fs::write(dir.join("typo.toml"), "[shading]\nsmoth = true\n").unwrap();
     let warnings = read(&dir.join("typo.toml")).unwrap().warnings;
     assert_eq!(warnings.len(), 1);
-    assert!(warnings[0].contains("typo.toml") && warnings[0].contains("'shading.smoth'") && warnings[0].contains("line 2"), "{warnings:?}");
+    assert!(
+        warnings[0].contains("typo.toml")
+            && warnings[0].contains("'shading.smoth'")
+            && warnings[0].contains("line 2"),
+        "{warnings:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -156,10 +218,15 @@ fn relative_paths_are_read_beside_the_preset_and_saved_absolute() {
     let spec = read(&dir.join("look.toml")).unwrap().spec;
     assert_eq!(spec.model, ModelSource::File(dir.join("knot.obj")), "found beside the preset");
     // A name with no file beside the preset stays as written (the working folder's).
-    std::fs::write(dir.join("elsewhere.toml"), "version = 1\n[model]\nsource = \"not-here.obj\"\n").unwrap();
-    assert_eq!(read(&dir.join("elsewhere.toml")).unwrap().spec.model, ModelSource::File("not-here.obj".into()));
+    std::fs::write(dir.join("elsewhere.toml"), "version = 1\n[model]\nsource = \"not-here.obj\"\n")
+        .unwrap();
+    assert_eq!(
+        read(&dir.join("elsewhere.toml")).unwrap().spec.model,
+        ModelSource::File("not-here.obj".into())
+    );
     // Saving writes the absolute path, so the preset works from any folder.
-    let relative = SceneSpec { model: ModelSource::File(dir.join("knot.obj")), ..SceneSpec::default() };
+    let relative =
+        SceneSpec { model: ModelSource::File(dir.join("knot.obj")), ..SceneSpec::default() };
     save(&relative, &dir.join("saved.toml"), false).unwrap();
     let text = std::fs::read_to_string(dir.join("saved.toml")).unwrap();
     let absolute = std::fs::canonicalize(dir.join("knot.obj")).unwrap();

@@ -34,7 +34,8 @@ pub enum PaperModel {
 
 impl PaperModel {
     /// All four, in the order of Table 1.
-    pub const ALL: [PaperModel; 4] = [PaperModel::Geosphere, PaperModel::TorusKnot, PaperModel::Sphere, PaperModel::Cylinder];
+    pub const ALL: [PaperModel; 4] =
+        [PaperModel::Geosphere, PaperModel::TorusKnot, PaperModel::Sphere, PaperModel::Cylinder];
 
     /// Short lowercase name, used on the command line and as the mesh and material name.
     pub fn name(self) -> &'static str {
@@ -100,7 +101,8 @@ pub(crate) fn geosphere(subdivisions: u32) -> Mesh {
         (0.0, -1.0, t), (0.0, 1.0, t), (0.0, -1.0, -t), (0.0, 1.0, -t),
         (t, 0.0, -1.0), (t, 0.0, 1.0), (-t, 0.0, -1.0), (-t, 0.0, 1.0),
     ];
-    let mut positions: Vec<Vec3> = corners.iter().map(|&(x, y, z)| Vec3::new(x, y, z).normalize()).collect();
+    let mut positions: Vec<Vec3> =
+        corners.iter().map(|&(x, y, z)| Vec3::new(x, y, z).normalize()).collect();
     #[rustfmt::skip]
     let mut triangles: Vec<[u32; 3]> = vec![
         [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
@@ -264,7 +266,11 @@ fn knot_curve(p: f32, q: f32, phi: f32) -> (Vec3, Vec3) {
     let rho = KNOT_R + KNOT_A * cos_q;
     let d_rho = -KNOT_A * q * sin_q;
     let point = Vec3::new(rho * cos_p, KNOT_A * sin_q, rho * sin_p);
-    let tangent = Vec3::new(d_rho * cos_p - rho * p * sin_p, KNOT_A * q * cos_q, d_rho * sin_p + rho * p * cos_p);
+    let tangent = Vec3::new(
+        d_rho * cos_p - rho * p * sin_p,
+        KNOT_A * q * cos_q,
+        d_rho * sin_p + rho * p * cos_p,
+    );
     (point, tangent)
 }
 
@@ -273,24 +279,29 @@ fn knot_curve(p: f32, q: f32, phi: f32) -> (Vec3, Vec3) {
 /// to it), so the last ring meets the first without a twist.
 fn tube_knot(name: &str, p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
     let (n_seg, n_side) = (segments as usize, sides as usize);
-    let around: Vec<(f32, f32)> = (0..sides).map(|j| (TAU * j as f32 / sides as f32).sin_cos()).collect();
+    let around: Vec<(f32, f32)> =
+        (0..sides).map(|j| (TAU * j as f32 / sides as f32).sin_cos()).collect();
 
     let mut positions = vec![Vec3::ZERO; n_seg * n_side];
     let mut normals = vec![Vec3::ZERO; n_seg * n_side];
-    positions.par_chunks_mut(n_side).zip(normals.par_chunks_mut(n_side)).enumerate().for_each(|(i, (pos, nrm))| {
-        // f64 for the angle: at millions of segments f32 would space the rings unevenly.
-        let phi = (std::f64::consts::TAU * i as f64 / n_seg as f64) as f32;
-        let (center, tangent) = knot_curve(p as f32, q as f32, phi);
-        let t = tangent.normalize();
-        // The position vector is never parallel to the tangent: the tangent always has a
-        // component around the y axis, the position never does.
-        let b = t.cross(center).normalize();
-        let n = b.cross(t);
-        for ((point, normal), &(sin_a, cos_a)) in pos.iter_mut().zip(nrm.iter_mut()).zip(&around) {
-            *normal = n * cos_a + b * sin_a;
-            *point = center + *normal * KNOT_TUBE;
-        }
-    });
+    positions.par_chunks_mut(n_side).zip(normals.par_chunks_mut(n_side)).enumerate().for_each(
+        |(i, (pos, nrm))| {
+            // f64 for the angle: at millions of segments f32 would space the rings unevenly.
+            let phi = (std::f64::consts::TAU * i as f64 / n_seg as f64) as f32;
+            let (center, tangent) = knot_curve(p as f32, q as f32, phi);
+            let t = tangent.normalize();
+            // The position vector is never parallel to the tangent: the tangent always has a
+            // component around the y axis, the position never does.
+            let b = t.cross(center).normalize();
+            let n = b.cross(t);
+            for ((point, normal), &(sin_a, cos_a)) in
+                pos.iter_mut().zip(nrm.iter_mut()).zip(&around)
+            {
+                *normal = n * cos_a + b * sin_a;
+                *point = center + *normal * KNOT_TUBE;
+            }
+        },
+    );
     // The tube surface's normal is exactly the direction from the curve: keep it.
     let scale = positions.par_iter().map(|p| p.length()).reduce(|| 0.0, f32::max);
     positions.par_iter_mut().for_each(|p| *p /= scale);
@@ -318,7 +329,13 @@ fn tube_knot(name: &str, p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
 /// same numbers.
 pub fn write_obj(mesh: &Mesh, path: &Path) -> io::Result<()> {
     let mut out = BufWriter::new(std::fs::File::create(path)?);
-    writeln!(out, "# {}: {} vertices, {} triangles (written by meshtracer)", mesh.name, mesh.vertex_count(), mesh.triangle_count())?;
+    writeln!(
+        out,
+        "# {}: {} vertices, {} triangles (written by meshtracer)",
+        mesh.name,
+        mesh.vertex_count(),
+        mesh.triangle_count()
+    )?;
     if mesh.colors.len() == mesh.positions.len() && !mesh.colors.is_empty() {
         // `v x y z r g b`, colours 0..1 (alpha has no place in OBJ). Nine digits bring
         // every byte back when the reader scales by 255 and rounds.
@@ -374,7 +391,11 @@ mod tests {
         }
         for (&(a, b), &n) in &edges {
             assert_eq!(n, 1, "{what}: directed edge {a}->{b} used {n} times");
-            assert_eq!(edges.get(&(b, a)), Some(&1), "{what}: edge {a}-{b} is not shared by exactly two triangles");
+            assert_eq!(
+                edges.get(&(b, a)),
+                Some(&1),
+                "{what}: edge {a}-{b} is not shared by exactly two triangles"
+            );
         }
         // Every vertex is used.
         let mut used = vec![false; mesh.vertex_count()];
@@ -389,12 +410,18 @@ mod tests {
             volume += f64::from(a.dot(b.cross(c))) / 6.0;
             // Smooth normals lean the same way as the face they belong to.
             for &k in tri {
-                assert!(mesh.normals[k as usize].dot(cross) > 0.0, "{what}: normal of vertex {k} points inward");
+                assert!(
+                    mesh.normals[k as usize].dot(cross) > 0.0,
+                    "{what}: normal of vertex {k} points inward"
+                );
             }
         }
         assert!(volume > 0.0, "{what}: signed volume {volume} (wound inward?)");
         assert_eq!(mesh.normals.len(), mesh.vertex_count());
-        assert!(mesh.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4), "{what}: normals not unit length");
+        assert!(
+            mesh.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4),
+            "{what}: normals not unit length"
+        );
         let radius = mesh.positions.iter().map(|p| p.length()).fold(0.0, f32::max);
         assert!(radius <= 1.0 + 1e-5 && radius > 0.95, "{what}: not unit-sized (radius {radius})");
         assert_eq!(mesh.triangle_materials.len(), mesh.triangle_count());
@@ -448,7 +475,8 @@ mod tests {
         // Points of the curve further apart along it than the tube is wide must stay more
         // than a tube diameter apart, or the surface would self-intersect.
         let n = 720;
-        let samples: Vec<Vec3> = (0..n).map(|i| knot_curve(2.0, 3.0, TAU * i as f32 / n as f32).0).collect();
+        let samples: Vec<Vec3> =
+            (0..n).map(|i| knot_curve(2.0, 3.0, TAU * i as f32 / n as f32).0).collect();
         let step = samples[0].distance(samples[1]);
         let near = (4.0 * KNOT_TUBE / step).ceil() as usize;
         let mut closest = f32::INFINITY;
@@ -457,7 +485,11 @@ mod tests {
                 closest = closest.min(samples[i].distance(samples[j]));
             }
         }
-        assert!(closest > 2.0 * KNOT_TUBE, "strands {closest} apart, tube diameter {}", 2.0 * KNOT_TUBE);
+        assert!(
+            closest > 2.0 * KNOT_TUBE,
+            "strands {closest} apart, tube diameter {}",
+            2.0 * KNOT_TUBE
+        );
     }
 
     #[test]
@@ -466,7 +498,11 @@ mod tests {
             let mesh = large_torus_knot(min);
             assert!(mesh.triangle_count() >= min, "{min}: got {}", mesh.triangle_count());
             // Not wildly more than asked for (beyond the minimum resolution).
-            assert!(mesh.triangle_count() <= (min * 11 / 10).max(2 * 8 * 32), "{min}: got {}", mesh.triangle_count());
+            assert!(
+                mesh.triangle_count() <= (min * 11 / 10).max(2 * 8 * 32),
+                "{min}: got {}",
+                mesh.triangle_count()
+            );
         }
         check_closed_outward(&large_torus_knot(50_000));
     }
@@ -474,7 +510,8 @@ mod tests {
     #[test]
     fn written_obj_lists_every_vertex_and_face() {
         let mesh = PaperModel::Geosphere.mesh();
-        let path = std::env::temp_dir().join(format!("meshtracer-write-{}.obj", std::process::id()));
+        let path =
+            std::env::temp_dir().join(format!("meshtracer-write-{}.obj", std::process::id()));
         write_obj(&mesh, &path).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         std::fs::remove_file(&path).ok();

@@ -53,7 +53,12 @@ impl CameraSpec {
     #[cfg(test)]
     pub(crate) fn resolved(&self) -> CameraSpec {
         let c = self.camera();
-        CameraSpec { eye: Some(c.position), target: Some(c.target), fov: Some(c.vfov_deg), framed: false }
+        CameraSpec {
+            eye: Some(c.position),
+            target: Some(c.target),
+            fov: Some(c.vfov_deg),
+            framed: false,
+        }
     }
 }
 
@@ -101,13 +106,16 @@ impl SceneSpec {
     /// Check the settings and the camera; the error is one sentence naming the knob.
     pub fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
-        crate::render_settings::ACCUMULATE.check(self.accumulate as f64, format!("accumulate {}", self.accumulate))?;
+        crate::render_settings::ACCUMULATE
+            .check(self.accumulate as f64, format!("accumulate {}", self.accumulate))?;
         if let Some(angle) = self.load_options.crease_angle {
             CREASE_ANGLE_DEGREES.check(angle as f64, format!("the crease angle {angle}"))?;
         }
         let camera = self.camera.camera();
         if camera.position.distance(camera.target) < 1e-6 {
-            return Err("the camera's eye and target are the same point: it has no direction".into());
+            return Err(
+                "the camera's eye and target are the same point: it has no direction".into()
+            );
         }
         Ok(())
     }
@@ -160,7 +168,11 @@ impl ModelSource {
         if path.exists() || looks_like_path {
             return Ok(());
         }
-        let why = if text.starts_with("torusknot:") { "is not a triangle count from 1 to 100M" } else { "is no model name and no file" };
+        let why = if text.starts_with("torusknot:") {
+            "is not a triangle count from 1 to 100M"
+        } else {
+            "is no model name and no file"
+        };
         Err(format!("'{text}' {why}; expected {MODEL_NAMES}"))
     }
 }
@@ -184,7 +196,11 @@ mod tests {
         let spec = SceneSpec {
             models: 4,
             mirror_box: false,
-            camera: CameraSpec { eye: Some(Vec3::new(0.0, 0.0, 3.0)), fov: Some(40.0), ..Default::default() },
+            camera: CameraSpec {
+                eye: Some(Vec3::new(0.0, 0.0, 3.0)),
+                fov: Some(40.0),
+                ..Default::default()
+            },
             ..Default::default()
         };
         let (scene, _) = spec.load().unwrap();
@@ -195,13 +211,26 @@ mod tests {
 
     #[test]
     fn a_camera_without_direction_is_refused() {
-        let spec = SceneSpec { camera: CameraSpec { eye: Some(Vec3::ZERO), target: Some(Vec3::ZERO), ..Default::default() }, ..Default::default() };
+        let spec = SceneSpec {
+            camera: CameraSpec {
+                eye: Some(Vec3::ZERO),
+                target: Some(Vec3::ZERO),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
         assert!(spec.validate().unwrap_err().contains("same point"));
     }
 
     #[test]
     fn a_crease_angle_outside_a_half_turn_is_refused() {
-        let with = |angle: f32| SceneSpec { load_options: LoadOptions { crease_angle: Some(angle) }, ..Default::default() }.validate();
+        let with = |angle: f32| {
+            SceneSpec {
+                load_options: LoadOptions { crease_angle: Some(angle) },
+                ..Default::default()
+            }
+            .validate()
+        };
         assert!(with(0.0).is_ok() && with(180.0).is_ok());
         for bad in [-1.0, 181.0, f32::NAN] {
             assert!(with(bad).unwrap_err().contains("crease angle"), "{bad}");
@@ -215,7 +244,10 @@ mod tests {
             assert!(err.contains(typed) && err.contains("geosphere, torusknot"), "{err}");
         }
         assert!(ModelSource::parse("torusknot:1M").check_name().is_ok());
-        assert!(ModelSource::parse("missing/model.obj").check_name().is_ok(), "a path gets the file system's message");
+        assert!(
+            ModelSource::parse("missing/model.obj").check_name().is_ok(),
+            "a path gets the file system's message"
+        );
     }
 
     #[test]

@@ -37,7 +37,12 @@ pub enum DeviceKind {
 /// any device (tests use a small one to band small frames).
 pub fn tests_per_submission(device: DeviceKind) -> f64 {
     static OVERRIDE: std::sync::OnceLock<Option<f64>> = std::sync::OnceLock::new();
-    let given = *OVERRIDE.get_or_init(|| std::env::var("MESHTRACER_TESTS_PER_SUBMISSION").ok().and_then(|v| v.parse::<f64>().ok()).filter(|v| *v >= 1.0));
+    let given = *OVERRIDE.get_or_init(|| {
+        std::env::var("MESHTRACER_TESTS_PER_SUBMISSION")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|v| *v >= 1.0)
+    });
     given.unwrap_or(default_budget(device))
 }
 
@@ -72,14 +77,27 @@ pub fn tests_per_frame(settings: &RenderSettings, triangles: u64) -> f64 {
 /// Why a frame is refused, if it is: one sentence for the panel or the command line.
 pub fn refusal(settings: &RenderSettings, triangles: u64) -> Option<String> {
     let tests = tests_per_frame(settings, triangles);
-    (tests > MAX_TESTS_PER_FRAME).then(|| format!("{} would test {tests:.1e} ray-triangle pairs per frame (minutes per frame)", settings.accel))
+    (tests > MAX_TESTS_PER_FRAME).then(|| {
+        format!(
+            "{} would test {tests:.1e} ray-triangle pairs per frame (minutes per frame)",
+            settings.accel
+        )
+    })
 }
 
 /// Rows per submission so that each stays under `budget` tests ([`tests_per_submission`]),
 /// rounded up to a multiple of `row_multiple` (the shader's work-group height) and at most
 /// the frame.
-pub fn rows_per_submission(settings: &RenderSettings, triangles: u64, row_multiple: u32, budget: f64) -> u32 {
-    let per_row = settings.width as f64 * (settings.bounces as f64 + 1.0) * settings.spp as f64 * tests_per_ray(settings.accel, triangles);
+pub fn rows_per_submission(
+    settings: &RenderSettings,
+    triangles: u64,
+    row_multiple: u32,
+    budget: f64,
+) -> u32 {
+    let per_row = settings.width as f64
+        * (settings.bounces as f64 + 1.0)
+        * settings.spp as f64
+        * tests_per_ray(settings.accel, triangles);
     let rows = (budget / per_row).floor() as u32;
     let rows = rows.max(1).div_ceil(row_multiple) * row_multiple;
     rows.min(settings.height.div_ceil(row_multiple) * row_multiple)
@@ -97,12 +115,17 @@ mod tests {
         let rows = rows_per_submission(&brute, 1_000_000, 8, TESTS_PER_SUBMISSION);
         assert!(rows < 1024 && rows % 8 == 0, "{rows}");
         // Every band but the last stays under the budget (bands are at least one group high).
-        assert!(rows == 8 || rows as f64 * 1024.0 * 3.0 * 1e6 <= TESTS_PER_SUBMISSION + 8.0 * 1024.0 * 3.0 * 1e6);
+        assert!(
+            rows == 8
+                || rows as f64 * 1024.0 * 3.0 * 1e6
+                    <= TESTS_PER_SUBMISSION + 8.0 * 1024.0 * 3.0 * 1e6
+        );
     }
 
     #[test]
     fn only_frames_of_minutes_are_refused() {
-        let s = RenderSettings { width: 1024, height: 1024, accel: Accel::Brute, ..Default::default() };
+        let s =
+            RenderSettings { width: 1024, height: 1024, accel: Accel::Brute, ..Default::default() };
         assert!(refusal(&s, 100_000).is_none());
         let why = refusal(&s, 10_000_000).unwrap();
         assert!(why.starts_with("brute would test"), "{why}");
@@ -114,7 +137,11 @@ mod tests {
     #[test]
     fn a_cpu_device_bands_a_long_bvh_frame_and_a_gpu_does_not() {
         let s = RenderSettings { width: 1024, height: 1024, bounces: 8, ..Default::default() };
-        assert_eq!(default_budget(DeviceKind::Gpu), TESTS_PER_SUBMISSION, "a GPU's budget is unchanged");
+        assert_eq!(
+            default_budget(DeviceKind::Gpu),
+            TESTS_PER_SUBMISSION,
+            "a GPU's budget is unchanged"
+        );
         assert_eq!(rows_per_submission(&s, 345_944, 8, default_budget(DeviceKind::Gpu)), 1024);
         let rows = rows_per_submission(&s, 345_944, 8, default_budget(DeviceKind::Cpu));
         assert!(rows < 1024 && rows % 8 == 0, "{rows}");
@@ -124,7 +151,11 @@ mod tests {
         // Brute force bands on both, more finely on the CPU.
         let brute = RenderSettings { accel: Accel::Brute, ..s };
         let gpu_rows = rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Gpu));
-        assert!(gpu_rows < 1024 && rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Cpu)) <= gpu_rows);
+        assert!(
+            gpu_rows < 1024
+                && rows_per_submission(&brute, 345_944, 8, default_budget(DeviceKind::Cpu))
+                    <= gpu_rows
+        );
         // The default 512², 2-bounce view still fits one submission on a CPU device.
         let view = RenderSettings { width: 512, height: 512, bounces: 2, ..Default::default() };
         assert_eq!(rows_per_submission(&view, 345_944, 8, default_budget(DeviceKind::Cpu)), 512);

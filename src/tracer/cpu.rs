@@ -5,15 +5,17 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use crate::contract;
 use super::frame::FrameParams;
-use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use super::image::Image;
 use super::packed::{GpuInstance, PackedScene, NO_TEXTURE};
-use super::shading::{ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle};
+use super::shading::{
+    ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle,
+};
 use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
+use crate::contract;
 use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
+use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 
 /// A closest hit in the packed scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,12 +67,25 @@ impl<'a> CpuScene<'a> {
 
     /// Closest hit over the first `instance_count` instances, in (0, inf), through the binary
     /// BVH (the wide one in a scene packed for wide frames alone).
-    pub fn closest_hit(&self, ray: &Ray, accel: Accel, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
+    pub fn closest_hit(
+        &self,
+        ray: &Ray,
+        accel: Accel,
+        instance_count: u32,
+        stats: &mut TraversalStats,
+    ) -> Option<SceneHit> {
         self.closest_hit_in(ray, accel, BvhLayout::Binary, instance_count, stats)
     }
 
     /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout, where packed.
-    pub fn closest_hit_in(&self, ray: &Ray, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> Option<SceneHit> {
+    pub fn closest_hit_in(
+        &self,
+        ray: &Ray,
+        accel: Accel,
+        layout: BvhLayout,
+        instance_count: u32,
+        stats: &mut TraversalStats,
+    ) -> Option<SceneHit> {
         let layout = self.packed.traced_layout(layout);
         let mut best: Option<SceneHit> = None;
         let inv_dir = safe_inverse(ray.dir);
@@ -78,13 +93,19 @@ impl<'a> CpuScene<'a> {
             // The CPU reference has no vendor traversal: it traces vendor frames with our BVH.
             let accel = if accel == Accel::Vendor { Accel::Bvh } else { accel };
             if accel == Accel::Bvh {
-                let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
+                let bounds = Aabb {
+                    min: Vec3::from_slice(&inst.bounds_min[..3]),
+                    max: Vec3::from_slice(&inst.bounds_max[..3]),
+                };
                 if bounds.intersect(ray, inv_dir, best.map_or(f32::INFINITY, |h| h.t)).is_none() {
                     continue;
                 }
             }
             // Uniform scale: the object-space ray keeps world-space distances.
-            let local = Ray::new((ray.origin - Vec3::from(inst.translation)) / inst.scale, ray.dir / inst.scale);
+            let local = Ray::new(
+                (ray.origin - Vec3::from(inst.translation)) / inst.scale,
+                ray.dir / inst.scale,
+            );
             let t_max = best.map_or(f32::INFINITY, |h| h.t);
             let base = inst.triangle_base as usize;
             let tris = &self.edges[base..base + inst.triangle_count as usize];
@@ -94,7 +115,13 @@ impl<'a> CpuScene<'a> {
                     for (k, [v0, e1, e2]) in tris.iter().enumerate() {
                         let t_max = best.map_or(f32::INFINITY, |h| h.t);
                         if let Some(h) = intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max) {
-                            best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle: (base + k) as u32, instance: i as u32 });
+                            best = Some(SceneHit {
+                                t: h.t,
+                                u: h.u,
+                                v: h.v,
+                                triangle: (base + k) as u32,
+                                instance: i as u32,
+                            });
                         }
                     }
                 }
@@ -106,11 +133,26 @@ impl<'a> CpuScene<'a> {
                     // The instance's nodes start at its node base, their indices relative to it
                     // (and to the triangle base), as the shader's traverse_bvh reads them.
                     let found = match self.wide_nodes(inst, layout) {
-                        Some(nodes) => bvh::wide::closest_hit(nodes, tris, &local, 0.0, t_max, stats),
-                        None => bvh::closest_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats),
+                        Some(nodes) => {
+                            bvh::wide::closest_hit(nodes, tris, &local, 0.0, t_max, stats)
+                        }
+                        None => bvh::closest_hit(
+                            &self.packed.nodes[inst.node_base as usize..],
+                            tris,
+                            &local,
+                            0.0,
+                            t_max,
+                            stats,
+                        ),
                     };
                     if let Some((k, h)) = found {
-                        best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle: inst.triangle_base + k, instance: i as u32 });
+                        best = Some(SceneHit {
+                            t: h.t,
+                            u: h.u,
+                            v: h.v,
+                            triangle: inst.triangle_base + k,
+                            instance: i as u32,
+                        });
                     }
                 }
             }
@@ -128,7 +170,15 @@ impl<'a> CpuScene<'a> {
     /// Whether anything of the first `instance_count` instances lies along `ray` in
     /// (0, t_max): the AO view's occlusion query, the shader's `any_hit` (the vendor's
     /// frames with our BVH, as for closest hits), through `layout` where it is packed.
-    pub fn any_hit(&self, ray: &Ray, t_max: f32, accel: Accel, layout: BvhLayout, instance_count: u32, stats: &mut TraversalStats) -> bool {
+    pub fn any_hit(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        accel: Accel,
+        layout: BvhLayout,
+        instance_count: u32,
+        stats: &mut TraversalStats,
+    ) -> bool {
         let layout = self.packed.traced_layout(layout);
         let inv_dir = safe_inverse(ray.dir);
         let brute = accel == Accel::Brute;
@@ -136,11 +186,17 @@ impl<'a> CpuScene<'a> {
             if inst.triangle_count == 0 {
                 continue;
             }
-            let bounds = Aabb { min: Vec3::from_slice(&inst.bounds_min[..3]), max: Vec3::from_slice(&inst.bounds_max[..3]) };
+            let bounds = Aabb {
+                min: Vec3::from_slice(&inst.bounds_min[..3]),
+                max: Vec3::from_slice(&inst.bounds_max[..3]),
+            };
             if !brute && bounds.intersect(ray, inv_dir, t_max).is_none() {
                 continue;
             }
-            let local = Ray::new((ray.origin - Vec3::from(inst.translation)) / inst.scale, ray.dir / inst.scale);
+            let local = Ray::new(
+                (ray.origin - Vec3::from(inst.translation)) / inst.scale,
+                ray.dir / inst.scale,
+            );
             let base = inst.triangle_base as usize;
             let tris = &self.edges[base..base + inst.triangle_count as usize];
             let blocked = if brute {
@@ -151,7 +207,14 @@ impl<'a> CpuScene<'a> {
             } else if let Some(nodes) = self.wide_nodes(inst, layout) {
                 bvh::wide::any_hit(nodes, tris, &local, 0.0, t_max, stats)
             } else {
-                bvh::any_hit(&self.packed.nodes[inst.node_base as usize..], tris, &local, 0.0, t_max, stats)
+                bvh::any_hit(
+                    &self.packed.nodes[inst.node_base as usize..],
+                    tris,
+                    &local,
+                    0.0,
+                    t_max,
+                    stats,
+                )
             };
             if blocked {
                 return true;
@@ -163,7 +226,15 @@ impl<'a> CpuScene<'a> {
     /// The AO view's value at hit point `p`: the share of the frame's AO rays from `p`
     /// (lifted along `ng`) around `ns` that meet nothing within the radius; the shader's
     /// `ambient_occlusion`, drawing the same directions from `sample_seed`.
-    fn ambient_occlusion(&self, params: &FrameParams, p: Vec3, ng: Vec3, ns: Vec3, sample_seed: u32, stats: &mut TraversalStats) -> f32 {
+    fn ambient_occlusion(
+        &self,
+        params: &FrameParams,
+        p: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        sample_seed: u32,
+        stats: &mut TraversalStats,
+    ) -> f32 {
         let s = &params.settings;
         let origin = p + ng * params.ray_epsilon;
         let open = (0..s.ao_samples)
@@ -185,10 +256,18 @@ impl<'a> CpuScene<'a> {
     /// One camera sample through image position `pos` (pixel units): colour or AOV. With
     /// `path_key`, also folds the surfaces along the path into it (the shader's pre-pass).
     /// `sample_seed` seeds the AO view's rays.
-    fn trace_sample(&self, params: &FrameParams, pos: Vec2, sample_seed: u32, stats: &mut TraversalStats, mut path_key: Option<&mut u32>) -> Vec4 {
+    fn trace_sample(
+        &self,
+        params: &FrameParams,
+        pos: Vec2,
+        sample_seed: u32,
+        stats: &mut TraversalStats,
+        mut path_key: Option<&mut u32>,
+    ) -> Vec4 {
         let s = &params.settings;
         let mut ray = params.camera.ray_at(pos.x, pos.y, s.width, s.height);
-        let bounces = if matches!(s.aov, Aov::Color | Aov::Cost | Aov::Samples) { s.bounces } else { 0 };
+        let bounces =
+            if matches!(s.aov, Aov::Color | Aov::Cost | Aov::Samples) { s.bounces } else { 0 };
         let spread = 2.0 * params.camera.up.length() / s.height as f32;
         let mut path_length = 0.0f32;
         let mut color = Vec3::ZERO;
@@ -201,7 +280,11 @@ impl<'a> CpuScene<'a> {
                 add_to_path_key(key, self.surface_key(hit), throughput);
             }
             let Some(hit) = hit else {
-                let miss = if params.environment { self.environment(ray.dir) } else { params.background_quantized() };
+                let miss = if params.environment {
+                    self.environment(ray.dir)
+                } else {
+                    params.background_quantized()
+                };
                 color += throughput * miss;
                 if bounce == 0 && s.aov == Aov::Normal {
                     aux = Vec4::ZERO;
@@ -239,37 +322,52 @@ impl<'a> CpuScene<'a> {
                 }
             }
             if s.aov == Aov::Ao {
-                aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats)).extend(1.0);
+                aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats))
+                    .extend(1.0);
                 break;
             }
             let gm = &self.packed.materials[shading.material as usize];
-            let mat = ShadingMaterial { diffuse: gm.diffuse.into(), specular: gm.specular.into(), shininess: gm.shininess, mirror: gm.mirror };
+            let mat = ShadingMaterial {
+                diffuse: gm.diffuse.into(),
+                specular: gm.specular.into(),
+                shininess: gm.shininess,
+                mirror: gm.mirror,
+            };
             let mut kd = mat.diffuse;
             if s.textures && gm.has_vertex_colors() {
                 let [c0, c1, c2] = self.packed.vertices.colors_of(shading.corners);
                 kd *= c0 * w + c1 * hit.u + c2 * hit.v;
             }
             if s.textures && gm.texture != NO_TEXTURE {
-                let [uv0, uv1, uv2] = self.packed.vertices.texcoords_of(shading.corners).map(|uv| gm.texture_uv(uv));
+                let [uv0, uv1, uv2] =
+                    self.packed.vertices.texcoords_of(shading.corners).map(|uv| gm.texture_uv(uv));
                 let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
                 let info = self.packed.textures.infos[gm.texture as usize];
                 let scale = self.packed.instances[hit.instance as usize].scale;
                 let world_area = 0.5 * e1.cross(e2).length() * scale * scale;
                 let (d1, d2) = (uv1 - uv0, uv2 - uv0);
-                let texel_area = 0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
+                let texel_area =
+                    0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
                 let mut lod = 0.0;
                 if world_area > 0.0 && texel_area > 0.0 {
                     let width_at_hit = spread * path_length;
-                    lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2() - ng.dot(ray.dir).abs().max(1e-4).log2();
+                    lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2()
+                        - ng.dot(ray.dir).abs().max(1e-4).log2();
                 }
-                kd *= self.packed.textures.sample_with(gm.texture, uv, lod, gm.texture_clamps()).truncate();
+                kd *= self
+                    .packed
+                    .textures
+                    .sample_with(gm.texture, uv, lod, gm.texture_clamps())
+                    .truncate();
             }
             let l = (params.light_position - p).normalize();
             let scale = self.packed.instances[hit.instance as usize].scale;
             let lit = light_reaches(l, ng, ns, smooth.as_ref(), p, params.light_position, scale);
-            let local = blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
+            let local =
+                blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
-                let prim = (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
+                let prim =
+                    (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
                 match s.aov {
                     Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
                     Aov::Normal => aux = ns.extend(1.0),
@@ -311,15 +409,23 @@ impl<'a> CpuScene<'a> {
         let q = (n * 1024.0).round();
         let (qx, qy, qz) = (q.x as i32 as u32, q.y as i32 as u32, q.z as i32 as u32);
         let key = pcg(qx ^ pcg(qy ^ pcg(qz)));
-        let key = pcg(key ^ self.packed.shading[hit.triangle as usize].material) ^ pcg(hit.instance.wrapping_add(0x9e3779b9));
-        if key == u32::MAX { 0 } else { key }
+        let key = pcg(key ^ self.packed.shading[hit.triangle as usize].material)
+            ^ pcg(hit.instance.wrapping_add(0x9e3779b9));
+        if key == u32::MAX {
+            0
+        } else {
+            key
+        }
     }
 
     /// Key of the path through the centre of each pixel (primary hit and the mirror bounces
     /// that still show): adaptive sampling's edge test, as the shader's pre-pass.
     pub(crate) fn path_keys(&self, params: &FrameParams) -> Vec<u32> {
         let (w, h) = (params.settings.width, params.settings.height);
-        let color = FrameParams { settings: RenderSettings { aov: Aov::Color, ..params.settings }, ..*params };
+        let color = FrameParams {
+            settings: RenderSettings { aov: Aov::Color, ..params.settings },
+            ..*params
+        };
         (0..w * h)
             .into_par_iter()
             .map(|i| {
@@ -333,7 +439,13 @@ impl<'a> CpuScene<'a> {
     }
 
     /// Trace one pixel: the value the shader writes to the float output (before accumulation).
-    pub(crate) fn trace_pixel(&self, params: &FrameParams, px: u32, py: u32, ids: Option<&[u32]>) -> [f32; 4] {
+    pub(crate) fn trace_pixel(
+        &self,
+        params: &FrameParams,
+        px: u32,
+        py: u32,
+        ids: Option<&[u32]>,
+    ) -> [f32; 4] {
         let s = &params.settings;
         let (w, h) = (s.width, s.height);
         let pixel = py * w + px;
@@ -356,12 +468,19 @@ impl<'a> CpuScene<'a> {
         for sample in 0..spp {
             let mut offset = Vec2::splat(0.5);
             // The sample's seed: its jitter and its AO rays (a new set each accumulated frame).
-            let sample_seed = pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
+            let sample_seed =
+                pcg(pixel ^ pcg(params.frame_index.wrapping_mul(256).wrapping_add(sample)));
             if jitter {
                 let mut seed = sample_seed;
                 offset = Vec2::new(random01(&mut seed), random01(&mut seed));
             }
-            sum += self.trace_sample(params, Vec2::new(px as f32, py as f32) + offset, sample_seed, &mut stats, None);
+            sum += self.trace_sample(
+                params,
+                Vec2::new(px as f32, py as f32) + offset,
+                sample_seed,
+                &mut stats,
+                None,
+            );
         }
         let value = sum / spp as f32;
         match s.aov {

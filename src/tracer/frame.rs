@@ -52,7 +52,11 @@ impl FrameParams {
     }
 
     /// [`Self::new`] with the scene's world bounds already known (they set the ray offset).
-    pub(crate) fn with_bounds(scene: &Scene, settings: RenderSettings, bounds: crate::geometry::Aabb) -> Self {
+    pub(crate) fn with_bounds(
+        scene: &Scene,
+        settings: RenderSettings,
+        bounds: crate::geometry::Aabb,
+    ) -> Self {
         let extent = bounds.extent().max_element();
         Self {
             settings,
@@ -71,7 +75,8 @@ impl FrameParams {
     /// The flag word of the push constants (bits and fields from [`contract`]).
     pub(crate) fn flags(&self) -> u32 {
         let s = &self.settings;
-        let mut f = s.aov.code() << contract::AOV_SHIFT | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
+        let mut f = s.aov.code() << contract::AOV_SHIFT
+            | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
         for (on, bit) in [
             (s.accel == Accel::Bvh, contract::FLAG_BVH),
             (s.accel == Accel::Bvh && s.bvh.is_wide(), contract::FLAG_WIDE),

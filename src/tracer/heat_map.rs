@@ -33,9 +33,14 @@ pub struct HeatMap {
 
 /// Map `values` (one per pixel) to heat colours.
 pub fn heat_map(values: &[f32]) -> HeatMap {
-    let values: Vec<f32> = values.iter().map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }).collect();
+    let values: Vec<f32> =
+        values.iter().map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 }).collect();
     let max = values.iter().copied().fold(0.0, f32::max);
-    let mean = if values.is_empty() { 0.0 } else { (values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64) as f32 };
+    let mean = if values.is_empty() {
+        0.0
+    } else {
+        (values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64) as f32
+    };
     let scale_max = if values.is_empty() {
         0.0
     } else {

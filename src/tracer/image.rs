@@ -32,7 +32,9 @@ impl Image {
         let bytes = self
             .pixels
             .iter()
-            .flat_map(|p| [p[0], p[1], p[2], 1.0].map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8))
+            .flat_map(|p| {
+                [p[0], p[1], p[2], 1.0].map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
+            })
             .collect();
         image::RgbaImage::from_raw(self.width, self.height, bytes).expect("size matches")
     }

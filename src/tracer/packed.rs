@@ -10,8 +10,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use bytemuck::{Pod, Zeroable};
-use rayon::prelude::*;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::prepare::PreparedScene;
 use super::textures::{EnvironmentMap, TextureAtlas};
@@ -41,7 +41,8 @@ pub struct GpuTriangle {
 }
 
 // The size statistics count triangle bytes as the traversal reads them.
-const _: () = assert!(std::mem::size_of::<GpuTriangle>() == crate::bvh::wide::stats::TRIANGLE_BYTES);
+const _: () =
+    assert!(std::mem::size_of::<GpuTriangle>() == crate::bvh::wide::stats::TRIANGLE_BYTES);
 
 /// What the shading reads at a triangle's hit (16 bytes, one `uvec4`): its corners'
 /// indices into [`PackedVertices`] and its global material index.
@@ -88,7 +89,11 @@ impl PackedVertices {
 
     /// The colours of `corners`, in [0, 1] (white without any).
     pub(crate) fn colors_of(&self, corners: [u32; 3]) -> [Vec3; 3] {
-        corners.map(|k| self.colors.get(k as usize).map_or(Vec3::ONE, |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0))
+        corners.map(|k| {
+            self.colors
+                .get(k as usize)
+                .map_or(Vec3::ONE, |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0)
+        })
     }
 
     /// Append `mesh`'s vertices; returns the index its first vertex gets.
@@ -277,7 +282,11 @@ impl PackedScene {
     /// window switches); Err when the load was cancelled before either.
     /// The triangles and hit records are left to the upload, which writes them from `scene`'s
     /// meshes (`ComputeTracer::set_loaded_scene`): the CPU tracer cannot trace the result.
-    pub(crate) fn for_loading(scene: &Scene, layout: BvhLayout, progress: &Progress) -> Result<Self, Cancelled> {
+    pub(crate) fn for_loading(
+        scene: &Scene,
+        layout: BvhLayout,
+        progress: &Progress,
+    ) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
         let prepared = PreparedScene::new(scene, layout.is_wide());
         progress.begin(Phase::Pack)?;
@@ -289,7 +298,10 @@ impl PackedScene {
     /// [`PackedScene::set_instances`] takes them.
     #[doc(hidden)]
     pub fn drop_wide_tree(&mut self, m: usize, instances: &[Instance]) {
-        assert!(!self.wide_only, "a scene packed for wide frames alone has no binary tree to fall back on");
+        assert!(
+            !self.wide_only,
+            "a scene packed for wide frames alone has no binary tree to fall back on"
+        );
         self.meshes[m].has_wide = false;
         self.set_instances(instances);
     }
@@ -319,8 +331,10 @@ impl PackedScene {
     /// [`PackedScene::pack`], leaving the triangles and hit records to the upload when
     /// `defer`, and the binary nodes of meshes with a wide tree out when `wide_only`.
     fn pack_with(scene: &Scene, prepared: PreparedScene, defer: bool, wide_only: bool) -> Self {
-        let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } = prepared;
-        let mut packed = PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
+        let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } =
+            prepared;
+        let mut packed =
+            PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         if defer {
             packed.deferred = Some(DeferredTriangles::default());
         }
@@ -358,12 +372,23 @@ impl PackedScene {
         }
     }
 
-    fn push_mesh(&mut self, mesh: &Mesh, bvh: Bvh, wide: Option<WideBvh>, prim_base: u32, wide_only: bool) {
+    fn push_mesh(
+        &mut self,
+        mesh: &Mesh,
+        bvh: Bvh,
+        wide: Option<WideBvh>,
+        prim_base: u32,
+        wide_only: bool,
+    ) {
         let material_base = self.materials.len() as u32;
         let with_colors = !mesh.colors.is_empty() && mesh.colors.len() == mesh.positions.len();
         let vertex_base = self.vertices.push_mesh(mesh);
         let texture_of = |m: &crate::scene::Material| {
-            m.diffuse_texture.as_ref().filter(|_| !mesh.texcoords.is_empty()).and_then(|p| self.texture_index.get(p).copied()).unwrap_or(NO_TEXTURE)
+            m.diffuse_texture
+                .as_ref()
+                .filter(|_| !mesh.texcoords.is_empty())
+                .and_then(|p| self.texture_index.get(p).copied())
+                .unwrap_or(NO_TEXTURE)
         };
         let materials: Vec<GpuMaterial> = mesh
             .materials
@@ -374,8 +399,15 @@ impl PackedScene {
                 specular: m.specular.to_array(),
                 shininess: m.shininess,
                 texture: texture_of(m),
-                texture_flags: if m.texture_transform.clamp { crate::contract::TEXTURE_CLAMP } else { 0 }
-                    | if with_colors { crate::contract::MATERIAL_VERTEX_COLORS } else { 0 },
+                texture_flags: if m.texture_transform.clamp {
+                    crate::contract::TEXTURE_CLAMP
+                } else {
+                    0
+                } | if with_colors {
+                    crate::contract::MATERIAL_VERTEX_COLORS
+                } else {
+                    0
+                },
                 _pad: [0; 2],
                 uv_scale: m.texture_transform.scale.to_array(),
                 uv_offset: m.texture_transform.offset.to_array(),
@@ -392,7 +424,10 @@ impl PackedScene {
             // In BVH order, on every core: at 10M triangles this was a second of one thread.
             // Written in place: no intermediate pieces to join.
             let (mut triangles, mut shading) = (Vec::new(), Vec::new());
-            bvh.prim_indices.par_iter().map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base)).unzip_into_vecs(&mut triangles, &mut shading);
+            bvh.prim_indices
+                .par_iter()
+                .map(|&prim| pack_triangle(mesh, prim, material_base, vertex_base))
+                .unzip_into_vecs(&mut triangles, &mut shading);
             append(&mut self.triangles, triangles);
             append(&mut self.shading, shading);
         }
@@ -431,7 +466,12 @@ impl PackedScene {
                 } else {
                     (b.min * inst.scale + inst.translation, b.max * inst.scale + inst.translation)
                 };
-                let wide_words = if m.has_wide { self.wide_word_base + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32 } else { EMPTY };
+                let wide_words = if m.has_wide {
+                    self.wide_word_base
+                        + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32
+                } else {
+                    EMPTY
+                };
                 GpuInstance {
                     bounds_min: lo.extend(f32::from_bits(wide_words)).to_array(),
                     bounds_max: hi.extend(0.0).to_array(),
@@ -455,9 +495,16 @@ impl PackedScene {
         let nodes = self.nodes_bytes() as u64;
         let v = &self.vertices;
         // Deferred arrays are as big as they will be once the upload writes them.
-        let deferred = |written: u64, item: usize| if self.deferred.is_some() { self.triangle_count() as u64 * item as u64 } else { written };
+        let deferred = |written: u64, item: usize| {
+            if self.deferred.is_some() {
+                self.triangle_count() as u64 * item as u64
+            } else {
+                written
+            }
+        };
         [
-            deferred(bytes(&self.triangles), std::mem::size_of::<GpuTriangle>()) + crate::contract::TRIANGLE_READ_AHEAD as u64,
+            deferred(bytes(&self.triangles), std::mem::size_of::<GpuTriangle>())
+                + crate::contract::TRIANGLE_READ_AHEAD as u64,
             deferred(bytes(&self.shading), std::mem::size_of::<GpuTriangleShading>()),
             bytes(&v.normals),
             bytes(&v.texcoords),
@@ -471,7 +518,8 @@ impl PackedScene {
 
     /// Bytes of the BVH nodes, both layouts (the GPU's node buffer).
     pub fn nodes_bytes(&self) -> usize {
-        std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.wide_nodes.as_slice())
+        std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.wide_nodes.as_slice())
     }
 
     /// Triangles of all meshes.
@@ -513,7 +561,12 @@ impl PackedScene {
 
 /// One triangle's traversal record and shading record (`prim` in file order; the mesh's
 /// vertices start at `vertex_base`).
-fn pack_triangle(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> (GpuTriangle, GpuTriangleShading) {
+fn pack_triangle(
+    mesh: &Mesh,
+    prim: u32,
+    material_base: u32,
+    vertex_base: u32,
+) -> (GpuTriangle, GpuTriangleShading) {
     (triangle_record(mesh, prim), shading_record(mesh, prim, material_base, vertex_base))
 }
 
@@ -531,7 +584,12 @@ fn triangle_record(mesh: &Mesh, prim: u32) -> GpuTriangle {
 }
 
 /// Triangle `prim`'s hit record, its mesh's vertices and materials starting at the bases.
-fn shading_record(mesh: &Mesh, prim: u32, material_base: u32, vertex_base: u32) -> GpuTriangleShading {
+fn shading_record(
+    mesh: &Mesh,
+    prim: u32,
+    material_base: u32,
+    vertex_base: u32,
+) -> GpuTriangleShading {
     GpuTriangleShading {
         corners: mesh.triangles[prim as usize].map(|k| vertex_base + k),
         material: material_base + mesh.triangle_materials.get(prim as usize).copied().unwrap_or(0),
@@ -553,7 +611,8 @@ impl PackedMesh {
     /// frames alone, has none).
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
         let nodes = packed.nodes[self.node_base as usize..][..self.node_count as usize].to_vec();
-        let range = self.triangle_base as usize..(self.triangle_base + self.triangle_count) as usize;
+        let range =
+            self.triangle_base as usize..(self.triangle_base + self.triangle_count) as usize;
         Bvh { nodes, prim_indices: packed.triangles[range].iter().map(|t| t.prim).collect() }
     }
 }

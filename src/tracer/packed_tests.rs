@@ -29,17 +29,30 @@ fn vertex_attributes_are_filled_for_meshes_without_them() {
     let first = scene.meshes[0].vertex_count();
     let total = first + scene.meshes[1].vertex_count();
     assert_eq!((v.normals.len(), v.texcoords.len(), v.colors.len()), (total, total, total));
-    assert!(v.colors[..first].iter().all(|&c| c == [255; 4]) && v.colors[first..].iter().all(|&c| c == [10, 20, 30, 40]));
-    assert!(v.texcoords[..first].iter().all(|&t| t == [0.0; 2]) && v.texcoords[first..].iter().all(|&t| t == [0.25, 0.5]));
+    assert!(
+        v.colors[..first].iter().all(|&c| c == [255; 4])
+            && v.colors[first..].iter().all(|&c| c == [10, 20, 30, 40])
+    );
+    assert!(
+        v.texcoords[..first].iter().all(|&t| t == [0.0; 2])
+            && v.texcoords[first..].iter().all(|&t| t == [0.25, 0.5])
+    );
     // Only the coloured mesh's materials say so; its triangles' corners are its vertices.
     let flags: Vec<bool> = packed.materials.iter().map(GpuMaterial::has_vertex_colors).collect();
     let model_materials = scene.meshes[0].materials.len();
-    assert!(flags[..model_materials].iter().all(|&f| !f) && flags[model_materials..].iter().all(|&f| f), "{flags:?}");
+    assert!(
+        flags[..model_materials].iter().all(|&f| !f) && flags[model_materials..].iter().all(|&f| f),
+        "{flags:?}"
+    );
     let m1 = &packed.meshes[1];
     let range = m1.triangle_base as usize..(m1.triangle_base + m1.triangle_count) as usize;
-    assert!(packed.shading[range].iter().flat_map(|s| s.corners).all(|k| (first..total).contains(&(k as usize))));
+    assert!(packed.shading[range]
+        .iter()
+        .flat_map(|s| s.corners)
+        .all(|k| (first..total).contains(&(k as usize))));
     // Without any, the arrays stay empty (nothing to upload).
-    let plain = PackedScene::new(&paper_scene(PaperModel::Geosphere.mesh(), 1, LightOrbit::default()));
+    let plain =
+        PackedScene::new(&paper_scene(PaperModel::Geosphere.mesh(), 1, LightOrbit::default()));
     assert!(plain.vertices.colors.is_empty() && plain.vertices.texcoords.is_empty());
 }
 

@@ -42,10 +42,16 @@ impl PreparedScene {
                     .iter()
                     .map(|mesh| {
                         let options = BuildOptions::for_tracing(mesh.triangle_count());
-                        let mut bvh = Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
+                        let mut bvh = Bvh::build_indexed(
+                            mesh.triangle_count(),
+                            |i| mesh.corners(i),
+                            &options,
+                        );
                         // A tree whose traversal could overflow the shader's stack (none of
                         // the meshes measured comes near) keeps the binary layout alone.
-                        let wide = wide.then(|| wide::collapse(&mut bvh)).filter(|w| w.stack_need() <= wide::STACK_SIZE);
+                        let wide = wide
+                            .then(|| wide::collapse(&mut bvh))
+                            .filter(|w| w.stack_need() <= wide::STACK_SIZE);
                         (bvh, wide)
                     })
                     .unzip();
@@ -71,13 +77,19 @@ fn decode_textures(scene: &Scene) -> (Vec<(PathBuf, RgbaImage)>, Vec<String>) {
         .collect();
     paths.sort();
     paths.dedup();
-    let decoded: Vec<_> = paths.par_iter().map(|p| (p.to_path_buf(), crate::files::read_image(p, "texture").map(|i| i.to_rgba8()))).collect();
+    let decoded: Vec<_> = paths
+        .par_iter()
+        .map(|p| (p.to_path_buf(), crate::files::read_image(p, "texture").map(|i| i.to_rgba8())))
+        .collect();
     let mut textures = Vec::new();
     let mut warnings = Vec::new();
     for (path, result) in decoded {
         match result {
             Ok(img) => textures.push((path, img)),
-            Err(e) => warnings.push(format!("{}; using the material's Kd instead", crate::files::shown(&e, 2 * crate::files::MAX_QUOTED_NAME))),
+            Err(e) => warnings.push(format!(
+                "{}; using the material's Kd instead",
+                crate::files::shown(&e, 2 * crate::files::MAX_QUOTED_NAME)
+            )),
         }
     }
     (textures, warnings)

@@ -16,7 +16,16 @@ pub struct ShadingMaterial {
 /// the diffuse and specular terms only where `lit` (see [`light_reaches`]); no shadow rays
 /// against the rest of the scene (as the paper). `n` is the shading normal facing the viewer.
 #[allow(clippy::too_many_arguments)]
-pub fn blinn_phong(m: &ShadingMaterial, kd: Vec3, l: Vec3, n: Vec3, lit: bool, to_eye: Vec3, light_color: Vec3, ambient: f32) -> Vec3 {
+pub fn blinn_phong(
+    m: &ShadingMaterial,
+    kd: Vec3,
+    l: Vec3,
+    n: Vec3,
+    lit: bool,
+    to_eye: Vec3,
+    light_color: Vec3,
+    ambient: f32,
+) -> Vec3 {
     let ndl = if lit { n.dot(l).max(0.0) } else { 0.0 };
     let spec = if ndl > 0.0 {
         let h = (l + to_eye).normalize();
@@ -40,7 +49,8 @@ pub fn ao_direction(ns: Vec3, ng: Vec3, u1: f32, u2: f32) -> Vec3 {
     let bitangent = Vec3::new(b, sgn + ns.y * ns.y * a, -ns.y);
     let r = u1.sqrt();
     let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
-    let mut d = (tangent * (r * cos) + bitangent * (r * sin) + ns * (1.0 - u1).max(0.0).sqrt()).normalize();
+    let mut d =
+        (tangent * (r * cos) + bitangent * (r * sin) + ns * (1.0 - u1).max(0.0).sqrt()).normalize();
     let below = d.dot(ng);
     if below < 0.0 {
         d -= 2.0 * below * ng;
@@ -70,7 +80,11 @@ impl SmoothTriangle {
         let (u, v) = (self.u, self.v);
         let w = 1.0 - u - v;
         // The hit point relative to each corner.
-        let rel = [self.e1 * u + self.e2 * v, self.e1 * (u - 1.0) + self.e2 * v, self.e1 * u + self.e2 * (v - 1.0)];
+        let rel = [
+            self.e1 * u + self.e2 * v,
+            self.e1 * (u - 1.0) + self.e2 * v,
+            self.e1 * u + self.e2 * (v - 1.0),
+        ];
         let weights = [w, u, v];
         let mut offset = Vec3::ZERO;
         for k in 0..3 {
@@ -117,7 +131,15 @@ impl SmoothTriangle {
 /// the flat triangles (no stair steps on low-polygon meshes). `l` is the unit direction to
 /// the light, `light` its position and `p` the hit, both in world space; `scale` the
 /// instance's. The shader's `light_reaches`.
-pub fn light_reaches(l: Vec3, ng: Vec3, ns: Vec3, smooth: Option<&SmoothTriangle>, p: Vec3, light: Vec3, scale: f32) -> bool {
+pub fn light_reaches(
+    l: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    smooth: Option<&SmoothTriangle>,
+    p: Vec3,
+    light: Vec3,
+    scale: f32,
+) -> bool {
     if ng.dot(l) > 0.0 {
         return true;
     }
@@ -146,7 +168,12 @@ mod tests {
             let (mut mean_cos, n) = (0.0, 64);
             for i in 0..n {
                 for j in 0..n {
-                    let d = ao_direction(ns, ng, (i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let d = ao_direction(
+                        ns,
+                        ng,
+                        (i as f32 + 0.5) / n as f32,
+                        (j as f32 + 0.5) / n as f32,
+                    );
                     assert!((d.length() - 1.0).abs() < 1e-5 && d.dot(ng) >= 0.0, "{ns} {d}");
                     mean_cos += d.dot(ns) / (n * n) as f32;
                 }
@@ -160,7 +187,12 @@ mod tests {
 
     #[test]
     fn head_on_light_gives_diffuse_plus_full_specular() {
-        let m = ShadingMaterial { diffuse: Vec3::splat(0.5), specular: Vec3::splat(0.25), shininess: 10.0, mirror: 0.0 };
+        let m = ShadingMaterial {
+            diffuse: Vec3::splat(0.5),
+            specular: Vec3::splat(0.25),
+            shininess: 10.0,
+            mirror: 0.0,
+        };
         // Light and eye straight above a surface facing up: N.L = N.H = 1.
         let c = blinn_phong(&m, m.diffuse, Vec3::Y, Vec3::Y, true, Vec3::Y, Vec3::ONE, 0.1);
         assert!((c - Vec3::splat(0.05 + 0.5 + 0.25)).length() < 1e-6);
@@ -179,7 +211,9 @@ mod tests {
 
     /// A triangle of a unit sphere with its radial corner normals.
     fn sphere_patch() -> ([Vec3; 3], SmoothTriangle) {
-        let corners = [Vec3::new(1.0, 0.2, 0.1), Vec3::new(0.3, 1.0, 0.0), Vec3::new(0.2, 0.1, 1.0)].map(Vec3::normalize);
+        let corners =
+            [Vec3::new(1.0, 0.2, 0.1), Vec3::new(0.3, 1.0, 0.0), Vec3::new(0.2, 0.1, 1.0)]
+                .map(Vec3::normalize);
         let (e1, e2) = (corners[1] - corners[0], corners[2] - corners[0]);
         (corners, SmoothTriangle { u: 1.0 / 3.0, v: 1.0 / 3.0, e1, e2, normals: corners })
     }
@@ -191,7 +225,12 @@ mod tests {
         let lifted = centre + tri.terminator_offset();
         let ng = tri.e1.cross(tri.e2).normalize();
         assert!(tri.terminator_offset().dot(ng) > 0.0, "moved outwards");
-        assert!((lifted.length() - 1.0).abs() < (centre.length() - 1.0).abs() * 0.5, "closer to the sphere: {} vs {}", lifted.length(), centre.length());
+        assert!(
+            (lifted.length() - 1.0).abs() < (centre.length() - 1.0).abs() * 0.5,
+            "closer to the sphere: {} vs {}",
+            lifted.length(),
+            centre.length()
+        );
         // At a corner the hit is on that corner's tangent plane: no offset.
         for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
             assert!(SmoothTriangle { u, v, ..tri }.terminator_offset().length() < 1e-6);
@@ -200,7 +239,8 @@ mod tests {
         let flat = SmoothTriangle { normals: [ng; 3], ..tri };
         assert!(flat.terminator_offset().length() < 1e-6);
         // Only outwards: corner normals leaning so that the hit is above their planes.
-        let concave = SmoothTriangle { normals: corners.map(|c| (2.0 * ng - c).normalize()), ..tri };
+        let concave =
+            SmoothTriangle { normals: corners.map(|c| (2.0 * ng - c).normalize()), ..tri };
         assert_eq!(concave.terminator_offset(), Vec3::ZERO);
     }
 
@@ -216,8 +256,14 @@ mod tests {
         let light = p + (along - ng * 0.02).normalize() * 50.0;
         let l = (light - p).normalize();
         assert!(ng.dot(l) < 0.0 && ns.dot(l) > 0.0, "set-up: between the two planes");
-        assert!(!light_reaches(l, ng, ns, None, p, light, 1.0), "flat shading: blocked by the triangle's plane");
-        assert!(light_reaches(l, ng, ns, Some(&tri), p, light, 1.0), "smooth shading: the offset point sees past the triangle");
+        assert!(
+            !light_reaches(l, ng, ns, None, p, light, 1.0),
+            "flat shading: blocked by the triangle's plane"
+        );
+        assert!(
+            light_reaches(l, ng, ns, Some(&tri), p, light, 1.0),
+            "smooth shading: the offset point sees past the triangle"
+        );
         // The same instance scaled by 3: the offset is in object space.
         assert!(light_reaches(l, ng, ns, Some(&tri), p * 3.0, p * 3.0 + (light - p) * 3.0, 3.0));
         // Corner normals equal to the face normal (a flat region): the flat test, blocked.

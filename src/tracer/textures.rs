@@ -90,8 +90,12 @@ impl TextureAtlas {
         let f = p.floor();
         let t = p - f;
         let (x, y) = (f.x as i32, f.y as i32);
-        let a = self.fetch(info, level, x, y, clamped).lerp(self.fetch(info, level, x + 1, y, clamped), t.x);
-        let b = self.fetch(info, level, x, y + 1, clamped).lerp(self.fetch(info, level, x + 1, y + 1, clamped), t.x);
+        let a = self
+            .fetch(info, level, x, y, clamped)
+            .lerp(self.fetch(info, level, x + 1, y, clamped), t.x);
+        let b = self
+            .fetch(info, level, x, y + 1, clamped)
+            .lerp(self.fetch(info, level, x + 1, y + 1, clamped), t.x);
         a.lerp(b, t.y)
     }
 
@@ -186,7 +190,10 @@ pub(crate) fn decode_rgb9e5(v: u32) -> Vec3 {
 impl EnvironmentMap {
     /// From an 8-bit image (values / 255, as the tracer reads colours).
     pub(crate) fn from_rgba8(img: &image::RgbaImage) -> Self {
-        let texels = img.pixels().map(|p| encode_rgb9e5(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)).collect();
+        let texels = img
+            .pixels()
+            .map(|p| encode_rgb9e5(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0))
+            .collect();
         Self { width: img.width(), height: img.height(), texels }
     }
 
@@ -198,14 +205,19 @@ impl EnvironmentMap {
 
     /// The map `source` names (None: no environment). A file that cannot be read falls
     /// back to the generated sky, with the warning returned.
-    pub(crate) fn from_source(source: Option<&crate::scene::EnvironmentSource>) -> (Option<Self>, Option<String>) {
+    pub(crate) fn from_source(
+        source: Option<&crate::scene::EnvironmentSource>,
+    ) -> (Option<Self>, Option<String>) {
         use crate::scene::EnvironmentSource;
         match source {
             None => (None, None),
             Some(EnvironmentSource::Sky) => (Some(Self::generated_sky()), None),
             Some(EnvironmentSource::File(path)) => match load_environment(path) {
                 Ok(map) => (Some(map), None),
-                Err(e) => (Some(Self::generated_sky()), Some(format!("{e}; using the generated sky instead"))),
+                Err(e) => (
+                    Some(Self::generated_sky()),
+                    Some(format!("{e}; using the generated sky instead")),
+                ),
             },
         }
     }
@@ -241,7 +253,9 @@ impl EnvironmentMap {
 pub(crate) fn load_environment(path: &Path) -> anyhow::Result<EnvironmentMap> {
     let img = crate::files::read_image(path, "environment map").map_err(anyhow::Error::msg)?;
     Ok(match img {
-        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => EnvironmentMap::from_rgba32f(&img.to_rgba32f()),
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => {
+            EnvironmentMap::from_rgba32f(&img.to_rgba32f())
+        }
         _ => EnvironmentMap::from_rgba8(&img.to_rgba8()),
     })
 }
@@ -251,7 +265,13 @@ mod tests {
     use super::*;
 
     fn checker(n: u32) -> image::RgbaImage {
-        image::RgbaImage::from_fn(n, n, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([0, 0, 255, 255]) })
+        image::RgbaImage::from_fn(n, n, |x, y| {
+            if (x + y) % 2 == 0 {
+                image::Rgba([255, 0, 0, 255])
+            } else {
+                image::Rgba([0, 0, 255, 255])
+            }
+        })
     }
 
     #[test]
@@ -278,7 +298,13 @@ mod tests {
     #[test]
     fn clamped_sampling_stops_at_the_edge_texels() {
         // Red on the left half, blue on the right.
-        let img = image::RgbaImage::from_fn(2, 1, |x, _| if x == 0 { image::Rgba([255, 0, 0, 255]) } else { image::Rgba([0, 0, 255, 255]) });
+        let img = image::RgbaImage::from_fn(2, 1, |x, _| {
+            if x == 0 {
+                image::Rgba([255, 0, 0, 255])
+            } else {
+                image::Rgba([0, 0, 255, 255])
+            }
+        });
         let mut atlas = TextureAtlas::default();
         let i = atlas.add(&img);
         let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
@@ -294,7 +320,13 @@ mod tests {
 
     #[test]
     fn rgb9e5_keeps_high_dynamic_range_within_its_precision() {
-        for c in [Vec3::new(0.25, 0.5, 1.0), Vec3::new(50.0, 20.0, 0.1), Vec3::new(1.0 / 255.0, 0.0, 0.0), Vec3::splat(65000.0), Vec3::new(3.0e-5, 1e-3, 2e-3)] {
+        for c in [
+            Vec3::new(0.25, 0.5, 1.0),
+            Vec3::new(50.0, 20.0, 0.1),
+            Vec3::new(1.0 / 255.0, 0.0, 0.0),
+            Vec3::splat(65000.0),
+            Vec3::new(3.0e-5, 1e-3, 2e-3),
+        ] {
             let back = decode_rgb9e5(encode_rgb9e5(c));
             // Each channel within half a mantissa step of the largest channel.
             let step = c.max_element() / 256.0;
@@ -307,12 +339,17 @@ mod tests {
         }
         assert_eq!(encode_rgb9e5(Vec3::ZERO), 0);
         assert_eq!(decode_rgb9e5(encode_rgb9e5(Vec3::new(-1.0, f32::NAN, 0.0))), Vec3::ZERO);
-        assert_eq!(decode_rgb9e5(encode_rgb9e5(Vec3::splat(f32::INFINITY))), Vec3::splat(RGB9E5_MAX));
+        assert_eq!(
+            decode_rgb9e5(encode_rgb9e5(Vec3::splat(f32::INFINITY))),
+            Vec3::splat(RGB9E5_MAX)
+        );
     }
 
     #[test]
     fn environment_sample_wraps_around_and_clamps_at_the_poles() {
-        let img = image::Rgba32FImage::from_fn(4, 2, |x, y| image::Rgba([x as f32 * 10.0, y as f32, 0.0, 1.0]));
+        let img = image::Rgba32FImage::from_fn(4, 2, |x, y| {
+            image::Rgba([x as f32 * 10.0, y as f32, 0.0, 1.0])
+        });
         let env = EnvironmentMap::from_rgba32f(&img);
         assert_eq!(env.texel(-1, 0), env.texel(3, 0));
         assert_eq!(env.texel(0, 5), env.texel(0, 1));

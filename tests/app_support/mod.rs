@@ -31,7 +31,17 @@ impl Xvfb {
             let mut child = Command::new("Xvfb")
                 // -r: no key auto-repeat. Under load the server may see a key's release more
                 // than its repeat delay after the press and repeat it (one PgUp, two bounces).
-                .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset", "-r"])
+                .args([
+                    "-displayfd",
+                    "1",
+                    "-screen",
+                    "0",
+                    "1024x768x24",
+                    "-nolisten",
+                    "tcp",
+                    "-noreset",
+                    "-r",
+                ])
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::null())
@@ -53,7 +63,9 @@ impl Xvfb {
                     }
                     last_error = format!("Xvfb said {display} but xdotool cannot connect to it");
                 }
-                Ok(line) => last_error = format!("Xvfb exited without a display number ({:?})", line.trim()),
+                Ok(line) => {
+                    last_error = format!("Xvfb exited without a display number ({:?})", line.trim())
+                }
                 Err(_) => last_error = "Xvfb did not become ready within 30 s".to_string(),
             }
             let _ = child.kill();
@@ -84,7 +96,11 @@ pub struct TempDir(pub PathBuf);
 
 impl TempDir {
     pub fn new(name: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("meshtracer-{name}-{}-{}", std::process::id(), NEXT.fetch_add(1, Ordering::SeqCst)));
+        let dir = std::env::temp_dir().join(format!(
+            "meshtracer-{name}-{}-{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::SeqCst)
+        ));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         Self(dir)
@@ -144,7 +160,11 @@ pub fn meshtracer(display: &str, dir: &Path) -> Command {
 
 /// Run xdotool on `display`.
 pub fn xdotool(display: &str, args: &[&str]) -> Output {
-    Command::new("xdotool").args(args).env("DISPLAY", display).output().expect("xdotool must be installed for the window tests (CI installs it)")
+    Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", display)
+        .output()
+        .expect("xdotool must be installed for the window tests (CI installs it)")
 }
 
 /// A running child process, killed on drop if still running.
@@ -163,7 +183,10 @@ impl Running {
                 let mut child = self.0.take().unwrap();
                 let _ = child.kill();
                 let out = child.wait_with_output().unwrap();
-                panic!("meshtracer did not exit within {timeout:?}; stderr: {}", String::from_utf8_lossy(&out.stderr));
+                panic!(
+                    "meshtracer did not exit within {timeout:?}; stderr: {}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
             }
             std::thread::sleep(Duration::from_millis(50));
         }
@@ -174,7 +197,11 @@ impl Running {
         let child = self.0.as_mut().unwrap();
         if child.try_wait().unwrap().is_some() {
             let out = self.0.take().unwrap().wait_with_output().unwrap();
-            panic!("meshtracer exited early ({}): {}", out.status, String::from_utf8_lossy(&out.stderr));
+            panic!(
+                "meshtracer exited early ({}): {}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            );
         }
     }
 }
@@ -210,7 +237,11 @@ pub fn wait_for_window(display: &str, app: &mut Running) -> String {
 /// Focus `window` and press `keys` (xdotool key names) through XTEST, like a user.
 pub fn press(display: &str, window: &str, keys: &[&str]) {
     let out = xdotool(display, &["windowfocus", window]);
-    assert!(out.status.success(), "xdotool windowfocus failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "xdotool windowfocus failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let mut args = vec!["key", "--delay", "50"];
     args.extend_from_slice(keys);
     let out = xdotool(display, &args);
@@ -234,7 +265,10 @@ pub fn pngs(dir: &Path, prefix: &str) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "png") && p.file_name().unwrap().to_string_lossy().starts_with(prefix))
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "png")
+                && p.file_name().unwrap().to_string_lossy().starts_with(prefix)
+        })
         .collect();
     v.sort();
     v
@@ -289,7 +323,10 @@ pub fn f12_file(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> PathBu
         app.assert_alive();
         press(&x.display, window, &["F12"]);
         std::thread::sleep(Duration::from_millis(700));
-        let all: Vec<_> = pngs(dir, "meshtracer_").into_iter().filter(|p| !p.to_string_lossy().ends_with("_window.png")).collect();
+        let all: Vec<_> = pngs(dir, "meshtracer_")
+            .into_iter()
+            .filter(|p| !p.to_string_lossy().ends_with("_window.png"))
+            .collect();
         (all.len() > before).then(|| all.last().cloned()).flatten()
     })
 }

@@ -13,7 +13,8 @@ use std::time::{Duration, Instant};
 
 use x11rb::connection::Connection;
 use x11rb::protocol::xproto::{
-    Atom, AtomEnum, ClientMessageEvent, ConnectionExt as _, CreateWindowAux, EventMask, PropMode, SelectionNotifyEvent, Window, WindowClass, SELECTION_NOTIFY_EVENT,
+    Atom, AtomEnum, ClientMessageEvent, ConnectionExt as _, CreateWindowAux, EventMask, PropMode,
+    SelectionNotifyEvent, Window, WindowClass, SELECTION_NOTIFY_EVENT,
 };
 use x11rb::protocol::Event;
 use x11rb::rust_connection::RustConnection;
@@ -39,7 +40,9 @@ struct Atoms {
 impl Atoms {
     fn new(conn: &RustConnection) -> Result<Self, String> {
         let atom = |name: &str| -> Result<Atom, String> {
-            let cookie = conn.intern_atom(false, name.as_bytes()).map_err(|e| format!("intern {name}: {e}"))?;
+            let cookie = conn
+                .intern_atom(false, name.as_bytes())
+                .map_err(|e| format!("intern {name}: {e}"))?;
             Ok(cookie.reply().map_err(|e| format!("intern {name}: {e}"))?.atom)
         };
         Ok(Self {
@@ -69,21 +72,48 @@ pub struct DropOutcome {
 
 /// Drop `files` (absolute paths) on `target` (a window id, decimal as xdotool prints it)
 /// of the X server `display`. Errors are one sentence: no XdndAware, no answer in `timeout`.
-pub fn drop_files(display: &str, target: &str, files: &[&Path], timeout: Duration) -> Result<DropOutcome, String> {
-    let target: Window = target.trim().parse().map_err(|_| format!("{target:?} is not a window id"))?;
-    let (conn, screen) = x11rb::connect(Some(display)).map_err(|e| format!("cannot connect to {display}: {e}"))?;
+pub fn drop_files(
+    display: &str,
+    target: &str,
+    files: &[&Path],
+    timeout: Duration,
+) -> Result<DropOutcome, String> {
+    let target: Window =
+        target.trim().parse().map_err(|_| format!("{target:?} is not a window id"))?;
+    let (conn, screen) =
+        x11rb::connect(Some(display)).map_err(|e| format!("cannot connect to {display}: {e}"))?;
     let root = conn.setup().roots[screen].root;
     let atoms = Atoms::new(&conn)?;
     let x = |e: &dyn std::fmt::Display| format!("X request failed: {e}");
 
     // The target must say it takes drops, and which version.
-    let aware = conn.get_property(false, target, atoms.aware, AtomEnum::ATOM, 0, 1).map_err(|e| x(&e))?.reply().map_err(|e| x(&e))?;
-    let version = aware.value32().and_then(|mut v| v.next()).ok_or_else(|| format!("window {target} is not XdndAware"))?;
+    let aware = conn
+        .get_property(false, target, atoms.aware, AtomEnum::ATOM, 0, 1)
+        .map_err(|e| x(&e))?
+        .reply()
+        .map_err(|e| x(&e))?;
+    let version = aware
+        .value32()
+        .and_then(|mut v| v.next())
+        .ok_or_else(|| format!("window {target} is not XdndAware"))?;
     let version = version.min(VERSION);
 
     // The source: an unmapped window that owns the selection and receives the answers.
     let source = conn.generate_id().map_err(|e| x(&e))?;
-    conn.create_window(COPY_DEPTH_FROM_PARENT, source, root, 0, 0, 1, 1, 0, WindowClass::INPUT_OUTPUT, 0, &CreateWindowAux::new()).map_err(|e| x(&e))?;
+    conn.create_window(
+        COPY_DEPTH_FROM_PARENT,
+        source,
+        root,
+        0,
+        0,
+        1,
+        1,
+        0,
+        WindowClass::INPUT_OUTPUT,
+        0,
+        &CreateWindowAux::new(),
+    )
+    .map_err(|e| x(&e))?;
     conn.set_selection_owner(source, atoms.selection, CURRENT_TIME).map_err(|e| x(&e))?;
 
     let mut uris = String::new();
@@ -93,7 +123,16 @@ pub fn drop_files(display: &str, target: &str, files: &[&Path], timeout: Duratio
 
     // The target's centre in root coordinates (XdndPosition carries them).
     let geometry = conn.get_geometry(target).map_err(|e| x(&e))?.reply().map_err(|e| x(&e))?;
-    let centre = conn.translate_coordinates(target, root, (geometry.width / 2) as i16, (geometry.height / 2) as i16).map_err(|e| x(&e))?.reply().map_err(|e| x(&e))?;
+    let centre = conn
+        .translate_coordinates(
+            target,
+            root,
+            (geometry.width / 2) as i16,
+            (geometry.height / 2) as i16,
+        )
+        .map_err(|e| x(&e))?
+        .reply()
+        .map_err(|e| x(&e))?;
     let packed = ((centre.dst_x as u16 as u32) << 16) | centre.dst_y as u16 as u32;
 
     let send = |type_: Atom, data: [u32; 5]| -> Result<(), String> {
@@ -113,7 +152,13 @@ pub fn drop_files(display: &str, target: &str, files: &[&Path], timeout: Duratio
         let event = conn.poll_for_event().map_err(|e| x(&e))?;
         let Some(event) = event else {
             if Instant::now() > deadline {
-                let waiting = if !status { "XdndStatus" } else if !dropped { "the data request" } else { "XdndFinished" };
+                let waiting = if !status {
+                    "XdndStatus"
+                } else if !dropped {
+                    "the data request"
+                } else {
+                    "XdndFinished"
+                };
                 return Err(format!("no {waiting} from window {target} within {timeout:?}"));
             }
             std::thread::sleep(Duration::from_millis(10));
@@ -122,7 +167,14 @@ pub fn drop_files(display: &str, target: &str, files: &[&Path], timeout: Duratio
         match event {
             Event::SelectionRequest(req) if req.selection == atoms.selection => {
                 // The URIs, as the type asked for (winit reads the property as text/uri-list).
-                conn.change_property8(PropMode::REPLACE, req.requestor, req.property, req.target, uris.as_bytes()).map_err(|e| x(&e))?;
+                conn.change_property8(
+                    PropMode::REPLACE,
+                    req.requestor,
+                    req.property,
+                    req.target,
+                    uris.as_bytes(),
+                )
+                .map_err(|e| x(&e))?;
                 let notify = SelectionNotifyEvent {
                     response_type: SELECTION_NOTIFY_EVENT,
                     sequence: 0,
@@ -132,7 +184,8 @@ pub fn drop_files(display: &str, target: &str, files: &[&Path], timeout: Duratio
                     target: req.target,
                     property: req.property,
                 };
-                conn.send_event(false, req.requestor, EventMask::NO_EVENT, notify).map_err(|e| x(&e))?;
+                conn.send_event(false, req.requestor, EventMask::NO_EVENT, notify)
+                    .map_err(|e| x(&e))?;
                 conn.flush().map_err(|e| x(&e))?;
                 outcome.data_requested = true;
             }

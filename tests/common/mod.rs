@@ -7,11 +7,11 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
-use meshtracer::gpu::{ContextOptions, GpuContext, ComputeTracer};
+use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
+use meshtracer::render_settings::RenderSettings;
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
-use meshtracer::render_settings::RenderSettings;
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 /// The Vulkan context every GPU test uses: validation (with synchronization validation)
@@ -19,8 +19,9 @@ use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 pub fn ctx() -> Arc<GpuContext> {
     static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
     CTX.get_or_init(|| {
-        GpuContext::new(&ContextOptions::validated())
-            .unwrap_or_else(|e| panic!("GPU tests need Vulkan with the validation layer (CI installs lavapipe): {e}"))
+        GpuContext::new(&ContextOptions::validated()).unwrap_or_else(|e| {
+            panic!("GPU tests need Vulkan with the validation layer (CI installs lavapipe): {e}")
+        })
     })
     .clone()
 }
@@ -73,7 +74,12 @@ pub fn slots_and_triangles(scene: &Scene) -> (usize, usize) {
 pub fn quad_mesh(material: Material) -> Mesh {
     let mut m = Mesh {
         name: "quad".into(),
-        positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
         triangles: vec![[0, 1, 3], [1, 2, 3]],
         triangle_materials: vec![0, 0],
         materials: vec![material],
@@ -88,7 +94,12 @@ pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
     Scene {
         meshes: vec![quad_mesh(material)],
         instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
-        camera: Camera { position: Vec3::new(0.0, 0.0, distance), target: Vec3::ZERO, up: Vec3::Y, vfov_deg: 60.0 },
+        camera: Camera {
+            position: Vec3::new(0.0, 0.0, distance),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 60.0,
+        },
         light: PointLight { position: light, color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
@@ -97,7 +108,11 @@ pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
 }
 
 /// Render on both tracers from a prepared scene with params adjusted by `tweak`.
-pub fn render_both_with(scene: &Scene, settings: RenderSettings, tweak: impl Fn(&mut FrameParams)) -> (Image, Image) {
+pub fn render_both_with(
+    scene: &Scene,
+    settings: RenderSettings,
+    tweak: impl Fn(&mut FrameParams),
+) -> (Image, Image) {
     let packed = PackedScene::for_layout(scene, settings.bvh);
     let mut params = FrameParams::new(scene, settings);
     tweak(&mut params);
@@ -119,7 +134,10 @@ pub fn large_neighbour_steps(img: &Image, step: f32) -> usize {
             let c = img.get(x, y);
             let background = |p: [f32; 4]| p[..3].iter().all(|&v| v < 1e-6);
             for o in [img.get(x + 1, y), img.get(x, y + 1)] {
-                if !background(c) && !background(o) && (0..3).map(|i| (c[i] - o[i]).abs()).fold(0.0, f32::max) > step {
+                if !background(c)
+                    && !background(o)
+                    && (0..3).map(|i| (c[i] - o[i]).abs()).fold(0.0, f32::max) > step
+                {
                     n += 1;
                 }
             }
@@ -134,8 +152,12 @@ pub struct Scratch(pub PathBuf);
 impl Scratch {
     /// `meshtracer-<test binary>-<pid>-<tag>`, emptied first.
     pub fn new(tag: &str) -> Self {
-        let binary = std::env::current_exe().ok().and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned())).unwrap_or_default();
-        let dir = std::env::temp_dir().join(format!("meshtracer-{binary}-{}-{tag}", std::process::id()));
+        let binary = std::env::current_exe()
+            .ok()
+            .and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .unwrap_or_default();
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-{binary}-{}-{tag}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         Scratch(dir)
@@ -148,7 +170,10 @@ impl Scratch {
 
     /// The names in the folder, sorted.
     pub fn names(&self) -> Vec<String> {
-        let mut v: Vec<String> = std::fs::read_dir(&self.0).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        let mut v: Vec<String> = std::fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
         v.sort();
         v
     }

@@ -24,7 +24,11 @@ impl Rng {
         (self.next_u64() % n as u64) as usize
     }
     pub fn vec_in(&mut self, b: &Aabb) -> Vec3 {
-        Vec3::new(self.range(b.min.x, b.max.x), self.range(b.min.y, b.max.y), self.range(b.min.z, b.max.z))
+        Vec3::new(
+            self.range(b.min.x, b.max.x),
+            self.range(b.min.y, b.max.y),
+            self.range(b.min.z, b.max.z),
+        )
     }
     pub fn unit(&mut self) -> Vec3 {
         loop {
@@ -61,7 +65,12 @@ pub fn room(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
         quad(p(lo.x, 0.0, lo.z), p(lo.x, hi.y, lo.z), p(hi.x, hi.y, lo.z), p(hi.x, 0.0, lo.z)),
         quad(p(lo.x, 0.0, lo.z), p(lo.x, 0.0, hi.z), p(lo.x, hi.y, hi.z), p(lo.x, hi.y, lo.z)),
         // A roof slanted in two axes: the emptiest boxes.
-        quad(p(lo.x, hi.y, lo.z), p(hi.x, hi.y - 3.0, lo.z), p(hi.x, hi.y - 1.0, hi.z), p(lo.x, hi.y + 2.0, hi.z)),
+        quad(
+            p(lo.x, hi.y, lo.z),
+            p(hi.x, hi.y - 3.0, lo.z),
+            p(hi.x, hi.y - 1.0, hi.z),
+            p(lo.x, hi.y + 2.0, hi.z),
+        ),
     ]
     .into_iter()
     .flatten()
@@ -71,6 +80,8 @@ pub fn room(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
         let z = lo.z + 2.0 + 2.5 * k as f32;
         tris.push([p(lo.x, 1.0, z), p(hi.x, 6.0, z + 0.5), p(hi.x, 6.2, z + 0.7)]);
     }
-    tris.extend(soup(rng, n, 4.0, 0.3).into_iter().map(|t| t.map(|v| v + Vec3::new(0.0, 4.0, 0.0))));
+    tris.extend(
+        soup(rng, n, 4.0, 0.3).into_iter().map(|t| t.map(|v| v + Vec3::new(0.0, 4.0, 0.0))),
+    );
     tris
 }

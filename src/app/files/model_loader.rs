@@ -8,9 +8,9 @@ use std::thread;
 
 use crate::progress::{Progress, Snapshot};
 use crate::render_settings::BvhLayout;
-use crate::scene::Scene;
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
+use crate::scene::Scene;
 use crate::tracer::packed::PackedScene;
 
 /// A loaded model, ready to upload.
@@ -57,7 +57,14 @@ impl ModelLoader {
     /// Start loading `source` (a file with `options`) for `model_count` copies; a load
     /// already running is cancelled (its thread stops at its next phase, its result dropped).
     /// With `layout` wide, the wide BVH is packed too.
-    pub(crate) fn start(&mut self, source: ModelSource, options: LoadOptions, model_count: u32, light: LightOrbit, layout: BvhLayout) {
+    pub(crate) fn start(
+        &mut self,
+        source: ModelSource,
+        options: LoadOptions,
+        model_count: u32,
+        light: LightOrbit,
+        layout: BvhLayout,
+    ) {
         self.cancel();
         let (tx, rx) = channel();
         let label = source.label();
@@ -125,14 +132,23 @@ impl ModelLoader {
 
 /// The worker's part: read and parse (or generate), build, pack; stops between phases
 /// when cancelled.
-fn load(source: ModelSource, options: &LoadOptions, model_count: u32, light: LightOrbit, layout: BvhLayout, progress: Progress) -> Result<LoadedModel, String> {
+fn load(
+    source: ModelSource,
+    options: &LoadOptions,
+    model_count: u32,
+    light: LightOrbit,
+    layout: BvhLayout,
+    progress: Progress,
+) -> Result<LoadedModel, String> {
     source.check_name()?;
-    let (mesh, warnings) = source.load_with_progress(options, &progress).map_err(|e| e.to_string())?;
+    let (mesh, warnings) =
+        source.load_with_progress(options, &progress).map_err(|e| e.to_string())?;
     if mesh.triangle_count() == 0 {
         return Err(format!("{} has no triangles", source.label()));
     }
     let scene = paper_scene(mesh, model_count, light);
-    let mut packed = PackedScene::for_loading(&scene, layout, &progress).map_err(|e| e.to_string())?;
+    let mut packed =
+        PackedScene::for_loading(&scene, layout, &progress).map_err(|e| e.to_string())?;
     progress.checkpoint().map_err(|e| e.to_string())?;
     // Textures that could not be read join the loader's warnings in the panel, and each is
     // printed once on the terminal.
@@ -153,15 +169,30 @@ mod tests {
     fn loads_on_a_thread_and_reports_errors_as_one_sentence() {
         let mut loader = ModelLoader::default();
         assert!(matches!(loader.poll(), Poll::Idle));
-        loader.start(ModelSource::Paper(PaperModel::Sphere), LoadOptions::default(), 2, LightOrbit::default(), BvhLayout::Binary);
+        loader.start(
+            ModelSource::Paper(PaperModel::Sphere),
+            LoadOptions::default(),
+            2,
+            LightOrbit::default(),
+            BvhLayout::Binary,
+        );
         assert!(loader.busy());
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let loaded = result.unwrap();
         assert_eq!(loaded.scene.instances.len(), 3);
-        assert_eq!(loaded.packed.triangle_count(), loaded.scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>());
+        assert_eq!(
+            loaded.packed.triangle_count(),
+            loaded.scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>()
+        );
         assert!(!loader.busy());
 
-        loader.start(ModelSource::File("/nonexistent/model.obj".into()), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
+        loader.start(
+            ModelSource::File("/nonexistent/model.obj".into()),
+            LoadOptions::default(),
+            1,
+            LightOrbit::default(),
+            BvhLayout::Binary,
+        );
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let err = result.err().unwrap();
         assert!(!err.contains('\n'), "{err}");
@@ -170,7 +201,13 @@ mod tests {
     #[test]
     fn a_cancelled_load_keeps_the_old_model_and_starts_no_phase() {
         let mut loader = ModelLoader::default();
-        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
+        loader.start(
+            ModelSource::Generated(2_000),
+            LoadOptions::default(),
+            1,
+            LightOrbit::default(),
+            BvhLayout::Binary,
+        );
         assert!(loader.cancel().is_some_and(|label| label.starts_with("torusknot")));
         assert!(matches!(loader.poll(), Poll::Idle), "the old model stays: nothing to take");
         assert!(loader.cancel().is_none());
@@ -178,7 +215,16 @@ mod tests {
         // The worker checks the flag before each phase.
         let progress = Progress::default();
         progress.cancel();
-        let err = load(ModelSource::Generated(2_000), &LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary, progress.clone()).err().unwrap();
+        let err = load(
+            ModelSource::Generated(2_000),
+            &LoadOptions::default(),
+            1,
+            LightOrbit::default(),
+            BvhLayout::Binary,
+            progress.clone(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(err, "loading was cancelled");
         assert!(progress.snapshot().phases.is_empty());
     }
@@ -186,11 +232,18 @@ mod tests {
     #[test]
     fn a_finished_load_lists_its_phases_in_order() {
         let mut loader = ModelLoader::default();
-        loader.start(ModelSource::Generated(2_000), LoadOptions::default(), 1, LightOrbit::default(), BvhLayout::Binary);
+        loader.start(
+            ModelSource::Generated(2_000),
+            LoadOptions::default(),
+            1,
+            LightOrbit::default(),
+            BvhLayout::Binary,
+        );
         let status = loader.status().unwrap();
         assert!(status.label.starts_with("torusknot"), "{}", status.label);
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
-        let phases: Vec<Phase> = result.unwrap().progress.snapshot().phases.iter().map(|p| p.phase).collect();
+        let phases: Vec<Phase> =
+            result.unwrap().progress.snapshot().phases.iter().map(|p| p.phase).collect();
         assert_eq!(phases, [Phase::Parse, Phase::Build, Phase::Pack]);
     }
 }

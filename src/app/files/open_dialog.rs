@@ -64,7 +64,9 @@ impl OpenDialog {
         // `/` opened the path field holding the current folder: select it all, so a typed
         // path (the `/` itself first, in the next frame's input) replaces it.
         let now = ctx.memory(|m| m.focused());
-        if let Some(field) = now.filter(|&id| Some(id) != focused && ctx.input(|i| i.key_pressed(egui::Key::Slash))) {
+        if let Some(field) =
+            now.filter(|&id| Some(id) != focused && ctx.input(|i| i.key_pressed(egui::Key::Slash)))
+        {
             select_all(ctx, field);
         }
         match dialog.state() {
@@ -88,7 +90,9 @@ fn select_all(ctx: &egui::Context, id: egui::Id) {
     use egui::text::{CCursor, CCursorRange};
     if let Some(mut state) = egui::TextEdit::load_state(ctx, id) {
         // The end is clamped to the text's length when the field next runs.
-        state.cursor.set_char_range(Some(CCursorRange::two(CCursor::new(0), CCursor::new(usize::MAX))));
+        state
+            .cursor
+            .set_char_range(Some(CCursorRange::two(CCursor::new(0), CCursor::new(usize::MAX))));
         state.store(ctx, id);
     }
 }
@@ -101,7 +105,9 @@ fn extensions(names: &'static [&'static str]) -> Filter<Path> {
 
 /// Whether `path`'s extension is one of `names`, ignoring case.
 fn has_extension(path: &Path, names: &[&str]) -> bool {
-    path.extension().and_then(|e| e.to_str()).is_some_and(|e| names.iter().any(|n| e.eq_ignore_ascii_case(n)))
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| names.iter().any(|n| e.eq_ignore_ascii_case(n)))
 }
 
 /// The folder the dialog starts in: that of `near` when it names a file or folder that
@@ -149,11 +155,19 @@ mod tests {
         let ctx = egui::Context::default();
         let mut picked = None;
         // No renderer here: the font texture's upload is dropped on purpose.
-        ctx.run_ui(egui::RawInput::default(), |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
+        ctx.run_ui(egui::RawInput::default(), |ui| picked = dialog.show(ui.ctx()))
+            .textures_delta
+            .clear();
         assert_eq!(picked, None);
         assert!(dialog.is_open(), "the dialog closed by itself");
         // Escape is the dialog's cancel key.
-        let escape = egui::Event::Key { key: egui::Key::Escape, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE };
+        let escape = egui::Event::Key {
+            key: egui::Key::Escape,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: egui::Modifiers::NONE,
+        };
         let raw = egui::RawInput { events: vec![escape], ..Default::default() };
         ctx.run_ui(raw, |ui| picked = dialog.show(ui.ctx())).textures_delta.clear();
         assert_eq!(picked, None);
@@ -162,7 +176,8 @@ mod tests {
 
     #[test]
     fn slash_opens_the_path_field_so_that_a_typed_absolute_path_replaces_the_folder() {
-        let dir = std::env::temp_dir().join(format!("meshtracer-open-dialog-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-open-dialog-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let model = dir.join("cube.obj");
         std::fs::write(&model, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
@@ -171,15 +186,35 @@ mod tests {
         // Opened in the manifest's folder: the field would hold it, and the path appended.
         dialog.open(Purpose::Model, Some(Path::new(env!("CARGO_MANIFEST_DIR"))));
         let ctx = egui::Context::default();
-        let key = |key| egui::Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers: egui::Modifiers::NONE };
+        let key = |key| egui::Event::Key {
+            key,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: egui::Modifiers::NONE,
+        };
         let mut picked = None;
         // Frames as the tool cuts them: "/" ends its frame, its text and the path follow.
-        let frames = [vec![], vec![key(egui::Key::Slash)], vec![egui::Event::Text("/".into()), egui::Event::Text(model.to_str().unwrap()[1..].into())], vec![key(egui::Key::Enter)]];
+        let frames = [
+            vec![],
+            vec![key(egui::Key::Slash)],
+            vec![
+                egui::Event::Text("/".into()),
+                egui::Event::Text(model.to_str().unwrap()[1..].into()),
+            ],
+            vec![key(egui::Key::Enter)],
+        ];
         for events in frames {
             let raw = egui::RawInput { events, ..Default::default() };
-            ctx.run_ui(raw, |ui| picked = picked.take().or(dialog.show(ui.ctx()))).textures_delta.clear();
+            ctx.run_ui(raw, |ui| picked = picked.take().or(dialog.show(ui.ctx())))
+                .textures_delta
+                .clear();
         }
         let _ = std::fs::remove_dir_all(&dir);
-        assert_eq!(picked, Some((Purpose::Model, expected)), "the path typed after / was not the one picked");
+        assert_eq!(
+            picked,
+            Some((Purpose::Model, expected)),
+            "the path typed after / was not the one picked"
+        );
     }
 }

@@ -30,11 +30,15 @@ pub(crate) struct NameParts {
 
 /// The folder screenshots go to.
 pub(crate) fn screenshot_dir() -> PathBuf {
-    std::env::var_os(DIR_VAR).filter(|v| !v.is_empty()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+    std::env::var_os(DIR_VAR)
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 fn sanitize(s: &str) -> String {
-    let cleaned: String = s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+    let cleaned: String =
+        s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
     if cleaned.is_empty() {
         "model".into()
     } else {
@@ -80,11 +84,15 @@ pub(crate) fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
 /// `meshtracer` text chunk (through `files::write_atomic`: a watcher never sees half a file,
 /// a failed write keeps the old one). The error is one sentence.
 pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
-    crate::files::image_files::save_png(image, Some(settings), path).map_err(|e| format!("could not write {}: {}", path.display(), e.root_cause()))
+    crate::files::image_files::save_png(image, Some(settings), path)
+        .map_err(|e| format!("could not write {}: {}", path.display(), e.root_cause()))
 }
 
 /// The panel's line for a file written (its full path) or not (why).
-pub(crate) fn status(result: Result<(), String>, path: &Path) -> crate::app::panel::widgets::Status {
+pub(crate) fn status(
+    result: Result<(), String>,
+    path: &Path,
+) -> crate::app::panel::widgets::Status {
     match result {
         Ok(()) => {
             let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
@@ -99,7 +107,14 @@ mod tests {
     use super::*;
 
     fn parts() -> NameParts {
-        NameParts { model: "my model.v2".into(), models: 3, width: 640, height: 480, bounces: 2, blend: 0.5 }
+        NameParts {
+            model: "my model.v2".into(),
+            models: 3,
+            width: 640,
+            height: 480,
+            bounces: 2,
+            blend: 0.5,
+        }
     }
 
     #[test]
@@ -116,7 +131,9 @@ mod tests {
         let path = dir.join("shot.png");
         let spec = crate::scene::spec::SceneSpec::default();
         save_png(&RgbaImage::new(3, 2), &spec.to_preset_text(), &path).unwrap();
-        let text = crate::files::image_files::png_settings(&std::fs::read(&path).unwrap()).unwrap().unwrap();
+        let text = crate::files::image_files::png_settings(&std::fs::read(&path).unwrap())
+            .unwrap()
+            .unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert_eq!(text, spec.to_preset_text());
     }

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::app::panel::PanelState;
 use crate::app::panel::widgets::Sections;
+use crate::app::panel::PanelState;
 
 /// The environment variable naming the folder of `settings.toml` (tests point it at a
 /// temporary folder so they never touch the user's).
@@ -39,15 +39,25 @@ pub(crate) struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Self { version: FORMAT, window: None, sections: BTreeMap::new(), recent_presets: Vec::new(), graph_seconds: None }
+        Self {
+            version: FORMAT,
+            window: None,
+            sections: BTreeMap::new(),
+            recent_presets: Vec::new(),
+            graph_seconds: None,
+        }
     }
 }
 
 /// Parse the text of a settings file; the error is one sentence.
 pub(crate) fn parse(text: &str) -> Result<Settings, String> {
-    let settings: Settings = toml::from_str(text).map_err(|e| e.message().trim().trim_end_matches('.').replace('\n', " "))?;
+    let settings: Settings = toml::from_str(text)
+        .map_err(|e| e.message().trim().trim_end_matches('.').replace('\n', " "))?;
     if settings.version > FORMAT {
-        return Err(format!("format version {} is newer than this meshtracer's {FORMAT}", settings.version));
+        return Err(format!(
+            "format version {} is newer than this meshtracer's {FORMAT}",
+            settings.version
+        ));
     }
     Ok(settings)
 }
@@ -58,18 +68,34 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Settings::default(), None),
-        Err(e) => return (Settings::default(), Some(format!("cannot read the remembered settings {} ({e}); using the defaults", path.display()))),
+        Err(e) => {
+            return (
+                Settings::default(),
+                Some(format!(
+                    "cannot read the remembered settings {} ({e}); using the defaults",
+                    path.display()
+                )),
+            )
+        }
     };
     match parse(&text) {
         Ok(settings) => (settings, None),
-        Err(e) => (Settings::default(), Some(format!("ignoring the remembered settings {} ({e}); using the defaults", path.display()))),
+        Err(e) => (
+            Settings::default(),
+            Some(format!(
+                "ignoring the remembered settings {} ({e}); using the defaults",
+                path.display()
+            )),
+        ),
     }
 }
 
 /// Write `settings` to `path` through a temporary file renamed over it, so a crash never
 /// leaves half a file; creates the folder.
 pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
-    let fail = |e: &dyn std::fmt::Display| format!("cannot remember the settings in {} ({e})", path.display());
+    let fail = |e: &dyn std::fmt::Display| {
+        format!("cannot remember the settings in {} ({e})", path.display())
+    };
     let text = toml::to_string(settings).map_err(|e| fail(&e))?;
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
@@ -90,10 +116,11 @@ impl Store {
         if !persist {
             return Self { path: None };
         }
-        let dir = std::env::var_os(DIR_VAR)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-            .or_else(|| directories::ProjectDirs::from("", "", "meshtracer").map(|d| d.config_dir().to_path_buf()));
+        let dir =
+            std::env::var_os(DIR_VAR).filter(|v| !v.is_empty()).map(PathBuf::from).or_else(|| {
+                directories::ProjectDirs::from("", "", "meshtracer")
+                    .map(|d| d.config_dir().to_path_buf())
+            });
         Self { path: dir.map(|d| d.join("settings.toml")) }
     }
 
@@ -139,13 +166,22 @@ pub(crate) fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::C
 }
 
 /// What to remember of the run now, with the window's logical size (None when minimized).
-pub(crate) fn snapshot(window: Option<[u32; 2]>, panel: &PanelState, ctx: &egui::Context) -> Settings {
+pub(crate) fn snapshot(
+    window: Option<[u32; 2]>,
+    panel: &PanelState,
+    ctx: &egui::Context,
+) -> Settings {
     Settings {
         version: FORMAT,
         window: window.filter(|&[w, h]| w >= 64 && h >= 64),
         sections: Sections::get(ctx).open,
         // Absolute: the next run may start in another folder.
-        recent_presets: panel.presets.recent.iter().map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone())).collect(),
+        recent_presets: panel
+            .presets
+            .recent
+            .iter()
+            .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()))
+            .collect(),
         graph_seconds: Some(panel.perf.seconds),
     }
 }
@@ -163,7 +199,8 @@ mod tests {
     use super::*;
 
     fn temp(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("meshtracer-settings-{name}-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-settings-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         dir
     }
@@ -172,7 +209,12 @@ mod tests {
     fn settings_round_trip_through_the_file() {
         let dir = temp("round-trip");
         let path = dir.join("nested").join("settings.toml");
-        let mut s = Settings { window: Some([900, 600]), recent_presets: vec![PathBuf::from("/tmp/look.toml")], graph_seconds: Some(30.0), ..Default::default() };
+        let mut s = Settings {
+            window: Some([900, 600]),
+            recent_presets: vec![PathBuf::from("/tmp/look.toml")],
+            graph_seconds: Some(30.0),
+            ..Default::default()
+        };
         s.sections.insert("Performance".into(), true);
         s.sections.insert("Light".into(), false);
         write(&path, &s).unwrap();
@@ -196,7 +238,11 @@ mod tests {
             let (s, warning) = read(&path);
             assert_eq!(s, Settings::default(), "{text}");
             let warning = warning.unwrap_or_else(|| panic!("no warning for {text:?}"));
-            assert!(warning.contains(&path.display().to_string()) && warning.ends_with("using the defaults"), "{warning}");
+            assert!(
+                warning.contains(&path.display().to_string())
+                    && warning.ends_with("using the defaults"),
+                "{warning}"
+            );
             assert!(!warning.contains('\n'), "{warning}");
         }
         // Unknown keys (a newer release's) are no reason to forget the rest.

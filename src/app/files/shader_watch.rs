@@ -7,12 +7,12 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime};
 
-use crate::gpu::ComputeTracer;
 use crate::gpu::shader_compile::shader_files;
 use crate::gpu::trace_pass::compile_trace_shader;
+use crate::gpu::ComputeTracer;
 
-use crate::app::panel::PanelState;
 use crate::app::panel::widgets::Status;
+use crate::app::panel::PanelState;
 
 /// How often the files' modification times are read.
 const POLL_EVERY: Duration = Duration::from_millis(500);
@@ -53,7 +53,14 @@ impl ShaderWatch {
         self.next_poll = now + POLL_EVERY;
         let files = match shader_files(&self.dir) {
             Ok(files) => files,
-            Err(e) => return self.changed(vec![]).then(|| Status::error(format!("cannot read the shader folder {}: {e}", self.dir.display()))),
+            Err(e) => {
+                return self.changed(vec![]).then(|| {
+                    Status::error(format!(
+                        "cannot read the shader folder {}: {e}",
+                        self.dir.display()
+                    ))
+                })
+            }
         };
         let stamps = files.into_iter().map(|f| {
             let modified = std::fs::metadata(&f).and_then(|m| m.modified()).ok();
@@ -62,7 +69,8 @@ impl ShaderWatch {
         if !self.changed(stamps.collect()) {
             return None;
         }
-        let result = compile_trace_shader(&self.dir, tracer.kernel()).and_then(|spirv| tracer.reload_shader(&spirv).map_err(|e| format!("{e:#}")));
+        let result = compile_trace_shader(&self.dir, tracer.kernel())
+            .and_then(|spirv| tracer.reload_shader(&spirv).map_err(|e| format!("{e:#}")));
         Some(match result {
             Ok(()) => Status::ok("shaders reloaded"),
             // The first line names file:line; naga's full report goes to the terminal.

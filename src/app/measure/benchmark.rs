@@ -11,11 +11,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
-use crate::bench::Environment;
 use crate::bench::timing::{mrays_per_second, Timing};
 use crate::bench::workload::WorkloadHeader;
-use crate::scene::camera::Camera;
+use crate::bench::Environment;
 use crate::render_settings::RenderSettings;
+use crate::scene::camera::Camera;
 
 /// Frames in a run when `--benchmark` is given without a number.
 pub(crate) const DEFAULT_FRAMES: u32 = 120;
@@ -69,7 +69,9 @@ pub(crate) struct BenchmarkSummary {
 impl BenchmarkSummary {
     /// The summary as a few lines of text, for the terminal and the panel.
     pub(crate) fn lines(&self) -> Vec<String> {
-        let t = |t: &Timing| format!("min {:.2}  mean {:.2}  p90 {:.2}  max {:.2}", t.min, t.mean, t.p90, t.max);
+        let t = |t: &Timing| {
+            format!("min {:.2}  mean {:.2}  p90 {:.2}  max {:.2}", t.min, t.mean, t.p90, t.max)
+        };
         let (e, w) = (&self.environment, &self.workload);
         vec![
             format!(
@@ -133,7 +135,12 @@ impl Benchmark {
     /// the scene opens, the light stops, accumulation and other views are switched off;
     /// `area` is the image area (for the render size).
     pub(crate) fn begin(frames: u32, params: &mut Params, area: [u32; 2]) -> Self {
-        let saved = Saved { camera: params.camera, light_paused: params.light_paused, accumulate: params.accumulate, view: params.view };
+        let saved = Saved {
+            camera: params.camera,
+            light_paused: params.light_paused,
+            accumulate: params.accumulate,
+            view: params.view,
+        };
         params.view = ViewMode::Color;
         let mut run = Self {
             frames: frames.max(1),
@@ -194,15 +201,22 @@ impl Benchmark {
     pub(crate) fn gpu_time(&mut self, ms: f64) {
         // Before measuring, times may be of frames before the run; warm-up frames are the
         // run's own settings, so times read while measuring all count.
-        if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.gpu_ms.len() < self.frames as usize {
+        if self.warmup_left == 0
+            && !self.frame_ms.is_empty()
+            && self.gpu_ms.len() < self.frames as usize
+        {
             self.gpu_ms.push(ms);
         }
     }
 
     /// The shader clock as last read, MHz (kept while measuring).
     pub(crate) fn clock_reading(&mut self, mhz: f64) {
-        if self.warmup_left == 0 && !self.frame_ms.is_empty() && self.frame_ms.len() < self.frames as usize {
-            self.clock_mhz = Some(self.clock_mhz.map_or([mhz, mhz], |[lo, hi]| [lo.min(mhz), hi.max(mhz)]));
+        if self.warmup_left == 0
+            && !self.frame_ms.is_empty()
+            && self.frame_ms.len() < self.frames as usize
+        {
+            self.clock_mhz =
+                Some(self.clock_mhz.map_or([mhz, mhz], |[lo, hi]| [lo.min(mhz), hi.max(mhz)]));
         }
     }
 
@@ -213,7 +227,8 @@ impl Benchmark {
 
     /// Every frame is measured and its GPU time has arrived (or will not).
     pub(crate) fn is_finished(&self) -> bool {
-        self.frame_ms.len() >= self.frames as usize && (self.gpu_ms.len() >= self.frames as usize || self.drained >= DRAIN_FRAMES)
+        self.frame_ms.len() >= self.frames as usize
+            && (self.gpu_ms.len() >= self.frames as usize || self.drained >= DRAIN_FRAMES)
     }
 
     /// Give the parameters back as they were before the run.
@@ -287,7 +302,12 @@ impl Runs {
 
     /// Before a frame: begin a run asked for, or keep the one in progress on its orbit and
     /// settings (a change of settings stops it).
-    pub(crate) fn before_frame(&mut self, params: &mut Params, area: [u32; 2], outcome: &mut Outcome) -> anyhow::Result<()> {
+    pub(crate) fn before_frame(
+        &mut self,
+        params: &mut Params,
+        area: [u32; 2],
+        outcome: &mut Outcome,
+    ) -> anyhow::Result<()> {
         if let Some(frames) = self.wanted.take() {
             if let Some(old) = self.run.take() {
                 old.restore(params);
@@ -296,7 +316,11 @@ impl Runs {
             outcome.status = Some(Status::ok(format!("running {frames} frames ...")));
         }
         match &mut self.run {
-            Some(run) if run.settings_changed(&params.settings_for(area)) => self.stop("the benchmark stopped: the settings changed during the run", params, outcome),
+            Some(run) if run.settings_changed(&params.settings_for(area)) => self.stop(
+                "the benchmark stopped: the settings changed during the run",
+                params,
+                outcome,
+            ),
             Some(run) => {
                 run.hold(params);
                 Ok(())
@@ -306,7 +330,12 @@ impl Runs {
     }
 
     /// End the run in progress without a summary, saying `why` (an error under `--benchmark`).
-    pub(crate) fn stop(&mut self, why: &str, params: &mut Params, outcome: &mut Outcome) -> anyhow::Result<()> {
+    pub(crate) fn stop(
+        &mut self,
+        why: &str,
+        params: &mut Params,
+        outcome: &mut Outcome,
+    ) -> anyhow::Result<()> {
         let Some(run) = self.run.take() else { return Ok(()) };
         run.restore(params);
         let (done, total) = run.progress();
@@ -320,7 +349,13 @@ impl Runs {
 
     /// After a frame: `traced` when it presented a whole traced frame at `t` seconds;
     /// `gpu_ms` when a frame's GPU time arrived; `clock_mhz` the shader clock as last read.
-    pub(crate) fn after_frame(&mut self, t: f64, traced: bool, gpu_ms: Option<f64>, clock_mhz: Option<f64>) {
+    pub(crate) fn after_frame(
+        &mut self,
+        t: f64,
+        traced: bool,
+        gpu_ms: Option<f64>,
+        clock_mhz: Option<f64>,
+    ) {
         if let Some(run) = &mut self.run {
             if traced {
                 run.frame_traced(t);
@@ -336,7 +371,13 @@ impl Runs {
 
     /// A finished run's summary printed, shown and appended to the JSON file; true when
     /// the tool should quit now (`--benchmark`, where a file not written is an error).
-    pub(crate) fn finish(&mut self, params: &mut Params, outcome: &mut Outcome, workload: impl FnOnce(&Params) -> Workload, environment: impl FnOnce() -> Environment) -> anyhow::Result<bool> {
+    pub(crate) fn finish(
+        &mut self,
+        params: &mut Params,
+        outcome: &mut Outcome,
+        workload: impl FnOnce(&Params) -> Workload,
+        environment: impl FnOnce() -> Environment,
+    ) -> anyhow::Result<bool> {
         let Some(run) = self.run.take_if(|r| r.is_finished()) else { return Ok(false) };
         run.restore(params);
         let summary = run.summary(workload(params), environment());
@@ -344,13 +385,17 @@ impl Runs {
         for line in &lines {
             println!("{line}");
         }
-        let path = json_path(self.json.as_deref(), &crate::app::files::screenshot::screenshot_dir());
+        let path =
+            json_path(self.json.as_deref(), &crate::app::files::screenshot::screenshot_dir());
         let written = append_json(&path, &summary);
         outcome.lines = lines;
         outcome.status = Some(match &written {
             Ok(()) => {
                 println!("appended to {}", path.display());
-                Status::ok(format!("appended to {}", std::fs::canonicalize(&path).unwrap_or(path).display()))
+                Status::ok(format!(
+                    "appended to {}",
+                    std::fs::canonicalize(&path).unwrap_or(path).display()
+                ))
             }
             Err(e) => Status::error(e.clone()),
         });
@@ -379,7 +424,8 @@ pub(crate) fn json_path(given: Option<&Path>, screenshot_dir: &Path) -> PathBuf 
 
 /// Append the summary to `path` as one line of JSON (JSON Lines: runs accumulate).
 pub(crate) fn append_json(path: &Path, summary: &BenchmarkSummary) -> Result<(), String> {
-    let line = serde_json::to_string(summary).map_err(|e| format!("cannot write the benchmark as JSON ({e})"))?;
+    let line = serde_json::to_string(summary)
+        .map_err(|e| format!("cannot write the benchmark as JSON ({e})"))?;
     std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -394,7 +440,13 @@ mod tests {
     use crate::scene::spec::SceneSpec;
 
     fn environment() -> Environment {
-        Environment { device: "Test GPU".into(), device_type: "discrete".into(), driver: "1.2.3".into(), vulkan: "1.3".into(), date: "2024-01-01".into() }
+        Environment {
+            device: "Test GPU".into(),
+            device_type: "discrete".into(),
+            driver: "1.2.3".into(),
+            vulkan: "1.3".into(),
+            date: "2024-01-01".into(),
+        }
     }
 
     fn workload() -> Workload {
@@ -428,14 +480,22 @@ mod tests {
         let (b, _) = run(10, &[10.0, 20.0], Some(5.0));
         let s = b.summary(workload(), environment());
         assert_eq!(s.frames, 10);
-        assert!((s.frame_ms.min - 10.0).abs() < 1e-6 && (s.frame_ms.max - 20.0).abs() < 1e-6, "{:?}", s.frame_ms);
+        assert!(
+            (s.frame_ms.min - 10.0).abs() < 1e-6 && (s.frame_ms.max - 20.0).abs() < 1e-6,
+            "{:?}",
+            s.frame_ms
+        );
         assert!((s.frame_ms.mean - 15.0).abs() < 1e-6);
         assert!((s.fps - 1e3 / 15.0).abs() < 1e-6);
         let gpu = s.gpu_ms.expect("GPU times were given");
         assert_eq!((gpu.min, gpu.max), (5.0, 5.0));
         // 512 x 512 pixels x (2 bounces + 1) rays in 5 ms.
         assert_eq!(s.rays_per_frame, 512 * 512 * 3);
-        assert!((s.mrays_per_s - 512.0 * 512.0 * 3.0 / 5e-3 / 1e6).abs() < 1e-6, "{}", s.mrays_per_s);
+        assert!(
+            (s.mrays_per_s - 512.0 * 512.0 * 3.0 / 5e-3 / 1e6).abs() < 1e-6,
+            "{}",
+            s.mrays_per_s
+        );
     }
 
     #[test]
@@ -451,17 +511,27 @@ mod tests {
         let mut params = Params::new(&SceneSpec::default(), false);
         let mut b = Benchmark::begin(4, &mut params, [800, 600]);
         // Warm-up readings do not count; those while measuring give the range.
-        for (i, mhz) in [100.0, 100.0, 100.0, 1980.0, 345.0, 1500.0, 1980.0, 90.0].into_iter().enumerate() {
+        for (i, mhz) in
+            [100.0, 100.0, 100.0, 1980.0, 345.0, 1500.0, 1980.0, 90.0].into_iter().enumerate()
+        {
             b.frame_traced(i as f64);
             b.gpu_time(1.0);
             b.clock_reading(mhz);
         }
         let s = b.summary(workload(), environment());
         assert_eq!(s.gpu_clock_mhz, Some([345.0, 1980.0]));
-        assert!(s.lines().iter().any(|l| l.contains("345-1980 MHz: clocked down")), "{:?}", s.lines());
+        assert!(
+            s.lines().iter().any(|l| l.contains("345-1980 MHz: clocked down")),
+            "{:?}",
+            s.lines()
+        );
         // A run without readings says so.
         let (b, _) = run(4, &[8.0], Some(1.0));
-        assert!(b.summary(workload(), environment()).lines().iter().any(|l| l.contains("gpu clock: -")));
+        assert!(b
+            .summary(workload(), environment())
+            .lines()
+            .iter()
+            .any(|l| l.contains("gpu clock: -")));
     }
 
     #[test]
@@ -471,7 +541,11 @@ mod tests {
         params.view = ViewMode::Cost(crate::app::state::CostMetric::Nodes);
         let before = params.clone();
         let mut b = Benchmark::begin(8, &mut params, [800, 600]);
-        assert_eq!(params.camera, params.scene.camera.camera(), "a run starts where the scene opens");
+        assert_eq!(
+            params.camera,
+            params.scene.camera.camera(),
+            "a run starts where the scene opens"
+        );
         assert!(params.light_paused && !params.accumulate && params.view == ViewMode::Color);
         let home = params.scene.camera.camera();
         let dist = (home.position - home.target).length();
@@ -479,13 +553,19 @@ mod tests {
         for i in 0..30 {
             b.hold(&mut params);
             let c = params.camera;
-            assert!(((c.position - c.target).length() - dist).abs() < 1e-3, "the orbit keeps its distance");
+            assert!(
+                ((c.position - c.target).length() - dist).abs() < 1e-3,
+                "the orbit keeps its distance"
+            );
             assert!((c.position.y - home.position.y).abs() < 1e-3, "the orbit keeps its height");
             angles.push((c.position - c.target).z.atan2((c.position - c.target).x));
             b.frame_traced(i as f64);
         }
         // Eight evenly spaced angles: 45° apart, all different.
-        let mut distinct: Vec<f32> = angles.iter().map(|a| (a.to_degrees().rem_euclid(360.0) / 45.0).round() % 8.0).collect();
+        let mut distinct: Vec<f32> = angles
+            .iter()
+            .map(|a| (a.to_degrees().rem_euclid(360.0) / 45.0).round() % 8.0)
+            .collect();
         distinct.dedup();
         distinct.sort_by(f32::total_cmp);
         distinct.dedup();
@@ -505,7 +585,8 @@ mod tests {
 
     #[test]
     fn json_lines_accumulate_and_read_back() {
-        let dir = std::env::temp_dir().join(format!("meshtracer-bench-json-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("meshtracer-bench-json-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = json_path(None, &dir);
         assert_eq!(path, dir.join(DEFAULT_JSON_NAME));
@@ -515,15 +596,31 @@ mod tests {
         append_json(&path, &s).unwrap();
         append_json(&path, &s).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        let rows: Vec<BenchmarkSummary> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+        let rows: Vec<BenchmarkSummary> =
+            text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[0].environment.driver, "1.2.3");
         assert_eq!(rows[1].frames, 3);
         assert_eq!(rows[1].workload, s.workload);
         // The flattened workload keeps the line's fields in their old order.
         let line = text.lines().next().unwrap();
-        let at = |key: &str| line.find(&format!("\"{key}\":")).unwrap_or_else(|| panic!("{key} in {line}"));
-        let keys = ["environment", "model", "models", "triangles", "width", "height", "bounces", "accel", "spp", "smooth", "rays_per_frame", "frames"];
+        let at = |key: &str| {
+            line.find(&format!("\"{key}\":")).unwrap_or_else(|| panic!("{key} in {line}"))
+        };
+        let keys = [
+            "environment",
+            "model",
+            "models",
+            "triangles",
+            "width",
+            "height",
+            "bounces",
+            "accel",
+            "spp",
+            "smooth",
+            "rays_per_frame",
+            "frames",
+        ];
         assert!(keys.windows(2).all(|k| at(k[0]) < at(k[1])), "{line}");
         let e = append_json(&dir.join("no/such/dir/x.jsonl"), &s).unwrap_err();
         assert!(e.starts_with("cannot append the benchmark to"), "{e}");

@@ -90,7 +90,11 @@ pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
         Some(crate::scene::EnvironmentSource::Sky) => "sky".into(),
         Some(crate::scene::EnvironmentSource::File(f)) => f.display().to_string(),
     };
-    let light = if p.light_paused { format!("paused at {:.1}°", p.scene.light.angle_deg) } else { format!("orbiting at {:.0}°/s", p.light_speed) };
+    let light = if p.light_paused {
+        format!("paused at {:.1}°", p.scene.light.angle_deg)
+    } else {
+        format!("orbiting at {:.0}°/s", p.light_speed)
+    };
     vec![
         ("model", model.to_string()),
         ("copies", p.scene.models.to_string()),
@@ -109,7 +113,15 @@ pub(crate) fn watched(p: &Params, model: &str) -> Vec<Watched> {
         ("light", light),
         ("light radius", format!("{:.2}", p.scene.light.radius)),
         ("light height", format!("{:.2}", p.scene.light.height)),
-        ("camera", format!("eye {} target {} fov {:.1}", v(p.camera.position), v(p.camera.target), p.camera.vfov_deg)),
+        (
+            "camera",
+            format!(
+                "eye {} target {} fov {:.1}",
+                v(p.camera.position),
+                v(p.camera.target),
+                p.camera.vfov_deg
+            ),
+        ),
         ("vsync", on(p.vsync)),
         // Drawing the panel and the numbers costs frame time too.
         ("panel", on(p.panel_visible)),
@@ -160,7 +172,11 @@ pub(crate) fn frame_line(index: u64, time_s: f64, r: &FrameRow) -> String {
 
 /// The CSV line of a change that takes effect at frame `index`.
 pub(crate) fn change_line(index: u64, time_s: f64, c: &Change) -> String {
-    format!("change,{index},{time_s:.3},,,,,,,,,,{},{}", field(c.name), field(&format!("{}->{}", c.from, c.to)))
+    format!(
+        "change,{index},{time_s:.3},,,,,,,,,,{},{}",
+        field(c.name),
+        field(&format!("{}->{}", c.from, c.to))
+    )
 }
 
 /// The log being written: the CSV output and what it needs to place change rows.
@@ -194,7 +210,9 @@ impl<W: Write> FrameLog<W> {
     pub(crate) fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> io::Result<()> {
         let changed = diff(&self.last, &now);
         // Moves that did not go on into this frame ended on the held frame.
-        let (ended, still): (Vec<Watched>, Vec<Watched>) = std::mem::take(&mut self.moving).into_iter().partition(|(name, _)| !changed.iter().any(|c| c.name == *name));
+        let (ended, still): (Vec<Watched>, Vec<Watched>) = std::mem::take(&mut self.moving)
+            .into_iter()
+            .partition(|(name, _)| !changed.iter().any(|c| c.name == *name));
         self.moving = still;
         self.write_held(&ended)?;
         for c in changed {
@@ -216,7 +234,11 @@ impl<W: Write> FrameLog<W> {
         for (name, to) in &self.last {
             if let Some((_, from)) = ended.iter().find(|(n, _)| n == name) {
                 if from != to {
-                    writeln!(self.out, "{}", change_line(index, t, &Change { name, from: from.clone(), to: to.clone() }))?;
+                    writeln!(
+                        self.out,
+                        "{}",
+                        change_line(index, t, &Change { name, from: from.clone(), to: to.clone() })
+                    )?;
                 }
             }
         }
@@ -244,7 +266,10 @@ impl Recording {
     pub(crate) fn create(path: &Path) -> Result<Self, String> {
         let fail = |e: io::Error| format!("cannot write the frame log {}: {e}", path.display());
         let file = File::create(path).map_err(fail)?;
-        Ok(Self { path: path.to_path_buf(), log: FrameLog::new(BufWriter::new(file)).map_err(fail)? })
+        Ok(Self {
+            path: path.to_path_buf(),
+            log: FrameLog::new(BufWriter::new(file)).map_err(fail)?,
+        })
     }
 
     /// Frames logged so far.
@@ -254,7 +279,9 @@ impl Recording {
 
     /// Log a traced frame; the error is one sentence naming the file.
     pub(crate) fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> Result<(), String> {
-        self.log.frame(row, now).map_err(|e| format!("writing the frame log {} failed: {e}", self.path.display()))
+        self.log
+            .frame(row, now)
+            .map_err(|e| format!("writing the frame log {} failed: {e}", self.path.display()))
     }
 
     /// Close the file; returns what to tell the user.
@@ -269,7 +296,13 @@ impl Recording {
 
 impl FrameRow {
     /// The row of a frame traced with `settings` at `time_s`: the latest times of `stats`.
-    pub(crate) fn new(time_s: f64, stats: &FrameStats, settings: &RenderSettings, triangles: u64, gpu_clock_mhz: Option<f64>) -> Self {
+    pub(crate) fn new(
+        time_s: f64,
+        stats: &FrameStats,
+        settings: &RenderSettings,
+        triangles: u64,
+        gpu_clock_mhz: Option<f64>,
+    ) -> Self {
         Self {
             time_s,
             gpu_ms: stats.gpu.samples.back().map(|s| s.1),
@@ -344,7 +377,10 @@ impl Recorder {
     }
 
     /// Log a traced frame; a write failure ends the log and is returned.
-    pub(crate) fn frame(&mut self, row: impl FnOnce() -> (FrameRow, Vec<Watched>)) -> Option<Status> {
+    pub(crate) fn frame(
+        &mut self,
+        row: impl FnOnce() -> (FrameRow, Vec<Watched>),
+    ) -> Option<Status> {
         let recording = self.recording.as_mut()?;
         let (row, now) = row();
         let e = recording.frame(row, now).err()?;
@@ -381,7 +417,19 @@ mod tests {
     use crate::scene::spec::SceneSpec;
 
     fn row(t: f64, bounces: u32) -> FrameRow {
-        FrameRow { time_s: t, gpu_ms: Some(1.5), frame_ms: Some(16.6667), size: [512, 256], bounces, spp: 1, accel: Accel::Bvh, bvh: BvhLayout::Binary, triangles: 20480, rays: 512 * 256 * (bounces as u64 + 1), gpu_clock_mhz: Some(1980.4) }
+        FrameRow {
+            time_s: t,
+            gpu_ms: Some(1.5),
+            frame_ms: Some(16.6667),
+            size: [512, 256],
+            bounces,
+            spp: 1,
+            accel: Accel::Bvh,
+            bvh: BvhLayout::Binary,
+            triangles: 20480,
+            rays: 512 * 256 * (bounces as u64 + 1),
+            gpu_clock_mhz: Some(1980.4),
+        }
     }
 
     fn params() -> Params {
@@ -399,9 +447,17 @@ mod tests {
         assert_eq!(f, "frame,3,0.250,1.500,16.667,512x256,2,1,bvh,20480,393216,1980,,");
         let c = change_line(4, 0.5, &Change { name: "camera", from: "a,b".into(), to: "c".into() });
         assert_eq!(c, "change,4,0.500,,,,,,,,,,camera,\"a,b->c\"");
-        let unknown = frame_line(0, 0.0, &FrameRow { gpu_ms: None, frame_ms: None, gpu_clock_mhz: None, ..row(0.0, 2) });
+        let unknown = frame_line(
+            0,
+            0.0,
+            &FrameRow { gpu_ms: None, frame_ms: None, gpu_clock_mhz: None, ..row(0.0, 2) },
+        );
         assert!(unknown.starts_with("frame,0,0.000,,,512x256,"), "{unknown}");
-        for line in [f, unknown, change_line(0, 0.0, &Change { name: "bounces", from: "2".into(), to: "3".into() })] {
+        for line in [
+            f,
+            unknown,
+            change_line(0, 0.0, &Change { name: "bounces", from: "2".into(), to: "3".into() }),
+        ] {
             assert_eq!(line.split(',').count(), columns, "{line}");
         }
     }
@@ -414,7 +470,8 @@ mod tests {
         b.scene.settings.bounces = 3;
         b.scene.settings.accel = Accel::Brute;
         let changes = diff(&watched(&a, "geosphere"), &watched(&b, "sphere"));
-        let named: Vec<String> = changes.iter().map(|c| format!("{} {}->{}", c.name, c.from, c.to)).collect();
+        let named: Vec<String> =
+            changes.iter().map(|c| format!("{} {}->{}", c.name, c.from, c.to)).collect();
         assert_eq!(named, ["model geosphere->sphere", "bounces 2->3", "acceleration bvh->brute"]);
         // An orbiting light moves every frame without being a change.
         let mut moving = a.clone();
@@ -437,7 +494,11 @@ mod tests {
         assert_eq!(lines[0], HEADER);
         assert!(lines[1].starts_with("frame,0,0.000,"), "{}", lines[1]);
         assert_eq!(lines[2], "change,1,0.100,,,,,,,,,,bounces,2->3");
-        assert!(lines[3].starts_with("frame,1,0.100,") && lines[3].contains(",3,1,bvh,"), "{}", lines[3]);
+        assert!(
+            lines[3].starts_with("frame,1,0.100,") && lines[3].contains(",3,1,bvh,"),
+            "{}",
+            lines[3]
+        );
         assert!(lines[4].starts_with("frame,2,"));
         assert_eq!(lines.len(), 5);
     }
@@ -473,7 +534,9 @@ mod tests {
 
     #[test]
     fn a_file_that_cannot_be_created_is_one_sentence() {
-        let Err(e) = Recorder::from_flag(Some(Path::new("/nonexistent-dir/x.csv"))) else { panic!("created a file in a missing folder") };
+        let Err(e) = Recorder::from_flag(Some(Path::new("/nonexistent-dir/x.csv"))) else {
+            panic!("created a file in a missing folder")
+        };
         assert!(e.starts_with("cannot write the frame log /nonexistent-dir/x.csv: "), "{e}");
         assert!(!e.contains('\n'));
         let mut panel = Recorder::default();

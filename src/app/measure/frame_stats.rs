@@ -32,13 +32,17 @@ impl Series {
     /// The summary of the last `seconds` of history; None when empty.
     pub(crate) fn summary_over(&self, seconds: f64) -> Option<Timing> {
         let &(last, _) = self.samples.back()?;
-        let recent: Vec<f64> = self.samples.iter().filter(|&&(t, _)| last - t <= seconds).map(|&(_, v)| v).collect();
+        let recent: Vec<f64> =
+            self.samples.iter().filter(|&&(t, _)| last - t <= seconds).map(|&(_, v)| v).collect();
         Timing::of(&recent)
     }
 
     /// The samples of the last `seconds`, as (seconds before the latest sample of `now`, ms).
     pub(crate) fn recent(&self, seconds: f64, now: f64) -> impl Iterator<Item = [f64; 2]> + '_ {
-        self.samples.iter().filter(move |&&(t, _)| now - t <= seconds).map(move |&(t, ms)| [t - now, ms])
+        self.samples
+            .iter()
+            .filter(move |&&(t, _)| now - t <= seconds)
+            .map(move |&(t, ms)| [t - now, ms])
     }
 }
 
@@ -77,13 +81,17 @@ impl FrameStats {
 
     /// Time of the latest sample of either series (0 before any).
     pub(crate) fn latest(&self) -> f64 {
-        [&self.gpu, &self.frame].iter().filter_map(|s| s.samples.back().map(|v| v.0)).fold(0.0, f64::max)
+        [&self.gpu, &self.frame]
+            .iter()
+            .filter_map(|s| s.samples.back().map(|v| v.0))
+            .fold(0.0, f64::max)
     }
 
     /// Frames per second over the last second of history.
     pub(crate) fn fps(&self) -> f64 {
         let Some(&(last, _)) = self.frame.samples.back() else { return 0.0 };
-        let recent: Vec<f64> = self.frame.samples.iter().filter(|s| last - s.0 < 1.0).map(|s| s.1).collect();
+        let recent: Vec<f64> =
+            self.frame.samples.iter().filter(|s| last - s.0 < 1.0).map(|s| s.1).collect();
         let total: f64 = recent.iter().sum();
         if total > 0.0 {
             recent.len() as f64 * 1000.0 / total
@@ -110,8 +118,15 @@ mod tests {
         let (ms, mrays) = stats.gpu_now(&bvh).unwrap();
         assert_eq!(ms, 2.0);
         assert!((mrays - bvh.max_rays() as f64 / 2.0 / 1e3).abs() < 1e-9, "{mrays}");
-        assert_eq!(stats.gpu_now(&RenderSettings { width: 8192, ..bvh }), None, "a new resolution has no time yet");
-        assert_eq!(stats.gpu_now(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..bvh }), None);
+        assert_eq!(
+            stats.gpu_now(&RenderSettings { width: 8192, ..bvh }),
+            None,
+            "a new resolution has no time yet"
+        );
+        assert_eq!(
+            stats.gpu_now(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..bvh }),
+            None
+        );
         stats.push_gpu(2.0, 3.0, None);
         assert_eq!(stats.gpu_now(&bvh), None, "a time of an unknown frame is shown with no rays");
     }

@@ -49,7 +49,9 @@ impl ClockWatch {
                 self.highest = Some(self.highest.map_or(mhz, |h| h.max(mhz)));
             }
             Err(e) => {
-                log::warn!("reading the GPU's shader clock failed ({e}); the panel will not show it");
+                log::warn!(
+                    "reading the GPU's shader clock failed ({e}); the panel will not show it"
+                );
                 self.probe = None;
             }
         }

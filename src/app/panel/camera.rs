@@ -41,7 +41,12 @@ fn point_text(p: Vec3) -> String {
 
 /// The camera as `--eye`, `--target` and `--fov` flags.
 pub(crate) fn camera_flags(c: &Camera) -> String {
-    format!("--eye {} --target {} --fov {:.1}", point_text(c.position), point_text(c.target), c.vfov_deg)
+    format!(
+        "--eye {} --target {} --fov {:.1}",
+        point_text(c.position),
+        point_text(c.target),
+        c.vfov_deg
+    )
 }
 
 impl Section for CameraPanel {
@@ -59,13 +64,19 @@ impl Section for CameraPanel {
         ui.label(RichText::new("drag on the image to orbit, wheel to zoom").small().weak());
         egui::Grid::new("camera grid").num_columns(2).show(ui, |ui| {
             ui.label("Field of view");
-            ui.add(egui::Slider::new(&mut params.camera.vfov_deg, FOV_RANGE).suffix("°").fixed_decimals(1));
+            ui.add(
+                egui::Slider::new(&mut params.camera.vfov_deg, FOV_RANGE)
+                    .suffix("°")
+                    .fixed_decimals(1),
+            );
             ui.end_row();
             let eye = point_field(ui, "Eye", &mut fields.eye, params.camera.position);
             let target = point_field(ui, "Target", &mut fields.target, params.camera.target);
             if eye || target {
                 fields.status = Some(match apply(params, &fields.eye, &fields.target) {
-                    Ok(()) => Status::ok(format!("camera at {}", point_text(params.camera.position))),
+                    Ok(()) => {
+                        Status::ok(format!("camera at {}", point_text(params.camera.position)))
+                    }
                     Err(e) => Status::error(e),
                 });
                 fields.status_camera = (params.camera.position, params.camera.target);
@@ -98,7 +109,9 @@ fn point_field(ui: &mut Ui, name: &str, text: &mut String, current: Vec3) -> boo
     if !ui.memory(|m| m.has_focus(id)) {
         *text = point_text(current);
     }
-    let response = ui.add(egui::TextEdit::singleline(text).id(id).desired_width(150.0)).on_hover_text("X,Y,Z, applied on Enter");
+    let response = ui
+        .add(egui::TextEdit::singleline(text).id(id).desired_width(150.0))
+        .on_hover_text("X,Y,Z, applied on Enter");
     ui.end_row();
     response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter))
 }
@@ -124,7 +137,11 @@ mod tests {
     fn an_error_line_goes_once_the_camera_moves() {
         // "the eye and the target are the same point" stayed red after R or a valid edit (#30).
         let here = (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
-        let mut panel = CameraPanel { status: Some(Status::error("the eye and the target are the same point")), status_camera: here, ..Default::default() };
+        let mut panel = CameraPanel {
+            status: Some(Status::error("the eye and the target are the same point")),
+            status_camera: here,
+            ..Default::default()
+        };
         panel.forget_stale_status(here);
         assert!(panel.status.is_some(), "the camera has not moved: the line still holds");
         panel.forget_stale_status((Vec3::new(0.0, 1.0, 5.0), Vec3::ZERO));
@@ -133,7 +150,12 @@ mod tests {
 
     #[test]
     fn flags_read_back_as_the_same_camera() {
-        let c = Camera { position: Vec3::new(1.0, -2.5, 3.25), target: Vec3::new(0.0, 0.5, 0.0), up: Vec3::Y, vfov_deg: 42.5 };
+        let c = Camera {
+            position: Vec3::new(1.0, -2.5, 3.25),
+            target: Vec3::new(0.0, 0.5, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 42.5,
+        };
         let flags = camera_flags(&c);
         assert_eq!(flags, "--eye 1.00,-2.50,3.25 --target 0.00,0.50,0.00 --fov 42.5");
         let words: Vec<&str> = flags.split(' ').collect();

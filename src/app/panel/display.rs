@@ -25,15 +25,22 @@ impl Section for DisplayPanel {
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
         ui.checkbox(&mut params.hud_visible, "numbers over the image (I)");
-        ui.add_enabled(info.vsync_off_available || !params.vsync, egui::Checkbox::new(&mut params.vsync, "vsync (V)"));
+        ui.add_enabled(
+            info.vsync_off_available || !params.vsync,
+            egui::Checkbox::new(&mut params.vsync, "vsync (V)"),
+        );
         ui.label(RichText::new(format!("present mode: {}", info.present_mode)).small().weak());
         if !info.vsync_off_available {
             ui.label(RichText::new("this surface offers only FIFO (vsync)").small().weak());
         }
         ui.separator();
         let remembered = match info.settings_file {
-            Some(path) => format!("window size, open sections and recent presets are remembered in {}", path.display()),
-            None => "settings are not remembered in this run (--no-persist or a scripted run)".to_string(),
+            Some(path) => format!(
+                "window size, open sections and recent presets are remembered in {}",
+                path.display()
+            ),
+            None => "settings are not remembered in this run (--no-persist or a scripted run)"
+                .to_string(),
         };
         ui.add(egui::Label::new(RichText::new(remembered).small().weak()).wrap());
         if ui.add_enabled(info.settings_file.is_some(), egui::Button::new("Reset settings")).on_hover_text("forget the remembered settings; the window and sections return to how they first open").clicked() {

@@ -77,7 +77,12 @@ impl PanelState {
 }
 
 /// Show the panel's contents inside `ui` and return the actions asked for.
-pub(crate) fn show(ui: &mut Ui, params: &mut Params, state: &mut PanelState, info: &PanelInfo) -> Vec<PanelAction> {
+pub(crate) fn show(
+    ui: &mut Ui,
+    params: &mut Params,
+    state: &mut PanelState,
+    info: &PanelInfo,
+) -> Vec<PanelAction> {
     let mut actions = Vec::new();
     ui.horizontal(|ui| {
         ui.heading("meshtracer");

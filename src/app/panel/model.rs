@@ -7,8 +7,8 @@ use crate::app::files::model_loader::LoadStatus;
 use crate::app::files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
-use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::progress::Phase;
+use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::primitives::PaperModel;
 
 /// The section's state between frames.
@@ -38,16 +38,20 @@ impl Section for ModelPanel {
         let current = info.model.map_or("(none)".to_string(), |m| m.label());
         ui.horizontal(|ui| {
             ui.label("Model");
-            egui::ComboBox::new("model", "").selected_text(current).width(ui.available_width() - 24.0).truncate().show_ui(ui, |ui| {
-                for m in PaperModel::ALL {
-                    let selected = info.model == Some(&ModelSource::Paper(m));
-                    if ui.selectable_label(selected, m.name()).clicked() && !selected {
-                        // The path field no longer names what is shown.
-                        self.path.clear();
-                        actions.push(PanelAction::LoadModel(ModelSource::Paper(m)));
+            egui::ComboBox::new("model", "")
+                .selected_text(current)
+                .width(ui.available_width() - 24.0)
+                .truncate()
+                .show_ui(ui, |ui| {
+                    for m in PaperModel::ALL {
+                        let selected = info.model == Some(&ModelSource::Paper(m));
+                        if ui.selectable_label(selected, m.name()).clicked() && !selected {
+                            // The path field no longer names what is shown.
+                            self.path.clear();
+                            actions.push(PanelAction::LoadModel(ModelSource::Paper(m)));
+                        }
                     }
-                }
-            });
+                });
         });
         ui.horizontal(|ui| {
             let field = ui
@@ -61,28 +65,50 @@ impl Section for ModelPanel {
             }
         });
         ui.horizontal(|ui| {
-            if ui.button("Open model…").on_hover_text("choose an OBJ, PLY or glTF file (Ctrl+O)").clicked() {
+            if ui
+                .button("Open model…")
+                .on_hover_text("choose an OBJ, PLY or glTF file (Ctrl+O)")
+                .clicked()
+            {
                 actions.push(PanelAction::Open(Purpose::Model));
             }
-            ui.label(RichText::new(if self.hovering_file { "drop the file to load it" } else { "or drop one on the window" }).small().weak());
+            ui.label(
+                RichText::new(if self.hovering_file {
+                    "drop the file to load it"
+                } else {
+                    "or drop one on the window"
+                })
+                .small()
+                .weak(),
+            );
         });
         if let Some(loading) = &info.loading {
             loading_progress(ui, loading, actions);
         } else if let Some(s) = &self.status {
             status_line(ui, s);
             if self.warnings.len() > 1 {
-                egui::CollapsingHeader::new(format!("{} warnings", self.warnings.len())).id_salt("model warnings").default_open(false).show(ui, |ui| {
-                    for w in &self.warnings {
-                        ui.add(egui::Label::new(RichText::new(w).small()).wrap());
-                    }
-                });
+                egui::CollapsingHeader::new(format!("{} warnings", self.warnings.len()))
+                    .id_salt("model warnings")
+                    .default_open(false)
+                    .show(ui, |ui| {
+                        for w in &self.warnings {
+                            ui.add(egui::Label::new(RichText::new(w).small()).wrap());
+                        }
+                    });
             }
         }
         ui.horizontal(|ui| {
             ui.label("Copies");
             ui.add(egui::Slider::new(&mut params.scene.models, 1..=MAX_MODELS));
         });
-        ui.label(RichText::new(format!("{} triangles, {} vertices in the scene", group(info.triangles), group(info.vertices))).small());
+        ui.label(
+            RichText::new(format!(
+                "{} triangles, {} vertices in the scene",
+                group(info.triangles),
+                group(info.vertices)
+            ))
+            .small(),
+        );
     }
 }
 
@@ -98,13 +124,22 @@ fn loading_progress(ui: &mut Ui, loading: &LoadStatus, actions: &mut Vec<PanelAc
         _ => format!("{}: starting", loading.label),
     };
     ui.horizontal(|ui| {
-        if ui.button("Cancel").on_hover_text("stop loading and keep the model shown (Escape)").clicked() {
+        if ui
+            .button("Cancel")
+            .on_hover_text("stop loading and keep the model shown (Escape)")
+            .clicked()
+        {
             actions.push(PanelAction::CancelLoad);
         }
         // The bar's text is elided by the bar: a long path must not widen the panel.
         ui.add(egui::ProgressBar::new(overall).text(text).animate(true));
     });
-    let finished: Vec<String> = snapshot.phases.iter().filter(|p| p.done).map(|p| format!("{} {:.2} s", p.phase.name(), p.seconds)).collect();
+    let finished: Vec<String> = snapshot
+        .phases
+        .iter()
+        .filter(|p| p.done)
+        .map(|p| format!("{} {:.2} s", p.phase.name(), p.seconds))
+        .collect();
     if !finished.is_empty() {
         ui.add(egui::Label::new(RichText::new(finished.join(" · ")).small().weak()).truncate());
     }

@@ -81,7 +81,11 @@ impl Section for PerfPanel {
         ui.horizontal(|ui| {
             ui.label(RichText::new("last").small());
             for s in WINDOWS {
-                ui.selectable_value(&mut state.seconds, s, RichText::new(format!("{s:.0} s")).small());
+                ui.selectable_value(
+                    &mut state.seconds,
+                    s,
+                    RichText::new(format!("{s:.0} s")).small(),
+                );
             }
         });
         egui::Grid::new("times").num_columns(5).spacing([10.0, 2.0]).striped(true).show(ui, |ui| {
@@ -160,8 +164,12 @@ fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64) {
         .x_axis_formatter(|mark, _| format!("{:.0} s", mark.value))
         .y_axis_formatter(|mark, _| format!("{:.0}", mark.value))
         .label_formatter(|pos| match pos {
-            egui_plot::HoverPosition::NearDataPoint { plot_name, position, .. } => Some(format!("{plot_name}: {:.2} ms\n{:.1} s ago", position.y, -position.x)),
-            egui_plot::HoverPosition::Elsewhere { position } => Some(format!("{:.1} ms", position.y)),
+            egui_plot::HoverPosition::NearDataPoint { plot_name, position, .. } => {
+                Some(format!("{plot_name}: {:.2} ms\n{:.1} s ago", position.y, -position.x))
+            }
+            egui_plot::HoverPosition::Elsewhere { position } => {
+                Some(format!("{:.1} ms", position.y))
+            }
         })
         .show(ui, |plot| {
             plot.line(Line::new("frame ms", frame).color(FRAME_COLOR).width(1.5));

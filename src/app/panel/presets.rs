@@ -50,7 +50,9 @@ pub(crate) fn preset_path(typed: &str) -> Option<PathBuf> {
 
 /// Whether `path` names an image (where a preset must not be written).
 fn is_image(path: &Path) -> bool {
-    path.extension().is_some_and(|e| ["png", "jpg", "jpeg", "exr", "hdr"].iter().any(|i| e.eq_ignore_ascii_case(i)))
+    path.extension().is_some_and(|e| {
+        ["png", "jpg", "jpeg", "exr", "hdr"].iter().any(|i| e.eq_ignore_ascii_case(i))
+    })
 }
 
 impl Section for PresetPanel {
@@ -64,9 +66,21 @@ impl Section for PresetPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (state, actions) = (self, &mut *cx.actions);
-        ui.label(RichText::new("everything tunable, as TOML; meshtracer render --preset FILE renders it headless").small().weak());
-        ui.add(egui::TextEdit::singleline(&mut state.path).hint_text("look.toml").desired_width(ui.available_width()))
-            .on_hover_text("a preset file to save to or load from (a PNG this program wrote loads too)");
+        ui.label(
+            RichText::new(
+                "everything tunable, as TOML; meshtracer render --preset FILE renders it headless",
+            )
+            .small()
+            .weak(),
+        );
+        ui.add(
+            egui::TextEdit::singleline(&mut state.path)
+                .hint_text("look.toml")
+                .desired_width(ui.available_width()),
+        )
+        .on_hover_text(
+            "a preset file to save to or load from (a PNG this program wrote loads too)",
+        );
         let path = preset_path(&state.path);
         ui.horizontal(|ui| {
             if ui.add_enabled(path.is_some(), egui::Button::new("Save")).on_hover_text("asks before replacing a file").clicked() {
@@ -109,7 +123,9 @@ impl Section for PresetPanel {
         if !state.recent.is_empty() {
             ui.label(RichText::new("recent (click to load)").small().weak());
             for p in state.recent.clone() {
-                let name = p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
+                let name = p
+                    .file_name()
+                    .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned());
                 if ui.small_button(name).on_hover_text(p.display().to_string()).clicked() {
                     state.confirm = None;
                     actions.push(PanelAction::LoadPreset(p));

@@ -5,12 +5,14 @@ use egui::{Color32, RichText, Sense, Ui};
 
 use crate::app::panel::info::VendorInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
-use crate::app::panel::widgets::Status;
 use crate::app::panel::widgets::status_line;
+use crate::app::panel::widgets::Status;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::app::views::cost::heat_color;
 use crate::gpu::khr_rt::VendorKernel;
-use crate::render_settings::{self as knobs, Accel, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION};
+use crate::render_settings::{
+    self as knobs, Accel, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION,
+};
 
 /// The section's state: the outcome of render changes and shader reloads.
 #[derive(Default)]
@@ -147,8 +149,14 @@ impl Section for RenderPanel {
                 ao_rows(ui, &mut params.scene.settings);
             }
         });
-        if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
-            ui.label(RichText::new("the vendor's traversal reports no cost: this view is empty under it").small());
+        if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_))
+        {
+            ui.label(
+                RichText::new(
+                    "the vendor's traversal reports no cost: this view is empty under it",
+                )
+                .small(),
+            );
         }
         if params.scene.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
             // Said before the wait, not after: the frame is long and comes in bands.
@@ -159,8 +167,12 @@ impl Section for RenderPanel {
             status_line(ui, s);
         }
         match (params.view, info.heat) {
-            (ViewMode::Cost(metric), Some((top, max, mean))) => heat_legend(ui, &format!("{} per pixel, all rays", metric.label()), top, max, mean),
-            (ViewMode::Samples, Some((top, max, mean))) => heat_legend(ui, "camera samples per pixel", top, max, mean),
+            (ViewMode::Cost(metric), Some((top, max, mean))) => {
+                heat_legend(ui, &format!("{} per pixel, all rays", metric.label()), top, max, mean)
+            }
+            (ViewMode::Samples, Some((top, max, mean))) => {
+                heat_legend(ui, "camera samples per pixel", top, max, mean)
+            }
             _ => {}
         }
         if let Some(note) = info.view_note {
@@ -205,10 +217,14 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
                 };
                 let what = match k {
                     VendorKernel::Query => "the driver's traversal from our compute shader",
-                    VendorKernel::Pipeline => "a ray tracing pipeline: ray generation, closest-hit and miss shaders",
+                    VendorKernel::Pipeline => {
+                        "a ray tracing pipeline: ray generation, closest-hit and miss shaders"
+                    }
                 };
                 let hover = format!("{what} ({})", k.extension());
-                if ui.radio(vendor.kernel == Some(k), text).on_hover_text(hover).clicked() && vendor.kernel != Some(k) {
+                if ui.radio(vendor.kernel == Some(k), text).on_hover_text(hover).clicked()
+                    && vendor.kernel != Some(k)
+                {
                     actions.push(PanelAction::VendorKernel(k));
                 }
             }
@@ -236,7 +252,8 @@ fn vendor_rows(ui: &mut Ui, vendor: &VendorInfo, actions: &mut Vec<PanelAction>)
 /// The heat map's colour scale from 0 to `top`, with the mean and max under it.
 fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
     ui.add(egui::Label::new(RichText::new(what).small()).wrap());
-    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
+    let (rect, _) =
+        ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 14.0), Sense::hover());
     let steps = 64;
     for i in 0..steps {
         let t0 = i as f32 / steps as f32;
@@ -244,7 +261,11 @@ fn heat_legend(ui: &mut Ui, what: &str, top: f32, max: f32, mean: f32) {
         let [r, g, b] = heat_color((t0 + t1) * 0.5);
         let x0 = rect.left() + rect.width() * t0;
         let x1 = rect.left() + rect.width() * t1;
-        ui.painter().rect_filled(egui::Rect::from_x_y_ranges(x0..=x1 + 0.5, rect.y_range()), 0.0, Color32::from_rgb(r, g, b));
+        ui.painter().rect_filled(
+            egui::Rect::from_x_y_ranges(x0..=x1 + 0.5, rect.y_range()),
+            0.0,
+            Color32::from_rgb(r, g, b),
+        );
     }
     ui.horizontal(|ui| {
         ui.label(RichText::new("0").small());
@@ -262,7 +283,11 @@ mod tests {
     #[test]
     fn the_vendor_fallback_line_goes_when_another_acceleration_is_chosen() {
         // The red "tracing with the BVH" line stayed after A chose brute force (#30).
-        let mut panel = RenderPanel { status: Some(Status::error("vendor ray tracing: none here; tracing with the BVH")), status_accel: Some(Accel::Bvh), ..Default::default() };
+        let mut panel = RenderPanel {
+            status: Some(Status::error("vendor ray tracing: none here; tracing with the BVH")),
+            status_accel: Some(Accel::Bvh),
+            ..Default::default()
+        };
         panel.forget_stale_status(Accel::Bvh);
         assert!(panel.status.is_some(), "still tracing with the BVH: the line holds");
         panel.forget_stale_status(Accel::Brute);

@@ -36,7 +36,12 @@ impl Section for ScreenshotPanel {
                 actions.push(PanelAction::ScreenshotExr);
             }
         });
-        ui.add(egui::Label::new(RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak()).truncate());
+        ui.add(
+            egui::Label::new(
+                RichText::new(format!("folder: {}", info.screenshot_dir)).small().weak(),
+            )
+            .truncate(),
+        );
         if let Some(s) = &self.status {
             status_line(ui, s);
         }

@@ -6,8 +6,8 @@ use egui::{RichText, Ui};
 
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::group;
-use crate::scene::EnvironmentSource;
 use crate::render_settings::MAX_SPP;
+use crate::scene::EnvironmentSource;
 
 /// The section (it keeps nothing between frames).
 #[derive(Default)]
@@ -67,7 +67,8 @@ impl Section for ShadingPanel {
             if params.scene.settings.adaptive { " on edges" } else { "" }
         );
         ui.label(RichText::new(text).small().weak());
-        ui.checkbox(&mut params.scene.mirror_box, "mirror box (the paper's six planes)").on_hover_text("the six mirror planes around the model (§4's scene)");
+        ui.checkbox(&mut params.scene.mirror_box, "mirror box (the paper's six planes)")
+            .on_hover_text("the six mirror planes around the model (§4's scene)");
         if params.scene.environment.is_some() && params.scene.mirror_box {
             ui.label(RichText::new("The closed mirror box hides the environment: untick it to see the environment.").small().weak());
         }

@@ -23,7 +23,8 @@ impl Section for SplitPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let params = &mut *cx.params;
-        let (a, a_environment, times) = (params.scene.settings, params.scene.environment.is_some(), cx.info.split_ms);
+        let (a, a_environment, times) =
+            (params.scene.settings, params.scene.environment.is_some(), cx.info.split_ms);
         // B offers the vendor only where A does: greyed out with the same reason.
         let vendor_missing = cx.info.vendor.unavailable.clone();
         let (a, split) = (&a, &mut params.split);
@@ -32,7 +33,10 @@ impl Section for SplitPanel {
         ui.add_enabled_ui(split.enabled, |ui| {
             ui.horizontal(|ui| {
                 ui.label("Line");
-                ui.add(egui::Slider::new(&mut split.position, 0.0..=1.0).fixed_decimals(2)).on_hover_text("share of the image width; the halves meet on a work-group column");
+                ui.add(egui::Slider::new(&mut split.position, 0.0..=1.0).fixed_decimals(2))
+                    .on_hover_text(
+                        "share of the image width; the halves meet on a work-group column",
+                    );
             });
             ui.label(RichText::new("B changes (ticked):").small());
             let b = &mut split.b;
@@ -41,7 +45,11 @@ impl Section for SplitPanel {
                     ui.radio_value(v, Accel::Bvh, "BVH");
                     ui.radio_value(v, Accel::Brute, "brute");
                     let why = vendor_missing.clone().unwrap_or_default();
-                    ui.add_enabled_ui(vendor_missing.is_none(), |ui| ui.radio_value(v, Accel::Vendor, "vendor")).response.on_disabled_hover_text(why);
+                    ui.add_enabled_ui(vendor_missing.is_none(), |ui| {
+                        ui.radio_value(v, Accel::Vendor, "vendor")
+                    })
+                    .response
+                    .on_disabled_hover_text(why);
                 });
                 differs(ui, "Bounces", &mut b.bounces, a.bounces, |ui, v| {
                     ui.add(egui::Slider::new(v, 0..=MAX_BOUNCES));
@@ -63,13 +71,23 @@ impl Section for SplitPanel {
                     });
                 }
             });
-            ui.label(RichText::new(format!("GPU {}", SplitView::times_text(times))).color(GPU_COLOR).monospace());
+            ui.label(
+                RichText::new(format!("GPU {}", SplitView::times_text(times)))
+                    .color(GPU_COLOR)
+                    .monospace(),
+            );
         });
     }
 }
 
 /// One row: a tick that makes B's `value` differ (starting from A's), and its editor.
-fn differs<T: Copy>(ui: &mut Ui, name: &str, value: &mut Option<T>, a: T, edit: impl FnOnce(&mut Ui, &mut T)) {
+fn differs<T: Copy>(
+    ui: &mut Ui,
+    name: &str,
+    value: &mut Option<T>,
+    a: T,
+    edit: impl FnOnce(&mut Ui, &mut T),
+) {
     let mut on = value.is_some();
     if ui.checkbox(&mut on, name).changed() {
         *value = on.then_some(a);

@@ -8,10 +8,10 @@ use egui_kittest::Harness;
 
 use super::{show, PanelAction, PanelInfo, PanelState, VendorInfo, PANEL_WIDTH};
 use crate::app::files::model_loader::LoadStatus;
-use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::app::measure::frame_stats::FrameStats;
-use crate::app::state::{Params, ViewMode, CostMetric};
+use crate::app::state::{CostMetric, Params, ViewMode};
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
+use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::render_settings::Accel;
 use crate::scene::spec::SceneSpec;
 
@@ -31,7 +31,15 @@ struct Fixture {
 
 impl Fixture {
     fn new(vendor: VendorInfo) -> Self {
-        Self { params: Params::new(&SceneSpec::default(), false), panel: PanelState::default(), vendor, stats: FrameStats::default(), panel_width: 0.0, loading: None, actions: Vec::new() }
+        Self {
+            params: Params::new(&SceneSpec::default(), false),
+            panel: PanelState::default(),
+            vendor,
+            stats: FrameStats::default(),
+            panel_width: 0.0,
+            loading: None,
+            actions: Vec::new(),
+        }
     }
 }
 
@@ -45,7 +53,10 @@ fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
         triangles: 1000,
         vertices: 500,
         settings: f.params.settings_for([256, 256]),
-        loading: f.loading.as_ref().map(|(label, snapshot)| LoadStatus { label, snapshot: snapshot.clone() }),
+        loading: f
+            .loading
+            .as_ref()
+            .map(|(label, snapshot)| LoadStatus { label, snapshot: snapshot.clone() }),
         present_mode: "FIFO".into(),
         vsync_off_available: false,
         heat: Some((100.0, 120.0, 30.0)),
@@ -70,15 +81,18 @@ fn harness(size: Vec2, fixture: Fixture) -> Harness<'static, Fixture> {
     Harness::builder().with_size(size).build_ui_state(
         |ui, f: &mut Fixture| {
             let max = (ui.available_width() * 0.5).max(160.0);
-            let response = egui::Panel::left("panel").default_size(PANEL_WIDTH.min(max)).size_range(150.0..=max).show(ui, |ui| {
-                // The panel edits a copy of what the facts borrow, as the tool's frame does.
-                let mut params = f.params.clone();
-                let mut panel = std::mem::take(&mut f.panel);
-                let actions = show(ui, &mut params, &mut panel, &info(f));
-                f.actions.extend(actions);
-                f.panel = panel;
-                f.params = params;
-            });
+            let response = egui::Panel::left("panel")
+                .default_size(PANEL_WIDTH.min(max))
+                .size_range(150.0..=max)
+                .show(ui, |ui| {
+                    // The panel edits a copy of what the facts borrow, as the tool's frame does.
+                    let mut params = f.params.clone();
+                    let mut panel = std::mem::take(&mut f.panel);
+                    let actions = show(ui, &mut params, &mut panel, &info(f));
+                    f.actions.extend(actions);
+                    f.panel = panel;
+                    f.params = params;
+                });
             f.panel_width = response.response.rect.width();
         },
         fixture,
@@ -86,7 +100,10 @@ fn harness(size: Vec2, fixture: Fixture) -> Harness<'static, Fixture> {
 }
 
 fn no_vendor() -> VendorInfo {
-    VendorInfo { unavailable: Some("this device has no VK_KHR_ray_query".into()), ..Default::default() }
+    VendorInfo {
+        unavailable: Some("this device has no VK_KHR_ray_query".into()),
+        ..Default::default()
+    }
 }
 
 #[test]
@@ -101,13 +118,35 @@ fn the_split_views_b_side_offers_no_vendor_the_device_lacks() {
     h.run();
     let vendors: Vec<_> = h.query_all_by_label("vendor").collect();
     assert_eq!(vendors.len(), 2, "A's choice and B's");
-    assert!(vendors.iter().all(|v| v.accesskit_node().is_disabled()), "every vendor choice greyed out");
-    let b_vendor = vendors.iter().max_by(|a, b| a.rect().top().total_cmp(&b.rect().top())).unwrap().rect().center();
+    assert!(
+        vendors.iter().all(|v| v.accesskit_node().is_disabled()),
+        "every vendor choice greyed out"
+    );
+    let b_vendor = vendors
+        .iter()
+        .max_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
+        .unwrap()
+        .rect()
+        .center();
     h.hover_at(b_vendor);
-    h.event(egui::Event::PointerButton { pos: b_vendor, button: egui::PointerButton::Primary, pressed: true, modifiers: Default::default() });
-    h.event(egui::Event::PointerButton { pos: b_vendor, button: egui::PointerButton::Primary, pressed: false, modifiers: Default::default() });
+    h.event(egui::Event::PointerButton {
+        pos: b_vendor,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: Default::default(),
+    });
+    h.event(egui::Event::PointerButton {
+        pos: b_vendor,
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: Default::default(),
+    });
     h.run();
-    assert_eq!(h.state().params.split.b.accel, Some(Accel::Bvh), "a greyed-out choice cannot be picked");
+    assert_eq!(
+        h.state().params.split.b.accel,
+        Some(Accel::Bvh),
+        "a greyed-out choice cannot be picked"
+    );
 }
 
 #[test]
@@ -123,7 +162,14 @@ fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
         let vendor = VendorInfo {
             kernel: Some(VendorKernel::Query),
             kernels: vec![VendorKernel::Query, VendorKernel::Pipeline],
-            stats: Some(AccelStats { bottom_count: 27, bottom_ms: 1234.5, top_ms: 67.8, bytes: 799_000_000, primitives: 10_000_000, rebuilt: "bottom and top levels" }),
+            stats: Some(AccelStats {
+                bottom_count: 27,
+                bottom_ms: 1234.5,
+                top_ms: 67.8,
+                bytes: 799_000_000,
+                primitives: 10_000_000,
+                rebuilt: "bottom and top levels",
+            }),
             ..Default::default()
         };
         let mut fixture = Fixture::new(vendor);
@@ -132,9 +178,16 @@ fn long_lines_wrap_inside_the_panel_instead_of_widening_it() {
         let mut h = harness(size, fixture);
         h.run();
         let width = h.state().panel_width;
-        assert!(width <= usual + 0.5, "{size:?}: the long lines widened the panel from {usual} to {width} points");
+        assert!(
+            width <= usual + 0.5,
+            "{size:?}: the long lines widened the panel from {usual} to {width} points"
+        );
         let structures = h.get_by_label_contains("bottom levels");
-        assert!(structures.rect().right() <= width + 0.5, "{size:?}: the line runs past the panel ({} > {width})", structures.rect().right());
+        assert!(
+            structures.rect().right() <= width + 0.5,
+            "{size:?}: the line runs past the panel ({} > {width})",
+            structures.rect().right()
+        );
     }
 }
 
@@ -148,7 +201,7 @@ fn a_load_shows_its_phases_and_cancels_from_the_panel() {
     fixture.loading = Some(("dragon".into(), Snapshot { phases, fraction: 0.5 }));
     let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
     h.run_steps(2); // the bar animates: it never settles
-    // The running phase on the bar, the finished ones with their times.
+                    // The running phase on the bar, the finished ones with their times.
     h.get_by_label_contains("dragon: parse 1.5 s");
     h.get_by_label_contains("read 0.25 s");
     h.get_by_label("Cancel").click();

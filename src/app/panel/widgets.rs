@@ -52,7 +52,11 @@ pub(crate) fn group(n: u64) -> String {
 
 /// Seconds as "12 s" or "3 min".
 pub(crate) fn duration(s: f64) -> String {
-    if s < 90.0 { format!("{s:.0} s") } else { format!("{:.0} min", s / 60.0) }
+    if s < 90.0 {
+        format!("{s:.0} s")
+    } else {
+        format!("{:.0} min", s / 60.0)
+    }
 }
 
 /// The id under which the panel keeps its [`Sections`] in egui's memory.
@@ -84,10 +88,19 @@ impl Sections {
 
 /// A collapsible panel section titled `title` that opens as it was last left (or as
 /// `default_open` says the first time), and remembers whether it is open.
-pub(crate) fn section<R>(ui: &mut Ui, title: &str, default_open: bool, add: impl FnOnce(&mut Ui) -> R) -> Option<R> {
+pub(crate) fn section<R>(
+    ui: &mut Ui,
+    title: &str,
+    default_open: bool,
+    add: impl FnOnce(&mut Ui) -> R,
+) -> Option<R> {
     let id = sections_id();
-    let (remembered, reset) = ui.ctx().data(|d| d.get_temp::<Sections>(id).map(|s| (s.open.get(title).copied(), s.reset))).unwrap_or((None, false));
-    let mut header = egui::CollapsingHeader::new(title).default_open(remembered.unwrap_or(default_open));
+    let (remembered, reset) = ui
+        .ctx()
+        .data(|d| d.get_temp::<Sections>(id).map(|s| (s.open.get(title).copied(), s.reset)))
+        .unwrap_or((None, false));
+    let mut header =
+        egui::CollapsingHeader::new(title).default_open(remembered.unwrap_or(default_open));
     // After a reset the map is empty: each section is put back once, then left to the user.
     if reset && remembered.is_none() {
         header = header.open(Some(default_open));

@@ -128,7 +128,9 @@ impl AutoLayout {
     pub(crate) fn describe(&self) -> String {
         match &self.stage {
             Stage::Waiting => "building the wide tree, binary meanwhile".into(),
-            Stage::Trial { current, .. } => format!("timing each layout, now {}", BvhLayout::ALL[*current]),
+            Stage::Trial { current, .. } => {
+                format!("timing each layout, now {}", BvhLayout::ALL[*current])
+            }
             Stage::Chosen { layout, medians } => {
                 let times: Vec<String> = BvhLayout::ALL
                     .iter()
@@ -179,7 +181,12 @@ mod tests {
 
     /// Run frames through the chooser, each timed by `ms_of` right after it is traced;
     /// returns the layouts traced.
-    fn run(auto: &mut AutoLayout, w: Work, frames: usize, ms_of: impl Fn(BvhLayout) -> f64) -> Vec<BvhLayout> {
+    fn run(
+        auto: &mut AutoLayout,
+        w: Work,
+        frames: usize,
+        ms_of: impl Fn(BvhLayout) -> f64,
+    ) -> Vec<BvhLayout> {
         (0..frames)
             .map(|_| {
                 let layout = auto.next_layout(w, true).unwrap();
@@ -201,11 +208,17 @@ mod tests {
         };
         let traced = run(&mut auto, work(1), 40, ms);
         for layout in BvhLayout::ALL {
-            assert!(traced.iter().filter(|&&l| l == layout).count() >= FRAMES_PER_LAYOUT, "{layout} tried");
+            assert!(
+                traced.iter().filter(|&&l| l == layout).count() >= FRAMES_PER_LAYOUT,
+                "{layout} tried"
+            );
         }
         assert_eq!(auto.chosen(), Some(BvhLayout::Wide));
         assert!(traced[30..].iter().all(|&l| l == BvhLayout::Wide), "{traced:?}");
-        assert_eq!(auto.describe(), "fastest here: wide; GPU ms a frame:\nbinary 3.00, wide 2.00, wide-runs 2.50");
+        assert_eq!(
+            auto.describe(),
+            "fastest here: wide; GPU ms a frame:\nbinary 3.00, wide 2.00, wide-runs 2.50"
+        );
     }
 
     #[test]
@@ -235,7 +248,12 @@ mod tests {
         }
         assert_eq!(auto.chosen(), Some(BvhLayout::Binary));
         // Not our BVH: no choice to make.
-        let brute = Work::new(RenderSettings { accel: Accel::Brute, ..RenderSettings::default() }, 1, true, 2);
+        let brute = Work::new(
+            RenderSettings { accel: Accel::Brute, ..RenderSettings::default() },
+            1,
+            true,
+            2,
+        );
         assert_eq!(auto.next_layout(brute, true), None);
     }
 }

@@ -13,8 +13,8 @@ use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 use crate::app::measure::gpu_clock::ClockWatch;
 use crate::app::{headless_error, ViewOptions};
 use crate::gpu::context::list_devices;
-use crate::gpu::present::Presenter;
 use crate::gpu::present::surface::context_for_window;
+use crate::gpu::present::Presenter;
 use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
 
 /// The presenting side and the tracing context (the same context when one device does both).
@@ -31,7 +31,13 @@ pub(super) struct WindowDevices {
 ///
 /// # Safety
 /// The handles must belong to a live window that outlives the returned presenter.
-pub(super) unsafe fn open(options: &ViewOptions, display: RawDisplayHandle, window: RawWindowHandle, extent: [u32; 2], vsync: bool) -> anyhow::Result<WindowDevices> {
+pub(super) unsafe fn open(
+    options: &ViewOptions,
+    display: RawDisplayHandle,
+    window: RawWindowHandle,
+    extent: [u32; 2],
+    vsync: bool,
+) -> anyhow::Result<WindowDevices> {
     let base = ContextOptions { validation: options.validation, ..Default::default() };
     // On failure: the error, and the index of the device that was tried (if one was found).
     let present_on = |index: Option<usize>| -> Result<(Arc<GpuContext>, Presenter), (Option<usize>, anyhow::Error)> {
@@ -50,7 +56,8 @@ pub(super) unsafe fn open(options: &ViewOptions, display: RawDisplayHandle, wind
         failed
     });
     let trace_ctx = match options.trace_device.or(unpresentable) {
-        Some(index) => GpuContext::new(&ContextOptions { device_index: Some(index), ..base }).map_err(|e| anyhow::anyhow!("tracing on device {index}: {e}"))?,
+        Some(index) => GpuContext::new(&ContextOptions { device_index: Some(index), ..base })
+            .map_err(|e| anyhow::anyhow!("tracing on device {index}: {e}"))?,
         None => ctx.clone(),
     };
     Ok(WindowDevices { presenter, ctx, trace_ctx })
@@ -113,10 +120,16 @@ mod tests {
     use super::*;
 
     /// Devices `0..count` where those in `broken` fail to present; None picks device 0.
-    fn presenting(broken: &'static [usize]) -> impl FnMut(Option<usize>) -> Result<usize, (Option<usize>, anyhow::Error)> {
+    fn presenting(
+        broken: &'static [usize],
+    ) -> impl FnMut(Option<usize>) -> Result<usize, (Option<usize>, anyhow::Error)> {
         move |index| {
             let i = index.unwrap_or(0);
-            if broken.contains(&i) { Err((Some(i), anyhow::anyhow!("device {i} cannot show the window"))) } else { Ok(i) }
+            if broken.contains(&i) {
+                Err((Some(i), anyhow::anyhow!("device {i} cannot show the window")))
+            } else {
+                Ok(i)
+            }
         }
     }
 
@@ -141,9 +154,18 @@ mod tests {
         assert_eq!(e.to_string(), "device 0 cannot show the window");
         // Nothing else presents: the first device's reason, and what would help.
         let e = choose_presenter(None, || 2, presenting(&[0, 1])).unwrap_err().to_string();
-        assert!(e.starts_with("device 0 cannot show the window, and no other Vulkan device can") && e.contains("lavapipe"), "{e}");
+        assert!(
+            e.starts_with("device 0 cannot show the window, and no other Vulkan device can")
+                && e.contains("lavapipe"),
+            "{e}"
+        );
         // No device found at all (no index to exclude): that error as it is.
-        let e = choose_presenter(None, || 2, |_| Err::<usize, _>((None, anyhow::anyhow!("no Vulkan device")))).unwrap_err();
+        let e = choose_presenter(
+            None,
+            || 2,
+            |_| Err::<usize, _>((None, anyhow::anyhow!("no Vulkan device"))),
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "no Vulkan device");
     }
 }

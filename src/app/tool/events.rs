@@ -6,8 +6,8 @@ use winit::keyboard::PhysicalKey;
 
 use crate::app::files::open_dialog::Purpose;
 use crate::app::state::{fit_rect, KeyAction};
-use crate::app::tool::Tool;
 use crate::app::tool::input::{Drag, KeyPress};
+use crate::app::tool::Tool;
 use crate::gpu::present::PixelRect;
 
 impl Tool {
@@ -29,21 +29,40 @@ impl Tool {
             WindowEvent::RedrawRequested => return self.redraw(),
             // Synthetic presses (keys held while the window gains focus) are not the user's.
             // A press waits for the frame, which decides whether it is a shortcut (`input.rs`).
-            WindowEvent::KeyboardInput { event: KeyEvent { physical_key: PhysicalKey::Code(code), state: ElementState::Pressed, repeat, .. }, is_synthetic: false, .. } => {
-                self.input.key_pressed(*code, *repeat, self.ui.egui_state.egui_input().events.len());
+            WindowEvent::KeyboardInput {
+                event:
+                    KeyEvent {
+                        physical_key: PhysicalKey::Code(code),
+                        state: ElementState::Pressed,
+                        repeat,
+                        ..
+                    },
+                is_synthetic: false,
+                ..
+            } => {
+                self.input.key_pressed(
+                    *code,
+                    *repeat,
+                    self.ui.egui_state.egui_input().events.len(),
+                );
             }
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
                 // A press on the split line moves the line, not the camera.
                 let kind = if self.on_split_line() { Drag::Split } else { Drag::Orbit };
                 self.input.drag_button(*state, kind, self.camera_area());
             }
-            WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => self.input.drag_button(*state, Drag::Pan, self.camera_area()),
+            WindowEvent::MouseInput { state, button: MouseButton::Middle, .. } => {
+                self.input.drag_button(*state, Drag::Pan, self.camera_area())
+            }
             WindowEvent::CursorMoved { position, .. } => match self.input.cursor_moved(*position) {
                 Some((Drag::Orbit, dx, dy)) => self.params.drag_camera(dx, dy),
                 Some((Drag::Split, _, _)) => self.move_split(),
                 Some((Drag::Pan, dx, dy)) => {
                     // Pixels of the image as shown: the scene follows the cursor.
-                    let shown = fit_rect(self.gpu.tracer.resolution().unwrap_or([1, 1]), self.ui.image_area);
+                    let shown = fit_rect(
+                        self.gpu.tracer.resolution().unwrap_or([1, 1]),
+                        self.ui.image_area,
+                    );
                     self.params.pan_camera(dx, dy, shown.height as f32);
                 }
                 None => {}
@@ -68,7 +87,11 @@ impl Tool {
     /// Load a model file dropped on the window or picked in the Open dialog (one path for both).
     pub(super) fn load_file(&mut self, path: std::path::PathBuf) {
         self.ui.panel.model.path = path.display().to_string();
-        self.session.start_load(crate::scene::paper::ModelSource::File(path), &mut self.params, &mut self.ui.panel);
+        self.session.start_load(
+            crate::scene::paper::ModelSource::File(path),
+            &mut self.params,
+            &mut self.ui.panel,
+        );
     }
 
     /// Stop the model load in progress (Escape, the panel's Cancel).
@@ -91,7 +114,11 @@ impl Tool {
     /// Where a mouse press or the wheel moves the camera: the image, unless the Open dialog
     /// covers it (then nowhere).
     fn camera_area(&self) -> PixelRect {
-        if self.ui.open_dialog.is_open() { PixelRect::default() } else { self.ui.image_area }
+        if self.ui.open_dialog.is_open() {
+            PixelRect::default()
+        } else {
+            self.ui.image_area
+        }
     }
 
     /// Act on a key press that egui did not want.

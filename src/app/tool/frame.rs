@@ -49,7 +49,13 @@ pub(super) struct Prepared {
 
 impl Prepared {
     /// Nothing traced, nothing shown.
-    pub(super) const NOTHING: Prepared = Prepared { trace: None, show: Shown::Nothing, gpu_ms: None, part_ms: None, completes: false };
+    pub(super) const NOTHING: Prepared = Prepared {
+        trace: None,
+        show: Shown::Nothing,
+        gpu_ms: None,
+        part_ms: None,
+        completes: false,
+    };
 }
 
 /// What the frames shown so far left behind for the next.
@@ -73,7 +79,15 @@ pub(super) struct Frames {
 
 impl Default for Frames {
     fn default() -> Self {
-        Self { picture: None, progressive: None, band_groups: 1, traced_frames: 0, band_times: BandTimes::default(), traced: false, settings_by_frame: Default::default() }
+        Self {
+            picture: None,
+            progressive: None,
+            band_groups: 1,
+            traced_frames: 0,
+            band_times: BandTimes::default(),
+            traced: false,
+            settings_by_frame: Default::default(),
+        }
     }
 }
 
@@ -96,7 +110,12 @@ impl Frames {
 
     /// Trace or band what `params` asks for on `gpu` (prepared already), for `view`:
     /// see `Tool::prepare_image`.
-    pub(super) fn trace(&mut self, gpu: &mut Gpu, params: FrameTrace, view: ViewMode) -> anyhow::Result<Prepared> {
+    pub(super) fn trace(
+        &mut self,
+        gpu: &mut Gpu,
+        params: FrameTrace,
+        view: ViewMode,
+    ) -> anyhow::Result<Prepared> {
         let (width, height) = (params.params.settings.width, params.params.settings.height);
         // Views other than colour are pictures made on the CPU from the float output.
         let cost = (view != ViewMode::Color).then_some(view);
@@ -105,27 +124,47 @@ impl Frames {
             if let Some(view) = cost {
                 let (image, timing) = gpu.tracer.render_frame(&params)?;
                 self.set_picture(&image, view);
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+                return Ok(Prepared {
+                    trace: None,
+                    show: Shown::Picture,
+                    gpu_ms: timing.gpu_ms,
+                    part_ms: timing.parts_ms,
+                    completes: true,
+                });
             }
             if gpu.traces_elsewhere() {
                 let timing = gpu.tracer.trace_frame(&params)?;
                 self.read_back_colour(&gpu.tracer)?;
-                return Ok(Prepared { trace: None, show: Shown::Picture, gpu_ms: timing.gpu_ms, part_ms: timing.parts_ms, completes: true });
+                return Ok(Prepared {
+                    trace: None,
+                    show: Shown::Picture,
+                    gpu_ms: timing.gpu_ms,
+                    part_ms: timing.parts_ms,
+                    completes: true,
+                });
             }
             self.picture = None;
             let whole = Band::rows(0..height, width);
-            return Ok(Prepared { trace: Some((params, whole)), show: Shown::Output, gpu_ms: None, part_ms: None, completes: true });
+            return Ok(Prepared {
+                trace: Some((params, whole)),
+                show: Shown::Output,
+                gpu_ms: None,
+                part_ms: None,
+                completes: true,
+            });
         }
         // A moving light does not restart a long frame: the frame keeps the light it began
         // with; any other change starts afresh.
         if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
             self.progressive = Some(Progressive::new(params, GROUP));
         }
-        let most = (gpu.tracer.rows_per_submission(&params) / GROUP.height) * width.div_ceil(GROUP.width);
+        let most =
+            (gpu.tracer.rows_per_submission(&params) / GROUP.height) * width.div_ceil(GROUP.width);
         self.band_groups = self.band_groups.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
         let params = progressive.frame;
-        let band = progressive.next_band(self.band_groups).expect("a frame in progress has pixels left");
+        let band =
+            progressive.next_band(self.band_groups).expect("a frame in progress has pixels left");
         let completes = progressive.is_done();
         if completes {
             self.progressive = None;
@@ -161,7 +200,8 @@ impl Frames {
     fn read_back_colour(&mut self, tracer: &ComputeTracer) -> anyhow::Result<()> {
         let image = tracer.read_rgba8()?;
         let (width, height) = image.dimensions();
-        self.picture = Some(Picture { width, height, rgba: image.into_raw(), stats: None, note: None });
+        self.picture =
+            Some(Picture { width, height, rgba: image.into_raw(), stats: None, note: None });
         Ok(())
     }
 
@@ -171,9 +211,17 @@ impl Frames {
         self.picture = match (view, aov::picture(image, view)) {
             (ViewMode::Cost(metric), _) => {
                 let map = heat_map(bytemuck::cast_slice(&image.pixels), metric);
-                Some(Picture { width, height, rgba: map.rgba, stats: Some((map.scale_max, map.max, map.mean)), note: None })
+                Some(Picture {
+                    width,
+                    height,
+                    rgba: map.rgba,
+                    stats: Some((map.scale_max, map.max, map.mean)),
+                    note: None,
+                })
             }
-            (_, Some(p)) => Some(Picture { width, height, rgba: p.rgba, stats: p.heat, note: p.note }),
+            (_, Some(p)) => {
+                Some(Picture { width, height, rgba: p.rgba, stats: p.heat, note: p.note })
+            }
             (_, None) => None,
         };
     }

@@ -74,7 +74,10 @@ impl Input {
     pub(crate) fn over_image(&self, image_area: PixelRect) -> bool {
         self.cursor.is_some_and(|c| {
             let (x, y) = (c.x, c.y);
-            x >= image_area.x as f64 && y >= image_area.y as f64 && x < image_area.x as f64 + image_area.width as f64 && y < image_area.y as f64 + image_area.height as f64
+            x >= image_area.x as f64
+                && y >= image_area.y as f64
+                && x < image_area.x as f64 + image_area.width as f64
+                && y < image_area.y as f64 + image_area.height as f64
         })
     }
 
@@ -86,9 +89,14 @@ impl Input {
     }
 
     /// The cursor moved: returns the drag and its motion in pixels, if dragging.
-    pub(crate) fn cursor_moved(&mut self, position: PhysicalPosition<f64>) -> Option<(Drag, f32, f32)> {
+    pub(crate) fn cursor_moved(
+        &mut self,
+        position: PhysicalPosition<f64>,
+    ) -> Option<(Drag, f32, f32)> {
         let drag = match (self.drag, self.cursor) {
-            (Some(kind), Some(last)) => Some((kind, (position.x - last.x) as f32, (position.y - last.y) as f32)),
+            (Some(kind), Some(last)) => {
+                Some((kind, (position.x - last.x) as f32, (position.y - last.y) as f32))
+            }
             _ => None,
         };
         self.cursor = Some(position);
@@ -119,23 +127,43 @@ impl Input {
     /// that a key or text event follows, whichever comes first. The events after the cut
     /// are taken out of `events` and returned, to go first into the next frame's input; the
     /// presses among them wait for that frame.
-    pub(crate) fn frame_keys(&mut self, events: &mut Vec<egui::Event>, moves_focus: impl Fn(&egui::Event) -> bool) -> (Vec<KeyPress>, Vec<egui::Event>) {
-        let is_release = |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
-        let is_typing = |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
-        let after_release = events.iter().position(is_release).map(|i| i + 1).filter(|&cut| cut < events.len());
-        let after_focus_move = events.iter().position(moves_focus).map(|i| i + 1).filter(|&cut| events[cut..].iter().any(is_typing));
+    pub(crate) fn frame_keys(
+        &mut self,
+        events: &mut Vec<egui::Event>,
+        moves_focus: impl Fn(&egui::Event) -> bool,
+    ) -> (Vec<KeyPress>, Vec<egui::Event>) {
+        let is_release =
+            |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
+        let is_typing =
+            |e: &egui::Event| matches!(e, egui::Event::Key { .. } | egui::Event::Text(_));
+        let after_release =
+            events.iter().position(is_release).map(|i| i + 1).filter(|&cut| cut < events.len());
+        let after_focus_move = events
+            .iter()
+            .position(moves_focus)
+            .map(|i| i + 1)
+            .filter(|&cut| events[cut..].iter().any(is_typing));
         let pressed_before = |i: usize, released: egui::PointerButton| {
             events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
         };
         let release_of_a_press = events.iter().enumerate().find_map(|(i, e)| match e {
-            egui::Event::PointerButton { pressed: false, button, .. } if pressed_before(i, *button) => Some(i),
+            egui::Event::PointerButton { pressed: false, button, .. }
+                if pressed_before(i, *button) =>
+            {
+                Some(i)
+            }
             _ => None,
         });
-        let Some(cut) = [after_release, after_focus_move, release_of_a_press].into_iter().flatten().min() else {
+        let Some(cut) =
+            [after_release, after_focus_move, release_of_a_press].into_iter().flatten().min()
+        else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
-        log::debug!("{} input events after a press, a release or a focus move wait for the next frame", held.len());
+        log::debug!(
+            "{} input events after a press, a release or a focus move wait for the next frame",
+            held.len()
+        );
         // A press whose events end at the cut is this frame's (the key that moved the focus).
         let later = self.keys.iter().position(|k| k.at > cut).unwrap_or(self.keys.len());
         let mut waiting = self.keys.split_off(later);
@@ -147,7 +175,9 @@ impl Input {
 
     /// Wheel notches to zoom by (positive = closer), when the wheel turned over the image.
     pub(crate) fn wheel(&mut self, delta: MouseScrollDelta, image_area: PixelRect) -> Option<f32> {
-        if std::mem::take(&mut self.wheel_release_echo) && matches!(delta, MouseScrollDelta::LineDelta(..)) {
+        if std::mem::take(&mut self.wheel_release_echo)
+            && matches!(delta, MouseScrollDelta::LineDelta(..))
+        {
             return None;
         }
         if !self.over_image(image_area) {
@@ -167,7 +197,12 @@ mod tests {
     const IMAGE: PixelRect = PixelRect { x: 300, y: 0, width: 500, height: 400 };
 
     fn button(pressed: bool) -> egui::Event {
-        egui::Event::PointerButton { pos: egui::pos2(10.0, 10.0), button: egui::PointerButton::Primary, pressed, modifiers: Default::default() }
+        egui::Event::PointerButton {
+            pos: egui::pos2(10.0, 10.0),
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: Default::default(),
+        }
     }
 
     /// Feed `typed` (a key's code and its text) as winit and egui-winit would.
@@ -187,7 +222,11 @@ mod tests {
     }
 
     /// Feed keys as winit and egui-winit would: the key's event, then its text if any.
-    fn press_keys(input: &mut Input, events: &mut Vec<egui::Event>, typed: &[(KeyCode, egui::Key, egui::Modifiers, &str)]) {
+    fn press_keys(
+        input: &mut Input,
+        events: &mut Vec<egui::Event>,
+        typed: &[(KeyCode, egui::Key, egui::Modifiers, &str)],
+    ) {
         for &(code, k, modifiers, text) in typed {
             events.push(key(k, modifiers));
             if !text.is_empty() {
@@ -203,9 +242,18 @@ mod tests {
         let mut events = Vec::new();
         let none = egui::Modifiers::NONE;
         let ctrl = egui::Modifiers::CTRL;
-        press_keys(&mut input, &mut events, &[(KeyCode::KeyO, egui::Key::O, ctrl, ""), (KeyCode::Slash, egui::Key::Slash, none, "/"), (KeyCode::KeyT, egui::Key::T, none, "t")]);
+        press_keys(
+            &mut input,
+            &mut events,
+            &[
+                (KeyCode::KeyO, egui::Key::O, ctrl, ""),
+                (KeyCode::Slash, egui::Key::Slash, none, "/"),
+                (KeyCode::KeyT, egui::Key::T, none, "t"),
+            ],
+        );
         let opens_dialog = |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::O, modifiers, .. } if modifiers.ctrl);
-        let opens_field = |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::Slash, .. });
+        let opens_field =
+            |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::Slash, .. });
 
         // Ctrl+O is this frame's; "/" and "t" wait for the frame that shows the dialog.
         let (keys, mut held) = input.frame_keys(&mut events, opens_dialog);
@@ -215,7 +263,10 @@ mod tests {
         let (keys, rest) = input.frame_keys(&mut held, opens_field);
         assert_eq!(held, [key(egui::Key::Slash, none)]);
         assert!(keys.is_empty(), "the press of / ends with its text, which waits");
-        assert_eq!(rest, [egui::Event::Text("/".into()), key(egui::Key::T, none), egui::Event::Text("t".into())]);
+        assert_eq!(
+            rest,
+            [egui::Event::Text("/".into()), key(egui::Key::T, none), egui::Event::Text("t".into())]
+        );
         let mut rest = rest;
         let (keys, held) = input.frame_keys(&mut rest, opens_field);
         assert_eq!(codes(&keys), [KeyCode::Slash, KeyCode::KeyT]);
@@ -237,7 +288,10 @@ mod tests {
         let (keys, held) = input.frame_keys(&mut events, no_key);
         assert_eq!(codes(&keys), [KeyCode::Equal], "only the key before the click is this frame's");
         assert_eq!(events.len(), 2, "this frame's egui input ends with the press");
-        assert_eq!(held, [button(false), egui::Event::Text("m".into()), egui::Event::Text("-".into())]);
+        assert_eq!(
+            held,
+            [button(false), egui::Event::Text("m".into()), egui::Event::Text("-".into())]
+        );
 
         // The release ends the next frame (the field it focuses gets the keys after it)...
         let mut next = held;
@@ -260,7 +314,8 @@ mod tests {
         // slider is dragged to the pointer), the release and what follows a frame later.
         let mut input = Input::default();
         let moved = egui::Event::PointerMoved(egui::pos2(1.0, 2.0));
-        let mut events = vec![moved.clone(), button(true), moved.clone(), button(false), moved.clone()];
+        let mut events =
+            vec![moved.clone(), button(true), moved.clone(), button(false), moved.clone()];
         let (keys, held) = input.frame_keys(&mut events, no_key);
         assert!(keys.is_empty());
         assert_eq!(events, [moved.clone(), button(true), moved.clone()]);
@@ -276,7 +331,12 @@ mod tests {
         let mut events = vec![moved.clone(), button(false)];
         let (_, held) = input.frame_keys(&mut events, no_key);
         assert!(held.is_empty() && events.len() == 2);
-        let other = egui::Event::PointerButton { pos: egui::pos2(10.0, 10.0), button: egui::PointerButton::Secondary, pressed: false, modifiers: Default::default() };
+        let other = egui::Event::PointerButton {
+            pos: egui::pos2(10.0, 10.0),
+            button: egui::PointerButton::Secondary,
+            pressed: false,
+            modifiers: Default::default(),
+        };
         let mut events = vec![button(true), other];
         let (_, held) = input.frame_keys(&mut events, no_key);
         assert!(held.is_empty() && events.len() == 2);
@@ -288,19 +348,32 @@ mod tests {
         // slider's last frame must not hold the move to the field.
         let mut input = Input::default();
         let at = |x: f32| egui::Event::PointerMoved(egui::pos2(x, 0.0));
-        let mut pending = vec![at(150.0), button(true), button(false), at(180.0), button(true), button(false)];
+        let mut pending =
+            vec![at(150.0), button(true), button(false), at(180.0), button(true), button(false)];
         let mut frames = Vec::new();
         while !pending.is_empty() {
             let (_, held) = input.frame_keys(&mut pending, no_key);
             frames.push(std::mem::replace(&mut pending, held));
         }
-        assert_eq!(frames, [vec![at(150.0), button(true)], vec![button(false)], vec![at(180.0), button(true)], vec![button(false)]]);
+        assert_eq!(
+            frames,
+            [
+                vec![at(150.0), button(true)],
+                vec![button(false)],
+                vec![at(180.0), button(true)],
+                vec![button(false)]
+            ]
+        );
     }
 
     #[test]
     fn a_press_and_the_drag_after_it_stay_in_one_frame() {
         let mut input = Input::default();
-        let mut events = vec![button(true), egui::Event::PointerMoved(egui::pos2(1.0, 2.0)), egui::Event::PointerMoved(egui::pos2(3.0, 2.0))];
+        let mut events = vec![
+            button(true),
+            egui::Event::PointerMoved(egui::pos2(1.0, 2.0)),
+            egui::Event::PointerMoved(egui::pos2(3.0, 2.0)),
+        ];
         let (_, held) = input.frame_keys(&mut events, no_key);
         assert!(held.is_empty() && events.len() == 3);
     }
@@ -339,18 +412,32 @@ mod tests {
             pending = held;
         }
         assert_eq!(frames, [1, 1, 2, 1, 1], "press | release | a, press | release | b");
-        assert_eq!(keys_by_frame, [vec![], vec![], vec![KeyCode::KeyA], vec![], vec![KeyCode::KeyB]]);
+        assert_eq!(
+            keys_by_frame,
+            [vec![], vec![], vec![KeyCode::KeyA], vec![], vec![KeyCode::KeyB]]
+        );
     }
 
     #[test]
     fn the_wheel_over_the_panel_does_not_zoom() {
         let mut input = Input::default();
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), None, "no cursor yet");
+        assert_eq!(
+            input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE),
+            None,
+            "no cursor yet"
+        );
         input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), None, "over the panel");
+        assert_eq!(
+            input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE),
+            None,
+            "over the panel"
+        );
         input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
         assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
-        assert_eq!(input.wheel(MouseScrollDelta::PixelDelta(PhysicalPosition::new(0.0, -80.0)), IMAGE), Some(-2.0));
+        assert_eq!(
+            input.wheel(MouseScrollDelta::PixelDelta(PhysicalPosition::new(0.0, -80.0)), IMAGE),
+            Some(-2.0)
+        );
     }
 
     #[test]
@@ -382,13 +469,19 @@ mod tests {
         assert_eq!(input.drag, None);
         input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
         input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
-        assert_eq!(input.cursor_moved(PhysicalPosition::new(410.0, 95.0)), Some((Drag::Orbit, 10.0, -5.0)));
+        assert_eq!(
+            input.cursor_moved(PhysicalPosition::new(410.0, 95.0)),
+            Some((Drag::Orbit, 10.0, -5.0))
+        );
         input.drag_button(ElementState::Released, Drag::Orbit, IMAGE);
         assert_eq!(input.cursor_moved(PhysicalPosition::new(420.0, 95.0)), None);
         // Shift with the left button, or the middle button: pan.
         input.modifiers = ModifiersState::SHIFT;
         input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
-        assert_eq!(input.cursor_moved(PhysicalPosition::new(421.0, 95.0)), Some((Drag::Pan, 1.0, 0.0)));
+        assert_eq!(
+            input.cursor_moved(PhysicalPosition::new(421.0, 95.0)),
+            Some((Drag::Pan, 1.0, 0.0))
+        );
         input.modifiers = ModifiersState::empty();
         input.drag_button(ElementState::Pressed, Drag::Pan, IMAGE);
         assert_eq!(input.drag, Some(Drag::Pan));

@@ -28,10 +28,10 @@ mod events;
 mod frame;
 pub(crate) mod input;
 pub(crate) mod progressive;
+mod saving;
 pub(crate) mod script;
 pub(crate) mod session;
 mod split;
-mod saving;
 mod timing;
 mod ui;
 mod ui_state;
@@ -57,8 +57,8 @@ use crate::app::tool::ui_state::UiPass;
 use crate::app::{headless_error, ViewOptions};
 use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
 use crate::gpu::{ComputeTracer, FrameTrace, GpuError};
-use crate::scene::spec::SceneSpec;
 use crate::render_settings::Accel;
+use crate::scene::spec::SceneSpec;
 
 /// The tool: the window and its GPU side, the parameters and session, and the parts each
 /// frame goes through (the UI pass, the frame and its bands, captures, timing).
@@ -90,12 +90,21 @@ impl Tool {
     pub(crate) fn new(event_loop: &ActiveEventLoop, options: &ViewOptions) -> anyhow::Result<Self> {
         let store = Store::new(options.persist());
         let remembered = store.load();
-        let recorder = Recorder::from_flag(options.stats_csv.as_deref()).map_err(anyhow::Error::msg)?;
+        let recorder =
+            Recorder::from_flag(options.stats_csv.as_deref()).map_err(anyhow::Error::msg)?;
         let [w, h] = options.window.or(remembered.window).unwrap_or(DEFAULT_WINDOW);
-        let attributes = Window::default_attributes().with_title(format!("meshtracer — {}", options.spec.model.label())).with_inner_size(LogicalSize::new(w, h));
-        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| headless_error("cannot open a window", e))?);
-        let display = window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
-        let window_handle = window.window_handle().map_err(|e| headless_error("no window handle", e))?.as_raw();
+        let attributes = Window::default_attributes()
+            .with_title(format!("meshtracer — {}", options.spec.model.label()))
+            .with_inner_size(LogicalSize::new(w, h));
+        let window = Arc::new(
+            event_loop
+                .create_window(attributes)
+                .map_err(|e| headless_error("cannot open a window", e))?,
+        );
+        let display =
+            window.display_handle().map_err(|e| headless_error("no display handle", e))?.as_raw();
+        let window_handle =
+            window.window_handle().map_err(|e| headless_error("no window handle", e))?.as_raw();
         let mut params = Params::new(&options.spec, options.scripted());
         params.hud_visible = options.hud;
         params.split = options.split;
@@ -103,7 +112,15 @@ impl Tool {
         let physical = window.inner_size();
         // SAFETY: the handles belong to `window`, which outlives the surface: the presenter
         // owning it is dropped first (see `shut_down`).
-        let devices = unsafe { devices::open(options, display, window_handle, [physical.width, physical.height], params.vsync) }?;
+        let devices = unsafe {
+            devices::open(
+                options,
+                display,
+                window_handle,
+                [physical.width, physical.height],
+                params.vsync,
+            )
+        }?;
         let devices::WindowDevices { presenter, ctx, trace_ctx } = devices;
         let tracer = ComputeTracer::new(&trace_ctx, FRAMES_IN_FLIGHT as u32)?;
         // While the model loads: lavapipe's compiler takes seconds over a kernel.
@@ -113,7 +130,14 @@ impl Tool {
         let egui_ctx = egui::Context::default();
         egui_ctx.set_theme(egui::ThemePreference::Dark);
         let max_texture = ctx.info.max_image_dimension_2d as usize;
-        let egui_state = egui_winit::State::new(egui_ctx.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, Some(max_texture));
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(max_texture),
+        );
 
         let mut session = Session::default();
         let mut panel = PanelState::default();
@@ -122,19 +146,36 @@ impl Tool {
             panel.presets.used(path);
         }
         session.start_load(options.spec.model.clone(), &mut params, &mut panel);
-        let previous_resolution = if params.resolution == Resolution::MatchWindow { Resolution::Square(512) } else { params.resolution };
+        let previous_resolution = if params.resolution == Resolution::MatchWindow {
+            Resolution::Square(512)
+        } else {
+            params.resolution
+        };
         Ok(Self {
             gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx },
-            ui: UiPass { egui_state, egui_ctx, panel, open_dialog: OpenDialog::default(), image_area: PixelRect::default() },
+            ui: UiPass {
+                egui_state,
+                egui_ctx,
+                panel,
+                open_dialog: OpenDialog::default(),
+                image_area: PixelRect::default(),
+            },
             window,
             previous_resolution,
             params,
             session,
             input: Input::default(),
-            script: ScriptedRun::new(options.frames, options.screenshot.clone(), options.screenshot_ui.clone()),
+            script: ScriptedRun::new(
+                options.frames,
+                options.screenshot.clone(),
+                options.screenshot_ui.clone(),
+            ),
             frame: Frames::default(),
             captures: Captures::default(),
-            timing: Timing::new(Runs::new(options.benchmark, options.benchmark_json.clone()), recorder),
+            timing: Timing::new(
+                Runs::new(options.benchmark, options.benchmark_json.clone()),
+                recorder,
+            ),
             store,
             shader_watch: options.watch_shaders.clone().map(ShaderWatch::new),
         })
@@ -145,14 +186,22 @@ impl Tool {
         let size = self.window.inner_size();
         // X11 reports no Occluded event when a window is iconified; the window manager's
         // hidden state (is_minimized) says it there.
-        size.width > 0 && size.height > 0 && !self.input.occluded && self.window.is_minimized() != Some(true)
+        size.width > 0
+            && size.height > 0
+            && !self.input.occluded
+            && self.window.is_minimized() != Some(true)
     }
 
     /// Free everything in order; returns the validation messages seen.
     pub(crate) fn shut_down(mut self) -> Vec<String> {
         self.remember();
         let separate = self.gpu.traces_elsewhere();
-        let Tool { gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx }, ui: UiPass { egui_state, .. }, window, .. } = self;
+        let Tool {
+            gpu: Gpu { presenter, tracer, clock, ctx, trace_ctx },
+            ui: UiPass { egui_state, .. },
+            window,
+            ..
+        } = self;
         let _ = ctx.wait_idle();
         let _ = trace_ctx.wait_idle();
         drop(presenter);
@@ -196,7 +245,8 @@ impl Tool {
             // A preset or the A key asked for the vendor's ray tracing where the device has
             // none: say why and trace with our BVH from the next frame on.
             if let GpuError::VendorUnavailable(why) = &e {
-                self.ui.panel.render.status = Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
+                self.ui.panel.render.status =
+                    Some(Status::error(format!("vendor ray tracing: {why}; tracing with the BVH")));
                 self.ui.panel.render.status_accel = Some(Accel::Bvh);
                 if self.params.scene.settings.accel == Accel::Vendor {
                     self.params.scene.settings.accel = Accel::Bvh;
@@ -220,7 +270,11 @@ impl Tool {
         if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.ui.panel)? {
             self.window.set_title(&title);
         }
-        if self.shader_watch.as_mut().is_some_and(|w| w.poll(&mut self.gpu.tracer, &mut self.ui.panel)) {
+        if self
+            .shader_watch
+            .as_mut()
+            .is_some_and(|w| w.poll(&mut self.gpu.tracer, &mut self.ui.panel))
+        {
             // What was accumulated so far came from the old shader.
             self.session.accumulation = Default::default();
             self.frame.progressive = None;
@@ -243,29 +297,52 @@ impl Tool {
         }
         self.session.apply(&mut self.params, area, &mut self.gpu.tracer, &mut self.ui.panel)?;
         self.gpu.presenter.set_vsync(self.params.vsync);
-        self.timing.benchmarks.before_frame(&mut self.params, area, &mut self.ui.panel.benchmark.outcome)?;
+        self.timing.benchmarks.before_frame(
+            &mut self.params,
+            area,
+            &mut self.ui.panel.benchmark.outcome,
+        )?;
         let primitives = self.ui.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
 
         // A frame being traced in bands keeps its parameters (accumulation waits for it).
-        let params = self.session.frame_params(&self.params, area, self.frame.progressive.is_some());
+        let params =
+            self.session.frame_params(&self.params, area, self.frame.progressive.is_some());
         let prepared = self.prepare_image(params)?;
         // What this frame traces (a long frame keeps the settings it began with).
-        let frame_settings = prepared.trace.as_ref().map(|(p, _)| p.params.settings).or(params.map(|p| p.params.settings));
+        let frame_settings = prepared
+            .trace
+            .as_ref()
+            .map(|(p, _)| p.params.settings)
+            .or(params.map(|p| p.params.settings));
         let traced = prepared.completes;
         let final_frame = self.script.is_final_frame(traced);
-        let capture = self.captures.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
-        let image_rect = fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.ui.image_area);
-        let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64);
+        let capture =
+            self.captures.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
+        let image_rect =
+            fit_rect(self.gpu.tracer.resolution().unwrap_or_default(), self.ui.image_area);
+        let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| {
+            band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64
+        });
         let tag = BandTag { frame: self.frame.traced_frames, last: prepared.completes };
         if let Some(s) = frame_settings {
             self.frame.note_settings(tag.frame, s);
         }
         let show = match (prepared.show, &self.frame.picture) {
             (Shown::Output, _) => Show::Output,
-            (Shown::Picture, Some(h)) => Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height },
+            (Shown::Picture, Some(h)) => {
+                Show::Pixels { rgba: &h.rgba, width: h.width, height: h.height }
+            }
             _ => Show::Nothing,
         };
-        let request = FrameRequest { trace: prepared.trace.clone(), tag, show, image_rect, ui: &primitives, pixels_per_point: full.pixels_per_point, capture_window: capture };
+        let request = FrameRequest {
+            trace: prepared.trace.clone(),
+            tag,
+            show,
+            image_rect,
+            ui: &primitives,
+            pixels_per_point: full.pixels_per_point,
+            capture_window: capture,
+        };
         // A tracer on another device has traced already; its buffers are not the window's.
         let recording = Some(&self.gpu.tracer).filter(|_| !self.gpu.traces_elsewhere());
         let outcome = self.gpu.presenter.draw(recording, &request)?;
@@ -286,7 +363,12 @@ impl Tool {
             frame_time = self.frame.band_times.add(tag, ms, parts).map(|t| (t, tag.frame));
         }
         if let (Some(ms), Some(band)) = (outcome.gpu_ms, outcome.tag) {
-            frame_time = self.frame.band_times.add(band, ms, outcome.part_ms).map(|t| (t, band.frame)).or(frame_time);
+            frame_time = self
+                .frame
+                .band_times
+                .add(band, ms, outcome.part_ms)
+                .map(|t| (t, band.frame))
+                .or(frame_time);
         }
         let timed_settings = frame_time.and_then(|(_, number)| self.frame.settings_of(number));
         let frame_time = frame_time.map(|(t, _)| t);
@@ -309,8 +391,20 @@ impl Tool {
             self.timing.last_frame = Some(now);
             if traced {
                 self.script.frames += 1;
-                let (stats, params, session, clock) = (&self.timing.stats, &self.params, &self.session, self.gpu.clock.latest);
-                let row = || (FrameRow::new(t, stats, &frame_settings.unwrap_or_default(), session.counts().0, clock), watched(params, &session.model_label()));
+                let (stats, params, session, clock) =
+                    (&self.timing.stats, &self.params, &self.session, self.gpu.clock.latest);
+                let row = || {
+                    (
+                        FrameRow::new(
+                            t,
+                            stats,
+                            &frame_settings.unwrap_or_default(),
+                            session.counts().0,
+                            clock,
+                        ),
+                        watched(params, &session.model_label()),
+                    )
+                };
                 if let Some(status) = self.timing.recorder.frame(row) {
                     self.ui.panel.perf.status = Some(status);
                 }
@@ -318,10 +412,24 @@ impl Tool {
         } else if !self.can_draw() {
             self.timing.last_frame = None;
         }
-        self.timing.benchmarks.after_frame(t, outcome.presented && traced, frame_time.map(|(ms, _)| ms), self.gpu.clock.latest);
+        self.timing.benchmarks.after_frame(
+            t,
+            outcome.presented && traced,
+            frame_time.map(|(ms, _)| ms),
+            self.gpu.clock.latest,
+        );
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
-        let workload = |p: &Params| Workload { model: session.model_label(), models: p.scene.models, triangles: session.counts().0 };
-        if self.timing.benchmarks.finish(&mut self.params, &mut self.ui.panel.benchmark.outcome, workload, || crate::bench::environment(ctx))? {
+        let workload = |p: &Params| Workload {
+            model: session.model_label(),
+            models: p.scene.models,
+            triangles: session.counts().0,
+        };
+        if self.timing.benchmarks.finish(
+            &mut self.params,
+            &mut self.ui.panel.benchmark.outcome,
+            workload,
+            || crate::bench::environment(ctx),
+        )? {
             self.script.request_exit();
         }
 

@@ -59,7 +59,10 @@ impl Progressive {
         let band = if self.next_column > 0 || groups < per_strip {
             // Part of one strip: columns from where the last band stopped.
             let end = (self.next_column + groups * group.width).min(width);
-            Band { rows: self.next_row..(self.next_row + group.height).min(height), columns: self.next_column..end }
+            Band {
+                rows: self.next_row..(self.next_row + group.height).min(height),
+                columns: self.next_column..end,
+            }
         } else {
             let strips = groups / per_strip;
             Band::rows(self.next_row..(self.next_row + strips * group.height).min(height), width)
@@ -93,7 +96,11 @@ impl Progressive {
 /// The next band's size in groups, from the last band's size and GPU time: about
 /// [`BAND_TARGET_MS`] per band, changing by at most 4x a step, within `1..=most`.
 pub(crate) fn adapt_groups(groups: u32, gpu_ms: f64, most: u32) -> u32 {
-    let scaled = if gpu_ms > 0.0 { groups as f64 * (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0) } else { groups as f64 };
+    let scaled = if gpu_ms > 0.0 {
+        groups as f64 * (BAND_TARGET_MS / gpu_ms).clamp(0.25, 4.0)
+    } else {
+        groups as f64
+    };
     (scaled.round() as u32).clamp(1, most.max(1))
 }
 
@@ -111,7 +118,12 @@ impl BandTimes {
     /// Add the time of a band of `tag`'s frame (`parts`: per part of a split frame); the
     /// frame's total and parts once its last band is in. A band of another frame drops a
     /// frame left unfinished (restarted by a change).
-    pub(crate) fn add(&mut self, tag: BandTag, ms: f64, parts: PartTimes) -> Option<(f64, PartTimes)> {
+    pub(crate) fn add(
+        &mut self,
+        tag: BandTag,
+        ms: f64,
+        parts: PartTimes,
+    ) -> Option<(f64, PartTimes)> {
         let (frame, total, sums) = match self.open.take() {
             Some(open) if open.0 == tag.frame => open,
             _ => (tag.frame, 0.0, [None; 2]),
@@ -132,28 +144,41 @@ impl BandTimes {
 mod tests {
     use super::*;
     use crate::render_settings::RenderSettings;
-use crate::tracer::frame::FrameParams;
+    use crate::tracer::frame::FrameParams;
 
     #[test]
     fn a_frames_time_is_the_sum_of_its_bands() {
         let mut times = BandTimes::default();
         let band = |frame, last| BandTag { frame, last };
         // A whole frame: its one band's time.
-        assert_eq!(times.add(band(0, true), 1.5, [Some(1.5), None]), Some((1.5, [Some(1.5), None])));
+        assert_eq!(
+            times.add(band(0, true), 1.5, [Some(1.5), None]),
+            Some((1.5, [Some(1.5), None]))
+        );
         // Three bands of a split frame (the first on the right of the line only).
         assert_eq!(times.add(band(1, false), 2.0, [None, Some(2.0)]), None);
         assert_eq!(times.add(band(1, false), 3.0, [Some(2.0), Some(1.0)]), None);
-        assert_eq!(times.add(band(1, true), 1.0, [Some(0.5), Some(0.5)]), Some((6.0, [Some(2.5), Some(3.5)])));
+        assert_eq!(
+            times.add(band(1, true), 1.0, [Some(0.5), Some(0.5)]),
+            Some((6.0, [Some(2.5), Some(3.5)]))
+        );
         // A frame restarted part-way: the next frame's bands count alone.
         assert_eq!(times.add(band(2, false), 9.0, [Some(9.0), None]), None);
         assert_eq!(times.add(band(3, false), 2.0, [Some(2.0), None]), None);
-        assert_eq!(times.add(band(3, true), 2.0, [Some(2.0), None]), Some((4.0, [Some(4.0), None])));
+        assert_eq!(
+            times.add(band(3, true), 2.0, [Some(2.0), None]),
+            Some((4.0, [Some(4.0), None]))
+        );
     }
 
     const SQUARE: GroupSize = GroupSize { width: 8, height: 8 };
 
     fn frame_in_groups(width: u32, height: u32, group: GroupSize) -> Progressive {
-        let scene = crate::scene::paper::paper_scene(crate::scene::primitives::geosphere(0), 1, Default::default());
+        let scene = crate::scene::paper::paper_scene(
+            crate::scene::primitives::geosphere(0),
+            1,
+            Default::default(),
+        );
         let settings = RenderSettings { width, height, ..RenderSettings::default() };
         Progressive::new(FrameTrace::whole(FrameParams::new(&scene, settings)), group)
     }
@@ -166,14 +191,21 @@ use crate::tracer::frame::FrameParams;
     /// in oblong ones.
     #[test]
     fn bands_tile_the_frame_exactly_once() {
-        let groups = [SQUARE, GroupSize { width: 16, height: 8 }, GroupSize { width: 8, height: 16 }];
-        for ((w, h), group) in [(64, 64), (100, 37), (8, 8), (1, 300), (257, 9)].into_iter().flat_map(|s| groups.map(|g| (s, g))) {
+        let groups =
+            [SQUARE, GroupSize { width: 16, height: 8 }, GroupSize { width: 8, height: 16 }];
+        for ((w, h), group) in [(64, 64), (100, 37), (8, 8), (1, 300), (257, 9)]
+            .into_iter()
+            .flat_map(|s| groups.map(|g| (s, g)))
+        {
             for sizes in [vec![1], vec![3], vec![1, 5, 2, 40, 1000], vec![1000]] {
                 let mut p = frame_in_groups(w, h, group);
                 let mut seen = vec![0u8; (w * h) as usize];
                 let mut i = 0;
                 while let Some(b) = p.next_band(sizes[i % sizes.len()]) {
-                    assert!(b.rows.start % group.height == 0 && b.columns.start % group.width == 0, "{b:?} in {group:?}");
+                    assert!(
+                        b.rows.start % group.height == 0 && b.columns.start % group.width == 0,
+                        "{b:?} in {group:?}"
+                    );
                     assert!(b.pixels() > 0);
                     for y in b.rows.clone() {
                         for x in b.columns.clone() {
@@ -207,7 +239,11 @@ use crate::tracer::frame::FrameParams;
     #[test]
     fn a_split_frame_goes_on_unless_a_half_changes() {
         use crate::app::views::split::{SplitB, SplitView};
-        let split = SplitView { enabled: true, position: 0.5, b: SplitB { bounces: Some(0), ..Default::default() } };
+        let split = SplitView {
+            enabled: true,
+            position: 0.5,
+            b: SplitB { bounces: Some(0), ..Default::default() },
+        };
         // Wide enough that the two lines below snap to different work-group columns.
         let p = Progressive::new(split.frame(frame(256, 64).frame.params), SQUARE);
         let mut moved = p.frame;
@@ -216,12 +252,20 @@ use crate::tracer::frame::FrameParams;
             s.params.light_position += glam::Vec3::X;
         }
         assert!(p.continues(&moved), "the light alone does not restart a long frame");
-        let other_b = SplitView { b: SplitB { bounces: Some(1), ..split.b }, ..split }.frame(p.frame.params);
+        let other_b =
+            SplitView { b: SplitB { bounces: Some(1), ..split.b }, ..split }.frame(p.frame.params);
         assert!(!p.continues(&other_b));
         let moved_line = SplitView { position: 0.25, ..split }.frame(p.frame.params);
-        assert_ne!(moved_line.split.unwrap().column, p.frame.split.unwrap().column, "the test must move the line");
+        assert_ne!(
+            moved_line.split.unwrap().column,
+            p.frame.split.unwrap().column,
+            "the test must move the line"
+        );
         assert!(!p.continues(&moved_line));
-        assert!(!p.continues(&FrameTrace::whole(p.frame.params)), "turning the split off is a new frame");
+        assert!(
+            !p.continues(&FrameTrace::whole(p.frame.params)),
+            "turning the split off is a new frame"
+        );
     }
 
     #[test]

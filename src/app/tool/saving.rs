@@ -24,7 +24,8 @@ impl Tool {
     /// saved preset leaves them out: they say how long the view was still, not its look).
     pub(super) fn settings_text(&self) -> String {
         let mut spec = self.scene_spec();
-        spec.accumulate = self.session.accumulation.frames.clamp(1, crate::render_settings::ACCUMULATE.hi as u32);
+        spec.accumulate =
+            self.session.accumulation.frames.clamp(1, crate::render_settings::ACCUMULATE.hi as u32);
         spec.to_preset_text()
     }
 
@@ -55,10 +56,22 @@ impl Tool {
                 // Another model, or the same read another way (--crease-angle): load it.
                 let shown = self.session.model.as_ref().map(|m| &m.source);
                 if shown != Some(&spec.model) || self.params.scene.load_options != options {
-                    self.session.start_load(spec.model.clone(), &mut self.params, &mut self.ui.panel);
+                    self.session.start_load(
+                        spec.model.clone(),
+                        &mut self.params,
+                        &mut self.ui.panel,
+                    );
                 }
                 let presets = &mut self.ui.panel.presets;
-                presets.status = Some(Status::ok(format!("loaded {}{}", path.display(), if warnings.is_empty() { String::new() } else { format!("; {} warning(s):", warnings.len()) })));
+                presets.status = Some(Status::ok(format!(
+                    "loaded {}{}",
+                    path.display(),
+                    if warnings.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; {} warning(s):", warnings.len())
+                    }
+                )));
                 presets.warnings = warnings;
                 presets.used(path);
             }
@@ -68,7 +81,14 @@ impl Tool {
 
     pub(super) fn name_parts(&self) -> NameParts {
         let [width, height] = self.gpu.tracer.resolution().unwrap_or_default();
-        NameParts { model: self.session.model_label(), models: self.params.scene.models, width, height, bounces: self.params.scene.settings.bounces, blend: self.params.scene.settings.blend }
+        NameParts {
+            model: self.session.model_label(),
+            models: self.params.scene.models,
+            width,
+            height,
+            bounces: self.params.scene.settings.bounces,
+            blend: self.params.scene.settings.blend,
+        }
     }
 
     /// The last screenshot's outcome, also over the image for a moment (the panel may be hidden).
@@ -84,7 +104,10 @@ impl Tool {
             return Status::error("nothing traced yet: no EXR written");
         }
         match self.gpu.tracer.read_image() {
-            Ok(image) => screenshot::status(image.save(path, self.params.view.aov(), None).map_err(|e| format!("{e:#}")), path),
+            Ok(image) => screenshot::status(
+                image.save(path, self.params.view.aov(), None).map_err(|e| format!("{e:#}")),
+                path,
+            ),
             Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
         }
     }
@@ -102,14 +125,19 @@ impl Tool {
 
     pub(super) fn save_trace(&self, path: &Path) -> Status {
         match self.read_trace() {
-            Ok(Some(img)) => screenshot::status(screenshot::save_png(&img, &self.settings_text(), path), path),
+            Ok(Some(img)) => {
+                screenshot::status(screenshot::save_png(&img, &self.settings_text(), path), path)
+            }
             Ok(None) => Status::error("nothing traced yet: no screenshot written"),
             Err(e) => Status::error(format!("reading the traced image failed: {e:#}")),
         }
     }
 
     /// `--screenshot` / `--screenshot-ui` at exit; failures end the run with an error.
-    pub(super) fn write_exit_files(&mut self, window_image: Option<Result<image::RgbaImage, String>>) -> anyhow::Result<()> {
+    pub(super) fn write_exit_files(
+        &mut self,
+        window_image: Option<Result<image::RgbaImage, String>>,
+    ) -> anyhow::Result<()> {
         if let Some(line) = self.timing.recorder.finish().map_err(anyhow::Error::msg)? {
             println!("{line}");
         }
@@ -119,7 +147,9 @@ impl Tool {
             println!("wrote {}", path.display());
         }
         if let Some(path) = &self.script.screenshot_ui {
-            let img = window_image.context("--screenshot-ui: the window was not drawn at exit (minimized?)")?.map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
+            let img = window_image
+                .context("--screenshot-ui: the window was not drawn at exit (minimized?)")?
+                .map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
             screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
             println!("wrote {}", path.display());
         }
@@ -148,19 +178,37 @@ impl Tool {
 
     /// The screenshots asked for this frame: the traced image now, the window once a frame
     /// was presented (`window_image`, unless the scripted run's last frame takes it).
-    pub(super) fn take_screenshots(&mut self, presented: bool, window_image: Option<&Result<image::RgbaImage, String>>, final_frame: bool) {
+    pub(super) fn take_screenshots(
+        &mut self,
+        presented: bool,
+        window_image: Option<&Result<image::RgbaImage, String>>,
+        final_frame: bool,
+    ) {
         if self.captures.want_trace_shot {
             self.captures.want_trace_shot = false;
-            let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts());
+            let path = screenshot::new_path(
+                &screenshot::screenshot_dir(),
+                Kind::Trace,
+                &self.name_parts(),
+            );
             self.ui.panel.screenshot.status = Some(self.save_trace(&path));
             self.notice_screenshot();
         }
         if self.captures.want_window_shot && presented {
             self.captures.want_window_shot = false;
-            if let Some(image) = window_image.filter(|_| !final_frame || self.script.screenshot_ui.is_none()) {
-                let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Window, &self.name_parts());
+            if let Some(image) =
+                window_image.filter(|_| !final_frame || self.script.screenshot_ui.is_none())
+            {
+                let path = screenshot::new_path(
+                    &screenshot::screenshot_dir(),
+                    Kind::Window,
+                    &self.name_parts(),
+                );
                 self.ui.panel.screenshot.status = Some(match image {
-                    Ok(img) => screenshot::status(screenshot::save_png(img, &self.settings_text(), &path), &path),
+                    Ok(img) => screenshot::status(
+                        screenshot::save_png(img, &self.settings_text(), &path),
+                        &path,
+                    ),
                     Err(e) => Status::error(e.clone()),
                 });
                 self.notice_screenshot();

@@ -28,8 +28,19 @@ pub(crate) struct ScriptedRun {
 
 impl ScriptedRun {
     /// A run ending after `frame_limit` traced frames (never, without one).
-    pub(crate) fn new(frame_limit: Option<u64>, screenshot: Option<PathBuf>, screenshot_ui: Option<PathBuf>) -> Self {
-        Self { frame_limit, frames: 0, screenshot, screenshot_ui, exit: Exit::Running, exit_attempts: 0 }
+    pub(crate) fn new(
+        frame_limit: Option<u64>,
+        screenshot: Option<PathBuf>,
+        screenshot_ui: Option<PathBuf>,
+    ) -> Self {
+        Self {
+            frame_limit,
+            frames: 0,
+            screenshot,
+            screenshot_ui,
+            exit: Exit::Running,
+            exit_attempts: 0,
+        }
     }
 
     /// Quit after the next frame (window closed, Ctrl+Q).

@@ -2,20 +2,20 @@
 //! progressive accumulation, and the model loader. Parameter changes reach the tracer
 //! here, each on the next frame.
 
-use crate::progress::Phase;
 use crate::gpu::{ComputeTracer, FrameTrace};
+use crate::progress::Phase;
+use crate::render_settings::{Accel, Aov, BvhLayout};
 use crate::scene::paper::{instances, ModelSource};
 use crate::scene::{EnvironmentSource, Scene};
-use crate::render_settings::{Accel, Aov, BvhLayout};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
 use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
-use crate::app::tool::auto_layout::{AutoLayout, Work};
-use crate::app::panel::PanelState;
 use crate::app::panel::widgets::{group, Status};
+use crate::app::panel::PanelState;
 use crate::app::state::{Params, Resolution};
+use crate::app::tool::auto_layout::{AutoLayout, Work};
 
 /// The current model on the CPU side.
 pub(crate) struct Model {
@@ -65,18 +65,35 @@ pub(crate) struct Session {
 impl Session {
     /// Start loading `source`, now the scene's model (the current one stays on screen
     /// until the new one is ready).
-    pub(crate) fn start_load(&mut self, source: ModelSource, params: &mut Params, panel: &mut PanelState) {
+    pub(crate) fn start_load(
+        &mut self,
+        source: ModelSource,
+        params: &mut Params,
+        panel: &mut PanelState,
+    ) {
         // The measured choice loads binary first (the quickest first frame); the wide tree follows.
         let layout = if params.bvh_auto { BvhLayout::Binary } else { params.scene.settings.bvh };
         self.load_with(source, layout, params, panel);
     }
 
     /// [`Session::start_load`] with the layouts to pack for `layout`.
-    fn load_with(&mut self, source: ModelSource, layout: BvhLayout, params: &mut Params, panel: &mut PanelState) {
+    fn load_with(
+        &mut self,
+        source: ModelSource,
+        layout: BvhLayout,
+        params: &mut Params,
+        panel: &mut PanelState,
+    ) {
         panel.model.status = None;
         panel.model.warnings.clear();
         params.scene.model = source.clone();
-        self.loader.start(source, params.scene.load_options, params.scene.models, params.scene.light, layout);
+        self.loader.start(
+            source,
+            params.scene.load_options,
+            params.scene.models,
+            params.scene.light,
+            layout,
+        );
     }
 
     /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays. The
@@ -84,19 +101,26 @@ impl Session {
     pub(crate) fn cancel_load(&mut self, panel: &mut PanelState) {
         let Some(shown) = self.model.as_ref().map(|m| m.source.label()) else { return };
         if let Some(label) = self.loader.cancel() {
-            panel.model.status = Some(Status::ok(format!("stopped loading {label}; keeping {shown}")));
+            panel.model.status =
+                Some(Status::ok(format!("stopped loading {label}; keeping {shown}")));
         }
     }
 
     /// Take a finished load: upload it, or keep the old model and say why not. With no
     /// model to fall back on, a failed load ends the run (the error is returned).
-    pub(crate) fn poll_loader(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<Option<String>> {
+    pub(crate) fn poll_loader(
+        &mut self,
+        tracer: &mut ComputeTracer,
+        panel: &mut PanelState,
+    ) -> anyhow::Result<Option<String>> {
         let result = match self.loader.poll() {
             Poll::Idle | Poll::Busy => return Ok(None),
             Poll::Done(result) => *result,
         };
         let first = self.model.is_none();
-        match result.and_then(|loaded| self.install(loaded, tracer, panel).map_err(|e| format!("{e:#}"))) {
+        match result
+            .and_then(|loaded| self.install(loaded, tracer, panel).map_err(|e| format!("{e:#}")))
+        {
             Ok(title) => Ok(Some(title)),
             Err(e) if first => Err(anyhow::anyhow!("{e}")),
             Err(e) => {
@@ -108,7 +132,12 @@ impl Session {
     }
 
     /// Upload a loaded model; returns the window title it asks for.
-    fn install(&mut self, loaded: LoadedModel, tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<String> {
+    fn install(
+        &mut self,
+        loaded: LoadedModel,
+        tracer: &mut ComputeTracer,
+        panel: &mut PanelState,
+    ) -> anyhow::Result<String> {
         let LoadedModel { source, scene, mut packed, warnings, progress } = loaded;
         // Not cancelled: the loader hands over only loads it still wants.
         let _ = progress.begin(Phase::Upload);
@@ -116,7 +145,8 @@ impl Session {
         progress.finish();
         let phases = progress.snapshot();
         let seconds = phases.total_seconds();
-        let each: Vec<String> = phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
+        let each: Vec<String> =
+            phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
         // The GPU has the geometry now; keep only what instance and environment changes need,
         // and free the rest on another thread (unmapping a 10M-triangle model's arrays took
         // tens of milliseconds, which the next frame would wait for).
@@ -130,9 +160,15 @@ impl Session {
         );
         crate::memory::free_in_background(freed);
         // The same model again, now with the wide tree: the wide layout's (or auto's) load.
-        let again = self.model.as_ref().is_some_and(|m| m.source == source && !m.has_wide) && has_wide;
+        let again =
+            self.model.as_ref().is_some_and(|m| m.source == source && !m.has_wide) && has_wide;
         let what = if again { "loaded the wide BVH layout of" } else { "loaded" };
-        let text = format!("{what} {} ({} triangles) in {seconds:.2} s ({} s)", source.label(), group(scene.meshes[0].triangle_count() as u64), each.join(", "));
+        let text = format!(
+            "{what} {} ({} triangles) in {seconds:.2} s ({} s)",
+            source.label(),
+            group(scene.meshes[0].triangle_count() as u64),
+            each.join(", ")
+        );
         panel.model.status = Some(match warnings.first() {
             Some(w) => Status::ok(format!("{text}; {} warning(s), the first: {w}", warnings.len())),
             None => Status::ok(text),
@@ -151,13 +187,25 @@ impl Session {
 
     /// Push parameter changes to the tracer (each takes effect this frame); `area` is the
     /// image area in physical pixels.
-    pub(crate) fn apply(&mut self, params: &mut Params, area: [u32; 2], tracer: &mut ComputeTracer, panel: &mut PanelState) -> anyhow::Result<()> {
+    pub(crate) fn apply(
+        &mut self,
+        params: &mut Params,
+        area: [u32; 2],
+        tracer: &mut ComputeTracer,
+        panel: &mut PanelState,
+    ) -> anyhow::Result<()> {
         // The wide layout is packed only on request (its collapse takes as long as the
         // build): a model loaded without it is loaded again, once; binary frames meanwhile.
         let settings = &params.scene.settings;
         let wants_wide = settings.bvh.is_wide() || params.bvh_auto;
-        if settings.accel == Accel::Bvh && wants_wide && !self.wide_asked && self.loader.status().is_none() {
-            if let Some(source) = self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone()) {
+        if settings.accel == Accel::Bvh
+            && wants_wide
+            && !self.wide_asked
+            && self.loader.status().is_none()
+        {
+            if let Some(source) =
+                self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone())
+            {
                 self.wide_asked = true;
                 self.load_with(source, BvhLayout::Wide, params, panel);
             }
@@ -193,7 +241,8 @@ impl Session {
         // none: the sky is uploaded then (A's frames do not sample it).
         model.scene.environment = params.scene.environment.clone();
         let b_sky = params.split.enabled && params.split.b.wants_environment();
-        let upload = params.scene.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
+        let upload =
+            params.scene.environment.clone().or_else(|| b_sky.then_some(EnvironmentSource::Sky));
         if self.applied.environment.as_ref() != Some(&upload) {
             let (map, warning) = EnvironmentMap::from_source(upload.as_ref());
             if let Some(w) = warning {
@@ -213,8 +262,16 @@ impl Session {
     /// timed, then the fastest. Not while the split view is on (its halves would share the
     /// frame's time).
     pub(crate) fn pick_layout(&mut self, params: &mut Params, area: [u32; 2], kernels_ready: bool) {
-        let Some(model) = self.model.as_ref().filter(|_| params.bvh_auto && !params.split.enabled) else { return };
-        let work = Work::new(params.settings_for(area), params.scene.models, params.scene.mirror_box, self.installs);
+        let Some(model) = self.model.as_ref().filter(|_| params.bvh_auto && !params.split.enabled)
+        else {
+            return;
+        };
+        let work = Work::new(
+            params.settings_for(area),
+            params.scene.models,
+            params.scene.mirror_box,
+            self.installs,
+        );
         if let Some(layout) = self.auto_layout.next_layout(work, model.has_wide && kernels_ready) {
             params.scene.settings.bvh = layout;
         }
@@ -223,16 +280,27 @@ impl Session {
     /// This frame's parameters (None without a model), split or not, counting accumulated
     /// frames; with `hold`, an unchanged frame keeps its index (a long frame still being
     /// traced).
-    pub(crate) fn frame_params(&mut self, params: &Params, area: [u32; 2], hold: bool) -> Option<FrameTrace> {
+    pub(crate) fn frame_params(
+        &mut self,
+        params: &Params,
+        area: [u32; 2],
+        hold: bool,
+    ) -> Option<FrameTrace> {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
         let mesh_bounds: Vec<_> = model.packed.meshes.iter().map(|m| m.bounds).collect();
         let bounds = model.scene.bounds_with(&mesh_bounds);
-        let mut frame = params.split.frame(FrameParams::with_bounds(&model.scene, params.settings_for(area), bounds));
+        let mut frame = params.split.frame(FrameParams::with_bounds(
+            &model.scene,
+            params.settings_for(area),
+            bounds,
+        ));
         // Average frames while nothing changes; any change starts afresh.
         let acc = &mut self.accumulation;
-        let still = params.accumulate && matches!(frame.params.settings.aov, Aov::Color | Aov::Ao) && acc.last == Some(frame);
+        let still = params.accumulate
+            && matches!(frame.params.settings.aov, Aov::Color | Aov::Ao)
+            && acc.last == Some(frame);
         if hold && acc.last == Some(frame) {
             set_index(&mut frame, acc.frames.max(1) - 1);
             return Some(frame);
@@ -250,7 +318,9 @@ impl Session {
 
     /// Triangles and vertices in the world (all instances).
     pub(crate) fn counts(&self) -> (u64, u64) {
-        self.model.as_ref().map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
+        self.model
+            .as_ref()
+            .map_or((0, 0), |m| (m.scene.triangle_count() as u64, m.scene.vertex_count() as u64))
     }
 }
 

@@ -5,15 +5,19 @@ use crate::app::state::fit_rect;
 use crate::app::tool::Tool;
 use crate::app::views::overlay::SplitOverlay;
 use crate::app::views::split::GRAB_PIXELS;
-use crate::gpu::PartTimes;
 use crate::gpu::present::PixelRect;
+use crate::gpu::PartTimes;
 
 impl Tool {
     /// The image as shown (letterboxed) and the line's x there, physical pixels; None
     /// when the split is off or nothing is traced.
     fn split_line(&self) -> Option<(PixelRect, f64)> {
         let split = &self.params.split;
-        let size = self.gpu.tracer.resolution().filter(|_| split.enabled && self.session.model.is_some())?;
+        let size = self
+            .gpu
+            .tracer
+            .resolution()
+            .filter(|_| split.enabled && self.session.model.is_some())?;
         let shown = fit_rect(size, self.ui.image_area);
         let w = size[0];
         if shown.width == 0 {
@@ -25,8 +29,12 @@ impl Tool {
 
     /// The cursor is on the split line (within [`GRAB_PIXELS`]), over the image.
     pub(super) fn on_split_line(&self) -> bool {
-        let (Some((shown, x)), Some(c)) = (self.split_line(), self.input.cursor) else { return false };
-        (c.x - x).abs() <= GRAB_PIXELS && c.y >= shown.y as f64 && c.y < shown.y as f64 + shown.height as f64
+        let (Some((shown, x)), Some(c)) = (self.split_line(), self.input.cursor) else {
+            return false;
+        };
+        (c.x - x).abs() <= GRAB_PIXELS
+            && c.y >= shown.y as f64
+            && c.y < shown.y as f64 + shown.height as f64
     }
 
     /// Put the line under the cursor (a drag that began on it).
@@ -61,5 +69,4 @@ impl Tool {
             self.timing.split_ms = parts;
         }
     }
-
 }

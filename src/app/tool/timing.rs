@@ -27,6 +27,13 @@ pub(super) struct Timing {
 impl Timing {
     /// Timing from now on, with the benchmark runs and log the command line asks for.
     pub(super) fn new(benchmarks: Runs, recorder: Recorder) -> Self {
-        Self { stats: FrameStats::default(), start: Instant::now(), last_frame: None, split_ms: [None; 2], benchmarks, recorder }
+        Self {
+            stats: FrameStats::default(),
+            start: Instant::now(),
+            last_frame: None,
+            split_ms: [None; 2],
+            benchmarks,
+            recorder,
+        }
     }
 }

@@ -6,13 +6,13 @@ use crate::app::files::open_dialog::Purpose;
 use crate::app::files::screenshot::{self, Kind};
 use crate::app::panel::{self, PanelAction, PanelInfo, Status, VendorInfo};
 use crate::app::state::fit_rect;
-use crate::app::tool::Tool;
 use crate::app::tool::devices;
+use crate::app::tool::Tool;
 use crate::app::views::overlay;
-use crate::gpu::present::PixelRect;
 use crate::gpu::khr_rt::VendorKernel;
-use crate::tracer::budget;
+use crate::gpu::present::PixelRect;
 use crate::render_settings::RenderSettings;
+use crate::tracer::budget;
 
 impl Tool {
     /// Run egui for this frame; returns its output and the actions the panel asked for,
@@ -29,8 +29,12 @@ impl Tool {
         // `/` (its path field takes the focus at the end of the frame, after the field ran).
         let dialog_open = self.ui.open_dialog.is_open();
         let moves_focus = |e: &egui::Event| match e {
-            egui::Event::Key { key: egui::Key::O, pressed: true, modifiers, .. } => modifiers.ctrl && !dialog_open && !egui_wants_keys,
-            egui::Event::Key { key: egui::Key::Slash, pressed: true, .. } => dialog_open && !egui_wants_keys,
+            egui::Event::Key { key: egui::Key::O, pressed: true, modifiers, .. } => {
+                modifiers.ctrl && !dialog_open && !egui_wants_keys
+            }
+            egui::Event::Key { key: egui::Key::Slash, pressed: true, .. } => {
+                dialog_open && !egui_wants_keys
+            }
             _ => false,
         };
         let (keys, held) = self.input.frame_keys(&mut raw.events, moves_focus);
@@ -47,7 +51,8 @@ impl Tool {
         let mut central = egui::Rect::NOTHING;
         let settings: RenderSettings = self.params.settings_for(self.area());
         let screenshot_dir = screenshot::screenshot_dir();
-        let dir_text = std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
+        let dir_text =
+            std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
         let (triangles, vertices) = self.session.counts();
         let vendor = self.vendor_info();
         let device = devices::describe(&self.gpu.ctx, &self.gpu.trace_ctx);
@@ -65,7 +70,10 @@ impl Tool {
             view_note: self.frame.picture.as_ref().and_then(|h| h.note.as_deref()),
             accumulated_frames: self.session.accumulation.frames,
             progress: self.frame.progressive.as_ref().map(|p| (p.progress(), p.seconds_left())),
-            brute_tests: budget::tests_per_frame(&RenderSettings { accel: crate::render_settings::Accel::Brute, ..settings }, triangles),
+            brute_tests: budget::tests_per_frame(
+                &RenderSettings { accel: crate::render_settings::Accel::Brute, ..settings },
+                triangles,
+            ),
             submission_tests: self.gpu.tracer.tests_per_submission(),
             screenshot_dir: dir_text,
             stats: &self.timing.stats,
@@ -87,12 +95,23 @@ impl Tool {
                 let frame = egui::Frame::side_top_panel(ui.style()).inner_margin(8.0);
                 // At most half a small window, so the image stays visible.
                 let max = (ui.available_width() * 0.5).max(160.0);
-                egui::Panel::left("panel").default_size(panel::PANEL_WIDTH.min(max)).size_range(150.0..=max).frame(frame).show(ui, |ui| {
-                    actions = panel::show(ui, params, panel_state, &info);
-                });
+                egui::Panel::left("panel")
+                    .default_size(panel::PANEL_WIDTH.min(max))
+                    .size_range(150.0..=max)
+                    .frame(frame)
+                    .show(ui, |ui| {
+                        actions = panel::show(ui, params, panel_state, &info);
+                    });
             }
             central = ui.available_rect_before_wrap();
-            overlay::show(ui.ctx(), central, params.hud_visible.then_some(&info), light, split.as_ref(), notice);
+            overlay::show(
+                ui.ctx(),
+                central,
+                params.hud_visible.then_some(&info),
+                light,
+                split.as_ref(),
+                notice,
+            );
             // Last: the dialog is drawn over the panel and the image.
             match open_dialog.show(ui.ctx()) {
                 Some((Purpose::Model, path)) => actions.push(PanelAction::LoadFile(path)),
@@ -106,7 +125,12 @@ impl Tool {
         let y0 = (central.top() * ppp).round().clamp(0.0, size.height as f32) as i32;
         let x1 = (central.right() * ppp).round().clamp(0.0, size.width as f32) as i32;
         let y1 = (central.bottom() * ppp).round().clamp(0.0, size.height as f32) as i32;
-        self.ui.image_area = PixelRect { x: x0, y: y0, width: (x1 - x0).max(0) as u32, height: (y1 - y0).max(0) as u32 };
+        self.ui.image_area = PixelRect {
+            x: x0,
+            y: y0,
+            width: (x1 - x0).max(0) as u32,
+            height: (y1 - y0).max(0) as u32,
+        };
         (full, actions)
     }
 
@@ -127,7 +151,8 @@ impl Tool {
         let [w, h] = self.gpu.tracer.resolution()?;
         self.session.model.as_ref()?;
         let shown = fit_rect([w, h], self.ui.image_area);
-        let (sx, sy) = self.params.camera.basis(w, h).project(self.params.light_position(), w, h)?;
+        let (sx, sy) =
+            self.params.camera.basis(w, h).project(self.params.light_position(), w, h)?;
         let ppp = self.window.scale_factor() as f32;
         let x = shown.x as f32 + sx / w as f32 * shown.width as f32;
         let y = shown.y as f32 + sy / h as f32 * shown.height as f32;
@@ -137,22 +162,36 @@ impl Tool {
     /// Do what the panel asked beyond changing parameters.
     pub(super) fn act(&mut self, action: PanelAction) -> anyhow::Result<()> {
         match action {
-            PanelAction::LoadModel(source) => self.session.start_load(source, &mut self.params, &mut self.ui.panel),
+            PanelAction::LoadModel(source) => {
+                self.session.start_load(source, &mut self.params, &mut self.ui.panel)
+            }
             PanelAction::CancelLoad => self.cancel_load(),
             PanelAction::LoadFile(path) => self.load_file(path),
             PanelAction::Open(purpose) => self.open(purpose),
             PanelAction::ScreenshotTrace => self.captures.want_trace_shot = true,
             PanelAction::ScreenshotWindow => self.captures.want_window_shot = true,
             PanelAction::ScreenshotExr => {
-                let path = screenshot::new_path(&screenshot::screenshot_dir(), Kind::Trace, &self.name_parts()).with_extension("exr");
+                let path = screenshot::new_path(
+                    &screenshot::screenshot_dir(),
+                    Kind::Trace,
+                    &self.name_parts(),
+                )
+                .with_extension("exr");
                 self.ui.panel.screenshot.status = Some(self.save_exr(&path));
                 self.notice_screenshot();
             }
             PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
             PanelAction::LoadPreset(path) => self.load_preset(&path),
             PanelAction::Benchmark(frames) => self.timing.benchmarks.want(frames),
-            PanelAction::CancelBenchmark => self.timing.benchmarks.stop("the benchmark was cancelled", &mut self.params, &mut self.ui.panel.benchmark.outcome)?,
-            PanelAction::Record => self.ui.panel.perf.status = self.timing.recorder.start(&screenshot::screenshot_dir()),
+            PanelAction::CancelBenchmark => self.timing.benchmarks.stop(
+                "the benchmark was cancelled",
+                &mut self.params,
+                &mut self.ui.panel.benchmark.outcome,
+            )?,
+            PanelAction::Record => {
+                self.ui.panel.perf.status =
+                    self.timing.recorder.start(&screenshot::screenshot_dir())
+            }
             PanelAction::StopRecording => self.ui.panel.perf.status = self.timing.recorder.stop(),
             PanelAction::ResetSettings => self.reset_settings(),
             PanelAction::VendorKernel(kernel) => {

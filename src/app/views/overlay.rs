@@ -50,31 +50,63 @@ impl Notice {
 }
 
 /// Draw the overlays over `image` (the image area, in points).
-pub(crate) fn show(ctx: &egui::Context, image: Rect, hud: Option<&PanelInfo>, light: Option<Pos2>, split: Option<&SplitOverlay>, notice: Option<&Notice>) {
+pub(crate) fn show(
+    ctx: &egui::Context,
+    image: Rect,
+    hud: Option<&PanelInfo>,
+    light: Option<Pos2>,
+    split: Option<&SplitOverlay>,
+    notice: Option<&Notice>,
+) {
     if let Some(info) = hud {
         // Top-left of the image area: the panel never covers it. No fade-in: the numbers
         // are there in full from their first frame (and in a screenshot taken then).
-        egui::Area::new(egui::Id::new("hud")).fixed_pos(image.left_top() + egui::vec2(8.0, 8.0)).interactable(false).fade_in(false).show(ctx, |ui| {
-            egui::Frame::new().fill(Color32::from_black_alpha(160)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| hud_numbers(ui, info));
-        });
+        egui::Area::new(egui::Id::new("hud"))
+            .fixed_pos(image.left_top() + egui::vec2(8.0, 8.0))
+            .interactable(false)
+            .fade_in(false)
+            .show(ctx, |ui| {
+                egui::Frame::new()
+                    .fill(Color32::from_black_alpha(160))
+                    .inner_margin(6.0)
+                    .corner_radius(4.0)
+                    .show(ui, |ui| hud_numbers(ui, info));
+            });
     }
     if let Some(p) = light.filter(|p| image.contains(*p)) {
-        let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("light marker")));
+        let painter = ctx.layer_painter(egui::LayerId::new(
+            egui::Order::Foreground,
+            egui::Id::new("light marker"),
+        ));
         painter.circle_stroke(p, 7.0, Stroke::new(2.0, Color32::BLACK));
         painter.circle_stroke(p, 6.0, Stroke::new(1.5, LIGHT_COLOR));
         // The label above the marker, or below it near the image's top edge.
-        let (offset, anchor) = if p.y - image.top() < 24.0 { (egui::vec2(10.0, 8.0), egui::Align2::LEFT_TOP) } else { (egui::vec2(10.0, -8.0), egui::Align2::LEFT_BOTTOM) };
+        let (offset, anchor) = if p.y - image.top() < 24.0 {
+            (egui::vec2(10.0, 8.0), egui::Align2::LEFT_TOP)
+        } else {
+            (egui::vec2(10.0, -8.0), egui::Align2::LEFT_BOTTOM)
+        };
         painter.text(p + offset, anchor, "light", egui::FontId::proportional(12.0), LIGHT_COLOR);
     }
     if let Some(s) = split {
         split_line(ctx, s);
     }
     if let Some(n) = notice.filter(|n| n.is_current()) {
-        egui::Area::new(egui::Id::new("notice")).fixed_pos(image.left_bottom() + egui::vec2(8.0, -34.0)).interactable(false).show(ctx, |ui| {
-            egui::Frame::new().fill(Color32::from_black_alpha(180)).inner_margin(6.0).corner_radius(4.0).show(ui, |ui| {
-                ui.add(egui::Label::new(RichText::new(&n.text).color(Color32::WHITE)).truncate());
+        egui::Area::new(egui::Id::new("notice"))
+            .fixed_pos(image.left_bottom() + egui::vec2(8.0, -34.0))
+            .interactable(false)
+            .show(ctx, |ui| {
+                egui::Frame::new()
+                    .fill(Color32::from_black_alpha(180))
+                    .inner_margin(6.0)
+                    .corner_radius(4.0)
+                    .show(ui, |ui| {
+                        ui.add(
+                            egui::Label::new(RichText::new(&n.text).color(Color32::WHITE))
+                                .truncate(),
+                        );
+                    });
             });
-        });
     }
 }
 
@@ -104,20 +136,27 @@ fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
             2 => FRAME_COLOR,
             _ => Color32::from_gray(230),
         };
-        ui.add(egui::Label::new(RichText::new(line).monospace().color(color)).wrap_mode(egui::TextWrapMode::Extend));
+        ui.add(
+            egui::Label::new(RichText::new(line).monospace().color(color))
+                .wrap_mode(egui::TextWrapMode::Extend),
+        );
     }
 }
 
 /// The split line (white on a dark edge, seen on any image) and the halves' labels beside
 /// it at the image's bottom, A to the left and B (with what it changes) to the right.
 fn split_line(ctx: &egui::Context, s: &SplitOverlay) {
-    let painter = ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("split line")));
+    let painter =
+        ctx.layer_painter(egui::LayerId::new(egui::Order::Foreground, egui::Id::new("split line")));
     let (top, bottom) = (Pos2::new(s.x, s.top), Pos2::new(s.x, s.bottom));
     painter.line_segment([top, bottom], Stroke::new(3.0, Color32::from_black_alpha(200)));
     painter.line_segment([top, bottom], Stroke::new(1.0, Color32::WHITE));
     let font = egui::FontId::proportional(13.0);
     let y = s.bottom - 8.0;
-    for (text, anchor, dx) in [(s.a.clone(), egui::Align2::RIGHT_BOTTOM, -6.0), (format!("{}\n{}", s.b, s.b_changes), egui::Align2::LEFT_BOTTOM, 6.0)] {
+    for (text, anchor, dx) in [
+        (s.a.clone(), egui::Align2::RIGHT_BOTTOM, -6.0),
+        (format!("{}\n{}", s.b, s.b_changes), egui::Align2::LEFT_BOTTOM, 6.0),
+    ] {
         let galley = painter.layout_no_wrap(text, font.clone(), Color32::WHITE);
         let rect = anchor.anchor_size(Pos2::new(s.x + dx, y), galley.size());
         painter.rect_filled(rect.expand(3.0), 3.0, Color32::from_black_alpha(170));

@@ -8,7 +8,7 @@
 
 use crate::gpu::dispatch::GROUP;
 use crate::gpu::{FrameTrace, SplitTrace};
-use crate::render_settings::{Accel, MAX_BOUNCES, MAX_SPP, RenderSettings};
+use crate::render_settings::{Accel, RenderSettings, MAX_BOUNCES, MAX_SPP};
 use crate::tracer::frame::FrameParams;
 
 /// How close to the line (physical pixels) a left press grabs it instead of orbiting.
@@ -36,7 +36,8 @@ pub struct SplitB {
 }
 
 /// The names `--split-b` takes, in the order [`SplitB::describe`] lists them.
-pub(crate) const KEYS: [&str; 8] = ["accel", "bounces", "blend", "spp", "adaptive", "smooth", "textures", "env"];
+pub(crate) const KEYS: [&str; 8] =
+    ["accel", "bounces", "blend", "spp", "adaptive", "smooth", "textures", "env"];
 
 impl SplitB {
     /// B's settings: A's with the differing parameters replaced.
@@ -68,11 +69,15 @@ impl SplitB {
     pub(crate) fn parse(text: &str) -> Result<Self, String> {
         let mut b = SplitB::default();
         for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-            let (name, value) = pair.split_once('=').ok_or_else(|| format!("--split-b '{pair}' is not name=value (names: {})", KEYS.join(", ")))?;
+            let (name, value) = pair.split_once('=').ok_or_else(|| {
+                format!("--split-b '{pair}' is not name=value (names: {})", KEYS.join(", "))
+            })?;
             let (name, value) = (name.trim().to_ascii_lowercase(), value.trim());
             let number = |max: u32, min: u32| match value.parse::<u32>() {
                 Ok(v) if (min..=max).contains(&v) => Ok(v),
-                _ => Err(format!("--split-b {name}={value}: expected a whole number in {min}..={max}")),
+                _ => Err(format!(
+                    "--split-b {name}={value}: expected a whole number in {min}..={max}"
+                )),
             };
             match name.as_str() {
                 "accel" => b.accel = Some(value.parse().map_err(|e| format!("--split-b: {e}"))?),
@@ -80,7 +85,9 @@ impl SplitB {
                 "spp" => b.spp = Some(number(MAX_SPP, 1)?),
                 "blend" => match value.parse::<f32>() {
                     Ok(v) if (0.0..=1.0).contains(&v) => b.blend = Some(v),
-                    _ => return Err(format!("--split-b blend={value}: expected a number in 0..=1")),
+                    _ => {
+                        return Err(format!("--split-b blend={value}: expected a number in 0..=1"))
+                    }
                 },
                 "adaptive" | "smooth" | "textures" | "env" => {
                     let on = match value.to_ascii_lowercase().as_str() {
@@ -95,7 +102,12 @@ impl SplitB {
                         _ => b.environment = Some(on),
                     }
                 }
-                _ => return Err(format!("--split-b: unknown parameter '{name}' (names: {})", KEYS.join(", "))),
+                _ => {
+                    return Err(format!(
+                        "--split-b: unknown parameter '{name}' (names: {})",
+                        KEYS.join(", ")
+                    ))
+                }
             }
         }
         Ok(b)
@@ -117,7 +129,11 @@ impl SplitB {
         .into_iter()
         .flatten()
         .collect();
-        if parts.is_empty() { "same as A".into() } else { parts.join(", ") }
+        if parts.is_empty() {
+            "same as A".into()
+        } else {
+            parts.join(", ")
+        }
     }
 }
 
@@ -163,7 +179,10 @@ impl SplitView {
         }
         let settings = self.b.settings(&a.settings);
         let b = FrameParams { settings, environment: self.b.environment(a.environment), ..a };
-        FrameTrace { params: a, split: Some(SplitTrace { column: self.column(a.settings.width), params: b }) }
+        FrameTrace {
+            params: a,
+            split: Some(SplitTrace { column: self.column(a.settings.width), params: b }),
+        }
     }
 
     /// The per-half GPU times as the overlay writes them ("A 12.3 ms | B 20.1 ms").
@@ -178,7 +197,11 @@ mod tests {
     use super::*;
 
     fn params(width: u32) -> FrameParams {
-        let scene = crate::scene::paper::paper_scene(crate::scene::primitives::geosphere(0), 1, Default::default());
+        let scene = crate::scene::paper::paper_scene(
+            crate::scene::primitives::geosphere(0),
+            1,
+            Default::default(),
+        );
         FrameParams::new(&scene, RenderSettings { width, height: 16, ..Default::default() })
     }
 
@@ -188,11 +211,19 @@ mod tests {
     fn the_halves_cover_each_column_once_and_b_starts_on_a_group() {
         for width in [1, 7, 8, 64, 100, 129, 257] {
             for i in 0..=40 {
-                let split = SplitView { enabled: true, position: i as f32 / 40.0, b: SplitB { bounces: Some(0), ..Default::default() } };
+                let split = SplitView {
+                    enabled: true,
+                    position: i as f32 / 40.0,
+                    b: SplitB { bounces: Some(0), ..Default::default() },
+                };
                 let frame = split.frame(params(width));
                 let column = frame.split.unwrap().column;
                 assert!(column % GROUP.width == 0 || column == width, "{width}: {column}");
-                assert!(((i as f32 / 40.0) * width as f32 - column as f32).abs() <= GROUP.width as f32 / 2.0 + 1.0, "snapped to the nearest group");
+                assert!(
+                    ((i as f32 / 40.0) * width as f32 - column as f32).abs()
+                        <= GROUP.width as f32 / 2.0 + 1.0,
+                    "snapped to the nearest group"
+                );
                 let mut seen = vec![0; width as usize];
                 for (part, p, columns) in frame.parts() {
                     assert_eq!(p.settings.bounces, if part == 0 { 2 } else { 0 });
@@ -214,7 +245,11 @@ mod tests {
         assert_eq!(b.settings(&a), RenderSettings { bounces: 0, smooth: false, ..a });
         assert_eq!(SplitB::default().settings(&a), a);
         assert!(b.environment(true) && !SplitB { environment: Some(false), ..b }.environment(true));
-        let mut split = SplitView { enabled: true, b: SplitB { environment: Some(true), ..b }, ..Default::default() };
+        let mut split = SplitView {
+            enabled: true,
+            b: SplitB { environment: Some(true), ..b },
+            ..Default::default()
+        };
         let frame = split.frame(params(64));
         assert!(frame.split.unwrap().params.environment && !frame.params.environment);
         split.move_to(f32::NAN);
@@ -232,7 +267,15 @@ mod tests {
         assert_eq!((b.spp, b.environment, b.blend), (Some(4), Some(true), Some(0.25)));
         assert_eq!(b.describe(), "brute, bounces 0, blend 0.25, spp 4, smooth off, env on");
         assert_eq!(SplitB::parse("").unwrap().describe(), "same as A");
-        for (bad, says) in [("bounces", "name=value"), ("bounces=9", "0..=8"), ("spp=0", "1..=64"), ("smooth=maybe", "on or off"), ("colour=red", "unknown"), ("accel=kd", "brute, bvh"), ("blend=2", "0..=1")] {
+        for (bad, says) in [
+            ("bounces", "name=value"),
+            ("bounces=9", "0..=8"),
+            ("spp=0", "1..=64"),
+            ("smooth=maybe", "on or off"),
+            ("colour=red", "unknown"),
+            ("accel=kd", "brute, bvh"),
+            ("blend=2", "0..=1"),
+        ] {
             let e = SplitB::parse(bad).unwrap_err();
             assert!(e.contains(says) && !e.contains('\n'), "{bad}: {e}");
         }

@@ -53,7 +53,12 @@ impl Series {
     }
 
     pub(super) fn sorted(&self) -> Vec<(f64, f64, String)> {
-        let mut v: Vec<_> = self.points.iter().enumerate().map(|(i, p)| (p.0, p.1, self.point_labels.get(i).cloned().unwrap_or_default())).collect();
+        let mut v: Vec<_> = self
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.0, p.1, self.point_labels.get(i).cloned().unwrap_or_default()))
+            .collect();
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         v
     }

@@ -43,21 +43,31 @@ pub(super) fn render(chart: &Chart, path: &Path) -> anyhow::Result<()> {
         let root = BitMapBackend::with_buffer(&mut buffer, (WIDTH, HEIGHT)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let (top, rest) = root.split_vertically(TITLE_HEIGHT);
-        top.draw_text(&chart.title, &(FAMILY, 28).into_font().color(&BLACK), (24, 12)).map_err(err)?;
-        top.draw_text(&chart.subtitle, &(FAMILY, 16).into_font().color(&GREY_), (24, 50)).map_err(err)?;
+        top.draw_text(&chart.title, &(FAMILY, 28).into_font().color(&BLACK), (24, 12))
+            .map_err(err)?;
+        top.draw_text(&chart.subtitle, &(FAMILY, 16).into_font().color(&GREY_), (24, 50))
+            .map_err(err)?;
         let (plot_area, legend_area) = rest.split_horizontally(WIDTH - LEGEND_WIDTH);
         draw_plot(chart, &plot_area)?;
         draw_legend(chart, &legend_area)?;
         root.present().map_err(err)?;
     }
-    let image = image::RgbImage::from_raw(WIDTH, HEIGHT, buffer).ok_or_else(|| anyhow!("bad image buffer"))?;
+    let image = image::RgbImage::from_raw(WIDTH, HEIGHT, buffer)
+        .ok_or_else(|| anyhow!("bad image buffer"))?;
     crate::files::write_atomic(path, |out| Ok(image.write_to(out, image::ImageFormat::Png)?))?;
     Ok(())
 }
 
-fn draw_plot<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+fn draw_plot<DB: DrawingBackend>(
+    chart: &Chart,
+    area: &DrawingArea<DB, Shift>,
+) -> anyhow::Result<()> {
     let xs = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let ys = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).chain(chart.hlines.iter().map(|h| h.0));
+    let ys = chart
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .chain(chart.hlines.iter().map(|h| h.0));
     let (x_pad, y_pad) = match chart.x_axis {
         XAxis::Count => (1.6, 1.6),
         XAxis::Pixels | XAxis::Copies => (1.35, 1.6),
@@ -68,7 +78,8 @@ fn draw_plot<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -
     let (x_bold, x_light) = match chart.x_axis {
         XAxis::Count => log_ticks(x_lo, x_hi),
         XAxis::Pixels | XAxis::Copies => {
-            let mut v: Vec<f64> = chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+            let mut v: Vec<f64> =
+                chart.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
             v.sort_by(f64::total_cmp);
             v.dedup();
             (v, Vec::new())
@@ -106,10 +117,14 @@ fn draw_plot<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -
     let label_font = (FAMILY, 15).into_font().color(&GREY_);
     for (y, label) in &chart.hlines {
         let style = GREY_.stroke_width(2);
-        ctx.draw_series(DashedLineSeries::new([(x_lo, *y), (x_hi, *y)], 12, 8, style)).map_err(err)?;
-        let width = (label.chars().count() as i32) * 8 + 12;
-        ctx.draw_series(std::iter::once(EmptyElement::at((x_hi, *y)) + Text::new(label.clone(), (-width, -22), label_font.clone())))
+        ctx.draw_series(DashedLineSeries::new([(x_lo, *y), (x_hi, *y)], 12, 8, style))
             .map_err(err)?;
+        let width = (label.chars().count() as i32) * 8 + 12;
+        ctx.draw_series(std::iter::once(
+            EmptyElement::at((x_hi, *y))
+                + Text::new(label.clone(), (-width, -22), label_font.clone()),
+        ))
+        .map_err(err)?;
     }
     for s in &chart.series {
         let points = s.sorted();
@@ -129,10 +144,13 @@ fn draw_plot<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -
             draw_marker(plot, (p.0, p.1), s.marker, s.color)?;
             if !p.2.is_empty() {
                 // Below the point when a labelled neighbour (within a factor 2 in x) is higher.
-                let below = points.iter().any(|q| !q.2.is_empty() && q.1 > p.1 && (q.0 / p.0).abs().log2().abs() < 1.0);
+                let below = points
+                    .iter()
+                    .any(|q| !q.2.is_empty() && q.1 > p.1 && (q.0 / p.0).abs().log2().abs() < 1.0);
                 let font = (FAMILY, 15).into_font().color(&s.color);
                 let offset = if below { (10, 4) } else { (10, -22) };
-                plot.draw(&(EmptyElement::at((p.0, p.1)) + Text::new(p.2.clone(), offset, font))).map_err(err)?;
+                plot.draw(&(EmptyElement::at((p.0, p.1)) + Text::new(p.2.clone(), offset, font)))
+                    .map_err(err)?;
             }
         }
     }
@@ -140,7 +158,12 @@ fn draw_plot<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -
 }
 
 /// A marker centred on `at`.
-fn draw_marker<DB, CT>(area: &DrawingArea<DB, CT>, at: CT::From, marker: Marker, color: RGBColor) -> anyhow::Result<()>
+fn draw_marker<DB, CT>(
+    area: &DrawingArea<DB, CT>,
+    at: CT::From,
+    marker: Marker,
+    color: RGBColor,
+) -> anyhow::Result<()>
 where
     DB: DrawingBackend,
     CT: plotters::coord::CoordTranslate,
@@ -150,18 +173,26 @@ where
     let outline = WHITE.stroke_width(1);
     match marker {
         Marker::Circle => {
-            area.draw(&(EmptyElement::at(at.clone()) + Circle::new((0, 0), 6, fill))).map_err(err)?;
+            area.draw(&(EmptyElement::at(at.clone()) + Circle::new((0, 0), 6, fill)))
+                .map_err(err)?;
             area.draw(&(EmptyElement::at(at) + Circle::new((0, 0), 6, outline))).map_err(err)?;
         }
         Marker::Square => {
-            area.draw(&(EmptyElement::at(at.clone()) + Rectangle::new([(-5, -5), (5, 5)], fill))).map_err(err)?;
-            area.draw(&(EmptyElement::at(at) + Rectangle::new([(-5, -5), (5, 5)], outline))).map_err(err)?;
+            area.draw(&(EmptyElement::at(at.clone()) + Rectangle::new([(-5, -5), (5, 5)], fill)))
+                .map_err(err)?;
+            area.draw(&(EmptyElement::at(at) + Rectangle::new([(-5, -5), (5, 5)], outline)))
+                .map_err(err)?;
         }
         Marker::Triangle => {
-            area.draw(&(EmptyElement::at(at) + Polygon::new(vec![(0, -8), (-7, 5), (7, 5)], fill))).map_err(err)?;
+            area.draw(&(EmptyElement::at(at) + Polygon::new(vec![(0, -8), (-7, 5), (7, 5)], fill)))
+                .map_err(err)?;
         }
         Marker::Diamond => {
-            area.draw(&(EmptyElement::at(at) + Polygon::new(vec![(0, -8), (7, 0), (0, 8), (-7, 0)], fill))).map_err(err)?;
+            area.draw(
+                &(EmptyElement::at(at)
+                    + Polygon::new(vec![(0, -8), (7, 0), (0, 8), (-7, 0)], fill)),
+            )
+            .map_err(err)?;
         }
     }
     Ok(())
@@ -184,7 +215,10 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
-fn draw_legend<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>) -> anyhow::Result<()> {
+fn draw_legend<DB: DrawingBackend>(
+    chart: &Chart,
+    area: &DrawingArea<DB, Shift>,
+) -> anyhow::Result<()> {
     let font = (FAMILY, 16).into_font().color(&BLACK);
     let line_height = 20;
     let mut y = 22;
@@ -195,8 +229,17 @@ fn draw_legend<DB: DrawingBackend>(chart: &Chart, area: &DrawingArea<DB, Shift>)
         let style = s.color.stroke_width(2);
         match s.line {
             Line::None => {}
-            Line::Solid => area.draw(&PathElement::new(vec![(14, mid), (62, mid)], style)).map_err(err)?,
-            Line::Dashed => area.draw(&plotters::element::DashedPathElement::new(vec![(14, mid), (62, mid)], 8, 5, style)).map_err(err)?,
+            Line::Solid => {
+                area.draw(&PathElement::new(vec![(14, mid), (62, mid)], style)).map_err(err)?
+            }
+            Line::Dashed => area
+                .draw(&plotters::element::DashedPathElement::new(
+                    vec![(14, mid), (62, mid)],
+                    8,
+                    5,
+                    style,
+                ))
+                .map_err(err)?,
         }
         draw_marker(area, (38, mid), s.marker, s.color)?;
         let lines = wrap(&s.label, 38);
@@ -214,6 +257,9 @@ mod tests {
 
     #[test]
     fn wraps_on_words() {
-        assert_eq!(wrap("ours, BVH: torus knots, 1024², 2 bounces", 20), vec!["ours, BVH: torus", "knots, 1024², 2", "bounces"]);
+        assert_eq!(
+            wrap("ours, BVH: torus knots, 1024², 2 bounces", 20),
+            vec!["ours, BVH: torus", "knots, 1024², 2", "bounces"]
+        );
     }
 }

@@ -26,11 +26,12 @@ use self::chart::{Chart, Line, Marker, Series, XAxis, GREY_};
 use self::draw::render;
 use super::paper_tables::{TABLE1, TABLE2};
 use super::{Environment, Row};
-use crate::scene::primitives::PaperModel;
 use crate::render_settings::Accel;
+use crate::scene::primitives::PaperModel;
 
 /// The files [`write_charts`] writes, in order.
-pub const CHART_FILES: [&str; 3] = ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];
+pub const CHART_FILES: [&str; 3] =
+    ["chart_triangles.png", "chart_resolution.png", "chart_models.png"];
 
 /// The parts of a saved run (as `bench --json` writes it) that the charts draw; the other
 /// keys (`frames`, `warmup`, a hand-made file's `note`) are read past.
@@ -42,16 +43,26 @@ pub struct SavedReport {
 
 /// Read a report written by `bench --json`.
 pub fn load_report(path: &Path) -> anyhow::Result<SavedReport> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not a bench JSON report", path.display()))
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a bench JSON report", path.display()))
 }
 
 /// Draw the three charts of `rows` into `dir` (created if missing); `environments` name
 /// the machines in the titles. Returns the files written.
-pub fn write_charts(dir: &Path, environments: &[Environment], rows: &[Row]) -> anyhow::Result<Vec<PathBuf>> {
+pub fn write_charts(
+    dir: &Path,
+    environments: &[Environment],
+    rows: &[Row],
+) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let machine = machine_line(environments);
-    let charts = [triangles_chart(rows, &machine), resolution_chart(rows, &machine), models_chart(rows, &machine)];
+    let charts = [
+        triangles_chart(rows, &machine),
+        resolution_chart(rows, &machine),
+        models_chart(rows, &machine),
+    ];
     let mut written = Vec::new();
     for (chart, name) in charts.iter().zip(CHART_FILES) {
         let path = dir.join(name);
@@ -64,9 +75,12 @@ pub fn write_charts(dir: &Path, environments: &[Environment], rows: &[Row]) -> a
 const BLUE_: RGBColor = RGBColor(31, 100, 180);
 const RED_: RGBColor = RGBColor(205, 40, 40);
 const PURPLE_: RGBColor = RGBColor(130, 60, 170);
-const BVH_SHADES: [RGBColor; 4] = [BLUE_, RGBColor(0, 150, 150), RGBColor(90, 140, 230), RGBColor(20, 50, 110)];
-const BRUTE_SHADES: [RGBColor; 4] = [RED_, RGBColor(230, 130, 0), RGBColor(240, 110, 110), RGBColor(120, 30, 30)];
-const VENDOR_SHADES: [RGBColor; 4] = [RGBColor(40, 150, 60), RGBColor(120, 170, 40), RGBColor(60, 200, 120), RGBColor(20, 90, 40)];
+const BVH_SHADES: [RGBColor; 4] =
+    [BLUE_, RGBColor(0, 150, 150), RGBColor(90, 140, 230), RGBColor(20, 50, 110)];
+const BRUTE_SHADES: [RGBColor; 4] =
+    [RED_, RGBColor(230, 130, 0), RGBColor(240, 110, 110), RGBColor(120, 30, 30)];
+const VENDOR_SHADES: [RGBColor; 4] =
+    [RGBColor(40, 150, 60), RGBColor(120, 170, 40), RGBColor(60, 200, 120), RGBColor(20, 90, 40)];
 
 /// The n-th colour of an acceleration's family (blues for the BVH, reds for brute force).
 fn accel_color(accel: Accel, n: usize) -> RGBColor {
@@ -219,16 +233,34 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
         let Some(ms) = gpu_ms(r) else { continue };
         // Generated meshes are named `torusknot-<triangles>` (`ModelSource::label`).
         let generated = r.workload.model.starts_with("torusknot-");
-        let key = TriangleSeries::Scaling { generated, width: r.workload.width, height: r.workload.height, bounces: r.workload.bounces };
+        let key = TriangleSeries::Scaling {
+            generated,
+            width: r.workload.width,
+            height: r.workload.height,
+            bounces: r.workload.bounces,
+        };
         let accel = r.workload.accel;
         let what = if generated { "torus knots" } else { ".obj models" };
-        let label = format!("ours, {}: {what}, {}, {}", accel_name(accel), res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
+        let label = format!(
+            "ours, {}: {what}, {}, {}",
+            accel_name(accel),
+            res_label(r.workload.width, r.workload.height),
+            bounces_note(r.workload.bounces)
+        );
         let s = groups.get(accel, key, |g| {
             if generated {
-                Series::new(label, accel_color(accel, g.count_accel(accel)), Line::Solid, accel_marker(accel))
+                Series::new(
+                    label,
+                    accel_color(accel, g.count_accel(accel)),
+                    Line::Solid,
+                    accel_marker(accel),
+                )
             } else {
                 // .obj models as labelled points in purples and greens, apart from the lines.
-                let n = g.0.iter().filter(|(a, _, s)| *a == accel && s.marker == Marker::Diamond).count();
+                let n =
+                    g.0.iter()
+                        .filter(|(a, _, s)| *a == accel && s.marker == Marker::Diamond)
+                        .count();
                 let shades = match accel {
                     Accel::Brute => [RGBColor(150, 110, 40), RGBColor(200, 80, 170)],
                     Accel::Bvh => [PURPLE_, RGBColor(40, 140, 60)],
@@ -240,18 +272,40 @@ fn triangles_chart(rows: &[Row], machine: &str) -> Chart {
         s.push(r.workload.triangles as f64, ms, (!generated).then(|| r.workload.model.clone()));
     }
     // Our Table 1 rows at their largest resolution, as points beside the paper's.
-    let table1: Vec<&Row> = rows.iter().filter(|r| r.series == "table1" && gpu_ms(r).is_some()).collect();
-    if let Some(size) = table1.iter().map(|r| r.workload.width as u64 * r.workload.height as u64).max() {
-        for r in table1.iter().filter(|r| r.workload.width as u64 * r.workload.height as u64 == size) {
+    let table1: Vec<&Row> =
+        rows.iter().filter(|r| r.series == "table1" && gpu_ms(r).is_some()).collect();
+    if let Some(size) =
+        table1.iter().map(|r| r.workload.width as u64 * r.workload.height as u64).max()
+    {
+        for r in
+            table1.iter().filter(|r| r.workload.width as u64 * r.workload.height as u64 == size)
+        {
             let accel = r.workload.accel;
-            let label = format!("ours, {}: Table 1 models, {}, {}", accel_name(accel), res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
+            let label = format!(
+                "ours, {}: Table 1 models, {}, {}",
+                accel_name(accel),
+                res_label(r.workload.width, r.workload.height),
+                bounces_note(r.workload.bounces)
+            );
             let key = TriangleSeries::Table1 { bounces: r.workload.bounces };
-            let s = groups.get(accel, key, |g| Series::new(label, accel_color(accel, g.count_accel(accel) + 1), Line::None, accel_marker(accel)));
+            let s = groups.get(accel, key, |g| {
+                Series::new(
+                    label,
+                    accel_color(accel, g.count_accel(accel) + 1),
+                    Line::None,
+                    accel_marker(accel),
+                )
+            });
             s.push(r.workload.triangles as f64, gpu_ms(r).unwrap(), None);
         }
     }
     let mut series = groups.into_series();
-    let mut paper = Series::new("paper: Table 1 at 1024² (triangles as listed)".into(), BLACK, Line::Dashed, Marker::Triangle);
+    let mut paper = Series::new(
+        "paper: Table 1 at 1024² (triangles as listed)".into(),
+        BLACK,
+        Line::Dashed,
+        Marker::Triangle,
+    );
     for (model, figures) in TABLE1 {
         paper.push(model.paper_counts().1 as f64, figures[1].1, None);
     }
@@ -274,23 +328,38 @@ fn resolution_chart(rows: &[Row], machine: &str) -> Chart {
         let Some(ms) = gpu_ms(r) else { continue };
         // (model, copies, bounces)
         let key = (r.workload.model.clone(), r.workload.models, r.workload.bounces);
-        let copies = if r.workload.models > 1 { format!(" x{}", r.workload.models) } else { String::new() };
-        let extra = if r.workload.bounces != 2 { format!(", {}", bounces_note(r.workload.bounces)) } else { String::new() };
-        let label = format!("ours, {}: {}{copies}{extra}", accel_name(r.workload.accel), r.workload.model);
+        let copies =
+            if r.workload.models > 1 { format!(" x{}", r.workload.models) } else { String::new() };
+        let extra = if r.workload.bounces != 2 {
+            format!(", {}", bounces_note(r.workload.bounces))
+        } else {
+            String::new()
+        };
+        let label =
+            format!("ours, {}: {}{copies}{extra}", accel_name(r.workload.accel), r.workload.model);
         let color = model_color(&r.workload.model, &mut others);
-        let s = groups.get(r.workload.accel, key, |_| Series::new(label, color, Line::Solid, accel_marker(r.workload.accel)));
+        let s = groups.get(r.workload.accel, key, |_| {
+            Series::new(label, color, Line::Solid, accel_marker(r.workload.accel))
+        });
         s.push(r.workload.width as f64 * r.workload.height as f64, ms, None);
     }
     let mut series = Vec::new();
     for (model, figures) in TABLE1 {
-        let mut s = Series::new(format!("paper: {}", model.name()), paper_model_color(model), Line::Dashed, Marker::Triangle);
+        let mut s = Series::new(
+            format!("paper: {}", model.name()),
+            paper_model_color(model),
+            Line::Dashed,
+            Marker::Triangle,
+        );
         s.push(512.0 * 512.0, figures[0].1, None);
         s.push(1024.0 * 1024.0, figures[1].1, None);
         series.push(s);
     }
     // Brute force before the BVH in the legend, as in the tables.
     groups.0.sort_by_key(|(accel, (model, _, _), _)| {
-        let model = paper_model(model).and_then(|m| TABLE1.iter().position(|(t, _)| *t == m)).unwrap_or(TABLE1.len());
+        let model = paper_model(model)
+            .and_then(|m| TABLE1.iter().position(|(t, _)| *t == m))
+            .unwrap_or(TABLE1.len());
         (accel_order(*accel), model)
     });
     series.extend(groups.into_series());
@@ -314,14 +383,25 @@ fn models_chart(rows: &[Row], machine: &str) -> Chart {
             sizes.push((r.workload.width, r.workload.height));
         }
         // (model, (width, height), bounces)
-        let key = (r.workload.model.clone(), (r.workload.width, r.workload.height), r.workload.bounces);
-        let label = format!("ours, {}: {} copies, {}, {}", accel_name(r.workload.accel), r.workload.model, res_label(r.workload.width, r.workload.height), bounces_note(r.workload.bounces));
-        let s = groups.get(r.workload.accel, key, |_| Series::new(label, BLACK, Line::Solid, accel_marker(r.workload.accel)));
+        let key =
+            (r.workload.model.clone(), (r.workload.width, r.workload.height), r.workload.bounces);
+        let label = format!(
+            "ours, {}: {} copies, {}, {}",
+            accel_name(r.workload.accel),
+            r.workload.model,
+            res_label(r.workload.width, r.workload.height),
+            bounces_note(r.workload.bounces)
+        );
+        let s = groups.get(r.workload.accel, key, |_| {
+            Series::new(label, BLACK, Line::Solid, accel_marker(r.workload.accel))
+        });
         s.push(r.workload.models as f64, ms, None);
     }
     // Brute force first, then the largest resolution first within each acceleration, each
     // acceleration in its family of colours.
-    groups.0.sort_by_key(|(accel, (_, (w, h), bounces), _)| (accel_order(*accel), std::cmp::Reverse(*w as u64 * *h as u64), *bounces));
+    groups.0.sort_by_key(|(accel, (_, (w, h), bounces), _)| {
+        (accel_order(*accel), std::cmp::Reverse(*w as u64 * *h as u64), *bounces)
+    });
     let mut shade = std::collections::HashMap::<Accel, usize>::new();
     for (accel, _, s) in &mut groups.0 {
         let n = shade.entry(*accel).or_insert(0);
@@ -334,7 +414,12 @@ fn models_chart(rows: &[Row], machine: &str) -> Chart {
         if i > 0 && !sizes.contains(&(size, size)) {
             continue;
         }
-        let mut s = Series::new(format!("paper: Table 2, geosphere copies, {size}²"), if i == 0 { BLACK } else { GREY_ }, Line::Dashed, Marker::Triangle);
+        let mut s = Series::new(
+            format!("paper: Table 2, geosphere copies, {size}²"),
+            if i == 0 { BLACK } else { GREY_ },
+            Line::Dashed,
+            Marker::Triangle,
+        );
         for (count, figures) in TABLE2 {
             s.push(count as f64, figures[1 - i].1, None);
         }

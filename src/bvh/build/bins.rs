@@ -70,7 +70,11 @@ impl BinSet {
 
     /// The cheapest SAH split plane over all axes as (axis, plane): plane `i` has bins `..i`
     /// on its left. `None` when no plane has primitives on both sides.
-    pub(super) fn best_plane(&self, grid: &BinGrid, node_bounds: &Bounds) -> Option<(usize, usize)> {
+    pub(super) fn best_plane(
+        &self,
+        grid: &BinGrid,
+        node_bounds: &Bounds,
+    ) -> Option<(usize, usize)> {
         // Areas are scaled by the node's size so that they stay finite for huge coordinates.
         let extent = (node_bounds.max - node_bounds.min).max_element();
         let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
@@ -164,12 +168,15 @@ impl BinGrid {
     #[inline(always)]
     fn bin_of(&self, c: Vec3A) -> UVec3 {
         // `max` returns its argument for a NaN lane, so NaN becomes 0.
-        let offset = ((c - self.origin) * self.scale).max(Vec3A::ZERO).min(Vec3A::splat((self.count - 1) as f32));
+        let offset = ((c - self.origin) * self.scale)
+            .max(Vec3A::ZERO)
+            .min(Vec3A::splat((self.count - 1) as f32));
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{__m128, _mm_cvttps_epi32};
             // SAFETY: SSE2 is part of x86-64; every lane is in 0..count, so truncation is exact.
-            let lanes: [i32; 4] = unsafe { std::mem::transmute(_mm_cvttps_epi32(__m128::from(offset))) };
+            let lanes: [i32; 4] =
+                unsafe { std::mem::transmute(_mm_cvttps_epi32(__m128::from(offset))) };
             UVec3::new(lanes[0] as u32, lanes[1] as u32, lanes[2] as u32)
         }
         #[cfg(not(target_arch = "x86_64"))]

@@ -37,7 +37,8 @@ pub(super) fn bin(prims: &[Prim], grid: &BinGrid, n_bins: usize, bins: &mut BinS
 /// primitives that lie in the left part overall and the left ones in the right part, which
 /// in each chunk form at most one run, are swapped pairwise, run by run.
 pub(super) fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
-    let lefts: Vec<usize> = prims.par_chunks_mut(CHUNK).map(|chunk| left_of.partition(chunk)).collect();
+    let lefts: Vec<usize> =
+        prims.par_chunks_mut(CHUNK).map(|chunk| left_of.partition(chunk)).collect();
     let total_left: usize = lefts.iter().sum();
 
     // The misplaced runs, in order: right primitives before `total_left`, left ones after.
@@ -109,7 +110,11 @@ impl Fragment {
         chunks.push(Chunk { offset: 0, nodes: vec![node] });
         chunks.append(&mut left.chunks);
         chunks.append(&mut right.chunks);
-        Fragment { child: ChildRef { bounds, index: 0, count: 0 }, len: 1 + left.len + right.len, chunks }
+        Fragment {
+            child: ChildRef { bounds, index: 0, count: 0 },
+            len: 1 + left.len + right.len,
+            chunks,
+        }
     }
 
     /// Moves the fragment `by` nodes further into its parent's node list.
@@ -126,7 +131,8 @@ impl Fragment {
     /// copied by its own task (one thread copying a 10M-triangle tree took 0.1 s).
     pub(super) fn flatten(mut self) -> Vec<BvhNode> {
         if self.chunks.len() == 1 && self.chunks[0].offset == 0 {
-            return self.chunks.pop().map(|chunk| chunk.nodes).unwrap_or_default(); // already in place
+            return self.chunks.pop().map(|chunk| chunk.nodes).unwrap_or_default();
+            // already in place
         }
         // Written straight into the new memory, not zeroed first: 64 bytes a node not written twice.
         // Not on huge pages: the packing appends other meshes' nodes to this array, and moving
@@ -171,7 +177,8 @@ mod tests {
         // Positions along x shuffled (every chunk holds both sides) and sorted (whole chunks
         // on one side, and runs of misplaced primitives that end at a chunk's end).
         let n = 3 * CHUNK + 1234;
-        let shuffled: Vec<u32> = (0..n as u32).map(|i| i.wrapping_mul(2_654_435_761) % 1000).collect();
+        let shuffled: Vec<u32> =
+            (0..n as u32).map(|i| i.wrapping_mul(2_654_435_761) % 1000).collect();
         let mut sorted = shuffled.clone();
         sorted.sort_unstable();
         sorted.reverse();
@@ -179,9 +186,18 @@ mod tests {
             let prims: Vec<Prim> = xs
                 .iter()
                 .enumerate()
-                .map(|(i, &x)| Prim::new(Vec3::new(x as f32, 0.0, 0.0), Vec3::new(x as f32 + 1.0, 1.0, 1.0), i as u32))
+                .map(|(i, &x)| {
+                    Prim::new(
+                        Vec3::new(x as f32, 0.0, 0.0),
+                        Vec3::new(x as f32 + 1.0, 1.0, 1.0),
+                        i as u32,
+                    )
+                })
                 .collect();
-            let centroids = Bounds { min: Vec3::new(0.5, 0.5, 0.5).into(), max: Vec3::new(999.5, 0.5, 0.5).into() };
+            let centroids = Bounds {
+                min: Vec3::new(0.5, 0.5, 0.5).into(),
+                max: Vec3::new(999.5, 0.5, 0.5).into(),
+            };
             let grid = BinGrid::new(&centroids, 16).unwrap();
             for plane in [1, 7, 15] {
                 let (mut seq, mut par) = (prims.clone(), prims.clone());

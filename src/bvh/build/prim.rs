@@ -47,7 +47,13 @@ impl Prim {
     pub(super) fn tie_break(&self, other: &Prim) -> std::cmp::Ordering {
         let corners = |p: &Prim| [p.min.x, p.min.y, p.min.z, p.max.x, p.max.y, p.max.z];
         let (a, b) = (corners(self), corners(other));
-        self.index.cmp(&other.index).then_with(|| a.iter().zip(&b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal))
+        self.index.cmp(&other.index).then_with(|| {
+            a.iter()
+                .zip(&b)
+                .map(|(x, y)| x.total_cmp(y))
+                .find(|o| o.is_ne())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
     }
 
     /// The box in SIMD form.
@@ -71,7 +77,8 @@ pub(super) struct Bounds {
 }
 
 impl Bounds {
-    pub(super) const EMPTY: Bounds = Bounds { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+    pub(super) const EMPTY: Bounds =
+        Bounds { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
 
     #[inline(always)]
     pub(super) fn grow(&mut self, min: Vec3A, max: Vec3A) {

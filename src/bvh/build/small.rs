@@ -82,7 +82,11 @@ fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
 /// The bits of `x` as an unsigned number that orders like the float (`f32::total_cmp`).
 fn sortable_bits(x: f32) -> u32 {
     let bits = x.to_bits();
-    if bits >> 31 == 1 { !bits } else { bits | 1 << 31 }
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 1 << 31
+    }
 }
 
 #[cfg(test)]

@@ -70,16 +70,23 @@ pub(super) fn worth_cutting(count: usize, corners: &(impl Fn(usize) -> [Vec3; 3]
 /// The primitives of `count` triangles, `corners(i)` giving triangle i, with about
 /// `budget * count` extra pieces cut from the triangles whose boxes are the emptiest.
 /// Without a budget, one primitive per triangle in index order.
-pub(super) fn split_prims(count: usize, corners: &(impl Fn(usize) -> [Vec3; 3] + Sync), budget: f32) -> Vec<Prim> {
-    let whole: Vec<Prim> = (0..count).into_par_iter().map(|i| Prim::of_triangle(corners(i), i as u32)).collect();
+pub(super) fn split_prims(
+    count: usize,
+    corners: &(impl Fn(usize) -> [Vec3; 3] + Sync),
+    budget: f32,
+) -> Vec<Prim> {
+    let whole: Vec<Prim> =
+        (0..count).into_par_iter().map(|i| Prim::of_triangle(corners(i), i as u32)).collect();
     let extra = (budget.max(0.0) * count as f32) as u64;
     if extra == 0 {
         return whole;
     }
     let areas: Vec<f32> = whole.par_iter().map(|p| half_area(&p.bounds())).collect();
     let threshold = CANDIDATE_FACTOR * median(&areas);
-    let weights: Vec<f32> =
-        (0..count).into_par_iter().map(|i| if areas[i] > threshold { weight(corners(i)) } else { 0.0 }).collect();
+    let weights: Vec<f32> = (0..count)
+        .into_par_iter()
+        .map(|i| if areas[i] > threshold { weight(corners(i)) } else { 0.0 })
+        .collect();
     drop(areas);
     // A few big triangles among many small ones need a few pieces each, not the whole budget.
     let candidates = weights.par_iter().filter(|&&w| w > 0.0).count() as u64;
@@ -138,7 +145,11 @@ fn weight(t: [Vec3; 3]) -> f32 {
     }
     let b = Bounds { min: t[0].min(t[1]).min(t[2]).into(), max: t[0].max(t[1]).max(t[2]).into() };
     let excess = half_area(&b) - 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
-    if excess.is_finite() && excess > 0.0 { excess } else { 0.0 }
+    if excess.is_finite() && excess > 0.0 {
+        excess
+    } else {
+        0.0
+    }
 }
 
 /// Cuts for a triangle of `weight` at `scale`.
@@ -197,9 +208,16 @@ impl Grid {
 /// a primitive of triangle `index`.
 fn cut(tri: &[Vec3A; 3], bounds: Bounds, cuts: u32, grid: &Grid, index: u32, out: &mut Vec<Prim>) {
     let extent = bounds.max - bounds.min;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     let plane = grid.plane(axis, bounds.min[axis], bounds.max[axis]);
-    let (below, above) = (clipped(tri, axis, plane, false, bounds), clipped(tri, axis, plane, true, bounds));
+    let (below, above) =
+        (clipped(tri, axis, plane, false, bounds), clipped(tri, axis, plane, true, bounds));
     let (Some(below), Some(above)) = (below, above) else {
         // The triangle's part here lies on one side (it touches the box only at the plane):
         // the piece stays whole.
@@ -209,7 +227,8 @@ fn cut(tri: &[Vec3A; 3], bounds: Bounds, cuts: u32, grid: &Grid, index: u32, out
     // The remaining cuts go to each side in proportion to its longest edge.
     let (lb, la) = ((below.max - below.min).max_element(), (above.max - above.min).max_element());
     let rest = cuts - 1;
-    let to_below = if lb + la > 0.0 { ((rest as f32) * lb / (lb + la)).round() as u32 } else { rest / 2 };
+    let to_below =
+        if lb + la > 0.0 { ((rest as f32) * lb / (lb + la)).round() as u32 } else { rest / 2 };
     let to_below = to_below.min(rest);
     for (side, n) in [(below, to_below), (above, rest - to_below)] {
         if n == 0 {
@@ -226,7 +245,13 @@ fn cut(tri: &[Vec3A; 3], bounds: Bounds, cuts: u32, grid: &Grid, index: u32, out
 /// The corners of the clipped polygon on the plane are interpolated along the triangle's
 /// edges: their other coordinates carry a rounding error, so the box grows by a few ulps
 /// (and never beyond `bounds`, the piece's box, which bounds the true part exactly).
-fn clipped(tri: &[Vec3A; 3], axis: usize, plane: f32, above: bool, bounds: Bounds) -> Option<Bounds> {
+fn clipped(
+    tri: &[Vec3A; 3],
+    axis: usize,
+    plane: f32,
+    above: bool,
+    bounds: Bounds,
+) -> Option<Bounds> {
     let inside = |v: Vec3A| if above { v[axis] >= plane } else { v[axis] <= plane };
     let mut b = Bounds::EMPTY;
     for i in 0..3 {
@@ -262,10 +287,12 @@ mod tests {
 
     /// Points spread over the triangle (barycentric grid).
     fn points_on(t: [Vec3; 3], n: u32) -> impl Iterator<Item = Vec3> {
-        (0..=n).flat_map(move |i| (0..=n - i).map(move |j| {
-            let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
-            t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v
-        }))
+        (0..=n).flat_map(move |i| {
+            (0..=n - i).map(move |j| {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v
+            })
+        })
     }
 
     #[test]
@@ -278,7 +305,11 @@ mod tests {
     #[test]
     fn a_diagonal_triangle_is_cut_into_pieces_that_cover_it() {
         // One long diagonal sliver among small axis-aligned triangles: the budget goes to it.
-        let sliver = [Vec3::ZERO, Vec3::new(10.0, 10.0, 0.3), Vec3::new(10.0, 10.0, 0.0) + Vec3::new(0.2, -0.2, 0.0)];
+        let sliver = [
+            Vec3::ZERO,
+            Vec3::new(10.0, 10.0, 0.3),
+            Vec3::new(10.0, 10.0, 0.0) + Vec3::new(0.2, -0.2, 0.0),
+        ];
         let tris = with_small(40, &[sliver]);
         let prims = split_prims(tris.len(), &|i| tris[i], 0.25);
         let pieces: Vec<Prim> = prims.iter().copied().filter(|p| p.index == 40).collect();
@@ -286,15 +317,30 @@ mod tests {
         assert_eq!(prims.len() - pieces.len(), 40, "the small triangles stay whole");
         assert!(prims.len() <= 41 + 10, "the budget holds: {}", prims.len());
         // Smaller in sum than the one box, and every point of the triangle in some piece.
-        let whole = Bounds { min: sliver[0].min(sliver[1]).min(sliver[2]).into(), max: sliver[0].max(sliver[1]).max(sliver[2]).into() };
+        let whole = Bounds {
+            min: sliver[0].min(sliver[1]).min(sliver[2]).into(),
+            max: sliver[0].max(sliver[1]).max(sliver[2]).into(),
+        };
         let sum: f32 = pieces.iter().map(|p| half_area(&p.bounds())).sum();
-        assert!(sum < 0.5 * half_area(&whole), "pieces {sum} against the box {}", half_area(&whole));
+        assert!(
+            sum < 0.5 * half_area(&whole),
+            "pieces {sum} against the box {}",
+            half_area(&whole)
+        );
         for q in points_on(sliver, 60) {
             let q = Vec3A::from(q);
-            assert!(pieces.iter().any(|p| p.bounds_min().cmple(q).all() && q.cmple(p.bounds_max()).all()), "{q} is in no piece");
+            assert!(
+                pieces
+                    .iter()
+                    .any(|p| p.bounds_min().cmple(q).all() && q.cmple(p.bounds_max()).all()),
+                "{q} is in no piece"
+            );
         }
         let b = bounds_of(&pieces);
-        assert!(whole.min.cmple(b.min).all() && b.max.cmple(whole.max).all(), "the pieces stay inside the triangle's box");
+        assert!(
+            whole.min.cmple(b.min).all() && b.max.cmple(whole.max).all(),
+            "the pieces stay inside the triangle's box"
+        );
     }
 
     /// `n` small triangles along x (the mesh's typical size), then `extra`.
@@ -316,12 +362,17 @@ mod tests {
         let sliver = [Vec3::ZERO, Vec3::new(10.0, 10.0, 0.3), Vec3::new(10.2, 9.8, 0.0)];
         let small = with_small(64_000, &[]);
         let mesh = |per_mille: u64| -> Vec<[Vec3; 3]> {
-            let chosen = |i: usize| (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 54 < per_mille;
+            let chosen =
+                |i: usize| (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 54 < per_mille;
             small.iter().enumerate().map(|(i, &t)| if chosen(i) { sliver } else { t }).collect()
         };
         for (per_mille, worth) in [(20, true), (5, false), (0, false)] {
             let tris = mesh(per_mille);
-            assert_eq!(worth_cutting(tris.len(), &|i| tris[i]), worth, "slivers {per_mille} in 1000");
+            assert_eq!(
+                worth_cutting(tris.len(), &|i| tris[i]),
+                worth,
+                "slivers {per_mille} in 1000"
+            );
         }
         assert!(!worth_cutting(0, &|_| unreachable!()), "an empty mesh");
     }
@@ -342,14 +393,18 @@ mod tests {
         for i in 40..44 {
             assert_eq!(prims.iter().filter(|p| p.index == i).count(), 1, "triangle {i}");
         }
-        assert!(prims.iter().filter(|p| p.index == 44).count() > 1, "the one big real triangle takes the budget");
+        assert!(
+            prims.iter().filter(|p| p.index == 44).count() > 1,
+            "the one big real triangle takes the budget"
+        );
     }
 
     #[test]
     fn even_triangles_are_left_whole() {
         // A scan-like mesh: every box within a few times the median, so nothing is cut
         // whatever the budget.
-        let tris = with_small(200, &[[Vec3::ZERO, Vec3::new(0.2, 0.2, 0.0), Vec3::new(0.2, 0.0, 0.05)]]);
+        let tris =
+            with_small(200, &[[Vec3::ZERO, Vec3::new(0.2, 0.2, 0.0), Vec3::new(0.2, 0.0, 0.05)]]);
         assert_eq!(split_prims(tris.len(), &|i| tris[i], 1.0).len(), tris.len());
     }
 

@@ -82,8 +82,11 @@ impl Plan {
                 let at = self.nodes.len();
                 self.nodes.push(PlanNode::Bucket(0)); // filled in below
                 self.push(left);
-                self.nodes[at] =
-                    PlanNode::Split { test: *test, right: self.nodes.len() as u32, right_bucket: self.buckets as u32 };
+                self.nodes[at] = PlanNode::Split {
+                    test: *test,
+                    right: self.nodes.len() as u32,
+                    right_bucket: self.buckets as u32,
+                };
                 self.push(right);
             }
         }
@@ -95,7 +98,9 @@ impl Plan {
         let mut at = 0;
         loop {
             match self.nodes[at] {
-                PlanNode::Split { test, right, .. } => at = if test.test(p) { at + 1 } else { right as usize },
+                PlanNode::Split { test, right, .. } => {
+                    at = if test.test(p) { at + 1 } else { right as usize }
+                }
                 PlanNode::Bucket(b) => return b as usize,
             }
         }
@@ -117,9 +122,12 @@ impl Builder<'_> {
         corners: &(impl Fn(usize) -> [Vec3; 3] + Sync),
         clock: &PhaseClock,
     ) -> (Vec<u32>, Fragment) {
-        let mut sample: Vec<Prim> =
-            (0..count.div_ceil(SAMPLE_STRIDE)).into_par_iter().map(|s| prim_of(corners, s * SAMPLE_STRIDE)).collect();
-        let info = sample.par_chunks(CHUNK).map(NodeInfo::of).reduce(|| NodeInfo::EMPTY, NodeInfo::union);
+        let mut sample: Vec<Prim> = (0..count.div_ceil(SAMPLE_STRIDE))
+            .into_par_iter()
+            .map(|s| prim_of(corners, s * SAMPLE_STRIDE))
+            .collect();
+        let info =
+            sample.par_chunks(CHUNK).map(NodeInfo::of).reduce(|| NodeInfo::EMPTY, NodeInfo::union);
         let tree = self.plan(&mut sample, info, 1);
         drop(sample);
         let plan = Plan::flatten(&tree);
@@ -144,7 +152,8 @@ impl Builder<'_> {
         unsafe { buckets.set_len(count) };
         let mut bucket_start = vec![0usize; plan.buckets + 1];
         for b in 0..plan.buckets {
-            bucket_start[b + 1] = bucket_start[b] + counts.iter().map(|c| c[b] as usize).sum::<usize>();
+            bucket_start[b + 1] =
+                bucket_start[b] + counts.iter().map(|c| c[b] as usize).sum::<usize>();
         }
         // Each bucket holds at least the sample triangles that planned it (an empty one would
         // become a leaf of no triangles, which the node layout cannot tell from an inner node).
@@ -195,7 +204,8 @@ impl Builder<'_> {
         // still in cache (a pass of its own over all the boxes took 22 ms of a 10M build on
         // 16 cores).
         let mut order: Vec<u32> = memory::with_huge_pages(count);
-        let places = Places { prims: &mut prims, order: &mut order.spare_capacity_mut()[..count], first: 0 };
+        let places =
+            Places { prims: &mut prims, order: &mut order.spare_capacity_mut()[..count], first: 0 };
         let tree = self.build_planned(&plan, 0, places, 1, &bucket_info, &bucket_start);
         // SAFETY: the buckets cover `0..count` and each wrote its whole range.
         unsafe { order.set_len(count) };
@@ -213,7 +223,10 @@ impl Builder<'_> {
         };
         let (left, right) = sample.split_at_mut(split.mid);
         let (left, right) = if sample_is_big(left.len() + right.len()) {
-            rayon::join(|| self.plan(left, split.left, level + 1), || self.plan(right, split.right, level + 1))
+            rayon::join(
+                || self.plan(left, split.left, level + 1),
+                || self.plan(right, split.right, level + 1),
+            )
         } else {
             (self.plan(left, split.left, level + 1), self.plan(right, split.right, level + 1))
         };
@@ -240,10 +253,29 @@ impl Builder<'_> {
                 tree
             }
             PlanNode::Split { right, right_bucket, .. } => {
-                let (left_places, right_places) = places.split_at(bucket_start[right_bucket as usize]);
+                let (left_places, right_places) =
+                    places.split_at(bucket_start[right_bucket as usize]);
                 let (left, right) = rayon::join(
-                    || self.build_planned(plan, at + 1, left_places, level + 1, bucket_info, bucket_start),
-                    || self.build_planned(plan, right as usize, right_places, level + 1, bucket_info, bucket_start),
+                    || {
+                        self.build_planned(
+                            plan,
+                            at + 1,
+                            left_places,
+                            level + 1,
+                            bucket_info,
+                            bucket_start,
+                        )
+                    },
+                    || {
+                        self.build_planned(
+                            plan,
+                            right as usize,
+                            right_places,
+                            level + 1,
+                            bucket_info,
+                            bucket_start,
+                        )
+                    },
                 );
                 let bounds = left.child.bounds.union(right.child.bounds);
                 Fragment::join(left, right, bounds)

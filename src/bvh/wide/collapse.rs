@@ -22,16 +22,32 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
     if bvh.nodes.is_empty() {
         return WideBvh::default();
     }
-    let root = bvh.nodes[0].children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+    let root = bvh.nodes[0]
+        .children()
+        .iter()
+        .filter(|c| !c.is_empty())
+        .fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
     let plan = Plan::new(bvh);
     // The top of the tree here, the subtrees below it on every core, then spliced in.
-    let mut top = Collapser { bvh, plan: &plan, nodes: vec![WideNode::default()], order: Vec::new(), deferred: Some(Vec::new()) };
+    let mut top = Collapser {
+        bvh,
+        plan: &plan,
+        nodes: vec![WideNode::default()],
+        order: Vec::new(),
+        deferred: Some(Vec::new()),
+    };
     top.build(0, Planned::Node { index: 0, bounds: root });
     let deferred = top.deferred.take().unwrap_or_default();
     let subtrees: Vec<(usize, Collapser)> = deferred
         .into_par_iter()
         .map(|(index, item)| {
-            let mut sub = Collapser { bvh, plan: &plan, nodes: vec![WideNode::default()], order: Vec::new(), deferred: None };
+            let mut sub = Collapser {
+                bvh,
+                plan: &plan,
+                nodes: vec![WideNode::default()],
+                order: Vec::new(),
+                deferred: None,
+            };
             sub.build(0, item);
             (index, sub)
         })
@@ -50,7 +66,11 @@ const PARALLEL_MAX_TRIANGLES: u32 = 16 * 1024;
 /// Put each subtree (collapsed on its own, its root at its node 0) in place of the top's
 /// node `index` it was deferred from: its other nodes go after the top's nodes, its
 /// triangles after the top's, subtree after subtree. Copied on every core.
-fn splice(mut nodes: Vec<WideNode>, mut order: Vec<u32>, subtrees: Vec<(usize, Collapser)>) -> (Vec<WideNode>, Vec<u32>) {
+fn splice(
+    mut nodes: Vec<WideNode>,
+    mut order: Vec<u32>,
+    subtrees: Vec<(usize, Collapser)>,
+) -> (Vec<WideNode>, Vec<u32>) {
     // Where each subtree's nodes (but its root) and triangles start.
     let mut starts = Vec::with_capacity(subtrees.len());
     let (mut node_end, mut triangle_end) = (nodes.len(), order.len());
@@ -159,10 +179,18 @@ impl Collapser<'_> {
             Planned::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
             // A leaf too big for a slot: split into pieces, each with the leaf's box.
             Planned::Leaf { first, count, bounds } => {
-                let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 { MAX_LEAF_TRIANGLES } else { count.div_ceil(WIDTH as u32) };
+                let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 {
+                    MAX_LEAF_TRIANGLES
+                } else {
+                    count.div_ceil(WIDTH as u32)
+                };
                 let mut pieces = Children::default();
                 for start in (first..first + count).step_by(per_piece as usize) {
-                    pieces.push(Planned::Leaf { first: start, count: per_piece.min(first + count - start), bounds });
+                    pieces.push(Planned::Leaf {
+                        first: start,
+                        count: per_piece.min(first + count - start),
+                        bounds,
+                    });
                 }
                 pieces
             }
@@ -220,7 +248,11 @@ fn assign_slots(children: &[Planned], parent: Aabb) -> [Option<Planned>; WIDTH] 
 }
 
 fn sign(s: usize, axis: usize) -> f64 {
-    if s & (1 << axis) != 0 { 1.0 } else { -1.0 }
+    if s & (1 << axis) != 0 {
+        1.0
+    } else {
+        -1.0
+    }
 }
 
 /// A node with its quantization frame over `bounds`: origin at the minimum, and per axis
@@ -239,7 +271,11 @@ fn frame(bounds: Aabb) -> WideNode {
 /// the traversal decodes), from 1 (2^-126) to 254.
 fn exponent(lo: f32, hi: f32) -> u8 {
     let extent = (hi as f64 - lo as f64) / 255.0;
-    let mut biased = if extent > 0.0 && extent.is_finite() { (extent.log2().ceil() as i64 + 127).clamp(1, 254) as u32 } else { 1 };
+    let mut biased = if extent > 0.0 && extent.is_finite() {
+        (extent.log2().ceil() as i64 + 127).clamp(1, 254) as u32
+    } else {
+        1
+    };
     while biased < 254 && lo + 255.0 * f32::from_bits(biased << 23) < hi {
         biased += 1;
     }
@@ -272,9 +308,18 @@ fn quantize(node: &mut WideNode, s: usize, child: &Aabb) {
 fn reorder_binary(bvh: &mut Bvh, order: &[u32]) {
     debug_assert_eq!(order.len(), bvh.prim_indices.len(), "every triangle is placed once");
     // `order` is a permutation: each entry is written once, whichever thread writes it.
-    let new_position: Vec<AtomicU32> = (0..order.len()).into_par_iter().map(|_| AtomicU32::new(0)).collect();
-    order.par_iter().enumerate().for_each(|(new, &old)| new_position[old as usize].store(new as u32, Relaxed));
-    let first_new = |first: u32, count: u32| (first..first + count).map(|old| new_position[old as usize].load(Relaxed)).min().unwrap_or(first);
+    let new_position: Vec<AtomicU32> =
+        (0..order.len()).into_par_iter().map(|_| AtomicU32::new(0)).collect();
+    order
+        .par_iter()
+        .enumerate()
+        .for_each(|(new, &old)| new_position[old as usize].store(new as u32, Relaxed));
+    let first_new = |first: u32, count: u32| {
+        (first..first + count)
+            .map(|old| new_position[old as usize].load(Relaxed))
+            .min()
+            .unwrap_or(first)
+    };
     bvh.nodes.par_iter_mut().for_each(|node| {
         if node.left_count > 0 {
             node.left_index = first_new(node.left_index, node.left_count);
@@ -283,6 +328,7 @@ fn reorder_binary(bvh: &mut Bvh, order: &[u32]) {
             node.right_index = first_new(node.right_index, node.right_count);
         }
     });
-    let prim_indices: Vec<u32> = order.par_iter().map(|&old| bvh.prim_indices[old as usize]).collect();
+    let prim_indices: Vec<u32> =
+        order.par_iter().map(|&old| bvh.prim_indices[old as usize]).collect();
     bvh.prim_indices = prim_indices;
 }

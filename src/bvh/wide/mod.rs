@@ -99,7 +99,9 @@ impl WideNode {
     pub fn child_box(&self, s: usize) -> Aabb {
         let origin = Vec3::from(self.origin);
         let scale = self.scale();
-        let q = |planes: &[[u8; WIDTH]; 3]| Vec3::new(planes[0][s] as f32, planes[1][s] as f32, planes[2][s] as f32);
+        let q = |planes: &[[u8; WIDTH]; 3]| {
+            Vec3::new(planes[0][s] as f32, planes[1][s] as f32, planes[2][s] as f32)
+        };
         // q * scale is exact (8-bit integer times a power of two): one rounding, as in the shader.
         Aabb { min: origin + q(&self.lo) * scale, max: origin + q(&self.hi) * scale }
     }
@@ -113,7 +115,10 @@ impl WideNode {
         } else if meta == 0 {
             WideSlot::Empty
         } else {
-            WideSlot::Leaf { first: self.triangle_base + (meta & 31), count: (meta >> 5).count_ones() }
+            WideSlot::Leaf {
+                first: self.triangle_base + (meta & 31),
+                count: (meta >> 5).count_ones(),
+            }
         }
     }
 }

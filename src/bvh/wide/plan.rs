@@ -30,7 +30,9 @@ impl Planned {
     /// The slot's box.
     pub(super) fn bounds(&self) -> Aabb {
         match *self {
-            Planned::Node { bounds, .. } | Planned::Leaf { bounds, .. } | Planned::Merged { bounds, .. } => bounds,
+            Planned::Node { bounds, .. }
+            | Planned::Leaf { bounds, .. }
+            | Planned::Merged { bounds, .. } => bounds,
         }
     }
 }
@@ -137,9 +139,14 @@ impl Plan {
     /// with the halves of big subtrees on two threads; any other layout is solved on one.
     pub(super) fn new(bvh: &Bvh) -> Self {
         // Filled on every core: at 16M triangles the rows are some 800 MB of fresh pages.
-        let mut rows: Vec<Row> = (0..bvh.nodes.len()).into_par_iter().map(|_| Row::default()).collect();
+        let mut rows: Vec<Row> =
+            (0..bvh.nodes.len()).into_par_iter().map(|_| Row::default()).collect();
         let Some(root) = bvh.nodes.first() else { return Plan { rows } };
-        let root = root.children().iter().filter(|c| !c.is_empty()).fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
+        let root = root
+            .children()
+            .iter()
+            .filter(|c| !c.is_empty())
+            .fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
         let scale = AreaScale::of_root(&root);
         if is_depth_first(bvh) {
             solve_slice(bvh, 0, &mut rows, scale, scale.area(&root));
@@ -171,7 +178,11 @@ impl Plan {
             return;
         }
         if child.is_leaf() {
-            out.push(Planned::Leaf { first: child.index, count: child.count, bounds: child.bounds });
+            out.push(Planned::Leaf {
+                first: child.index,
+                count: child.count,
+                bounds: child.bounds,
+            });
             return;
         }
         let n = child.index as usize;
@@ -185,7 +196,11 @@ impl Plan {
             self.gather(bvh, &left, k, out);
             self.gather(bvh, &right, i - k, out);
         } else if !self.rows[n].how(1) {
-            out.push(Planned::Merged { index: child.index, count: self.rows[n].triangles, bounds: child.bounds });
+            out.push(Planned::Merged {
+                index: child.index,
+                count: self.rows[n].triangles,
+                bounds: child.bounds,
+            });
         } else {
             out.push(Planned::Node { index: child.index, bounds: child.bounds });
         }
@@ -220,14 +235,23 @@ fn solve_slice(bvh: &Bvh, index: usize, rows: &mut [Row], scale: AreaScale, area
     let [left, right] = bvh.nodes[index].children();
     let total = rows.len();
     let (head, rest) = rows.split_first_mut().expect("a node's own row");
-    let (left_rows, right_rows): (&mut [Row], &mut [Row]) = match (left.is_inner(), right.is_inner()) {
-        (true, true) => rest.split_at_mut(right.index as usize - index - 1),
-        (true, false) => (rest, &mut []),
-        (false, true) => (&mut [], rest),
-        (false, false) => (&mut [], &mut []),
+    let (left_rows, right_rows): (&mut [Row], &mut [Row]) =
+        match (left.is_inner(), right.is_inner()) {
+            (true, true) => rest.split_at_mut(right.index as usize - index - 1),
+            (true, false) => (rest, &mut []),
+            (false, true) => (&mut [], rest),
+            (false, false) => (&mut [], &mut []),
+        };
+    let solve_left = |r: &mut [Row]| {
+        if left.is_inner() {
+            solve_slice(bvh, left.index as usize, r, scale, scale.area(&left.bounds))
+        }
     };
-    let solve_left = |r: &mut [Row]| if left.is_inner() { solve_slice(bvh, left.index as usize, r, scale, scale.area(&left.bounds)) };
-    let solve_right = |r: &mut [Row]| if right.is_inner() { solve_slice(bvh, right.index as usize, r, scale, scale.area(&right.bounds)) };
+    let solve_right = |r: &mut [Row]| {
+        if right.is_inner() {
+            solve_slice(bvh, right.index as usize, r, scale, scale.area(&right.bounds))
+        }
+    };
     if total >= PARALLEL_MIN_NODES {
         rayon::join(|| solve_left(&mut *left_rows), || solve_right(&mut *right_rows));
     } else {
@@ -244,16 +268,25 @@ fn solve_anywhere(bvh: &Bvh, index: usize, rows: &mut [Row], scale: AreaScale, a
         solve_anywhere(bvh, child.index as usize, rows, scale, scale.area(&child.bounds));
     }
     let inner_row = |c: &BvhChild| c.is_inner().then(|| rows[c.index as usize]);
-    rows[index] = row(&left, inner_row(&left).as_ref(), &right, inner_row(&right).as_ref(), scale, area);
+    rows[index] =
+        row(&left, inner_row(&left).as_ref(), &right, inner_row(&right).as_ref(), scale, area);
 }
 
 /// A node's row from its children's (`*_row`: an inner child's row): its least costs,
 /// splits and choices for 1..=8 slots, and the triangles under it.
-fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Option<&Row>, scale: AreaScale, area: f32) -> Row {
+fn row(
+    left: &BvhChild,
+    left_row: Option<&Row>,
+    right: &BvhChild,
+    right_row: Option<&Row>,
+    scale: AreaScale,
+    area: f32,
+) -> Row {
     let triangles = triangles_of(left, left_row) + triangles_of(right, right_row);
     // Spread over the children: i slots, k of them to the left.
     // Each child's costs for 0..=8 slots, looked up 45 times below.
-    let (l, r): ([f32; WIDTH + 1], [f32; WIDTH + 1]) = (child_costs(left, left_row, scale), child_costs(right, right_row, scale));
+    let (l, r): ([f32; WIDTH + 1], [f32; WIDTH + 1]) =
+        (child_costs(left, left_row, scale), child_costs(right, right_row, scale));
     let mut spread = [(f32::INFINITY, 0u8); WIDTH + 1];
     for (i, best) in spread.iter_mut().enumerate().skip(1) {
         for k in 0..=i {
@@ -263,14 +296,26 @@ fn row(left: &BvhChild, left_row: Option<&Row>, right: &BvhChild, right_row: Opt
             }
         }
     }
-    let merged = if triangles <= MAX_LEAF_TRIANGLES { area * triangles as f32 * TRIANGLE_COST } else { f32::INFINITY };
+    let merged = if triangles <= MAX_LEAF_TRIANGLES {
+        area * triangles as f32 * TRIANGLE_COST
+    } else {
+        f32::INFINITY
+    };
     let node = area * NODE_COST + spread[WIDTH].0;
     let mut out = Row { triangles, ..Row::default() };
-    if merged <= node { out.set(1, merged, false) } else { out.set(1, node, true) }
+    if merged <= node {
+        out.set(1, merged, false)
+    } else {
+        out.set(1, node, true)
+    }
     for (i, &(spread_cost, left_slots)) in spread.iter().enumerate().skip(2) {
         out.split[i] = left_slots;
         let fewer = out.cost[i - 1];
-        if spread_cost < fewer { out.set(i, spread_cost, true) } else { out.set(i, fewer, false) }
+        if spread_cost < fewer {
+            out.set(i, spread_cost, true)
+        } else {
+            out.set(i, fewer, false)
+        }
     }
     out
 }
@@ -325,7 +370,13 @@ mod tests {
         let moved = |i: u32| if i == 0 { 0 } else { n as u32 - i };
         let mut reversed = bvh.clone();
         for (i, node) in bvh.nodes.iter().enumerate() {
-            let [l, r] = node.children().map(|c| if c.is_inner() { BvhChild { index: moved(c.index), ..c } } else { c });
+            let [l, r] = node.children().map(|c| {
+                if c.is_inner() {
+                    BvhChild { index: moved(c.index), ..c }
+                } else {
+                    c
+                }
+            });
             reversed.nodes[moved(i as u32) as usize] = BvhNode::new(l, r);
         }
         assert!(!is_depth_first(&reversed));

@@ -31,8 +31,13 @@ pub struct WideStats {
 impl WideStats {
     /// The statistics of `wide`, collapsed from `bvh`.
     pub fn new(bvh: &Bvh, wide: &WideBvh) -> Self {
-        let filled: usize = wide.nodes.iter().map(|n| n.meta.iter().filter(|&&m| m != 0).count()).sum();
-        let leaves = wide.nodes.iter().map(|n| (0..WIDTH).filter(|&s| matches!(n.slot(s), WideSlot::Leaf { .. })).count()).sum();
+        let filled: usize =
+            wide.nodes.iter().map(|n| n.meta.iter().filter(|&&m| m != 0).count()).sum();
+        let leaves = wide
+            .nodes
+            .iter()
+            .map(|n| (0..WIDTH).filter(|&s| matches!(n.slot(s), WideSlot::Leaf { .. })).count())
+            .sum();
         // Every triangle has a slot at least; a cut one has several.
         let triangles = bvh.prim_indices.iter().map(|&p| p as usize + 1).max().unwrap_or(0);
         Self {
@@ -41,7 +46,11 @@ impl WideStats {
             binary_nodes: bvh.nodes.len(),
             wide_nodes: wide.nodes.len(),
             wide_leaves: leaves,
-            mean_children: if wide.nodes.is_empty() { 0.0 } else { filled as f64 / wide.nodes.len() as f64 },
+            mean_children: if wide.nodes.is_empty() {
+                0.0
+            } else {
+                filled as f64 / wide.nodes.len() as f64
+            },
             wide_depth: wide.depth(),
         }
     }
@@ -79,7 +88,9 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return 0;
         }
-        self.most_along_a_path(|node| node.meta.iter().filter(|&&m| m != 0).count().saturating_sub(1)) + 1
+        self.most_along_a_path(|node| {
+            node.meta.iter().filter(|&&m| m != 0).count().saturating_sub(1)
+        }) + 1
     }
 
     /// The largest sum of `per_node` over the nodes of a path from the root down (0 when

@@ -42,7 +42,14 @@ fn sort_key(t_enter: f32, s: usize) -> u32 {
 /// its (v0, e1, e2) triangles `ordered` in the shared leaf order; returns (k, hit) with `k`
 /// indexing `ordered`. Adds to `stats` one per node and one per triangle tested, as the
 /// shader adds to its cost.
-pub fn closest_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
+pub fn closest_hit(
+    nodes: &[WideNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+) -> Option<(u32, TriHit)> {
     walk(nodes, ordered, ray, t_min, t_max, false, stats)
 }
 
@@ -50,12 +57,27 @@ pub fn closest_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: 
 /// same walk as [`closest_hit`] but with the hit slots in slot order (any order serves, and
 /// the sort cost the H100 6% on AO rays), ended by the first leaf that holds a hit (a leaf's
 /// first two triangles are both tested, as the shader loads them together).
-pub fn any_hit(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+pub fn any_hit(
+    nodes: &[WideNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    stats: &mut TraversalStats,
+) -> bool {
     walk(nodes, ordered, ray, t_min, t_max, true, stats).is_some()
 }
 
 /// The walk both queries share (the shader's `traverse_wide`; `first` as there).
-fn walk(nodes: &[WideNode], ordered: &[[Vec3; 3]], ray: &Ray, t_min: f32, t_max: f32, first: bool, stats: &mut TraversalStats) -> Option<(u32, TriHit)> {
+fn walk(
+    nodes: &[WideNode],
+    ordered: &[[Vec3; 3]],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    first: bool,
+    stats: &mut TraversalStats,
+) -> Option<(u32, TriHit)> {
     if nodes.is_empty() {
         return None;
     }

@@ -1,9 +1,9 @@
 //! A kernel switch while a frame is in flight (the window's case, #30): the new kernel's
 //! pass is made and both passes' sets rebound only once the GPU is done with the old one.
 
-use crate::gpu::{ComputeTracer, ContextOptions, FrameTrace, GpuContext};
 use crate::gpu::dispatch::Band;
 use crate::gpu::khr_rt::VendorKernel;
+use crate::gpu::{ComputeTracer, ContextOptions, FrameTrace, GpuContext};
 use crate::render_settings::{Accel, RenderSettings};
 use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use crate::scene::primitives::PaperModel;
@@ -11,7 +11,8 @@ use crate::tracer::{FrameParams, PackedScene};
 
 #[test]
 fn switching_kernels_with_a_frame_in_flight_writes_no_set_in_use() {
-    let ctx = GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
     let support = &ctx.info.vendor;
     assert!(
         VendorKernel::Query.supported(support) && VendorKernel::Pipeline.supported(support),
@@ -23,7 +24,8 @@ fn switching_kernels_with_a_frame_in_flight_writes_no_set_in_use() {
     let scene = paper_scene(mesh, 1, LightOrbit::default());
     let packed = PackedScene::new(&scene);
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
-    let settings = RenderSettings { width: 64, height: 32, accel: Accel::Vendor, ..Default::default() };
+    let settings =
+        RenderSettings { width: 64, height: 32, accel: Accel::Vendor, ..Default::default() };
     let frame = FrameTrace::whole(FrameParams::new(&scene, settings));
     tracer.set_vendor_kernel(VendorKernel::Query).unwrap();
     tracer.trace(&frame.params).unwrap();
@@ -35,7 +37,9 @@ fn switching_kernels_with_a_frame_in_flight_writes_no_set_in_use() {
     // and the fence is waited for before any of them is destroyed.
     unsafe {
         let pool = device.create_command_pool(&pool_info, None).unwrap();
-        let info = ash::vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+        let info = ash::vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .command_buffer_count(1);
         let cmd = device.allocate_command_buffers(&info).unwrap()[0];
         let fence = device.create_fence(&ash::vk::FenceCreateInfo::default(), None).unwrap();
         device.begin_command_buffer(cmd, &ash::vk::CommandBufferBeginInfo::default()).unwrap();
@@ -55,5 +59,10 @@ fn switching_kernels_with_a_frame_in_flight_writes_no_set_in_use() {
     tracer.trace(&frame.params).unwrap();
     drop(tracer);
     let messages = ctx.validation_messages();
-    assert!(messages.is_empty(), "{} validation message(s), the first: {}", messages.len(), messages.first().map_or("", |m| m.as_str()));
+    assert!(
+        messages.is_empty(),
+        "{} validation message(s), the first: {}",
+        messages.len(),
+        messages.first().map_or("", |m| m.as_str())
+    );
 }

@@ -17,9 +17,9 @@ use ash::vk;
 
 use super::barrier::Access;
 use super::context::{GpuContext, VendorSupport};
+use super::dispatch::Band;
 use super::error::GpuError;
 use super::scene_buffers::SceneBuffers;
-use super::dispatch::Band;
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::GpuInstance;
@@ -112,8 +112,20 @@ impl VendorTracer {
     /// The vendor path on `ctx`, or the one-line reason it cannot run there.
     pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Self, String> {
         let support = &ctx.info.vendor;
-        let kernel = VendorKernel::preferred(support).ok_or_else(|| support.missing.clone().unwrap_or_else(|| "the vendor's ray tracing is not available".into()))?;
-        Ok(Self { ctx: ctx.clone(), kernel, scene: None, top_stale: false, query: None, pipeline: None })
+        let kernel = VendorKernel::preferred(support).ok_or_else(|| {
+            support
+                .missing
+                .clone()
+                .unwrap_or_else(|| "the vendor's ray tracing is not available".into())
+        })?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            kernel,
+            scene: None,
+            top_stale: false,
+            query: None,
+            pipeline: None,
+        })
     }
 
     /// Use `kernel` from now on, if the device has it.
@@ -123,7 +135,11 @@ impl VendorTracer {
                 VendorKernel::Query => "ray queries",
                 VendorKernel::Pipeline => "ray tracing pipeline",
             };
-            return Err(format!("{} does not offer the vendor's {what} ({})", self.ctx.info.name, kernel.extension()));
+            return Err(format!(
+                "{} does not offer the vendor's {what} ({})",
+                self.ctx.info.name,
+                kernel.extension()
+            ));
         }
         self.kernel = kernel;
         Ok(())
@@ -148,7 +164,13 @@ impl VendorTracer {
     /// use) and bind it to `scene` and `output`. True when something was (re)built or
     /// bound, and the GPU was waited for.
     /// `meshes` are (first triangle, count) of each mesh in `scene.triangles`.
-    pub(crate) fn prepare(&mut self, scene: &SceneBuffers, output: &TraceOutput, meshes: &[(u32, u32)], instances: &[GpuInstance]) -> Result<bool, GpuError> {
+    pub(crate) fn prepare(
+        &mut self,
+        scene: &SceneBuffers,
+        output: &TraceOutput,
+        meshes: &[(u32, u32)],
+        instances: &[GpuInstance],
+    ) -> Result<bool, GpuError> {
         let mut changed = false;
         if self.scene.is_none() {
             self.ctx.wait_idle()?;
@@ -190,7 +212,10 @@ impl VendorTracer {
 
     /// Point the passes at `scene`, `output` and the top level (the GPU is not using them).
     pub(crate) fn bind(&self, scene: &SceneBuffers, output: &TraceOutput) {
-        let Some((tlas, slots)) = self.scene.as_ref().and_then(|s| Some((s.top()?, s.slots()))) else { return };
+        let Some((tlas, slots)) = self.scene.as_ref().and_then(|s| Some((s.top()?, s.slots())))
+        else {
+            return;
+        };
         if let Some(pass) = &self.query {
             pass.bind(scene, output, Some((tlas, slots)));
         }
@@ -209,7 +234,12 @@ impl VendorTracer {
     }
 
     /// Record adaptive sampling's pre-pass over `columns` with the kernel in use.
-    pub(crate) fn record_ids(&self, cmd: vk::CommandBuffer, params: &FrameParams, columns: &Range<u32>) {
+    pub(crate) fn record_ids(
+        &self,
+        cmd: vk::CommandBuffer,
+        params: &FrameParams,
+        columns: &Range<u32>,
+    ) {
         match (self.kernel, &self.query, &self.pipeline) {
             (VendorKernel::Query, Some(pass), _) => pass.record_ids(cmd, params, columns),
             (VendorKernel::Pipeline, _, Some(pass)) => pass.record_ids(cmd, params, columns),

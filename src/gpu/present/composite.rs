@@ -43,18 +43,32 @@ fn clipped_blit(display: [u32; 2], rect: PixelRect, extent: vk::Extent2D) -> Opt
     }
     let sx = display[0] as f64 / rect.width.max(1) as f64;
     let sy = display[1] as f64 / rect.height.max(1) as f64;
-    let src0 = [((x0 - rect.x) as f64 * sx).round() as i32, ((y0 - rect.y) as f64 * sy).round() as i32];
-    let src1 = [((x1 - rect.x) as f64 * sx).round() as i32, ((y1 - rect.y) as f64 * sy).round() as i32];
+    let src0 =
+        [((x0 - rect.x) as f64 * sx).round() as i32, ((y0 - rect.y) as f64 * sy).round() as i32];
+    let src1 =
+        [((x1 - rect.x) as f64 * sx).round() as i32, ((y1 - rect.y) as f64 * sy).round() as i32];
     Some(vk::ImageBlit {
         src_subresource: color_layers(),
-        src_offsets: [vk::Offset3D { x: src0[0], y: src0[1], z: 0 }, vk::Offset3D { x: src1[0].min(display[0] as i32), y: src1[1].min(display[1] as i32), z: 1 }],
+        src_offsets: [
+            vk::Offset3D { x: src0[0], y: src0[1], z: 0 },
+            vk::Offset3D {
+                x: src1[0].min(display[0] as i32),
+                y: src1[1].min(display[1] as i32),
+                z: 1,
+            },
+        ],
         dst_subresource: color_layers(),
         dst_offsets: [vk::Offset3D { x: x0, y: y0, z: 0 }, vk::Offset3D { x: x1, y: y1, z: 1 }],
     })
 }
 
 fn acquired(swap_image: vk::Image) -> ImageTransition {
-    ImageTransition { image: swap_image, before: Access::SwapchainAcquired, after: Access::TransferWrite, discard: true }
+    ImageTransition {
+        image: swap_image,
+        before: Access::SwapchainAcquired,
+        after: Access::TransferWrite,
+        discard: true,
+    }
 }
 
 /// Record a frame with no picture: the swapchain image is cleared, ready for egui.
@@ -66,16 +80,41 @@ pub(crate) fn record_clear(device: &ash::Device, cmd: vk::CommandBuffer, swap_im
 
 /// Record the composite: `source` (packed RGBA8 the size of `display`, last written as
 /// `source_access`) goes through `display` into `rect` of `swap_image`.
-pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, source: (vk::Buffer, Access), display: &GpuImage, swap_image: vk::Image, extent: vk::Extent2D, rect: PixelRect) {
+pub(crate) fn record(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    source: (vk::Buffer, Access),
+    display: &GpuImage,
+    swap_image: vk::Image,
+    extent: vk::Extent2D,
+    rect: PixelRect,
+) {
     let (buffer, source_access) = source;
     let acquired = acquired(swap_image);
-    let display_dst = ImageTransition { image: display.image, before: Access::Nothing, after: Access::TransferWrite, discard: true };
-    barrier::record(device, cmd, &[source_access], &[Access::TransferRead], &[acquired, display_dst]);
+    let display_dst = ImageTransition {
+        image: display.image,
+        before: Access::Nothing,
+        after: Access::TransferWrite,
+        discard: true,
+    };
+    barrier::record(
+        device,
+        cmd,
+        &[source_access],
+        &[Access::TransferRead],
+        &[acquired, display_dst],
+    );
     clear(device, cmd, swap_image);
     // SAFETY: `cmd` is recording; the buffer holds width x height packed RGBA8 texels and
     // the display image is in TRANSFER_DST layout after the barrier above.
     unsafe {
-        device.cmd_copy_buffer_to_image(cmd, buffer, display.image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[whole_image_copy(display.width, display.height)]);
+        device.cmd_copy_buffer_to_image(
+            cmd,
+            buffer,
+            display.image,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            &[whole_image_copy(display.width, display.height)],
+        );
     }
     barrier::record(
         device,
@@ -83,17 +122,36 @@ pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, source: (vk::
         &[],
         &[],
         &[
-            ImageTransition { image: display.image, before: Access::TransferWrite, after: Access::TransferRead, discard: false },
+            ImageTransition {
+                image: display.image,
+                before: Access::TransferWrite,
+                after: Access::TransferRead,
+                discard: false,
+            },
             // The clear and the blit both write the swapchain image.
-            ImageTransition { image: swap_image, before: Access::TransferWrite, after: Access::TransferWrite, discard: false },
+            ImageTransition {
+                image: swap_image,
+                before: Access::TransferWrite,
+                after: Access::TransferWrite,
+                discard: false,
+            },
         ],
     );
     if let Some(blit) = clipped_blit([display.width, display.height], rect, extent) {
         // Magnified pixels stay sharp; minified ones are filtered.
-        let filter = if rect.width >= display.width { vk::Filter::NEAREST } else { vk::Filter::LINEAR };
+        let filter =
+            if rect.width >= display.width { vk::Filter::NEAREST } else { vk::Filter::LINEAR };
         // SAFETY: both images are in the layouts the barriers above put them in.
         unsafe {
-            device.cmd_blit_image(cmd, display.image, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, swap_image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &[blit], filter);
+            device.cmd_blit_image(
+                cmd,
+                display.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                swap_image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[blit],
+                filter,
+            );
         }
     }
     to_attachment(device, cmd, swap_image);
@@ -102,12 +160,29 @@ pub(crate) fn record(device: &ash::Device, cmd: vk::CommandBuffer, source: (vk::
 fn clear(device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image) {
     // SAFETY: the swapchain image is in TRANSFER_DST layout (the caller's barrier).
     unsafe {
-        device.cmd_clear_color_image(cmd, swap_image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &vk::ClearColorValue { float32: CLEAR }, &[crate::gpu::image::color_range()]);
+        device.cmd_clear_color_image(
+            cmd,
+            swap_image,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            &vk::ClearColorValue { float32: CLEAR },
+            &[crate::gpu::image::color_range()],
+        );
     }
 }
 
 fn to_attachment(device: &ash::Device, cmd: vk::CommandBuffer, swap_image: vk::Image) {
-    barrier::record(device, cmd, &[], &[], &[ImageTransition { image: swap_image, before: Access::TransferWrite, after: Access::ColorAttachment, discard: false }]);
+    barrier::record(
+        device,
+        cmd,
+        &[],
+        &[],
+        &[ImageTransition {
+            image: swap_image,
+            before: Access::TransferWrite,
+            after: Access::ColorAttachment,
+            discard: false,
+        }],
+    );
 }
 
 #[cfg(test)]
@@ -117,12 +192,17 @@ mod tests {
     #[test]
     fn blits_are_clipped_to_the_swapchain() {
         let extent = vk::Extent2D { width: 100, height: 100 };
-        let inside = clipped_blit([50, 50], PixelRect { x: 0, y: 0, width: 100, height: 100 }, extent).unwrap();
+        let inside =
+            clipped_blit([50, 50], PixelRect { x: 0, y: 0, width: 100, height: 100 }, extent)
+                .unwrap();
         assert_eq!(inside.src_offsets[1], vk::Offset3D { x: 50, y: 50, z: 1 });
         // Half off the right edge: half the source is drawn.
-        let half = clipped_blit([50, 50], PixelRect { x: 50, y: 0, width: 100, height: 100 }, extent).unwrap();
+        let half =
+            clipped_blit([50, 50], PixelRect { x: 50, y: 0, width: 100, height: 100 }, extent)
+                .unwrap();
         assert_eq!(half.dst_offsets[1].x, 100);
         assert_eq!(half.src_offsets[1].x, 25);
-        assert!(clipped_blit([50, 50], PixelRect { x: 200, y: 0, width: 10, height: 10 }, extent).is_none());
+        assert!(clipped_blit([50, 50], PixelRect { x: 200, y: 0, width: 10, height: 10 }, extent)
+            .is_none());
     }
 }

@@ -25,9 +25,9 @@ use super::barrier::{self, Access, ImageTransition};
 use super::buffer::GpuBuffer;
 use super::compute_tracer::{ComputeTracer, PartTimes, TimedParts};
 use super::context::GpuContext;
+use super::dispatch::{Band, FrameTrace};
 use super::error::VkContext;
 use super::image::GpuImage;
-use super::dispatch::{Band, FrameTrace};
 use capture::WindowCapture;
 pub use composite::PixelRect;
 use swapchain::{Acquired, Swapchain};
@@ -121,36 +121,78 @@ pub(crate) struct Presenter {
 impl Presenter {
     /// Set up the swapchain for `surface` (owned from here on) and the frame resources;
     /// `extent` is the window's size in physical pixels.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: [u32; 2], vsync: bool) -> anyhow::Result<Self> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        surface: vk::SurfaceKHR,
+        extent: [u32; 2],
+        vsync: bool,
+    ) -> anyhow::Result<Self> {
         let extent = vk::Extent2D { width: extent[0], height: extent[1] };
         let swapchain = Swapchain::new(ctx, surface, extent, vsync)?;
         let device = &ctx.device;
         let format_ok = |format: vk::Format, feature: vk::FormatFeatureFlags| {
             // SAFETY: a query on the live physical device.
-            let props = unsafe { ctx.instance.get_physical_device_format_properties(ctx.physical_device, format) };
+            let props = unsafe {
+                ctx.instance.get_physical_device_format_properties(ctx.physical_device, format)
+            };
             props.optimal_tiling_features.contains(feature)
         };
-        if !format_ok(vk::Format::R8G8B8A8_UNORM, vk::FormatFeatureFlags::BLIT_SRC | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR) {
-            bail!("the Vulkan device cannot blit from R8G8B8A8_UNORM images, which the window needs");
+        if !format_ok(
+            vk::Format::R8G8B8A8_UNORM,
+            vk::FormatFeatureFlags::BLIT_SRC | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR,
+        ) {
+            bail!(
+                "the Vulkan device cannot blit from R8G8B8A8_UNORM images, which the window needs"
+            );
         }
-        if swapchain.is_usable() && !format_ok(swapchain.format.format, vk::FormatFeatureFlags::BLIT_DST) {
-            bail!("the Vulkan device cannot blit into the window's format {:?}", swapchain.format.format);
+        if swapchain.is_usable()
+            && !format_ok(swapchain.format.format, vk::FormatFeatureFlags::BLIT_DST)
+        {
+            bail!(
+                "the Vulkan device cannot blit into the window's format {:?}",
+                swapchain.format.format
+            );
         }
-        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on a live device; everything is destroyed in Drop.
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }.during("creating the frame command pool")?;
-        let alloc = vk::CommandBufferAllocateInfo::default().command_pool(pool).level(vk::CommandBufferLevel::PRIMARY).command_buffer_count(FRAMES_IN_FLIGHT as u32);
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .during("creating the frame command pool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(FRAMES_IN_FLIGHT as u32);
         // SAFETY: as above; the buffers are freed with their pool.
-        let cmds = unsafe { device.allocate_command_buffers(&alloc) }.during("allocating frame command buffers")?;
+        let cmds = unsafe { device.allocate_command_buffers(&alloc) }
+            .during("allocating frame command buffers")?;
         let mut slots = Vec::new();
         for cmd in cmds {
             // SAFETY: as above.
-            let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED), None) }.during("creating a fence")?;
+            let fence = unsafe {
+                device.create_fence(
+                    &vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED),
+                    None,
+                )
+            }
+            .during("creating a fence")?;
             // SAFETY: as above.
-            let acquire = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.during("creating a semaphore")?;
-            slots.push(FrameSlot { cmd, fence, acquire, timed: Default::default(), tag: BandTag::default() });
+            let acquire =
+                unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
+                    .during("creating a semaphore")?;
+            slots.push(FrameSlot {
+                cmd,
+                fence,
+                acquire,
+                timed: Default::default(),
+                tag: BandTag::default(),
+            });
         }
-        let ui_format = if swapchain.is_usable() { swapchain.format.format } else { vk::Format::B8G8R8A8_UNORM };
+        let ui_format = if swapchain.is_usable() {
+            swapchain.format.format
+        } else {
+            vk::Format::B8G8R8A8_UNORM
+        };
         let ui = UiPass::new(ctx, ui_format)?;
         Ok(Self {
             swapchain,
@@ -175,7 +217,10 @@ impl Presenter {
 
     /// The surface offers a present mode without vsync.
     pub(crate) fn can_disable_vsync(&self) -> bool {
-        self.swapchain.present_modes.iter().any(|m| *m != vk::PresentModeKHR::FIFO && *m != vk::PresentModeKHR::FIFO_RELAXED)
+        self.swapchain
+            .present_modes
+            .iter()
+            .any(|m| *m != vk::PresentModeKHR::FIFO && *m != vk::PresentModeKHR::FIFO_RELAXED)
     }
 
     /// The window now has this many physical pixels.
@@ -222,7 +267,14 @@ impl Presenter {
             self.ctx.wait_idle()?;
             self.display = None;
             let usage = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
-            self.display = Some(GpuImage::new(&self.ctx, width, height, vk::Format::R8G8B8A8_UNORM, usage, "display image")?);
+            self.display = Some(GpuImage::new(
+                &self.ctx,
+                width,
+                height,
+                vk::Format::R8G8B8A8_UNORM,
+                usage,
+                "display image",
+            )?);
         }
         Ok(self.display.as_ref().expect("created above"))
     }
@@ -232,16 +284,27 @@ impl Presenter {
         self.ctx.wait_idle()?;
         if self.upload.as_ref().is_none_or(|u| u.size < rgba.len() as u64) {
             self.upload = None;
-            self.upload = Some(GpuBuffer::new(&self.ctx, rgba.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu, "heat map upload")?);
+            self.upload = Some(GpuBuffer::new(
+                &self.ctx,
+                rgba.len() as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+                "heat map upload",
+            )?);
         }
         let upload = self.upload.as_mut().expect("created above");
-        let mapped = upload.mapped().ok_or_else(|| anyhow::anyhow!("the upload memory is not mapped"))?;
+        let mapped =
+            upload.mapped().ok_or_else(|| anyhow::anyhow!("the upload memory is not mapped"))?;
         mapped[..rgba.len()].copy_from_slice(rgba);
         Ok(upload.buffer)
     }
 
     /// Draw and present one frame; `tracer` traces or holds the picture asked for.
-    pub(crate) fn draw(&mut self, tracer: Option<&ComputeTracer>, req: &FrameRequest) -> anyhow::Result<FrameOutcome> {
+    pub(crate) fn draw(
+        &mut self,
+        tracer: Option<&ComputeTracer>,
+        req: &FrameRequest,
+    ) -> anyhow::Result<FrameOutcome> {
         let mut outcome = FrameOutcome::default();
         if !self.ensure_swapchain()? {
             return Ok(outcome);
@@ -250,12 +313,14 @@ impl Presenter {
         let device = self.ctx.device.clone();
         let fence = self.slots[f].fence;
         // SAFETY: the fence is ours; waiting has no other requirement.
-        unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.during("waiting for a frame")?;
+        unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
+            .during("waiting for a frame")?;
         let timed = std::mem::take(&mut self.slots[f].timed);
         if let (true, Some(t)) = (timed.iter().flatten().any(|&p| p), tracer) {
             outcome.part_ms = t.timer_ms(f as u32, timed);
             // The frame's time once every part it traced has its timestamps.
-            outcome.gpu_ms = (0..2).filter(|&i| timed[i].contains(&true)).map(|i| outcome.part_ms[i]).sum();
+            outcome.gpu_ms =
+                (0..2).filter(|&i| timed[i].contains(&true)).map(|i| outcome.part_ms[i]).sum();
             outcome.tag = Some(self.slots[f].tag);
         }
         let index = match self.swapchain.acquire(self.slots[f].acquire)? {
@@ -272,8 +337,12 @@ impl Presenter {
         // Where the picture comes from (a buffer, how it was last written, its size).
         let ready = tracer.filter(|t| t.is_ready());
         let source = match (req.show, ready) {
-            (Show::Output, Some(t)) => t.colour_output().map(|(b, w, h)| (b, Access::ComputeWrite, [w, h])),
-            (Show::Pixels { rgba, width, height }, _) => Some((self.upload_pixels(rgba)?, Access::Nothing, [width, height])),
+            (Show::Output, Some(t)) => {
+                t.colour_output().map(|(b, w, h)| (b, Access::ComputeWrite, [w, h]))
+            }
+            (Show::Pixels { rgba, width, height }, _) => {
+                Some((self.upload_pixels(rgba)?, Access::Nothing, [width, height]))
+            }
             _ => None,
         };
         let trace = req.trace.clone().filter(|_| ready.is_some());
@@ -286,7 +355,8 @@ impl Presenter {
                 let s = (used_by % FRAMES_IN_FLIGHT as u64) as usize;
                 if s != f {
                     // SAFETY: as above.
-                    unsafe { device.wait_for_fences(&[self.slots[s].fence], true, u64::MAX) }.during("waiting for a frame")?;
+                    unsafe { device.wait_for_fences(&[self.slots[s].fence], true, u64::MAX) }
+                        .during("waiting for a frame")?;
                 }
             }
         }
@@ -300,8 +370,16 @@ impl Presenter {
         // SAFETY: the slot's fence signalled, so its command buffer is idle and may be reset.
         unsafe {
             device.reset_fences(&[fence]).during("resetting a fence")?;
-            device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()).during("resetting a command buffer")?;
-            device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT)).during("recording a frame")?;
+            device
+                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
+                .during("resetting a command buffer")?;
+            device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .during("recording a frame")?;
         }
         if let (Some((frame, band)), Some(t)) = (trace, ready) {
             self.slots[f].timed = t.record(cmd, &frame, &band, Some(f as u32));
@@ -309,25 +387,55 @@ impl Presenter {
         }
         let swap_image = self.swapchain.images[index as usize];
         match (&self.display, source) {
-            (Some(display), Some((buffer, access, _))) => composite::record(&device, cmd, (buffer, access), display, swap_image, extent, req.image_rect),
+            (Some(display), Some((buffer, access, _))) => composite::record(
+                &device,
+                cmd,
+                (buffer, access),
+                display,
+                swap_image,
+                extent,
+                req.image_rect,
+            ),
             _ => composite::record_clear(&device, cmd, swap_image),
         }
         if !req.ui.is_empty() {
-            self.ui.record(cmd, self.swapchain.views[index as usize], extent, req.pixels_per_point, req.ui)?;
+            self.ui.record(
+                cmd,
+                self.swapchain.views[index as usize],
+                extent,
+                req.pixels_per_point,
+                req.ui,
+            )?;
         }
         if capture {
             self.capture.record(&device, cmd, swap_image, extent);
         } else {
-            barrier::record(&device, cmd, &[], &[], &[ImageTransition { image: swap_image, before: Access::ColorAttachment, after: Access::Present, discard: false }]);
+            barrier::record(
+                &device,
+                cmd,
+                &[],
+                &[],
+                &[ImageTransition {
+                    image: swap_image,
+                    before: Access::ColorAttachment,
+                    after: Access::Present,
+                    discard: false,
+                }],
+            );
         }
         // SAFETY: recording began above.
         unsafe { device.end_command_buffer(cmd) }.during("recording a frame")?;
 
         let waits = [self.slots[f].acquire];
-        let stages = [vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT];
+        let stages =
+            [vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT];
         let signals = [self.swapchain.render_finished[index as usize]];
         let cmds = [cmd];
-        let submit = [vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages).command_buffers(&cmds).signal_semaphores(&signals)];
+        let submit = [vk::SubmitInfo::default()
+            .wait_semaphores(&waits)
+            .wait_dst_stage_mask(&stages)
+            .command_buffers(&cmds)
+            .signal_semaphores(&signals)];
         self.ctx.submit(&submit, fence)?;
         self.swapchain_dirty |= self.swapchain.present(index)?;
         self.frame += 1;
@@ -336,7 +444,8 @@ impl Presenter {
         if req.capture_window {
             outcome.window_image = Some(if capture {
                 // SAFETY: as above.
-                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }.during("waiting for a frame")?;
+                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
+                    .during("waiting for a frame")?;
                 self.capture.read(extent, self.swapchain.is_bgra())
             } else {
                 Err("this window surface cannot be read back (no TRANSFER_SRC usage)".to_string())

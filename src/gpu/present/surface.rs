@@ -24,12 +24,22 @@ pub(crate) enum SurfaceError {
 /// # Safety
 /// The handles must belong to a live window that outlives the returned surface (whoever
 /// owns the surface must be dropped before the window).
-pub(crate) unsafe fn context_for_window(options: &ContextOptions, display: RawDisplayHandle, window: RawWindowHandle) -> Result<(Arc<GpuContext>, vk::SurfaceKHR), SurfaceError> {
-    let extensions = ash_window::enumerate_required_extensions(display).map_err(SurfaceError::Unsupported)?;
-    let options = ContextOptions { instance_extensions: extensions.to_vec(), presentation: true, ..options.clone() };
+pub(crate) unsafe fn context_for_window(
+    options: &ContextOptions,
+    display: RawDisplayHandle,
+    window: RawWindowHandle,
+) -> Result<(Arc<GpuContext>, vk::SurfaceKHR), SurfaceError> {
+    let extensions =
+        ash_window::enumerate_required_extensions(display).map_err(SurfaceError::Unsupported)?;
+    let options = ContextOptions {
+        instance_extensions: extensions.to_vec(),
+        presentation: true,
+        ..options.clone()
+    };
     let make_surface = |entry: &ash::Entry, instance: &ash::Instance| {
         // SAFETY: the caller promises the handles outlive the surface.
-        unsafe { ash_window::create_surface(entry, instance, display, window, None) }.map_err(|r| GpuError::vk("creating the window surface", r))
+        unsafe { ash_window::create_surface(entry, instance, display, window, None) }
+            .map_err(|r| GpuError::vk("creating the window surface", r))
     };
     let (ctx, surface) = GpuContext::with_surface(&options, Some(&make_surface))?;
     let surface = surface.ok_or(GpuError::NotReady("no window surface was created"))?;

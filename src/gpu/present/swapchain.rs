@@ -6,13 +6,14 @@
 
 use std::sync::Arc;
 
-use ash::vk;
 use crate::gpu::context::GpuContext;
 use crate::gpu::error::{GpuError, VkContext};
 use crate::gpu::image::color_range;
+use ash::vk;
 
 /// Surface formats the traced pixels can be copied into unchanged (no sRGB encode).
-pub(crate) const UNORM_FORMATS: [vk::Format; 2] = [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM];
+pub(crate) const UNORM_FORMATS: [vk::Format; 2] =
+    [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM];
 
 /// What `acquire` found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,7 +45,10 @@ pub(crate) struct Swapchain {
 }
 
 /// FIFO for vsync; otherwise MAILBOX, then IMMEDIATE, where offered.
-pub(crate) fn choose_present_mode(available: &[vk::PresentModeKHR], vsync: bool) -> vk::PresentModeKHR {
+pub(crate) fn choose_present_mode(
+    available: &[vk::PresentModeKHR],
+    vsync: bool,
+) -> vk::PresentModeKHR {
     if !vsync {
         for mode in [vk::PresentModeKHR::MAILBOX, vk::PresentModeKHR::IMMEDIATE] {
             if available.contains(&mode) {
@@ -59,7 +63,11 @@ pub(crate) fn choose_present_mode(available: &[vk::PresentModeKHR], vsync: bool)
 pub(crate) fn choose_format(available: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR> {
     UNORM_FORMATS
         .iter()
-        .find_map(|f| available.iter().find(|a| a.format == *f && a.color_space == vk::ColorSpaceKHR::SRGB_NONLINEAR))
+        .find_map(|f| {
+            available
+                .iter()
+                .find(|a| a.format == *f && a.color_space == vk::ColorSpaceKHR::SRGB_NONLINEAR)
+        })
         .or_else(|| available.first())
         .copied()
 }
@@ -67,7 +75,12 @@ pub(crate) fn choose_format(available: &[vk::SurfaceFormatKHR]) -> Option<vk::Su
 impl Swapchain {
     /// Take ownership of `surface` (destroyed with the swapchain, also on error) and create
     /// a swapchain of about `extent` pixels.
-    pub(crate) fn new(ctx: &Arc<GpuContext>, surface: vk::SurfaceKHR, extent: vk::Extent2D, vsync: bool) -> Result<Self, GpuError> {
+    pub(crate) fn new(
+        ctx: &Arc<GpuContext>,
+        surface: vk::SurfaceKHR,
+        extent: vk::Extent2D,
+        vsync: bool,
+    ) -> Result<Self, GpuError> {
         let mut s = Self {
             ctx: ctx.clone(),
             surface_loader: ash::khr::surface::Instance::new(&ctx.entry, &ctx.instance),
@@ -103,15 +116,25 @@ impl Swapchain {
     pub(crate) fn recreate(&mut self, want: vk::Extent2D, vsync: bool) -> Result<bool, GpuError> {
         let pd = self.ctx.physical_device;
         // SAFETY: the surface and the physical device belong to this context's instance.
-        let caps = unsafe { self.surface_loader.get_physical_device_surface_capabilities(pd, self.surface) }.during("querying the window surface")?;
+        let caps = unsafe {
+            self.surface_loader.get_physical_device_surface_capabilities(pd, self.surface)
+        }
+        .during("querying the window surface")?;
         // SAFETY: as above.
-        let formats = unsafe { self.surface_loader.get_physical_device_surface_formats(pd, self.surface) }.during("querying the window surface formats")?;
+        let formats =
+            unsafe { self.surface_loader.get_physical_device_surface_formats(pd, self.surface) }
+                .during("querying the window surface formats")?;
         // SAFETY: as above.
-        self.present_modes = unsafe { self.surface_loader.get_physical_device_surface_present_modes(pd, self.surface) }.during("querying the present modes")?;
+        self.present_modes = unsafe {
+            self.surface_loader.get_physical_device_surface_present_modes(pd, self.surface)
+        }
+        .during("querying the present modes")?;
         let extent = if caps.current_extent.width == u32::MAX {
             vk::Extent2D {
                 width: want.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: want.height.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+                height: want
+                    .height
+                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
             }
         } else {
             caps.current_extent
@@ -120,7 +143,10 @@ impl Swapchain {
             self.destroy_swapchain();
             return Ok(false);
         }
-        let format = choose_format(&formats).ok_or(GpuError::Vulkan { what: "choosing a window format", result: vk::Result::ERROR_FORMAT_NOT_SUPPORTED })?;
+        let format = choose_format(&formats).ok_or(GpuError::Vulkan {
+            what: "choosing a window format",
+            result: vk::Result::ERROR_FORMAT_NOT_SUPPORTED,
+        })?;
         let present_mode = choose_present_mode(&self.present_modes, vsync);
         let mut image_count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
@@ -140,11 +166,12 @@ impl Swapchain {
         .into_iter()
         .find(|c| caps.supported_composite_alpha.contains(*c))
         .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE);
-        let transform = if caps.supported_transforms.contains(vk::SurfaceTransformFlagsKHR::IDENTITY) {
-            vk::SurfaceTransformFlagsKHR::IDENTITY
-        } else {
-            caps.current_transform
-        };
+        let transform =
+            if caps.supported_transforms.contains(vk::SurfaceTransformFlagsKHR::IDENTITY) {
+                vk::SurfaceTransformFlagsKHR::IDENTITY
+            } else {
+                caps.current_transform
+            };
         let old = self.handle;
         let info = vk::SwapchainCreateInfoKHR::default()
             .surface(self.surface)
@@ -162,14 +189,16 @@ impl Swapchain {
             .old_swapchain(old);
         // SAFETY: the create info's surface is ours and the old swapchain it names is live
         // (retired here).
-        let handle = unsafe { self.loader.create_swapchain(&info, None) }.during("creating the swapchain")?;
+        let handle = unsafe { self.loader.create_swapchain(&info, None) }
+            .during("creating the swapchain")?;
         self.destroy_swapchain();
         self.handle = handle;
         self.format = format;
         self.extent = extent;
         self.present_mode = present_mode;
         // SAFETY: the swapchain was just created.
-        self.images = unsafe { self.loader.get_swapchain_images(handle) }.during("listing the swapchain images")?;
+        self.images = unsafe { self.loader.get_swapchain_images(handle) }
+            .during("listing the swapchain images")?;
         let device = &self.ctx.device;
         for &image in &self.images {
             let view_info = vk::ImageViewCreateInfo::default()
@@ -179,14 +208,16 @@ impl Swapchain {
                 .subresource_range(color_range());
             // SAFETY: the image belongs to the live swapchain; its views are destroyed
             // before it.
-            let view = unsafe { device.create_image_view(&view_info, None) }.during("creating a swapchain image view")?;
+            let view = unsafe { device.create_image_view(&view_info, None) }
+                .during("creating a swapchain image view")?;
             self.views.push(view);
         }
         // Semaphores are kept across recreations (a present may still wait on one); only
         // add what a larger image count needs.
         while self.render_finished.len() < self.images.len() {
             // SAFETY: plain object creation on the live device; destroyed in Drop.
-            let sem = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }.during("creating a semaphore")?;
+            let sem = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
+                .during("creating a semaphore")?;
             self.render_finished.push(sem);
         }
         Ok(true)
@@ -212,7 +243,9 @@ impl Swapchain {
         // SAFETY: `Presenter::draw` acquires only from a usable swapchain, with its frame
         // slot's
         // semaphore, unsignalled once the slot's fence has been waited for.
-        match unsafe { self.loader.acquire_next_image(self.handle, u64::MAX, semaphore, vk::Fence::null()) } {
+        match unsafe {
+            self.loader.acquire_next_image(self.handle, u64::MAX, semaphore, vk::Fence::null())
+        } {
             Ok((index, suboptimal)) => Ok(Acquired::Image { index, suboptimal }),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Acquired::OutOfDate),
             Err(r) => Err(GpuError::vk("acquiring a swapchain image", r)),
@@ -225,7 +258,10 @@ impl Swapchain {
         let waits = [self.render_finished[index as usize]];
         let swapchains = [self.handle];
         let indices = [index];
-        let info = vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
+        let info = vk::PresentInfoKHR::default()
+            .wait_semaphores(&waits)
+            .swapchains(&swapchains)
+            .image_indices(&indices);
         let presented = {
             let _queue = self.ctx.lock_queue();
             // SAFETY: the queue lock is held; the info's swapchain, image index and
@@ -270,10 +306,17 @@ mod tests {
 
     #[test]
     fn format_prefers_unorm() {
-        let f = |format| vk::SurfaceFormatKHR { format, color_space: vk::ColorSpaceKHR::SRGB_NONLINEAR };
-        let chosen = choose_format(&[f(vk::Format::B8G8R8A8_SRGB), f(vk::Format::B8G8R8A8_UNORM)]).unwrap();
+        let f = |format| vk::SurfaceFormatKHR {
+            format,
+            color_space: vk::ColorSpaceKHR::SRGB_NONLINEAR,
+        };
+        let chosen =
+            choose_format(&[f(vk::Format::B8G8R8A8_SRGB), f(vk::Format::B8G8R8A8_UNORM)]).unwrap();
         assert_eq!(chosen.format, vk::Format::B8G8R8A8_UNORM);
-        assert_eq!(choose_format(&[f(vk::Format::A2B10G10R10_UNORM_PACK32)]).unwrap().format, vk::Format::A2B10G10R10_UNORM_PACK32);
+        assert_eq!(
+            choose_format(&[f(vk::Format::A2B10G10R10_UNORM_PACK32)]).unwrap().format,
+            vk::Format::A2B10G10R10_UNORM_PACK32
+        );
         assert!(choose_format(&[]).is_none());
     }
 }

@@ -26,7 +26,11 @@ pub(crate) struct UiPass {
 }
 
 fn render_mode(format: vk::Format) -> RenderMode {
-    RenderMode::DynamicRendering(DynamicRendering { color_attachment_format: format, depth_attachment_format: None, stencil_attachment_format: None })
+    RenderMode::DynamicRendering(DynamicRendering {
+        color_attachment_format: format,
+        depth_attachment_format: None,
+        stencil_attachment_format: None,
+    })
 }
 
 impl UiPass {
@@ -38,20 +42,37 @@ impl UiPass {
             ctx.device.clone(),
             render_mode(format),
             // UNORM target: egui's shader encodes its output to sRGB itself.
-            Options { in_flight_frames: FRAMES_IN_FLIGHT, srgb_framebuffer: false, ..Default::default() },
+            Options {
+                in_flight_frames: FRAMES_IN_FLIGHT,
+                srgb_framebuffer: false,
+                ..Default::default()
+            },
         )
         .context("creating the egui renderer")?;
-        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: plain object creation on a live device; destroyed in Drop.
-        let upload_pool = unsafe { ctx.device.create_command_pool(&pool_info, None) }.during("creating the upload command pool")?;
-        Ok(Self { egui, format, mesh_frame: [None; FRAMES_IN_FLIGHT], draws: 0, pending_free: Vec::new(), upload_pool, ctx: ctx.clone() })
+        let upload_pool = unsafe { ctx.device.create_command_pool(&pool_info, None) }
+            .during("creating the upload command pool")?;
+        Ok(Self {
+            egui,
+            format,
+            mesh_frame: [None; FRAMES_IN_FLIGHT],
+            draws: 0,
+            pending_free: Vec::new(),
+            upload_pool,
+            ctx: ctx.clone(),
+        })
     }
 
     /// Draw into images of `format` from now on (the swapchain's format changed).
     pub(crate) fn set_format(&mut self, format: vk::Format) -> anyhow::Result<()> {
         if format != self.format {
             self.format = format;
-            self.egui.set_render_mode(render_mode(format)).context("rebuilding the egui pipeline")?;
+            self.egui
+                .set_render_mode(render_mode(format))
+                .context("rebuilding the egui pipeline")?;
         }
         Ok(())
     }
@@ -70,7 +91,9 @@ impl UiPass {
         }
         for (id, deltas) in set {
             for image_delta in &deltas {
-                self.egui.set_texture(self.ctx.queue, self.upload_pool, id, image_delta).context("uploading egui textures")?;
+                self.egui
+                    .set_texture(self.ctx.queue, self.upload_pool, id, image_delta)
+                    .context("uploading egui textures")?;
             }
         }
         self.pending_free.extend(free);
@@ -87,13 +110,23 @@ impl UiPass {
     }
 
     /// Record egui's draw into `view` (COLOR_ATTACHMENT_OPTIMAL) of size `extent`.
-    pub(crate) fn record(&mut self, cmd: vk::CommandBuffer, view: vk::ImageView, extent: vk::Extent2D, pixels_per_point: f32, ui: &[ClippedPrimitive]) -> anyhow::Result<()> {
+    pub(crate) fn record(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        view: vk::ImageView,
+        extent: vk::Extent2D,
+        pixels_per_point: f32,
+        ui: &[ClippedPrimitive],
+    ) -> anyhow::Result<()> {
         let attachment = [vk::RenderingAttachmentInfo::default()
             .image_view(view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
             .load_op(vk::AttachmentLoadOp::LOAD)
             .store_op(vk::AttachmentStoreOp::STORE)];
-        let info = vk::RenderingInfo::default().render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent }).layer_count(1).color_attachments(&attachment);
+        let info = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D { offset: vk::Offset2D::default(), extent })
+            .layer_count(1)
+            .color_attachments(&attachment);
         // SAFETY: `cmd` is recording and the view's image is a colour attachment now.
         unsafe { self.ctx.device.cmd_begin_rendering(cmd, &info) };
         let drawn = self.egui.cmd_draw(cmd, extent, pixels_per_point, ui);

@@ -17,8 +17,17 @@ use super::{LoadOptions, ObjError};
 use crate::scene::{Material, Mesh};
 
 /// Build the mesh; `materials` are the merged libraries' materials, converted.
-pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str, options: &LoadOptions) -> Result<Mesh, ObjError> {
-    let triangle_total: usize = parsed.blocks.par_iter().map(|b| b.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum::<usize>()).sum();
+pub(super) fn assemble(
+    parsed: Parsed,
+    mut materials: Vec<Material>,
+    name: &str,
+    options: &LoadOptions,
+) -> Result<Mesh, ObjError> {
+    let triangle_total: usize = parsed
+        .blocks
+        .par_iter()
+        .map(|b| b.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum::<usize>())
+        .sum();
     if triangle_total == 0 {
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
@@ -86,14 +95,23 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
                     vertex_count += 1;
                     mesh.positions.push(parsed.positions[v as usize]);
                     if with_normals {
-                        mesh.normals.push(if vn == NONE { Vec3::ZERO } else { parsed.normals[vn as usize] });
+                        mesh.normals.push(if vn == NONE {
+                            Vec3::ZERO
+                        } else {
+                            parsed.normals[vn as usize]
+                        });
                     }
                     if with_texcoords {
-                        mesh.texcoords.push(if vt == NONE { Vec2::ZERO } else { parsed.texcoords[vt as usize] });
+                        mesh.texcoords.push(if vt == NONE {
+                            Vec2::ZERO
+                        } else {
+                            parsed.texcoords[vt as usize]
+                        });
                     }
                     if with_colours {
                         // Faces past the colours were refused in the join; white keeps it safe.
-                        mesh.colors.push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
+                        mesh.colors
+                            .push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
                     }
                 }
                 corners.push(index);
@@ -103,7 +121,9 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
             }
             match corners[..] {
                 [a, b, c] => mesh.triangles.push([a, b, c].map(|k| k + base as u32)),
-                _ => triangulate(&corners, &[corners.len() as u32], base as u32, &mut mesh.triangles),
+                _ => {
+                    triangulate(&corners, &[corners.len() as u32], base as u32, &mut mesh.triangles)
+                }
             }
         }
         let material = match model.material {
@@ -123,7 +143,8 @@ pub(super) fn assemble(parsed: Parsed, mut materials: Vec<Material>, name: &str,
         with_texcoords,
         models_with_faces: parsed.models.iter().filter(|m| !m.faces.is_empty()).count(),
     };
-    let groups = (!parsed.smoothing.is_empty()).then(|| triangle_groups(&parsed.blocks, &parsed.models, &parsed.smoothing));
+    let groups = (!parsed.smoothing.is_empty())
+        .then(|| triangle_groups(&parsed.blocks, &parsed.models, &parsed.smoothing));
     let non_finite = parsed.non_finite;
     super::free_in_background(parsed);
     check_finite(&mesh, non_finite, name)?;
@@ -148,15 +169,25 @@ fn check_finite(mesh: &Mesh, first_lines: [Option<usize>; 3], name: &str) -> Res
         return Ok(());
     }
     let whats = ["a vertex position", "a normal", "a texture coordinate"];
-    let first = (0..3).filter(|&k| bad[k]).filter_map(|k| first_lines[k].map(|line| (line, whats[k]))).min();
+    let first = (0..3)
+        .filter(|&k| bad[k])
+        .filter_map(|k| first_lines[k].map(|line| (line, whats[k])))
+        .min();
     Err(match first {
         Some((line, what)) => ObjError::NonFinite { name: name.to_owned(), line, what },
-        None => ObjError::Invalid { name: name.to_owned(), reason: "it contains a coordinate that is not a finite number".to_owned() },
+        None => ObjError::Invalid {
+            name: name.to_owned(),
+            reason: "it contains a coordinate that is not a finite number".to_owned(),
+        },
     })
 }
 
 /// The smoothing group of every triangle, in file order.
-fn triangle_groups(blocks: &[FaceBlock], models: &[ModelRun], smoothing: &[(usize, u32)]) -> Vec<u32> {
+fn triangle_groups(
+    blocks: &[FaceBlock],
+    models: &[ModelRun],
+    smoothing: &[(usize, u32)],
+) -> Vec<u32> {
     let faces_total: usize = models.last().map_or(0, |m| m.faces.end);
     let mut groups = Vec::new();
     let mut runs = smoothing.iter().peekable();
@@ -189,9 +220,17 @@ impl<'b> Cursor<'b> {
             let n = faces.min(block.arities.len() - self.face);
             let arities = &block.arities[self.face..self.face + n];
             // A whole block (the common case: one model) needs no count of its corners.
-            let corner_count: usize = if arities.len() == block.arities.len() { block.corners.len() } else { arities.iter().map(|&a| a as usize).sum() };
-            pieces.push(Piece { corners: &block.corners[self.corner..self.corner + corner_count], arities });
-            (self.face, self.corner, faces) = (self.face + n, self.corner + corner_count, faces - n);
+            let corner_count: usize = if arities.len() == block.arities.len() {
+                block.corners.len()
+            } else {
+                arities.iter().map(|&a| a as usize).sum()
+            };
+            pieces.push(Piece {
+                corners: &block.corners[self.corner..self.corner + corner_count],
+                arities,
+            });
+            (self.face, self.corner, faces) =
+                (self.face + n, self.corner + corner_count, faces - n);
             if self.face == block.arities.len() {
                 (self.block, self.face, self.corner) = (self.block + 1, 0, 0);
             }
@@ -216,7 +255,13 @@ struct Dedup {
 
 impl Dedup {
     fn new(positions: usize) -> Self {
-        Dedup { model_of: vec![u32::MAX; positions], vertex_of: vec![0; positions], attributes: Vec::new(), others: HashMap::new(), model: 0 }
+        Dedup {
+            model_of: vec![u32::MAX; positions],
+            vertex_of: vec![0; positions],
+            attributes: Vec::new(),
+            others: HashMap::new(),
+            model: 0,
+        }
     }
 
     fn start_model(&mut self, model: u32) {

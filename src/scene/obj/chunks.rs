@@ -82,7 +82,9 @@ fn continues(text: &[u8]) -> bool {
 /// The first pass: every piece checked to be UTF-8 text and counted. Gives the chunks and
 /// the counts before each (prefix sums, one more than chunks: the last is the total), or
 /// the line of the first invalid byte.
-pub(super) fn count_all<'a>(pieces: &[(usize, &'a [u8])]) -> Result<(Vec<Chunk<'a>>, Vec<Counts>), usize> {
+pub(super) fn count_all<'a>(
+    pieces: &[(usize, &'a [u8])],
+) -> Result<(Vec<Chunk<'a>>, Vec<Counts>), usize> {
     let each: Vec<Result<(Chunk<'a>, Counts), &'a [u8]>> = pieces
         .par_iter()
         .map(|&(offset, bytes)| match std::str::from_utf8(bytes) {
@@ -101,7 +103,9 @@ pub(super) fn count_all<'a>(pieces: &[(usize, &'a [u8])]) -> Result<(Vec<Chunk<'
                 sum = sum.add(counts);
                 before.push(sum);
             }
-            Err(valid) => return Err(1 + sum.lines + valid.iter().filter(|&&b| b == b'\n').count()),
+            Err(valid) => {
+                return Err(1 + sum.lines + valid.iter().filter(|&&b| b == b'\n').count())
+            }
         }
     }
     Ok((chunks, before))
@@ -180,8 +184,14 @@ mod tests {
             let (chunks, before) = count_all(&split(text.as_bytes(), size)).unwrap();
             assert_eq!(chunks.iter().map(|c| c.text).collect::<String>(), text);
             for c in &chunks {
-                assert!(c.offset == 0 || text.as_bytes()[c.offset - 1] == b'\n', "size {size}: {c:?}");
-                assert!(!continues(c.text.as_bytes()) || c.offset + c.text.len() == text.len(), "size {size}: {c:?}");
+                assert!(
+                    c.offset == 0 || text.as_bytes()[c.offset - 1] == b'\n',
+                    "size {size}: {c:?}"
+                );
+                assert!(
+                    !continues(c.text.as_bytes()) || c.offset + c.text.len() == text.len(),
+                    "size {size}: {c:?}"
+                );
             }
             let total = before.last().copied().unwrap();
             assert_eq!(total, Counts { lines: 6, positions: 1, texcoords: 1, normals: 0 });
@@ -198,7 +208,9 @@ mod tests {
 
     #[test]
     fn keywords_are_split_as_split_whitespace_splits() {
-        for line in ["v 1", "  vt\t1", "\u{3000}vn 1", "f\u{a0}1", "", "   ", "#x", "g\r", "é 1", "vé 1"] {
+        for line in
+            ["v 1", "  vt\t1", "\u{3000}vn 1", "f\u{a0}1", "", "   ", "#x", "g\r", "é 1", "vé 1"]
+        {
             assert_eq!(keyword(line), line.split_whitespace().next().unwrap_or(""), "{line:?}");
         }
     }

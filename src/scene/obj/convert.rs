@@ -79,7 +79,10 @@ pub(super) fn build_mesh(
     // and otherwise the corners in the text say which vertices have them.
     let attributes = vertex_attributes(text, models, notes);
     let with_normals = attributes.iter().any(|a| a.normals != Coverage::None);
-    let all_normals = attributes.iter().zip(models).all(|(a, m)| a.normals == Coverage::All || m.mesh.positions.is_empty());
+    let all_normals = attributes
+        .iter()
+        .zip(models)
+        .all(|(a, m)| a.normals == Coverage::All || m.mesh.positions.is_empty());
     let with_texcoords = attributes.iter().any(|a| a.texcoords != Coverage::None);
     let with_colours = models.iter().any(|m| !m.mesh.vertex_color.is_empty());
 
@@ -99,10 +102,20 @@ pub(super) fn build_mesh(
         mesh.positions.extend(m.positions.chunks_exact(3).map(Vec3::from_slice));
         if with_normals {
             // Vertices without a file normal get zero: computed below.
-            attrs.normals.spread(m.normals.chunks_exact(3).map(Vec3::from_slice), Vec3::ZERO, &mut mesh.normals, mesh.positions.len());
+            attrs.normals.spread(
+                m.normals.chunks_exact(3).map(Vec3::from_slice),
+                Vec3::ZERO,
+                &mut mesh.normals,
+                mesh.positions.len(),
+            );
         }
         if with_texcoords {
-            attrs.texcoords.spread(m.texcoords.chunks_exact(2).map(Vec2::from_slice), Vec2::ZERO, &mut mesh.texcoords, mesh.positions.len());
+            attrs.texcoords.spread(
+                m.texcoords.chunks_exact(2).map(Vec2::from_slice),
+                Vec2::ZERO,
+                &mut mesh.texcoords,
+                mesh.positions.len(),
+            );
         }
         if with_colours {
             // tobj gives every vertex of a file with colours its colour (or fails).
@@ -153,7 +166,12 @@ pub(super) struct NormalSources {
 /// The mesh's final normals: the file's (normalised) where every vertex has a usable one,
 /// otherwise computed by smoothing group, crease angle or position (see the module docs).
 /// `groups` is the smoothing group of every triangle, None without `s` lines.
-pub(super) fn finish_normals(mesh: &mut Mesh, groups: Option<&[u32]>, sources: NormalSources, options: &LoadOptions) {
+pub(super) fn finish_normals(
+    mesh: &mut Mesh,
+    groups: Option<&[u32]>,
+    sources: NormalSources,
+    options: &LoadOptions,
+) {
     let NormalSources { with_normals, all_normals, with_texcoords, models_with_faces } = sources;
     if all_normals && mesh.normals.iter().all(|n| n.try_normalize().is_some()) {
         // File normals need not be unit length.
@@ -191,13 +209,25 @@ enum Coverage {
 impl Coverage {
     /// Append one value per vertex to `out` (up to `total` entries): the model's values
     /// to the vertices that have one, in order, `absent` to the others.
-    fn spread<T: Copy>(&self, values: impl Iterator<Item = T>, absent: T, out: &mut Vec<T>, total: usize) {
+    fn spread<T: Copy>(
+        &self,
+        values: impl Iterator<Item = T>,
+        absent: T,
+        out: &mut Vec<T>,
+        total: usize,
+    ) {
         match self {
             Coverage::All => out.extend(values),
             Coverage::None => {}
             Coverage::Some(has) => {
                 let mut values = values;
-                out.extend(has.iter().map(|&h| if h { values.next().unwrap_or(absent) } else { absent }));
+                out.extend(has.iter().map(|&h| {
+                    if h {
+                        values.next().unwrap_or(absent)
+                    } else {
+                        absent
+                    }
+                }));
             }
         }
         out.resize(total, absent);
@@ -223,16 +253,25 @@ fn vertex_attributes(text: &str, models: &[tobj::Model], notes: FaceNotes) -> Ve
     };
     let mut out: Vec<ModelAttributes> = models
         .iter()
-        .map(|m| ModelAttributes { normals: coverage(m.mesh.normals.len(), 3, &m.mesh), texcoords: coverage(m.mesh.texcoords.len(), 2, &m.mesh) })
+        .map(|m| ModelAttributes {
+            normals: coverage(m.mesh.normals.len(), 3, &m.mesh),
+            texcoords: coverage(m.mesh.texcoords.len(), 2, &m.mesh),
+        })
         .collect();
-    let partial = |a: &ModelAttributes| matches!(a.normals, Coverage::Some(_)) || matches!(a.texcoords, Coverage::Some(_));
+    let partial = |a: &ModelAttributes| {
+        matches!(a.normals, Coverage::Some(_)) || matches!(a.texcoords, Coverage::Some(_))
+    };
     if !out.iter().any(partial) {
         return out;
     }
     let mut faces = face_corners(text, notes);
     for (model, attrs) in models.iter().zip(&mut out) {
         let m = &model.mesh;
-        let arities: Vec<u32> = if m.face_arities.is_empty() { vec![3; m.indices.len() / 3] } else { m.face_arities.clone() };
+        let arities: Vec<u32> = if m.face_arities.is_empty() {
+            vec![3; m.indices.len() / 3]
+        } else {
+            m.face_arities.clone()
+        };
         if !partial(attrs) {
             faces.by_ref().take(arities.len()).for_each(drop);
             continue;
@@ -266,12 +305,16 @@ fn vertex_attributes(text: &str, models: &[tobj::Model], notes: FaceNotes) -> Ve
 
 /// Each face of the text, in order, as (names a texture coordinate, names a normal) per
 /// corner, after the feeder's dropping of out-of-range ones.
-fn face_corners<'t>(text: &'t str, notes: FaceNotes<'t>) -> impl Iterator<Item = Vec<(bool, bool)>> + 't {
+fn face_corners<'t>(
+    text: &'t str,
+    notes: FaceNotes<'t>,
+) -> impl Iterator<Item = Vec<(bool, bool)>> + 't {
     let faces = text.lines().filter_map(|line| {
         let mut words = line.split_whitespace();
         (words.next() == Some("f")).then_some(words)
     });
-    let (mut dropped_vt, mut dropped_vn) = (notes.dropped_texcoords.iter().peekable(), notes.dropped_normals.iter().peekable());
+    let (mut dropped_vt, mut dropped_vn) =
+        (notes.dropped_texcoords.iter().peekable(), notes.dropped_normals.iter().peekable());
     faces.enumerate().map(move |(face, corners)| {
         let keep_vt = dropped_vt.next_if_eq(&&face).is_none();
         let keep_vn = dropped_vn.next_if_eq(&&face).is_none();
@@ -316,18 +359,24 @@ fn triangle_groups(models: &[tobj::Model], smoothing: &[(usize, u32)]) -> Vec<u3
 /// 0 is flat); with a crease angle, those whose normal is within it of the corner's face;
 /// otherwise all of them.
 fn corner_normals(mesh: &Mesh, groups: Option<&[u32]>, crease_angle_deg: Option<f32>) -> Vec<Vec3> {
-    let faces: Vec<Vec3> = mesh.triangles.iter().map(|t| {
-        let [a, b, c] = t.map(|k| mesh.positions[k as usize]);
-        (b - a).cross(c - a) // length = twice the area: the weight
-    }).collect();
+    let faces: Vec<Vec3> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| mesh.positions[k as usize]);
+            (b - a).cross(c - a) // length = twice the area: the weight
+        })
+        .collect();
     let slot_of = position_slots(&mesh.positions);
     let slot_count = slot_of.iter().map(|&s| s as usize + 1).max().unwrap_or(0);
-    let corner_slot = |corner: usize| slot_of[mesh.triangles[corner / 3][corner % 3] as usize] as usize;
+    let corner_slot =
+        |corner: usize| slot_of[mesh.triangles[corner / 3][corner % 3] as usize] as usize;
     let corners = 3 * mesh.triangles.len();
     let normal = |v: Vec3| v.normalize_or(Vec3::Y);
 
     if let Some(groups) = groups {
-        let mut sums: std::collections::HashMap<(u32, u32), Vec3> = std::collections::HashMap::new();
+        let mut sums: std::collections::HashMap<(u32, u32), Vec3> =
+            std::collections::HashMap::new();
         for corner in 0..corners {
             let group = groups[corner / 3];
             if group != 0 {
@@ -337,7 +386,11 @@ fn corner_normals(mesh: &Mesh, groups: Option<&[u32]>, crease_angle_deg: Option<
         return (0..corners)
             .map(|corner| {
                 let (t, group) = (corner / 3, groups[corner / 3]);
-                if group == 0 { normal(faces[t]) } else { normal(sums[&(corner_slot(corner) as u32, group)]) }
+                if group == 0 {
+                    normal(faces[t])
+                } else {
+                    normal(sums[&(corner_slot(corner) as u32, group)])
+                }
             })
             .collect();
     }
@@ -374,7 +427,11 @@ fn corner_normals(mesh: &Mesh, groups: Option<&[u32]>, crease_angle_deg: Option<
             let t = corner as usize / 3;
             let sum = here.iter().fold(Vec3::ZERO, |sum, &other| {
                 let o = other as usize / 3;
-                if o == t || units[t].dot(units[o]) > cos_limit { sum + faces[o] } else { sum }
+                if o == t || units[t].dot(units[o]) > cos_limit {
+                    sum + faces[o]
+                } else {
+                    sum
+                }
             });
             out[corner as usize] = normal(sum);
         }
@@ -401,26 +458,29 @@ fn position_slots(positions: &[Vec3]) -> Vec<u32> {
 /// share a vertex.
 fn apply_corner_normals(mesh: &mut Mesh, normal_of: impl Fn(usize, usize) -> Vec3) {
     let mut normals: Vec<Option<Vec3>> = vec![None; mesh.positions.len()];
-    let mut copies: std::collections::HashMap<(u32, [u32; 3]), u32> = std::collections::HashMap::new();
+    let mut copies: std::collections::HashMap<(u32, [u32; 3]), u32> =
+        std::collections::HashMap::new();
     for t in 0..mesh.triangles.len() {
         for k in 0..3 {
             let v = mesh.triangles[t][k];
             let n = normal_of(v as usize, 3 * t + k);
             match normals[v as usize] {
                 None => normals[v as usize] = Some(n),
-                Some(first) if first.to_array().map(f32::to_bits) == n.to_array().map(f32::to_bits) => {}
+                Some(first)
+                    if first.to_array().map(f32::to_bits) == n.to_array().map(f32::to_bits) => {}
                 Some(_) => {
-                    let copy = *copies.entry((v, n.to_array().map(f32::to_bits))).or_insert_with(|| {
-                        mesh.positions.push(mesh.positions[v as usize]);
-                        if !mesh.texcoords.is_empty() {
-                            mesh.texcoords.push(mesh.texcoords[v as usize]);
-                        }
-                        if !mesh.colors.is_empty() {
-                            mesh.colors.push(mesh.colors[v as usize]);
-                        }
-                        normals.push(Some(n));
-                        (mesh.positions.len() - 1) as u32
-                    });
+                    let copy =
+                        *copies.entry((v, n.to_array().map(f32::to_bits))).or_insert_with(|| {
+                            mesh.positions.push(mesh.positions[v as usize]);
+                            if !mesh.texcoords.is_empty() {
+                                mesh.texcoords.push(mesh.texcoords[v as usize]);
+                            }
+                            if !mesh.colors.is_empty() {
+                                mesh.colors.push(mesh.colors[v as usize]);
+                            }
+                            normals.push(Some(n));
+                            (mesh.positions.len() - 1) as u32
+                        });
                     mesh.triangles[t][k] = copy;
                 }
             }
@@ -484,7 +544,8 @@ pub(super) fn locate_colour_mismatch(text: &str, name: &str) -> ObjError {
         match first {
             None => first = Some((i + 1, coloured)),
             Some((first_line, first_coloured)) if coloured != first_coloured => {
-                let (has, lacks) = if first_coloured { (first_line, i + 1) } else { (i + 1, first_line) };
+                let (has, lacks) =
+                    if first_coloured { (first_line, i + 1) } else { (i + 1, first_line) };
                 let reason =
                     format!("the vertex on line {lacks} has no colour while the one on line {has} has; give every vertex a colour or none");
                 return ObjError::Parse { name: name.to_owned(), line: i + 1, reason };
@@ -505,14 +566,19 @@ mod tests {
         let mut out = Vec::new();
         // A triangle, a quad and a pentagon, offset by 10.
         triangulate(&[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11], &[3, 4, 5], 10, &mut out);
-        assert_eq!(out, [[10, 11, 12], [13, 14, 16], [14, 15, 16], [17, 18, 19], [17, 19, 20], [17, 20, 21]]);
+        assert_eq!(
+            out,
+            [[10, 11, 12], [13, 14, 16], [14, 15, 16], [17, 18, 19], [17, 19, 20], [17, 20, 21]]
+        );
     }
 
     #[test]
     fn non_finite_values_are_found_on_their_line() {
         let text = "v 0 0 0\nvn 0 0 1\nv 1 0 0 1e-45\nv nan 0 0\n";
         match locate_non_finite(text, "t.obj", [true, false, false]) {
-            ObjError::NonFinite { line, what, .. } => assert_eq!((line, what), (3, "a vertex position")),
+            ObjError::NonFinite { line, what, .. } => {
+                assert_eq!((line, what), (3, "a vertex position"))
+            }
             other => panic!("{other}"),
         }
     }

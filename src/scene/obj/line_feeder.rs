@@ -110,11 +110,19 @@ impl<'a> LineFeeder<'a> {
         }
         let quoted = quote(self.current_line);
         let reason = match e {
-            E::PositionParseError => format!("a vertex position needs three numbers, but the line reads {quoted}"),
-            E::NormalParseError => format!("a normal needs three numbers, but the line reads {quoted}"),
-            E::TexcoordParseError => format!("a texture coordinate needs two numbers, but the line reads {quoted}"),
+            E::PositionParseError => {
+                format!("a vertex position needs three numbers, but the line reads {quoted}")
+            }
+            E::NormalParseError => {
+                format!("a normal needs three numbers, but the line reads {quoted}")
+            }
+            E::TexcoordParseError => {
+                format!("a texture coordinate needs two numbers, but the line reads {quoted}")
+            }
             E::ScalingByZeroError => format!("the vertex weight w is zero in {quoted}"),
-            E::ColorParseError => format!("a vertex colour needs three numbers, but the line reads {quoted}"),
+            E::ColorParseError => {
+                format!("a vertex colour needs three numbers, but the line reads {quoted}")
+            }
             E::MaterialParseError => format!("cannot read the material name from {quoted}"),
             // Raised when an object is closed, after its faces, far from the culprit.
             E::FaceColorOutOfBounds => return locate_colour_mismatch(self.text, self.name),
@@ -157,13 +165,19 @@ impl<'a> LineFeeder<'a> {
             }
         };
         let (drop_vt, drop_vn) = (texcoord.is_some(), normal.is_some());
-        for (dropped, bad) in [(&mut self.dropped_texcoords, texcoord), (&mut self.dropped_normals, normal)] {
+        for (dropped, bad) in
+            [(&mut self.dropped_texcoords, texcoord), (&mut self.dropped_normals, normal)]
+        {
             if let Some((index, count)) = bad {
                 dropped.faces.push(face);
                 dropped.first.get_or_insert(DroppedFirst { line: self.line, index, count });
             }
         }
-        self.pending = Some(if drop_vt || drop_vn { Cow::Owned(without_attributes(line, drop_vt, drop_vn)) } else { Cow::Borrowed(line) });
+        self.pending = Some(if drop_vt || drop_vn {
+            Cow::Owned(without_attributes(line, drop_vt, drop_vn))
+        } else {
+            Cow::Borrowed(line)
+        });
     }
 
     /// `s 1`, `s off`...: faces from here on are in that smoothing group (0 = none).
@@ -171,7 +185,9 @@ impl<'a> LineFeeder<'a> {
         let group = match value {
             Some(v) if v.eq_ignore_ascii_case(b"off") => 0,
             // A number too large for u32 is still a group: all of them the same one.
-            Some(v) if !v.is_empty() && v.iter().all(u8::is_ascii_digit) => std::str::from_utf8(v).ok().and_then(|t| t.parse().ok()).unwrap_or(u32::MAX),
+            Some(v) if !v.is_empty() && v.iter().all(u8::is_ascii_digit) => {
+                std::str::from_utf8(v).ok().and_then(|t| t.parse().ok()).unwrap_or(u32::MAX)
+            }
             _ => 0,
         };
         match self.smoothing.last_mut() {
@@ -186,7 +202,11 @@ impl<'a> LineFeeder<'a> {
         [self.vertices, self.texcoords, self.normals].map(|n| n as u64)
     }
 
-    fn check_statement<'w>(&mut self, mut words: impl Iterator<Item = &'w [u8]>, line: &'a str) -> Result<(), ObjError> {
+    fn check_statement<'w>(
+        &mut self,
+        mut words: impl Iterator<Item = &'w [u8]>,
+        line: &'a str,
+    ) -> Result<(), ObjError> {
         match words.next() {
             Some(b"v") => self.vertices += 1,
             Some(b"vt") => self.texcoords += 1,
@@ -209,7 +229,10 @@ impl<'a> LineFeeder<'a> {
     /// name a vertex defined earlier in the file; a texture coordinate or normal index
     /// that names none is returned (the first of each kind, with the count so far), for
     /// the face to go on without them.
-    fn check_face<'w>(&self, corners: impl Iterator<Item = &'w [u8]>) -> Result<(Option<BadIndex>, Option<BadIndex>), ObjError> {
+    fn check_face<'w>(
+        &self,
+        corners: impl Iterator<Item = &'w [u8]>,
+    ) -> Result<(Option<BadIndex>, Option<BadIndex>), ObjError> {
         let kinds = [
             ("vertex", "vertices", self.vertices),
             ("texture coordinate", "texture coordinates", self.texcoords),
@@ -261,7 +284,10 @@ impl<'a> LineFeeder<'a> {
             }
         }
         if count < 3 {
-            return Err(self.parse_error(format!("a face needs at least three corners, but {} has {count}", quote(self.current_line))));
+            return Err(self.parse_error(format!(
+                "a face needs at least three corners, but {} has {count}",
+                quote(self.current_line)
+            )));
         }
         let [_, texcoord, normal] = bad;
         Ok((texcoord, normal))
@@ -292,7 +318,8 @@ pub(super) struct DroppedFirst {
 /// ASCII line splitting bytes gives the same words, faster.
 fn words_of(line: &str) -> impl Iterator<Item = &[u8]> {
     let ascii = line.is_ascii();
-    let bytes = ascii.then(|| line.as_bytes().split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty()));
+    let bytes =
+        ascii.then(|| line.as_bytes().split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty()));
     let unicode = (!ascii).then(|| line.split_whitespace().map(str::as_bytes));
     bytes.into_iter().flatten().chain(unicode.into_iter().flatten())
 }
@@ -323,7 +350,8 @@ fn without_attributes(line: &str, drop_vt: bool, drop_vn: bool) -> String {
 /// any other line (three numbers, or six with a colour, go to tobj as written).
 fn without_weight(line: &str) -> Option<String> {
     let mut words = line.split_whitespace();
-    let (v, x, y, z, w) = (words.next()?, words.next()?, words.next()?, words.next()?, words.next()?);
+    let (v, x, y, z, w) =
+        (words.next()?, words.next()?, words.next()?, words.next()?, words.next()?);
     // A w that is no number stays for tobj to refuse, with its line.
     if v != "v" || words.next().is_some() || w.parse::<f32>().is_err() {
         return None;
@@ -353,7 +381,8 @@ fn face_is_valid(corners: &[u8], counts: [u64; 3]) -> bool {
                 i += 1;
             }
             // Absolute or relative, the magnitude must lie in 1..=available.
-            let ok = if i == start { slot > 0 && !signed } else { (1..=available).contains(&value) };
+            let ok =
+                if i == start { slot > 0 && !signed } else { (1..=available).contains(&value) };
             if !ok {
                 return false;
             }
@@ -554,7 +583,15 @@ mod tests {
         let handed: Vec<(usize, &str)> = lines.iter().map(|(n, l)| (*n, l.as_str())).collect();
         assert_eq!(
             handed[4..],
-            [(5, "f 1/1 2/1 3/1\n"), (6, "f 1 2 3\n"), (7, "\n"), (8, "s 1\n"), (9, "f 1 2 3\n"), (10, "s off\n"), (11, "f 3/1 2/1 1/1")]
+            [
+                (5, "f 1/1 2/1 3/1\n"),
+                (6, "f 1 2 3\n"),
+                (7, "\n"),
+                (8, "s 1\n"),
+                (9, "f 1 2 3\n"),
+                (10, "s off\n"),
+                (11, "f 3/1 2/1 1/1")
+            ]
         );
         assert_eq!((feeder.faces, feeder.smoothing.as_slice()), (4, [(2, 1), (3, 0)].as_slice()));
         assert_eq!(feeder.dropped_normals.faces, [0]);
@@ -572,6 +609,9 @@ mod tests {
         while feeder.read_line(&mut buf).unwrap() > 0 {
             lines.push((feeder.line, std::mem::take(&mut buf)));
         }
-        assert_eq!(lines, [(1, "a\n".into()), (2, "bb\r\n".into()), (3, "\n".into()), (4, "ccc".into())]);
+        assert_eq!(
+            lines,
+            [(1, "a\n".into()), (2, "bb\r\n".into()), (3, "\n".into()), (4, "ccc".into())]
+        );
     }
 }

@@ -101,7 +101,9 @@ pub enum ObjError {
         reason: String,
     },
     /// The last statement of the file is incomplete (`f 1 2`, `v 1.0 2.`): the file was cut short.
-    #[error("{name} line {line}: {reason}; this is the last line, so the file seems to be cut short")]
+    #[error(
+        "{name} line {line}: {reason}; this is the last line, so the file seems to be cut short"
+    )]
     Truncated {
         /// The file, as named in messages.
         name: String,
@@ -127,7 +129,9 @@ pub enum ObjError {
         count: usize,
     },
     /// A vertex, normal or texture coordinate is NaN or infinite.
-    #[error("{name} line {line}: {what} has a coordinate that is not a finite number (NaN or infinity)")]
+    #[error(
+        "{name} line {line}: {what} has a coordinate that is not a finite number (NaN or infinity)"
+    )]
     NonFinite {
         /// The file, as named in messages.
         name: String,
@@ -162,7 +166,8 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
 
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    let bytes = crate::files::read_regular_file_parallel(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes = crate::files::read_regular_file_parallel(path)
+        .map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     // `parent()` of a bare file name is "", which joins to paths relative to the working
     // directory: exactly where the file itself was found.
     load_obj_from_bytes(bytes, &path.display().to_string(), path.parent(), options)
@@ -171,7 +176,12 @@ pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, Ob
 /// [`load_obj_with`] on a file already read (`name` for messages, `base_dir` for its .mtl
 /// and textures); the text is freed as soon as it is parsed. The bytes are checked to be
 /// UTF-8 chunk by chunk, in parallel, as they are parsed.
-pub fn load_obj_from_bytes(bytes: Vec<u8>, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+pub fn load_obj_from_bytes(
+    bytes: Vec<u8>,
+    name: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<LoadedObj, ObjError> {
     let parsed = parse_text(&bytes, name, base_dir, chunks::default_chunk_bytes(bytes.len()))?;
     free_in_background(bytes);
     finish(parsed, name, options)
@@ -180,19 +190,40 @@ pub fn load_obj_from_bytes(bytes: Vec<u8>, name: &str, base_dir: Option<&Path>, 
 /// Same, from text already in memory (`name` is used in messages, `base_dir` resolves mtllib). Used by tests and the fuzzer.
 ///
 /// With `base_dir` `None`, `mtllib` statements are skipped with a warning.
-pub fn load_obj_from_str(text: &str, name: &str, base_dir: Option<&Path>) -> Result<LoadedObj, ObjError> {
+pub fn load_obj_from_str(
+    text: &str,
+    name: &str,
+    base_dir: Option<&Path>,
+) -> Result<LoadedObj, ObjError> {
     load_obj_from_str_with(text, name, base_dir, &LoadOptions::default())
 }
 
 /// [`load_obj_from_str`] with options.
-pub fn load_obj_from_str_with(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    load_obj_from_str_chunked(text, name, base_dir, options, chunks::default_chunk_bytes(text.len()))
+pub fn load_obj_from_str_with(
+    text: &str,
+    name: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<LoadedObj, ObjError> {
+    load_obj_from_str_chunked(
+        text,
+        name,
+        base_dir,
+        options,
+        chunks::default_chunk_bytes(text.len()),
+    )
 }
 
 /// [`load_obj_from_str_with`] with the text cut into chunks of about `chunk_bytes` (1 cuts
 /// at every line): for tests, which check that every cut gives the same result.
 #[doc(hidden)]
-pub fn load_obj_from_str_chunked(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions, chunk_bytes: usize) -> Result<LoadedObj, ObjError> {
+pub fn load_obj_from_str_chunked(
+    text: &str,
+    name: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+    chunk_bytes: usize,
+) -> Result<LoadedObj, ObjError> {
     let parsed = parse_text(text.as_bytes(), name, base_dir, chunk_bytes)?;
     finish(parsed, name, options)
 }
@@ -205,15 +236,43 @@ struct ParsedObj {
     warnings: Vec<String>,
 }
 
-fn parse_text(bytes: &[u8], name: &str, base_dir: Option<&Path>, chunk_bytes: usize) -> Result<ParsedObj, ObjError> {
+fn parse_text(
+    bytes: &[u8],
+    name: &str,
+    base_dir: Option<&Path>,
+    chunk_bytes: usize,
+) -> Result<ParsedObj, ObjError> {
     // A UTF-8 byte-order mark would glue itself to the first keyword.
     let bytes = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
-    let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
+    let libs = MaterialLibraries {
+        base_dir,
+        obj_name: name,
+        loaded: RefCell::default(),
+        warnings: RefCell::default(),
+    };
     let mut parsed = parallel::parse(bytes, name, &libs, chunk_bytes)?;
     let mut warnings = libs.warnings.into_inner();
-    warn_dropped(&mut warnings, name, &parsed.dropped_texcoords, "texture coordinate", "texture coordinates", "drawn without texture coordinates");
-    warn_dropped(&mut warnings, name, &parsed.dropped_normals, "normal", "normals", "drawn with computed normals");
-    let materials = convert_materials(&std::mem::take(&mut parsed.materials), &libs.loaded.into_inner(), &mut warnings);
+    warn_dropped(
+        &mut warnings,
+        name,
+        &parsed.dropped_texcoords,
+        "texture coordinate",
+        "texture coordinates",
+        "drawn without texture coordinates",
+    );
+    warn_dropped(
+        &mut warnings,
+        name,
+        &parsed.dropped_normals,
+        "normal",
+        "normals",
+        "drawn with computed normals",
+    );
+    let materials = convert_materials(
+        &std::mem::take(&mut parsed.materials),
+        &libs.loaded.into_inner(),
+        &mut warnings,
+    );
     let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
     for missing in parsed.usemtl_names.iter().filter(|n| !known.contains(n.as_str())) {
         warn(
@@ -232,13 +291,28 @@ fn finish(parsed: ParsedObj, name: &str, options: &LoadOptions) -> Result<Loaded
 /// The loader as it was before the parallel parse: tobj reading through the line feeder.
 /// Kept as the oracle that tests (and the fuzzer) compare the parallel loader with.
 #[doc(hidden)]
-pub fn load_obj_from_str_tobj(text: &str, name: &str, base_dir: Option<&Path>, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+pub fn load_obj_from_str_tobj(
+    text: &str,
+    name: &str,
+    base_dir: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<LoadedObj, ObjError> {
     // A UTF-8 byte-order mark would glue itself to the first keyword.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let libs = MaterialLibraries { base_dir, obj_name: name, loaded: RefCell::default(), warnings: RefCell::default() };
+    let libs = MaterialLibraries {
+        base_dir,
+        obj_name: name,
+        loaded: RefCell::default(),
+        warnings: RefCell::default(),
+    };
     let mut feeder = LineFeeder::new(text, name, true);
 
-    let tobj_options = tobj::LoadOptions { single_index: true, triangulate: false, ignore_points: true, ignore_lines: true };
+    let tobj_options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     let parsed = tobj::load_obj_buf(&mut feeder, &tobj_options, |mtl| libs.load(mtl));
     let (models, materials) = match parsed {
         Ok(ok) => ok,
@@ -246,8 +320,22 @@ pub fn load_obj_from_str_tobj(text: &str, name: &str, base_dir: Option<&Path>, o
     };
     let usemtl_names = std::mem::take(&mut feeder.usemtl_names);
     let mut warnings = libs.warnings.into_inner();
-    warn_dropped(&mut warnings, name, &feeder.dropped_texcoords, "texture coordinate", "texture coordinates", "drawn without texture coordinates");
-    warn_dropped(&mut warnings, name, &feeder.dropped_normals, "normal", "normals", "drawn with computed normals");
+    warn_dropped(
+        &mut warnings,
+        name,
+        &feeder.dropped_texcoords,
+        "texture coordinate",
+        "texture coordinates",
+        "drawn without texture coordinates",
+    );
+    warn_dropped(
+        &mut warnings,
+        name,
+        &feeder.dropped_normals,
+        "normal",
+        "normals",
+        "drawn with computed normals",
+    );
     // Errors of the libraries were already turned into warnings, one per library.
     let materials = materials.unwrap_or_default();
     let materials = convert_materials(&materials, &libs.loaded.into_inner(), &mut warnings);
@@ -271,7 +359,14 @@ pub fn load_obj_from_str_tobj(text: &str, name: &str, base_dir: Option<&Path>, o
 
 /// One warning for all the faces that named a texture coordinate or normal out of range,
 /// naming the first one's line.
-fn warn_dropped(warnings: &mut Vec<String>, name: &str, dropped: &Dropped, kind: &str, kind_plural: &str, outcome: &str) {
+fn warn_dropped(
+    warnings: &mut Vec<String>,
+    name: &str,
+    dropped: &Dropped,
+    kind: &str,
+    kind_plural: &str,
+    outcome: &str,
+) {
     let Some(first) = &dropped.first else { return };
     let had = if first.count == 1 { kind } else { kind_plural };
     let these = match dropped.faces.len() - 1 {

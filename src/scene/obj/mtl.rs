@@ -42,12 +42,19 @@ impl MaterialLibraries<'_> {
         // (`mtllib a.mtl b.mtl`) or one with spaces in its name.
         let spelled = mtllib.to_string_lossy();
         if spelled.trim().is_empty() {
-            self.warn(format!("{}: `mtllib` names no file; using the default material", self.obj_name));
+            self.warn(format!(
+                "{}: `mtllib` names no file; using the default material",
+                self.obj_name
+            ));
             return Err(tobj::LoadError::OpenFileFailed);
         }
         // A name with spaces that exists as written wins; otherwise the names are separated
         // by whitespace, and `\ ` is a space inside a name (`mtllib a.mtl my\ file.mtl`).
-        let parts: Vec<String> = if find_file(base, &spelled).is_some() { vec![spelled.clone().into_owned()] } else { split_escaped(&spelled) };
+        let parts: Vec<String> = if find_file(base, &spelled).is_some() {
+            vec![spelled.clone().into_owned()]
+        } else {
+            split_escaped(&spelled)
+        };
         let mut merged: Option<(Vec<tobj::Material>, _)> = None;
         for part in &parts {
             let Ok((mats, map)) = self.load_one(base, part) else { continue };
@@ -142,14 +149,23 @@ fn sanitize_mtl(text: &str, mtl_name: &str, warnings: &mut Vec<String>) -> Strin
         let keyword = words.next().unwrap_or("");
         if matches!(keyword, "Ka" | "Kd" | "Ks" | "Ke") {
             let values: Vec<&str> = words.collect();
-            let numeric = |n: usize| values.len() >= n && values[..n].iter().all(|v| v.parse::<f32>().is_ok());
+            let numeric = |n: usize| {
+                values.len() >= n && values[..n].iter().all(|v| v.parse::<f32>().is_ok())
+            };
             if numeric(3) {
                 out.push_str(line);
             } else if values.len() == 1 && numeric(1) {
                 let r = values[0];
                 out.push_str(&format!("{keyword} {r} {r} {r}\n"));
             } else {
-                warn(warnings, format!("{mtl_name} line {}: {} is not an RGB colour; ignored", i + 1, quote(line)));
+                warn(
+                    warnings,
+                    format!(
+                        "{mtl_name} line {}: {} is not an RGB colour; ignored",
+                        i + 1,
+                        quote(line)
+                    ),
+                );
                 out.push('\n');
             }
         } else {
@@ -160,14 +176,25 @@ fn sanitize_mtl(text: &str, mtl_name: &str, warnings: &mut Vec<String>) -> Strin
 }
 
 /// Our materials from tobj's, with `map_Kd` resolved next to the library that named it.
-pub(super) fn convert_materials(mats: &[tobj::Material], loaded: &[(PathBuf, usize)], warnings: &mut Vec<String>) -> Vec<Material> {
-    let mut libraries = loaded.iter().flat_map(|(path, count)| std::iter::repeat_n(path.as_path(), *count));
+pub(super) fn convert_materials(
+    mats: &[tobj::Material],
+    loaded: &[(PathBuf, usize)],
+    warnings: &mut Vec<String>,
+) -> Vec<Material> {
+    let mut libraries =
+        loaded.iter().flat_map(|(path, count)| std::iter::repeat_n(path.as_path(), *count));
     mats.iter().map(|m| convert_material(m, libraries.next(), warnings)).collect()
 }
 
-fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut Vec<String>) -> Material {
+fn convert_material(
+    m: &tobj::Material,
+    library: Option<&Path>,
+    warnings: &mut Vec<String>,
+) -> Material {
     let default = Material::default();
-    let color = |c: Option<[f32; 3]>, fallback: Vec3| c.map(Vec3::from).filter(|v| v.is_finite()).unwrap_or(fallback);
+    let color = |c: Option<[f32; 3]>, fallback: Vec3| {
+        c.map(Vec3::from).filter(|v| v.is_finite()).unwrap_or(fallback)
+    };
     let mut out = Material {
         name: m.name.clone(),
         diffuse: color(m.diffuse, default.diffuse),
@@ -177,14 +204,24 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
     };
     if let Some(raw) = &m.diffuse_texture {
         let dir = library.and_then(Path::parent).unwrap_or(Path::new(""));
-        let library = library.map_or_else(|| "a material library".to_owned(), |p| quote_name(&p.display().to_string()));
+        let library = library.map_or_else(
+            || "a material library".to_owned(),
+            |p| quote_name(&p.display().to_string()),
+        );
         let map = texture_map(dir, raw);
         out.diffuse_texture = map.path;
         out.texture_transform = map.transform;
         if !map.ignored.is_empty() {
             let options = map.ignored.join(", ");
             let plural = if map.ignored.len() == 1 { "option" } else { "options" };
-            warn(warnings, format!("{library}: material {}: `map_Kd` {plural} {} not supported; ignored", quote_name(&m.name), quote_name(&options)));
+            warn(
+                warnings,
+                format!(
+                    "{library}: material {}: `map_Kd` {plural} {} not supported; ignored",
+                    quote_name(&m.name),
+                    quote_name(&options)
+                ),
+            );
         }
         if out.diffuse_texture.is_none() {
             warn(warnings, format!("{library}: texture `{}` of material {} not found; the material keeps its plain colour", quote_name(map.file), quote_name(&m.name)));
@@ -193,7 +230,8 @@ fn convert_material(m: &tobj::Material, library: Option<&Path>, warnings: &mut V
         // Taken literally that is black whatever the renderer does with textures: white
         // lets `texture * diffuse` show the texture, and grey stands in for a missing one.
         if out.diffuse == Vec3::ZERO {
-            out.diffuse = if out.diffuse_texture.is_some() { Vec3::ONE } else { Material::default().diffuse };
+            out.diffuse =
+                if out.diffuse_texture.is_some() { Vec3::ONE } else { Material::default().diffuse };
         }
     }
     out
@@ -227,7 +265,9 @@ fn option_args(name: &str) -> Option<OptionArgs> {
         "-o" | "-s" | "-t" => OptionArgs::UpToThreeNumbers,
         "-mm" => OptionArgs::Numbers(2),
         "-bm" | "-boost" | "-texres" => OptionArgs::Numbers(1),
-        "-clamp" | "-blendu" | "-blendv" | "-cc" | "-imfchan" | "-colorspace" | "-type" => OptionArgs::Word,
+        "-clamp" | "-blendu" | "-blendv" | "-cc" | "-imfchan" | "-colorspace" | "-type" => {
+            OptionArgs::Word
+        }
         _ => return None,
     })
 }
@@ -238,13 +278,19 @@ fn option_args(name: &str) -> Option<OptionArgs> {
 /// last word, which is always part of the name.
 fn texture_map<'a>(dir: &Path, raw: &'a str) -> TextureMap<'a> {
     let raw = raw.trim();
-    let mut map = TextureMap { transform: TextureTransform::default(), ignored: Vec::new(), file: raw, path: None };
+    let mut map = TextureMap {
+        transform: TextureTransform::default(),
+        ignored: Vec::new(),
+        file: raw,
+        path: None,
+    };
     if let Some(path) = find_file(dir, raw) {
         map.path = Some(path);
         return map;
     }
     // Words with their byte offsets, so that the name keeps its inner spacing.
-    let words: Vec<(usize, &str)> = raw.split_whitespace().map(|w| (w.as_ptr() as usize - raw.as_ptr() as usize, w)).collect();
+    let words: Vec<(usize, &str)> =
+        raw.split_whitespace().map(|w| (w.as_ptr() as usize - raw.as_ptr() as usize, w)).collect();
     let number = |w: &str| w.parse::<f32>().ok().filter(|v| v.is_finite());
     let mut i = 0;
     while i + 1 < words.len() {
@@ -285,8 +331,12 @@ fn texture_map<'a>(dir: &Path, raw: &'a str) -> TextureMap<'a> {
             "-o" if !values.is_empty() => {
                 map.transform.offset = Vec2::new(values[0], values.get(1).copied().unwrap_or(0.0));
             }
-            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("on")) => map.transform.clamp = true,
-            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("off")) => map.transform.clamp = false,
+            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("on")) => {
+                map.transform.clamp = true
+            }
+            "-clamp" if word.is_some_and(|w| w.eq_ignore_ascii_case("off")) => {
+                map.transform.clamp = false
+            }
             _ => {
                 if !map.ignored.contains(&name) {
                     map.ignored.push(name);
@@ -298,7 +348,12 @@ fn texture_map<'a>(dir: &Path, raw: &'a str) -> TextureMap<'a> {
     // As written; with `\ ` read as a space; else the last word (after an option this
     // reader does not know, whose arguments joined the name).
     map.path = find_file(dir, map.file)
-        .or_else(|| map.file.contains("\\ ").then(|| find_file(dir, &map.file.replace("\\ ", " "))).flatten())
+        .or_else(|| {
+            map.file
+                .contains("\\ ")
+                .then(|| find_file(dir, &map.file.replace("\\ ", " ")))
+                .flatten()
+        })
         .or_else(|| map.file.split_whitespace().last().and_then(|file| find_file(dir, file)));
     map
 }
@@ -310,7 +365,11 @@ mod tests {
     #[test]
     fn mtl_colours_are_made_safe_for_tobj() {
         let mut warnings = Vec::new();
-        let text = sanitize_mtl("newmtl a\nKd 0.5\nKs 1 2\nKa spectral x.rfl\nKe 1 2 3\n", "m.mtl", &mut warnings);
+        let text = sanitize_mtl(
+            "newmtl a\nKd 0.5\nKs 1 2\nKa spectral x.rfl\nKe 1 2 3\n",
+            "m.mtl",
+            &mut warnings,
+        );
         assert_eq!(text, "newmtl a\nKd 0.5 0.5 0.5\n\n\nKe 1 2 3\n");
         assert_eq!(warnings.len(), 2);
         assert!(warnings[0].contains("m.mtl line 3"), "{}", warnings[0]);
@@ -322,23 +381,39 @@ mod tests {
         let read = |raw: &'static str| texture_map(nowhere, raw);
 
         let m = read("-o 0.1 diffuse.jpg");
-        assert_eq!((m.file, m.transform.offset, m.transform.scale), ("diffuse.jpg", Vec2::new(0.1, 0.0), Vec2::ONE));
+        assert_eq!(
+            (m.file, m.transform.offset, m.transform.scale),
+            ("diffuse.jpg", Vec2::new(0.1, 0.0), Vec2::ONE)
+        );
         assert!(m.ignored.is_empty() && !m.transform.clamp && m.path.is_none());
 
         let m = read("-colorspace sRGB -o 0.1 diffuse.jpg");
-        assert_eq!((m.file, m.ignored.as_slice(), m.transform.offset), ("diffuse.jpg", ["-colorspace"].as_slice(), Vec2::new(0.1, 0.0)));
+        assert_eq!(
+            (m.file, m.ignored.as_slice(), m.transform.offset),
+            ("diffuse.jpg", ["-colorspace"].as_slice(), Vec2::new(0.1, 0.0))
+        );
 
         let m = read("-texres 512 input.jpg");
         assert_eq!((m.file, m.ignored.as_slice()), ("input.jpg", ["-texres"].as_slice()));
 
         // u, v and w; w is read and dropped. The name keeps its inner spaces.
         let m = read("-s 2 3 1  -o 0.5 0.25 0 -clamp on  my  wall.png ");
-        assert_eq!(m.transform, TextureTransform { scale: Vec2::new(2.0, 3.0), offset: Vec2::new(0.5, 0.25), clamp: true });
+        assert_eq!(
+            m.transform,
+            TextureTransform {
+                scale: Vec2::new(2.0, 3.0),
+                offset: Vec2::new(0.5, 0.25),
+                clamp: true
+            }
+        );
         assert_eq!(m.file, "my  wall.png");
 
         // Every other option of the MTL format, each with its arguments, ignored once.
         let m = read("-bm 0.5 -mm 0 1 -blendu off -blendv off -cc on -imfchan r -boost 2 -t 0.1 0.1 -bm 2 -type sphere x.png");
-        assert_eq!(m.ignored, ["-bm", "-mm", "-blendu", "-blendv", "-cc", "-imfchan", "-boost", "-t", "-type"]);
+        assert_eq!(
+            m.ignored,
+            ["-bm", "-mm", "-blendu", "-blendv", "-cc", "-imfchan", "-boost", "-t", "-type"]
+        );
         assert_eq!((m.file, m.transform), ("x.png", TextureTransform::default()));
 
         // Arguments never take the last word; -o with u alone keeps v = 0, -s keeps v = 1.

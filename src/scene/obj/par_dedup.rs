@@ -38,7 +38,11 @@ impl Shared {
     pub(super) fn new(positions: usize) -> Self {
         // Filled on every core: at 10M triangles these are ~80 MB of fresh pages.
         let atomic32 = |n| (0..n).into_par_iter().map(|_| AtomicU32::new(u32::MAX)).collect();
-        Shared { first: atomic32(positions), key: (0..positions).into_par_iter().map(|_| AtomicU64::new(0)).collect(), vertex: atomic32(positions) }
+        Shared {
+            first: atomic32(positions),
+            key: (0..positions).into_par_iter().map(|_| AtomicU64::new(0)).collect(),
+            vertex: atomic32(positions),
+        }
     }
 }
 
@@ -91,11 +95,18 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
             }
         }
     });
-    let is_other = |c: &[u32; 3], k: u32| first(c) != k && shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2]);
+    let is_other = |c: &[u32; 3], k: u32| {
+        first(c) != k && shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
+    };
     let others: Vec<Vec<u32>> = pieces
         .par_iter()
         .zip(&starts)
-        .map(|(p, &start)| (0..p.corners.len() as u32).filter(|&i| is_other(&p.corners[i as usize], start + i)).map(|i| start + i).collect())
+        .map(|(p, &start)| {
+            (0..p.corners.len() as u32)
+                .filter(|&i| is_other(&p.corners[i as usize], start + i))
+                .map(|i| start + i)
+                .collect()
+        })
         .collect();
     // The first corner of each distinct "other" corner makes a vertex too.
     let mut seen = HashSet::new();
@@ -103,21 +114,31 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
         .iter()
         .zip(&starts)
         .zip(&others)
-        .flat_map(|((p, &start), list)| list.iter().map(move |&k| (k, p.corners[(k - start) as usize])))
+        .flat_map(|((p, &start), list)| {
+            list.iter().map(move |&k| (k, p.corners[(k - start) as usize]))
+        })
         .filter(|(_, c)| seen.insert(*c))
         .map(|(k, _)| k)
         .collect();
     drop(seen);
     // 3. Vertex numbers and triangles per piece.
     let makes = |c: &[u32; 3], k: u32| first(c) == k || makers.contains(&k);
-    let made: Vec<usize> =
-        pieces.par_iter().zip(&starts).map(|(p, &start)| p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()).collect();
+    let made: Vec<usize> = pieces
+        .par_iter()
+        .zip(&starts)
+        .map(|(p, &start)| {
+            p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()
+        })
+        .collect();
     let base = out.positions.len();
     let total: usize = made.iter().sum();
     if base + total > u32::MAX as usize {
         return false;
     }
-    let triangles: Vec<usize> = pieces.par_iter().map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum()).collect();
+    let triangles: Vec<usize> = pieces
+        .par_iter()
+        .map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum())
+        .collect();
     let tri_base = out.triangles.len();
     // Grown on every core (`resize` writes, and faults in, the new pages on one thread).
     grow(out.positions, base + total, Vec3::ZERO);
@@ -135,9 +156,12 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
     let mut other_vertices: HashMap<[u32; 3], u32> = HashMap::new();
     {
         let mut positions = &mut out.positions[base..];
-        let mut normals = if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
-        let mut texcoords = if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
-        let mut colors = if sources.colors.is_some() { &mut out.colors[base..] } else { &mut [][..] };
+        let mut normals =
+            if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
+        let mut texcoords =
+            if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
+        let mut colors =
+            if sources.colors.is_some() { &mut out.colors[base..] } else { &mut [][..] };
         let mut jobs = Vec::with_capacity(pieces.len());
         let mut first_vertex = 0u32;
         for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&made) {
@@ -164,7 +188,8 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                         nor[slot] = if c[2] == NONE { Vec3::ZERO } else { normals[c[2] as usize] };
                     }
                     if let Some(texcoords) = sources.texcoords {
-                        tex[slot] = if c[1] == NONE { Vec2::ZERO } else { texcoords[c[1] as usize] };
+                        tex[slot] =
+                            if c[1] == NONE { Vec2::ZERO } else { texcoords[c[1] as usize] };
                     }
                     if let Some(colors) = sources.colors {
                         col[slot] = colors.get(c[0] as usize).copied().unwrap_or([255; 4]);
@@ -198,7 +223,11 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
             local.clear();
             for (i, c) in p.corners[corner..corner + n as usize].iter().enumerate() {
                 let k = start + (corner + i) as u32;
-                let index = if is_other(c, k) { other_vertices[c] } else { shared.vertex[c[0] as usize].load(Relaxed) };
+                let index = if is_other(c, k) {
+                    other_vertices[c]
+                } else {
+                    shared.vertex[c[0] as usize].load(Relaxed)
+                };
                 local.push(index);
             }
             corner += n as usize;
@@ -207,7 +236,9 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
         mine.copy_from_slice(&made);
     });
     // Reset the first-use marks of the model's positions for the next model.
-    pieces.par_iter().for_each(|p| p.corners.iter().for_each(|c| shared.first[c[0] as usize].store(u32::MAX, Relaxed)));
+    pieces.par_iter().for_each(|p| {
+        p.corners.iter().for_each(|c| shared.first[c[0] as usize].store(u32::MAX, Relaxed))
+    });
     true
 }
 

@@ -19,7 +19,9 @@ use super::chunks::{self, Counts};
 use super::convert::{colour, locate_colour_mismatch};
 use super::line_feeder::{Dropped, DroppedFirst};
 use super::mtl::MaterialLibraries;
-use super::parse_chunk::{parse_chunk, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event, Targets};
+use super::parse_chunk::{
+    parse_chunk, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event, Targets,
+};
 use super::ObjError;
 
 /// A run of faces (numbered in file order) that tobj made one model of.
@@ -69,9 +71,15 @@ pub(super) struct Parsed {
 
 /// Parse `bytes` (checked to be UTF-8 on the way) in chunks of about `chunk_bytes`;
 /// `libs` loads the `mtllib` libraries.
-pub(super) fn parse(bytes: &[u8], name: &str, libs: &MaterialLibraries, chunk_bytes: usize) -> Result<Parsed, ObjError> {
+pub(super) fn parse(
+    bytes: &[u8],
+    name: &str,
+    libs: &MaterialLibraries,
+    chunk_bytes: usize,
+) -> Result<Parsed, ObjError> {
     let pieces = chunks::split(bytes, chunk_bytes);
-    let (chunks, before) = chunks::count_all(&pieces).map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
+    let (chunks, before) = chunks::count_all(&pieces)
+        .map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
     drop(pieces);
     let total = before.last().copied().unwrap_or_default();
     let mut parsed = Parsed {
@@ -82,14 +90,23 @@ pub(super) fn parse(bytes: &[u8], name: &str, libs: &MaterialLibraries, chunk_by
         ..Default::default()
     };
     let targets = split_targets(&mut parsed, &before);
-    let results: Vec<ChunkFaces> = chunks.par_iter().zip(targets).zip(&before).map(|((c, t), b)| parse_chunk(*c, *b, t)).collect();
+    let results: Vec<ChunkFaces> = chunks
+        .par_iter()
+        .zip(targets)
+        .zip(&before)
+        .map(|((c, t), b)| parse_chunk(*c, *b, t))
+        .collect();
     join(results, &mut parsed, bytes, name, libs)?;
     Ok(parsed)
 }
 
 /// Each chunk's own parts of the element arrays.
 fn split_targets<'t>(parsed: &'t mut Parsed, before: &[Counts]) -> Vec<Targets<'t>> {
-    let (mut p, mut t, mut n) = (parsed.positions.as_mut_slice(), parsed.texcoords.as_mut_slice(), parsed.normals.as_mut_slice());
+    let (mut p, mut t, mut n) = (
+        parsed.positions.as_mut_slice(),
+        parsed.texcoords.as_mut_slice(),
+        parsed.normals.as_mut_slice(),
+    );
     before
         .windows(2)
         .map(|w| {
@@ -105,7 +122,13 @@ fn split_targets<'t>(parsed: &'t mut Parsed, before: &[Counts]) -> Vec<Targets<'
 /// The chunks in file order, as tobj would have read them: models, materials, smoothing
 /// groups, dropped attributes; the first error in file order, or the vertex colour error
 /// that tobj raises when it closes a model before that line.
-fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str, libs: &MaterialLibraries) -> Result<(), ObjError> {
+fn join(
+    results: Vec<ChunkFaces>,
+    parsed: &mut Parsed,
+    bytes: &[u8],
+    name: &str,
+    libs: &MaterialLibraries,
+) -> Result<(), ObjError> {
     // Every chunk was valid UTF-8, so the whole is: the messages that read the text again
     // (rare) check it once more rather than assume it.
     let text = || std::str::from_utf8(bytes).unwrap_or_default();
@@ -138,7 +161,9 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
         // The last model is closed at the end of the file, even without faces.
         walk.pop(face_base, colour_base);
     }
-    if walk.pops.iter().any(|(faces, colours)| *colours > 0 && uses_vertex_beyond(&parsed.blocks, faces.clone(), *colours)) {
+    if walk.pops.iter().any(|(faces, colours)| {
+        *colours > 0 && uses_vertex_beyond(&parsed.blocks, faces.clone(), *colours)
+    }) {
         return Err(locate_colour_mismatch(text(), name));
     }
     if let Some(e) = error {
@@ -157,7 +182,11 @@ fn join(results: Vec<ChunkFaces>, parsed: &mut Parsed, bytes: &[u8], name: &str,
 fn join_dropped(all: &mut Dropped, chunk: &ChunkDropped, face_base: usize) {
     all.faces.extend(chunk.faces.iter().map(|f| f + face_base));
     if all.first.is_none() {
-        all.first = chunk.first.as_ref().map(|(line, index, count)| DroppedFirst { line: *line, index: index.clone(), count: *count });
+        all.first = chunk.first.as_ref().map(|(line, index, count)| DroppedFirst {
+            line: *line,
+            index: index.clone(),
+            count: *count,
+        });
     }
 }
 
@@ -174,7 +203,11 @@ fn uses_vertex_beyond(blocks: &[FaceBlock], faces: Range<usize>, colours: usize)
         let mut corner = 0;
         for (f, &n) in block.arities.iter().enumerate() {
             let n = n as usize;
-            if faces.contains(&(here.start + f)) && block.corners[corner..corner + n].iter().any(|c| 3 * c[0] as usize + 2 >= colours) {
+            if faces.contains(&(here.start + f))
+                && block.corners[corner..corner + n]
+                    .iter()
+                    .any(|c| 3 * c[0] as usize + 2 >= colours)
+            {
                 return true;
             }
             corner += n;
@@ -188,10 +221,17 @@ fn uses_vertex_beyond(blocks: &[FaceBlock], faces: Range<usize>, colours: usize)
 fn located_error(e: ChunkError, text: &str, name: &str) -> ObjError {
     let (name, line) = (name.to_owned(), e.line);
     match e.kind {
-        ErrorKind::VertexOutOfRange { index, count } => {
-            ObjError::IndexOutOfRange { name, line, kind: "vertex", kind_plural: "vertices", index, count }
+        ErrorKind::VertexOutOfRange { index, count } => ObjError::IndexOutOfRange {
+            name,
+            line,
+            kind: "vertex",
+            kind_plural: "vertices",
+            index,
+            count,
+        },
+        ErrorKind::Parse(reason) if text.get(e.line_end..).unwrap_or("").trim().is_empty() => {
+            ObjError::Truncated { name, line, reason }
         }
-        ErrorKind::Parse(reason) if text.get(e.line_end..).unwrap_or("").trim().is_empty() => ObjError::Truncated { name, line, reason },
         ErrorKind::Parse(reason) => ObjError::Parse { name, line, reason },
     }
 }
@@ -213,7 +253,13 @@ struct Walk {
 }
 
 impl Walk {
-    fn event(&mut self, event: Event, face_base: usize, colour_base: usize, libs: &MaterialLibraries) {
+    fn event(
+        &mut self,
+        event: Event,
+        face_base: usize,
+        colour_base: usize,
+        libs: &MaterialLibraries,
+    ) {
         match event {
             Event::Group { face, colours } => {
                 if face_base + face > self.start {

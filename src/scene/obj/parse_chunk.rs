@@ -89,8 +89,17 @@ pub(super) struct Targets<'t> {
 }
 
 /// Parse one chunk; `before` holds the lines and elements of the chunks before it.
-pub(super) fn parse_chunk<'a>(chunk: Chunk<'a>, before: Counts, targets: Targets<'_>) -> ChunkFaces<'a> {
-    let mut parser = Parser { out: ChunkFaces { all_normals: true, ..Default::default() }, counts: before, first: before, targets };
+pub(super) fn parse_chunk<'a>(
+    chunk: Chunk<'a>,
+    before: Counts,
+    targets: Targets<'_>,
+) -> ChunkFaces<'a> {
+    let mut parser = Parser {
+        out: ChunkFaces { all_normals: true, ..Default::default() },
+        counts: before,
+        first: before,
+        targets,
+    };
     let mut offset = chunk.offset;
     for line in lines(chunk.text) {
         parser.counts.lines += 1;
@@ -136,7 +145,10 @@ impl<'a> Iterator for Words<'a> {
             Words::Unicode(split) => split.next(),
             Words::Ascii(bytes, text) => {
                 let start = bytes.iter().position(|&b| !is_ascii_space(b))?;
-                let len = bytes[start..].iter().position(|&b| is_ascii_space(b)).unwrap_or(bytes.len() - start);
+                let len = bytes[start..]
+                    .iter()
+                    .position(|&b| is_ascii_space(b))
+                    .unwrap_or(bytes.len() - start);
                 let word = &text[start..start + len];
                 (*bytes, *text) = (&bytes[start + len..], &text[start + len..]);
                 Some(word)
@@ -168,37 +180,57 @@ impl<'a> Parser<'a, '_> {
             [b'v'] => self.position(line, rest)?,
             [b'v', b't'] => {
                 let Some(t) = numbers::<2>(&mut words(rest)) else {
-                    return Err(ErrorKind::Parse(format!("a texture coordinate needs two numbers, but the line reads {}", quoted())));
+                    return Err(ErrorKind::Parse(format!(
+                        "a texture coordinate needs two numbers, but the line reads {}",
+                        quoted()
+                    )));
                 };
                 self.note_non_finite(2, t.iter().all(|c| c.is_finite()));
-                put(self.targets.texcoords, self.counts.texcoords - self.first.texcoords, Vec2::from(t));
+                put(
+                    self.targets.texcoords,
+                    self.counts.texcoords - self.first.texcoords,
+                    Vec2::from(t),
+                );
                 self.counts.texcoords += 1;
             }
             [b'v', b'n'] => {
                 let Some(n) = numbers::<3>(&mut words(rest)) else {
-                    return Err(ErrorKind::Parse(format!("a normal needs three numbers, but the line reads {}", quoted())));
+                    return Err(ErrorKind::Parse(format!(
+                        "a normal needs three numbers, but the line reads {}",
+                        quoted()
+                    )));
                 };
                 self.note_non_finite(1, n.iter().all(|c| c.is_finite()));
                 put(self.targets.normals, self.counts.normals - self.first.normals, Vec3::from(n));
                 self.counts.normals += 1;
             }
             [b'f'] => self.face(line, rest)?,
-            [b'o'] | [b'g'] => self.out.events.push(Event::Group { face: self.out.arities.len(), colours: self.out.colours }),
+            [b'o'] | [b'g'] => self
+                .out
+                .events
+                .push(Event::Group { face: self.out.arities.len(), colours: self.out.colours }),
             [b'u', b's', b'e', b'm', b't', b'l'] => {
                 let name = line.split_once(' ').map_or("", |(_, n)| n.trim());
                 if name.is_empty() {
-                    return Err(ErrorKind::Parse(format!("cannot read the material name from {}", quoted())));
+                    return Err(ErrorKind::Parse(format!(
+                        "cannot read the material name from {}",
+                        quoted()
+                    )));
                 }
                 let (face, colours) = (self.out.arities.len(), self.out.colours);
                 self.out.events.push(Event::Usemtl { face, colours, name });
             }
-            [b'm', b't', b'l', b'l', b'i', b'b'] => self.out.events.push(Event::Mtllib { spelled: line.split_once(' ').map_or("", |(_, n)| n.trim()) }),
+            [b'm', b't', b'l', b'l', b'i', b'b'] => self.out.events.push(Event::Mtllib {
+                spelled: line.split_once(' ').map_or("", |(_, n)| n.trim()),
+            }),
             [b's'] => {
                 let value = words(rest).next().map(str::as_bytes);
                 let group = match value {
                     Some(v) if v.eq_ignore_ascii_case(b"off") => 0,
                     // A number too large for u32 is still a group: all of them the same one.
-                    Some(v) if !v.is_empty() && v.iter().all(u8::is_ascii_digit) => std::str::from_utf8(v).ok().and_then(|t| t.parse().ok()).unwrap_or(u32::MAX),
+                    Some(v) if !v.is_empty() && v.iter().all(u8::is_ascii_digit) => {
+                        std::str::from_utf8(v).ok().and_then(|t| t.parse().ok()).unwrap_or(u32::MAX)
+                    }
                     _ => 0,
                 };
                 self.out.events.push(Event::Smooth { face: self.out.arities.len(), group });
@@ -210,8 +242,18 @@ impl<'a> Parser<'a, '_> {
 
     /// `v x y z`, `v x y z w` (w dropped: a mesh keeps x, y, z) or `v x y z r g b`.
     fn position(&mut self, line: &str, rest: &str) -> Result<(), ErrorKind> {
-        let position_error = || ErrorKind::Parse(format!("a vertex position needs three numbers, but the line reads {}", quote(line)));
-        let colour_error = || ErrorKind::Parse(format!("a vertex colour needs three numbers, but the line reads {}", quote(line)));
+        let position_error = || {
+            ErrorKind::Parse(format!(
+                "a vertex position needs three numbers, but the line reads {}",
+                quote(line)
+            ))
+        };
+        let colour_error = || {
+            ErrorKind::Parse(format!(
+                "a vertex colour needs three numbers, but the line reads {}",
+                quote(line)
+            ))
+        };
         let mut words = words(rest);
         let p = numbers::<3>(&mut words).ok_or_else(position_error)?;
         // The message for a non-finite value reads the line's leading numbers, and divides
@@ -225,7 +267,9 @@ impl<'a> Parser<'a, '_> {
                 }
                 3 => {
                     let before = self.out.colour_values.len();
-                    self.out.colour_values.extend(extra.iter().map_while(|w| w.parse::<f32>().ok()));
+                    self.out
+                        .colour_values
+                        .extend(extra.iter().map_while(|w| w.parse::<f32>().ok()));
                     self.out.colours += self.out.colour_values.len() - before;
                 }
                 _ => return Err(colour_error()),
@@ -255,7 +299,9 @@ impl<'a> Parser<'a, '_> {
         let available = [self.counts.positions, self.counts.texcoords, self.counts.normals];
         let face = self.out.arities.len();
         let before = self.out.corners.len();
-        if let Some(arity) = fast_face(rest.as_bytes(), available.map(|n| n as u64), &mut self.out.corners) {
+        if let Some(arity) =
+            fast_face(rest.as_bytes(), available.map(|n| n as u64), &mut self.out.corners)
+        {
             for &[_, vt, vn] in &self.out.corners[before..] {
                 self.out.any_texcoord |= vt != NONE;
                 self.out.any_normal |= vn != NONE;
@@ -271,7 +317,10 @@ impl<'a> Parser<'a, '_> {
             (texcoord, normal) => {
                 let line_no = self.counts.lines;
                 let (vt, vn) = (texcoord.is_some(), normal.is_some());
-                for (dropped, bad) in [(&mut self.out.dropped_texcoords, texcoord), (&mut self.out.dropped_normals, normal)] {
+                for (dropped, bad) in [
+                    (&mut self.out.dropped_texcoords, texcoord),
+                    (&mut self.out.dropped_normals, normal),
+                ] {
                     if let Some((index, count)) = bad {
                         dropped.faces.push(face);
                         dropped.first.get_or_insert((line_no, index, count));
@@ -283,7 +332,10 @@ impl<'a> Parser<'a, '_> {
         let mut arity = 0;
         for corner in words(rest) {
             let mut parts = corner.split('/');
-            let mut index = |slot: usize, drop: bool| match parts.next().and_then(|t| parse_index(t.as_bytes())) {
+            let mut index = |slot: usize, drop: bool| match parts
+                .next()
+                .and_then(|t| parse_index(t.as_bytes()))
+            {
                 Some(i) if !drop => resolve(i, available[slot]),
                 _ => NONE,
             };
@@ -354,7 +406,8 @@ fn put<T>(target: &mut [T], i: usize, value: T) {
 /// A checked OBJ index (1-based, or negative counting back from the last of `available`)
 /// as a 0-based index.
 fn resolve(index: i64, available: usize) -> u32 {
-    let zero_based = if index > 0 { index as usize - 1 } else { available - index.unsigned_abs() as usize };
+    let zero_based =
+        if index > 0 { index as usize - 1 } else { available - index.unsigned_abs() as usize };
     zero_based as u32
 }
 
@@ -366,7 +419,11 @@ type BadIndex = (String, usize);
 /// name a vertex defined earlier in the file; a texture coordinate or normal index that
 /// names none is returned (the first of each kind, with the count so far), for the face
 /// to go on without them.
-fn check_face<'w>(corners: impl Iterator<Item = &'w str>, available: [usize; 3], line: &str) -> Result<(Option<BadIndex>, Option<BadIndex>), ErrorKind> {
+fn check_face<'w>(
+    corners: impl Iterator<Item = &'w str>,
+    available: [usize; 3],
+    line: &str,
+) -> Result<(Option<BadIndex>, Option<BadIndex>), ErrorKind> {
     let mut bad: [Option<BadIndex>; 3] = Default::default();
     let mut count = 0;
     for corner in corners {
@@ -378,7 +435,10 @@ fn check_face<'w>(corners: impl Iterator<Item = &'w str>, available: [usize; 3],
                 continue; // `v//vn` and `v/vt/`: the element is simply absent
             }
             let Some(index) = parse_index(text.as_bytes()) else {
-                return Err(ErrorKind::Parse(format!("`{corner}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}", quote(line))));
+                return Err(ErrorKind::Parse(format!(
+                    "`{corner}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                    quote(line)
+                )));
             };
             // Negative indices count back from the last element defined so far.
             let in_range = match index {
@@ -387,18 +447,27 @@ fn check_face<'w>(corners: impl Iterator<Item = &'w str>, available: [usize; 3],
                 _ => index.unsigned_abs() <= available as u64,
             };
             if !in_range && slot == 0 {
-                return Err(ErrorKind::VertexOutOfRange { index: text.to_owned(), count: available });
+                return Err(ErrorKind::VertexOutOfRange {
+                    index: text.to_owned(),
+                    count: available,
+                });
             }
             if !in_range && bad[slot].is_none() {
                 bad[slot] = Some((text.to_owned(), available));
             }
         }
         if parts.next().is_some() {
-            return Err(ErrorKind::Parse(format!("`{corner}` has more than three indices in {}", quote(line))));
+            return Err(ErrorKind::Parse(format!(
+                "`{corner}` has more than three indices in {}",
+                quote(line)
+            )));
         }
     }
     if count < 3 {
-        return Err(ErrorKind::Parse(format!("a face needs at least three corners, but {} has {count}", quote(line))));
+        return Err(ErrorKind::Parse(format!(
+            "a face needs at least three corners, but {} has {count}",
+            quote(line)
+        )));
     }
     let [_, texcoord, normal] = bad;
     Ok((texcoord, normal))
@@ -448,7 +517,11 @@ mod tests {
                 let fast = fast_face(corners.as_bytes(), [2, 1, 0], &mut out);
                 assert_eq!(fast.is_some(), slow, "f {corners}");
                 if let Some(n) = fast {
-                    assert_eq!((out.len(), out[0], out[1]), (n as usize, [0, 0, NONE], [0, NONE, NONE]), "f {corners}");
+                    assert_eq!(
+                        (out.len(), out[0], out[1]),
+                        (n as usize, [0, 0, NONE], [0, NONE, NONE]),
+                        "f {corners}"
+                    );
                 }
             }
         }
@@ -457,7 +530,11 @@ mod tests {
     #[test]
     fn words_split_as_split_whitespace_splits() {
         for text in [" a  b\tc\r", "", "  ", "x\u{3000}y z", "\u{85}q"] {
-            assert_eq!(words(text).collect::<Vec<_>>(), text.split_whitespace().collect::<Vec<_>>(), "{text:?}");
+            assert_eq!(
+                words(text).collect::<Vec<_>>(),
+                text.split_whitespace().collect::<Vec<_>>(),
+                "{text:?}"
+            );
         }
     }
 }

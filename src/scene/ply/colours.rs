@@ -23,12 +23,18 @@ impl ColourColumns {
     /// an error (the sentence) when one of them is a list.
     pub(super) fn of(vertex: &Element) -> Result<Option<Self>, String> {
         let column = |names: &[&str]| -> Result<Option<(usize, Scalar)>, String> {
-            match vertex.properties.iter().enumerate().find(|(_, (n, _))| names.contains(&n.as_str())) {
+            match vertex
+                .properties
+                .iter()
+                .enumerate()
+                .find(|(_, (n, _))| names.contains(&n.as_str()))
+            {
                 None => Ok(None),
                 Some((k, (_, Property::Scalar(s)))) => Ok(Some((k, *s))),
-                Some((_, (n, Property::List { .. }))) => {
-                    Err(format!("`element vertex` property {} is a list; a colour component must be one value", quote(n)))
-                }
+                Some((_, (n, Property::List { .. }))) => Err(format!(
+                    "`element vertex` property {} is a list; a colour component must be one value",
+                    quote(n)
+                )),
             }
         };
         let (r, g, b, alpha) = (column(RED)?, column(GREEN)?, column(BLUE)?, column(ALPHA)?);
@@ -61,7 +67,10 @@ mod tests {
 
     #[test]
     fn components_scale_round_and_clamp() {
-        assert_eq!([0.0, 1.0, 0.5, -3.0, 7.0, f64::NAN].map(|v| byte(v, Scalar::F32)), [0, 255, 128, 0, 255, 0]);
+        assert_eq!(
+            [0.0, 1.0, 0.5, -3.0, 7.0, f64::NAN].map(|v| byte(v, Scalar::F32)),
+            [0, 255, 128, 0, 255, 0]
+        );
         assert_eq!([0.0, 200.0, 255.0].map(|v| byte(v, Scalar::U8)), [0, 200, 255]);
         assert_eq!([0.0, 65535.0, 257.0 * 9.0].map(|v| byte(v, Scalar::U16)), [0, 255, 9]);
         assert_eq!([-5.0, 300.0].map(|v| byte(v, Scalar::I32)), [0, 255]);

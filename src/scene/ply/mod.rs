@@ -17,8 +17,8 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::obj::{LoadedObj, ObjError};
-use crate::files::read_regular_file;
 use super::{Material, Mesh};
+use crate::files::read_regular_file;
 
 mod binary;
 mod colours;
@@ -33,7 +33,8 @@ const MAX_HEADER_BYTES: usize = 1 << 20;
 
 /// Load a PLY file (ASCII or binary). Devices and FIFOs are refused before opening.
 pub fn load_ply(path: &Path) -> Result<LoadedObj, ObjError> {
-    let bytes = read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    let bytes =
+        read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
     load_ply_from_bytes(&bytes, &path.display().to_string())
 }
 
@@ -41,7 +42,9 @@ pub fn load_ply(path: &Path) -> Result<LoadedObj, ObjError> {
 pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjError> {
     let fail = |location: Location, reason: String| match location {
         Location::Line(line) => ObjError::Parse { name: name.to_owned(), line, reason },
-        Location::Element(what) => ObjError::Invalid { name: name.to_owned(), reason: format!("{what}: {reason}") },
+        Location::Element(what) => {
+            ObjError::Invalid { name: name.to_owned(), reason: format!("{what}: {reason}") }
+        }
         Location::File => ObjError::Invalid { name: name.to_owned(), reason },
     };
     let header = parse_header(bytes).map_err(|(l, r)| fail(l, r))?;
@@ -54,7 +57,13 @@ pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjErr
     };
     let mesh = match fast {
         Some((positions, attributes, triangles)) => {
-            let mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], positions, triangles, ..Default::default() };
+            let mesh = Mesh {
+                name: name.to_owned(),
+                materials: vec![Material::default()],
+                positions,
+                triangles,
+                ..Default::default()
+            };
             finish_mesh(mesh, attributes, &header, name, &mut warnings)
         }
         None => {
@@ -152,7 +161,9 @@ struct Element {
 impl Element {
     /// The position of the first scalar property called any of `names`.
     fn find(&self, names: &[&str]) -> Option<usize> {
-        self.properties.iter().position(|(n, p)| names.contains(&n.as_str()) && matches!(p, Property::Scalar(_)))
+        self.properties
+            .iter()
+            .position(|(n, p)| names.contains(&n.as_str()) && matches!(p, Property::Scalar(_)))
     }
 }
 
@@ -186,12 +197,16 @@ fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
         let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
         let raw = &bytes[pos..end];
         pos = (end + 1).min(bytes.len());
-        let line = std::str::from_utf8(raw).map_err(|_| (Location::Line(line_no), "the header is not text".to_owned()))?;
+        let line = std::str::from_utf8(raw)
+            .map_err(|_| (Location::Line(line_no), "the header is not text".to_owned()))?;
         let words: Vec<&str> = line.split_ascii_whitespace().collect();
         let bad = |reason: String| (Location::Line(line_no), reason);
         if line_no == 1 {
             if line.trim_end_matches('\r') != "ply" {
-                return Err((Location::File, "not a PLY file (it does not begin with `ply`)".to_owned()));
+                return Err((
+                    Location::File,
+                    "not a PLY file (it does not begin with `ply`)".to_owned(),
+                ));
             }
             continue;
         }
@@ -203,24 +218,39 @@ fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
                     "ascii" => Format::Ascii,
                     "binary_little_endian" => Format::Binary { big_endian: false },
                     "binary_big_endian" => Format::Binary { big_endian: true },
-                    _ => return Err(bad(format!("unknown format {} (ascii, binary_little_endian or binary_big_endian)", quote(kind)))),
+                    _ => {
+                        return Err(bad(format!(
+                            "unknown format {} (ascii, binary_little_endian or binary_big_endian)",
+                            quote(kind)
+                        )))
+                    }
                 });
                 if !version.starts_with('1') {
                     return Err(bad(format!("unknown format version {}", quote(version))));
                 }
             }
             ["element", elem, count] => {
-                let count = count.parse::<u64>().map_err(|_| bad(format!("element count {} is not a number", quote(count))))?;
+                let count = count
+                    .parse::<u64>()
+                    .map_err(|_| bad(format!("element count {} is not a number", quote(count))))?;
                 elements.push(Element { name: elem.to_string(), count, properties: Vec::new() });
             }
             ["property", rest @ ..] => {
-                let element = elements.last_mut().ok_or_else(|| bad("a property before any element".to_owned()))?;
-                let scalar = |w: &str| Scalar::parse(w).ok_or_else(|| bad(format!("unknown property type {}", quote(w))));
+                let element = elements
+                    .last_mut()
+                    .ok_or_else(|| bad("a property before any element".to_owned()))?;
+                let scalar = |w: &str| {
+                    Scalar::parse(w)
+                        .ok_or_else(|| bad(format!("unknown property type {}", quote(w))))
+                };
                 let property = match rest {
                     ["list", count, item, pname] => {
                         let count = scalar(count)?;
                         if !count.is_integer() {
-                            return Err(bad(format!("list {} has a count type that is not an integer", quote(pname))));
+                            return Err(bad(format!(
+                                "list {} has a count type that is not an integer",
+                                quote(pname)
+                            )));
                         }
                         (pname.to_string(), Property::List { count, item: scalar(item)? })
                     }
@@ -256,7 +286,8 @@ fn check_body_size(header: &Header, body: &[u8]) -> Result<(), String> {
     // The last ASCII number needs no separator after it.
     let least = if header.format == Format::Ascii { least.saturating_sub(1) } else { least };
     if least > body.len() as u128 {
-        let claims: Vec<String> = header.elements.iter().map(|e| format!("{} {}", e.count, quote(&e.name))).collect();
+        let claims: Vec<String> =
+            header.elements.iter().map(|e| format!("{} {}", e.count, quote(&e.name))).collect();
         return Err(format!(
             "the header claims {} elements (at least {least} bytes), but the body holds only {} bytes: the file is cut short or its header is wrong",
             claims.join(" and "),
@@ -295,9 +326,16 @@ impl Body<'_> {
                 }
                 *line += newlines;
                 let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
-                let value = if kind.is_integer() { word.parse::<i64>().ok().map(|v| v as f64) } else { word.parse::<f64>().ok() };
-                let in_range = |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
-                value.filter(|&v| in_range(v)).ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
+                let value = if kind.is_integer() {
+                    word.parse::<i64>().ok().map(|v| v as f64)
+                } else {
+                    word.parse::<f64>().ok()
+                };
+                let in_range =
+                    |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
+                value
+                    .filter(|&v| in_range(v))
+                    .ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
             }
             Body::Binary { data, pos, big_endian } => {
                 let size = kind.size();
@@ -371,21 +409,36 @@ fn int_max(kind: Scalar) -> f64 {
 }
 
 /// Read every element in order: vertices and faces into the mesh, the rest skipped.
-fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
+fn read_body(
+    header: &Header,
+    body: &mut Body,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh, Failure> {
     let vertex_count = header.elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
     let capacity = |n: u64| (n as usize).min(MAX_INITIAL_CAPACITY);
-    let mut mesh = Mesh { name: name.to_owned(), materials: vec![Material::default()], ..Default::default() };
+    let mut mesh =
+        Mesh { name: name.to_owned(), materials: vec![Material::default()], ..Default::default() };
     let mut attributes = Attributes::default();
     let mut saw_vertices = false;
     for e in &header.elements {
         match e.name.as_str() {
             "vertex" if !saw_vertices => {
                 saw_vertices = true;
-                let missing = |axis: &str| (Location::File, format!("`element vertex` has no scalar property {axis}"));
-                let xyz = [e.find(&["x"]).ok_or_else(|| missing("x"))?, e.find(&["y"]).ok_or_else(|| missing("y"))?, e.find(&["z"]).ok_or_else(|| missing("z"))?];
+                let missing = |axis: &str| {
+                    (Location::File, format!("`element vertex` has no scalar property {axis}"))
+                };
+                let xyz = [
+                    e.find(&["x"]).ok_or_else(|| missing("x"))?,
+                    e.find(&["y"]).ok_or_else(|| missing("y"))?,
+                    e.find(&["z"]).ok_or_else(|| missing("z"))?,
+                ];
                 let n = [e.find(&["nx"]), e.find(&["ny"]), e.find(&["nz"])];
                 let n = if let [Some(a), Some(b), Some(c)] = n { Some([a, b, c]) } else { None };
-                let uv = match (e.find(&["u", "s", "texture_u", "texture_s"]), e.find(&["v", "t", "texture_v", "texture_t"])) {
+                let uv = match (
+                    e.find(&["u", "s", "texture_u", "texture_s"]),
+                    e.find(&["v", "t", "texture_v", "texture_t"]),
+                ) {
                     (Some(a), Some(b)) => Some([a, b]),
                     _ => None,
                 };
@@ -394,7 +447,10 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
                 let mut values = vec![0.0f64; e.properties.len()];
                 for i in 0..e.count {
                     for (k, (_, p)) in e.properties.iter().enumerate() {
-                        values[k] = body.property(p, |_| {}).map_err(|r| (body.location("vertex", i), r))?.unwrap_or(0.0);
+                        values[k] = body
+                            .property(p, |_| {})
+                            .map_err(|r| (body.location("vertex", i), r))?
+                            .unwrap_or(0.0);
                     }
                     let p = Vec3::from(xyz.map(|k| values[k] as f32));
                     if !p.is_finite() {
@@ -416,8 +472,14 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
                 let list = e
                     .properties
                     .iter()
-                    .position(|(n, p)| (n == "vertex_indices" || n == "vertex_index") && matches!(p, Property::List { .. }))
-                    .ok_or((Location::File, "`element face` has no list property vertex_indices".to_owned()))?;
+                    .position(|(n, p)| {
+                        (n == "vertex_indices" || n == "vertex_index")
+                            && matches!(p, Property::List { .. })
+                    })
+                    .ok_or((
+                        Location::File,
+                        "`element face` has no list property vertex_indices".to_owned(),
+                    ))?;
                 mesh.triangles.reserve(capacity(e.count));
                 let mut corners: Vec<f64> = Vec::new();
                 for i in 0..e.count {
@@ -435,9 +497,14 @@ fn read_body(header: &Header, body: &mut Body, name: &str, warnings: &mut Vec<St
                     }
                     let at = || body.location("face", i);
                     if corners.len() < 3 {
-                        return Err((at(), format!("a face has {} corners; at least 3 are needed", corners.len())));
+                        return Err((
+                            at(),
+                            format!("a face has {} corners; at least 3 are needed", corners.len()),
+                        ));
                     }
-                    if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
+                    if let Some(&bad) =
+                        corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64)
+                    {
                         return Err((at(), format!("face vertex index {bad} is out of range (the file has {vertex_count} vertices)")));
                     }
                     let c = |k: usize| corners[k] as u32;
@@ -475,13 +542,32 @@ struct Attributes {
 /// What every reading ends with: the check for faces, the warnings for skipped elements and
 /// unusable texture coordinates, the colours (with a white diffuse, so that they are what
 /// is seen), and the file's normals (or computed ones).
-fn finish_mesh(mut mesh: Mesh, attributes: Attributes, header: &Header, name: &str, warnings: &mut Vec<String>) -> Result<Mesh, Failure> {
+fn finish_mesh(
+    mut mesh: Mesh,
+    attributes: Attributes,
+    header: &Header,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh, Failure> {
     let Attributes { normals, texcoords, colors } = attributes;
     if mesh.triangles.is_empty() {
-        return Err((Location::File, "the file has no faces, so there is nothing to trace".to_owned()));
+        return Err((
+            Location::File,
+            "the file has no faces, so there is nothing to trace".to_owned(),
+        ));
     }
-    if header.elements.iter().filter(|e| e.name != "vertex" && e.name != "face").any(|e| e.count > 0) {
-        let skipped: Vec<String> = header.elements.iter().filter(|e| e.name != "vertex" && e.name != "face").map(|e| quote(&e.name)).collect();
+    if header
+        .elements
+        .iter()
+        .filter(|e| e.name != "vertex" && e.name != "face")
+        .any(|e| e.count > 0)
+    {
+        let skipped: Vec<String> = header
+            .elements
+            .iter()
+            .filter(|e| e.name != "vertex" && e.name != "face")
+            .map(|e| quote(&e.name))
+            .collect();
         warnings.push(format!("{name}: elements {} are not used", skipped.join(", ")));
     }
     mesh.triangle_materials = vec![0; mesh.triangles.len()];
@@ -495,7 +581,9 @@ fn finish_mesh(mut mesh: Mesh, attributes: Attributes, header: &Header, name: &s
     } else {
         mesh.texcoords = texcoords;
     }
-    if !normals.is_empty() && normals.par_iter().all(|n| n.is_finite() && n.try_normalize().is_some()) {
+    if !normals.is_empty()
+        && normals.par_iter().all(|n| n.is_finite() && n.try_normalize().is_some())
+    {
         mesh.normals = normals.into_par_iter().map(Vec3::normalize).collect();
         mesh.has_file_normals = true;
     } else {
@@ -527,12 +615,18 @@ mod tests {
     fn bad_headers_and_bodies_are_one_line_naming_the_file() {
         let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
         for (text, expected) in [
-            (format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"), "t.ply line 13: face vertex index 7 is out of range"),
+            (
+                format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"),
+                "t.ply line 13: face vertex index 7 is out of range",
+            ),
             (format!("{head}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "t.ply line 13: a face has 2 corners"),
             (format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "t.ply line 13: the file ends here"),
             (head.replace("ascii", "utf16"), "t.ply line 2: unknown format `utf16`"),
             (head.replace("float x", "half x"), "t.ply line 4: unknown property type `half`"),
-            (head.replace("vertex 3", "vertex 3000000000"), "t.ply: the header claims 3000000000 `vertex`"),
+            (
+                head.replace("vertex 3", "vertex 3000000000"),
+                "t.ply: the header claims 3000000000 `vertex`",
+            ),
         ] {
             let e = load_ply_from_bytes(text.as_bytes(), "t.ply").unwrap_err().to_string();
             assert!(e.starts_with(expected), "{e}");
