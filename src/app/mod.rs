@@ -8,7 +8,7 @@
 //! - `panel/`: the egui side panel, one file per section;
 //! - `views/`: the cost, AOV and split views, and the overlay over the image (the HUD);
 //! - `measure/`: frame-time history, GPU clock, the frame-time log and the benchmark run;
-//! - `files/`: model loading, the Open dialog, screenshots, remembered settings, shader
+//! - `user_files/`: model loading, the Open dialog, screenshots, remembered settings, shader
 //!   reloads.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
@@ -16,7 +16,7 @@
 //! A scripted run (`--frames N`) starts with the light paused at `--light-angle` so that
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
-pub(crate) mod files;
+pub(crate) mod user_files;
 pub(crate) mod measure;
 pub(crate) mod options;
 pub(crate) mod panel;

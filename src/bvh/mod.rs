@@ -7,13 +7,13 @@
 //! `index .. index + count` of the BVH-ordered triangle array; `index == EMPTY` with
 //! `count == 0` is an absent child (only in a root over fewer than two triangles).
 
-mod build;
+mod builder;
 mod stats;
 mod traverse;
 mod validate;
 pub mod wide;
 
-pub use build::BuildOptions;
+pub use builder::BuildOptions;
 pub(crate) use traverse::{any_hit, closest_hit};
 pub use traverse::{ordered_edges, TraversalStats};
 

@@ -386,7 +386,7 @@ impl Runs {
             println!("{line}");
         }
         let path =
-            json_path(self.json.as_deref(), &crate::app::files::screenshot::screenshot_dir());
+            json_path(self.json.as_deref(), &crate::app::user_files::screenshot::screenshot_dir());
         let written = append_json(&path, &summary);
         outcome.lines = lines;
         outcome.status = Some(match &written {

@@ -401,7 +401,7 @@ impl Recorder {
 
 /// A fresh file name in `dir` for a log recorded from the panel.
 pub(crate) fn new_path(dir: &Path) -> PathBuf {
-    let stamp = crate::app::files::screenshot::timestamp();
+    let stamp = crate::app::user_files::screenshot::timestamp();
     let mut path = dir.join(format!("meshtracer_frames_{stamp}.csv"));
     let mut n = 2;
     while path.exists() {

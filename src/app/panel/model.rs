@@ -3,8 +3,8 @@
 
 use egui::{RichText, Ui};
 
-use crate::app::files::model_loader::LoadStatus;
-use crate::app::files::open_dialog::Purpose;
+use crate::app::user_files::model_loader::LoadStatus;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
 use crate::progress::Phase;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use egui::{RichText, Ui};
 
-use crate::app::files::open_dialog::Purpose;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{status_line, Status};
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use egui::Ui;
 
-use crate::app::files::open_dialog::Purpose;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::info::PanelInfo;
 use crate::app::state::Params;
 use crate::gpu::khr_rt::VendorKernel;

@@ -4,7 +4,7 @@
 use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
 use winit::keyboard::PhysicalKey;
 
-use crate::app::files::open_dialog::Purpose;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::app::state::{fit_rect, KeyAction};
 use crate::app::tool::input::{Drag, KeyPress};
 use crate::app::tool::Tool;

@@ -36,9 +36,9 @@ mod timing;
 mod ui;
 mod ui_state;
 
-use crate::app::files::open_dialog::OpenDialog;
-use crate::app::files::settings::{self, Store};
-use crate::app::files::shader_watch::ShaderWatch;
+use crate::app::user_files::open_dialog::OpenDialog;
+use crate::app::user_files::settings::{self, Store};
+use crate::app::user_files::shader_watch::ShaderWatch;
 use crate::app::measure::benchmark::{Runs, Workload};
 use crate::app::measure::frame_log::{watched, FrameRow, Recorder};
 use crate::app::measure::gpu_clock::ClockWatch;

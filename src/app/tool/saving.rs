@@ -10,8 +10,8 @@ use anyhow::{anyhow, Context as _};
 
 use winit::dpi::LogicalSize;
 
-use crate::app::files::screenshot::{self, Kind, NameParts};
-use crate::app::files::settings;
+use crate::app::user_files::screenshot::{self, Kind, NameParts};
+use crate::app::user_files::settings;
 use crate::app::options::DEFAULT_WINDOW;
 use crate::app::panel::widgets::Status;
 use crate::app::tool::Tool;

@@ -11,7 +11,7 @@ use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
-use crate::app::files::model_loader::{LoadedModel, ModelLoader, Poll};
+use crate::app::user_files::model_loader::{LoadedModel, ModelLoader, Poll};
 use crate::app::panel::widgets::{group, Status};
 use crate::app::panel::PanelState;
 use crate::app::state::{Params, Resolution};

@@ -2,8 +2,8 @@
 //! image area and which keys are shortcuts), and the actions the panel asks for. Its
 //! state is [`UiPass`](super::ui_state::UiPass).
 
-use crate::app::files::open_dialog::Purpose;
-use crate::app::files::screenshot::{self, Kind};
+use crate::app::user_files::open_dialog::Purpose;
+use crate::app::user_files::screenshot::{self, Kind};
 use crate::app::panel::{self, PanelAction, PanelInfo, Status, VendorInfo};
 use crate::app::state::fit_rect;
 use crate::app::tool::devices;
