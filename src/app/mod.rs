@@ -16,12 +16,12 @@
 //! A scripted run (`--frames N`) starts with the light paused at `--light-angle` so that
 //! `--screenshot` matches `meshtracer render` with the same flags.
 
-pub(crate) mod user_files;
 pub(crate) mod measure;
 pub(crate) mod options;
 pub(crate) mod panel;
 pub(crate) mod state;
 pub(crate) mod tool;
+pub(crate) mod user_files;
 pub(crate) mod views;
 
 /// The in-window benchmark where the command line's tests name it.

@@ -1,8 +1,8 @@
 //! The read-only facts the panel (and the HUD over the image) show, gathered by the tool
 //! once a frame. A leaf: it knows no section.
 
-use crate::app::user_files::model_loader::LoadStatus;
 use crate::app::measure::frame_stats::FrameStats;
+use crate::app::user_files::model_loader::LoadStatus;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::render_settings::RenderSettings;
 use crate::scene::paper::ModelSource;

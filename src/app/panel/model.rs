@@ -3,10 +3,10 @@
 
 use egui::{RichText, Ui};
 
-use crate::app::user_files::model_loader::LoadStatus;
-use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
+use crate::app::user_files::model_loader::LoadStatus;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::progress::Phase;
 use crate::scene::paper::{ModelSource, MAX_MODELS};
 use crate::scene::primitives::PaperModel;

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use egui::{RichText, Ui};
 
-use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{status_line, Status};
+use crate::app::user_files::open_dialog::Purpose;
 
 /// How many recently used presets the section lists.
 const RECENT: usize = 8;

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 
 use egui::Ui;
 
-use crate::app::user_files::open_dialog::Purpose;
 use crate::app::panel::info::PanelInfo;
 use crate::app::state::Params;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::scene::paper::ModelSource;
 

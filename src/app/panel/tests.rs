@@ -7,9 +7,9 @@ use egui_kittest::kittest::{NodeT, Queryable};
 use egui_kittest::Harness;
 
 use super::{show, PanelAction, PanelInfo, PanelState, VendorInfo, PANEL_WIDTH};
-use crate::app::user_files::model_loader::LoadStatus;
 use crate::app::measure::frame_stats::FrameStats;
 use crate::app::state::{CostMetric, Params, ViewMode};
+use crate::app::user_files::model_loader::LoadStatus;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::render_settings::Accel;

@@ -4,10 +4,10 @@
 use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
 use winit::keyboard::PhysicalKey;
 
-use crate::app::user_files::open_dialog::Purpose;
 use crate::app::state::{fit_rect, KeyAction};
 use crate::app::tool::input::{Drag, KeyPress};
 use crate::app::tool::Tool;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::gpu::present::PixelRect;
 
 impl Tool {

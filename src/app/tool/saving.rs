@@ -10,11 +10,11 @@ use anyhow::{anyhow, Context as _};
 
 use winit::dpi::LogicalSize;
 
-use crate::app::user_files::screenshot::{self, Kind, NameParts};
-use crate::app::user_files::settings;
 use crate::app::options::DEFAULT_WINDOW;
 use crate::app::panel::widgets::Status;
 use crate::app::tool::Tool;
+use crate::app::user_files::screenshot::{self, Kind, NameParts};
+use crate::app::user_files::settings;
 use crate::app::views::overlay::Notice;
 use crate::scene::preset::{self, Loaded, SaveError};
 

@@ -11,11 +11,11 @@ use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedScene;
 use crate::tracer::textures::EnvironmentMap;
 
-use crate::app::user_files::model_loader::{LoadedModel, ModelLoader, Poll};
 use crate::app::panel::widgets::{group, Status};
 use crate::app::panel::PanelState;
 use crate::app::state::{Params, Resolution};
 use crate::app::tool::auto_layout::{AutoLayout, Work};
+use crate::app::user_files::model_loader::{LoadedModel, ModelLoader, Poll};
 
 /// The current model on the CPU side.
 pub(crate) struct Model {

@@ -2,12 +2,12 @@
 //! image area and which keys are shortcuts), and the actions the panel asks for. Its
 //! state is [`UiPass`](super::ui_state::UiPass).
 
-use crate::app::user_files::open_dialog::Purpose;
-use crate::app::user_files::screenshot::{self, Kind};
 use crate::app::panel::{self, PanelAction, PanelInfo, Status, VendorInfo};
 use crate::app::state::fit_rect;
 use crate::app::tool::devices;
 use crate::app::tool::Tool;
+use crate::app::user_files::open_dialog::Purpose;
+use crate::app::user_files::screenshot::{self, Kind};
 use crate::app::views::overlay;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::present::PixelRect;

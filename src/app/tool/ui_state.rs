@@ -1,8 +1,8 @@
 //! What the UI pass keeps between frames: egui's state, the panel's, the Open dialog and
 //! the image area the last frame laid out.
 
-use crate::app::user_files::open_dialog::OpenDialog;
 use crate::app::panel::PanelState;
+use crate::app::user_files::open_dialog::OpenDialog;
 use crate::gpu::present::PixelRect;
 
 /// egui and what is drawn with it.
