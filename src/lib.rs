@@ -1,12 +1,20 @@
-//! meshtracer: a Vulkan compute-shader ray tracer for triangle meshes.
+//! meshtracer: a Vulkan compute-shader ray tracer for triangle meshes. The modules from the
+//! bottom up (a module imports only those before it; ARCHITECTURE.md is the map):
 //!
-//! - [`scene`]: meshes (OBJ loader, the paper's generators), the paper's mirror-box scene.
-//! - [`bvh`]: the acceleration structure, built on the CPU, traversed on both tracers.
+//! - [`contract`], [`geometry`], [`memory`]: the constants the shaders share, rays and
+//!   triangles, host memory requests;
+//! - [`render_settings`]: what a frame is asked for, its defaults and every range a user
+//!   gives; [`files`]: the one place a file is read or written; [`progress`]: a load's phases;
+//! - [`bvh`]: the binary and the compressed wide BVH, built on the CPU, traversed by both
+//!   tracers;
+//! - [`scene`]: meshes (OBJ, PLY and glTF loaders, the paper's generators), the paper's
+//!   mirror-box scene, the camera, the scene spec and presets;
 //! - [`tracer`]: the tracing model shared by both tracers: parameters, the packed GPU scene
-//!   layout, and the CPU reference tracer that the tests use as their oracle.
-//! - [`gpu`]: the Vulkan backend (instance/device, memory, buffers, timestamps) and the
-//!   trace pass that runs `shaders/trace.comp`.
-//! - [`app`]: the interactive egui tool on top; [`cli`]: the thin command line.
+//!   layout, and the CPU reference tracer that the tests use as their oracle;
+//! - [`gpu`]: the Vulkan backend and the compute tracer, the driver's ray tracing beside it,
+//!   and presentation;
+//! - `bench`: benchmarks and their reports; [`app`]: the interactive egui tool; [`cli`]: the
+//!   command line.
 
 pub mod app;
 pub(crate) mod bench;

@@ -119,8 +119,9 @@ impl Accel {
     pub const ALL: [Accel; 3] = [Accel::Bvh, Accel::Brute, Accel::Vendor];
 }
 
-/// Which layout of our BVH the traversal reads (`--bvh`); both are packed for every scene,
-/// so a frame may switch between them.
+/// Which layout of our BVH the traversal reads (`--bvh`). `render` and `bench` pack only
+/// the layout they trace; the window packs both once the wide tree is loaded, so that its
+/// frames may switch between them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhLayout {
     /// Two children per 64-byte node, float boxes (the SAH tree as built).

@@ -1,15 +1,17 @@
 //! The interactive tool: a winit window with a Vulkan swapchain showing the traced image,
 //! and the egui tuning panel on top.
 //!
+//! Its parts from the bottom up; each imports only those before it (`APP_ORDER` in
+//! `tests/architecture.rs`), and this file, the entry point, all of them:
 //! - `options`: what the tool is started with (the CLI fills it); `state`: the parameters
 //!   and the keyboard shortcuts;
-//! - `tool/`: the window, GPU side and egui, one redraw per displayed frame, with its
-//!   input, session (model, loader, what the tracer holds), scripted runs and bands;
-//! - `panel/`: the egui side panel, one file per section;
 //! - `views/`: the cost, AOV and split views, and the overlay over the image (the HUD);
 //! - `measure/`: frame-time history, GPU clock, the frame-time log and the benchmark run;
 //! - `user_files/`: model loading, the Open dialog, screenshots, remembered settings, shader
-//!   reloads.
+//!   reloads;
+//! - `panel/`: the egui side panel, one file per section;
+//! - `tool/`: the window, GPU side and egui, one redraw per displayed frame, with its
+//!   input, session (model, loader, what the tracer holds), scripted runs and bands.
 //!
 //! Nothing here calls Vulkan: presentation and tracing are `crate::gpu`'s.
 //!

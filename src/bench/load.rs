@@ -66,7 +66,8 @@ impl LoadRow {
     }
 }
 
-/// Load `spec`'s model into a scene as the window does, upload it to `tracer` and trace one
+/// Load `spec`'s model into `spec`'s scene through the phases of the window's loader (read,
+/// parse, build, pack, each timed by a [`Progress`]), upload it to `tracer` and trace one
 /// frame at `spec`'s settings. The peak memory counts from the start of this call.
 pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<LoadRow> {
     spec.validate().map_err(anyhow::Error::msg)?;

@@ -1,9 +1,13 @@
-//! The one place a file is read or written: the files a user gives us (models, MTL,
-//! textures, presets, environment maps) are read through [`read_capped`] and
-//! [`read_image`], and every file we write goes through [`write_atomic`], so that a failed
-//! write never leaves a half-written file or costs the user the one that was there.
+//! The one place a file is read or written (`tests/architecture.rs` holds the rest of
+//! `src/` to it). A file a user gives us is checked to be a regular file before it is
+//! opened, since a FIFO or a device could block or never end: models, MTL libraries and
+//! glTF buffers are read whole ([`read_regular_file`], a large model in parallel parts with
+//! [`read_regular_file_parallel`]), presets with a bound ([`read_capped`]), textures and
+//! environment maps through [`read_image`]. Every file we write whole goes through
+//! [`write_atomic`], so that a failed write never leaves a half-written file or costs the
+//! user the one that was there.
 //!
-//! A leaf of the crate: it imports nothing of ours.
+//! Of ours it imports only `render_settings` (the largest PNG `image_files` reads).
 
 pub mod image_files;
 

@@ -8,8 +8,9 @@
 //! - the sections: `performance`, `render`, `model`, `shading`, `split`, `light`,
 //!   `camera`, `display`, `screenshot`, `benchmark`, `presets`, `keys`.
 //!
-//! Sections import only the leaves (`section`, `info`, `widgets`) and the app's state,
-//! never this file or each other. The HUD over the image is `app::overlay`'s.
+//! Sections import only the leaves (`section`, `info`, `widgets`), the app's folders below
+//! the panel (`state`, `views`, `measure`, `user_files`) and the crate's lower layers,
+//! never this file or each other. The HUD over the image is `app::views::overlay`'s.
 
 pub(crate) mod benchmark;
 pub(crate) mod camera;
