@@ -90,6 +90,14 @@ contract! {
     /// Material flag (same word): the material's mesh has vertex colours, which multiply its
     /// diffuse colour when `FLAG_TEXTURES` is set.
     MATERIAL_VERTEX_COLORS = 2;
+
+    // Descriptor bindings of the vendor shaders (`shaders/vendor/tlas.glsl`) beyond the
+    // storage buffers, which the shaders' reflection numbers.
+
+    /// Binding of the driver's top-level acceleration structure, after the storage buffers.
+    TLAS_BINDING = 11;
+    /// Binding of the vendor shaders' slot map (`vendor_slots`).
+    VENDOR_SLOTS_BINDING = 18;
 }
 
 // The fields of the flag word must not overlap, and every AOV code must fit its bits.

@@ -2,13 +2,13 @@
 // bottom level per mesh, an instance per model copy and mirror plane, each instance's
 // custom index its place in instances[] and its primitives the mesh's triangles in the
 // order of triangles[], each once (vendor_slots below).
-layout(set = 0, binding = 11) uniform accelerationStructureEXT scene_tlas;
+layout(set = 0, binding = TLAS_BINDING) uniform accelerationStructureEXT scene_tlas;
 
 // Which of our slots each primitive is (src/gpu/khr_rt/accel.rs): a triangle our build
 // cut fills several slots but is given to the driver once. Word 0 is 1 where some mesh is
 // cut, then word 1 + base + k is the slot of primitive k of the mesh starting at slot
 // `base`; where word 0 is 0, primitive k is slot k.
-layout(std430, set = 0, binding = 18) readonly buffer VendorSlots { uint vendor_slots[]; };
+layout(std430, set = 0, binding = VENDOR_SLOTS_BINDING) readonly buffer VendorSlots { uint vendor_slots[]; };
 
 // Opaque geometry (no any-hit shaders), both faces hit as our tracer does.
 const uint VENDOR_RAY_FLAGS = gl_RayFlagsOpaqueEXT;

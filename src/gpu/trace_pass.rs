@@ -23,17 +23,11 @@ use super::tile_order::TileSchedule;
 #[cfg(test)]
 use super::trace_kernels::Variant;
 use super::trace_kernels::{create_pipeline, KernelVariants, TRACE_ROWS_SPV, TRACE_SPV};
+use crate::contract::{TLAS_BINDING, VENDOR_SLOTS_BINDING};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
 static QUERY_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vendor_query.spv"));
-
-/// Binding of the driver's top-level acceleration structure in the vendor shaders
-/// (`shaders/vendor/tlas.glsl`), after the storage buffers.
-pub(crate) const TLAS_BINDING: u32 = 11;
-
-/// Binding of the vendor shaders' slot map (`vendor_slots` in `shaders/vendor/tlas.glsl`).
-pub(crate) const VENDOR_SLOTS_BINDING: u32 = 18;
 
 /// Which compute shader a [`TracePass`] runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
