@@ -73,7 +73,7 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     spec.validate().map_err(anyhow::Error::msg)?;
     spec.model.check_name().map_err(anyhow::Error::msg)?;
     let file_bytes = match &spec.model {
-        ModelSource::File(p) => std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+        ModelSource::File(p) => crate::files::regular_file_size(p, "model").unwrap_or(0),
         _ => 0,
     };
     // Where the peak cannot be reset, the readings are the process's peak so far.

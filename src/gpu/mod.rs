@@ -1,4 +1,5 @@
-//! The Vulkan backend: instance and device (`context`) with the validation layer's messages
+//! The Vulkan backend: instance and device (`context`; which device and what it offers:
+//! `physical_device`) with the validation layer's messages
 //! (`validation`) and the one way a lock is taken (`lock`), memory and buffers ([`buffer`]),
 //! named pipeline barriers (`barrier`), the objects a pass is made of (`pipeline`: set
 //! layouts, pools, pipeline layouts, compute pipelines), GPU timestamps (`timer`), the
@@ -21,6 +22,7 @@ pub mod error;
 pub(crate) mod image;
 pub mod khr_rt;
 pub(crate) mod lock;
+pub(crate) mod physical_device;
 pub(crate) mod pipeline;
 pub(crate) mod present;
 pub mod scene_buffers;

@@ -610,11 +610,7 @@ fn resolve_paths(spec: &mut SceneSpec, folder: &Path) {
 /// Paths as absolute as the file system allows, so a saved preset works from any folder.
 fn absolute_paths(spec: &SceneSpec) -> SceneSpec {
     let mut spec = spec.clone();
-    let absolute = |p: &mut PathBuf| {
-        if let Ok(full) = std::fs::canonicalize(&*p) {
-            *p = full;
-        }
-    };
+    let absolute = |p: &mut PathBuf| *p = crate::files::canonical_or_given(p);
     if let ModelSource::File(p) = &mut spec.model {
         absolute(p);
     }
