@@ -6,6 +6,7 @@
 //! stopping is safe; the watcher reads [`Progress::snapshot`] and may [`Progress::cancel`].
 //! A load that nobody watches passes [`Progress::default`] and pays two atomic loads a phase.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
@@ -197,12 +198,12 @@ impl Progress {
 /// /proc/self/clear_refs); false where that is not possible, so the next reading is the
 /// process's peak so far.
 pub(crate) fn reset_peak_rss() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+    crate::files::write_proc_file(Path::new("/proc/self/clear_refs"), "5").is_ok()
 }
 
 /// The process's peak resident memory (VmHWM), bytes; None off Linux.
 pub(crate) fn read_peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let status = crate::files::read_proc_file(Path::new("/proc/self/status"))?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)

@@ -181,6 +181,64 @@ pub(crate) fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()
     write_atomic(path, |out| Ok(out.write_all(bytes)?))
 }
 
+/// A text file of ours (remembered settings, a saved report): [`read_regular_file`] as
+/// UTF-8, so a missing file is still `NotFound` to the caller.
+pub(crate) fn read_text(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(read_regular_file(path)?)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "it is not UTF-8 text"))
+}
+
+/// A file written as it goes (a log a reader may follow), not through [`write_atomic`]:
+/// a failure leaves the rows written so far.
+pub(crate) type LogFile = BufWriter<File>;
+
+/// Create (or empty) `path` as a [`LogFile`].
+pub(crate) fn create_log(path: &Path) -> std::io::Result<LogFile> {
+    Ok(BufWriter::new(File::create(path)?))
+}
+
+/// Append `line` and a newline to `path`, creating it if missing (JSON Lines: a run
+/// added to the runs before it, which a whole-file rewrite could lose).
+pub(crate) fn append_line(path: &Path, line: &str) -> std::io::Result<()> {
+    let mut file = fs::OpenOptions::new().create(true).append(true).open(path)?;
+    writeln!(file, "{line}")
+}
+
+/// Create the folder `dir` and those above it that are missing.
+pub(crate) fn create_folder(dir: &Path) -> std::io::Result<()> {
+    fs::create_dir_all(dir)
+}
+
+/// Remove the file `path`.
+pub(crate) fn remove_file(path: &Path) -> std::io::Result<()> {
+    fs::remove_file(path)
+}
+
+/// `path` made absolute with links resolved, or as given when that fails (it does not
+/// exist yet): for telling the user where a file is.
+pub(crate) fn canonical_or_given(path: &Path) -> PathBuf {
+    fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// When `path` was last modified; None when that cannot be read.
+pub(crate) fn modified(path: &Path) -> Option<std::time::SystemTime> {
+    fs::metadata(path).and_then(|m| m.modified()).ok()
+}
+
+/// The text of a Linux kernel file (`/proc/self/status`), at most 64 KiB of it; None
+/// where there is none (off Linux).
+pub(crate) fn read_proc_file(path: &Path) -> Option<String> {
+    let mut text = String::new();
+    File::open(path).ok()?.take(64 << 10).read_to_string(&mut text).ok()?;
+    Some(text)
+}
+
+/// Write `text` to a Linux kernel file (`/proc/self/clear_refs`): a setting, not a file
+/// to keep, so written in place.
+pub(crate) fn write_proc_file(path: &Path, text: &str) -> std::io::Result<()> {
+    fs::write(path, text)
+}
+
 /// Text quoted from a file, made safe for a terminal or the panel: control characters
 /// (escape sequences, bells, carriage returns) written as `\u{1b}`, and anything past
 /// `max` characters cut to "...".

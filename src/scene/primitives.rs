@@ -8,7 +8,7 @@
 //! origin, and the farthest is at (or very near) 1. The y axis is up.
 
 use std::f32::consts::{PI, TAU};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
 use glam::Vec3;
@@ -326,9 +326,14 @@ fn tube_knot(name: &str, p: u32, q: u32, segments: u32, sides: u32) -> Mesh {
 /// coordinates), one `f` per triangle referring to the same index for all attributes;
 /// vertex colours, when the mesh has them, as `v x y z r g b`.
 /// Floats are written in their shortest exact form, so reading the file back gives the
-/// same numbers.
+/// same numbers. Written through `files::write_atomic`: a failed write keeps the old file.
 pub fn write_obj(mesh: &Mesh, path: &Path) -> io::Result<()> {
-    let mut out = BufWriter::new(std::fs::File::create(path)?);
+    crate::files::write_atomic(path, |out| Ok(write_obj_to(mesh, out)?))
+        .map_err(|e| io::Error::other(format!("{e:#}")))
+}
+
+/// [`write_obj`]'s text.
+fn write_obj_to(mesh: &Mesh, out: &mut impl Write) -> io::Result<()> {
     writeln!(
         out,
         "# {}: {} vertices, {} triangles (written by meshtracer)",

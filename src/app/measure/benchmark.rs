@@ -4,7 +4,6 @@
 //! shown, printed and appended as one JSON line, with the device and driver as `bench`
 //! reports them.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -394,7 +393,7 @@ impl Runs {
                 println!("appended to {}", path.display());
                 Status::ok(format!(
                     "appended to {}",
-                    std::fs::canonicalize(&path).unwrap_or(path).display()
+                    crate::files::canonical_or_given(&path).display()
                 ))
             }
             Err(e) => Status::error(e.clone()),
@@ -426,11 +425,7 @@ pub(crate) fn json_path(given: Option<&Path>, screenshot_dir: &Path) -> PathBuf 
 pub(crate) fn append_json(path: &Path, summary: &BenchmarkSummary) -> Result<(), String> {
     let line = serde_json::to_string(summary)
         .map_err(|e| format!("cannot write the benchmark as JSON ({e})"))?;
-    std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .and_then(|mut f| writeln!(f, "{line}"))
+    crate::files::append_line(path, &line)
         .map_err(|e| format!("cannot append the benchmark to {} ({e})", path.display()))
 }
 

@@ -20,13 +20,13 @@
 //! still for a frame, from where it started to where it stopped: frame rows are held back
 //! one frame so the change row can still precede the frame where the move ended.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use crate::app::measure::frame_stats::FrameStats;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, Resolution};
+use crate::files::LogFile;
 use crate::render_settings::{tracer_label, Accel, BvhLayout, RenderSettings};
 
 /// The CSV header line.
@@ -258,18 +258,15 @@ impl<W: Write> FrameLog<W> {
 pub(crate) struct Recording {
     /// The file written.
     pub(crate) path: PathBuf,
-    log: FrameLog<BufWriter<File>>,
+    log: FrameLog<LogFile>,
 }
 
 impl Recording {
     /// Create (or replace) `path` and write the header.
     pub(crate) fn create(path: &Path) -> Result<Self, String> {
         let fail = |e: io::Error| format!("cannot write the frame log {}: {e}", path.display());
-        let file = File::create(path).map_err(fail)?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            log: FrameLog::new(BufWriter::new(file)).map_err(fail)?,
-        })
+        let file = crate::files::create_log(path).map_err(fail)?;
+        Ok(Self { path: path.to_path_buf(), log: FrameLog::new(file).map_err(fail)? })
     }
 
     /// Frames logged so far.

@@ -51,8 +51,7 @@ impl Tool {
         let mut central = egui::Rect::NOTHING;
         let settings: RenderSettings = self.params.settings_for(self.area());
         let screenshot_dir = screenshot::screenshot_dir();
-        let dir_text =
-            std::fs::canonicalize(&screenshot_dir).unwrap_or(screenshot_dir).display().to_string();
+        let dir_text = crate::files::canonical_or_given(&screenshot_dir).display().to_string();
         let (triangles, vertices) = self.session.counts();
         let vendor = self.vendor_info();
         let device = devices::describe(&self.gpu.ctx, &self.gpu.trace_ctx);

@@ -95,7 +95,7 @@ pub(crate) fn status(
 ) -> crate::app::panel::widgets::Status {
     match result {
         Ok(()) => {
-            let shown: PathBuf = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+            let shown: PathBuf = crate::files::canonical_or_given(path);
             crate::app::panel::widgets::Status::ok(format!("wrote {}", shown.display()))
         }
         Err(e) => crate::app::panel::widgets::Status::error(e),

@@ -65,7 +65,7 @@ pub(crate) fn parse(text: &str) -> Result<Settings, String> {
 /// Read `path`: the settings, and a warning when the file exists but is not usable (then
 /// the defaults). A missing file is no warning: it is the first run.
 pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
-    let text = match std::fs::read_to_string(path) {
+    let text = match crate::files::read_text(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Settings::default(), None),
         Err(e) => {
@@ -98,7 +98,7 @@ pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
     };
     let text = toml::to_string(settings).map_err(|e| fail(&e))?;
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
+        crate::files::create_folder(dir).map_err(|e| fail(&e))?;
     }
     crate::files::write_bytes_atomic(path, text.as_bytes()).map_err(|e| fail(&e.root_cause()))
 }
@@ -146,7 +146,7 @@ impl Store {
     /// Forget everything remembered: the file is removed.
     pub(crate) fn reset(&self) -> Result<(), String> {
         match &self.path {
-            Some(path) => match std::fs::remove_file(path) {
+            Some(path) => match crate::files::remove_file(path) {
                 Ok(()) => Ok(()),
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
                 Err(e) => Err(format!("cannot remove {} ({e})", path.display())),

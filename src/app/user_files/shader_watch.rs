@@ -63,7 +63,7 @@ impl ShaderWatch {
             }
         };
         let stamps = files.into_iter().map(|f| {
-            let modified = std::fs::metadata(&f).and_then(|m| m.modified()).ok();
+            let modified = crate::files::modified(&f);
             (f, modified)
         });
         if !self.changed(stamps.collect()) {

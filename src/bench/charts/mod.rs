@@ -44,7 +44,7 @@ pub struct SavedReport {
 /// Read a report written by `bench --json`.
 pub fn load_report(path: &Path) -> anyhow::Result<SavedReport> {
     let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        crate::files::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
     serde_json::from_str(&text)
         .with_context(|| format!("{} is not a bench JSON report", path.display()))
 }
@@ -56,7 +56,7 @@ pub fn write_charts(
     environments: &[Environment],
     rows: &[Row],
 ) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    crate::files::create_folder(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let machine = machine_line(environments);
     let charts = [
         triangles_chart(rows, &machine),
