@@ -8,7 +8,9 @@
 
 use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
 use meshtracer::render_settings::{Aov, RenderSettings};
-use meshtracer::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
+use meshtracer::scene::formats::load_model;
+use meshtracer::scene::obj::LoadOptions;
+use meshtracer::scene::paper::{paper_scene, LightOrbit, ModelSource};
 use meshtracer::tracer::{FrameParams, Image, PackedScene};
 
 fn rmse(a: &Image, b: &Image) -> f64 {
@@ -25,7 +27,8 @@ fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let model = ModelSource::parse(args.get(1).map_or("geosphere", |s| s.as_str()));
     let size: u32 = args.get(2).map_or(Ok(128), |s| s.parse())?;
-    let (scene, _) = load_paper_scene(&model, 1, LightOrbit::default())?;
+    let loaded = load_model(&model, &LoadOptions::default(), None)?;
+    let scene = paper_scene(loaded.mesh, 1, LightOrbit::default());
     let packed = PackedScene::new(&scene);
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;

@@ -21,7 +21,9 @@ use clap::Parser;
 use meshtracer::gpu::buffer::GpuBuffer;
 use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
 use meshtracer::render_settings::RenderSettings;
-use meshtracer::scene::paper::{instances, load_paper_scene, LightOrbit, ModelSource, MAX_MODELS};
+use meshtracer::scene::formats::load_model;
+use meshtracer::scene::obj::LoadOptions;
+use meshtracer::scene::paper::{instances, paper_scene, LightOrbit, ModelSource, MAX_MODELS};
 use meshtracer::tracer::{FrameParams, PackedScene};
 
 #[derive(Parser, Debug)]
@@ -106,7 +108,8 @@ fn main() -> anyhow::Result<()> {
         bail!("--size must be at least 4, --every and --report at least 1");
     }
     let source = ModelSource::parse(&args.model);
-    let (mut scene, _) = load_paper_scene(&source, MAX_MODELS, LightOrbit::default())?;
+    let loaded = load_model(&source, &LoadOptions::default(), None)?;
+    let mut scene = paper_scene(loaded.mesh, MAX_MODELS, LightOrbit::default());
     let mut packed = PackedScene::new(&scene);
     let options = ContextOptions {
         validation: args.validation,

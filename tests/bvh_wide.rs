@@ -443,9 +443,10 @@ fn a_mesh_without_a_wide_tree_traces_its_binary_one_in_wide_frames() {
     // alone, beside meshes traced wide (here the mirror box): same image, the binary tree's
     // node counts for the knot, GPU as CPU.
     use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::packed::Layouts;
     use meshtracer::tracer::{cpu, FrameParams, PackedScene};
     let scene = paper(PaperModel::TorusKnot, 1);
-    let mut packed = PackedScene::with_both_layouts(&scene);
+    let mut packed = PackedScene::with_layouts(&scene, Layouts::Both);
     let cost = FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 1) });
     let all_wide = cpu::render(&packed, &cost);
     packed.drop_wide_tree(0, &scene.instances);
@@ -484,11 +485,12 @@ fn a_scene_packed_without_the_wide_layout_traces_its_binary_tree() {
     // The wide tree is packed only when a frame asks for it (its collapse costs as much as
     // the build): a wide frame of a binary-only scene is the binary frame, on both tracers.
     use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::packed::Layouts;
     use meshtracer::tracer::{cpu, FrameParams, PackedScene};
     let scene = paper(PaperModel::TorusKnot, 1);
     let binary_only = PackedScene::new(&scene);
     assert!(!binary_only.has_wide());
-    assert!(PackedScene::for_layout(&scene, BvhLayout::Wide).has_wide());
+    assert!(PackedScene::with_layouts(&scene, Layouts::only(BvhLayout::Wide)).has_wide());
     let ctx = common::ctx();
     let mut tracer = ComputeTracer::with_scene(&ctx, &binary_only).unwrap();
     let wide = FrameParams::new(&scene, wide_settings(32, 1));
@@ -509,13 +511,16 @@ fn a_scene_packed_for_wide_frames_alone_drops_the_binary_nodes_and_traces_the_sa
     // trees, binary frames are traced wide, on both tracers, and the GPU scene is smaller
     // by the binary nodes.
     use meshtracer::gpu::ComputeTracer;
+    use meshtracer::tracer::packed::Layouts;
     use meshtracer::tracer::{cpu, FrameParams, PackedScene};
     let scene = paper(PaperModel::TorusKnot, 2);
-    let (wide_only, both) =
-        (PackedScene::for_layout(&scene, BvhLayout::Wide), PackedScene::with_both_layouts(&scene));
+    let (wide_only, both) = (
+        PackedScene::with_layouts(&scene, Layouts::only(BvhLayout::Wide)),
+        PackedScene::with_layouts(&scene, Layouts::Both),
+    );
     assert!(wide_only.has_wide() && !wide_only.has_binary());
     assert!(both.has_wide() && both.has_binary());
-    assert!(PackedScene::for_layout(&scene, BvhLayout::Binary).has_binary());
+    assert!(PackedScene::with_layouts(&scene, Layouts::only(BvhLayout::Binary)).has_binary());
     assert_eq!(wide_only.traced_layout(BvhLayout::Binary), BvhLayout::Wide);
     let wide = FrameParams::new(&scene, wide_settings(48, 2));
     let binary =

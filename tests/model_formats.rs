@@ -7,8 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{Mat4, Quat, Vec3};
-use meshtracer::scene::obj::{load_obj, LoadOptions};
-use meshtracer::scene::paper::load_model_file;
+use meshtracer::scene::formats::{load_model, LoadError};
+use meshtracer::scene::obj::{load_obj, LoadOptions, LoadedObj};
+use meshtracer::scene::paper::{prepare_model, ModelSource};
 use meshtracer::scene::Mesh;
 
 struct TempDir(PathBuf);
@@ -161,22 +162,34 @@ fn assert_same_geometry(a: &Mesh, b: &Mesh, what: &str) {
     }
 }
 
+/// `path` loaded as every command loads a model: fitted to the scene's size.
+fn load_file(path: &Path) -> Result<LoadedObj, LoadError> {
+    load_model(&ModelSource::File(path.to_owned()), &LoadOptions::default(), None)
+}
+
+/// The OBJ twin at `path`, read by the OBJ reader alone and fitted as a loaded model is.
+fn twin(path: &Path) -> Mesh {
+    let mut mesh = load_obj(path).unwrap().mesh;
+    prepare_model(&mut mesh);
+    mesh
+}
+
 fn load(path: &Path) -> Mesh {
-    load_model_file(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}")).mesh
+    load_file(path).unwrap_or_else(|e| panic!("{e}")).mesh
 }
 
 #[test]
 fn ply_in_every_encoding_loads_as_its_obj_twin() {
     let dir = TempDir::new("ply");
     let (verts, faces) = shape();
-    let obj = load_obj(&dir.write("twin.obj", obj_text(&verts, &faces))).unwrap().mesh;
+    let obj = twin(&dir.write("twin.obj", obj_text(&verts, &faces)));
     for (enc, name) in [
         (Encoding::Ascii, "ascii.ply"),
         (Encoding::Little, "little.ply"),
         (Encoding::Big, "BIG.PLY"),
     ] {
         let path = dir.write(name, ply_bytes(enc, &verts, &faces));
-        let loaded = load_model_file(&path, &LoadOptions::default()).unwrap();
+        let loaded = load_file(&path).unwrap();
         assert_same_geometry(&obj, &loaded.mesh, name);
         assert_eq!(
             loaded.mesh.triangles.len(),
@@ -259,7 +272,7 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
     let (bin, quad) = gltf_bin();
     dir.write("quad data.bin", &bin);
     let path = dir.write("two.gltf", gltf_json("quad%20data.bin", "VEC3"));
-    let loaded = load_model_file(&path, &LoadOptions::default()).unwrap();
+    let loaded = load_file(&path).unwrap();
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
     assert_eq!(loaded.mesh.materials[0].name, "red");
     assert!((loaded.mesh.materials[0].diffuse - Vec3::new(0.8, 0.1, 0.1)).length() < 1e-6);
@@ -284,7 +297,7 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
         let b = 4 * k + 1;
         obj += &format!("f {} {} {}\nf {} {} {}\n", b, b + 1, b + 2, b, b + 2, b + 3);
     }
-    let twin = load_obj(&dir.write("twin.obj", obj)).unwrap().mesh;
+    let twin = twin(&dir.write("twin.obj", obj));
     assert_same_geometry(&twin, &loaded.mesh, "two.gltf");
 
     // The same document as a .glb, the buffer in its binary chunk.
@@ -305,11 +318,7 @@ fn gltf_base_colour_textures_are_paths_beside_the_file() {
             &format!(r#""materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}}], "textures": [{{"source": 0}}], "images": [{{"uri": "{uri}"}}],"#),
         )
     };
-    let loaded = load_model_file(
-        &dir.write("tex.gltf", textured("wood%20grain.png")),
-        &LoadOptions::default(),
-    )
-    .unwrap();
+    let loaded = load_file(&dir.write("tex.gltf", textured("wood%20grain.png"))).unwrap();
     let material = &loaded.mesh.materials[0];
     assert_eq!(material.diffuse_texture.as_deref(), Some(dir.0.join("wood grain.png").as_path()));
     assert_eq!((material.name.as_str(), material.diffuse), ("material 0", Vec3::ONE));
@@ -319,8 +328,7 @@ fn gltf_base_colour_textures_are_paths_beside_the_file() {
         ("missing.gltf", "nowhere.png", "texture `nowhere.png` of material 0 not found"),
         ("embedded.gltf", "data:image/png;base64,AAAA", "embedded texture"),
     ] {
-        let loaded =
-            load_model_file(&dir.write(name, textured(uri)), &LoadOptions::default()).unwrap();
+        let loaded = load_file(&dir.write(name, textured(uri))).unwrap();
         assert_eq!(loaded.mesh.materials[0].diffuse_texture, None);
         assert!(
             loaded.warnings.len() == 1
@@ -357,7 +365,7 @@ fn glb_bytes(json: &str, bin: &[u8]) -> Vec<u8> {
 
 /// The one-line error of loading `path`, which must name it and say `expected`.
 fn assert_one_line_error(path: &Path, expected: &str) {
-    let e = match load_model_file(path, &LoadOptions::default()) {
+    let e = match load_file(path) {
         Ok(_) => panic!("{} loaded", path.display()),
         Err(e) => e.to_string(),
     };
@@ -483,9 +491,7 @@ fn a_fifo_named_ply_is_refused_at_once() {
     // Opening a FIFO for reading waits for a writer: the check must come before.
     let (tx, rx) = std::sync::mpsc::channel();
     let p = path.clone();
-    std::thread::spawn(move || {
-        tx.send(load_model_file(&p, &LoadOptions::default()).map(|_| ()).map_err(|e| e.to_string()))
-    });
+    std::thread::spawn(move || tx.send(load_file(&p).map(|_| ()).map_err(|e| e.to_string())));
     let result =
         rx.recv_timeout(std::time::Duration::from_secs(10)).expect("loading a FIFO blocked");
     let e = result.unwrap_err();
@@ -583,19 +589,12 @@ fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
             [[at(0, 0), at(1, 0), at(1, 1)], [at(0, 0), at(1, 1), at(0, 1)]]
         })
         .collect();
-    let ascii = load_model_file(
-        &dir.write("grid.ply", plain_ply("ascii", &verts, &tris)),
-        &LoadOptions::default(),
-    )
-    .unwrap()
-    .mesh;
+    let ascii = load_file(&dir.write("grid.ply", plain_ply("ascii", &verts, &tris))).unwrap().mesh;
     for format in ["binary_little_endian", "binary_big_endian"] {
-        let binary = load_model_file(
-            &dir.write(&format!("{format}.ply"), plain_ply(format, &verts, &tris)),
-            &LoadOptions::default(),
-        )
-        .unwrap()
-        .mesh;
+        let binary =
+            load_file(&dir.write(&format!("{format}.ply"), plain_ply(format, &verts, &tris)))
+                .unwrap()
+                .mesh;
         assert_eq!(binary.positions, ascii.positions, "{format}");
         assert_eq!(binary.normals, ascii.normals, "{format}");
         assert_eq!(binary.texcoords, ascii.texcoords, "{format}");
@@ -605,12 +604,9 @@ fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
     // Anything wrong in it is still found and named by the reader that says what.
     let mut bad = tris.clone();
     bad[1000][2] = 99_999;
-    let err = load_model_file(
-        &dir.write("bad.ply", plain_ply("binary_little_endian", &verts, &bad)),
-        &LoadOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let err = load_file(&dir.write("bad.ply", plain_ply("binary_little_endian", &verts, &bad)))
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("face 1000") && err.contains("99999") && err.contains("out of range"),
         "{err}"

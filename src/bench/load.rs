@@ -11,12 +11,11 @@ use serde::{Deserialize, Serialize};
 use super::Environment;
 use crate::gpu::dispatch::FrameTrace;
 use crate::gpu::ComputeTracer;
-use crate::memory;
 use crate::progress::{read_peak_rss, Phase, Progress};
 use crate::render_settings::BvhLayout;
-use crate::scene::paper::ModelSource;
+use crate::scene::paper::{ModelSource, MODEL_MESH};
 use crate::scene::spec::SceneSpec;
-use crate::tracer::packed::PackedScene;
+use crate::tracer::loaded::LoadedScene;
 use crate::tracer::FrameParams;
 
 /// One model's load, measured.
@@ -66,8 +65,8 @@ impl LoadRow {
     }
 }
 
-/// Load `spec`'s model into `spec`'s scene through the phases of the window's loader (read,
-/// parse, build, pack, each timed by a [`Progress`]), upload it to `tracer` and trace one
+/// Load `spec`'s model into `spec`'s scene as the window's loader does ([`LoadedScene::load`]:
+/// read, parse, build, pack, each timed by a [`Progress`]), upload it to `tracer` and trace one
 /// frame at `spec`'s settings. The peak memory counts from the start of this call.
 pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<LoadRow> {
     spec.validate().map_err(anyhow::Error::msg)?;
@@ -80,16 +79,13 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let progress = Progress::default();
     progress.track_peak_memory();
     let start = Instant::now();
-    let (mesh, _warnings) =
-        spec.model.load_with_progress(&spec.load_options, &progress).map_err(anyhow::Error::msg)?;
-    let triangles = mesh.triangle_count() as u64;
-    let scene = spec.scene_with(mesh);
-    let packed = PackedScene::for_loading(&scene, spec.settings.bvh, &progress)?;
+    let loaded = LoadedScene::load(spec, &progress)?;
+    let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
     progress.begin(Phase::Upload)?;
-    tracer.set_loaded_scene(&packed, &scene)?;
+    tracer.set_loaded_scene(&loaded)?;
     // As the window does: the host's copy goes on another thread, the first frame does not
     // wait for its pages to be unmapped.
-    memory::free_in_background(packed);
+    let (scene, _top_level) = loaded.uploaded();
     progress.finish();
     // The first frame is done when the GPU is: the window shows it without reading it back
     // (reading a 1024² float image back took 19 ms on the 2-core dev machine).

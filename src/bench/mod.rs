@@ -18,9 +18,11 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::scene::formats::load_model;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh};
+use crate::tracer::packed::Layouts;
 use crate::tracer::{budget, FrameParams, PackedScene};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
 use timing::Timing;
@@ -220,11 +222,12 @@ pub fn run(
                     m
                 }
                 None => {
-                    let (mesh, warnings) = case.spec.load_model()?;
-                    for w in &warnings {
+                    let spec = &case.spec;
+                    let loaded = load_model(&spec.model, &spec.load_options, None)?;
+                    for w in &loaded.warnings {
                         log::warn!("{w}");
                     }
-                    mesh
+                    loaded.mesh
                 }
             };
             loaded = Some(Loaded { key: key.clone(), mesh });
@@ -234,7 +237,7 @@ pub fn run(
         let layout = case.spec.settings.bvh;
         let key = format!("{key}:{:?}:{}:{layout}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {
-            let packed = PackedScene::for_layout(&scene, layout);
+            let packed = PackedScene::with_layouts(&scene, Layouts::only(layout));
             for w in &packed.warnings {
                 log::warn!("{w}");
             }

@@ -10,6 +10,7 @@ use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
 use crate::gpu::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::render_settings::{Accel, Aov};
 use crate::tracer::heat_map::heat_map;
+use crate::tracer::packed::Layouts;
 use crate::tracer::{cpu, FrameParams, PackedScene};
 
 /// Run the command; the returned error is printed as one line by `main`.
@@ -49,7 +50,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             started.elapsed().as_secs_f64()
         );
     }
-    let packed = PackedScene::for_layout(&scene, settings.bvh);
+    let packed = PackedScene::with_layouts(&scene, Layouts::only(settings.bvh));
     if progress {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }

@@ -22,11 +22,12 @@ use super::tile_order::TileRect;
 use super::timer::GpuTimer;
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
 use crate::render_settings::{Accel, BvhLayout};
-use crate::scene::Scene;
 use crate::tracer::budget;
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
+use crate::tracer::loaded::LoadedScene;
 use crate::tracer::packed::{GpuInstance, PackedScene};
+use crate::tracer::textures::EnvironmentMap;
 
 /// Timing of one traced frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -66,7 +67,7 @@ pub struct ComputeTracer {
     /// Triangles over all instances, for the work estimate that splits frames into bands.
     triangle_total: u64,
     /// The scene uploaded holds the binary and the wide BVH layout (see
-    /// `PackedScene::for_layout`).
+    /// `packed::Layouts`).
     has_binary: bool,
     has_wide: bool,
     /// The vendor path, or why the device cannot run it.
@@ -133,30 +134,27 @@ impl ComputeTracer {
 
     /// Upload a new scene; the old one is freed first (the GPU is waited for).
     pub fn set_scene(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
-        self.set_scene_from(packed, None)
+        self.set_scene_with(packed, |ctx| SceneBuffers::upload(ctx, packed))
     }
 
-    /// [`ComputeTracer::set_scene`] for a scene packed for loading
-    /// (`PackedScene::for_loading`): its triangles are written from `scene`'s meshes.
-    pub(crate) fn set_loaded_scene(
-        &mut self,
-        packed: &PackedScene,
-        scene: &Scene,
-    ) -> Result<(), GpuError> {
-        self.set_scene_from(packed, Some(scene))
+    /// [`ComputeTracer::set_scene`] for a loaded scene: its triangles are written from its
+    /// meshes ([`LoadedScene`]).
+    pub(crate) fn set_loaded_scene(&mut self, loaded: &LoadedScene) -> Result<(), GpuError> {
+        self.set_scene_with(loaded.tables(), |ctx| SceneBuffers::upload_loaded(ctx, loaded))
     }
 
-    fn set_scene_from(
+    /// Free the old scene, then upload the new one with `upload`; `packed` holds its tables.
+    fn set_scene_with(
         &mut self,
         packed: &PackedScene,
-        scene: Option<&Scene>,
+        upload: impl FnOnce(&Arc<GpuContext>) -> Result<SceneBuffers, GpuError>,
     ) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         self.scene = None;
         if let Ok(v) = &mut self.vendor {
             v.scene_changed();
         }
-        self.scene = Some(SceneBuffers::upload_loaded(&self.ctx, packed, scene)?);
+        self.scene = Some(upload(&self.ctx)?);
         self.triangle_total = triangle_total(&packed.instances);
         (self.has_binary, self.has_wide) = (packed.has_binary(), packed.has_wide());
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
@@ -179,11 +177,14 @@ impl ComputeTracer {
         Ok(())
     }
 
-    /// Replace the environment image (after `PackedScene::set_environment`).
-    pub(crate) fn set_environment(&mut self, packed: &PackedScene) -> Result<(), GpuError> {
+    /// Replace the environment image (None: misses see the background colour).
+    pub(crate) fn set_environment(
+        &mut self,
+        environment: Option<&EnvironmentMap>,
+    ) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         if let Some(scene) = &mut self.scene {
-            scene.set_environment(&self.ctx, packed)?;
+            scene.set_environment(&self.ctx, environment)?;
         }
         self.rebind();
         Ok(())

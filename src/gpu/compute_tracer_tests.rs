@@ -4,16 +4,18 @@ use super::*;
 use crate::gpu::trace_kernels::Variant;
 use crate::gpu::ContextOptions;
 use crate::render_settings::RenderSettings;
-use crate::scene::paper::{load_paper_scene, LightOrbit, ModelSource};
+use crate::scene::paper::ModelSource;
 use crate::scene::primitives::PaperModel;
+use crate::scene::spec::SceneSpec;
+use crate::scene::Scene;
+use crate::tracer::packed::Layouts;
 
 /// A validated context and the paper's torus knot in its mirror box.
 fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
     let ctx =
         GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
-    let (scene, _) =
-        load_paper_scene(&ModelSource::Paper(PaperModel::TorusKnot), 1, LightOrbit::default())
-            .unwrap();
+    let spec = SceneSpec { model: ModelSource::Paper(PaperModel::TorusKnot), ..Default::default() };
+    let (scene, _) = spec.load().unwrap();
     (ctx, scene)
 }
 
@@ -29,7 +31,7 @@ fn small_frame(scene: &Scene, bvh: BvhLayout) -> FrameParams {
 fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
     let (ctx, scene) = knot_in_the_box();
     let mut tracer =
-        ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+        ComputeTracer::with_scene(&ctx, &PackedScene::with_layouts(&scene, Layouts::Both)).unwrap();
     for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
         tracer.render(&small_frame(&scene, bvh)).unwrap();
     }
@@ -45,7 +47,7 @@ fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
 #[test]
 fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
     let (ctx, scene) = knot_in_the_box();
-    let mut packed = PackedScene::with_both_layouts(&scene);
+    let mut packed = PackedScene::with_layouts(&scene, Layouts::Both);
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
     let (binary, _) = tracer.render(&small_frame(&scene, BvhLayout::Binary)).unwrap();
     assert!(!tracer.pass.made(Variant::Wide), "no wide kernel before a wide frame");
@@ -76,7 +78,7 @@ fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
 fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
     let (ctx, scene) = knot_in_the_box();
     let mut tracer =
-        ComputeTracer::with_scene(&ctx, &PackedScene::with_both_layouts(&scene)).unwrap();
+        ComputeTracer::with_scene(&ctx, &PackedScene::with_layouts(&scene, Layouts::Both)).unwrap();
     tracer.prepare_kernels_in_background();
     // A wide frame takes the wide kernel, waiting for its thread if need be.
     let (wide, _) = tracer.render(&small_frame(&scene, BvhLayout::Wide)).unwrap();

@@ -9,8 +9,9 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
 use crate::scene::paper::MAX_MODELS;
-use crate::scene::Scene;
-use crate::tracer::packed::{GpuInstance, PackedScene};
+use crate::tracer::loaded::LoadedScene;
+use crate::tracer::packed::{environment_words, GpuInstance, PackedScene};
+use crate::tracer::textures::EnvironmentMap;
 
 /// Room in the instance buffer: every model copy plus the mirror box, plus headroom.
 pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
@@ -39,6 +40,11 @@ pub struct SceneBuffers {
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
 pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError> {
+    check_sizes(ctx, packed.buffer_sizes())
+}
+
+/// [`check_fits`] on the bytes of each buffer, in `PackedScene::buffer_sizes`' order.
+fn check_sizes(ctx: &GpuContext, sizes: [u64; 9]) -> Result<(), GpuError> {
     let names = [
         "triangle",
         "shading",
@@ -51,12 +57,12 @@ pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError
         "texture",
     ];
     let limit = ctx.info.max_storage_buffer_range;
-    for (name, bytes) in names.into_iter().zip(packed.buffer_sizes()) {
+    for (name, bytes) in names.into_iter().zip(sizes) {
         if bytes > limit {
             return Err(GpuError::SceneTooLarge { buffer: name, bytes, limit });
         }
     }
-    let total: u64 = packed.buffer_sizes().iter().sum();
+    let total: u64 = sizes.iter().sum();
     if ctx.info.device_local_bytes > 0 && total > ctx.info.device_local_bytes / 10 * 9 {
         return Err(GpuError::SceneTooLarge {
             buffer: "whole scene",
@@ -67,121 +73,84 @@ pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError
     Ok(())
 }
 
+/// The triangle and hit-record buffers' usage: the vendor path reads the triangles back to
+/// build the driver's structures (no host copy is kept); the test of what a load writes
+/// reads both.
+const TRIANGLE_USAGE: vk::BufferUsageFlags =
+    vk::BufferUsageFlags::from_raw(STORAGE.as_raw() | vk::BufferUsageFlags::TRANSFER_SRC.as_raw());
+const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
+/// The shaders may read this far past the last triangle (the contract's
+/// TRIANGLE_READ_AHEAD); the triangle buffer ends in as many zero bytes.
+const READ_AHEAD: usize = crate::contract::TRIANGLE_READ_AHEAD as usize;
+
 impl SceneBuffers {
     /// Upload the packed scene.
     pub fn upload(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
-        Self::upload_loaded(ctx, packed, None)
+        check_fits(ctx, packed)?;
+        let triangles = GpuBuffer::device_local_with_parts(
+            ctx,
+            &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]],
+            TRIANGLE_USAGE,
+            "triangles",
+        )?;
+        let shading = GpuBuffer::device_local_with(
+            ctx,
+            bytemuck::cast_slice(&packed.shading),
+            TRIANGLE_USAGE,
+            "shading",
+        )?;
+        Self::around_triangles(ctx, packed, [triangles, shading])
     }
 
-    /// Upload the packed scene; one packed for loading ([`PackedScene::for_loading`]) has its
-    /// triangles and hit records written here from `scene`'s meshes, the ones it was packed
-    /// from.
+    /// Upload a loaded scene: its triangles and hit records are written here, into the
+    /// staging memory, from the scene's meshes.
     pub(crate) fn upload_loaded(
         ctx: &Arc<GpuContext>,
-        packed: &PackedScene,
-        scene: Option<&Scene>,
+        loaded: &LoadedScene,
     ) -> Result<Self, GpuError> {
-        check_fits(ctx, packed)?;
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        // Triangles are read back by the vendor path to build the driver's structures (no host
-        // copy is kept); both by the test that checks what a load writes.
-        let triangle_usage = storage | vk::BufferUsageFlags::TRANSFER_SRC;
-        // The shaders may read this far past the last triangle (the contract's
-        // TRIANGLE_READ_AHEAD).
-        const READ_AHEAD: usize = crate::contract::TRIANGLE_READ_AHEAD as usize;
-        let (triangles, shading) = match (&packed.deferred, scene) {
-            (Some(_), Some(scene)) => {
-                let count = packed.triangle_count();
-                let triangles = GpuBuffer::device_local_made(
-                    ctx,
-                    count,
-                    READ_AHEAD,
-                    triangle_usage,
-                    "triangles",
-                    |k| packed.deferred_triangle(scene, k),
-                )?;
-                let shading =
-                    GpuBuffer::device_local_made(ctx, count, 0, triangle_usage, "shading", |k| {
-                        packed.deferred_shading(scene, k)
-                    })?;
-                (triangles, shading)
-            }
-            (Some(_), None) => panic!("a scene packed for loading is uploaded with its meshes"),
-            (None, _) => (
-                GpuBuffer::device_local_with_parts(
-                    ctx,
-                    &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]],
-                    triangle_usage,
-                    "triangles",
-                )?,
-                GpuBuffer::device_local_with(
-                    ctx,
-                    bytemuck::cast_slice(&packed.shading),
-                    triangle_usage,
-                    "shading",
-                )?,
-            ),
-        };
+        check_sizes(ctx, loaded.buffer_sizes())?;
+        let count = loaded.triangle_count();
+        let triangles = GpuBuffer::device_local_made(
+            ctx,
+            count,
+            READ_AHEAD,
+            TRIANGLE_USAGE,
+            "triangles",
+            |k| loaded.triangle(k),
+        )?;
+        let shading =
+            GpuBuffer::device_local_made(ctx, count, 0, TRIANGLE_USAGE, "shading", |k| {
+                loaded.shading(k)
+            })?;
+        Self::around_triangles(ctx, loaded.tables(), [triangles, shading])
+    }
+
+    /// The scene's buffers around its triangles and hit records, already uploaded: the
+    /// rest of `packed` uploaded, and its instances.
+    fn around_triangles(
+        ctx: &Arc<GpuContext>,
+        packed: &PackedScene,
+        [triangles, shading]: [GpuBuffer; 2],
+    ) -> Result<Self, GpuError> {
+        let storage = |bytes: &[u8], name| GpuBuffer::device_local_with(ctx, bytes, STORAGE, name);
         let v = &packed.vertices;
-        let vertex_normals = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&v.normals),
-            storage,
-            "vertex normals",
-        )?;
-        let vertex_texcoords = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&v.texcoords),
-            storage,
-            "vertex texcoords",
-        )?;
-        let vertex_colors = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&v.colors),
-            storage,
-            "vertex colours",
-        )?;
-        let materials = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&packed.materials),
-            storage,
-            "materials",
-        )?;
+        let vertex_normals = storage(bytemuck::cast_slice(&v.normals), "vertex normals")?;
+        let vertex_texcoords = storage(bytemuck::cast_slice(&v.texcoords), "vertex texcoords")?;
+        let vertex_colors = storage(bytemuck::cast_slice(&v.colors), "vertex colours")?;
+        let materials = storage(bytemuck::cast_slice(&packed.materials), "materials")?;
         // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
         // ones as 16-byte words (`wide_nodes`).
         let nodes = GpuBuffer::device_local_with_parts(
             ctx,
             &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)],
-            storage,
+            STORAGE,
             "bvh nodes",
         )?;
-        let capacity = (INSTANCE_CAPACITY.max(packed.instances.len())
-            * std::mem::size_of::<GpuInstance>()) as u64;
-        let instances = GpuBuffer::new(
-            ctx,
-            capacity,
-            storage | vk::BufferUsageFlags::TRANSFER_DST,
-            gpu_allocator::MemoryLocation::GpuOnly,
-            "instances",
-        )?;
-        let texels = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&packed.textures.texels),
-            storage,
-            "texels",
-        )?;
-        let texture_infos = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&packed.textures.infos),
-            storage,
-            "texture infos",
-        )?;
-        let environment = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&packed.environment_words()),
-            storage,
-            "environment",
-        )?;
+        let instances = instance_buffer(ctx, packed.instances.len())?;
+        let texels = storage(bytemuck::cast_slice(&packed.textures.texels), "texels")?;
+        let texture_infos = storage(bytemuck::cast_slice(&packed.textures.infos), "texture infos")?;
+        let environment_words = environment_words(packed.environment.as_ref());
+        let environment = storage(bytemuck::cast_slice(&environment_words), "environment")?;
         let mut s = Self {
             triangles,
             shading,
@@ -225,19 +194,19 @@ impl SceneBuffers {
         ]
     }
 
-    /// Replace the environment image (rebind the trace pass afterwards: the buffer is new);
-    /// the GPU must not be using it.
+    /// Replace the environment image (None: misses see the background colour; rebind the
+    /// trace pass afterwards: the buffer is new); the GPU must not be using it.
     pub(crate) fn set_environment(
         &mut self,
         ctx: &Arc<GpuContext>,
-        packed: &PackedScene,
+        environment: Option<&EnvironmentMap>,
     ) -> Result<(), GpuError> {
-        let words = packed.environment_words();
+        let words = environment_words(environment);
         self.bytes -= self.environment.size;
         self.environment = GpuBuffer::device_local_with(
             ctx,
             bytemuck::cast_slice(&words),
-            vk::BufferUsageFlags::STORAGE_BUFFER,
+            STORAGE,
             "environment",
         )?;
         self.bytes += self.environment.size;
@@ -254,6 +223,20 @@ impl SceneBuffers {
     }
 }
 
+/// The instance buffer, written by `SceneBuffers::set_instances`: room for every model copy
+/// and the mirror box (and `count`, should a scene have more), so that a model count's
+/// change writes it in place.
+fn instance_buffer(ctx: &Arc<GpuContext>, count: usize) -> Result<GpuBuffer, GpuError> {
+    let capacity = (INSTANCE_CAPACITY.max(count) * std::mem::size_of::<GpuInstance>()) as u64;
+    GpuBuffer::new(
+        ctx,
+        capacity,
+        STORAGE | vk::BufferUsageFlags::TRANSFER_DST,
+        gpu_allocator::MemoryLocation::GpuOnly,
+        "instances",
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use glam::Vec2;
@@ -261,9 +244,9 @@ mod tests {
     use super::*;
     use crate::gpu::{ContextOptions, GpuContext};
     use crate::progress::Progress;
-    use crate::render_settings::BvhLayout;
     use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
     use crate::scene::primitives::PaperModel;
+    use crate::tracer::packed::Layouts;
 
     #[test]
     fn a_scene_packed_for_loading_uploads_the_same_bytes() {
@@ -277,14 +260,13 @@ mod tests {
         mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
         let scene = paper_scene(mesh, 2, LightOrbit::default());
         let full = PackedScene::new(&scene);
-        let loading =
-            PackedScene::for_loading(&scene, BvhLayout::Binary, &Progress::default()).unwrap();
+        let loaded = LoadedScene::pack(scene, Layouts::Binary, &Progress::default()).unwrap();
         assert!(
-            loading.triangles.is_empty() && loading.shading.is_empty(),
+            loaded.tables().triangles.is_empty() && loaded.tables().shading.is_empty(),
             "nothing of them on the host"
         );
-        assert_eq!(loading.buffer_sizes(), full.buffer_sizes());
-        let written = SceneBuffers::upload_loaded(&ctx, &loading, Some(&scene)).unwrap();
+        assert_eq!(loaded.buffer_sizes(), full.buffer_sizes());
+        let written = SceneBuffers::upload_loaded(&ctx, &loaded).unwrap();
         let triangles: &[u8] = bytemuck::cast_slice(&full.triangles);
         let shading: &[u8] = bytemuck::cast_slice(&full.shading);
         assert_eq!(written.triangles.download(triangles.len() as u64).unwrap(), triangles);

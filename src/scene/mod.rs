@@ -1,7 +1,9 @@
-//! What is traced: meshes (from OBJ, PLY or glTF files or the paper's generators), their materials,
-//! instances of them placed in the world, the camera and the light.
+//! What is traced: meshes (from OBJ, PLY or glTF files or the paper's generators, loaded
+//! through [`formats::load_model`]), their materials, instances of them placed in the world,
+//! the camera and the light.
 
 pub mod camera;
+pub mod formats;
 pub mod gltf;
 mod normals;
 pub mod obj;

@@ -2,15 +2,12 @@
 //! planes, optional identical copies along the x, y and z axes at a fixed spacing, and a
 //! point light orbiting inside the box. Every entry point opens on this scene.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 
-use super::obj::{load_obj_with, LoadOptions, LoadedObj, ObjError};
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
-use crate::files::read_regular_file_parallel;
-use crate::progress::{Phase, Progress};
 
 /// Half the side of the mirror box.
 pub const BOX_HALF_SIZE: f32 = 4.0;
@@ -26,7 +23,9 @@ pub const MAX_MODELS: u32 = 27;
 /// (OBJ, PLY or glTF).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ModelSource {
+    /// One of the paper's models, made in code.
     Paper(PaperModel),
+    /// A model file, its format chosen by its extension (`formats.rs`).
     File(PathBuf),
     /// A finely tessellated torus knot of at least this many triangles (`torusknot:N`),
     /// for scaling tests without downloads.
@@ -58,94 +57,6 @@ impl ModelSource {
                 p.file_stem().map_or("model".into(), |s| s.to_string_lossy().into_owned())
             }
         }
-    }
-
-    /// Load or generate the mesh, normalised to the scene's model size; warnings are returned.
-    pub(crate) fn load(&self) -> Result<(Mesh, Vec<String>), ObjError> {
-        self.load_with(&LoadOptions::default())
-    }
-
-    /// [`ModelSource::load`], reading a file with `options` (generated models ignore them).
-    pub(crate) fn load_with(&self, options: &LoadOptions) -> Result<(Mesh, Vec<String>), ObjError> {
-        let (mut mesh, warnings) = match self {
-            ModelSource::Paper(m) => (m.mesh(), Vec::new()),
-            ModelSource::Generated(n) => (super::primitives::large_torus_knot(*n), Vec::new()),
-            ModelSource::File(p) => {
-                let loaded = load_model_file(p, options)?;
-                (loaded.mesh, loaded.warnings)
-            }
-        };
-        prepare_model(&mut mesh);
-        Ok((mesh, warnings))
-    }
-
-    /// [`ModelSource::load_with`], reporting its phase to `progress` (and stopping before
-    /// it when the load was cancelled); the error is one sentence.
-    pub(crate) fn load_with_progress(
-        &self,
-        options: &LoadOptions,
-        progress: &Progress,
-    ) -> Result<(Mesh, Vec<String>), String> {
-        let (mut mesh, warnings) = match self {
-            ModelSource::File(p) => {
-                let loaded = load_model_file_reporting(p, options, progress)?;
-                (loaded.mesh, loaded.warnings)
-            }
-            generated => {
-                progress.begin(Phase::Parse).map_err(|e| e.to_string())?;
-                return generated.load_with(options).map_err(|e| e.to_string());
-            }
-        };
-        prepare_model(&mut mesh);
-        Ok((mesh, warnings))
-    }
-}
-
-/// [`load_model_file`], reporting the read and the parse to `progress` as separate phases;
-/// the error is one sentence.
-fn load_model_file_reporting(
-    path: &Path,
-    options: &LoadOptions,
-    progress: &Progress,
-) -> Result<LoadedObj, String> {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
-    let begin = |phase| progress.begin(phase).map_err(|e| e.to_string());
-    let read = || -> Result<Vec<u8>, String> {
-        begin(Phase::Read)?;
-        let bytes = read_regular_file_parallel(path)
-            .map_err(|source| ObjError::Io { path: path.to_owned(), source }.to_string())?;
-        begin(Phase::Parse)?;
-        Ok(bytes)
-    };
-    let name = path.display().to_string();
-    match ext.as_deref() {
-        Some("obj") => super::obj::load_obj_from_bytes(read()?, &name, path.parent(), options)
-            .map_err(|e| e.to_string()),
-        Some("ply") => super::ply::load_ply_from_bytes(&read()?, &name).map_err(|e| e.to_string()),
-        Some("gltf" | "glb") => super::gltf::load_gltf_from_bytes(&read()?, &name, path.parent())
-            .map_err(|e| e.to_string()),
-        _ => {
-            begin(Phase::Parse)?;
-            load_model_file(path, options).map_err(|e| e.to_string())
-        }
-    }
-}
-
-/// The model formats read, by extension, for messages and file dialogs.
-pub const MODEL_EXTENSIONS: [&str; 4] = ["obj", "ply", "gltf", "glb"];
-
-/// Load a model file by its extension (any case): OBJ, PLY or glTF 2.0 (`.gltf`/`.glb`).
-/// `options` apply to OBJ files.
-pub fn load_model_file(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("obj") => load_obj_with(path, options),
-        Some("ply") => super::ply::load_ply(path),
-        Some("gltf" | "glb") => super::gltf::load_gltf(path),
-        _ => Err(ObjError::Invalid {
-            name: path.display().to_string(),
-            reason: "unknown model format; expected an OBJ (.obj), PLY (.ply) or glTF 2.0 (.gltf, .glb) file".to_owned(),
-        }),
     }
 }
 
@@ -348,16 +259,6 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
         ambient: 0.1,
         environment: None,
     }
-}
-
-/// Convenience: the paper's scene for a model source.
-pub fn load_paper_scene(
-    source: &ModelSource,
-    model_count: u32,
-    light: LightOrbit,
-) -> Result<(Scene, Vec<String>), ObjError> {
-    let (mesh, warnings) = source.load()?;
-    Ok((paper_scene(mesh, model_count, light), warnings))
 }
 
 #[cfg(test)]

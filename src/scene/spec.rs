@@ -5,7 +5,8 @@
 
 use glam::Vec3;
 
-use super::obj::{LoadOptions, ObjError};
+use super::formats::load_model;
+use super::obj::LoadOptions;
 use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
 use crate::render_settings::{RenderSettings, CREASE_ANGLE_DEGREES};
@@ -139,41 +140,13 @@ impl SceneSpec {
         scene
     }
 
-    /// Load (or generate) the model and build the scene; the loader's warnings are returned.
+    /// Load (or generate) the model ([`load_model`]) and build the scene; the loader's
+    /// warnings are returned.
     pub(crate) fn load(&self) -> anyhow::Result<(Scene, Vec<String>)> {
         self.validate().map_err(anyhow::Error::msg)?;
-        self.model.check_name().map_err(anyhow::Error::msg)?;
         self.check_environment()?;
-        let (mesh, warnings) = self.load_model()?;
-        Ok((self.scene_with(mesh), warnings))
-    }
-
-    /// Load (or generate) the model alone, prepared for the scene, with the spec's load
-    /// options; the loader's warnings are returned.
-    pub fn load_model(&self) -> Result<(Mesh, Vec<String>), ObjError> {
-        self.model.load_with(&self.load_options)
-    }
-}
-
-/// The model names `--model` and the panel accept, for messages.
-pub const MODEL_NAMES: &str = "geosphere, torusknot, sphere, cylinder, torusknot:N (a generated knot of N triangles, e.g. torusknot:4M), or a path to an OBJ, PLY or glTF (.gltf/.glb) file";
-
-impl ModelSource {
-    /// A file that does not exist and does not look like a path was probably meant as a
-    /// model name: say which names there are, instead of "No such file".
-    pub fn check_name(&self) -> Result<(), String> {
-        let ModelSource::File(path) = self else { return Ok(()) };
-        let text = path.to_string_lossy();
-        let looks_like_path = text.contains(['/', '\\']) || path.extension().is_some();
-        if path.exists() || looks_like_path {
-            return Ok(());
-        }
-        let why = if text.starts_with("torusknot:") {
-            "is not a triangle count from 1 to 100M"
-        } else {
-            "is no model name and no file"
-        };
-        Err(format!("'{text}' {why}; expected {MODEL_NAMES}"))
+        let loaded = load_model(&self.model, &self.load_options, None)?;
+        Ok((self.scene_with(loaded.mesh), loaded.warnings))
     }
 }
 
@@ -235,19 +208,6 @@ mod tests {
         for bad in [-1.0, 181.0, f32::NAN] {
             assert!(with(bad).unwrap_err().contains("crease angle"), "{bad}");
         }
-    }
-
-    #[test]
-    fn misspelt_model_names_list_the_valid_ones() {
-        for typed in ["torusknot:abc", "geosphre", "torusknot:0"] {
-            let err = ModelSource::parse(typed).check_name().unwrap_err();
-            assert!(err.contains(typed) && err.contains("geosphere, torusknot"), "{err}");
-        }
-        assert!(ModelSource::parse("torusknot:1M").check_name().is_ok());
-        assert!(
-            ModelSource::parse("missing/model.obj").check_name().is_ok(),
-            "a path gets the file system's message"
-        );
     }
 
     #[test]

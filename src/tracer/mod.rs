@@ -1,17 +1,21 @@
 //! The tracing model both tracers share: what one frame is asked for ([`FrameParams`]),
-//! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout), the
-//! shading maths, the traced [`Image`], and the CPU reference tracer ([`cpu`]).
+//! the scene packed into flat arrays ([`PackedScene`], the GPU's buffer layout; a load's
+//! [`LoadedScene`], whose triangles its upload writes), the shading maths, the traced
+//! [`Image`], and the CPU reference tracer ([`cpu`]).
 
 pub(crate) mod budget;
 pub mod cpu;
 pub mod frame;
 pub(crate) mod heat_map;
 pub mod image;
+pub mod loaded;
 pub mod packed;
 pub(crate) mod prepare;
+mod records;
 pub(crate) mod shading;
 pub mod textures;
 
 pub use frame::FrameParams;
 pub use image::Image;
+pub use loaded::LoadedScene;
 pub use packed::PackedScene;

@@ -1,4 +1,7 @@
-//! Unit tests of `packed.rs`: the GPU structs' layout, packing and the deferred triangles.
+//! Unit tests of `packed.rs`: the GPU structs' layout, packing, the layouts packed, and a
+//! load's records (`loaded.rs`) against a full packing's.
+
+use glam::Vec2;
 
 use super::*;
 
@@ -69,4 +72,59 @@ fn the_mesh_tables_boxes_give_the_scenes_bounds() {
     let boxes: Vec<_> = packed.meshes.iter().map(|m| m.bounds).collect();
     assert_eq!(scene.bounds_with(&boxes), scene.bounds());
     assert!(scene.bounds().max.x > 7.5, "the moved copy counts");
+}
+
+#[test]
+fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
+    // The upload writes a load's triangles from its scene: the same records, in the same
+    // slots, as a packing that holds them, for the model and the mirror box after it.
+    use crate::progress::{Phase, Progress};
+    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::primitives::PaperModel;
+    use crate::tracer::loaded::LoadedScene;
+    let mut mesh = PaperModel::TorusKnot.mesh();
+    prepare_model(&mut mesh);
+    mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
+    let scene = paper_scene(mesh, 2, LightOrbit::default());
+    let progress = Progress::default();
+    for layouts in [Layouts::Binary, Layouts::Both] {
+        let full = PackedScene::with_layouts(&scene, layouts);
+        let loaded = LoadedScene::pack(scene.clone(), layouts, &progress).unwrap();
+        assert_eq!(loaded.triangle_count(), full.triangles.len());
+        assert_eq!(loaded.buffer_sizes(), full.buffer_sizes());
+        for k in 0..full.triangles.len() {
+            assert_eq!(loaded.triangle(k), full.triangles[k], "triangle {k}");
+            assert_eq!(loaded.shading(k), full.shading[k], "hit record {k}");
+        }
+        assert_eq!(loaded.tables().instances, full.instances);
+        // What the window keeps rebuilds the instance list as the full packing does.
+        let (kept, mut top) = loaded.uploaded();
+        let more = crate::scene::paper::instances(5);
+        let mut full = full;
+        full.set_instances(&more);
+        top.set_instances(&more);
+        assert_eq!(top.instances, full.instances);
+        assert_eq!(top.has_wide(), full.has_wide());
+        assert_eq!(kept.triangle_count(), scene.triangle_count());
+    }
+    let phases: Vec<Phase> = progress.snapshot().phases.iter().map(|p| p.phase).collect();
+    assert_eq!(phases, [Phase::Build, Phase::Pack, Phase::Build, Phase::Pack]);
+}
+
+#[test]
+fn layouts_hold_what_their_frames_trace() {
+    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::primitives::PaperModel;
+    let mut mesh = PaperModel::TorusKnot.mesh();
+    prepare_model(&mut mesh);
+    let scene = paper_scene(mesh, 1, LightOrbit::default());
+    for (layouts, binary, wide) in
+        [(Layouts::Binary, true, false), (Layouts::Wide, false, true), (Layouts::Both, true, true)]
+    {
+        let packed = PackedScene::with_layouts(&scene, layouts);
+        assert_eq!((packed.has_binary(), packed.has_wide()), (binary, wide), "{layouts:?}");
+    }
+    assert_eq!(Layouts::only(BvhLayout::Wide), Layouts::Wide);
+    assert_eq!(Layouts::switchable(BvhLayout::Wide), Layouts::Both);
+    assert_eq!(Layouts::switchable(BvhLayout::Binary), Layouts::Binary);
 }

@@ -1,6 +1,6 @@
 //! What packing a scene needs that costs time: every mesh's BVH built (in parallel with
 //! the texture decoding), the diffuse textures and the environment map decoded. Done
-//! before [`PackedScene::pack`](super::PackedScene::pack), which only copies.
+//! before [`PackedScene::pack_tables`](super::PackedScene::pack_tables), which only copies.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -11,12 +11,53 @@ use rayon::prelude::*;
 use super::textures::EnvironmentMap;
 use crate::bvh::wide::{self, WideBvh};
 use crate::bvh::{BuildOptions, Bvh};
+use crate::render_settings::BvhLayout;
 use crate::scene::Scene;
+
+/// Which BVH layouts a packing holds, and so which tree frames of each layout trace.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Layouts {
+    /// The binary trees alone: wide frames trace them too.
+    #[default]
+    Binary,
+    /// The wide trees, and binary nodes only for a mesh without one: the least memory (at
+    /// 16M triangles the binary nodes are a third of the scene: 1.15 GB instead of 1.69).
+    /// Binary frames trace the wide trees.
+    Wide,
+    /// Both, so that each frame may pick its layout (the window, which switches).
+    Both,
+}
+
+impl Layouts {
+    /// Frames of `layout` alone, in the least memory (`render`, `bench`).
+    pub fn only(layout: BvhLayout) -> Self {
+        if layout.is_wide() {
+            Layouts::Wide
+        } else {
+            Layouts::Binary
+        }
+    }
+
+    /// `layout`, with the binary trees beside wide ones (a load: the window switches).
+    pub fn switchable(layout: BvhLayout) -> Self {
+        if layout.is_wide() {
+            Layouts::Both
+        } else {
+            Layouts::Binary
+        }
+    }
+
+    /// Whether the wide trees are built (their collapse takes as long as the build).
+    pub(crate) fn builds_wide(self) -> bool {
+        self != Layouts::Binary
+    }
+}
 
 /// A scene's BVHs (one per mesh, in mesh order), decoded textures and environment.
 pub(crate) struct PreparedScene {
     pub bvhs: Vec<Bvh>,
-    /// Each mesh's wide BVH, over its binary tree's (reordered) triangles, when asked for.
+    /// Each mesh's wide BVH, over its binary tree's (reordered) triangles, when the layouts
+    /// asked for hold it.
     pub wide_bvhs: Vec<Option<WideBvh>>,
     /// Every readable diffuse texture, by the path materials name it with.
     pub textures: Vec<(PathBuf, RgbaImage)>,
@@ -28,13 +69,14 @@ pub(crate) struct PreparedScene {
 }
 
 impl PreparedScene {
-    /// Build the BVHs (and, with `wide`, collapse each into the wide layout) and decode the
-    /// images `scene` needs.
-    pub(crate) fn new(scene: &Scene, wide: bool) -> Self {
+    /// Build the BVHs (and, where `layouts` holds the wide one, collapse each into it) and
+    /// decode the images `scene` needs.
+    pub(crate) fn new(scene: &Scene, layouts: Layouts) -> Self {
+        let wide = layouts.builds_wide();
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                // With `wide`, both layouts, so that a frame may pick either: the wide tree is
+                // With `wide`, both trees (a packing may keep either or both): the wide tree is
                 // collapsed from the binary one, whose triangles it puts in its own leaf
                 // order. Only on request: the collapse takes as long as the build.
                 let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = scene

@@ -12,6 +12,7 @@ use meshtracer::render_settings::RenderSettings;
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
+use meshtracer::tracer::packed::Layouts;
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 /// The Vulkan context every GPU test uses: validation (with synchronization validation)
@@ -113,7 +114,7 @@ pub fn render_both_with(
     settings: RenderSettings,
     tweak: impl Fn(&mut FrameParams),
 ) -> (Image, Image) {
-    let packed = PackedScene::for_layout(scene, settings.bvh);
+    let packed = PackedScene::with_layouts(scene, Layouts::only(settings.bvh));
     let mut params = FrameParams::new(scene, settings);
     tweak(&mut params);
     let ctx = ctx();

@@ -23,7 +23,7 @@ use winit::window::Window;
 
 pub(crate) mod auto_layout;
 mod captures;
-mod devices;
+pub(crate) mod devices;
 mod events;
 mod frame;
 pub(crate) mod input;
@@ -52,12 +52,13 @@ use crate::app::tool::session::Session;
 use crate::app::tool::timing::Timing;
 use crate::app::tool::ui_state::UiPass;
 use crate::app::user_files::open_dialog::OpenDialog;
-use crate::app::user_files::settings::{self, Store};
+use crate::app::user_files::settings::Store;
 use crate::app::user_files::shader_watch::ShaderWatch;
-use crate::app::{headless_error, ViewOptions};
-use crate::gpu::present::{BandTag, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
-use crate::gpu::{ComputeTracer, FrameTrace, GpuError};
-use crate::render_settings::Accel;
+use crate::app::options::ViewOptions;
+use crate::app::tool::devices::headless_error;
+use crate::gpu::present::{BandTag, FrameOutcome, FrameRequest, PixelRect, Show, FRAMES_IN_FLIGHT};
+use crate::gpu::{ComputeTracer, FrameTrace, GpuError, PartTimes};
+use crate::render_settings::{Accel, RenderSettings};
 use crate::scene::spec::SceneSpec;
 
 /// The tool: the window and its GPU side, the parameters and session, and the parts each
@@ -141,7 +142,7 @@ impl Tool {
 
         let mut session = Session::default();
         let mut panel = PanelState::default();
-        settings::restore(&remembered, &mut panel, &egui_ctx);
+        crate::app::panel::remembered::restore(&remembered, &mut panel, &egui_ctx);
         if let Some(path) = &options.preset {
             panel.presets.used(path);
         }
@@ -261,8 +262,33 @@ impl Tool {
         self.frame.trace(&mut self.gpu, params, self.params.view)
     }
 
+    /// One displayed frame: what finished in the background, the UI and what it changed,
+    /// the traced and drawn frame, its times, benchmarks, screenshots. False: exit now.
     fn redraw(&mut self) -> anyhow::Result<bool> {
         let now = Instant::now();
+        self.poll_background(now)?;
+        if !self.can_draw() && !self.script.is_final_frame(false) {
+            // Minimized or hidden: nothing is traced or drawn (loads still finish above).
+            self.timing.last_frame = None;
+            return Ok(true);
+        }
+        let (primitives, pixels_per_point) = self.update_ui()?;
+        let drawn = self.draw_frame(now, &primitives, pixels_per_point)?;
+        let (t, frame_ms) = self.record_frame(now, &drawn);
+        self.finish_benchmarks(t, &drawn, frame_ms)?;
+
+        let presented = drawn.outcome.presented;
+        self.take_screenshots(presented, drawn.outcome.window_image.as_ref(), drawn.final_frame);
+        if drawn.final_frame && self.script.finish_attempt(presented, !self.can_draw()) {
+            self.write_exit_files(drawn.outcome.window_image)?;
+            self.timing.benchmarks.check_exit()?;
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    /// The light's motion since the last frame, a finished load and a changed shader.
+    fn poll_background(&mut self, now: Instant) -> anyhow::Result<()> {
         if let Some(last) = self.timing.last_frame {
             // Capped so a stall (a model upload) does not make the light jump.
             self.params.advance_light(now.duration_since(last).as_secs_f32().min(1.0));
@@ -273,18 +299,18 @@ impl Tool {
         if self
             .shader_watch
             .as_mut()
-            .is_some_and(|w| w.poll(&mut self.gpu.tracer, &mut self.ui.panel))
+            .is_some_and(|w| w.poll(&mut self.gpu.tracer, &mut self.ui.panel.render.shader_status))
         {
             // What was accumulated so far came from the old shader.
             self.session.accumulation = Default::default();
             self.frame.progressive = None;
         }
-        if !self.can_draw() && !self.script.is_final_frame(false) {
-            // Minimized or hidden: nothing is traced or drawn (loads still finish above).
-            self.timing.last_frame = None;
-            return Ok(true);
-        }
+        Ok(())
+    }
 
+    /// Run the UI, carry out what it asked for and apply the parameters to the session
+    /// (before the frame is traced, so it traces them). Returns the UI's shapes to draw.
+    fn update_ui(&mut self) -> anyhow::Result<(Vec<egui::ClippedPrimitive>, f32)> {
         let (mut full, actions) = self.run_ui();
         self.gpu.presenter.update_textures(&mut full.textures_delta)?;
         for action in actions {
@@ -303,7 +329,18 @@ impl Tool {
             &mut self.ui.panel.benchmark.outcome,
         )?;
         let primitives = self.ui.egui_ctx.tessellate(full.shapes, full.pixels_per_point);
+        Ok((primitives, full.pixels_per_point))
+    }
 
+    /// Trace (all of the frame or a band) and draw it with the UI, then keep what the
+    /// next frames need: the picture of another view's last band, the band size.
+    fn draw_frame(
+        &mut self,
+        now: Instant,
+        primitives: &[egui::ClippedPrimitive],
+        pixels_per_point: f32,
+    ) -> anyhow::Result<DrawnFrame> {
+        let area = self.area();
         // A frame being traced in bands keeps its parameters (accumulation waits for it).
         let params =
             self.session.frame_params(&self.params, area, self.frame.progressive.is_some());
@@ -314,8 +351,7 @@ impl Tool {
             .as_ref()
             .map(|(p, _)| p.params.settings)
             .or(params.map(|p| p.params.settings));
-        let traced = prepared.completes;
-        let final_frame = self.script.is_final_frame(traced);
+        let final_frame = self.script.is_final_frame(prepared.completes);
         let capture =
             self.captures.want_window_shot || (final_frame && self.script.screenshot_ui.is_some());
         let image_rect =
@@ -339,8 +375,8 @@ impl Tool {
             tag,
             show,
             image_rect,
-            ui: &primitives,
-            pixels_per_point: full.pixels_per_point,
+            ui: primitives,
+            pixels_per_point,
             capture_window: capture,
         };
         // A tracer on another device has traced already; its buffers are not the window's.
@@ -355,8 +391,17 @@ impl Tool {
             self.frame.band_groups = adapt_groups(self.frame.band_groups, ms, u32::MAX);
         }
         self.gpu.clock.poll(now);
-        // A traced frame's GPU time: its bands' times added up, from a trace done before
-        // this frame or recorded into an earlier one and timed now.
+        Ok(DrawnFrame { prepared, outcome, frame_settings, final_frame, tag })
+    }
+
+    /// A traced frame's GPU time (total and parts) and the settings it was traced with: its
+    /// bands' times added up, from a trace done before this frame or recorded into an
+    /// earlier one and timed now.
+    fn frame_gpu_time(
+        &mut self,
+        drawn: &DrawnFrame,
+    ) -> Option<((f64, PartTimes), Option<RenderSettings>)> {
+        let (prepared, outcome, tag) = (&drawn.prepared, &drawn.outcome, drawn.tag);
         let mut frame_time = None;
         if let Some(ms) = prepared.gpu_ms {
             let parts = prepared.part_ms.map_or([None; 2], |p| p.map(Some));
@@ -370,52 +415,69 @@ impl Tool {
                 .map(|t| (t, band.frame))
                 .or(frame_time);
         }
-        let timed_settings = frame_time.and_then(|(_, number)| self.frame.settings_of(number));
-        let frame_time = frame_time.map(|(t, _)| t);
-        if prepared.completes {
+        frame_time.map(|(t, number)| (t, self.frame.settings_of(number)))
+    }
+
+    /// Count the frame and note its times: GPU time in the split, the stats and the
+    /// automatic layout; display time and the frame log when presented. Returns the
+    /// seconds since start and the frame's GPU milliseconds.
+    fn record_frame(&mut self, now: Instant, drawn: &DrawnFrame) -> (f64, Option<f64>) {
+        let frame_time = self.frame_gpu_time(drawn);
+        let traced = drawn.prepared.completes;
+        if traced {
             self.frame.traced_frames += 1;
         }
-        self.note_split_times(frame_time.map(|(_, parts)| parts));
+        self.note_split_times(frame_time.map(|((_, parts), _)| parts));
         let t = now.duration_since(self.timing.start).as_secs_f64();
         // Before the frame is logged: its row carries the latest GPU time.
-        if let Some((ms, _)) = frame_time {
+        if let Some(((ms, _), timed_settings)) = frame_time {
             self.timing.stats.push_gpu(t, ms, timed_settings);
             if let Some(settings) = timed_settings {
                 self.session.auto_layout.frame_timed(ms, settings);
             }
         }
-        if outcome.presented {
+        if drawn.outcome.presented {
             if let Some(last) = self.timing.last_frame {
                 self.timing.stats.push_frame(t, now.duration_since(last).as_secs_f64() * 1e3);
             }
             self.timing.last_frame = Some(now);
             if traced {
                 self.script.frames += 1;
-                let (stats, params, session, clock) =
-                    (&self.timing.stats, &self.params, &self.session, self.gpu.clock.latest);
-                let row = || {
-                    (
-                        FrameRow::new(
-                            t,
-                            stats,
-                            &frame_settings.unwrap_or_default(),
-                            session.counts().0,
-                            clock,
-                        ),
-                        watched(params, &session.model_label()),
-                    )
-                };
-                if let Some(status) = self.timing.recorder.frame(row) {
-                    self.ui.panel.perf.status = Some(status);
-                }
+                self.log_frame(t, drawn.frame_settings.unwrap_or_default());
             }
         } else if !self.can_draw() {
             self.timing.last_frame = None;
         }
+        (t, frame_time.map(|((ms, _), _)| ms))
+    }
+
+    /// A presented traced frame's row in the frame-time log (when one is kept).
+    fn log_frame(&mut self, t: f64, settings: RenderSettings) {
+        let (stats, params, session, clock) =
+            (&self.timing.stats, &self.params, &self.session, self.gpu.clock.latest);
+        let row = || {
+            (
+                FrameRow::new(t, stats, &settings, session.counts().0, clock),
+                watched(params, &session.model_label()),
+            )
+        };
+        if let Some(status) = self.timing.recorder.frame(row) {
+            self.ui.panel.perf.status = Some(status);
+        }
+    }
+
+    /// Give a running benchmark the frame; when the last run is done, write its outcome
+    /// and exit if it was asked for on the command line.
+    fn finish_benchmarks(
+        &mut self,
+        t: f64,
+        drawn: &DrawnFrame,
+        frame_ms: Option<f64>,
+    ) -> anyhow::Result<()> {
         self.timing.benchmarks.after_frame(
             t,
-            outcome.presented && traced,
-            frame_time.map(|(ms, _)| ms),
+            drawn.outcome.presented && drawn.prepared.completes,
+            frame_ms,
             self.gpu.clock.latest,
         );
         let (session, ctx) = (&self.session, &self.gpu.trace_ctx);
@@ -432,14 +494,18 @@ impl Tool {
         )? {
             self.script.request_exit();
         }
-
-        self.take_screenshots(outcome.presented, outcome.window_image.as_ref(), final_frame);
-
-        if final_frame && self.script.finish_attempt(outcome.presented, !self.can_draw()) {
-            self.write_exit_files(outcome.window_image)?;
-            self.timing.benchmarks.check_exit()?;
-            return Ok(false);
-        }
-        Ok(true)
+        Ok(())
     }
+}
+
+/// What `draw_frame` traced and presented, for the steps after it.
+struct DrawnFrame {
+    prepared: Prepared,
+    outcome: FrameOutcome,
+    /// The settings this frame traces with (a long frame keeps those it began with).
+    frame_settings: Option<RenderSettings>,
+    /// The scripted run's last frame.
+    final_frame: bool,
+    /// The frame (and whether this is its last band) the trace belongs to.
+    tag: BandTag,
 }

@@ -6,9 +6,10 @@ use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::progress::Phase;
 use crate::render_settings::{Accel, Aov, BvhLayout};
 use crate::scene::paper::{instances, ModelSource};
+use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::FrameParams;
-use crate::tracer::packed::PackedScene;
+use crate::tracer::packed::PackedTopLevel;
 use crate::tracer::textures::EnvironmentMap;
 
 use crate::app::panel::widgets::{group, Status};
@@ -21,11 +22,11 @@ use crate::app::user_files::model_loader::{LoadedModel, ModelLoader, Poll};
 pub(crate) struct Model {
     pub(crate) source: ModelSource,
     pub(crate) scene: Scene,
-    /// The packed scene with its geometry arrays emptied after upload: the mesh table
-    /// stays for instance rebuilds, the environment for its changes.
-    pub(crate) packed: PackedScene,
-    /// The wide BVH layout was packed with it (only when asked for: see `apply`).
-    pub(crate) has_wide: bool,
+    /// What the host keeps of the packed scene once uploaded: the mesh table, for
+    /// instance rebuilds.
+    /// Its `has_wide()`: the wide BVH layout was packed with it (only when asked for: see
+    /// `apply`).
+    pub(crate) top_level: PackedTopLevel,
 }
 
 /// What the tracer holds now; None = not applied yet (or to be applied again).
@@ -87,13 +88,11 @@ impl Session {
         panel.model.status = None;
         panel.model.warnings.clear();
         params.scene.model = source.clone();
-        self.loader.start(
-            source,
-            params.scene.load_options,
-            params.scene.models,
-            params.scene.light,
-            layout,
-        );
+        let mut spec = SceneSpec { model: source, ..params.scene.clone() };
+        spec.settings.bvh = layout;
+        // `apply` decodes and uploads the environment as it changes, not with the model.
+        spec.environment = None;
+        self.loader.start(spec);
     }
 
     /// Stop the load in progress (Escape, the panel's Cancel): the model shown stays. The
@@ -138,30 +137,22 @@ impl Session {
         tracer: &mut ComputeTracer,
         panel: &mut PanelState,
     ) -> anyhow::Result<String> {
-        let LoadedModel { source, scene, mut packed, warnings, progress } = loaded;
+        let LoadedModel { source, scene: mut loaded, progress } = loaded;
         // Not cancelled: the loader hands over only loads it still wants.
         let _ = progress.begin(Phase::Upload);
-        tracer.set_loaded_scene(&packed, &scene)?;
+        tracer.set_loaded_scene(&loaded)?;
         progress.finish();
         let phases = progress.snapshot();
         let seconds = phases.total_seconds();
         let each: Vec<String> =
             phases.phases.iter().map(|p| format!("{} {:.2}", p.phase.name(), p.seconds)).collect();
-        // The GPU has the geometry now; keep only what instance and environment changes need,
-        // and free the rest on another thread (unmapping a 10M-triangle model's arrays took
-        // tens of milliseconds, which the next frame would wait for).
-        let has_wide = packed.has_wide();
-        let freed = (
-            std::mem::take(&mut packed.triangles),
-            std::mem::take(&mut packed.shading),
-            std::mem::take(&mut packed.vertices),
-            std::mem::take(&mut packed.nodes),
-            std::mem::take(&mut packed.wide_nodes),
-        );
-        crate::memory::free_in_background(freed);
+        // The GPU has the geometry now: keep only what instance changes need.
+        let warnings = std::mem::take(&mut loaded.warnings);
+        let (scene, top_level) = loaded.uploaded();
         // The same model again, now with the wide tree: the wide layout's (or auto's) load.
         let again =
-            self.model.as_ref().is_some_and(|m| m.source == source && !m.has_wide) && has_wide;
+            self.model.as_ref().is_some_and(|m| m.source == source && !m.top_level.has_wide())
+                && top_level.has_wide();
         let what = if again { "loaded the wide BVH layout of" } else { "loaded" };
         let text = format!(
             "{what} {} ({} triangles) in {seconds:.2} s ({} s)",
@@ -181,7 +172,7 @@ impl Session {
         self.accumulation = Accumulation::default();
         self.wide_asked = false;
         self.installs += 1;
-        self.model = Some(Model { source, scene, packed, has_wide });
+        self.model = Some(Model { source, scene, top_level });
         Ok(title)
     }
 
@@ -204,7 +195,7 @@ impl Session {
             && self.loader.status().is_none()
         {
             if let Some(source) =
-                self.model.as_ref().filter(|m| !m.has_wide).map(|m| m.source.clone())
+                self.model.as_ref().filter(|m| !m.top_level.has_wide()).map(|m| m.source.clone())
             {
                 self.wide_asked = true;
                 self.load_with(source, BvhLayout::Wide, params, panel);
@@ -232,8 +223,8 @@ impl Session {
             if !params.scene.mirror_box {
                 model.scene.remove_box();
             }
-            model.packed.set_instances(&model.scene.instances);
-            tracer.set_instances(&model.packed.instances)?;
+            model.top_level.set_instances(&model.scene.instances);
+            tracer.set_instances(&model.top_level.instances)?;
             self.applied.instances = Some(want);
             self.accumulation = Accumulation::default();
         }
@@ -248,8 +239,7 @@ impl Session {
             if let Some(w) = warning {
                 panel.render.status = Some(Status::error(w));
             }
-            model.packed.set_environment(map);
-            tracer.set_environment(&model.packed)?;
+            tracer.set_environment(map.as_ref())?;
             self.applied.environment = Some(upload);
             self.accumulation = Accumulation::default();
         }
@@ -272,7 +262,9 @@ impl Session {
             params.scene.mirror_box,
             self.installs,
         );
-        if let Some(layout) = self.auto_layout.next_layout(work, model.has_wide && kernels_ready) {
+        if let Some(layout) =
+            self.auto_layout.next_layout(work, model.top_level.has_wide() && kernels_ready)
+        {
             params.scene.settings.bvh = layout;
         }
     }
@@ -289,7 +281,7 @@ impl Session {
         let model = self.model.as_mut()?;
         model.scene.camera = params.camera;
         model.scene.light.position = params.light_position();
-        let mesh_bounds: Vec<_> = model.packed.meshes.iter().map(|m| m.bounds).collect();
+        let mesh_bounds: Vec<_> = model.top_level.meshes.iter().map(|m| m.bounds).collect();
         let bounds = model.scene.bounds_with(&mesh_bounds);
         let mut frame = params.split.frame(FrameParams::with_bounds(
             &model.scene,

@@ -1,24 +1,22 @@
-//! Loading a model off the UI thread: reading and parsing the file (or generating a paper
-//! model), building its BVH and packing it run on a worker thread that reports each phase
-//! through a [`Progress`]; the window keeps drawing the old model until the new one is
-//! ready, keeps it if loading fails, and can cancel a load (Escape) at the next phase.
+//! Loading a model off the UI thread: [`LoadedScene::load`] (reading and parsing the file
+//! or generating a paper model, building its BVH and packing it, as `bench --load` measures
+//! it) runs on a worker thread that reports each phase through a [`Progress`]; the window
+//! keeps drawing the old model until the new one is ready, keeps it if loading fails, and
+//! can cancel a load (Escape) at the next phase.
 
 use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 
 use crate::progress::{Progress, Snapshot};
-use crate::render_settings::BvhLayout;
-use crate::scene::obj::LoadOptions;
-use crate::scene::paper::{paper_scene, LightOrbit, ModelSource};
-use crate::scene::Scene;
-use crate::tracer::packed::PackedScene;
+use crate::scene::paper::ModelSource;
+use crate::scene::spec::SceneSpec;
+use crate::tracer::loaded::LoadedScene;
 
 /// A loaded model, ready to upload.
 pub(crate) struct LoadedModel {
     pub(crate) source: ModelSource,
-    pub(crate) scene: Scene,
-    pub(crate) packed: PackedScene,
-    pub(crate) warnings: Vec<String>,
+    /// The scene around it, packed for its upload (with the loader's warnings).
+    pub(crate) scene: LoadedScene,
     /// Its phases so far (the upload, on the UI thread, is still to come).
     pub(crate) progress: Progress,
 }
@@ -54,25 +52,18 @@ pub(crate) struct LoadStatus<'a> {
 }
 
 impl ModelLoader {
-    /// Start loading `source` (a file with `options`) for `model_count` copies; a load
-    /// already running is cancelled (its thread stops at its next phase, its result dropped).
-    /// With `layout` wide, the wide BVH is packed too.
-    pub(crate) fn start(
-        &mut self,
-        source: ModelSource,
-        options: LoadOptions,
-        model_count: u32,
-        light: LightOrbit,
-        layout: BvhLayout,
-    ) {
+    /// Start loading `spec`'s model into the scene it describes (its copies, light and BVH
+    /// layout); a load already running is cancelled (its thread stops at its next phase,
+    /// its result dropped).
+    pub(crate) fn start(&mut self, spec: SceneSpec) {
         self.cancel();
         let (tx, rx) = channel();
-        let label = source.label();
+        let label = spec.model.label();
         let progress = Progress::default();
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
             let progress = progress.clone();
             move || {
-                let result = load(source, &options, model_count, light, layout, progress);
+                let result = load(spec, progress);
                 // The receiver is gone when the load was cancelled: nothing to tell.
                 let _ = tx.send(result);
             }
@@ -132,31 +123,15 @@ impl ModelLoader {
 
 /// The worker's part: read and parse (or generate), build, pack; stops between phases
 /// when cancelled.
-fn load(
-    source: ModelSource,
-    options: &LoadOptions,
-    model_count: u32,
-    light: LightOrbit,
-    layout: BvhLayout,
-    progress: Progress,
-) -> Result<LoadedModel, String> {
-    source.check_name()?;
-    let (mesh, warnings) =
-        source.load_with_progress(options, &progress).map_err(|e| e.to_string())?;
-    if mesh.triangle_count() == 0 {
-        return Err(format!("{} has no triangles", source.label()));
-    }
-    let scene = paper_scene(mesh, model_count, light);
-    let mut packed =
-        PackedScene::for_loading(&scene, layout, &progress).map_err(|e| e.to_string())?;
+fn load(spec: SceneSpec, progress: Progress) -> Result<LoadedModel, String> {
+    let scene = LoadedScene::load(&spec, &progress).map_err(|e| e.to_string())?;
     progress.checkpoint().map_err(|e| e.to_string())?;
-    // Textures that could not be read join the loader's warnings in the panel, and each is
-    // printed once on the terminal.
-    let warnings: Vec<String> = warnings.into_iter().chain(packed.warnings.drain(..)).collect();
-    for w in &warnings {
+    // The loader's and the packing's warnings (textures that could not be read) are shown in
+    // the panel, and each is printed once on the terminal.
+    for w in &scene.warnings {
         log::warn!("{w}");
     }
-    Ok(LoadedModel { source, scene, packed, warnings, progress })
+    Ok(LoadedModel { source: spec.model, scene, progress })
 }
 
 #[cfg(test)]
@@ -165,34 +140,27 @@ mod tests {
     use crate::progress::Phase;
     use crate::scene::primitives::PaperModel;
 
+    /// The default scene around `model`, with `models` copies.
+    fn spec(model: ModelSource, models: u32) -> SceneSpec {
+        SceneSpec { model, models, ..Default::default() }
+    }
+
     #[test]
     fn loads_on_a_thread_and_reports_errors_as_one_sentence() {
         let mut loader = ModelLoader::default();
         assert!(matches!(loader.poll(), Poll::Idle));
-        loader.start(
-            ModelSource::Paper(PaperModel::Sphere),
-            LoadOptions::default(),
-            2,
-            LightOrbit::default(),
-            BvhLayout::Binary,
-        );
+        loader.start(spec(ModelSource::Paper(PaperModel::Sphere), 2));
         assert!(loader.busy());
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let loaded = result.unwrap();
-        assert_eq!(loaded.scene.instances.len(), 3);
+        assert_eq!(loaded.scene.scene().instances.len(), 3);
         assert_eq!(
-            loaded.packed.triangle_count(),
-            loaded.scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>()
+            loaded.scene.triangle_count(),
+            loaded.scene.scene().meshes.iter().map(|m| m.triangle_count()).sum::<usize>()
         );
         assert!(!loader.busy());
 
-        loader.start(
-            ModelSource::File("/nonexistent/model.obj".into()),
-            LoadOptions::default(),
-            1,
-            LightOrbit::default(),
-            BvhLayout::Binary,
-        );
+        loader.start(spec(ModelSource::File("/nonexistent/model.obj".into()), 1));
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         let err = result.err().unwrap();
         assert!(!err.contains('\n'), "{err}");
@@ -201,13 +169,7 @@ mod tests {
     #[test]
     fn a_cancelled_load_keeps_the_old_model_and_starts_no_phase() {
         let mut loader = ModelLoader::default();
-        loader.start(
-            ModelSource::Generated(2_000),
-            LoadOptions::default(),
-            1,
-            LightOrbit::default(),
-            BvhLayout::Binary,
-        );
+        loader.start(spec(ModelSource::Generated(2_000), 1));
         assert!(loader.cancel().is_some_and(|label| label.starts_with("torusknot")));
         assert!(matches!(loader.poll(), Poll::Idle), "the old model stays: nothing to take");
         assert!(loader.cancel().is_none());
@@ -215,16 +177,7 @@ mod tests {
         // The worker checks the flag before each phase.
         let progress = Progress::default();
         progress.cancel();
-        let err = load(
-            ModelSource::Generated(2_000),
-            &LoadOptions::default(),
-            1,
-            LightOrbit::default(),
-            BvhLayout::Binary,
-            progress.clone(),
-        )
-        .err()
-        .unwrap();
+        let err = load(spec(ModelSource::Generated(2_000), 1), progress.clone()).err().unwrap();
         assert_eq!(err, "loading was cancelled");
         assert!(progress.snapshot().phases.is_empty());
     }
@@ -232,13 +185,7 @@ mod tests {
     #[test]
     fn a_finished_load_lists_its_phases_in_order() {
         let mut loader = ModelLoader::default();
-        loader.start(
-            ModelSource::Generated(2_000),
-            LoadOptions::default(),
-            1,
-            LightOrbit::default(),
-            BvhLayout::Binary,
-        );
+        loader.start(spec(ModelSource::Generated(2_000), 1));
         let status = loader.status().unwrap();
         assert!(status.label.starts_with("torusknot"), "{}", status.label);
         let Poll::Done(result) = loader.wait() else { panic!("no result") };

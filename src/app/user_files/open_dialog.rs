@@ -36,7 +36,7 @@ impl OpenDialog {
                 Purpose::Preset => "Open a preset",
             })
             .initial_directory(start_folder(near))
-            .add_file_filter(MODEL_FILTER, extensions(&crate::scene::paper::MODEL_EXTENSIONS))
+            .add_file_filter(MODEL_FILTER, extensions(&crate::scene::formats::MODEL_EXTENSIONS))
             .add_file_filter(PRESET_FILTER, extensions(&["toml", "png"]))
             .default_file_filter(match purpose {
                 Purpose::Model => MODEL_FILTER,
