@@ -51,6 +51,32 @@ impl Range {
         self.check(v as f64, s).map(|()| v)
     }
 
+    /// The whole numbers of a closed range, for sliders, clamps and the flags' parsers.
+    pub fn u32s(&self) -> std::ops::RangeInclusive<u32> {
+        self.lo as u32..=self.hi as u32
+    }
+
+    /// [`Self::u32s`] as clap's integer parsers take it.
+    pub fn i64s(&self) -> std::ops::RangeInclusive<i64> {
+        self.lo as i64..=self.hi as i64
+    }
+
+    /// A closed range's ends as `f32`s, for sliders.
+    pub fn f32s(&self) -> std::ops::RangeInclusive<f32> {
+        self.lo as f32..=self.hi as f32
+    }
+
+    /// `v` moved to the nearest whole number of a closed range.
+    pub fn clamp_u32(&self, v: u32) -> u32 {
+        let r = self.u32s();
+        v.clamp(*r.start(), *r.end())
+    }
+
+    /// `v` moved into a closed range (NaN stays NaN).
+    pub fn clamp_f32(&self, v: f32) -> f32 {
+        v.clamp(self.lo as f32, self.hi as f32)
+    }
+
     /// `Ok(())` inside the range, else "`shown` is out of range (0..=180 degrees)".
     pub fn check(&self, v: f64, shown: impl fmt::Display) -> Result<(), String> {
         if self.contains(v) {
@@ -73,6 +99,8 @@ pub const MAX_BOUNCES: u32 = 8;
 pub const MAX_RESOLUTION: u32 = 8192;
 /// Most camera samples per pixel in one frame.
 pub const MAX_SPP: u32 = 64;
+/// Most copies of the model (the paper's Table 2 lays them out on a 3x3x3 grid).
+pub const MAX_MODELS: u32 = 27;
 
 /// Image width and height in pixels.
 pub const RESOLUTION: Range = Range::closed(1.0, MAX_RESOLUTION as f64, "");
@@ -80,6 +108,8 @@ pub const RESOLUTION: Range = Range::closed(1.0, MAX_RESOLUTION as f64, "");
 pub const BOUNCES: Range = Range::closed(0.0, MAX_BOUNCES as f64, "");
 /// Camera samples per pixel.
 pub const SPP: Range = Range::closed(1.0, MAX_SPP as f64, "");
+/// Copies of the model (`--models`).
+pub const MODELS: Range = Range::closed(1.0, MAX_MODELS as f64, "");
 /// The reflection blend ratio.
 pub const BLEND: Range = Range::closed(0.0, 1.0, "");
 /// The vertical field of view.

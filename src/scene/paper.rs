@@ -16,8 +16,8 @@ pub const MODEL_RADIUS: f32 = 1.0;
 /// Distance between a copy and the centre model (Table 2's fixed spacing).
 pub(crate) const MODEL_SPACING: f32 = 2.5;
 /// Copies fill a 3x3x3 lattice inside the box: centre, the six axis neighbours, then the
-/// edges and corners.
-pub const MAX_MODELS: u32 = 27;
+/// edges and corners (as many as `render_settings::MODELS` accepts).
+pub use crate::render_settings::MAX_MODELS;
 
 /// Where the model comes from: one of the paper's generated primitives or a model file
 /// (OBJ, PLY or glTF).

@@ -15,7 +15,7 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::obj::LoadOptions;
-use super::paper::{LightOrbit, ModelSource, MAX_MODELS};
+use super::paper::{LightOrbit, ModelSource};
 use super::spec::{CameraSpec, SceneSpec};
 use super::EnvironmentSource;
 use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
@@ -305,7 +305,7 @@ fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
 }
 
 fn de_copies<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::Range::closed(1.0, MAX_MODELS as f64, ""))
+    de_in_range(d, knobs::MODELS)
 }
 
 fn de_side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {

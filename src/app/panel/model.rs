@@ -8,7 +8,8 @@ use crate::app::panel::widgets::{group, status_line, Status};
 use crate::app::user_files::model_loader::LoadStatus;
 use crate::app::user_files::open_dialog::Purpose;
 use crate::progress::Phase;
-use crate::scene::paper::{ModelSource, MAX_MODELS};
+use crate::render_settings::MODELS;
+use crate::scene::paper::ModelSource;
 use crate::scene::primitives::PaperModel;
 
 /// The section's state between frames.
@@ -99,7 +100,7 @@ impl Section for ModelPanel {
         }
         ui.horizontal(|ui| {
             ui.label("Copies");
-            ui.add(egui::Slider::new(&mut params.scene.models, 1..=MAX_MODELS));
+            ui.add(egui::Slider::new(&mut params.scene.models, MODELS.u32s()));
         });
         ui.label(
             RichText::new(format!(
