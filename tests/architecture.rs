@@ -32,10 +32,11 @@ const LAYERS: &[&str] = &[
 
 /// The folders and files of `src/app/` from the bottom up: one imports only those before it
 /// (and `app` itself, the entry point, imports them all). `options` is what the tool starts
-/// with; `state` the parameters; `views` draw from them; `measure` times frames and reports
-/// through the panel's status type; `user_files` loads and saves; `panel` shows all of
-/// these; `tool` runs the window over everything.
-const APP_ORDER: &[&str] = &["options", "state", "views", "measure", "user_files", "panel", "tool"];
+/// with; `state` the parameters; `shortcuts` the keys that change them; `views` draw from
+/// them; `measure` times frames and reports through the panel's status type; `user_files`
+/// loads and saves; `panel` shows all of these; `tool` runs the window over everything.
+const APP_ORDER: &[&str] =
+    &["options", "state", "shortcuts", "views", "measure", "user_files", "panel", "tool"];
 
 /// The most lines a source file may have.
 const MAX_FILE_LINES: usize = 600;

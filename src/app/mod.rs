@@ -21,6 +21,7 @@
 pub(crate) mod measure;
 pub(crate) mod options;
 pub(crate) mod panel;
+pub(crate) mod shortcuts;
 pub(crate) mod state;
 pub(crate) mod tool;
 pub(crate) mod user_files;

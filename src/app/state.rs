@@ -1,13 +1,13 @@
 //! The tool's parameters (everything the panel and the keys change) and the pure logic on
-//! them: render resolution, the light's motion, keyboard shortcuts, image placement.
+//! them: render resolution, the light's motion, image placement (the keyboard shortcuts
+//! are `shortcuts.rs`).
 
 use glam::Vec3;
-use winit::keyboard::KeyCode;
 
-use crate::app::views::split::SplitView;
+use crate::app::split::SplitView;
 pub(crate) use crate::gpu::present::PixelRect;
-use crate::render_settings::{Accel, Aov, RenderSettings, MAX_BOUNCES, MAX_RESOLUTION};
-use crate::scene::paper::{ModelSource, BOX_HALF_SIZE, MAX_MODELS};
+use crate::render_settings::{Accel, Aov, RenderSettings, BLEND, BOUNCES, MODELS, RESOLUTION};
+use crate::scene::paper::{ModelSource, BOX_HALF_SIZE};
 use crate::scene::spec::{CameraSpec, SceneSpec};
 use crate::scene::{Camera, EnvironmentSource};
 
@@ -150,13 +150,12 @@ impl Params {
             Resolution::Custom
         };
         let settings = RenderSettings {
-            bounces: s.bounces.min(MAX_BOUNCES),
-            blend: s.blend.clamp(0.0, 1.0),
+            bounces: BOUNCES.clamp_u32(s.bounces),
+            blend: BLEND.clamp_f32(s.blend),
             aov: Aov::Color,
             ..*s
         };
-        let scene =
-            SceneSpec { settings, models: spec.models.clamp(1, MAX_MODELS), ..spec.clone() };
+        let scene = SceneSpec { settings, models: MODELS.clamp_u32(spec.models), ..spec.clone() };
         Self {
             resolution,
             custom: [s.width, s.height],
@@ -177,7 +176,7 @@ impl Params {
 
     /// Render width and height for an image area of `area` physical pixels.
     pub(crate) fn render_size(&self, area: [u32; 2]) -> [u32; 2] {
-        let clamp = |v: u32| v.clamp(1, MAX_RESOLUTION);
+        let clamp = |v: u32| RESOLUTION.clamp_u32(v);
         match self.resolution {
             Resolution::Square(n) => [n, n],
             Resolution::MatchWindow => [clamp(area[0]), clamp(area[1])],
@@ -319,128 +318,6 @@ impl Params {
     }
 }
 
-/// Something a key asks for besides a parameter change.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum KeyAction {
-    /// The parameters changed (or nothing happened).
-    None,
-    ScreenshotTrace,
-    ScreenshotWindow,
-    /// Frame the models (F): the tool knows where they are.
-    FrameModel,
-    /// Start a benchmark run of the panel's frame count.
-    Benchmark,
-    /// Open the file dialog for a model (Ctrl+O).
-    OpenModel,
-    /// Stop the model load in progress, keeping the model shown (Escape).
-    CancelLoad,
-    Quit,
-}
-
-/// The keyboard shortcuts, for the panel's help.
-pub(crate) const SHORTCUTS: &[(&str, &str)] = &[
-    ("H / F1", "hide or show the panel"),
-    ("I", "hide or show the numbers over the image"),
-    ("F12", "screenshot of the traced image"),
-    ("Shift+F12", "screenshot of the window"),
-    ("B", "run the benchmark (an orbit; summary in the panel)"),
-    ("PgUp / PgDn", "bounces + / -"),
-    ("[ / ]", "blend - / +"),
-    ("+ / -", "model count"),
-    ("A", "acceleration: BVH, brute force, vendor in turn"),
-    ("C", "colour / cost heat map"),
-    ("M", "render resolution: match window / back"),
-    ("Space", "pause the light"),
-    ("R", "reset the camera"),
-    ("F", "frame the models"),
-    ("V", "vsync on / off"),
-    ("S", "A/B split view on / off (drag the line to move it)"),
-    ("Ctrl+O", "open a model: OBJ, PLY or glTF (or drop one on the window)"),
-    ("Escape", "stop loading a model (the one shown stays)"),
-    ("Ctrl+Q", "quit"),
-    ("drag / wheel", "orbit / zoom the camera"),
-    ("Shift+drag, middle drag", "pan the camera"),
-];
-
-impl Params {
-    /// Apply a key press (egui did not want the keyboard). `previous` remembers the
-    /// resolution to go back to when `M` leaves "match window".
-    pub(crate) fn apply_key(
-        &mut self,
-        key: KeyCode,
-        shift: bool,
-        ctrl: bool,
-        previous: &mut Resolution,
-    ) -> KeyAction {
-        match key {
-            KeyCode::F12 if shift => return KeyAction::ScreenshotWindow,
-            KeyCode::F12 => return KeyAction::ScreenshotTrace,
-            KeyCode::KeyQ if ctrl => return KeyAction::Quit,
-            KeyCode::KeyO if ctrl => return KeyAction::OpenModel,
-            // Other Ctrl chords are the system's (Ctrl+A select all, Ctrl+C copy, Ctrl+V
-            // paste, Ctrl+S save), not the plain keys' actions: Ctrl+A missing a text field
-            // switched the tracer to brute force.
-            _ if ctrl => return KeyAction::None,
-            KeyCode::KeyB => return KeyAction::Benchmark,
-            KeyCode::Escape => return KeyAction::CancelLoad,
-            KeyCode::KeyH | KeyCode::F1 => self.panel_visible = !self.panel_visible,
-            KeyCode::KeyI => self.hud_visible = !self.hud_visible,
-            KeyCode::PageUp => {
-                self.scene.settings.bounces = (self.scene.settings.bounces + 1).min(MAX_BOUNCES)
-            }
-            KeyCode::PageDown => {
-                self.scene.settings.bounces = self.scene.settings.bounces.saturating_sub(1)
-            }
-            KeyCode::BracketLeft => {
-                self.scene.settings.blend =
-                    ((self.scene.settings.blend - 0.05) * 100.0).round().max(0.0) / 100.0
-            }
-            KeyCode::BracketRight => {
-                self.scene.settings.blend =
-                    ((self.scene.settings.blend + 0.05) * 100.0).round().min(100.0) / 100.0
-            }
-            KeyCode::Equal | KeyCode::NumpadAdd => {
-                self.scene.models = (self.scene.models + 1).min(MAX_MODELS)
-            }
-            KeyCode::Minus | KeyCode::NumpadSubtract => {
-                self.scene.models = self.scene.models.saturating_sub(1).max(1)
-            }
-            KeyCode::KeyA => {
-                // BVH, brute force, vendor, and round (a device without the vendor's ray
-                // tracing falls back to the BVH with a note in the panel).
-                let next = Accel::ALL
-                    .iter()
-                    .position(|&a| a == self.scene.settings.accel)
-                    .map_or(0, |i| (i + 1) % Accel::ALL.len());
-                self.scene.settings.accel = Accel::ALL[next];
-                self.fit_cost_metric();
-            }
-            KeyCode::KeyC => {
-                self.view = match self.view {
-                    ViewMode::Cost(_) => ViewMode::Color,
-                    _ => ViewMode::Cost(CostMetric::Nodes),
-                };
-                self.fit_cost_metric();
-            }
-            KeyCode::KeyM => {
-                if self.resolution == Resolution::MatchWindow {
-                    self.resolution = *previous;
-                } else {
-                    *previous = self.resolution;
-                    self.resolution = Resolution::MatchWindow;
-                }
-            }
-            KeyCode::Space => self.light_paused = !self.light_paused,
-            KeyCode::KeyR => self.reset_camera(),
-            KeyCode::KeyF => return KeyAction::FrameModel,
-            KeyCode::KeyV => self.vsync = !self.vsync,
-            KeyCode::KeyS => self.split.enabled = !self.split.enabled,
-            _ => {}
-        }
-        KeyAction::None
-    }
-}
-
 /// The largest rectangle of the image's aspect centred in `area` (letterbox).
 pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
     if image[0] == 0 || image[1] == 0 || area.width == 0 || area.height == 0 {
@@ -493,79 +370,9 @@ mod tests {
         p.resolution = Resolution::MatchWindow;
         assert_eq!(p.render_size([800, 600]), [800, 600]);
         assert_eq!(p.render_size([0, 600]), [1, 600]);
-        assert_eq!(p.render_size([100_000, 5]), [MAX_RESOLUTION, 5]);
+        assert_eq!(p.render_size([100_000, 5]), [crate::render_settings::MAX_RESOLUTION, 5]);
         p.resolution = Resolution::Square(2048);
         assert_eq!(p.settings_for([1, 1]).width, 2048);
-    }
-
-    #[test]
-    fn keys_change_parameters_within_range() {
-        let mut p =
-            params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
-        let mut prev = p.resolution;
-        p.apply_key(KeyCode::PageUp, false, false, &mut prev);
-        assert_eq!(p.scene.settings.bounces, 8);
-        p.apply_key(KeyCode::PageDown, false, false, &mut prev);
-        assert_eq!(p.scene.settings.bounces, 7);
-        p.apply_key(KeyCode::BracketRight, false, false, &mut prev);
-        assert_eq!(p.scene.settings.blend, 1.0);
-        p.apply_key(KeyCode::BracketLeft, false, false, &mut prev);
-        assert!((p.scene.settings.blend - 0.95).abs() < 1e-6);
-        assert_eq!(p.apply_key(KeyCode::F12, false, false, &mut prev), KeyAction::ScreenshotTrace);
-        assert_eq!(p.apply_key(KeyCode::F12, true, false, &mut prev), KeyAction::ScreenshotWindow);
-        assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev), KeyAction::Quit);
-        let start = p.resolution;
-        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
-        assert_eq!(p.resolution, Resolution::MatchWindow);
-        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
-        assert_eq!(p.resolution, start);
-        for _ in 0..40 {
-            p.apply_key(KeyCode::Minus, false, false, &mut prev);
-        }
-        assert_eq!(p.scene.models, 1);
-    }
-    #[test]
-    fn ctrl_chords_other_than_quit_and_open_leave_everything_alone() {
-        let mut p = params(|_| {});
-        let mut prev = p.resolution;
-        let before = format!(
-            "{:?}",
-            (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)
-        );
-        for key in [
-            KeyCode::KeyA,
-            KeyCode::KeyC,
-            KeyCode::KeyV,
-            KeyCode::KeyS,
-            KeyCode::KeyM,
-            KeyCode::KeyR,
-            KeyCode::KeyB,
-            KeyCode::KeyH,
-            KeyCode::Equal,
-        ] {
-            assert_eq!(p.apply_key(key, false, true, &mut prev), KeyAction::None, "Ctrl+{key:?}");
-        }
-        assert_eq!(
-            format!(
-                "{:?}",
-                (&p.scene, p.view, p.vsync, p.split.enabled, p.resolution, p.panel_visible)
-            ),
-            before
-        );
-        assert_eq!(p.apply_key(KeyCode::KeyO, false, true, &mut prev), KeyAction::OpenModel);
-        // Without Ctrl, A is the acceleration's key.
-        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
-        assert_ne!(format!("{:?}", &p.scene), format!("{:?}", params(|_| {}).scene));
-    }
-
-    #[test]
-    fn escape_asks_to_stop_a_load() {
-        let mut p = params(|_| {});
-        let mut previous = Resolution::Square(512);
-        assert_eq!(
-            p.apply_key(KeyCode::Escape, false, false, &mut previous),
-            KeyAction::CancelLoad
-        );
     }
 
     #[test]
@@ -605,20 +412,6 @@ mod tests {
             p.zoom_camera(1.0);
         }
         assert!((p.camera.position - p.camera.target).length() >= 1e-2 - 1e-6);
-    }
-
-    #[test]
-    fn brute_force_cost_view_counts_triangles() {
-        let mut p = params(|_| {});
-        let mut prev = p.resolution;
-        p.apply_key(KeyCode::KeyC, false, false, &mut prev);
-        assert_eq!(p.view, ViewMode::Cost(CostMetric::Nodes));
-        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
-        assert_eq!(
-            p.view,
-            ViewMode::Cost(CostMetric::Triangles),
-            "nodes are all zero without a BVH"
-        );
     }
 
     #[test]

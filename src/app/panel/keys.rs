@@ -3,7 +3,7 @@
 use egui::{RichText, Ui};
 
 use crate::app::panel::section::{Cx, Section};
-use crate::app::state::SHORTCUTS;
+use crate::app::shortcuts::SHORTCUTS;
 
 /// The section (it keeps nothing between frames).
 #[derive(Default)]
@@ -20,9 +20,9 @@ impl Section for KeysPanel {
 
     fn body(&mut self, ui: &mut Ui, _cx: &mut Cx) {
         egui::Grid::new("keys").num_columns(2).striped(true).show(ui, |ui| {
-            for (key, what) in SHORTCUTS {
-                ui.label(RichText::new(*key).monospace());
-                ui.label(*what);
+            for shortcut in SHORTCUTS {
+                ui.label(RichText::new(shortcut.keys).monospace());
+                ui.label(shortcut.what);
                 ui.end_row();
             }
         });

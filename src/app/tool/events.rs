@@ -4,7 +4,8 @@
 use winit::event::{ElementState, KeyEvent, MouseButton, WindowEvent};
 use winit::keyboard::PhysicalKey;
 
-use crate::app::state::{fit_rect, KeyAction};
+use crate::app::shortcuts::KeyAction;
+use crate::app::state::fit_rect;
 use crate::app::tool::input::{Drag, KeyPress};
 use crate::app::tool::Tool;
 use crate::app::user_files::open_dialog::Purpose;
