@@ -71,7 +71,12 @@ fn pack(vt: u32, vn: u32) -> u64 {
 
 /// Add one model (its pieces in order) to `out`; false (nothing added) when its vertices
 /// would not fit 32-bit indices, for the serial path to report.
-pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, out: Output) -> bool {
+pub(super) fn add_model(
+    pieces: &[Piece],
+    shared: &Shared,
+    sources: &Sources,
+    mut out: Output,
+) -> bool {
     let starts: Vec<u32> = pieces
         .iter()
         .scan(0u32, |at, p| {
@@ -80,56 +85,13 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
             Some(start)
         })
         .collect();
-    let first = |c: &[u32; 3]| shared.first[c[0] as usize].load(Relaxed);
-    // 1. The first corner of each position.
-    pieces.par_iter().zip(&starts).for_each(|(p, &start)| {
-        for (i, c) in p.corners.iter().enumerate() {
-            shared.first[c[0] as usize].fetch_min(start + i as u32, Relaxed);
-        }
-    });
-    // 2. Its (vt, vn); then per piece the corners that are neither first nor like it.
-    pieces.par_iter().zip(&starts).for_each(|(p, &start)| {
-        for (i, c) in p.corners.iter().enumerate() {
-            if first(c) == start + i as u32 {
-                shared.key[c[0] as usize].store(pack(c[1], c[2]), Relaxed);
-            }
-        }
-    });
-    let is_other = |c: &[u32; 3], k: u32| {
-        first(c) != k && shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
-    };
-    let others: Vec<Vec<u32>> = pieces
-        .par_iter()
-        .zip(&starts)
-        .map(|(p, &start)| {
-            (0..p.corners.len() as u32)
-                .filter(|&i| is_other(&p.corners[i as usize], start + i))
-                .map(|i| start + i)
-                .collect()
-        })
-        .collect();
-    // The first corner of each distinct "other" corner makes a vertex too.
-    let mut seen = HashSet::new();
-    let makers: HashSet<u32> = pieces
-        .iter()
-        .zip(&starts)
-        .zip(&others)
-        .flat_map(|((p, &start), list)| {
-            list.iter().map(move |&k| (k, p.corners[(k - start) as usize]))
-        })
-        .filter(|(_, c)| seen.insert(*c))
-        .map(|(k, _)| k)
-        .collect();
-    drop(seen);
+    let model = Model { pieces, starts: &starts, shared };
+    // 1 and 2, in this order: whether a corner is like the first needs the first settled.
+    model.mark_first_corners();
+    model.record_first_keys();
+    let makers = model.other_makers(&model.other_corners());
     // 3. Vertex numbers and triangles per piece.
-    let makes = |c: &[u32; 3], k: u32| first(c) == k || makers.contains(&k);
-    let made: Vec<usize> = pieces
-        .par_iter()
-        .zip(&starts)
-        .map(|(p, &start)| {
-            p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()
-        })
-        .collect();
+    let made = model.vertices_made(&makers);
     let base = out.positions.len();
     let total: usize = made.iter().sum();
     if base + total > u32::MAX as usize {
@@ -140,21 +102,106 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
         .map(|p| p.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum())
         .collect();
     let tri_base = out.triangles.len();
-    // Grown on every core (`resize` writes, and faults in, the new pages on one thread).
-    grow(out.positions, base + total, Vec3::ZERO);
-    if sources.normals.is_some() {
-        grow(out.normals, base + total, Vec3::ZERO);
+    grow_outputs(&mut out, sources, base + total, tri_base + triangles.iter().sum::<usize>());
+    let other_vertices = model.write_vertices(sources, &mut out, base, &made, &makers);
+    let tri_out = &mut out.triangles[tri_base..];
+    model.write_triangles(tri_out, &triangles, &other_vertices, base as u32);
+    model.reset_first_corners();
+    true
+}
+
+/// One model's pieces, where each piece's corners start (model-relative), and the
+/// per-position marks they share.
+struct Model<'a, 'b> {
+    pieces: &'a [Piece<'b>],
+    starts: &'a [u32],
+    shared: &'a Shared,
+}
+
+impl Model<'_, '_> {
+    /// The first corner (model-relative) that uses `c`'s position.
+    #[inline]
+    fn first(&self, c: &[u32; 3]) -> u32 {
+        self.shared.first[c[0] as usize].load(Relaxed)
     }
-    if sources.texcoords.is_some() {
-        grow(out.texcoords, base + total, Vec2::ZERO);
+
+    /// Corner `k` is neither the first of its position nor like it (the same vt, vn).
+    #[inline]
+    fn is_other(&self, c: &[u32; 3], k: u32) -> bool {
+        self.first(c) != k && self.shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
     }
-    if sources.colors.is_some() {
-        grow(out.colors, base + total, [255; 4]);
+
+    /// 1. The first corner of each position.
+    fn mark_first_corners(&self) {
+        self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
+            for (i, c) in p.corners.iter().enumerate() {
+                self.shared.first[c[0] as usize].fetch_min(start + i as u32, Relaxed);
+            }
+        });
     }
-    grow(out.triangles, tri_base + triangles.iter().sum::<usize>(), [0; 3]);
-    // Vertices: each piece writes the ones it makes, in order, and records their numbers.
-    let mut other_vertices: HashMap<[u32; 3], u32> = HashMap::new();
-    {
+
+    /// 2. Its (vt, vn).
+    fn record_first_keys(&self) {
+        self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
+            for (i, c) in p.corners.iter().enumerate() {
+                if self.first(c) == start + i as u32 {
+                    self.shared.key[c[0] as usize].store(pack(c[1], c[2]), Relaxed);
+                }
+            }
+        });
+    }
+
+    /// Per piece, the corners that are neither first nor like it.
+    fn other_corners(&self) -> Vec<Vec<u32>> {
+        self.pieces
+            .par_iter()
+            .zip(self.starts)
+            .map(|(p, &start)| {
+                (0..p.corners.len() as u32)
+                    .filter(|&i| self.is_other(&p.corners[i as usize], start + i))
+                    .map(|i| start + i)
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The first corner of each distinct "other" corner: it makes a vertex too.
+    fn other_makers(&self, others: &[Vec<u32>]) -> HashSet<u32> {
+        let mut seen = HashSet::new();
+        self.pieces
+            .iter()
+            .zip(self.starts)
+            .zip(others)
+            .flat_map(|((p, &start), list)| {
+                list.iter().map(move |&k| (k, p.corners[(k - start) as usize]))
+            })
+            .filter(|(_, c)| seen.insert(*c))
+            .map(|(k, _)| k)
+            .collect()
+    }
+
+    /// How many vertices each piece makes.
+    fn vertices_made(&self, makers: &HashSet<u32>) -> Vec<usize> {
+        let makes = |c: &[u32; 3], k: u32| self.first(c) == k || makers.contains(&k);
+        self.pieces
+            .par_iter()
+            .zip(self.starts)
+            .map(|(p, &start)| {
+                p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()
+            })
+            .collect()
+    }
+
+    /// Vertices: each piece writes the ones it makes, in order, and records their numbers
+    /// (a first corner's in `shared.vertex`, an other corner's in the map returned).
+    fn write_vertices(
+        &self,
+        sources: &Sources,
+        out: &mut Output,
+        base: usize,
+        made: &[usize],
+        makers: &HashSet<u32>,
+    ) -> HashMap<[u32; 3], u32> {
         let mut positions = &mut out.positions[base..];
         let mut normals =
             if sources.normals.is_some() { &mut out.normals[base..] } else { &mut [][..] };
@@ -162,9 +209,9 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
             if sources.texcoords.is_some() { &mut out.texcoords[base..] } else { &mut [][..] };
         let mut colors =
             if sources.colors.is_some() { &mut out.colors[base..] } else { &mut [][..] };
-        let mut jobs = Vec::with_capacity(pieces.len());
+        let mut jobs = Vec::with_capacity(self.pieces.len());
         let mut first_vertex = 0u32;
-        for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&made) {
+        for ((p, &start), &n) in self.pieces.iter().zip(self.starts).zip(made) {
             let pos = take_front(&mut positions, n, true);
             let nor = take_front(&mut normals, n, sources.normals.is_some());
             let tex = take_front(&mut texcoords, n, sources.texcoords.is_some());
@@ -179,7 +226,7 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                 let mut slot = 0;
                 for (i, c) in p.corners.iter().enumerate() {
                     let k = start + i as u32;
-                    let primary = first(c) == k;
+                    let primary = self.first(c) == k;
                     if !primary && !makers.contains(&k) {
                         continue;
                     }
@@ -195,7 +242,7 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                         col[slot] = colors.get(c[0] as usize).copied().unwrap_or([255; 4]);
                     }
                     if primary {
-                        shared.vertex[c[0] as usize].store(next, Relaxed);
+                        self.shared.vertex[c[0] as usize].store(next, Relaxed);
                     } else {
                         mine.push((*c, next));
                     }
@@ -205,41 +252,67 @@ pub(super) fn add_model(pieces: &[Piece], shared: &Shared, sources: &Sources, ou
                 mine
             })
             .collect();
-        other_vertices.extend(made_others.into_iter().flatten());
+        made_others.into_iter().flatten().collect()
     }
-    // Triangles: each piece its range, corners looked up.
-    let mut rest = &mut out.triangles[tri_base..];
-    let mut jobs = Vec::with_capacity(pieces.len());
-    for ((p, &start), &n) in pieces.iter().zip(&starts).zip(&triangles) {
-        let (mine, after) = std::mem::take(&mut rest).split_at_mut(n);
-        rest = after;
-        jobs.push((p, start, mine));
-    }
-    let other_vertices = &other_vertices;
-    jobs.into_par_iter().for_each(|(p, start, mine)| {
-        let mut made = Vec::with_capacity(mine.len() + 2);
-        let (mut corner, mut local) = (0usize, Vec::new());
-        for &n in p.arities {
-            local.clear();
-            for (i, c) in p.corners[corner..corner + n as usize].iter().enumerate() {
-                let k = start + (corner + i) as u32;
-                let index = if is_other(c, k) {
-                    other_vertices[c]
-                } else {
-                    shared.vertex[c[0] as usize].load(Relaxed)
-                };
-                local.push(index);
-            }
-            corner += n as usize;
-            triangulate(&local, &[n], base as u32, &mut made);
+
+    /// Triangles: each piece its range of `out` (`triangles` per piece), corners looked up.
+    fn write_triangles(
+        &self,
+        out: &mut [[u32; 3]],
+        triangles: &[usize],
+        other_vertices: &HashMap<[u32; 3], u32>,
+        base: u32,
+    ) {
+        let mut rest = out;
+        let mut jobs = Vec::with_capacity(self.pieces.len());
+        for ((p, &start), &n) in self.pieces.iter().zip(self.starts).zip(triangles) {
+            let (mine, after) = std::mem::take(&mut rest).split_at_mut(n);
+            rest = after;
+            jobs.push((p, start, mine));
         }
-        mine.copy_from_slice(&made);
-    });
-    // Reset the first-use marks of the model's positions for the next model.
-    pieces.par_iter().for_each(|p| {
-        p.corners.iter().for_each(|c| shared.first[c[0] as usize].store(u32::MAX, Relaxed))
-    });
-    true
+        jobs.into_par_iter().for_each(|(p, start, mine)| {
+            let mut made = Vec::with_capacity(mine.len() + 2);
+            let (mut corner, mut local) = (0usize, Vec::new());
+            for &n in p.arities {
+                local.clear();
+                for (i, c) in p.corners[corner..corner + n as usize].iter().enumerate() {
+                    let k = start + (corner + i) as u32;
+                    let index = if self.is_other(c, k) {
+                        other_vertices[c]
+                    } else {
+                        self.shared.vertex[c[0] as usize].load(Relaxed)
+                    };
+                    local.push(index);
+                }
+                corner += n as usize;
+                triangulate(&local, &[n], base, &mut made);
+            }
+            mine.copy_from_slice(&made);
+        });
+    }
+
+    /// Reset the first-use marks of the model's positions for the next model.
+    fn reset_first_corners(&self) {
+        self.pieces.par_iter().for_each(|p| {
+            p.corners.iter().for_each(|c| self.shared.first[c[0] as usize].store(u32::MAX, Relaxed))
+        });
+    }
+}
+
+/// Grow the outputs the model writes to `vertices` and `triangles` elements, on every core
+/// (`resize` writes, and faults in, the new pages on one thread).
+fn grow_outputs(out: &mut Output, sources: &Sources, vertices: usize, triangles: usize) {
+    grow(out.positions, vertices, Vec3::ZERO);
+    if sources.normals.is_some() {
+        grow(out.normals, vertices, Vec3::ZERO);
+    }
+    if sources.texcoords.is_some() {
+        grow(out.texcoords, vertices, Vec2::ZERO);
+    }
+    if sources.colors.is_some() {
+        grow(out.colors, vertices, [255; 4]);
+    }
+    grow(out.triangles, triangles, [0; 3]);
 }
 
 /// `v.resize(len, value)` with the new elements written in parallel.
