@@ -31,12 +31,23 @@ const LAYERS: &[&str] = &[
 ];
 
 /// The folders and files of `src/app/` from the bottom up: one imports only those before it
-/// (and `app` itself, the entry point, imports them all). `options` is what the tool starts
-/// with; `state` the parameters; `shortcuts` the keys that change them; `views` draw from
-/// them; `measure` times frames and reports through the panel's status type; `user_files`
-/// loads and saves; `panel` shows all of these; `tool` runs the window over everything.
-const APP_ORDER: &[&str] =
-    &["options", "state", "shortcuts", "views", "measure", "user_files", "panel", "tool"];
+/// (and `app` itself, the entry point, imports them all). `status` is a report line;
+/// `split` the A/B split's settings; `options` what the tool starts with; `state` the
+/// parameters and `shortcuts` the keys that change them; `user_files` loads and saves;
+/// `measure` times frames (its logs named like screenshots); `panel` shows all of these;
+/// `views` draw over the image with the panel's numbers; `tool` runs the window.
+const APP_ORDER: &[&str] = &[
+    "status",
+    "split",
+    "options",
+    "state",
+    "shortcuts",
+    "user_files",
+    "measure",
+    "panel",
+    "views",
+    "tool",
+];
 
 /// The most lines a source file may have.
 const MAX_FILE_LINES: usize = 600;

@@ -22,7 +22,9 @@ pub(crate) mod measure;
 pub(crate) mod options;
 pub(crate) mod panel;
 pub(crate) mod shortcuts;
+pub(crate) mod split;
 pub(crate) mod state;
+pub(crate) mod status;
 pub(crate) mod tool;
 pub(crate) mod user_files;
 pub(crate) mod views;
@@ -39,14 +41,12 @@ use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::WindowId;
 
+use tool::devices::headless_error;
 use tool::Tool;
 
 pub(crate) use options::parse_window_size;
 pub use options::ViewOptions;
-pub use views::split::{SplitB, SplitView};
-
-/// The hint every "cannot open the tool" error carries.
-pub(crate) const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
+pub use split::{SplitB, SplitView};
 
 /// Open the window and run until it is closed (or `--frames` have been shown).
 pub fn run(options: &ViewOptions) -> anyhow::Result<()> {
@@ -137,38 +137,5 @@ impl ApplicationHandler for App {
                 tool.window.request_redraw();
             }
         }
-    }
-}
-
-/// A "cannot open the tool" error: what failed, the OS's message, and the headless hint.
-fn headless_error(what: &str, e: impl std::fmt::Display) -> anyhow::Error {
-    anyhow!("{what} ({}); {HEADLESS_HINT}", os_message(&e.to_string()))
-}
-
-/// winit's OS errors read "os error at path/to/file.rs:123: message": keep the message.
-fn os_message(s: &str) -> String {
-    let message = match s.find("os error at ") {
-        Some(i) => s[i + "os error at ".len()..].split_once(": ").map_or(s, |(_, m)| m),
-        None => s,
-    };
-    message.trim().trim_end_matches('.').replace('\n', " ")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn winit_errors_lose_their_source_location() {
-        let e = "os error at /home/x/winit-0.30.13/src/platform_impl/linux/mod.rs:788: Failed to open connection to X server";
-        assert_eq!(os_message(e), "Failed to open connection to X server");
-        assert_eq!(os_message("plain."), "plain");
-        let full = headless_error("cannot open a window", e).to_string();
-        assert_eq!(
-            full,
-            format!(
-                "cannot open a window (Failed to open connection to X server); {HEADLESS_HINT}"
-            )
-        );
     }
 }

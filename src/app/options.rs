@@ -41,7 +41,7 @@ pub struct ViewOptions {
     /// Neither read nor write the remembered settings (scripted runs never do).
     pub(crate) no_persist: bool,
     /// The A/B split view at the start (`--split`, `--split-b`).
-    pub(crate) split: crate::app::views::split::SplitView,
+    pub(crate) split: crate::app::split::SplitView,
     /// Pick the BVH layout by timing each (neither `--bvh` nor the preset named one, and
     /// the run is not scripted: scripts trace what they ask for).
     pub(crate) auto_layout: bool,

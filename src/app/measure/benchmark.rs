@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, ViewMode};
+use crate::app::status::Status;
 use crate::bench::timing::{mrays_per_second, Timing};
 use crate::bench::workload::WorkloadHeader;
 use crate::bench::Environment;

@@ -24,8 +24,8 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use crate::app::measure::frame_stats::FrameStats;
-use crate::app::panel::widgets::Status;
 use crate::app::state::{Params, Resolution};
+use crate::app::status::Status;
 use crate::files::LogFile;
 use crate::render_settings::{tracer_label, Accel, BvhLayout, RenderSettings};
 

@@ -21,6 +21,7 @@ pub(crate) mod light;
 pub(crate) mod model;
 pub(crate) mod performance;
 pub(crate) mod presets;
+pub(crate) mod remembered;
 pub(crate) mod render;
 pub(crate) mod screenshot;
 pub(crate) mod section;

@@ -8,11 +8,11 @@ use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::status_line;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
-use crate::app::views::cost::heat_color;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::render_settings::{
     self as knobs, Accel, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION,
 };
+use crate::tracer::heat_map::heat_color;
 
 /// The section's state: the outcome of render changes and shader reloads.
 #[derive(Default)]

@@ -5,7 +5,7 @@ use egui::{RichText, Ui};
 
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::GPU_COLOR;
-use crate::app::views::split::SplitView;
+use crate::app::split::SplitView;
 use crate::render_settings::{Accel, MAX_BOUNCES, MAX_SPP};
 
 /// The section (it keeps nothing between frames: the split is a parameter).

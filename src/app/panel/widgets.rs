@@ -13,23 +13,8 @@ pub(crate) const FRAME_COLOR: Color32 = Color32::from_rgb(90, 170, 255);
 /// Colour of a status line that reports a failure.
 const ERROR_COLOR: Color32 = Color32::from_rgb(255, 110, 100);
 
-/// A status line: text and whether it reports a failure.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Status {
-    pub(crate) text: String,
-    pub(crate) error: bool,
-}
-
-impl Status {
-    /// A line that reports success.
-    pub(crate) fn ok(text: impl Into<String>) -> Self {
-        Self { text: text.into(), error: false }
-    }
-    /// A line that reports a failure (drawn red).
-    pub(crate) fn error(text: impl Into<String>) -> Self {
-        Self { text: text.into(), error: true }
-    }
-}
+/// What [`status_line`] draws (the sections name it here, beside the line).
+pub(crate) use crate::app::status::Status;
 
 /// A status line, red for a failure, wrapped to the panel's width.
 pub(crate) fn status_line(ui: &mut Ui, s: &Status) {

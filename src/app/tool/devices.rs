@@ -11,7 +11,7 @@ use std::sync::Arc;
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
 use crate::app::measure::gpu_clock::ClockWatch;
-use crate::app::{headless_error, ViewOptions};
+use crate::app::options::ViewOptions;
 use crate::gpu::context::list_devices;
 use crate::gpu::present::surface::context_for_window;
 use crate::gpu::present::Presenter;
@@ -115,6 +115,23 @@ impl Gpu {
     }
 }
 
+/// The hint every "cannot open the tool" error carries.
+const HEADLESS_HINT: &str = "use `meshtracer render -o out.png` on a headless machine";
+
+/// A "cannot open the tool" error: what failed, the OS's message, and the headless hint.
+pub(crate) fn headless_error(what: &str, e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("{what} ({}); {HEADLESS_HINT}", os_message(&e.to_string()))
+}
+
+/// winit's OS errors read "os error at path/to/file.rs:123: message": keep the message.
+fn os_message(s: &str) -> String {
+    let message = match s.find("os error at ") {
+        Some(i) => s[i + "os error at ".len()..].split_once(": ").map_or(s, |(_, m)| m),
+        None => s,
+    };
+    message.trim().trim_end_matches('.').replace('\n', " ")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,5 +184,19 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!(e.to_string(), "no Vulkan device");
+    }
+
+    #[test]
+    fn winit_errors_lose_their_source_location() {
+        let e = "os error at /home/x/winit-0.30.13/src/platform_impl/linux/mod.rs:788: Failed to open connection to X server";
+        assert_eq!(os_message(e), "Failed to open connection to X server");
+        assert_eq!(os_message("plain."), "plain");
+        let full = headless_error("cannot open a window", e).to_string();
+        assert_eq!(
+            full,
+            format!(
+                "cannot open a window (Failed to open connection to X server); {HEADLESS_HINT}"
+            )
+        );
     }
 }

@@ -238,7 +238,7 @@ mod tests {
     /// A split frame goes on while only the light moves; a change to either half restarts it.
     #[test]
     fn a_split_frame_goes_on_unless_a_half_changes() {
-        use crate::app::views::split::{SplitB, SplitView};
+        use crate::app::split::{SplitB, SplitView};
         let split = SplitView {
             enabled: true,
             position: 0.5,

@@ -11,10 +11,10 @@ use anyhow::{anyhow, Context as _};
 use winit::dpi::LogicalSize;
 
 use crate::app::options::DEFAULT_WINDOW;
+use crate::app::panel::remembered;
 use crate::app::panel::widgets::Status;
 use crate::app::tool::Tool;
 use crate::app::user_files::screenshot::{self, Kind, NameParts};
-use crate::app::user_files::settings;
 use crate::app::views::overlay::Notice;
 use crate::scene::preset::{self, Loaded, SaveError};
 
@@ -162,12 +162,12 @@ impl Tool {
         let _ = self.timing.recorder.finish();
         let size = self.window.inner_size().to_logical::<u32>(self.window.scale_factor());
         let window = (size.width > 0 && size.height > 0).then_some([size.width, size.height]);
-        self.store.save(&settings::snapshot(window, &self.ui.panel, &self.ui.egui_ctx));
+        self.store.save(&remembered::snapshot(window, &self.ui.panel, &self.ui.egui_ctx));
     }
 
     /// "Reset settings": forget the file, and put the window and the panel back as a first run opens.
     pub(super) fn reset_settings(&mut self) {
-        settings::reset_panel(&mut self.ui.panel, &self.ui.egui_ctx);
+        remembered::reset(&mut self.ui.panel, &self.ui.egui_ctx);
         let [w, h] = DEFAULT_WINDOW;
         let _ = self.window.request_inner_size(LogicalSize::new(w, h));
         self.ui.panel.display.settings_status = Some(match self.store.reset() {

@@ -1,10 +1,10 @@
 //! The tool's side of the A/B split view: where its line is in the window, grabbing and
 //! moving it with the mouse, what the overlay draws, and each half's GPU time.
 
+use crate::app::split::GRAB_PIXELS;
 use crate::app::state::fit_rect;
 use crate::app::tool::Tool;
 use crate::app::views::overlay::SplitOverlay;
-use crate::app::views::split::GRAB_PIXELS;
 use crate::gpu::present::PixelRect;
 use crate::gpu::PartTimes;
 

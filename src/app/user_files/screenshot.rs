@@ -5,6 +5,8 @@ use std::path::{Path, PathBuf};
 
 use image::RgbaImage;
 
+use crate::app::status::Status;
+
 /// Environment variable naming the screenshot folder (default: the current directory).
 pub(crate) const DIR_VAR: &str = "MESHTRACER_SCREENSHOT_DIR";
 
@@ -89,16 +91,13 @@ pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result
 }
 
 /// The panel's line for a file written (its full path) or not (why).
-pub(crate) fn status(
-    result: Result<(), String>,
-    path: &Path,
-) -> crate::app::panel::widgets::Status {
+pub(crate) fn status(result: Result<(), String>, path: &Path) -> Status {
     match result {
         Ok(()) => {
             let shown: PathBuf = crate::files::canonical_or_given(path);
-            crate::app::panel::widgets::Status::ok(format!("wrote {}", shown.display()))
+            Status::ok(format!("wrote {}", shown.display()))
         }
-        Err(e) => crate::app::panel::widgets::Status::error(e),
+        Err(e) => Status::error(e),
     }
 }
 

@@ -11,9 +11,6 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::app::panel::widgets::Sections;
-use crate::app::panel::PanelState;
-
 /// The environment variable naming the folder of `settings.toml` (tests point it at a
 /// temporary folder so they never touch the user's).
 pub(crate) const DIR_VAR: &str = "MESHTRACER_CONFIG_DIR";
@@ -154,44 +151,6 @@ impl Store {
             None => Ok(()),
         }
     }
-}
-
-/// Put the remembered settings into the panel and egui's memory.
-pub(crate) fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
-    for p in settings.recent_presets.iter().rev() {
-        panel.presets.used(p);
-    }
-    panel.perf.set_seconds(settings.graph_seconds);
-    Sections::set(ctx, Sections { open: settings.sections.clone(), reset: false });
-}
-
-/// What to remember of the run now, with the window's logical size (None when minimized).
-pub(crate) fn snapshot(
-    window: Option<[u32; 2]>,
-    panel: &PanelState,
-    ctx: &egui::Context,
-) -> Settings {
-    Settings {
-        version: FORMAT,
-        window: window.filter(|&[w, h]| w >= 64 && h >= 64),
-        sections: Sections::get(ctx).open,
-        // Absolute: the next run may start in another folder.
-        recent_presets: panel
-            .presets
-            .recent
-            .iter()
-            .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()))
-            .collect(),
-        graph_seconds: Some(panel.perf.seconds),
-    }
-}
-
-/// Forget the panel's remembered state: sections, recent presets and the graph's window
-/// go back to how a first run opens.
-pub(crate) fn reset_panel(panel: &mut PanelState, ctx: &egui::Context) {
-    panel.presets.recent.clear();
-    panel.perf.set_seconds(None);
-    Sections::set(ctx, Sections { open: BTreeMap::new(), reset: true });
 }
 
 #[cfg(test)]

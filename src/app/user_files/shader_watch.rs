@@ -7,12 +7,10 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime};
 
+use crate::app::status::Status;
 use crate::gpu::shader_compile::shader_files;
 use crate::gpu::trace_pass::compile_trace_shader;
 use crate::gpu::ComputeTracer;
-
-use crate::app::panel::widgets::Status;
-use crate::app::panel::PanelState;
 
 /// How often the files' modification times are read.
 const POLL_EVERY: Duration = Duration::from_millis(500);
@@ -32,13 +30,14 @@ impl ShaderWatch {
         Self { dir, seen: None, next_poll: Instant::now() }
     }
 
-    /// Reload the shader if a file changed since the last look, and put the outcome in the
-    /// panel; true when a new shader now traces. Never fails: errors become the status.
-    pub(crate) fn poll(&mut self, tracer: &mut ComputeTracer, panel: &mut PanelState) -> bool {
+    /// Reload the shader if a file changed since the last look, and put the outcome in
+    /// `shown` (the panel's shader status); true when a new shader now traces. Never fails:
+    /// errors become the status.
+    pub(crate) fn poll(&mut self, tracer: &mut ComputeTracer, shown: &mut Option<Status>) -> bool {
         match self.check(tracer) {
             Some(status) => {
                 let reloaded = !status.error;
-                panel.render.shader_status = Some(status);
+                *shown = Some(status);
                 reloaded
             }
             None => false,

@@ -3,7 +3,7 @@
 //! (`tracer::heat_map`, shared with `render --aov cost -o cost.png`).
 
 use crate::app::state::CostMetric;
-pub(crate) use crate::tracer::heat_map::{heat_color, HeatMap};
+pub(crate) use crate::tracer::heat_map::HeatMap;
 
 /// Map the float output (RGBA f32 per pixel) to heat colours for `metric`.
 pub(crate) fn heat_map(floats: &[f32], metric: CostMetric) -> HeatMap {
