@@ -7,6 +7,7 @@ pub mod clock_guard;
 pub mod load;
 pub mod paper_tables;
 pub mod report;
+pub mod suite;
 pub mod timing;
 pub mod workload;
 

@@ -6,11 +6,10 @@ use std::path::PathBuf;
 use clap::parser::ValueSource;
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 
-use crate::render_settings::{
-    self as knobs, Accel, Aov, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION, MAX_SPP,
-};
+use super::view::ViewArgs;
+use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout};
 use crate::scene::obj::LoadOptions;
-use crate::scene::paper::{ModelSource, MAX_MODELS};
+use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
@@ -40,6 +39,16 @@ pub enum Command {
     Devices,
 }
 
+/// The default scene spec: where every flag's default comes from, so none is restated.
+pub(crate) fn defaults() -> SceneSpec {
+    SceneSpec::default()
+}
+
+/// clap's parser of whole numbers in `range`, its errors naming the range as clap does.
+pub(crate) fn ranged(range: knobs::Range) -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(range.i64s())
+}
+
 fn parse_unit(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
     knobs::BLEND.check(v as f64, s).map(|()| v)
@@ -60,7 +69,7 @@ pub(crate) struct SceneArgs {
     /// Model: geosphere, torusknot, sphere, cylinder (the paper's four), torusknot:N (a
     /// generated knot of N triangles, e.g. torusknot:4M), or a path to an OBJ, PLY or glTF
     /// (.gltf/.glb) file.
-    #[arg(long, default_value = "geosphere")]
+    #[arg(long, default_value_t = defaults().model.label())]
     pub model: String,
     /// For .obj files with neither normals nor smoothing groups: faces meeting at a corner
     /// share a computed normal only where they bend by less than DEG degrees (0..=180),
@@ -68,26 +77,26 @@ pub(crate) struct SceneArgs {
     #[arg(long, value_name = "DEG", value_parser = parse_crease_angle, allow_hyphen_values = true)]
     pub crease_angle: Option<f32>,
     /// Number of identical models, laid out along the axes as in the paper's Table 2.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_MODELS as i64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().models, value_parser = ranged(knobs::MODELS), allow_negative_numbers = true)]
     pub models: u32,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().settings.width, value_parser = ranged(knobs::RESOLUTION), allow_negative_numbers = true)]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION as i64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().settings.height, value_parser = ranged(knobs::RESOLUTION), allow_negative_numbers = true)]
     pub height: u32,
     /// Mirror bounces after the primary hit (the paper used 2).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=MAX_BOUNCES as i64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().settings.bounces, value_parser = ranged(knobs::BOUNCES), allow_negative_numbers = true)]
     pub bounces: u32,
     /// Reflection blend ratio: 0 = no reflections, 1 = pure mirrors.
-    #[arg(long, default_value_t = 0.5, value_parser = parse_unit, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().settings.blend, value_parser = parse_unit, allow_negative_numbers = true)]
     pub blend: f32,
     /// Position of the light on its orbit, in degrees.
-    #[arg(long, default_value_t = 45.0, value_parser = parse_finite, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().light.angle_deg, value_parser = parse_finite, allow_negative_numbers = true)]
     pub light_angle: f32,
     /// Acceleration: bvh, brute (the paper's every-ray-against-every-triangle), or vendor
     /// (the GPU driver's own acceleration structures and traversal, Vulkan ray tracing).
-    #[arg(long, default_value = "bvh")]
+    #[arg(long, default_value_t = defaults().settings.accel)]
     pub accel: Accel,
     /// BVH layout with --accel bvh: wide (the compressed eight-wide tree of Ylitie, Karras
     /// and Laine 2017; the fastest on every framed and mirror-box row measured), binary (two
@@ -95,7 +104,7 @@ pub(crate) struct SceneArgs {
     /// testing its pending leaves back to back: faster where rays meet runs of leaves);
     /// `view` also takes auto (time each on the model shown, keep the fastest), which is
     /// what it does without the flag unless scripted.
-    #[arg(long, default_value = "wide")]
+    #[arg(long, default_value_t = BvhChoice::Layout(defaults().settings.bvh))]
     pub bvh: BvhChoice,
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
@@ -111,18 +120,18 @@ pub(crate) struct SceneArgs {
     #[arg(long, default_value = "none")]
     pub env: String,
     /// Jittered samples per pixel (anti-aliasing); 1 = one ray through the pixel centre.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP as i64), allow_negative_numbers = true)]
+    #[arg(long, default_value_t = defaults().settings.spp, value_parser = ranged(knobs::SPP), allow_negative_numbers = true)]
     pub spp: u32,
     /// Spend the --spp samples only on pixels at edges (seen directly or in the mirrors), one elsewhere.
     #[arg(long)]
     pub adaptive: bool,
     /// The AO view (--aov ao, the window's ambient-occlusion view): occlusion rays per
     /// primary hit and frame, cosine-weighted around the normal (1..=256).
-    #[arg(long, value_name = "N", default_value_t = knobs::DEFAULT_AO_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=MAX_AO_SAMPLES as i64), allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", default_value_t = defaults().settings.ao_samples, value_parser = ranged(knobs::AO_SAMPLES), allow_negative_numbers = true)]
     pub ao_samples: u32,
     /// The AO view: how far an occlusion ray looks, in scene units (every model is scaled
     /// to radius 1, the mirror box reaches 4), above 0 and below 1000.
-    #[arg(long, value_name = "R", default_value_t = knobs::DEFAULT_AO_RADIUS, value_parser = |s: &str| knobs::AO_RADIUS.parse_f32(s), allow_negative_numbers = true)]
+    #[arg(long, value_name = "R", default_value_t = defaults().settings.ao_radius, value_parser = |s: &str| knobs::AO_RADIUS.parse_f32(s), allow_negative_numbers = true)]
     pub ao_radius: f32,
     /// Leave out the six mirror planes (to see an --env map around the model).
     #[arg(long)]
@@ -306,6 +315,15 @@ pub enum BvhChoice {
     Layout(BvhLayout),
 }
 
+impl std::fmt::Display for BvhChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Auto => f.pad("auto"),
+            Self::Layout(layout) => layout.fmt(f),
+        }
+    }
+}
+
 impl std::str::FromStr for BvhChoice {
     type Err = String;
 
@@ -317,146 +335,6 @@ impl std::str::FromStr for BvhChoice {
                 format!("unknown BVH layout '{s}' (expected one of: {}, auto)", names.join(", "))
             }),
         }
-    }
-}
-
-/// `meshtracer view`.
-#[derive(Args, Debug, Clone)]
-pub struct ViewArgs {
-    #[command(flatten)]
-    pub(crate) scene: SceneArgs,
-    /// Quit after this many frames (for scripts and tests).
-    #[arg(long, conflicts_with = "benchmark")]
-    pub(crate) frames: Option<u64>,
-    /// Trace on this Vulkan device (see `meshtracer devices`) and show its frames through
-    /// the window's device (--device, or the best one that can present): for a GPU that
-    /// cannot present, such as a compute GPU on a server reached through VNC. Happens by
-    /// itself when the device picked for the window cannot show it.
-    #[arg(long, value_name = "INDEX")]
-    pub(crate) trace_device: Option<usize>,
-    /// Run the benchmark (the camera orbits once in N frames at the given settings), print
-    /// its summary, append it to --benchmark-json, and quit: 0 on success, 1 on a failure.
-    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "120", value_parser = clap::value_parser!(u32).range(1..=1_000_000), allow_negative_numbers = true)]
-    pub(crate) benchmark: Option<u32>,
-    /// Append each benchmark's summary (this run's, or the panel's) to this file as one
-    /// line of JSON [default: meshtracer_benchmark.jsonl in the screenshot folder].
-    #[arg(long, value_name = "FILE")]
-    pub(crate) benchmark_json: Option<PathBuf>,
-    /// Write the traced image (render resolution) to this PNG at exit.
-    #[arg(long)]
-    pub(crate) screenshot: Option<PathBuf>,
-    /// Write the window as seen, panel included, to this PNG at exit.
-    #[arg(long)]
-    pub(crate) screenshot_ui: Option<PathBuf>,
-    /// Initial window size as WIDTHxHEIGHT [default: the size it had when last closed, or 1280x800].
-    #[arg(long)]
-    pub(crate) window: Option<String>,
-    /// Turn on the Vulkan validation layer (also MESHTRACER_VALIDATION=1).
-    #[arg(long)]
-    pub(crate) validation: bool,
-    /// Start with the numbers over the image hidden (the I key shows them).
-    #[arg(long)]
-    pub(crate) no_hud: bool,
-    /// Write the frame-time log to this CSV file: a row per traced frame (time, GPU and
-    /// frame ms, resolution, bounces, spp, acceleration, triangles, rays) and a row per
-    /// parameter change, naming it.
-    #[arg(long, value_name = "FILE")]
-    pub(crate) stats_csv: Option<PathBuf>,
-    /// Neither read nor write the remembered settings (window size, open panel sections,
-    /// recent presets); runs with --frames or --benchmark never do.
-    #[arg(long)]
-    pub(crate) no_persist: bool,
-    /// Recompile DIR/trace.comp (a copy of shaders/) when a file in DIR changes and trace
-    /// with it; a compile error is shown in the panel and the last good shader stays.
-    #[arg(long, value_name = "DIR")]
-    pub(crate) watch_shaders: Option<PathBuf>,
-    /// Open with the A/B split view on, its line at FRACTION of the image width (0..1):
-    /// left of it the settings given, right of it those changed by --split-b.
-    #[arg(long, value_name = "FRACTION", num_args = 0..=1, default_missing_value = "0.5")]
-    pub(crate) split: Option<f32>,
-    /// What the right half (B) of the split view changes, as name=value pairs: accel=bvh|brute,
-    /// bounces=N, blend=X, spp=N, adaptive|smooth|textures|env=on|off (e.g. bounces=0,smooth=off).
-    /// Turns the split on (at 0.5 without --split).
-    #[arg(long, value_name = "LIST")]
-    pub(crate) split_b: Option<String>,
-}
-
-/// A screenshot is written as PNG (with its preset): the path must say so, and its folder
-/// must take the file, before the session rather than at its end.
-fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
-    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
-        anyhow::bail!(
-            "{flag} {}: screenshots are written as PNG; give a path ending in .png",
-            path.display()
-        );
-    }
-    crate::files::check_writable(path)
-}
-
-impl ViewArgs {
-    /// The tool's options: the CLI sits on top of the app, not the other way round.
-    pub fn options(&self) -> anyhow::Result<crate::app::ViewOptions> {
-        let window = self
-            .window
-            .as_deref()
-            .map(crate::app::parse_window_size)
-            .transpose()
-            .map_err(anyhow::Error::msg)?;
-        for (flag, path) in
-            [("--screenshot", &self.screenshot), ("--screenshot-ui", &self.screenshot_ui)]
-        {
-            if let Some(path) = path {
-                check_png_output(flag, path)?;
-            }
-        }
-        let (spec, warnings) = self.scene.resolve(Aov::Color, true)?;
-        for w in &warnings {
-            log::warn!("{w}");
-        }
-        let scripted = self.frames.is_some() || self.benchmark.is_some();
-        let auto_layout = match self.scene.bvh {
-            // A preset's binary (also what one without a layout reads as) names none.
-            _ if !self.scene.given("bvh") => {
-                !scripted && (self.scene.preset.is_none() || spec.settings.bvh == BvhLayout::Binary)
-            }
-            BvhChoice::Auto => true,
-            BvhChoice::Layout(_) => false,
-        };
-        Ok(crate::app::ViewOptions {
-            spec,
-            preset: self.scene.preset.clone(),
-            device: self.scene.device,
-            trace_device: self.trace_device,
-            frames: self.frames,
-            screenshot: self.screenshot.clone(),
-            screenshot_ui: self.screenshot_ui.clone(),
-            window,
-            validation: self.validation,
-            hud: !self.no_hud,
-            watch_shaders: self.watch_shaders.clone(),
-            benchmark: self.benchmark,
-            benchmark_json: self.benchmark_json.clone(),
-            stats_csv: self.stats_csv.clone(),
-            no_persist: self.no_persist,
-            split: self.split_view()?,
-            auto_layout,
-        })
-    }
-
-    /// The split view `--split` and `--split-b` ask for (off without either).
-    fn split_view(&self) -> anyhow::Result<crate::app::SplitView> {
-        let mut split = crate::app::SplitView::default();
-        if let Some(x) = self.split {
-            if !(0.0..=1.0).contains(&x) {
-                anyhow::bail!("--split {x} is out of range (0..=1, a share of the image width)");
-            }
-            split.position = x;
-        }
-        if let Some(text) = &self.split_b {
-            split.b = crate::app::SplitB::parse(text).map_err(anyhow::Error::msg)?;
-        }
-        split.enabled = self.split.is_some() || self.split_b.is_some();
-        Ok(split)
     }
 }
 
@@ -486,7 +364,7 @@ pub struct RenderArgs {
     pub(crate) vendor_kernel: Option<crate::gpu::khr_rt::VendorKernel>,
     /// Average N frames, each with its own camera jitter, as the window's accumulation
     /// does (a screenshot taken after accumulating carries its N) [default: 1, or the preset's].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536), allow_negative_numbers = true)]
+    #[arg(long, value_name = "N", value_parser = ranged(knobs::ACCUMULATE), allow_negative_numbers = true)]
     pub(crate) accumulate: Option<u32>,
 }
 
@@ -508,6 +386,7 @@ impl RenderArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render_settings::RenderSettings;
 
     fn render_args(extra: &[&str]) -> Result<RenderArgs, clap::Error> {
         let cli =
@@ -527,10 +406,33 @@ mod tests {
     }
 
     #[test]
+    fn no_flags_give_the_default_scene_spec() {
+        // Noted as main parses (no flag given) and as a plain parse (every default given).
+        let noted = |args: &[&str]| Cli::try_parse_from_noting_flags(args).unwrap().command;
+        for command in [
+            noted(&["meshtracer", "render", "-o", "out.png"]),
+            Some(Command::Render(render_args(&[]).unwrap())),
+        ] {
+            let Some(Command::Render(args)) = command else { panic!("not a render command") };
+            assert_eq!(args.spec().unwrap(), (SceneSpec::default(), Vec::new()));
+        }
+        let bare =
+            Cli::try_parse_from_noting_flags(["meshtracer"]).unwrap().view.options().unwrap();
+        assert_eq!(bare.spec, SceneSpec::default());
+        assert_eq!(view_args(&[]).unwrap().options().unwrap().spec, SceneSpec::default());
+        let Some(Command::Bench(bench)) = noted(&["meshtracer", "bench"]) else { panic!() };
+        let s = RenderSettings::default();
+        assert_eq!(
+            (bench.bounces, bench.ao_samples, bench.ao_radius),
+            (s.bounces, s.ao_samples, s.ao_radius)
+        );
+    }
+
+    #[test]
     fn benchmark_flag_takes_an_optional_frame_count() {
         assert_eq!(view_args(&[]).unwrap().options().unwrap().benchmark, None);
         assert_eq!(
-            view_args(&["--benchmark"]).unwrap().benchmark,
+            view_args(&["--benchmark"]).unwrap().options().unwrap().benchmark,
             Some(crate::app::benchmark::DEFAULT_FRAMES)
         );
         let args = view_args(&["--benchmark", "7", "--benchmark-json", "b.jsonl"]).unwrap();

@@ -3,6 +3,7 @@
 pub mod args;
 pub mod bench;
 pub mod render;
+pub mod view;
 
 pub use args::{Cli, Command};
 

@@ -19,6 +19,7 @@ pub(crate) mod compute_tracer;
 pub(crate) mod context;
 pub(crate) mod dispatch;
 pub mod error;
+pub mod headless;
 pub(crate) mod image;
 pub mod khr_rt;
 pub(crate) mod lock;

@@ -1,0 +1,237 @@
+//! One frame headless, to a file (`meshtracer render`): the output's format checked first,
+//! the scene loaded and packed, traced on a GPU or the CPU reference (accumulated as the
+//! window accumulates), and written as PNG (carrying its preset), JPEG or EXR.
+
+use std::io::IsTerminal;
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::bail;
+
+use super::khr_rt::VendorKernel;
+use super::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
+use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
+use crate::render_settings::{Accel, Aov};
+use crate::scene::spec::SceneSpec;
+use crate::scene::Scene;
+use crate::tracer::heat_map::heat_map;
+use crate::tracer::packed::Layouts;
+use crate::tracer::{cpu, FrameParams, Image, PackedScene};
+
+/// Where a headless frame is traced.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TraceOn {
+    /// The CPU reference tracer instead of a GPU.
+    pub cpu: bool,
+    /// Vulkan device index (None: the fastest kind present).
+    pub device: Option<usize>,
+    /// Turn on the Vulkan validation layer.
+    pub validation: bool,
+    /// How vendor frames trace the driver's structures (None: the device's preferred).
+    pub vendor_kernel: Option<VendorKernel>,
+}
+
+/// The output file's format, by its extension, once its folder is known to take it:
+/// checked before the work, so a long render is not lost to a typo in the path.
+pub(crate) fn output_format(path: &Path) -> anyhow::Result<OutputFormat> {
+    let format = OutputFormat::from_path(path).map_err(anyhow::Error::msg)?;
+    crate::files::check_writable(path)?;
+    Ok(format)
+}
+
+/// Trace `spec` on `on` and write it to `output` in `format`, printing what was written.
+pub(crate) fn render_to_file(
+    spec: &SceneSpec,
+    output: &Path,
+    format: OutputFormat,
+    on: &TraceOn,
+) -> anyhow::Result<()> {
+    let heat_map_image = heat_map_wanted(format, spec.settings.aov)?;
+    spec.validate().map_err(anyhow::Error::msg)?;
+    let (scene, packed) = load(spec)?;
+    let params = FrameParams::new(&scene, spec.settings);
+    let (image, how) = if on.cpu {
+        trace_on_cpu(&packed, &params, spec.accumulate)
+    } else {
+        trace_on_gpu(&packed, &params, spec.accumulate, on)?
+    };
+    let preset_text = spec.to_preset_text();
+    write_image(&image, spec, heat_map_image, (output, format), &preset_text)?;
+    println!("{}", summary(spec, &scene, output, &how));
+    Ok(())
+}
+
+/// Whether the AOV goes out as a heat map; an error where `format` cannot hold it. Colour
+/// and AO (grey in [0, 1]) are PNG, JPEG or EXR; every other AOV is float EXR; cost and
+/// samples may also be a heat map (PNG or JPEG).
+fn heat_map_wanted(format: OutputFormat, aov: Aov) -> anyhow::Result<bool> {
+    let heat_map_image = format != OutputFormat::Exr && matches!(aov, Aov::Cost | Aov::Samples);
+    if format != OutputFormat::Exr && !heat_map_image && !matches!(aov, Aov::Color | Aov::Ao) {
+        bail!(
+            "the {aov} AOV is written as 32-bit float OpenEXR: give an output path ending in .exr"
+        );
+    }
+    Ok(heat_map_image)
+}
+
+/// Load the spec's scene and pack it for its layout, logging the warnings. Progress on a
+/// terminal's stderr: big meshes take seconds to load and to build their BVH; scripts
+/// reading stderr get only warnings and the one-line error.
+fn load(spec: &SceneSpec) -> anyhow::Result<(Scene, PackedScene)> {
+    let progress = std::io::stderr().is_terminal();
+    let started = std::time::Instant::now();
+    if progress {
+        eprintln!("loading {} ...", spec.model.label());
+    }
+    let (scene, warnings) = spec.load()?;
+    if progress {
+        eprintln!(
+            "loaded {} triangles in {:.2} s; building the BVH ...",
+            scene.triangle_count(),
+            started.elapsed().as_secs_f64()
+        );
+    }
+    let packed = PackedScene::with_layouts(&scene, Layouts::only(spec.settings.bvh));
+    if progress {
+        eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
+    }
+    for w in warnings.iter().chain(&packed.warnings) {
+        log::warn!("{w}");
+    }
+    Ok((scene, packed))
+}
+
+/// The frame on the CPU reference tracer, `accumulate` frames averaged; and how it went.
+fn trace_on_cpu(packed: &PackedScene, params: &FrameParams, accumulate: u32) -> (Image, String) {
+    let start = std::time::Instant::now();
+    let mut image = cpu::render(packed, params);
+    for frame_index in 1..accumulate {
+        cpu::accumulate(packed, &FrameParams { frame_index, ..*params }, &mut image);
+    }
+    (image, format!("CPU reference, {:.1} ms", start.elapsed().as_secs_f64() * 1e3))
+}
+
+/// The frame on a GPU, `accumulate` frames averaged; and how it went (device, kernel,
+/// trace time and the clock it was taken at).
+fn trace_on_gpu(
+    packed: &PackedScene,
+    params: &FrameParams,
+    accumulate: u32,
+    on: &TraceOn,
+) -> anyhow::Result<(Image, String)> {
+    let ctx = open_context(on.device, on.validation)?;
+    let mut tracer = ComputeTracer::with_scene(&ctx, packed)?;
+    if let Some(kernel) = on.vendor_kernel {
+        tracer.set_vendor_kernel(kernel)?;
+    }
+    let accel = params.settings.accel;
+    if tracer.kernel().orders_tiles() && accel != Accel::Vendor {
+        // A first frame records what each tile costs, so that the frame kept (and timed)
+        // takes its tiles costliest first, as every later frame of `view` and `bench` does.
+        tracer.trace(params)?;
+    }
+    // Accumulation: every frame but the last folds into the output, the last is read
+    // back (and timed).
+    for frame_index in 0..accumulate - 1 {
+        tracer.trace(&FrameParams { frame_index, ..*params })?;
+    }
+    let (image, timing) = tracer.render(&FrameParams { frame_index: accumulate - 1, ..*params })?;
+    let clock = clock_note(&ctx)?;
+    check_validation(&ctx)?;
+    let mut gpu =
+        timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
+    if let (Accel::Vendor, Ok(kernel), Some(stats)) =
+        (accel, tracer.vendor_kernel(), tracer.vendor_stats())
+    {
+        let built = stats.bottom_ms + stats.top_ms;
+        gpu = format!("vendor {kernel}, structures built in {built:.1} ms, {gpu}");
+    }
+    Ok((image, format!("{}, {gpu}", ctx.info.name)))
+}
+
+/// " at a N MHz shader clock": one frame straight after the upload, so the GPU's clock may
+/// still be down (see bench::clock_guard). Empty on a CPU device (lavapipe), whose "clock"
+/// is the host's cycle counter.
+fn clock_note(ctx: &Arc<GpuContext>) -> anyhow::Result<String> {
+    let probe = if ctx.info.is_cpu() { None } else { ClockProbe::new(ctx)? };
+    Ok(match probe {
+        Some(mut probe) => {
+            probe.measure()?; // the first dispatch pays for the pipeline's first use
+            format!(" at a {:.0} MHz shader clock", probe.measure()?.mhz())
+        }
+        None => String::new(),
+    })
+}
+
+/// Write the image: the AOV as the format takes it, or its heat map (whose scale is printed).
+fn write_image(
+    image: &Image,
+    spec: &SceneSpec,
+    heat_map_image: bool,
+    (path, format): (&Path, OutputFormat),
+    preset_text: &str,
+) -> anyhow::Result<()> {
+    let (aov, accel) = (spec.settings.aov, spec.settings.accel);
+    if !heat_map_image {
+        return image.save(path, aov, Some(preset_text));
+    }
+    // Cost: nodes visited with the BVH, triangles tested with brute force.
+    let channel = usize::from(aov == Aov::Cost && accel == Accel::Brute);
+    let values: Vec<f32> = image.pixels.iter().map(|p| p[channel]).collect();
+    let map = heat_map(&values);
+    let rgba =
+        image::RgbaImage::from_raw(image.width, image.height, map.rgba).expect("size matches");
+    if format == OutputFormat::Jpeg {
+        save_jpeg(&rgba, path)?;
+    } else {
+        save_png(&rgba, Some(preset_text), path)?;
+    }
+    println!("heat map scale: 0 (black) to {:.0} (pale yellow, the 99th percentile); max {:.0}, mean {:.1}", map.scale_max, map.max, map.mean);
+    Ok(())
+}
+
+/// The line saying what was written and how it was traced.
+fn summary(spec: &SceneSpec, scene: &Scene, output: &Path, how: &str) -> String {
+    let s = &spec.settings;
+    // The AO view traces no bounces: say what it traced instead.
+    let rays = match s.aov {
+        Aov::Ao => format!("{} AO rays within {}", s.ao_samples, s.ao_radius),
+        _ => format!("{} bounce{}", s.bounces, if s.bounces == 1 { "" } else { "s" }),
+    };
+    let accel = if s.accel == Accel::Bvh && s.bvh.is_wide() {
+        format!("bvh ({})", s.bvh)
+    } else {
+        s.accel.to_string()
+    };
+    format!(
+        "wrote {} ({}x{}, {} x{}, {} triangles, {rays}, {accel}; {how})",
+        output.display(),
+        s.width,
+        s.height,
+        spec.model.label(),
+        spec.models,
+        scene.triangle_count(),
+    )
+}
+
+/// A context on `device` (None: the fastest kind present), with the validation layer
+/// where asked.
+pub(crate) fn open_context(
+    device: Option<usize>,
+    validation: bool,
+) -> anyhow::Result<Arc<GpuContext>> {
+    let options = ContextOptions { validation, device_index: device, ..Default::default() };
+    Ok(GpuContext::new(&options)?)
+}
+
+/// An error naming the first problem the validation layer reported, if it reported any.
+pub(crate) fn check_validation(ctx: &GpuContext) -> anyhow::Result<()> {
+    let messages = ctx.validation_messages();
+    if let Some(first) = messages.first() {
+        bail!(
+            "the Vulkan validation layer reported {} problem(s), the first: {first}",
+            messages.len()
+        );
+    }
+    Ok(())
+}
