@@ -3,13 +3,15 @@
 //!
 //! Its parts from the bottom up; each imports only those before it (`APP_ORDER` in
 //! `tests/architecture.rs`), and this file, the entry point, all of them:
-//! - `options`: what the tool is started with (the CLI fills it); `state`: the parameters
-//!   and the keyboard shortcuts;
-//! - `views/`: the cost, AOV and split views, and the overlay over the image (the HUD);
-//! - `measure/`: frame-time history, GPU clock, the frame-time log and the benchmark run;
+//! - `status`: a line reporting to the user; `split`: the A/B split's settings;
+//! - `options`: what the tool is started with (the CLI fills it); `state`: the parameters;
+//!   `shortcuts`: the keys that change them;
 //! - `user_files/`: model loading, the Open dialog, screenshots, remembered settings, shader
 //!   reloads;
+//! - `measure/`: frame-time history, GPU clock, the frame-time log and the benchmark run;
 //! - `panel/`: the egui side panel, one file per section;
+//! - `views/`: the cost and AOV views, and the overlay over the image (the HUD, with the
+//!   panel's numbers);
 //! - `tool/`: the window, GPU side and egui, one redraw per displayed frame, with its
 //!   input, session (model, loader, what the tracer holds), scripted runs and bands.
 //!

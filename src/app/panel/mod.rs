@@ -5,12 +5,14 @@
 //! - `section`: the [`Section`] trait, what a section is handed ([`Cx`]) and the
 //!   [`PanelAction`]s it asks of the tool; `info`: the facts shown ([`PanelInfo`]);
 //!   `widgets`: the status line, the remembered collapsible section, colours;
+//!   `remembered`: the panel's part of the remembered settings;
 //! - the sections: `performance`, `render`, `model`, `shading`, `split`, `light`,
 //!   `camera`, `display`, `screenshot`, `benchmark`, `presets`, `keys`.
 //!
-//! Sections import only the leaves (`section`, `info`, `widgets`), the app's folders below
-//! the panel (`state`, `views`, `measure`, `user_files`) and the crate's lower layers,
-//! never this file or each other. The HUD over the image is `app::views::overlay`'s.
+//! Sections import only the leaves (`section`, `info`, `widgets`), the app's parts below
+//! the panel (`status`, `split`, `state`, `shortcuts`, `user_files`, `measure`) and the
+//! crate's lower layers, never this file or each other. The HUD over the image is
+//! `app::views::overlay`'s.
 
 pub(crate) mod benchmark;
 pub(crate) mod camera;
