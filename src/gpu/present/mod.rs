@@ -311,9 +311,57 @@ impl Presenter {
         }
         let f = (self.frame % FRAMES_IN_FLIGHT as u64) as usize;
         let device = self.ctx.device.clone();
-        let fence = self.slots[f].fence;
+        self.wait_for_slot(&device, f, tracer, &mut outcome)?;
+        let Some(index) = self.acquire(f)? else {
+            return Ok(outcome);
+        };
+        let ready = tracer.filter(|t| t.is_ready());
+        let source = self.picture_source(req.show, ready)?;
+        let trace = req.trace.clone().filter(|_| ready.is_some());
+        if !req.ui.is_empty() {
+            self.wait_for_ui_buffers(&device, f)?;
+        }
+        let capture = req.capture_window && self.swapchain.transfer_src;
+        let extent = self.swapchain.extent;
+        if capture {
+            self.capture.reserve(&self.ctx, extent)?;
+        }
+
+        let cmd = self.begin_frame(&device, f)?;
+        if let (Some((frame, band)), Some(t)) = (trace, ready) {
+            self.slots[f].timed = t.record(cmd, &frame, &band, Some(f as u32));
+            self.slots[f].tag = req.tag;
+        }
+        self.record_picture_and_ui(&device, cmd, index, source, req, capture)?;
+        // SAFETY: recording began in `begin_frame`.
+        unsafe { device.end_command_buffer(cmd) }.during("recording a frame")?;
+        self.submit_and_present(f, index)?;
+        outcome.presented = true;
+
+        if req.capture_window {
+            outcome.window_image = Some(if capture {
+                // SAFETY: the fence is ours; waiting has no other requirement.
+                unsafe { device.wait_for_fences(&[self.slots[f].fence], true, u64::MAX) }
+                    .during("waiting for a frame")?;
+                self.capture.read(extent, self.swapchain.is_bgra())
+            } else {
+                Err("this window surface cannot be read back (no TRANSFER_SRC usage)".to_string())
+            });
+        }
+        Ok(outcome)
+    }
+
+    /// Wait until slot `f`'s last frame is done, and hand its trace's GPU times (once every
+    /// part it traced has its timestamps) to `outcome`.
+    fn wait_for_slot(
+        &mut self,
+        device: &ash::Device,
+        f: usize,
+        tracer: Option<&ComputeTracer>,
+        outcome: &mut FrameOutcome,
+    ) -> anyhow::Result<()> {
         // SAFETY: the fence is ours; waiting has no other requirement.
-        unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
+        unsafe { device.wait_for_fences(&[self.slots[f].fence], true, u64::MAX) }
             .during("waiting for a frame")?;
         let timed = std::mem::take(&mut self.slots[f].timed);
         if let (true, Some(t)) = (timed.iter().flatten().any(|&p| p), tracer) {
@@ -323,20 +371,32 @@ impl Presenter {
                 (0..2).filter(|&i| timed[i].contains(&true)).map(|i| outcome.part_ms[i]).sum();
             outcome.tag = Some(self.slots[f].tag);
         }
-        let index = match self.swapchain.acquire(self.slots[f].acquire)? {
+        Ok(())
+    }
+
+    /// The next swapchain image's index, or none when the swapchain is out of date (it is
+    /// remade before the next frame).
+    fn acquire(&mut self, f: usize) -> anyhow::Result<Option<u32>> {
+        Ok(match self.swapchain.acquire(self.slots[f].acquire)? {
             Acquired::OutOfDate => {
                 self.swapchain_dirty = true;
-                return Ok(outcome);
+                None
             }
             Acquired::Image { index, suboptimal } => {
                 self.swapchain_dirty |= suboptimal;
-                index
+                Some(index)
             }
-        };
+        })
+    }
 
-        // Where the picture comes from (a buffer, how it was last written, its size).
-        let ready = tracer.filter(|t| t.is_ready());
-        let source = match (req.show, ready) {
+    /// Where the picture comes from (a buffer, how it was last written, its size), with
+    /// the display image made to its size.
+    fn picture_source(
+        &mut self,
+        show: Show,
+        ready: Option<&ComputeTracer>,
+    ) -> anyhow::Result<Option<PictureSource>> {
+        let source = match (show, ready) {
             (Show::Output, Some(t)) => {
                 t.colour_output().map(|(b, w, h)| (b, Access::ComputeWrite, [w, h]))
             }
@@ -345,31 +405,31 @@ impl Presenter {
             }
             _ => None,
         };
-        let trace = req.trace.clone().filter(|_| ready.is_some());
         if let Some((_, _, [w, h])) = source {
             self.ensure_display(w, h)?;
         }
+        Ok(source)
+    }
 
-        if !req.ui.is_empty() {
-            if let Some(used_by) = self.ui.claim_buffers(self.frame) {
-                let s = (used_by % FRAMES_IN_FLIGHT as u64) as usize;
-                if s != f {
-                    // SAFETY: as above.
-                    unsafe { device.wait_for_fences(&[self.slots[s].fence], true, u64::MAX) }
-                        .during("waiting for a frame")?;
-                }
+    /// The UI pass's buffers may still be read by another slot's frame: wait for it.
+    fn wait_for_ui_buffers(&mut self, device: &ash::Device, f: usize) -> anyhow::Result<()> {
+        if let Some(used_by) = self.ui.claim_buffers(self.frame) {
+            let s = (used_by % FRAMES_IN_FLIGHT as u64) as usize;
+            if s != f {
+                // SAFETY: the fence is ours; waiting has no other requirement.
+                unsafe { device.wait_for_fences(&[self.slots[s].fence], true, u64::MAX) }
+                    .during("waiting for a frame")?;
             }
         }
-        let capture = req.capture_window && self.swapchain.transfer_src;
-        let extent = self.swapchain.extent;
-        if capture {
-            self.capture.reserve(&self.ctx, extent)?;
-        }
+        Ok(())
+    }
 
+    /// Reset slot `f`'s fence and command buffer and begin recording into it.
+    fn begin_frame(&mut self, device: &ash::Device, f: usize) -> anyhow::Result<vk::CommandBuffer> {
         let cmd = self.slots[f].cmd;
         // SAFETY: the slot's fence signalled, so its command buffer is idle and may be reset.
         unsafe {
-            device.reset_fences(&[fence]).during("resetting a fence")?;
+            device.reset_fences(&[self.slots[f].fence]).during("resetting a fence")?;
             device
                 .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
                 .during("resetting a command buffer")?;
@@ -381,14 +441,25 @@ impl Presenter {
                 )
                 .during("recording a frame")?;
         }
-        if let (Some((frame, band)), Some(t)) = (trace, ready) {
-            self.slots[f].timed = t.record(cmd, &frame, &band, Some(f as u32));
-            self.slots[f].tag = req.tag;
-        }
+        Ok(cmd)
+    }
+
+    /// Record the picture's composite (or a clear), the UI over it, and the swapchain
+    /// image's move to presenting (through the capture's copy when the window is read).
+    fn record_picture_and_ui(
+        &mut self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        index: u32,
+        source: Option<PictureSource>,
+        req: &FrameRequest,
+        capture: bool,
+    ) -> anyhow::Result<()> {
+        let extent = self.swapchain.extent;
         let swap_image = self.swapchain.images[index as usize];
         match (&self.display, source) {
             (Some(display), Some((buffer, access, _))) => composite::record(
-                &device,
+                device,
                 cmd,
                 (buffer, access),
                 display,
@@ -396,7 +467,7 @@ impl Presenter {
                 extent,
                 req.image_rect,
             ),
-            _ => composite::record_clear(&device, cmd, swap_image),
+            _ => composite::record_clear(device, cmd, swap_image),
         }
         if !req.ui.is_empty() {
             self.ui.record(
@@ -408,10 +479,10 @@ impl Presenter {
             )?;
         }
         if capture {
-            self.capture.record(&device, cmd, swap_image, extent);
+            self.capture.record(device, cmd, swap_image, extent);
         } else {
             barrier::record(
-                &device,
+                device,
                 cmd,
                 &[],
                 &[],
@@ -423,37 +494,31 @@ impl Presenter {
                 }],
             );
         }
-        // SAFETY: recording began above.
-        unsafe { device.end_command_buffer(cmd) }.during("recording a frame")?;
+        Ok(())
+    }
 
+    /// Submit slot `f`'s commands (after the image is acquired) and present image `index`
+    /// (after they finish).
+    fn submit_and_present(&mut self, f: usize, index: u32) -> anyhow::Result<()> {
         let waits = [self.slots[f].acquire];
         let stages =
             [vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT];
         let signals = [self.swapchain.render_finished[index as usize]];
-        let cmds = [cmd];
+        let cmds = [self.slots[f].cmd];
         let submit = [vk::SubmitInfo::default()
             .wait_semaphores(&waits)
             .wait_dst_stage_mask(&stages)
             .command_buffers(&cmds)
             .signal_semaphores(&signals)];
-        self.ctx.submit(&submit, fence)?;
+        self.ctx.submit(&submit, self.slots[f].fence)?;
         self.swapchain_dirty |= self.swapchain.present(index)?;
         self.frame += 1;
-        outcome.presented = true;
-
-        if req.capture_window {
-            outcome.window_image = Some(if capture {
-                // SAFETY: as above.
-                unsafe { device.wait_for_fences(&[fence], true, u64::MAX) }
-                    .during("waiting for a frame")?;
-                self.capture.read(extent, self.swapchain.is_bgra())
-            } else {
-                Err("this window surface cannot be read back (no TRANSFER_SRC usage)".to_string())
-            });
-        }
-        Ok(outcome)
+        Ok(())
     }
 }
+
+/// Where a frame's picture comes from: a buffer, how it was last written, its size.
+type PictureSource = (vk::Buffer, Access, [u32; 2]);
 
 impl Drop for Presenter {
     fn drop(&mut self) {

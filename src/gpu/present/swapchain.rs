@@ -114,6 +114,57 @@ impl Swapchain {
     /// idle. Returns false (and leaves no swapchain) when the surface has zero extent
     /// (a minimized window): skip drawing until the next resize.
     pub(crate) fn recreate(&mut self, want: vk::Extent2D, vsync: bool) -> Result<bool, GpuError> {
+        let (caps, formats) = self.query_surface()?;
+        let extent = fit_extent(&caps, want);
+        if extent.width == 0 || extent.height == 0 {
+            self.destroy_swapchain();
+            return Ok(false);
+        }
+        let format = choose_format(&formats).ok_or(GpuError::Vulkan {
+            what: "choosing a window format",
+            result: vk::Result::ERROR_FORMAT_NOT_SUPPORTED,
+        })?;
+        let present_mode = choose_present_mode(&self.present_modes, vsync);
+        self.transfer_src = caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_SRC);
+        let mut usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_DST;
+        if self.transfer_src {
+            usage |= vk::ImageUsageFlags::TRANSFER_SRC;
+        }
+        let info = vk::SwapchainCreateInfoKHR::default()
+            .surface(self.surface)
+            .min_image_count(image_count(&caps))
+            .image_format(format.format)
+            .image_color_space(format.color_space)
+            .image_extent(extent)
+            .image_array_layers(1)
+            .image_usage(usage)
+            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .pre_transform(pre_transform(&caps))
+            .composite_alpha(composite_alpha(&caps))
+            .present_mode(present_mode)
+            .clipped(true)
+            .old_swapchain(self.handle);
+        // SAFETY: the create info's surface is ours and the old swapchain it names is live
+        // (retired here).
+        let handle = unsafe { self.loader.create_swapchain(&info, None) }
+            .during("creating the swapchain")?;
+        // The old swapchain goes only now: the new one was made from it.
+        self.destroy_swapchain();
+        self.handle = handle;
+        self.format = format;
+        self.extent = extent;
+        self.present_mode = present_mode;
+        // SAFETY: the swapchain was just created.
+        self.images = unsafe { self.loader.get_swapchain_images(handle) }
+            .during("listing the swapchain images")?;
+        self.make_views_and_semaphores()?;
+        Ok(true)
+    }
+
+    /// The surface's capabilities and formats; its present modes go to `present_modes`.
+    fn query_surface(
+        &mut self,
+    ) -> Result<(vk::SurfaceCapabilitiesKHR, Vec<vk::SurfaceFormatKHR>), GpuError> {
         let pd = self.ctx.physical_device;
         // SAFETY: the surface and the physical device belong to this context's instance.
         let caps = unsafe {
@@ -129,82 +180,17 @@ impl Swapchain {
             self.surface_loader.get_physical_device_surface_present_modes(pd, self.surface)
         }
         .during("querying the present modes")?;
-        let extent = if caps.current_extent.width == u32::MAX {
-            vk::Extent2D {
-                width: want.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: want
-                    .height
-                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
-            }
-        } else {
-            caps.current_extent
-        };
-        if extent.width == 0 || extent.height == 0 {
-            self.destroy_swapchain();
-            return Ok(false);
-        }
-        let format = choose_format(&formats).ok_or(GpuError::Vulkan {
-            what: "choosing a window format",
-            result: vk::Result::ERROR_FORMAT_NOT_SUPPORTED,
-        })?;
-        let present_mode = choose_present_mode(&self.present_modes, vsync);
-        let mut image_count = caps.min_image_count + 1;
-        if caps.max_image_count > 0 {
-            image_count = image_count.min(caps.max_image_count);
-        }
-        self.transfer_src = caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_SRC);
-        let mut usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_DST;
-        if self.transfer_src {
-            usage |= vk::ImageUsageFlags::TRANSFER_SRC;
-        }
-        let composite = [
-            vk::CompositeAlphaFlagsKHR::OPAQUE,
-            vk::CompositeAlphaFlagsKHR::INHERIT,
-            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
-            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
-        ]
-        .into_iter()
-        .find(|c| caps.supported_composite_alpha.contains(*c))
-        .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE);
-        let transform =
-            if caps.supported_transforms.contains(vk::SurfaceTransformFlagsKHR::IDENTITY) {
-                vk::SurfaceTransformFlagsKHR::IDENTITY
-            } else {
-                caps.current_transform
-            };
-        let old = self.handle;
-        let info = vk::SwapchainCreateInfoKHR::default()
-            .surface(self.surface)
-            .min_image_count(image_count)
-            .image_format(format.format)
-            .image_color_space(format.color_space)
-            .image_extent(extent)
-            .image_array_layers(1)
-            .image_usage(usage)
-            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .pre_transform(transform)
-            .composite_alpha(composite)
-            .present_mode(present_mode)
-            .clipped(true)
-            .old_swapchain(old);
-        // SAFETY: the create info's surface is ours and the old swapchain it names is live
-        // (retired here).
-        let handle = unsafe { self.loader.create_swapchain(&info, None) }
-            .during("creating the swapchain")?;
-        self.destroy_swapchain();
-        self.handle = handle;
-        self.format = format;
-        self.extent = extent;
-        self.present_mode = present_mode;
-        // SAFETY: the swapchain was just created.
-        self.images = unsafe { self.loader.get_swapchain_images(handle) }
-            .during("listing the swapchain images")?;
+        Ok((caps, formats))
+    }
+
+    /// A view per swapchain image, and a render-finished semaphore per image.
+    fn make_views_and_semaphores(&mut self) -> Result<(), GpuError> {
         let device = &self.ctx.device;
         for &image in &self.images {
             let view_info = vk::ImageViewCreateInfo::default()
                 .image(image)
                 .view_type(vk::ImageViewType::TYPE_2D)
-                .format(format.format)
+                .format(self.format.format)
                 .subresource_range(color_range());
             // SAFETY: the image belongs to the live swapchain; its views are destroyed
             // before it.
@@ -220,7 +206,7 @@ impl Swapchain {
                 .during("creating a semaphore")?;
             self.render_finished.push(sem);
         }
-        Ok(true)
+        Ok(())
     }
 
     fn destroy_swapchain(&mut self) {
@@ -288,6 +274,50 @@ impl Drop for Swapchain {
             }
             self.surface_loader.destroy_surface(self.surface, None);
         }
+    }
+}
+
+/// The surface's own extent, or `want` within its limits where the surface leaves it to
+/// the swapchain.
+fn fit_extent(caps: &vk::SurfaceCapabilitiesKHR, want: vk::Extent2D) -> vk::Extent2D {
+    if caps.current_extent.width == u32::MAX {
+        vk::Extent2D {
+            width: want.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+            height: want.height.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+        }
+    } else {
+        caps.current_extent
+    }
+}
+
+/// One image more than the least, within the most.
+fn image_count(caps: &vk::SurfaceCapabilitiesKHR) -> u32 {
+    let mut image_count = caps.min_image_count + 1;
+    if caps.max_image_count > 0 {
+        image_count = image_count.min(caps.max_image_count);
+    }
+    image_count
+}
+
+/// Opaque where offered, else the first mode the surface has.
+fn composite_alpha(caps: &vk::SurfaceCapabilitiesKHR) -> vk::CompositeAlphaFlagsKHR {
+    [
+        vk::CompositeAlphaFlagsKHR::OPAQUE,
+        vk::CompositeAlphaFlagsKHR::INHERIT,
+        vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+        vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+    ]
+    .into_iter()
+    .find(|c| caps.supported_composite_alpha.contains(*c))
+    .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE)
+}
+
+/// No transform where offered, else the surface's current one.
+fn pre_transform(caps: &vk::SurfaceCapabilitiesKHR) -> vk::SurfaceTransformFlagsKHR {
+    if caps.supported_transforms.contains(vk::SurfaceTransformFlagsKHR::IDENTITY) {
+        vk::SurfaceTransformFlagsKHR::IDENTITY
+    } else {
+        caps.current_transform
     }
 }
 
