@@ -3,41 +3,14 @@
 use std::collections::HashSet;
 use std::path::PathBuf;
 
-use clap::parser::ValueSource;
-use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand};
+use clap::Args;
 
-use super::view::ViewArgs;
 use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout};
 use crate::scene::obj::LoadOptions;
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
-
-/// meshtracer: a Vulkan compute-shader ray tracer for triangle meshes, after Kim & Shin's
-/// "Mesh-based ray tracing system using Vulkan". With no command it opens the interactive
-/// tool on the paper's scene: a model inside six mirror planes, lit by an orbiting light.
-#[derive(Parser, Debug)]
-#[command(name = "meshtracer", version, about, long_about = None)]
-pub struct Cli {
-    #[command(subcommand)]
-    pub command: Option<Command>,
-    #[command(flatten)]
-    pub view: ViewArgs,
-}
-
-/// What to do.
-#[derive(Subcommand, Debug)]
-pub enum Command {
-    /// Open the interactive tool (the default).
-    View(ViewArgs),
-    /// Render one frame headless and write it to a file.
-    Render(RenderArgs),
-    /// Measure frame times: the paper's tables (--paper) and scaling series (--scaling).
-    Bench(super::bench::BenchArgs),
-    /// List the Vulkan devices (for --device).
-    Devices,
-}
 
 /// The default scene spec: where every flag's default comes from, so none is restated.
 pub(crate) fn defaults() -> SceneSpec {
@@ -270,42 +243,6 @@ impl SceneArgs {
     }
 }
 
-impl Cli {
-    /// Parse the process's command line like [`Parser::try_parse`], noting which flags
-    /// were given on it (they override a `--preset`; the others do not).
-    pub fn try_parse_noting_flags() -> Result<Self, clap::Error> {
-        Self::try_parse_from_noting_flags(std::env::args_os())
-    }
-
-    /// [`Cli::try_parse_noting_flags`] over `args` (the program name first).
-    pub fn try_parse_from_noting_flags<I, T>(args: I) -> Result<Self, clap::Error>
-    where
-        I: IntoIterator<Item = T>,
-        T: Into<std::ffi::OsString> + Clone,
-    {
-        let matches = Self::command().try_get_matches_from(args)?;
-        let mut cli = Self::from_arg_matches(&matches)?;
-        let sub = matches.subcommand().map(|(_, m)| given_flags(m));
-        match &mut cli.command {
-            Some(Command::Render(args)) => args.scene.given = sub,
-            Some(Command::View(args)) => args.scene.given = sub,
-            Some(Command::Bench(args)) => args.given = sub,
-            Some(Command::Devices) => {}
-            None => cli.view.scene.given = Some(given_flags(&matches)),
-        }
-        Ok(cli)
-    }
-}
-
-/// The ids of the arguments given on the command line (not defaults).
-fn given_flags(matches: &ArgMatches) -> HashSet<String> {
-    matches
-        .ids()
-        .filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine))
-        .map(|id| id.to_string())
-        .collect()
-}
-
 /// `--bvh`: a BVH layout, or `auto`: the window times each and keeps the fastest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhChoice {
@@ -386,7 +323,10 @@ impl RenderArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cli::view::ViewArgs;
+    use crate::cli::{Cli, Command};
     use crate::render_settings::RenderSettings;
+    use clap::Parser;
 
     fn render_args(extra: &[&str]) -> Result<RenderArgs, clap::Error> {
         let cli =
