@@ -8,7 +8,7 @@
 
 use crate::gpu::dispatch::GROUP;
 use crate::gpu::{FrameTrace, SplitTrace};
-use crate::render_settings::{Accel, RenderSettings, MAX_BOUNCES, MAX_SPP};
+use crate::render_settings::{Accel, Range, RenderSettings, BLEND, BOUNCES, SPP};
 use crate::tracer::frame::FrameParams;
 
 /// How close to the line (physical pixels) a left press grabs it instead of orbiting.
@@ -73,20 +73,20 @@ impl SplitB {
                 format!("--split-b '{pair}' is not name=value (names: {})", KEYS.join(", "))
             })?;
             let (name, value) = (name.trim().to_ascii_lowercase(), value.trim());
-            let number = |max: u32, min: u32| match value.parse::<u32>() {
-                Ok(v) if (min..=max).contains(&v) => Ok(v),
-                _ => Err(format!(
-                    "--split-b {name}={value}: expected a whole number in {min}..={max}"
-                )),
+            let number = |range: Range| match value.parse::<u32>() {
+                Ok(v) if range.contains(v as f64) => Ok(v),
+                _ => Err(format!("--split-b {name}={value}: expected a whole number in {range}")),
             };
             match name.as_str() {
                 "accel" => b.accel = Some(value.parse().map_err(|e| format!("--split-b: {e}"))?),
-                "bounces" => b.bounces = Some(number(MAX_BOUNCES, 0)?),
-                "spp" => b.spp = Some(number(MAX_SPP, 1)?),
+                "bounces" => b.bounces = Some(number(BOUNCES)?),
+                "spp" => b.spp = Some(number(SPP)?),
                 "blend" => match value.parse::<f32>() {
-                    Ok(v) if (0.0..=1.0).contains(&v) => b.blend = Some(v),
+                    Ok(v) if BLEND.contains(v as f64) => b.blend = Some(v),
                     _ => {
-                        return Err(format!("--split-b blend={value}: expected a number in 0..=1"))
+                        return Err(format!(
+                            "--split-b blend={value}: expected a number in {BLEND}"
+                        ))
                     }
                 },
                 "adaptive" | "smooth" | "textures" | "env" => {

@@ -9,9 +9,7 @@ use crate::app::panel::widgets::status_line;
 use crate::app::panel::widgets::Status;
 use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
 use crate::gpu::khr_rt::VendorKernel;
-use crate::render_settings::{
-    self as knobs, Accel, BvhLayout, MAX_AO_SAMPLES, MAX_BOUNCES, MAX_RESOLUTION,
-};
+use crate::render_settings::{self as knobs, Accel, BvhLayout};
 use crate::tracer::heat_map::heat_color;
 
 /// The section's state: the outcome of render changes and shader reloads.
@@ -62,9 +60,9 @@ impl Section for RenderPanel {
             if params.resolution == Resolution::Custom {
                 ui.label("");
                 ui.horizontal(|ui| {
-                    ui.add(egui::DragValue::new(&mut params.custom[0]).range(1..=MAX_RESOLUTION).speed(4));
+                    ui.add(egui::DragValue::new(&mut params.custom[0]).range(knobs::RESOLUTION.u32s()).speed(4));
                     ui.label("x");
-                    ui.add(egui::DragValue::new(&mut params.custom[1]).range(1..=MAX_RESOLUTION).speed(4));
+                    ui.add(egui::DragValue::new(&mut params.custom[1]).range(knobs::RESOLUTION.u32s()).speed(4));
                 });
                 ui.end_row();
             }
@@ -72,11 +70,11 @@ impl Section for RenderPanel {
             ui.label(RichText::new(format!("tracing {} x {}", info.settings.width, info.settings.height)).small().weak());
             ui.end_row();
             ui.label("Bounces");
-            ui.add(egui::Slider::new(&mut params.scene.settings.bounces, 0..=MAX_BOUNCES))
+            ui.add(egui::Slider::new(&mut params.scene.settings.bounces, knobs::BOUNCES.u32s()))
                 .on_hover_text("mirror bounces after the primary hit (the paper's §3.3 used 2); PgUp / PgDn");
             ui.end_row();
             ui.label("Blend");
-            ui.add(egui::Slider::new(&mut params.scene.settings.blend, 0.0..=1.0).fixed_decimals(2))
+            ui.add(egui::Slider::new(&mut params.scene.settings.blend, knobs::BLEND.f32s()).fixed_decimals(2))
                 .on_hover_text("reflection blend ratio (§3.3): 0 = the surface's own colour, 1 = pure mirror; [ and ]");
             ui.end_row();
             ui.label("Acceleration");
@@ -184,7 +182,7 @@ impl Section for RenderPanel {
 /// The AO view's knobs: rays per hit and radius, within their ranges (`render_settings`).
 fn ao_rows(ui: &mut Ui, s: &mut crate::render_settings::RenderSettings) {
     ui.label("AO rays");
-    ui.add(egui::Slider::new(&mut s.ao_samples, 1..=MAX_AO_SAMPLES).logarithmic(true))
+    ui.add(egui::Slider::new(&mut s.ao_samples, knobs::AO_SAMPLES.u32s()).logarithmic(true))
         .on_hover_text("occlusion rays per primary hit and frame (--ao-samples), cosine-weighted around the normal; accumulation adds a new set each frame");
     ui.end_row();
     ui.label("AO radius");

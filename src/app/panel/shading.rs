@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::group;
-use crate::render_settings::MAX_SPP;
+use crate::render_settings::SPP;
 use crate::scene::EnvironmentSource;
 
 /// The section (it keeps nothing between frames).
@@ -50,7 +50,7 @@ impl Section for ShadingPanel {
             });
             ui.end_row();
             ui.label("Samples/pixel");
-            ui.add(egui::Slider::new(&mut params.scene.settings.spp, 1..=MAX_SPP).logarithmic(true)).on_hover_text("jittered camera rays per pixel: anti-aliasing (§5)");
+            ui.add(egui::Slider::new(&mut params.scene.settings.spp, SPP.u32s()).logarithmic(true)).on_hover_text("jittered camera rays per pixel: anti-aliasing (§5)");
             ui.end_row();
             ui.label("Adaptive");
             ui.checkbox(&mut params.scene.settings.adaptive, "extra samples on edges only").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");

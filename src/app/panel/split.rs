@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use crate::app::panel::section::{Cx, Section};
 use crate::app::panel::widgets::GPU_COLOR;
 use crate::app::split::SplitView;
-use crate::render_settings::{Accel, MAX_BOUNCES, MAX_SPP};
+use crate::render_settings::{Accel, BLEND, BOUNCES, SPP};
 
 /// The section (it keeps nothing between frames: the split is a parameter).
 #[derive(Default)]
@@ -52,13 +52,13 @@ impl Section for SplitPanel {
                     .on_disabled_hover_text(why);
                 });
                 differs(ui, "Bounces", &mut b.bounces, a.bounces, |ui, v| {
-                    ui.add(egui::Slider::new(v, 0..=MAX_BOUNCES));
+                    ui.add(egui::Slider::new(v, BOUNCES.u32s()));
                 });
                 differs(ui, "Blend", &mut b.blend, a.blend, |ui, v| {
-                    ui.add(egui::Slider::new(v, 0.0..=1.0).fixed_decimals(2));
+                    ui.add(egui::Slider::new(v, BLEND.f32s()).fixed_decimals(2));
                 });
                 differs(ui, "Samples", &mut b.spp, a.spp, |ui, v| {
-                    ui.add(egui::Slider::new(v, 1..=MAX_SPP));
+                    ui.add(egui::Slider::new(v, SPP.u32s()));
                 });
                 for (name, value, a_value) in [
                     ("Adaptive", &mut b.adaptive, a.adaptive),
