@@ -8,7 +8,9 @@ use std::fs;
 use common::Scratch;
 
 use glam::Vec3;
-use meshtracer::scene::gltf::load_gltf;
+use meshtracer::scene::formats::{load_model, LoadError};
+use meshtracer::scene::obj::{LoadOptions, LoadedObj};
+use meshtracer::scene::paper::ModelSource;
 use meshtracer::scene::ply::load_ply_from_bytes;
 use meshtracer::scene::Mesh;
 
@@ -213,7 +215,10 @@ fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
     fs::write(dir.join("quad.bin"), gltf_bin()).unwrap();
     let path = dir.join("c.gltf");
     fs::write(&path, gltf_json(r#", "normalized": true"#)).unwrap();
-    let mesh = load_gltf(&path).unwrap().mesh;
+    let load = |path: &std::path::Path| -> Result<LoadedObj, LoadError> {
+        load_model(&ModelSource::File(path.to_owned()), &LoadOptions::default(), None)
+    };
+    let mesh = load(&path).unwrap().mesh;
     let floats = [[255, 128, 0, 255], [0, 64, 255, 255], [255, 0, 51, 255], [102, 153, 204, 255]];
     let expected: Vec<[u8; 4]> =
         COLOURS.iter().chain(&[[255; 4]; 4]).chain(&floats).copied().collect();
@@ -222,7 +227,7 @@ fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
 
     // glTF allows integer colours only normalized.
     fs::write(&path, gltf_json("")).unwrap();
-    let e = load_gltf(&path).unwrap_err().to_string();
+    let e = load(&path).unwrap_err().to_string();
     assert!(e.starts_with(&path.display().to_string()), "{e}");
     assert!(e.contains("accessor 2 (COLOR_0) has component type U8"), "{e}");
     assert!(!e.contains('\n'), "{e}");

@@ -27,16 +27,9 @@ const MAX_NODE_VISITS: usize = 1 << 20;
 /// The most vertices placed (nodes may instance a mesh many times): 3 GiB of positions.
 const MAX_VERTICES: usize = 1 << 28;
 
-/// Load a `.gltf` or `.glb` file; buffers and textures are found relative to its folder.
-pub fn load_gltf(path: &Path) -> Result<LoadedObj, ObjError> {
-    let bytes =
-        read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
-    let name = path.display().to_string();
-    load_gltf_from_bytes(&bytes, &name, path.parent())
-}
-
-/// Load a glTF from bytes in memory (`name` for messages; `base_dir` resolves external
-/// buffers and images, and without it only embedded buffers can be read).
+/// Load a `.gltf` or `.glb` from bytes in memory (a file's are read by
+/// `formats::load_model`; `name` for messages; `base_dir` resolves external buffers and
+/// images, and without it only embedded buffers can be read).
 pub fn load_gltf_from_bytes(
     bytes: &[u8],
     name: &str,

@@ -11,14 +11,11 @@
 //! does, larger polygons into fans. Errors name the file and the line (ASCII) or the
 //! element (binary).
 
-use std::path::Path;
-
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::obj::{LoadedObj, ObjError};
 use super::{Material, Mesh};
-use crate::files::read_regular_file;
 
 mod binary;
 mod colours;
@@ -31,14 +28,8 @@ const MAX_INITIAL_CAPACITY: usize = 1 << 20;
 /// The longest header read (comments included) before the body must begin.
 const MAX_HEADER_BYTES: usize = 1 << 20;
 
-/// Load a PLY file (ASCII or binary). Devices and FIFOs are refused before opening.
-pub fn load_ply(path: &Path) -> Result<LoadedObj, ObjError> {
-    let bytes =
-        read_regular_file(path).map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
-    load_ply_from_bytes(&bytes, &path.display().to_string())
-}
-
-/// Load a PLY from bytes already in memory (`name` is used in messages). Used by tests and the fuzzer.
+/// Load a PLY (ASCII or binary) from bytes already in memory (`name` is used in messages):
+/// a file's are read by `formats::load_model`, and the tests and the fuzzer give theirs.
 pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjError> {
     let fail = |location: Location, reason: String| match location {
         Location::Line(line) => ObjError::Parse { name: name.to_owned(), line, reason },
