@@ -3,11 +3,11 @@
 
 use egui::{Color32, RichText, Sense, Ui};
 
-use crate::app::panel::info::VendorInfo;
+use crate::app::panel::info::{PanelInfo, VendorInfo};
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::status_line;
 use crate::app::panel::widgets::Status;
-use crate::app::state::{CostMetric, Resolution, ViewMode, PRESETS};
+use crate::app::state::{CostMetric, Params, Resolution, ViewMode, PRESETS};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::render_settings::{self as knobs, Accel, BvhLayout};
 use crate::tracer::heat_map::heat_color;
@@ -46,29 +46,7 @@ impl Section for RenderPanel {
         let (params, info, actions) = (&mut *cx.params, cx.info, &mut *cx.actions);
         self.forget_stale_status(params.scene.settings.accel);
         egui::Grid::new("render").num_columns(2).show(ui, |ui| {
-            ui.label("Resolution");
-            egui::ComboBox::new("resolution", "").selected_text(resolution_label(params.resolution, params.custom)).show_ui(ui, |ui| {
-                for n in PRESETS {
-                    ui.selectable_value(&mut params.resolution, Resolution::Square(n), format!("{n} x {n}"));
-                }
-                ui.selectable_value(&mut params.resolution, Resolution::MatchWindow, "match window");
-                ui.selectable_value(&mut params.resolution, Resolution::Custom, "custom");
-            })
-            .response
-            .on_hover_text("pixels traced per frame, scaled into the window; M matches the window");
-            ui.end_row();
-            if params.resolution == Resolution::Custom {
-                ui.label("");
-                ui.horizontal(|ui| {
-                    ui.add(egui::DragValue::new(&mut params.custom[0]).range(knobs::RESOLUTION.u32s()).speed(4));
-                    ui.label("x");
-                    ui.add(egui::DragValue::new(&mut params.custom[1]).range(knobs::RESOLUTION.u32s()).speed(4));
-                });
-                ui.end_row();
-            }
-            ui.label("");
-            ui.label(RichText::new(format!("tracing {} x {}", info.settings.width, info.settings.height)).small().weak());
-            ui.end_row();
+            resolution_rows(ui, params, info);
             ui.label("Bounces");
             ui.add(egui::Slider::new(&mut params.scene.settings.bounces, knobs::BOUNCES.u32s()))
                 .on_hover_text("mirror bounces after the primary hit (the paper's §3.3 used 2); PgUp / PgDn");
@@ -77,90 +55,16 @@ impl Section for RenderPanel {
             ui.add(egui::Slider::new(&mut params.scene.settings.blend, knobs::BLEND.f32s()).fixed_decimals(2))
                 .on_hover_text("reflection blend ratio (§3.3): 0 = the surface's own colour, 1 = pure mirror; [ and ]");
             ui.end_row();
-            ui.label("Acceleration");
-            ui.horizontal(|ui| {
-                ui.radio_value(&mut params.scene.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
-                let estimate = format!("the paper's method (§3.3): {:.1e} ray-triangle tests per frame", info.brute_tests);
-                ui.radio_value(&mut params.scene.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
-                let why = info.vendor.unavailable.clone().unwrap_or_default();
-                ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.scene.settings.accel, Accel::Vendor, "vendor"))
-                    .response
-                    .on_hover_text("the GPU driver's own acceleration structures and traversal (Vulkan ray tracing), on the same scene and shading")
-                    .on_disabled_hover_text(&why);
-            });
-            ui.end_row();
+            acceleration_row(ui, params, info);
             if params.scene.settings.accel == Accel::Vendor {
                 vendor_rows(ui, info.vendor, actions);
             }
             if params.scene.settings.accel == Accel::Bvh {
-                ui.label("BVH layout");
-                let bvh = params.scene.settings.bvh;
-                let shown = if params.bvh_auto { format!("auto ({bvh})") } else { bvh.to_string() };
-                let response = egui::ComboBox::new("bvh_layout", "").selected_text(shown).show_ui(ui, |ui| {
-                    if ui.selectable_label(params.bvh_auto, "auto").clicked() {
-                        params.bvh_auto = true;
-                    }
-                    for layout in BvhLayout::ALL {
-                        if ui.selectable_label(!params.bvh_auto && bvh == layout, layout.to_string()).clicked() {
-                            params.bvh_auto = false;
-                            params.scene.settings.bvh = layout;
-                        }
-                    }
-                })
-                .response;
-                let layouts = "binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again); wide-runs: the wide tree, each ray testing its pending leaves back to back (faster where rays meet runs of leaves, as in some architecture; slower on scanned meshes); auto: times each on this model and view and keeps the fastest";
-                match &info.auto_layout {
-                    Some(choice) => response.on_hover_text(format!("{choice}\n\n{layouts}")),
-                    None => response.on_hover_text(layouts),
-                };
-                if let Some(choice) = &info.auto_layout {
-                    ui.end_row();
-                    ui.label("");
-                    ui.label(RichText::new(choice).small().weak());
-                }
-                ui.end_row();
+                bvh_layout_rows(ui, params, info);
             }
-            ui.label("View");
-            egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {
-                for view in ViewMode::ALL {
-                    let current = params.view.same_kind(view);
-                    if ui.selectable_label(current, view.label()).clicked() && !current {
-                        params.view = view;
-                        params.fit_cost_metric();
-                    }
-                }
-            })
-            .response
-            .on_hover_text("what the image shows: the shaded colour, or one of the tracer's other outputs; C toggles the cost view");
-            ui.end_row();
-            if let ViewMode::Cost(metric) = &mut params.view {
-                ui.label("Counter");
-                // Brute force visits no nodes: only the triangle counter means something.
-                let bvh = params.scene.settings.accel == Accel::Bvh;
-                ui.horizontal(|ui| {
-                    ui.add_enabled_ui(bvh, |ui| ui.radio_value(metric, CostMetric::Nodes, "nodes")).response.on_disabled_hover_text("brute force visits no BVH nodes");
-                    ui.radio_value(metric, CostMetric::Triangles, "triangles");
-                });
-                ui.end_row();
-            }
-            if params.view == ViewMode::Ao {
-                ao_rows(ui, &mut params.scene.settings);
-            }
+            view_rows(ui, params);
         });
-        if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_))
-        {
-            ui.label(
-                RichText::new(
-                    "the vendor's traversal reports no cost: this view is empty under it",
-                )
-                .small(),
-            );
-        }
-        if params.scene.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
-            // Said before the wait, not after: the frame is long and comes in bands.
-            let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
-            ui.add(egui::Label::new(RichText::new(text).small()).wrap());
-        }
+        render_notes(ui, params, info);
         for s in [&self.status, &self.shader_status].into_iter().flatten() {
             status_line(ui, s);
         }
@@ -176,6 +80,149 @@ impl Section for RenderPanel {
         if let Some(note) = info.view_note {
             ui.label(RichText::new(note).small());
         }
+    }
+}
+
+/// The resolution's menu, the custom size's fields and the size traced.
+fn resolution_rows(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
+    ui.label("Resolution");
+    egui::ComboBox::new("resolution", "")
+        .selected_text(resolution_label(params.resolution, params.custom))
+        .show_ui(ui, |ui| {
+            for n in PRESETS {
+                ui.selectable_value(
+                    &mut params.resolution,
+                    Resolution::Square(n),
+                    format!("{n} x {n}"),
+                );
+            }
+            ui.selectable_value(&mut params.resolution, Resolution::MatchWindow, "match window");
+            ui.selectable_value(&mut params.resolution, Resolution::Custom, "custom");
+        })
+        .response
+        .on_hover_text("pixels traced per frame, scaled into the window; M matches the window");
+    ui.end_row();
+    if params.resolution == Resolution::Custom {
+        ui.label("");
+        ui.horizontal(|ui| {
+            ui.add(
+                egui::DragValue::new(&mut params.custom[0])
+                    .range(knobs::RESOLUTION.u32s())
+                    .speed(4),
+            );
+            ui.label("x");
+            ui.add(
+                egui::DragValue::new(&mut params.custom[1])
+                    .range(knobs::RESOLUTION.u32s())
+                    .speed(4),
+            );
+        });
+        ui.end_row();
+    }
+    ui.label("");
+    ui.label(
+        RichText::new(format!("tracing {} x {}", info.settings.width, info.settings.height))
+            .small()
+            .weak(),
+    );
+    ui.end_row();
+}
+
+/// BVH, brute force or the vendor's (greyed out, saying why, where the device has none).
+fn acceleration_row(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
+    ui.label("Acceleration");
+    ui.horizontal(|ui| {
+        ui.radio_value(&mut params.scene.settings.accel, Accel::Bvh, "BVH").on_hover_text("our bounding volume hierarchy (the paper's future work, §5); A cycles BVH, brute force, vendor");
+        let estimate = format!("the paper's method (§3.3): {:.1e} ray-triangle tests per frame", info.brute_tests);
+        ui.radio_value(&mut params.scene.settings.accel, Accel::Brute, "brute").on_hover_text(&estimate);
+        let why = info.vendor.unavailable.clone().unwrap_or_default();
+        ui.add_enabled_ui(info.vendor.unavailable.is_none(), |ui| ui.radio_value(&mut params.scene.settings.accel, Accel::Vendor, "vendor"))
+            .response
+            .on_hover_text("the GPU driver's own acceleration structures and traversal (Vulkan ray tracing), on the same scene and shading")
+            .on_disabled_hover_text(&why);
+    });
+    ui.end_row();
+}
+
+/// The BVH layout's menu (auto or one layout) and what the automatic choice found.
+fn bvh_layout_rows(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
+    ui.label("BVH layout");
+    let bvh = params.scene.settings.bvh;
+    let shown = if params.bvh_auto { format!("auto ({bvh})") } else { bvh.to_string() };
+    let response = egui::ComboBox::new("bvh_layout", "")
+        .selected_text(shown)
+        .show_ui(ui, |ui| {
+            if ui.selectable_label(params.bvh_auto, "auto").clicked() {
+                params.bvh_auto = true;
+            }
+            for layout in BvhLayout::ALL {
+                if ui
+                    .selectable_label(!params.bvh_auto && bvh == layout, layout.to_string())
+                    .clicked()
+                {
+                    params.bvh_auto = false;
+                    params.scene.settings.bvh = layout;
+                }
+            }
+        })
+        .response;
+    let layouts = "binary: two children per node, float boxes; wide: eight children per node, 8-bit boxes (Ylitie et al. 2017), visited nearest first: faster on most meshes, but its tree takes several times as long to build, so it is built when first asked for (the model is loaded again); wide-runs: the wide tree, each ray testing its pending leaves back to back (faster where rays meet runs of leaves, as in some architecture; slower on scanned meshes); auto: times each on this model and view and keeps the fastest";
+    match &info.auto_layout {
+        Some(choice) => response.on_hover_text(format!("{choice}\n\n{layouts}")),
+        None => response.on_hover_text(layouts),
+    };
+    if let Some(choice) = &info.auto_layout {
+        ui.end_row();
+        ui.label("");
+        ui.label(RichText::new(choice).small().weak());
+    }
+    ui.end_row();
+}
+
+/// The view's menu, and the cost view's counter or the AO view's knobs under it.
+fn view_rows(ui: &mut Ui, params: &mut Params) {
+    ui.label("View");
+    egui::ComboBox::new("view", "").selected_text(params.view.label()).show_ui(ui, |ui| {
+        for view in ViewMode::ALL {
+            let current = params.view.same_kind(view);
+            if ui.selectable_label(current, view.label()).clicked() && !current {
+                params.view = view;
+                params.fit_cost_metric();
+            }
+        }
+    })
+    .response
+    .on_hover_text("what the image shows: the shaded colour, or one of the tracer's other outputs; C toggles the cost view");
+    ui.end_row();
+    if let ViewMode::Cost(metric) = &mut params.view {
+        ui.label("Counter");
+        // Brute force visits no nodes: only the triangle counter means something.
+        let bvh = params.scene.settings.accel == Accel::Bvh;
+        ui.horizontal(|ui| {
+            ui.add_enabled_ui(bvh, |ui| ui.radio_value(metric, CostMetric::Nodes, "nodes"))
+                .response
+                .on_disabled_hover_text("brute force visits no BVH nodes");
+            ui.radio_value(metric, CostMetric::Triangles, "triangles");
+        });
+        ui.end_row();
+    }
+    if params.view == ViewMode::Ao {
+        ao_rows(ui, &mut params.scene.settings);
+    }
+}
+
+/// Lines under the grid on what this acceleration does with this view or scene.
+fn render_notes(ui: &mut Ui, params: &Params, info: &PanelInfo) {
+    if params.scene.settings.accel == Accel::Vendor && matches!(params.view, ViewMode::Cost(_)) {
+        ui.label(
+            RichText::new("the vendor's traversal reports no cost: this view is empty under it")
+                .small(),
+        );
+    }
+    if params.scene.settings.accel == Accel::Brute && info.brute_tests > info.submission_tests {
+        // Said before the wait, not after: the frame is long and comes in bands.
+        let text = format!("brute force: {:.1e} ray-triangle tests per frame, traced in bands over many displayed frames", info.brute_tests);
+        ui.add(egui::Label::new(RichText::new(text).small()).wrap());
     }
 }
 
