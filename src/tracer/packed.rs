@@ -309,7 +309,9 @@ struct MeshTrees {
 /// instance list (the top level) rebuilt when the model count changes, and that list.
 #[derive(Clone, Debug, Default)]
 pub struct PackedTopLevel {
+    /// Where each mesh sits in the GPU's arrays, and its bounds.
     pub meshes: Vec<PackedMesh>,
+    /// The instance list uploaded last ([`PackedTopLevel::set_instances`]).
     pub instances: Vec<GpuInstance>,
     /// As [`PackedScene`]'s: where the wide nodes start in the GPU's node buffer.
     wide_word_base: u32,
