@@ -4,21 +4,14 @@
 //! under the validation layer on the test device (CI: Mesa 25's lavapipe, which has the
 //! vendor's ray tracing too).
 //!
-//! Tolerance. The AO rays' directions come from the same PCG hash of (pixel, camera sample,
-//! frame, ray index) on both sides, so the tracers cast the same rays up to float rounding
-//! (`sin`/`cos`/`sqrt` and FMA contraction differ in the last bits). A ray that grazes an
-//! occluder's edge, or meets one at the radius, can still go the other way, which moves
-//! that pixel by 1/N (N rays per hit). So we allow [`MAX_FRACTION_OVER`] of pixels to
-//! differ by more than 1e-4 and a mean difference of at most [`MAX_MEAN`]. The vendor's
-//! triangle test is watertight and ours is not, so the vendor's AO against ours gets the
-//! same allowance at a 1e-3 threshold. Measured on lavapipe: every comparison here is
-//! identical (no pixel differs); the Stanford bunny at 256², 32 rays, 4 frames accumulated,
-//! differs from the CPU's in 1 of 65,536 PNG pixels and from the vendor's in 4, by 2/255.
+//! Tolerance: `common::tolerance::AO` against the CPU and between our layouts,
+//! `common::tolerance::AO_VENDOR` against the vendor's (why, there).
 
 mod common;
 
 use std::process::Command;
 
+use common::tolerance::{AO, AO_VENDOR};
 use common::*;
 use glam::Vec3;
 use meshtracer::gpu::khr_rt::VendorKernel;
@@ -27,11 +20,6 @@ use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
-
-/// Share of pixels allowed to differ by more than the threshold between two tracers.
-const MAX_FRACTION_OVER: f32 = 0.02;
-/// Largest mean difference allowed between two tracers.
-const MAX_MEAN: f32 = 2e-3;
 
 fn ao(size: u32, samples: u32, radius: f32) -> RenderSettings {
     RenderSettings {
@@ -42,14 +30,6 @@ fn ao(size: u32, samples: u32, radius: f32) -> RenderSettings {
         ao_radius: radius,
         ..RenderSettings::default()
     }
-}
-
-fn assert_close(a: &Image, b: &Image, threshold: f32, what: &str) {
-    let d = a.compare(b, threshold);
-    assert!(
-        d.fraction_over <= MAX_FRACTION_OVER && d.mean <= MAX_MEAN,
-        "{what}: AO differs: {d:?}"
-    );
 }
 
 /// Every kind of vendor tracing the device has (at least one: CI's lavapipe has both).
@@ -188,18 +168,18 @@ fn gpu_ao_matches_the_cpu_reference() {
         ),
     ] {
         let (gpu, cpu) = render_both(&knot, settings);
-        assert_close(&gpu, &cpu, 1e-4, what);
+        assert_within(&gpu, &cpu, AO, what);
         // Not a flat image: the knot's crossings occlude each other.
         let values: Vec<f32> = gpu.pixels.iter().filter(|p| p[3] == 1.0).map(|p| p[0]).collect();
         let (lo, hi) = values.iter().fold((1.0f32, 0.0f32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         assert!(hi - lo > 0.4, "{what}: AO spans only {lo}..{hi}");
     }
     let (gpu, cpu) = render_both(&paper(PaperModel::Geosphere, 3), ao(48, 8, 2.0));
-    assert_close(&gpu, &cpu, 1e-4, "three geospheres in the mirror box");
+    assert_within(&gpu, &cpu, AO, "three geospheres in the mirror box");
     // The wide tree's occlusion queries answer as the binary tree's.
     let (binary, _) = render_both(&knot, ao(48, 8, 0.5));
     let (wide, _) = render_both(&knot, RenderSettings { bvh: BvhLayout::Wide, ..ao(48, 8, 0.5) });
-    assert_close(&wide, &binary, 1e-4, "knot AO, wide against binary BVH");
+    assert_within(&wide, &binary, AO, "knot AO, wide against binary BVH");
 }
 
 #[test]
@@ -209,7 +189,7 @@ fn the_vendors_ao_matches_ours() {
         let all = render_every_way(&knot, settings);
         let ours = &all[0].1;
         for (what, image) in &all[2..all.len() - 1] {
-            assert_close(image, ours, 1e-3, &format!("{what} against our BVH"));
+            assert_within(image, ours, AO_VENDOR, &format!("{what} against our BVH"));
         }
     }
 }
@@ -229,12 +209,12 @@ fn ao_over_cut_triangles_matches_every_way() {
     let all = render_every_way(&room, settings);
     let ours = &all[0].1;
     for (what, image) in &all[1..] {
-        assert_close(image, ours, 1e-3, &format!("room: {what} against our BVH"));
+        assert_within(image, ours, AO_VENDOR, &format!("room: {what} against our BVH"));
     }
     for bvh in [BvhLayout::Wide, BvhLayout::WideRuns] {
         let (gpu, cpu) = render_both(&room, RenderSettings { bvh, ..settings });
-        assert_close(&gpu, &cpu, 1e-4, &format!("room, {bvh:?}"));
-        assert_close(&gpu, ours, 1e-4, &format!("room, {bvh:?} against the binary tree"));
+        assert_within(&gpu, &cpu, AO, &format!("room, {bvh:?}"));
+        assert_within(&gpu, ours, AO, &format!("room, {bvh:?} against the binary tree"));
     }
     let open = ours.pixels.iter().filter(|p| p[3] == 1.0 && p[0] > 0.9).count();
     let occluded = ours.pixels.iter().filter(|p| p[3] == 1.0 && p[0] < 0.7).count();
@@ -256,7 +236,7 @@ fn accumulation_averages_new_ao_rays_on_both_tracers() {
     assert_validation_clean(&ctx);
     let mut cpu_two = cpu::render(&packed, &first);
     cpu::accumulate(&packed, &second, &mut cpu_two);
-    assert_close(&two, &cpu_two, 1e-4, "two accumulated frames");
+    assert_within(&two, &cpu_two, AO, "two accumulated frames");
     // A second frame draws other rays: the mean of two frames is not the first frame.
     let changed =
         one.pixels.iter().zip(&two.pixels).filter(|(a, b)| (a[0] - b[0]).abs() > 1e-3).count();

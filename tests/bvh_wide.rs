@@ -5,61 +5,11 @@
 use glam::Vec3;
 use meshtracer::bvh::wide::{self, WideBvh, WideSlot, WideStats, WIDTH};
 use meshtracer::bvh::{ordered_edges, BuildOptions, Bvh, TraversalStats};
-use meshtracer::geometry::{intersect_triangle, Aabb, Ray, TriHit};
+use meshtracer::geometry::{Aabb, Ray};
 use meshtracer::scene::primitives::PaperModel;
 
+use common::bvh_oracle::{bounds, brute_force, hittable, random_rays, Aim};
 use common::random::{room, soup, Rng};
-
-fn bounds(tris: &[[Vec3; 3]]) -> Aabb {
-    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(Aabb::from_points(t)))
-}
-
-/// Zero-area triangles collapsed onto a point, so that no traversal "hits" them on
-/// rounding noise (as the packer zeroes their edges).
-fn hittable(tris: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
-    tris.iter()
-        .map(|&[a, b, c]| {
-            let (e1, e2) = (b - a, c - a);
-            if e1.cross(e2).length() <= 1e-5 * e1.length() * e2.length() {
-                [a, a, a]
-            } else {
-                [a, b, c]
-            }
-        })
-        .collect()
-}
-
-fn brute_force(tris: &[[Vec3; 3]], ray: &Ray) -> Option<(u32, TriHit)> {
-    let mut best: Option<(u32, TriHit)> = None;
-    for (i, t) in tris.iter().enumerate() {
-        let t_max = best.map_or(f32::INFINITY, |(_, h)| h.t);
-        if let Some(h) = intersect_triangle(ray, t[0], t[1] - t[0], t[2] - t[0], 0.0, t_max) {
-            best = Some((i as u32, h));
-        }
-    }
-    best
-}
-
-/// Rays from in and around the mesh, half aimed at a random triangle's centre.
-fn random_rays(rng: &mut Rng, tris: &[[Vec3; 3]], count: usize) -> Vec<Ray> {
-    let b = if tris.is_empty() { Aabb { min: Vec3::ZERO, max: Vec3::ONE } } else { bounds(tris) };
-    let pad = b.extent().max_element().max(1e-3);
-    let around = Aabb { min: b.min - pad, max: b.max + pad };
-    (0..count)
-        .map(|i| {
-            let origin = if i % 3 == 0 { rng.vec_in(&b) } else { rng.vec_in(&around) };
-            let dir = if i % 2 == 0 && !tris.is_empty() {
-                let t = tris[(rng.next_u64() % tris.len() as u64) as usize];
-                let (u, v) = (rng.range(0.05, 0.45), rng.range(0.05, 0.45));
-                let target = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
-                (target - origin).try_normalize().unwrap_or(Vec3::Z)
-            } else {
-                rng.unit()
-            };
-            Ray::new(origin, dir)
-        })
-        .collect()
-}
 
 /// Every wide node's decoded child boxes contain the exact boxes of what they hold (where
 /// the build cut triangles, overlap them and together cover them), and every triangle slot
@@ -141,7 +91,7 @@ fn check_mesh(
     let ordered = ordered_edges(&bvh, &targets);
     let (mut binary_stats, mut wide_stats) = (TraversalStats::default(), TraversalStats::default());
     let mut rng = Rng(0x9e37_79b9 ^ tris.len() as u64);
-    for (r, ray) in random_rays(&mut rng, tris, rays).iter().enumerate() {
+    for (r, ray) in random_rays(&mut rng, tris, tris, Aim::Inside, rays).iter().enumerate() {
         let binary = bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut binary_stats);
         let got =
             wide::closest_hit(&wide.nodes, &ordered, ray, 0.0, f32::INFINITY, &mut wide_stats);
@@ -338,7 +288,7 @@ fn torus_knot_matches_and_is_smaller() {
 
 mod common;
 
-use common::{paper, render_both};
+use common::{assert_close, paper, render_both};
 use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 
 fn wide_settings(size: u32, bounces: u32) -> RenderSettings {
@@ -351,12 +301,6 @@ fn wide_settings(size: u32, bounces: u32) -> RenderSettings {
         aov: Aov::Color,
         ..RenderSettings::default()
     }
-}
-
-/// The tolerance of tests/gpu_vs_cpu.rs: 0.2% of pixels may differ by more than 1e-4.
-fn assert_close(a: &meshtracer::tracer::Image, b: &meshtracer::tracer::Image, what: &str) {
-    let d = a.compare(b, 1e-4);
-    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: images differ: {d:?}");
 }
 
 #[test]

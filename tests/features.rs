@@ -1,7 +1,6 @@
 //! The paper's future work, each on both tracers (validation layer on): smooth shading,
 //! texture mapping, environment mapping, anti-aliasing with progressive accumulation,
-//! adaptive sampling. Tolerance as in gpu_vs_cpu.rs: at most 0.2% of pixels may differ
-//! by more than 1e-4, mean difference under 1e-4.
+//! adaptive sampling. Tolerance: `common::tolerance::SAME_MATHS`.
 
 mod common;
 
@@ -17,11 +16,6 @@ use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
 fn settings(size: u32) -> RenderSettings {
     RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() }
-}
-
-fn assert_close(gpu: &Image, cpu: &Image, what: &str) {
-    let d = gpu.compare(cpu, 1e-4);
-    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: GPU and CPU differ: {d:?}");
 }
 
 #[test]

@@ -1,11 +1,6 @@
 //! The GPU tracer against the CPU reference on the paper's scenes, and both against
 //! scenes with analytic answers. Every test runs under the Vulkan validation layer.
-//!
-//! Tolerance: the two tracers run the same float maths but not bit-identically (FMA
-//! contraction, `pow`/`normalize` precision): on lavapipe the largest difference seen is
-//! 4e-6. A ray grazing an edge may still pick the neighbouring triangle on some driver, so
-//! we allow 0.2% of pixels to differ by more than 1e-4 (1/40 of an 8-bit step) in any
-//! channel, and require the mean difference to stay under 1e-4.
+//! Tolerance: `common::tolerance::SAME_MATHS` (why, there).
 
 mod common;
 
@@ -14,8 +9,6 @@ use glam::Vec3;
 use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::Material;
-
-const THRESHOLD: f32 = 1e-4;
 
 fn settings(size: u32, bounces: u32) -> RenderSettings {
     RenderSettings {
@@ -27,11 +20,6 @@ fn settings(size: u32, bounces: u32) -> RenderSettings {
         aov: Aov::Color,
         ..RenderSettings::default()
     }
-}
-
-fn assert_close(gpu: &meshtracer::tracer::Image, cpu: &meshtracer::tracer::Image, what: &str) {
-    let d = gpu.compare(cpu, THRESHOLD);
-    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: GPU and CPU differ: {d:?}");
 }
 
 #[test]

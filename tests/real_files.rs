@@ -1,8 +1,7 @@
 //! Issue #13, "Real exported files": what other OBJ loaders accept must load and draw
 //! right here too. One hand-written file per case in `tests/data/obj/`, each loaded and
-//! traced on both tracers (validation layer on). Tolerance as in features.rs: at most
-//! 0.2% of pixels may differ by more than 1e-4, mean difference under 1e-4. Last, the
-//! `--crease-angle` flag through the binary.
+//! traced on both tracers (validation layer on), within `common::tolerance::SAME_MATHS`.
+//! Last, the `--crease-angle` flag through the binary.
 
 mod common;
 
@@ -18,11 +17,6 @@ use meshtracer::tracer::Image;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj").join(name)
-}
-
-fn assert_close(gpu: &Image, cpu: &Image, what: &str) {
-    let d = gpu.compare(cpu, 1e-4);
-    assert!(d.fraction_over <= 0.002 && d.mean < 1e-4, "{what}: GPU and CPU differ: {d:?}");
 }
 
 /// `mesh` as it is in the file (no normalising), seen head-on from `eye` along -z with a

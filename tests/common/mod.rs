@@ -1,7 +1,13 @@
-//! Shared test helpers: one validated Vulkan context per test binary, and scene builders.
+//! Shared test helpers: one validated Vulkan context per test binary, scene builders, the
+//! image tolerances (`tolerance`) and the BVH oracle (`bvh_oracle`).
 #![allow(dead_code)]
 
+pub mod bvh_oracle;
 pub mod random;
+pub mod tolerance;
+
+#[allow(unused_imports)] // each test binary uses some of common
+pub use tolerance::{assert_close, assert_within};
 
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
