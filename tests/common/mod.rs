@@ -1,5 +1,6 @@
 //! Shared test helpers: one validated Vulkan context per test binary, scene builders, the
-//! image tolerances (`tolerance`) and the BVH oracle (`bvh_oracle`).
+//! image tolerances (`tolerance`), the BVH oracle (`bvh_oracle`), and [`require`] for what
+//! a test needs of the machine.
 #![allow(dead_code)]
 
 pub mod bvh_oracle;
@@ -31,6 +32,20 @@ pub fn ctx() -> Arc<GpuContext> {
         })
     })
     .clone()
+}
+
+/// Whether the machine has what a test needs (`condition`). Where it does not, the test
+/// cannot run: in CI (`CI` set and not empty, as `.ci/run` sets it) that fails the test
+/// with `why`, so nothing passes there without running; elsewhere it prints `why` as one
+/// line and returns false, and the test returns.
+pub fn require(condition: bool, why: &str) -> bool {
+    if condition {
+        return true;
+    }
+    let in_ci = std::env::var_os("CI").is_some_and(|v| !v.is_empty());
+    assert!(!in_ci, "cannot run in CI (CI is set): {why}");
+    eprintln!("not run here: {why}");
+    false
 }
 
 /// Fail if the validation layer has said anything.
