@@ -409,9 +409,11 @@ fn a_window_traced_on_another_device_context_shows_what_render_makes() {
 
 #[test]
 fn a_frame_that_takes_minutes_leaves_the_window_answering() {
-    // Brute force on a 100k-triangle knot at 256²: minutes per frame on lavapipe. The
-    // window traces it in bands, so keys land while it fills in: F12 saves what is there,
-    // and Ctrl+Q quits, each long before the frame could be done.
+    // Brute force on a 100k-triangle knot at 256²: 256² x 3 rays x 100k triangles = 2e10
+    // tests, minutes per frame on lavapipe. The window traces it in bands, so keys land
+    // while it fills in: F12 saves what is there, and Ctrl+Q quits, before the frame is
+    // done. Counted, not timed: the frame log has no finished frame at the end. A window
+    // that waited for the whole frame before F12 or Ctrl+Q would have logged it.
     let x = Xvfb::start();
     let dir = TempDir::new("long-frame");
     let mut cmd = meshtracer(&x.display, dir.path());
@@ -426,32 +428,38 @@ fn a_frame_that_takes_minutes_leaves_the_window_answering() {
         "256",
         "--bounces",
         "2",
+        "--stats-csv",
+        "frames.csv",
     ])
     .args(WINDOW);
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
-    let asked = std::time::Instant::now();
     let shot = f12(&x, &window, dir.path(), &mut app);
     assert_eq!(shot.dimensions(), (256, 256));
-    let answered = asked.elapsed();
-    let asked = std::time::Instant::now();
     press(&x.display, &window, &["ctrl+q"]);
+    // The timeouts here only guard against a hang.
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
-    let quit = asked.elapsed();
-    // One frame tests 256² x 3 rays x 100k triangles = 2e10 pairs: a minute or more on a
-    // CPU. The bound is loose; what it catches is a window waiting for the whole frame.
-    assert!(answered < Duration::from_secs(30), "F12 waited {answered:?} for the long frame");
-    assert!(quit < Duration::from_secs(15), "Ctrl+Q waited {quit:?} for the long frame");
+    let finished = finished_frames(&dir.path().join("frames.csv"));
+    assert_eq!(finished, 0, "F12 and Ctrl+Q waited for the long frame to finish");
+}
+
+/// The frames a `--stats-csv` log says were finished (rows of kind `frame`).
+fn finished_frames(csv: &std::path::Path) -> usize {
+    let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
+    assert!(text.starts_with("row,frame,"), "not a frame log: {text}");
+    text.lines().filter(|l| l.starts_with("frame,")).count()
 }
 
 #[test]
 fn a_long_bvh_frame_on_a_cpu_device_is_banded_and_ctrl_q_quits_at_once() {
     // Issue #30: a 1024², 8-bounce, 4-spp BVH frame of a 300k-triangle knot takes seconds on
     // lavapipe; it used to fit the GPU's budget, so every key waited for a whole frame. A
-    // CPU device's budget bands it, so Ctrl+Q ends the app in a fraction of one frame's time
-    // (measured here by `render`, which traces the same frame, in submissions of its own).
-    // Four samples a pixel: a frame of seconds on lavapipe, well clear of the 1.5 s below
-    // (with one sample the frame came to 1.49 s on a CI run, and the check below failed).
+    // CPU device's budget bands it, so Ctrl+Q ends the app within the first frame. Counted,
+    // not timed: the frame log has no finished frame at the end, where a frame traced in
+    // one submission would have been finished (and logged) before Ctrl+Q was read. Four
+    // samples a pixel: a frame of seconds on lavapipe (`render` below traces the same
+    // frame and says how long it took), well clear of the 1.5 s before Ctrl+Q (with one
+    // sample the frame came to 1.49 s on a CI run).
     let flags = [
         "--model",
         "torusknot:300k",
@@ -485,22 +493,20 @@ fn a_long_bvh_frame_on_a_cpu_device_is_banded_and_ctrl_q_quits_at_once() {
         text.contains("llvmpipe") || text.contains("lavapipe"),
         "this test needs a CPU device: {text}"
     );
-    assert!(frame_ms > 1500.0, "the frame is not long enough to show anything ({frame_ms} ms)");
     let mut cmd = meshtracer(&x.display, dir.path());
-    cmd.args(flags).args(WINDOW);
+    cmd.args(flags).args(WINDOW).args(["--stats-csv", "frames.csv"]);
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
     // Let a few bands go by, then quit.
     std::thread::sleep(Duration::from_millis(1500));
     app.assert_alive();
-    let asked = std::time::Instant::now();
     press(&x.display, &window, &["ctrl+q"]);
+    // Only a guard against a hang.
     assert_clean_exit(&app.wait(Duration::from_secs(60)));
-    let quit = asked.elapsed();
-    eprintln!("Ctrl+Q ended the app after {quit:?}; one frame takes {frame_ms:.0} ms");
-    assert!(
-        quit.as_secs_f64() * 1e3 < (frame_ms / 2.0).max(1000.0),
-        "Ctrl+Q waited {quit:?} with frames of {frame_ms:.0} ms"
+    let finished = finished_frames(&dir.path().join("frames.csv"));
+    assert_eq!(
+        finished, 0,
+        "Ctrl+Q waited for the frame to finish (`render` traced it in {frame_ms:.0} ms)"
     );
 }
 

@@ -36,18 +36,22 @@ pub struct ClockGuard<C: ClockSource = ClockProbe> {
     probe: C,
     highest: f64,
     limit: Duration,
+    /// The time now: `Instant::now`, or a simulated time in tests (which count steps
+    /// instead of timing them).
+    now: fn() -> Instant,
 }
 
 impl<C: ClockSource> ClockGuard<C> {
     /// A guard around `probe`, after a short burst of readings to wake the GPU: the first
     /// reading of a process may come before the driver raised the clock.
     pub fn new(mut probe: C) -> Result<Self, GpuError> {
-        let start = Instant::now();
+        let now: fn() -> Instant = Instant::now;
+        let start = now();
         let mut highest: f64 = 0.0;
-        while start.elapsed() < Duration::from_millis(300) {
+        while now() - start < Duration::from_millis(300) {
             highest = highest.max(probe.read_mhz()?);
         }
-        Ok(Self { probe, highest, limit: SETTLE_LIMIT })
+        Ok(Self { probe, highest, limit: SETTLE_LIMIT, now })
     }
 
     /// Run `busy` (a frame of the row about to be measured) for [`SETTLE_STEP`] at a time
@@ -57,16 +61,16 @@ impl<C: ClockSource> ClockGuard<C> {
         &mut self,
         mut busy: impl FnMut() -> Result<(), GpuError>,
     ) -> Result<f64, GpuError> {
-        let start = Instant::now();
+        let start = (self.now)();
         loop {
             let mhz = self.read()?;
-            if mhz >= CLOCKED_DOWN * self.highest || start.elapsed() >= self.limit {
+            if mhz >= CLOCKED_DOWN * self.highest || (self.now)() - start >= self.limit {
                 return Ok(mhz);
             }
-            let step = Instant::now();
+            let step = (self.now)();
             loop {
                 busy()?;
-                if step.elapsed() >= SETTLE_STEP {
+                if (self.now)() - step >= SETTLE_STEP {
                     break;
                 }
             }
@@ -83,7 +87,21 @@ impl<C: ClockSource> ClockGuard<C> {
 
 #[cfg(test)]
 mod tests {
+    use std::cell::Cell;
+
     use super::*;
+
+    thread_local! {
+        /// The simulated time since [`start`]: frames add to it instead of sleeping, so the
+        /// tests count steps and readings exactly.
+        static ELAPSED: Cell<Duration> = const { Cell::new(Duration::ZERO) };
+        static START: Instant = Instant::now();
+    }
+
+    /// The simulated time now.
+    fn simulated_now() -> Instant {
+        START.with(|s| *s) + ELAPSED.with(Cell::get)
+    }
 
     /// A GPU whose clock sits at `low` until `busy_steps` frames of work have run, then at
     /// `high`; each reading is logged.
@@ -110,10 +128,16 @@ mod tests {
         let clock =
             ScriptedClock { low, high: 1980.0, busy_steps, busy: busy.clone(), readings: 0 };
         // Start from a run that has already seen the full clock.
-        (ClockGuard { probe: clock, highest: 1980.0, limit: Duration::from_millis(400) }, busy)
+        let guard = ClockGuard {
+            probe: clock,
+            highest: 1980.0,
+            limit: Duration::from_millis(400),
+            now: simulated_now,
+        };
+        (guard, busy)
     }
 
-    /// A frame of GPU work as the guard sees it: counted in `counter`, `ms` long.
+    /// A frame of GPU work as the guard sees it: counted in `counter`, `ms` of simulated time.
     fn frame(
         counter: &std::rc::Rc<std::cell::Cell<u32>>,
         ms: u64,
@@ -121,7 +145,7 @@ mod tests {
         let counter = counter.clone();
         move || {
             counter.set(counter.get() + 1);
-            std::thread::sleep(Duration::from_millis(ms));
+            ELAPSED.with(|e| e.set(e.get() + Duration::from_millis(ms)));
             Ok(())
         }
     }
@@ -140,22 +164,20 @@ mod tests {
         let (mut g, busy) = guard(345.0, 3);
         let mhz = g.settle(frame(&busy, 20)).unwrap();
         assert_eq!(mhz, 1980.0, "settled at full clock");
-        assert!(busy.get() >= 3, "ran {} frames", busy.get());
-        assert!(g.probe.readings >= 2);
+        // One step of 50 ms is three frames of 20 ms, then the clock is read again.
+        assert_eq!(busy.get(), 3, "frames run");
+        assert_eq!(g.probe.readings, 2);
     }
 
     #[test]
     fn a_clock_that_stays_down_is_given_up_on_after_the_limit() {
         let (mut g, busy) = guard(600.0, u32::MAX);
-        let start = Instant::now();
         let mhz = g.settle(frame(&busy, 5)).unwrap();
         assert_eq!(mhz, 600.0, "reports the clock it had");
-        assert!(
-            start.elapsed() >= Duration::from_millis(400),
-            "gave up before the limit: {:?}",
-            start.elapsed()
-        );
-        assert!(busy.get() > 0);
+        // Given up at the 400 ms limit, not before: eight steps of ten 5 ms frames, a
+        // reading before each and one at the limit.
+        assert_eq!(busy.get(), 80, "frames run");
+        assert_eq!(g.probe.readings, 9);
         assert_eq!(g.highest, 1980.0, "a low reading does not lower the reference");
     }
 
