@@ -14,8 +14,10 @@ mod validate;
 pub mod wide;
 
 pub use builder::BuildOptions;
+#[cfg(any(test, feature = "dev"))]
+pub use traverse::ordered_edges;
+pub use traverse::TraversalStats;
 pub(crate) use traverse::{any_hit, closest_hit};
-pub use traverse::{ordered_edges, TraversalStats};
 
 use bytemuck::{Pod, Zeroable};
 

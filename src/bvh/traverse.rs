@@ -140,7 +140,9 @@ fn walk(
     best
 }
 
-/// Helper: triangles (corners) -> BVH-ordered (v0, e1, e2) triples, as the GPU stores them.
+/// Triangles (corners) -> BVH-ordered (v0, e1, e2) triples, as the GPU stores them: what
+/// the CPU traversals take, for the tests and benches (the tracers pack their own).
+#[cfg(any(test, feature = "dev"))]
 pub fn ordered_edges(bvh: &Bvh, triangles: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
     bvh.prim_indices
         .iter()

@@ -6,13 +6,14 @@
 //! `usemtl` names and hides polylines from tobj.
 //!
 //! OBJ files are now parsed by our own parallel parser (`parallel.rs`); the OBJ mode here
-//! is the serial loader it replaced, kept as the oracle the tests and the fuzzer compare
-//! it with. MTL files still go through tobj and this feeder.
+//! is the serial loader it replaced (`oracle.rs`), kept as the oracle the tests and the
+//! fuzzer compare it with. MTL files still go through tobj and this feeder.
 
 use std::borrow::Cow;
 use std::collections::HashSet;
 use std::io::{self, BufRead, Read};
 
+#[cfg(any(test, feature = "dev"))]
 use super::convert::locate_colour_mismatch;
 use super::{quote, ObjError};
 
@@ -28,7 +29,8 @@ type BadIndex = (String, usize);
 /// After a bad line the next `fill_buf` fails, so tobj stops before it can use it.
 pub(super) struct LineFeeder<'a> {
     name: &'a str,
-    /// The whole text.
+    /// The whole text (for the oracle's errors).
+    #[cfg(any(test, feature = "dev"))]
     text: &'a str,
     /// Text not consumed yet.
     rest: &'a str,
@@ -67,6 +69,7 @@ impl<'a> LineFeeder<'a> {
     pub(super) fn new(text: &'a str, name: &'a str, check_obj: bool) -> Self {
         Self {
             name,
+            #[cfg(any(test, feature = "dev"))]
             text,
             rest: text,
             current_line: "",
@@ -103,6 +106,7 @@ impl<'a> LineFeeder<'a> {
     }
 
     /// What tobj's error means, located on the line tobj was reading when it gave up.
+    #[cfg(any(test, feature = "dev"))]
     pub(super) fn into_error(self, e: tobj::LoadError) -> ObjError {
         use tobj::LoadError as E;
         if let Some(own) = self.error {
@@ -523,95 +527,5 @@ fn starts_polyline(text: &str) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn index_parsing_accepts_signs_and_saturates() {
-        assert_eq!(parse_index(b"12"), Some(12));
-        assert_eq!(parse_index(b"-3"), Some(-3));
-        assert_eq!(parse_index(b"+7"), Some(7));
-        assert_eq!(parse_index(b"99999999999999999999999"), Some(i64::MAX));
-        for bad in ["", "-", "1a", "1.0", " 1", "+-1"] {
-            assert_eq!(parse_index(bad.as_bytes()), None, "{bad:?}");
-        }
-    }
-
-    #[test]
-    fn fast_face_check_agrees_with_the_diagnosing_one() {
-        // Every corner list up to 5 characters over a troublesome alphabet, after two
-        // good corners, against 2 vertices, 1 texture coordinate and no normals.
-        let alphabet = b"12-/ 0x+";
-        let mut feeder = LineFeeder::new("", "t.obj", true);
-        (feeder.vertices, feeder.texcoords, feeder.normals) = (2, 1, 0);
-        let mut tail = Vec::new();
-        for len in 0..=5u32 {
-            for mut code in 0..alphabet.len().pow(len) {
-                tail.clear();
-                for _ in 0..len {
-                    tail.push(alphabet[code % alphabet.len()]);
-                    code /= alphabet.len();
-                }
-                let corners = [b"1/1 -2 ".as_slice(), &tail].concat();
-                let words = corners.split(|&b| is_ascii_space(b)).filter(|w| !w.is_empty());
-                let slow = matches!(feeder.check_face(words), Ok((None, None)));
-                let text = String::from_utf8_lossy(&corners);
-                assert_eq!(face_is_valid(&corners, [2, 1, 0]), slow, "f {text}");
-            }
-        }
-    }
-
-    #[test]
-    fn polylines_are_recognised_as_tobj_reads_them() {
-        for yes in ["l 1 2", "  l 1 2 3\n", "\u{3000}l\t1 2", "l", "l\n"] {
-            assert!(starts_polyline(yes), "{yes:?}");
-        }
-        for no in ["", "\nl 1 2", "ln 1 2", "f 1 2 3", "# l 1 2", "lod 1"] {
-            assert!(!starts_polyline(no), "{no:?}");
-        }
-    }
-
-    #[test]
-    fn faces_are_handed_out_without_the_attributes_they_name_out_of_range() {
-        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\n  f 1/2 2/1 3/1\r\nl 1 2\ns 1\nf 1 2 3\ns off\nf 3/1 2/1 1/1";
-        let mut feeder = LineFeeder::new(text, "t.obj", true);
-        let mut lines = Vec::new();
-        let mut buf = String::new();
-        while feeder.read_line(&mut buf).unwrap() > 0 {
-            lines.push((feeder.line, std::mem::take(&mut buf)));
-        }
-        let handed: Vec<(usize, &str)> = lines.iter().map(|(n, l)| (*n, l.as_str())).collect();
-        assert_eq!(
-            handed[4..],
-            [
-                (5, "f 1/1 2/1 3/1\n"),
-                (6, "f 1 2 3\n"),
-                (7, "\n"),
-                (8, "s 1\n"),
-                (9, "f 1 2 3\n"),
-                (10, "s off\n"),
-                (11, "f 3/1 2/1 1/1")
-            ]
-        );
-        assert_eq!((feeder.faces, feeder.smoothing.as_slice()), (4, [(2, 1), (3, 0)].as_slice()));
-        assert_eq!(feeder.dropped_normals.faces, [0]);
-        assert_eq!(feeder.dropped_texcoords.faces, [1]);
-        let first = feeder.dropped_texcoords.first.as_ref().unwrap();
-        assert_eq!((first.line, first.index.as_str(), first.count), (6, "2", 1));
-        assert!(feeder.error.is_none());
-    }
-
-    #[test]
-    fn feeder_hands_out_one_line_at_a_time_and_counts_them() {
-        let mut feeder = LineFeeder::new("a\nbb\r\n\nccc", "x", false);
-        let mut lines = Vec::new();
-        let mut buf = String::new();
-        while feeder.read_line(&mut buf).unwrap() > 0 {
-            lines.push((feeder.line, std::mem::take(&mut buf)));
-        }
-        assert_eq!(
-            lines,
-            [(1, "a\n".into()), (2, "bb\r\n".into()), (3, "\n".into()), (4, "ccc".into())]
-        );
-    }
-}
+#[path = "line_feeder_tests.rs"]
+mod tests;

@@ -5,8 +5,8 @@
 //! cores (`chunks.rs`, `parse_chunk.rs`), joined in file order (`parallel.rs`) and built
 //! into one mesh (`assemble.rs`, with `par_dedup.rs` for models spread over several
 //! chunks, and `convert.rs` for the normals); the text is freed before the mesh is built. The loader used to be tobj fed line by line (`line_feeder.rs`); that path is
-//! kept, hidden, as the oracle the tests and the fuzzer compare with, and every rule
-//! below is the one it had:
+//! kept as the oracle the tests, benches and the fuzzer compare with (`oracle.rs`, built
+//! only for them: `cfg(test)` or the `dev` feature), and every rule below is the one it had:
 //!
 //! - Statements read as tobj read them: words split at whitespace, `v x y z` with an
 //!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b (0..1, kept as
@@ -38,6 +38,8 @@ mod chunks;
 mod convert;
 mod line_feeder;
 mod mtl;
+#[cfg(any(test, feature = "dev"))]
+mod oracle;
 mod par_dedup;
 mod parallel;
 mod parse_chunk;
@@ -48,9 +50,10 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 use super::Mesh;
-use convert::{build_mesh, FaceNotes};
-use line_feeder::{Dropped, LineFeeder};
+use line_feeder::Dropped;
 use mtl::{convert_materials, MaterialLibraries};
+#[cfg(any(test, feature = "dev"))]
+pub use oracle::load_obj_from_str_tobj;
 
 /// How to load: what the file leaves to the loader.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -286,75 +289,6 @@ fn parse_text(
 fn finish(parsed: ParsedObj, name: &str, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
     let mesh = assemble::assemble(parsed.parsed, parsed.materials, name, options)?;
     Ok(LoadedObj { mesh, warnings: parsed.warnings })
-}
-
-/// The loader as it was before the parallel parse: tobj reading through the line feeder.
-/// Kept as the oracle that tests (and the fuzzer) compare the parallel loader with.
-#[doc(hidden)]
-pub fn load_obj_from_str_tobj(
-    text: &str,
-    name: &str,
-    base_dir: Option<&Path>,
-    options: &LoadOptions,
-) -> Result<LoadedObj, ObjError> {
-    // A UTF-8 byte-order mark would glue itself to the first keyword.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let libs = MaterialLibraries {
-        base_dir,
-        obj_name: name,
-        loaded: RefCell::default(),
-        warnings: RefCell::default(),
-    };
-    let mut feeder = LineFeeder::new(text, name, true);
-
-    let tobj_options = tobj::LoadOptions {
-        single_index: true,
-        triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let parsed = tobj::load_obj_buf(&mut feeder, &tobj_options, |mtl| libs.load(mtl));
-    let (models, materials) = match parsed {
-        Ok(ok) => ok,
-        Err(e) => return Err(feeder.into_error(e)),
-    };
-    let usemtl_names = std::mem::take(&mut feeder.usemtl_names);
-    let mut warnings = libs.warnings.into_inner();
-    warn_dropped(
-        &mut warnings,
-        name,
-        &feeder.dropped_texcoords,
-        "texture coordinate",
-        "texture coordinates",
-        "drawn without texture coordinates",
-    );
-    warn_dropped(
-        &mut warnings,
-        name,
-        &feeder.dropped_normals,
-        "normal",
-        "normals",
-        "drawn with computed normals",
-    );
-    // Errors of the libraries were already turned into warnings, one per library.
-    let materials = materials.unwrap_or_default();
-    let materials = convert_materials(&materials, &libs.loaded.into_inner(), &mut warnings);
-
-    let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
-    for missing in usemtl_names.iter().filter(|n| !known.contains(*n)) {
-        warn(
-            &mut warnings,
-            format!("{name}: `usemtl {}` names no material of the loaded libraries; its faces use the default material", quote_name(missing)),
-        );
-    }
-
-    let notes = FaceNotes {
-        smoothing: &feeder.smoothing,
-        dropped_texcoords: &feeder.dropped_texcoords.faces,
-        dropped_normals: &feeder.dropped_normals.faces,
-    };
-    let mesh = build_mesh(text, name, &models, materials, notes, options)?;
-    Ok(LoadedObj { mesh, warnings })
 }
 
 /// One warning for all the faces that named a texture coordinate or normal out of range,
