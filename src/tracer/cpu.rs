@@ -7,7 +7,9 @@ use rayon::prelude::*;
 
 use super::frame::FrameParams;
 use super::image::Image;
-use super::packed::{GpuInstance, PackedScene, NO_TEXTURE};
+use super::packed::{
+    GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading, PackedScene, NO_TEXTURE,
+};
 use super::shading::{
     ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle,
 };
@@ -50,6 +52,24 @@ fn add_to_path_key(key: &mut u32, surface: u32, throughput: f32) {
 fn random01(seed: &mut u32) -> f32 {
     *seed = pcg(*seed);
     (*seed >> 8) as f32 * (1.0 / 16777216.0)
+}
+
+/// Where a camera path meets a triangle: what shading it needs of the hit.
+struct Surface<'a> {
+    tri: &'a GpuTriangle,
+    shading: &'a GpuTriangleShading,
+    /// The hit point.
+    p: Vec3,
+    /// The triangle's edges from its first corner.
+    e1: Vec3,
+    e2: Vec3,
+    /// Geometric and shading normals, both facing the ray's origin.
+    ng: Vec3,
+    ns: Vec3,
+    /// The first corner's barycentric weight (`1 - u - v`).
+    w: f32,
+    /// The corner normals for the terminator offset, when smooth shading applies.
+    smooth: Option<SmoothTriangle>,
 }
 
 /// The packed scene, its triangles also as (v0, e1, e2) `Vec3` triples in the packed order,
@@ -295,85 +315,29 @@ impl<'a> CpuScene<'a> {
                 break;
             };
             path_length += hit.t;
-            let tri = &self.packed.triangles[hit.triangle as usize];
-            let shading = &self.packed.shading[hit.triangle as usize];
-            let p = ray.at(hit.t);
-            let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
-            let mut ng = e1.cross(e2).normalize();
-            if ng.dot(ray.dir) > 0.0 {
-                ng = -ng;
-            }
-            let mut ns = ng;
-            let w = 1.0 - hit.u - hit.v;
-            // The corner normals on the viewer's side, for the terminator offset.
-            let mut smooth = None;
-            if s.smooth {
-                let [n0, n1, n2] = self.packed.vertices.normals_of(shading.corners);
-                let interp = n0 * w + n1 * hit.u + n2 * hit.v;
-                if interp.length_squared() > 1e-12 {
-                    ns = interp.normalize();
-                    let mut side = 1.0;
-                    if ns.dot(ng) < 0.0 {
-                        ns = -ns;
-                        side = -1.0;
-                    }
-                    let normals = [n0 * side, n1 * side, n2 * side];
-                    smooth = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
-                }
-            }
+            let surface = self.surface_at(&hit, &ray, s.smooth);
+            let (p, ng, ns) = (surface.p, surface.ng, surface.ns);
             if s.aov == Aov::Ao {
                 aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats))
                     .extend(1.0);
                 break;
             }
-            let gm = &self.packed.materials[shading.material as usize];
+            let gm = &self.packed.materials[surface.shading.material as usize];
             let mat = ShadingMaterial {
                 diffuse: gm.diffuse.into(),
                 specular: gm.specular.into(),
                 shininess: gm.shininess,
                 mirror: gm.mirror,
             };
-            let mut kd = mat.diffuse;
-            if s.textures && gm.has_vertex_colors() {
-                let [c0, c1, c2] = self.packed.vertices.colors_of(shading.corners);
-                kd *= c0 * w + c1 * hit.u + c2 * hit.v;
-            }
-            if s.textures && gm.texture != NO_TEXTURE {
-                let [uv0, uv1, uv2] =
-                    self.packed.vertices.texcoords_of(shading.corners).map(|uv| gm.texture_uv(uv));
-                let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
-                let info = self.packed.textures.infos[gm.texture as usize];
-                let scale = self.packed.instances[hit.instance as usize].scale;
-                let world_area = 0.5 * e1.cross(e2).length() * scale * scale;
-                let (d1, d2) = (uv1 - uv0, uv2 - uv0);
-                let texel_area =
-                    0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
-                let mut lod = 0.0;
-                if world_area > 0.0 && texel_area > 0.0 {
-                    let width_at_hit = spread * path_length;
-                    lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2()
-                        - ng.dot(ray.dir).abs().max(1e-4).log2();
-                }
-                kd *= self
-                    .packed
-                    .textures
-                    .sample_with(gm.texture, uv, lod, gm.texture_clamps())
-                    .truncate();
-            }
+            let kd = self.diffuse_at(s.textures, gm, &hit, &surface, ray.dir, spread * path_length);
             let l = (params.light_position - p).normalize();
             let scale = self.packed.instances[hit.instance as usize].scale;
-            let lit = light_reaches(l, ng, ns, smooth.as_ref(), p, params.light_position, scale);
+            let lit =
+                light_reaches(l, ng, ns, surface.smooth.as_ref(), p, params.light_position, scale);
             let local =
                 blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
-                let prim =
-                    (tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
-                match s.aov {
-                    Aov::Depth => aux = Vec4::new(hit.t, hit.t, hit.t, 1.0),
-                    Aov::Normal => aux = ns.extend(1.0),
-                    Aov::PrimId => aux = Vec4::new(prim, prim, prim, 1.0),
-                    Aov::Color | Aov::Cost | Aov::Samples | Aov::Ao => {}
-                }
+                aux = self.first_hit_aov(s.aov, &hit, &surface).unwrap_or(aux);
             }
             let r = s.blend * mat.mirror;
             if bounce == bounces {
@@ -394,6 +358,96 @@ impl<'a> CpuScene<'a> {
         match s.aov {
             Aov::Color | Aov::Samples => color.extend(1.0),
             _ => aux,
+        }
+    }
+
+    /// The hit's point, its triangle's records and normals: the geometric one and the
+    /// shading one (interpolated with `smooth`), both on the viewer's side.
+    #[inline]
+    fn surface_at(&self, hit: &SceneHit, ray: &Ray, smooth: bool) -> Surface<'a> {
+        let tri = &self.packed.triangles[hit.triangle as usize];
+        let shading = &self.packed.shading[hit.triangle as usize];
+        let p = ray.at(hit.t);
+        let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+        let mut ng = e1.cross(e2).normalize();
+        if ng.dot(ray.dir) > 0.0 {
+            ng = -ng;
+        }
+        let mut ns = ng;
+        let w = 1.0 - hit.u - hit.v;
+        // The corner normals on the viewer's side, for the terminator offset.
+        let mut smooth_triangle = None;
+        if smooth {
+            let [n0, n1, n2] = self.packed.vertices.normals_of(shading.corners);
+            let interp = n0 * w + n1 * hit.u + n2 * hit.v;
+            if interp.length_squared() > 1e-12 {
+                ns = interp.normalize();
+                let mut side = 1.0;
+                if ns.dot(ng) < 0.0 {
+                    ns = -ns;
+                    side = -1.0;
+                }
+                let normals = [n0 * side, n1 * side, n2 * side];
+                smooth_triangle = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
+            }
+        }
+        Surface { tri, shading, p, e1, e2, ng, ns, w, smooth: smooth_triangle }
+    }
+
+    /// The diffuse colour at the hit: the material's `diffuse`, times the vertex colours and
+    /// the texture (at the level of detail for a pixel `width_at_hit` wide there).
+    #[inline]
+    fn diffuse_at(
+        &self,
+        textures: bool,
+        gm: &GpuMaterial,
+        hit: &SceneHit,
+        surface: &Surface,
+        ray_dir: Vec3,
+        width_at_hit: f32,
+    ) -> Vec3 {
+        let (w, e1, e2, ng) = (surface.w, surface.e1, surface.e2, surface.ng);
+        let corners = surface.shading.corners;
+        let mut kd: Vec3 = gm.diffuse.into();
+        if textures && gm.has_vertex_colors() {
+            let [c0, c1, c2] = self.packed.vertices.colors_of(corners);
+            kd *= c0 * w + c1 * hit.u + c2 * hit.v;
+        }
+        if textures && gm.texture != NO_TEXTURE {
+            let [uv0, uv1, uv2] =
+                self.packed.vertices.texcoords_of(corners).map(|uv| gm.texture_uv(uv));
+            let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
+            let info = self.packed.textures.infos[gm.texture as usize];
+            let scale = self.packed.instances[hit.instance as usize].scale;
+            let world_area = 0.5 * e1.cross(e2).length() * scale * scale;
+            let (d1, d2) = (uv1 - uv0, uv2 - uv0);
+            let texel_area =
+                0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
+            let mut lod = 0.0;
+            if world_area > 0.0 && texel_area > 0.0 {
+                lod = width_at_hit.max(1e-20).log2() + 0.5 * (texel_area / world_area).log2()
+                    - ng.dot(ray_dir).abs().max(1e-4).log2();
+            }
+            kd *= self
+                .packed
+                .textures
+                .sample_with(gm.texture, uv, lod, gm.texture_clamps())
+                .truncate();
+        }
+        kd
+    }
+
+    /// What the first hit shows in an AOV view that is not traced further (none for the
+    /// colour, cost, samples and AO views).
+    #[inline]
+    fn first_hit_aov(&self, aov: Aov, hit: &SceneHit, surface: &Surface) -> Option<Vec4> {
+        let prim =
+            (surface.tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
+        match aov {
+            Aov::Depth => Some(Vec4::new(hit.t, hit.t, hit.t, 1.0)),
+            Aov::Normal => Some(surface.ns.extend(1.0)),
+            Aov::PrimId => Some(Vec4::new(prim, prim, prim, 1.0)),
+            Aov::Color | Aov::Cost | Aov::Samples | Aov::Ao => None,
         }
     }
 
