@@ -31,20 +31,12 @@ pub(super) fn assemble(
     if triangle_total == 0 {
         return Err(ObjError::NoFaces { name: name.to_owned() });
     }
-    let (with_normals, with_texcoords) = (parsed.any_normal, parsed.any_texcoord);
-    let with_colours = !parsed.colors.is_empty();
-    // Nearly always each position makes one vertex: room for that many, no regrowing.
-    let vertices = parsed.positions.len();
-    let mut mesh = Mesh {
-        name: name.to_owned(),
-        positions: Vec::with_capacity(vertices),
-        normals: Vec::with_capacity(if with_normals { vertices } else { 0 }),
-        texcoords: Vec::with_capacity(if with_texcoords { vertices } else { 0 }),
-        colors: Vec::with_capacity(if with_colours { vertices } else { 0 }),
-        triangles: Vec::with_capacity(triangle_total),
-        triangle_materials: Vec::with_capacity(triangle_total),
-        ..Default::default()
+    let channels = Channels {
+        normals: parsed.any_normal,
+        texcoords: parsed.any_texcoord,
+        colours: !parsed.colors.is_empty(),
     };
+    let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
     // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
     let mut dedup: Option<Dedup> = None;
     let mut shared = None;
@@ -52,79 +44,17 @@ pub(super) fn assemble(
     let mut corners = Vec::new();
     let mut default_material = None;
     for (m, model) in parsed.models.iter().enumerate() {
-        let base = mesh.positions.len();
         let pieces = cursor.take(model.faces.len());
-        // A model over several chunks is de-duplicated in parallel, a chunk at a time.
+        // A model over several chunks is de-duplicated in parallel, a chunk at a time; one
+        // too big for that goes the serial way, which reports it.
         let parallel = pieces.len() > 1 && {
             let shared = shared.get_or_insert_with(|| Shared::new(parsed.positions.len()));
-            let sources = Sources {
-                positions: &parsed.positions,
-                normals: with_normals.then_some(&parsed.normals[..]),
-                texcoords: with_texcoords.then_some(&parsed.texcoords[..]),
-                colors: with_colours.then_some(&parsed.colors[..]),
-            };
-            let out = Output {
-                positions: &mut mesh.positions,
-                normals: &mut mesh.normals,
-                texcoords: &mut mesh.texcoords,
-                colors: &mut mesh.colors,
-                triangles: &mut mesh.triangles,
-            };
-            add_model(&pieces, shared, &sources, out)
+            add_model_in_parallel(&pieces, shared, &parsed, channels, &mut mesh)
         };
-        let mut serial = (!parallel).then(|| {
+        if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
             dedup.start_model(m as u32);
-            dedup
-        });
-        let mut vertex_count = 0usize;
-        let faces = pieces.iter().filter(|_| !parallel).flat_map(|p| {
-            let mut rest = p.corners;
-            p.arities.iter().map(move |&n| {
-                let (face, after) = rest.split_at(n as usize);
-                rest = after;
-                face
-            })
-        });
-        for face in faces {
-            let Some(dedup) = serial.as_deref_mut() else { break };
-            corners.clear();
-            for &[v, vt, vn] in face {
-                let (index, new) = dedup.vertex(v, vt, vn);
-                if new {
-                    vertex_count += 1;
-                    mesh.positions.push(parsed.positions[v as usize]);
-                    if with_normals {
-                        mesh.normals.push(if vn == NONE {
-                            Vec3::ZERO
-                        } else {
-                            parsed.normals[vn as usize]
-                        });
-                    }
-                    if with_texcoords {
-                        mesh.texcoords.push(if vt == NONE {
-                            Vec2::ZERO
-                        } else {
-                            parsed.texcoords[vt as usize]
-                        });
-                    }
-                    if with_colours {
-                        // Faces past the colours were refused in the join; white keeps it safe.
-                        mesh.colors
-                            .push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
-                    }
-                }
-                corners.push(index);
-            }
-            if base + vertex_count > u32::MAX as usize {
-                return Err(too_many_vertices(name, base + vertex_count));
-            }
-            match corners[..] {
-                [a, b, c] => mesh.triangles.push([a, b, c].map(|k| k + base as u32)),
-                _ => {
-                    triangulate(&corners, &[corners.len() as u32], base as u32, &mut mesh.triangles)
-                }
-            }
+            add_model_serially(&pieces, dedup, &parsed, channels, &mut corners, &mut mesh, name)?;
         }
         let material = match model.material {
             Some(i) if i < materials.len() => i as u32,
@@ -138,9 +68,9 @@ pub(super) fn assemble(
     }
     mesh.materials = materials;
     let sources = NormalSources {
-        with_normals,
+        with_normals: channels.normals,
         all_normals: parsed.all_normals,
-        with_texcoords,
+        with_texcoords: channels.texcoords,
         models_with_faces: parsed.models.iter().filter(|m| !m.faces.is_empty()).count(),
     };
     let groups = (!parsed.smoothing.is_empty())
@@ -150,6 +80,113 @@ pub(super) fn assemble(
     check_finite(&mesh, non_finite, name)?;
     finish_normals(&mut mesh, groups.as_deref(), sources, options);
     Ok(mesh)
+}
+
+/// Which vertex attributes the mesh has besides positions.
+#[derive(Clone, Copy)]
+struct Channels {
+    normals: bool,
+    texcoords: bool,
+    colours: bool,
+}
+
+/// A mesh with room for `triangles` and, nearly always enough, one vertex per position (no
+/// regrowing).
+fn empty_mesh(name: &str, positions: usize, triangles: usize, channels: Channels) -> Mesh {
+    let room = |wanted: bool| if wanted { positions } else { 0 };
+    Mesh {
+        name: name.to_owned(),
+        positions: Vec::with_capacity(positions),
+        normals: Vec::with_capacity(room(channels.normals)),
+        texcoords: Vec::with_capacity(room(channels.texcoords)),
+        colors: Vec::with_capacity(room(channels.colours)),
+        triangles: Vec::with_capacity(triangles),
+        triangle_materials: Vec::with_capacity(triangles),
+        ..Default::default()
+    }
+}
+
+/// Add a model spread over several pieces with `par_dedup`; false (nothing added) when its
+/// vertices would not fit 32-bit indices.
+fn add_model_in_parallel(
+    pieces: &[Piece],
+    shared: &Shared,
+    parsed: &Parsed,
+    channels: Channels,
+    mesh: &mut Mesh,
+) -> bool {
+    let sources = Sources {
+        positions: &parsed.positions,
+        normals: channels.normals.then_some(&parsed.normals[..]),
+        texcoords: channels.texcoords.then_some(&parsed.texcoords[..]),
+        colors: channels.colours.then_some(&parsed.colors[..]),
+    };
+    let out = Output {
+        positions: &mut mesh.positions,
+        normals: &mut mesh.normals,
+        texcoords: &mut mesh.texcoords,
+        colors: &mut mesh.colors,
+        triangles: &mut mesh.triangles,
+    };
+    add_model(pieces, shared, &sources, out)
+}
+
+/// Add a model face by face: each new corner makes a vertex, each face its triangles.
+/// `corners` is room for one face's vertex numbers, kept between models.
+fn add_model_serially(
+    pieces: &[Piece],
+    dedup: &mut Dedup,
+    parsed: &Parsed,
+    channels: Channels,
+    corners: &mut Vec<u32>,
+    mesh: &mut Mesh,
+    name: &str,
+) -> Result<(), ObjError> {
+    let base = mesh.positions.len();
+    let mut vertex_count = 0usize;
+    let faces = pieces.iter().flat_map(|p| {
+        let mut rest = p.corners;
+        p.arities.iter().map(move |&n| {
+            let (face, after) = rest.split_at(n as usize);
+            rest = after;
+            face
+        })
+    });
+    for face in faces {
+        corners.clear();
+        for &[v, vt, vn] in face {
+            let (index, new) = dedup.vertex(v, vt, vn);
+            if new {
+                vertex_count += 1;
+                push_vertex(mesh, parsed, channels, [v, vt, vn]);
+            }
+            corners.push(index);
+        }
+        if base + vertex_count > u32::MAX as usize {
+            return Err(too_many_vertices(name, base + vertex_count));
+        }
+        match corners[..] {
+            [a, b, c] => mesh.triangles.push([a, b, c].map(|k| k + base as u32)),
+            _ => triangulate(corners, &[corners.len() as u32], base as u32, &mut mesh.triangles),
+        }
+    }
+    Ok(())
+}
+
+/// The vertex of corner `[v, vt, vn]`: its position and the attributes the mesh has.
+#[inline]
+fn push_vertex(mesh: &mut Mesh, parsed: &Parsed, channels: Channels, [v, vt, vn]: [u32; 3]) {
+    mesh.positions.push(parsed.positions[v as usize]);
+    if channels.normals {
+        mesh.normals.push(if vn == NONE { Vec3::ZERO } else { parsed.normals[vn as usize] });
+    }
+    if channels.texcoords {
+        mesh.texcoords.push(if vt == NONE { Vec2::ZERO } else { parsed.texcoords[vt as usize] });
+    }
+    if channels.colours {
+        // Faces past the colours were refused in the join; white keeps it safe.
+        mesh.colors.push(parsed.colors.get(v as usize).copied().unwrap_or([255; 4]));
+    }
 }
 
 fn too_many_vertices(name: &str, count: usize) -> ObjError {
