@@ -1,0 +1,292 @@
+//! The serial reader: the body's values one at a time ([`Body`], ASCII or binary) and every
+//! element in order (`read_body`): vertices and faces into the mesh, the rest skipped. It
+//! reads every file the parallel binary reader does not, and says what is wrong with one.
+
+use glam::{Vec2, Vec3};
+
+use super::{
+    finish_mesh, quote, Attributes, ColourColumns, Element, Failure, Header, Location, Property,
+    Scalar, MAX_INITIAL_CAPACITY,
+};
+use crate::scene::{Material, Mesh};
+
+/// The body: numbers in text, or packed binary values.
+pub(super) enum Body<'a> {
+    Ascii { text: &'a [u8], pos: usize, line: usize },
+    Binary { data: &'a [u8], pos: usize, big_endian: bool },
+}
+
+impl Body<'_> {
+    /// The next value as `kind`, widened to f64 (every PLY type fits it exactly).
+    #[inline]
+    pub(super) fn next(&mut self, kind: Scalar) -> Result<f64, String> {
+        match self {
+            Body::Ascii { text, pos, line } => {
+                // The line moves on only when a value follows: a cut file is named by its last line.
+                let mut newlines = 0;
+                while let Some(&b) = text.get(*pos) {
+                    if !b.is_ascii_whitespace() {
+                        break;
+                    }
+                    newlines += usize::from(b == b'\n');
+                    *pos += 1;
+                }
+                let start = *pos;
+                while text.get(*pos).is_some_and(|b| !b.is_ascii_whitespace()) {
+                    *pos += 1;
+                }
+                if start == *pos {
+                    return Err("the file ends here: it seems to be cut short".to_owned());
+                }
+                *line += newlines;
+                let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
+                let value = if kind.is_integer() {
+                    word.parse::<i64>().ok().map(|v| v as f64)
+                } else {
+                    word.parse::<f64>().ok()
+                };
+                let in_range =
+                    |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
+                value
+                    .filter(|&v| in_range(v))
+                    .ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
+            }
+            Body::Binary { data, pos, big_endian } => {
+                let size = kind.size();
+                let Some(raw) = data.get(*pos..*pos + size) else {
+                    return Err("the file ends here: it seems to be cut short".to_owned());
+                };
+                *pos += size;
+                let mut b = [0u8; 8];
+                b[..size].copy_from_slice(raw);
+                if *big_endian {
+                    b[..size].reverse();
+                }
+                Ok(match kind {
+                    Scalar::I8 => b[0] as i8 as f64,
+                    Scalar::U8 => b[0] as f64,
+                    Scalar::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+                    Scalar::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+                    Scalar::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Scalar::F64 => f64::from_le_bytes(b),
+                })
+            }
+        }
+    }
+
+    /// Where the reader is, for a message about element `index` of `element`.
+    pub(super) fn location(&self, element: &str, index: u64) -> Location {
+        match self {
+            Body::Ascii { line, .. } => Location::Line(*line),
+            Body::Binary { .. } => Location::Element(format!("{element} {index}")),
+        }
+    }
+
+    /// Read one property, calling `item` with each value of a list (none for a scalar).
+    #[inline]
+    pub(super) fn property(
+        &mut self,
+        p: &Property,
+        mut item: impl FnMut(f64),
+    ) -> Result<Option<f64>, String> {
+        match *p {
+            Property::Scalar(s) => self.next(s).map(Some),
+            Property::List { count, item: kind } => {
+                let n = self.next(count)?;
+                if n < 0.0 {
+                    return Err(format!("a list has a negative length ({n})"));
+                }
+                for _ in 0..n as u64 {
+                    item(self.next(kind)?);
+                }
+                Ok(None)
+            }
+        }
+    }
+}
+
+fn int_min(kind: Scalar) -> f64 {
+    match kind {
+        Scalar::I8 => i8::MIN as f64,
+        Scalar::I16 => i16::MIN as f64,
+        Scalar::I32 => i32::MIN as f64,
+        _ => 0.0,
+    }
+}
+
+fn int_max(kind: Scalar) -> f64 {
+    match kind {
+        Scalar::I8 => i8::MAX as f64,
+        Scalar::U8 => u8::MAX as f64,
+        Scalar::I16 => i16::MAX as f64,
+        Scalar::U16 => u16::MAX as f64,
+        Scalar::I32 => i32::MAX as f64,
+        _ => u32::MAX as f64,
+    }
+}
+
+/// Read every element in order: vertices and faces into the mesh, the rest skipped.
+pub(super) fn read_body(
+    header: &Header,
+    body: &mut Body,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh, Failure> {
+    let vertex_count = header.elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
+    let mut mesh =
+        Mesh { name: name.to_owned(), materials: vec![Material::default()], ..Default::default() };
+    let mut attributes = Attributes::default();
+    let mut saw_vertices = false;
+    for e in &header.elements {
+        match e.name.as_str() {
+            "vertex" if !saw_vertices => {
+                saw_vertices = true;
+                read_vertices(e, body, &mut mesh.positions, &mut attributes)?;
+            }
+            "face" if mesh.triangles.is_empty() => {
+                read_faces(e, body, vertex_count, &mut mesh.triangles)?;
+            }
+            // Another element (or a second vertex/face one): skipped by its layout.
+            _ => skip_element(e, body)?,
+        }
+    }
+    finish_mesh(mesh, attributes, header, name, warnings)
+}
+
+/// Vectors start at most this big, whatever the header's count says.
+fn capacity(n: u64) -> usize {
+    (n as usize).min(MAX_INITIAL_CAPACITY)
+}
+
+/// Which of a vertex's properties hold what we keep.
+struct VertexColumns {
+    xyz: [usize; 3],
+    normal: Option<[usize; 3]>,
+    uv: Option<[usize; 2]>,
+    colours: Option<ColourColumns>,
+}
+
+impl VertexColumns {
+    /// The columns of `element vertex`; an error when x, y or z is missing.
+    fn of(e: &Element) -> Result<Self, Failure> {
+        let missing = |axis: &str| {
+            (Location::File, format!("`element vertex` has no scalar property {axis}"))
+        };
+        let xyz = [
+            e.find(&["x"]).ok_or_else(|| missing("x"))?,
+            e.find(&["y"]).ok_or_else(|| missing("y"))?,
+            e.find(&["z"]).ok_or_else(|| missing("z"))?,
+        ];
+        let n = [e.find(&["nx"]), e.find(&["ny"]), e.find(&["nz"])];
+        let normal = if let [Some(a), Some(b), Some(c)] = n { Some([a, b, c]) } else { None };
+        let uv = match (
+            e.find(&["u", "s", "texture_u", "texture_s"]),
+            e.find(&["v", "t", "texture_v", "texture_t"]),
+        ) {
+            (Some(a), Some(b)) => Some([a, b]),
+            _ => None,
+        };
+        let colours = ColourColumns::of(e).map_err(|r| (Location::File, r))?;
+        Ok(VertexColumns { xyz, normal, uv, colours })
+    }
+}
+
+/// The vertices: positions (which must be finite) and the attributes the file has.
+fn read_vertices(
+    e: &Element,
+    body: &mut Body,
+    positions: &mut Vec<Vec3>,
+    attributes: &mut Attributes,
+) -> Result<(), Failure> {
+    let VertexColumns { xyz, normal, uv, colours } = VertexColumns::of(e)?;
+    positions.reserve(capacity(e.count));
+    let mut values = vec![0.0f64; e.properties.len()];
+    for i in 0..e.count {
+        for (k, (_, p)) in e.properties.iter().enumerate() {
+            values[k] = body
+                .property(p, |_| {})
+                .map_err(|r| (body.location("vertex", i), r))?
+                .unwrap_or(0.0);
+        }
+        let p = Vec3::from(xyz.map(|k| values[k] as f32));
+        if !p.is_finite() {
+            return Err((body.location("vertex", i), "a vertex position has a coordinate that is not a finite number (NaN, infinity or beyond f32)".to_owned()));
+        }
+        positions.push(p);
+        if let Some(n) = normal {
+            attributes.normals.push(Vec3::from(n.map(|k| values[k] as f32)));
+        }
+        if let Some(uv) = uv {
+            attributes.texcoords.push(Vec2::from(uv.map(|k| values[k] as f32)));
+        }
+        if let Some(c) = &colours {
+            attributes.colors.push(c.rgba(|k| values[k]));
+        }
+    }
+    Ok(())
+}
+
+/// The faces, each split into triangles (quads as the paper does, larger ones into fans);
+/// corners must name one of the `vertex_count` vertices.
+fn read_faces(
+    e: &Element,
+    body: &mut Body,
+    vertex_count: u64,
+    triangles: &mut Vec<[u32; 3]>,
+) -> Result<(), Failure> {
+    let list = e
+        .properties
+        .iter()
+        .position(|(n, p)| {
+            (n == "vertex_indices" || n == "vertex_index") && matches!(p, Property::List { .. })
+        })
+        .ok_or((Location::File, "`element face` has no list property vertex_indices".to_owned()))?;
+    triangles.reserve(capacity(e.count));
+    let mut corners: Vec<f64> = Vec::new();
+    for i in 0..e.count {
+        for (k, (_, p)) in e.properties.iter().enumerate() {
+            let keep = k == list;
+            if keep {
+                corners.clear();
+            }
+            body.property(p, |v| {
+                if keep {
+                    corners.push(v)
+                }
+            })
+            .map_err(|r| (body.location("face", i), r))?;
+        }
+        let at = || body.location("face", i);
+        if corners.len() < 3 {
+            return Err((
+                at(),
+                format!("a face has {} corners; at least 3 are needed", corners.len()),
+            ));
+        }
+        if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
+            return Err((at(), format!("face vertex index {bad} is out of range (the file has {vertex_count} vertices)")));
+        }
+        let c = |k: usize| corners[k] as u32;
+        match corners.len() {
+            3 => triangles.push([c(0), c(1), c(2)]),
+            4 => triangles.extend([[c(0), c(1), c(3)], [c(1), c(2), c(3)]]),
+            n => triangles.extend((1..n - 1).map(|k| [c(0), c(k), c(k + 1)])),
+        }
+    }
+    Ok(())
+}
+
+/// Read past an element we do not keep, value by value.
+fn skip_element(e: &Element, body: &mut Body) -> Result<(), Failure> {
+    if e.properties.is_empty() {
+        return Ok(());
+    }
+    for i in 0..e.count {
+        for (_, p) in &e.properties {
+            body.property(p, |_| {}).map_err(|r| (body.location(&e.name, i), r))?;
+        }
+    }
+    Ok(())
+}
