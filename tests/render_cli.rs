@@ -365,3 +365,25 @@ fn devices_name_their_driver_and_its_version() {
         assert!(driver.chars().any(|c| c.is_ascii_digit()), "no driver version in {line:?}");
     }
 }
+
+/// Under a file-size limit (`ulimit -f 1`: 1 KiB), a write that outgrows it is one error
+/// line and leaves neither the file nor its temporary: the system's SIGXFSZ, which used to
+/// stop the program mid-write, is ignored.
+#[test]
+fn a_write_past_the_file_size_limit_is_one_line_and_leaves_nothing() {
+    let dir = Scratch::new("fsize");
+    for (name, aov) in
+        [("x.png", "color"), ("x.jpg", "color"), ("x.exr", "color"), ("d.exr", "depth")]
+    {
+        let out = Command::new("bash")
+            .current_dir(&dir.0)
+            .args(["-c", "ulimit -f 1; exec \"$0\" \"$@\"", env!("CARGO_BIN_EXE_meshtracer")])
+            .args(["render", "--cpu", "--width", "64", "--height", "64", "--aov", aov, "-o", name])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {:?}: {stderr}", out.status);
+        assert_eq!(stderr.trim(), format!("error: cannot write {name}: file too large"), "{name}");
+        assert!(dir.names().is_empty(), "{name}: left {:?}", dir.names());
+    }
+}

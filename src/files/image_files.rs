@@ -64,7 +64,14 @@ pub(crate) fn save_png(
     settings: Option<&str>,
     path: &Path,
 ) -> anyhow::Result<()> {
-    write_atomic(path, |out| Ok(encode_png(rgba, settings, out)?))
+    write_atomic(path, |out| {
+        // The I/O error itself, so `write_atomic` words it ("file too large"): png's error
+        // names it only as a `cause`, which anyhow's chain does not follow.
+        encode_png(rgba, settings, out).map_err(|e| match e {
+            png::EncodingError::IoError(io) => anyhow::Error::from(io),
+            e => anyhow::Error::from(e),
+        })
+    })
 }
 
 /// Write 8-bit colour as an RGB JPEG (alpha dropped).

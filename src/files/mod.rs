@@ -130,6 +130,20 @@ pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage,
     image::open(path).map_err(|e| format!("cannot read {what} {}: {e}", path.display()))
 }
 
+/// Makes a write past the file-size limit (`ulimit -f`) fail with "file too large" instead
+/// of the system stopping the process at once: stopped, a write through [`write_atomic`]
+/// would leave its temporary file behind and the user only the shell's "File size limit
+/// exceeded". Called once, first thing in `main`. (A CPU Vulkan driver that outgrows the
+/// limit still dies, of a bus error instead; `gpu::context` warns of the limit.)
+pub fn ignore_file_size_signal() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: SIG_IGN installs no handler of ours; it only changes what the kernel does on
+    // SIGXFSZ (the write then returns EFBIG), and no code of ours relies on that signal.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
 /// Write `path` through `write`: into a temporary file beside it, synced, then renamed
 /// over `path`. On any failure `path` is left as it was and the temporary is removed; the
 /// error says "cannot write PATH: why".
@@ -159,6 +173,17 @@ pub(crate) fn write_atomic(
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
     }
+    // "file too large", not Rust's "File too large (os error 27)".
+    let result = result.map_err(|e| {
+        let os_error = e
+            .chain()
+            .filter_map(|cause| cause.downcast_ref::<std::io::Error>())
+            .find(|io| io.raw_os_error().is_some());
+        match os_error {
+            Some(io) => anyhow::anyhow!(io_reason(io)),
+            None => e,
+        }
+    });
     result.with_context(|| format!("cannot write {path_shown}"))
 }
 

@@ -484,8 +484,8 @@ fn create_one_shot_pool(
 
 /// Under a file-size limit (`ulimit -f`), the system stops the process when a file grows past
 /// it, and the Vulkan driver grows files of its own (lavapipe backs GPU memory with them, and
-/// drivers keep a shader cache): the shell then says only "File size limit exceeded". Ignoring
-/// the signal does not help (lavapipe then dies of a bus error), so the limit is named first.
+/// drivers keep a shader cache). `main` ignores the signal, so that our own writes fail as an
+/// error, but lavapipe then dies of a bus error, which says nothing: the limit is named first.
 fn warn_of_a_file_size_limit() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
