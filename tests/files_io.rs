@@ -203,6 +203,23 @@ fn the_output_path_is_checked_before_tracing() {
 }
 
 #[test]
+fn a_fifo_as_output_is_refused_before_loading_and_never_opened() {
+    let dir = Scratch::new("fifo-output");
+    assert!(Command::new("mkfifo").arg(dir.join("fifo.png")).status().unwrap().success());
+    // The model is missing too: an error about the output shows that it was checked before
+    // anything was loaded or traced (it used to be refused by the write, after the trace).
+    // Opening the FIFO would wait for a reader forever.
+    let out = run_in(
+        &dir.0,
+        &["render", "--model", "missing.obj", "--width", "8", "--height", "8", "-o", "fifo.png"],
+    );
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim(), "error: cannot write fifo.png: it is not a regular file");
+    assert_eq!(dir.names(), ["fifo.png"], "nothing is left beside it");
+}
+
+#[test]
 fn loader_warnings_are_printed_once_and_file_text_cannot_drive_the_terminal() {
     let dir = Scratch::new("warnings");
     // A usemtl name with an escape sequence (set the window title, ring the bell) and a

@@ -188,11 +188,19 @@ pub(crate) fn write_atomic(
 }
 
 /// Check, before a long render, that `path` can be written: its folder exists and takes a
-/// new file (one is made and removed), and `path` is not a folder.
+/// new file (one is made and removed), and `path` is absent or a regular file (a folder, a
+/// FIFO or a device is refused now, not by [`write_atomic`] after the work; only its
+/// metadata is read, so a FIFO is never opened).
 pub(crate) fn check_writable(path: &Path) -> anyhow::Result<()> {
     let check = || -> std::io::Result<()> {
-        if path.is_dir() {
-            return Err(std::io::Error::new(std::io::ErrorKind::IsADirectory, "it is a folder"));
+        if let Ok(meta) = fs::metadata(path) {
+            let kind = std::io::ErrorKind::InvalidInput;
+            if meta.is_dir() {
+                return Err(std::io::Error::new(kind, "it is a folder"));
+            }
+            if !meta.is_file() {
+                return Err(std::io::Error::new(kind, "it is not a regular file"));
+            }
         }
         let tmp = temporary_beside(path);
         File::create(&tmp)?;
@@ -374,6 +382,8 @@ mod tests {
         let e = check_writable(&dir.join("missing/x.png")).unwrap_err().to_string();
         assert!(e.contains("missing/x.png") && e.ends_with("no such file or directory"), "{e}");
         assert!(check_writable(&dir).unwrap_err().to_string().ends_with("it is a folder"));
+        let e = check_writable(Path::new("/dev/null")).unwrap_err().to_string();
+        assert!(e.ends_with("it is not a regular file"), "{e}");
         fs::remove_dir_all(&dir).unwrap();
     }
 
