@@ -328,21 +328,24 @@ impl ComputeTracer {
     /// Rows per submission for `frame`, a multiple of the work-group height: the budget of
     /// the costlier part of a split frame, as if it covered the whole width.
     pub(crate) fn rows_per_submission(&self, frame: &FrameTrace) -> u32 {
-        let budget = self.tests_per_submission();
+        let budget = self.budget();
         let rows = |p: &FrameParams| {
-            budget::rows_per_submission(&p.settings, self.triangle_total, GROUP.height, budget)
+            budget::rows_per_submission(&p.settings, self.triangle_total, GROUP.height, &budget)
         };
         frame.parts().iter().map(|(_, p, _)| rows(p)).min().unwrap_or_else(|| rows(&frame.params))
     }
 
-    /// Ray-triangle tests one submission may ask of this tracer's device (a CPU device's
-    /// budget is far smaller: see [`budget::CPU_TESTS_PER_SUBMISSION`]).
+    /// What one submission may ask of this tracer's device (a CPU device's budget is far
+    /// smaller, and its brute-force tests weigh more: see [`budget::Budget`]).
+    pub(crate) fn budget(&self) -> budget::Budget {
+        let cpu = self.ctx.info.is_cpu();
+        budget::Budget::of(if cpu { budget::DeviceKind::Cpu } else { budget::DeviceKind::Gpu })
+    }
+
+    /// Brute-force ray-triangle tests one submission may ask (the panel says past it that
+    /// brute force is traced in bands).
     pub(crate) fn tests_per_submission(&self) -> f64 {
-        budget::tests_per_submission(if self.ctx.info.is_cpu() {
-            budget::DeviceKind::Cpu
-        } else {
-            budget::DeviceKind::Gpu
-        })
+        self.budget().brute_tests()
     }
 
     /// The frame fits one submission (the window records it into its own frame).

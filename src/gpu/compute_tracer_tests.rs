@@ -94,3 +94,32 @@ fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
     drop(tracer);
     assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
 }
+
+/// Issue #43: a brute-force frame traced in the bands its work asks for (rays times
+/// triangles, here under a small budget) is the frame traced in one submission.
+#[test]
+fn a_banded_brute_force_frame_equals_the_unbanded_one() {
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let (scene, _) = SceneSpec::default().load().unwrap();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(&scene)).unwrap();
+    let settings =
+        RenderSettings { width: 64, height: 40, accel: Accel::Brute, ..Default::default() };
+    let frame = FrameTrace::whole(FrameParams::new(&scene, settings));
+    tracer.set_resolution(64, 40).unwrap();
+    tracer.trace_band(&frame, &Band::rows(0..40, 64)).unwrap();
+    let whole = tracer.read_image().unwrap();
+    let budget = budget::Budget { work: 2e6, brute_cost: budget::CPU_BRUTE_TEST_COST };
+    let triangles = tracer.triangle_total;
+    let rows = budget::rows_per_submission(&settings, triangles, GROUP.height, &budget);
+    assert!(rows < 40, "the small budget bands the frame ({rows} rows)");
+    let mut row = 0;
+    while row < 40 {
+        tracer.trace_band(&frame, &Band::rows(row..(row + rows).min(40), 64)).unwrap();
+        row += rows;
+    }
+    let banded = tracer.read_image().unwrap();
+    assert_eq!(banded.pixels, whole.pixels, "bands of {rows} rows");
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
