@@ -22,6 +22,8 @@ impl Tool {
         // Its `consumed` is not used: for a key it comes from the focus before the clicks
         // that egui has not run yet (keys wait for the frame, `Input::frame_keys`).
         let _ = self.ui.egui_state.on_window_event(&self.window, event);
+        let (count, now) = (self.ui.egui_state.egui_input().events.len(), self.input.now());
+        self.input.events_arrived(count, now);
         match event {
             WindowEvent::CloseRequested => self.script.request_exit(),
             WindowEvent::Resized(size) => self.gpu.presenter.resize(size.width, size.height),

@@ -20,6 +20,13 @@
 //! - a frame ends with a release: egui gives a drag that ends in a frame the pointer's last
 //!   position in it, so a slider clicked just before another widget took that widget's
 //!   position as its value.
+//!
+//! Each pass of egui is given the time its events arrived, not the time it runs: egui takes
+//! a press and release further apart than `max_click_duration` (0.8 s) for no click and
+//! measures double clicks the same way, so with passes a slow frame apart (seconds at 512²
+//! on a CPU Vulkan) and a press and its release always in two, no click would count.
+
+use std::time::Instant;
 
 use winit::dpi::PhysicalPosition;
 use winit::event::{ElementState, MouseScrollDelta};
@@ -53,6 +60,53 @@ pub(crate) struct KeyPress {
     at: usize,
 }
 
+/// Where a frame's input is cut at an event (see [`Input::frame_keys`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Cut {
+    /// No cut.
+    No,
+    /// After the event when typing follows it: it moves the focus, so the keys after it go
+    /// to a frame whose focus it has moved.
+    After,
+    /// Before the event when typing comes before it: it acts before the fields run (the Open
+    /// dialog's Enter reads its path field first), so the text must reach the field a frame
+    /// earlier.
+    Before,
+}
+
+/// Where the tool cuts the input at `event`: after Ctrl+O (the keys typed after it are the
+/// Open dialog's) and, in the Open dialog with no field focused, after `/` (its path field takes
+/// the focus at the end of the frame, after the field ran); before the dialog's Enter, which
+/// it reads before its fields take the frame's text.
+pub(crate) fn focus_cut(event: &egui::Event, dialog_open: bool, egui_wants_keys: bool) -> Cut {
+    let cut = match event {
+        egui::Event::Key { key: egui::Key::O, pressed: true, modifiers, .. } => {
+            modifiers.ctrl && !dialog_open && !egui_wants_keys
+        }
+        egui::Event::Key { key: egui::Key::Slash, pressed: true, .. } => {
+            dialog_open && !egui_wants_keys
+        }
+        egui::Event::Key { key: egui::Key::Enter, pressed: true, .. } if dialog_open => {
+            return Cut::Before;
+        }
+        _ => false,
+    };
+    if cut {
+        Cut::After
+    } else {
+        Cut::No
+    }
+}
+
+/// The clock the passes' times are read from, started with the input.
+struct Clock(Instant);
+
+impl Default for Clock {
+    fn default() -> Self {
+        Self(Instant::now())
+    }
+}
+
 /// The input state the window events leave behind.
 #[derive(Default)]
 pub(crate) struct Input {
@@ -67,6 +121,11 @@ pub(crate) struct Input {
     wheel_release_echo: bool,
     /// Key presses since the last frame took its own, in order.
     keys: Vec<KeyPress>,
+    /// When each of egui's pending events arrived (seconds on `clock`), in their order.
+    arrivals: Vec<f64>,
+    /// The time the last pass was given: passes never go back in time.
+    last_pass: f64,
+    clock: Clock,
 }
 
 impl Input {
@@ -121,16 +180,49 @@ impl Input {
         self.keys.push(KeyPress { code, shift, ctrl, repeat, at: egui_events });
     }
 
+    /// Seconds since the input started: the clock of arrivals and of egui's passes.
+    pub(crate) fn now(&self) -> f64 {
+        self.clock.0.elapsed().as_secs_f64()
+    }
+
+    /// egui's pending input now holds `count` events: those not yet timed arrived at `time`
+    /// (call after each window event, with [`Input::now`]).
+    pub(crate) fn events_arrived(&mut self, count: usize, time: f64) {
+        self.arrivals.resize(count, time);
+    }
+
+    /// Cut this frame's input `raw` as [`Input::frame_keys`] does and give it the time its
+    /// last event arrived (`now` when it has none), so that egui measures the time between
+    /// a press and its release, or two clicks, as the user made it, whatever the time
+    /// between frames. Returns the frame's key presses and the events held for the next.
+    pub(crate) fn take_pass(
+        &mut self,
+        raw: &mut egui::RawInput,
+        now: f64,
+        cut_at: impl Fn(&egui::Event) -> Cut,
+    ) -> (Vec<KeyPress>, Vec<egui::Event>) {
+        // Events that no window event timed (none today) arrived by now.
+        self.arrivals.resize(raw.events.len(), now);
+        let (keys, held) = self.frame_keys(&mut raw.events, cut_at);
+        let waiting = self.arrivals.split_off(raw.events.len());
+        let arrived = std::mem::replace(&mut self.arrivals, waiting);
+        let time = arrived.last().copied().unwrap_or(now).max(self.last_pass);
+        self.last_pass = time;
+        raw.time = Some(time);
+        (keys, held)
+    }
+
     /// The key presses of the frame whose egui input is `events`, and where that input ends:
     /// before the first release of a button pressed earlier in `events`, after the first
-    /// pointer release that anything follows, or after the first event that `moves_focus`
-    /// that a key or text event follows, whichever comes first. The events after the cut
-    /// are taken out of `events` and returned, to go first into the next frame's input; the
-    /// presses among them wait for that frame.
-    pub(crate) fn frame_keys(
+    /// pointer release that anything follows, after the first event cut [`Cut::After`] that
+    /// a key or text event follows, or before the first event cut [`Cut::Before`] that one
+    /// comes before, whichever comes first. The events after the cut are taken out of
+    /// `events` and returned, to go first into the next frame's input; the presses among
+    /// them wait for that frame.
+    fn frame_keys(
         &mut self,
         events: &mut Vec<egui::Event>,
-        moves_focus: impl Fn(&egui::Event) -> bool,
+        cut_at: impl Fn(&egui::Event) -> Cut,
     ) -> (Vec<KeyPress>, Vec<egui::Event>) {
         let is_release =
             |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: false, .. });
@@ -140,9 +232,11 @@ impl Input {
             events.iter().position(is_release).map(|i| i + 1).filter(|&cut| cut < events.len());
         let after_focus_move = events
             .iter()
-            .position(moves_focus)
+            .position(|e| cut_at(e) == Cut::After)
             .map(|i| i + 1)
             .filter(|&cut| events[cut..].iter().any(is_typing));
+        let before_first_act = (1..events.len())
+            .find(|&i| cut_at(&events[i]) == Cut::Before && events[..i].iter().any(is_typing));
         let pressed_before = |i: usize, released: egui::PointerButton| {
             events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
         };
@@ -154,8 +248,10 @@ impl Input {
             }
             _ => None,
         });
-        let Some(cut) =
-            [after_release, after_focus_move, release_of_a_press].into_iter().flatten().min()
+        let Some(cut) = [after_release, after_focus_move, before_first_act, release_of_a_press]
+            .into_iter()
+            .flatten()
+            .min()
         else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
@@ -191,299 +287,5 @@ impl Input {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const IMAGE: PixelRect = PixelRect { x: 300, y: 0, width: 500, height: 400 };
-
-    fn button(pressed: bool) -> egui::Event {
-        egui::Event::PointerButton {
-            pos: egui::pos2(10.0, 10.0),
-            button: egui::PointerButton::Primary,
-            pressed,
-            modifiers: Default::default(),
-        }
-    }
-
-    /// Feed `typed` (a key's code and its text) as winit and egui-winit would.
-    fn type_keys(input: &mut Input, events: &mut Vec<egui::Event>, typed: &[(KeyCode, &str)]) {
-        for &(code, text) in typed {
-            events.push(egui::Event::Text(text.into()));
-            input.key_pressed(code, false, events.len());
-        }
-    }
-
-    fn no_key(_: &egui::Event) -> bool {
-        false
-    }
-
-    fn key(key: egui::Key, modifiers: egui::Modifiers) -> egui::Event {
-        egui::Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers }
-    }
-
-    /// Feed keys as winit and egui-winit would: the key's event, then its text if any.
-    fn press_keys(
-        input: &mut Input,
-        events: &mut Vec<egui::Event>,
-        typed: &[(KeyCode, egui::Key, egui::Modifiers, &str)],
-    ) {
-        for &(code, k, modifiers, text) in typed {
-            events.push(key(k, modifiers));
-            if !text.is_empty() {
-                events.push(egui::Event::Text(text.into()));
-            }
-            input.key_pressed(code, false, events.len());
-        }
-    }
-
-    #[test]
-    fn a_key_that_moves_the_focus_keeps_its_text_and_the_keys_after_for_the_next_frame() {
-        let mut input = Input::default();
-        let mut events = Vec::new();
-        let none = egui::Modifiers::NONE;
-        let ctrl = egui::Modifiers::CTRL;
-        press_keys(
-            &mut input,
-            &mut events,
-            &[
-                (KeyCode::KeyO, egui::Key::O, ctrl, ""),
-                (KeyCode::Slash, egui::Key::Slash, none, "/"),
-                (KeyCode::KeyT, egui::Key::T, none, "t"),
-            ],
-        );
-        let opens_dialog = |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::O, modifiers, .. } if modifiers.ctrl);
-        let opens_field =
-            |e: &egui::Event| matches!(e, egui::Event::Key { key: egui::Key::Slash, .. });
-
-        // Ctrl+O is this frame's; "/" and "t" wait for the frame that shows the dialog.
-        let (keys, mut held) = input.frame_keys(&mut events, opens_dialog);
-        assert_eq!(codes(&keys), [KeyCode::KeyO]);
-        assert_eq!(events, [key(egui::Key::O, ctrl)]);
-        // "/" opens the field: its text and the "t" after wait for the field's frame.
-        let (keys, rest) = input.frame_keys(&mut held, opens_field);
-        assert_eq!(held, [key(egui::Key::Slash, none)]);
-        assert!(keys.is_empty(), "the press of / ends with its text, which waits");
-        assert_eq!(
-            rest,
-            [egui::Event::Text("/".into()), key(egui::Key::T, none), egui::Event::Text("t".into())]
-        );
-        let mut rest = rest;
-        let (keys, held) = input.frame_keys(&mut rest, opens_field);
-        assert_eq!(codes(&keys), [KeyCode::Slash, KeyCode::KeyT]);
-        assert!(held.is_empty() && rest.len() == 3);
-    }
-
-    fn codes(keys: &[KeyPress]) -> Vec<KeyCode> {
-        keys.iter().map(|k| k.code).collect()
-    }
-
-    #[test]
-    fn keys_typed_right_after_a_click_wait_for_the_next_frame_with_their_events() {
-        let mut input = Input::default();
-        let mut events = Vec::new();
-        type_keys(&mut input, &mut events, &[(KeyCode::Equal, "=")]);
-        events.extend([button(true), button(false)]);
-        type_keys(&mut input, &mut events, &[(KeyCode::KeyM, "m"), (KeyCode::Minus, "-")]);
-
-        let (keys, held) = input.frame_keys(&mut events, no_key);
-        assert_eq!(codes(&keys), [KeyCode::Equal], "only the key before the click is this frame's");
-        assert_eq!(events.len(), 2, "this frame's egui input ends with the press");
-        assert_eq!(
-            held,
-            [button(false), egui::Event::Text("m".into()), egui::Event::Text("-".into())]
-        );
-
-        // The release ends the next frame (the field it focuses gets the keys after it)...
-        let mut next = held;
-        let (keys, held) = input.frame_keys(&mut next, no_key);
-        assert!(keys.is_empty());
-        assert_eq!(next, [button(false)]);
-        assert_eq!(held, [egui::Event::Text("m".into()), egui::Event::Text("-".into())]);
-
-        // ...and the one after starts with what was held; a key pressed meanwhile follows.
-        let mut next = held;
-        type_keys(&mut input, &mut next, &[(KeyCode::KeyS, "s")]);
-        let (keys, held) = input.frame_keys(&mut next, no_key);
-        assert_eq!(codes(&keys), [KeyCode::KeyM, KeyCode::Minus, KeyCode::KeyS]);
-        assert!(held.is_empty() && next.len() == 3);
-    }
-
-    #[test]
-    fn a_press_and_its_release_in_one_frame_reach_egui_in_two() {
-        // A quick click on a slider's track at a few fps: egui sees the press alone (the
-        // slider is dragged to the pointer), the release and what follows a frame later.
-        let mut input = Input::default();
-        let moved = egui::Event::PointerMoved(egui::pos2(1.0, 2.0));
-        let mut events =
-            vec![moved.clone(), button(true), moved.clone(), button(false), moved.clone()];
-        let (keys, held) = input.frame_keys(&mut events, no_key);
-        assert!(keys.is_empty());
-        assert_eq!(events, [moved.clone(), button(true), moved.clone()]);
-        assert_eq!(held, [button(false), moved.clone()]);
-        // The release ends its frame: a slider dragged until it takes the pointer's last
-        // position in that frame, which must not be where the pointer went next.
-        let mut next = held;
-        let (_, held) = input.frame_keys(&mut next, no_key);
-        assert_eq!(next, [button(false)]);
-        assert_eq!(held, std::slice::from_ref(&moved));
-        // A release last in its frame is no cut, nor is the release of another button than
-        // the one pressed.
-        let mut events = vec![moved.clone(), button(false)];
-        let (_, held) = input.frame_keys(&mut events, no_key);
-        assert!(held.is_empty() && events.len() == 2);
-        let other = egui::Event::PointerButton {
-            pos: egui::pos2(10.0, 10.0),
-            button: egui::PointerButton::Secondary,
-            pressed: false,
-            modifiers: Default::default(),
-        };
-        let mut events = vec![button(true), other];
-        let (_, held) = input.frame_keys(&mut events, no_key);
-        assert!(held.is_empty() && events.len() == 2);
-    }
-
-    #[test]
-    fn a_click_then_a_click_elsewhere_reach_egui_in_four_frames() {
-        // A slider clicked, then a text field straight after, in one frame's input: the
-        // slider's last frame must not hold the move to the field.
-        let mut input = Input::default();
-        let at = |x: f32| egui::Event::PointerMoved(egui::pos2(x, 0.0));
-        let mut pending =
-            vec![at(150.0), button(true), button(false), at(180.0), button(true), button(false)];
-        let mut frames = Vec::new();
-        while !pending.is_empty() {
-            let (_, held) = input.frame_keys(&mut pending, no_key);
-            frames.push(std::mem::replace(&mut pending, held));
-        }
-        assert_eq!(
-            frames,
-            [
-                vec![at(150.0), button(true)],
-                vec![button(false)],
-                vec![at(180.0), button(true)],
-                vec![button(false)]
-            ]
-        );
-    }
-
-    #[test]
-    fn a_press_and_the_drag_after_it_stay_in_one_frame() {
-        let mut input = Input::default();
-        let mut events = vec![
-            button(true),
-            egui::Event::PointerMoved(egui::pos2(1.0, 2.0)),
-            egui::Event::PointerMoved(egui::pos2(3.0, 2.0)),
-        ];
-        let (_, held) = input.frame_keys(&mut events, no_key);
-        assert!(held.is_empty() && events.len() == 3);
-    }
-
-    #[test]
-    fn a_frame_without_a_release_before_its_end_takes_everything() {
-        let mut input = Input::default();
-        let mut events = vec![egui::Event::PointerMoved(egui::pos2(1.0, 2.0)), button(false)];
-        let (keys, held) = input.frame_keys(&mut events, no_key);
-        assert!(keys.is_empty() && held.is_empty() && events.len() == 2);
-
-        // Keys and no click: all this frame's, in order.
-        let mut events = Vec::new();
-        type_keys(&mut input, &mut events, &[(KeyCode::PageUp, ""), (KeyCode::KeyC, "c")]);
-        let (keys, held) = input.frame_keys(&mut events, no_key);
-        assert_eq!(codes(&keys), [KeyCode::PageUp, KeyCode::KeyC]);
-        assert!(held.is_empty());
-    }
-
-    #[test]
-    fn each_click_with_typing_after_it_starts_a_frame_of_its_own() {
-        let mut input = Input::default();
-        let mut events = vec![button(true), button(false)];
-        type_keys(&mut input, &mut events, &[(KeyCode::KeyA, "a")]);
-        events.extend([button(true), button(false)]);
-        type_keys(&mut input, &mut events, &[(KeyCode::KeyB, "b")]);
-
-        // Each press, each release and the keys after a release get frames of their own.
-        let mut frames = Vec::new();
-        let mut keys_by_frame = Vec::new();
-        let mut pending = events;
-        while !pending.is_empty() {
-            let (keys, held) = input.frame_keys(&mut pending, no_key);
-            frames.push(pending.len());
-            keys_by_frame.push(codes(&keys));
-            pending = held;
-        }
-        assert_eq!(frames, [1, 1, 2, 1, 1], "press | release | a, press | release | b");
-        assert_eq!(
-            keys_by_frame,
-            [vec![], vec![], vec![KeyCode::KeyA], vec![], vec![KeyCode::KeyB]]
-        );
-    }
-
-    #[test]
-    fn the_wheel_over_the_panel_does_not_zoom() {
-        let mut input = Input::default();
-        assert_eq!(
-            input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE),
-            None,
-            "no cursor yet"
-        );
-        input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
-        assert_eq!(
-            input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE),
-            None,
-            "over the panel"
-        );
-        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
-        assert_eq!(
-            input.wheel(MouseScrollDelta::PixelDelta(PhysicalPosition::new(0.0, -80.0)), IMAGE),
-            Some(-2.0)
-        );
-    }
-
-    #[test]
-    fn a_wheel_buttons_release_echo_is_one_notch_not_two() {
-        let mut input = Input::default();
-        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
-        // X11 without smooth scrolling: raw press, wheel, raw release, wheel (the echo).
-        let mut steps = 0.0;
-        for _ in 0..3 {
-            input.raw_button(4, ElementState::Pressed);
-            steps += input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE).unwrap_or(0.0);
-            input.raw_button(4, ElementState::Released);
-            steps += input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE).unwrap_or(0.0);
-        }
-        assert_eq!(steps, 3.0);
-        // Smooth scrolling (and Wayland): wheel events alone, each a notch.
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, 1.0), IMAGE), Some(1.0));
-        // Other buttons leave the wheel alone.
-        input.raw_button(1, ElementState::Released);
-        assert_eq!(input.wheel(MouseScrollDelta::LineDelta(0.0, -1.0), IMAGE), Some(-1.0));
-    }
-
-    #[test]
-    fn drags_start_over_the_image_only() {
-        let mut input = Input::default();
-        input.cursor_moved(PhysicalPosition::new(100.0, 100.0));
-        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
-        assert_eq!(input.drag, None);
-        input.cursor_moved(PhysicalPosition::new(400.0, 100.0));
-        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
-        assert_eq!(
-            input.cursor_moved(PhysicalPosition::new(410.0, 95.0)),
-            Some((Drag::Orbit, 10.0, -5.0))
-        );
-        input.drag_button(ElementState::Released, Drag::Orbit, IMAGE);
-        assert_eq!(input.cursor_moved(PhysicalPosition::new(420.0, 95.0)), None);
-        // Shift with the left button, or the middle button: pan.
-        input.modifiers = ModifiersState::SHIFT;
-        input.drag_button(ElementState::Pressed, Drag::Orbit, IMAGE);
-        assert_eq!(
-            input.cursor_moved(PhysicalPosition::new(421.0, 95.0)),
-            Some((Drag::Pan, 1.0, 0.0))
-        );
-        input.modifiers = ModifiersState::empty();
-        input.drag_button(ElementState::Pressed, Drag::Pan, IMAGE);
-        assert_eq!(input.drag, Some(Drag::Pan));
-    }
-}
+#[path = "input_tests.rs"]
+mod tests;

@@ -4,8 +4,8 @@
 
 use crate::app::panel::{self, PanelAction, PanelInfo, Status, VendorInfo};
 use crate::app::state::fit_rect;
-use crate::app::tool::devices;
 use crate::app::tool::Tool;
+use crate::app::tool::{devices, input};
 use crate::app::user_files::open_dialog::Purpose;
 use crate::app::user_files::screenshot::{self, Kind};
 use crate::app::views::overlay;
@@ -24,20 +24,11 @@ impl Tool {
         // Escape, Enter and arrows, are its own whether or not a text field has the focus;
         // Ctrl+O among the keys opens it for those after).
         let egui_wants_keys = self.ui.egui_ctx.egui_wants_keyboard_input();
-        // Keys that move the focus end the frame's input when typing follows them: Ctrl+O
-        // (the dialog shows from the next frame on) and, in the dialog with no field focused,
-        // `/` (its path field takes the focus at the end of the frame, after the field ran).
-        let dialog_open = self.ui.open_dialog.is_open();
-        let moves_focus = |e: &egui::Event| match e {
-            egui::Event::Key { key: egui::Key::O, pressed: true, modifiers, .. } => {
-                modifiers.ctrl && !dialog_open && !egui_wants_keys
-            }
-            egui::Event::Key { key: egui::Key::Slash, pressed: true, .. } => {
-                dialog_open && !egui_wants_keys
-            }
-            _ => false,
-        };
-        let (keys, held) = self.input.frame_keys(&mut raw.events, moves_focus);
+        // Keys that move the focus, or that the Open dialog acts on before its fields run, cut
+        // the frame's input (`input::focus_cut`).
+        let (dialog_open, now) = (self.ui.open_dialog.is_open(), self.input.now());
+        let cut_at = |e: &egui::Event| input::focus_cut(e, dialog_open, egui_wants_keys);
+        let (keys, held) = self.input.take_pass(&mut raw, now, cut_at);
         if !held.is_empty() {
             self.ui.egui_state.egui_input_mut().events = held;
             self.window.request_redraw();
