@@ -217,4 +217,65 @@ mod tests {
             "the path typed after / was not the one picked"
         );
     }
+
+    /// Open the dialog on the manifest's folder and deliver `burst` (a path typed after `/`,
+    /// then Enter) all at once after `quiet` passes, cut into passes as the tool cuts them;
+    /// returns what the dialog picked.
+    fn type_in_one_burst(model: &Path, quiet: usize, enter: bool) -> Option<(Purpose, PathBuf)> {
+        use crate::app::tool::input::{focus_cut, Input};
+        let key = |key| egui::Event::Key {
+            key,
+            physical_key: None,
+            pressed: true,
+            repeat: false,
+            modifiers: egui::Modifiers::NONE,
+        };
+        let mut burst = vec![
+            key(egui::Key::Slash),
+            egui::Event::Text("/".into()),
+            egui::Event::Text(model.to_str().unwrap()[1..].into()),
+        ];
+        if enter {
+            burst.push(key(egui::Key::Enter));
+        }
+        let mut dialog = OpenDialog::default();
+        dialog.open(Purpose::Model, Some(Path::new(env!("CARGO_MANIFEST_DIR"))));
+        let (ctx, mut input, mut picked) = (egui::Context::default(), Input::default(), None);
+        let mut pending = Vec::new();
+        for pass in 0..quiet + 6 {
+            if pass == quiet {
+                pending.append(&mut burst);
+                input.events_arrived(pending.len(), pass as f64);
+            }
+            let mut raw =
+                egui::RawInput { events: std::mem::take(&mut pending), ..Default::default() };
+            let wants_keys = ctx.egui_wants_keyboard_input();
+            let open = dialog.is_open();
+            pending = input.take_pass(&mut raw, pass as f64, |e| focus_cut(e, open, wants_keys)).1;
+            ctx.run_ui(raw, |ui| picked = picked.take().or(dialog.show(ui.ctx())))
+                .textures_delta
+                .clear();
+        }
+        picked
+    }
+
+    #[test]
+    fn a_path_and_enter_typed_in_one_burst_are_picked() {
+        let dir = std::env::temp_dir().join(format!("meshtracer-burst-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let model = dir.join("cube.obj");
+        std::fs::write(&model, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let expected = Some((Purpose::Model, model.canonicalize().unwrap()));
+        // The burst in the dialog's first frame (typed with Ctrl+O) or a later one (typed
+        // during the slow frame after it): the dialog reads Enter before its path field
+        // takes the frame's text, so the text must come a frame before Enter.
+        let (first, later) =
+            (type_in_one_burst(&model, 0, true), type_in_one_burst(&model, 2, true));
+        // Without Enter nothing is picked (the path waits in the field).
+        let unsent = type_in_one_burst(&model, 1, false);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(first, expected, "a path typed in the dialog's first frame was lost");
+        assert_eq!(later, expected, "a path typed with its Enter in one burst was lost");
+        assert_eq!(unsent, None);
+    }
 }
