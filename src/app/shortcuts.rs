@@ -59,8 +59,16 @@ impl Mods {
 pub(crate) enum Effect {
     /// Ask the tool for something it does (a screenshot, a dialog).
     Ask(KeyAction),
-    /// Change the parameters; the resolution is the one `M` goes back to.
-    Change(fn(&mut Params, &mut Resolution)),
+    /// Change the parameters, knowing what else the keys need.
+    Change(fn(&mut Params, &mut KeyCx)),
+}
+
+/// What a change needs besides the parameters.
+pub(crate) struct KeyCx<'a> {
+    /// The resolution `M` goes back to.
+    previous: &'a mut Resolution,
+    /// The device has the vendor's ray tracing: else A skips it, as the panel greys it out.
+    vendor: bool,
 }
 
 /// Keys that do one thing under the same modifiers.
@@ -75,7 +83,7 @@ const fn ask(codes: &'static [KeyCode], mods: Mods, action: KeyAction) -> Chord 
     Chord { codes, mods, effect: Effect::Ask(action) }
 }
 
-const fn change(codes: &'static [KeyCode], change: fn(&mut Params, &mut Resolution)) -> Chord {
+const fn change(codes: &'static [KeyCode], change: fn(&mut Params, &mut KeyCx)) -> Chord {
     Chord { codes, mods: Mods::Plain, effect: Effect::Change(change) }
 }
 
@@ -146,10 +154,14 @@ pub(crate) const SHORTCUTS: &[Shortcut] = &[
     entry(
         "A",
         "acceleration: BVH, brute force, vendor in turn",
-        &[change(&[K::KeyA], |p, _| next_accel(p))],
+        &[change(&[K::KeyA], |p, cx| next_accel(p, cx.vendor))],
     ),
     entry("C", "colour / cost heat map", &[change(&[K::KeyC], |p, _| toggle_cost(p))]),
-    entry("M", "render resolution: match window / back", &[change(&[K::KeyM], match_window)]),
+    entry(
+        "M",
+        "render resolution: match window / back",
+        &[change(&[K::KeyM], |p, cx| match_window(p, cx.previous))],
+    ),
     entry(
         "Space",
         "pause the light",
@@ -193,12 +205,15 @@ fn step_models(p: &mut Params, by: i32) {
     p.scene.models = MODELS.clamp_u32(p.scene.models.saturating_add_signed(by));
 }
 
-/// BVH, brute force, vendor, and round (a device without the vendor's ray tracing falls
-/// back to the BVH with a note in the panel).
-fn next_accel(p: &mut Params) {
+/// BVH, brute force, vendor, and round; the vendor's only where the device has its ray
+/// tracing (the panel greys it out otherwise, and choosing it would only fall back to the
+/// BVH with a red line).
+fn next_accel(p: &mut Params, vendor: bool) {
     let accel = &mut p.scene.settings.accel;
-    let next = Accel::ALL.iter().position(|a| a == accel).map_or(0, |i| (i + 1) % Accel::ALL.len());
-    *accel = Accel::ALL[next];
+    let n = Accel::ALL.len();
+    let start = Accel::ALL.iter().position(|a| a == accel).map_or(0, |i| i + 1);
+    let mut order = (0..n).map(|k| Accel::ALL[(start + k) % n]);
+    *accel = order.find(|&a| a != Accel::Vendor || vendor).unwrap_or(Accel::Bvh);
     p.fit_cost_metric();
 }
 
@@ -222,13 +237,15 @@ fn match_window(p: &mut Params, previous: &mut Resolution) {
 impl Params {
     /// Apply a key press (egui did not want the keyboard): the first chord of
     /// [`SHORTCUTS`] that takes it. `previous` remembers the resolution to go back to when
-    /// `M` leaves "match window".
+    /// `M` leaves "match window"; `vendor` says whether the device has the vendor's ray
+    /// tracing, which A offers only then.
     pub(crate) fn apply_key(
         &mut self,
         key: KeyCode,
         shift: bool,
         ctrl: bool,
         previous: &mut Resolution,
+        vendor: bool,
     ) -> KeyAction {
         let chord = SHORTCUTS
             .iter()
@@ -237,7 +254,7 @@ impl Params {
         match chord.map(|c| c.effect) {
             Some(Effect::Ask(action)) => action,
             Some(Effect::Change(change)) => {
-                change(self, previous);
+                change(self, &mut KeyCx { previous, vendor });
                 KeyAction::None
             }
             None => KeyAction::None,
@@ -263,24 +280,30 @@ mod tests {
         let mut p =
             params(|s| s.settings = RenderSettings { bounces: 8, blend: 1.0, ..s.settings });
         let mut prev = p.resolution;
-        p.apply_key(KeyCode::PageUp, false, false, &mut prev);
+        p.apply_key(KeyCode::PageUp, false, false, &mut prev, true);
         assert_eq!(p.scene.settings.bounces, 8);
-        p.apply_key(KeyCode::PageDown, false, false, &mut prev);
+        p.apply_key(KeyCode::PageDown, false, false, &mut prev, true);
         assert_eq!(p.scene.settings.bounces, 7);
-        p.apply_key(KeyCode::BracketRight, false, false, &mut prev);
+        p.apply_key(KeyCode::BracketRight, false, false, &mut prev, true);
         assert_eq!(p.scene.settings.blend, 1.0);
-        p.apply_key(KeyCode::BracketLeft, false, false, &mut prev);
+        p.apply_key(KeyCode::BracketLeft, false, false, &mut prev, true);
         assert!((p.scene.settings.blend - 0.95).abs() < 1e-6);
-        assert_eq!(p.apply_key(KeyCode::F12, false, false, &mut prev), KeyAction::ScreenshotTrace);
-        assert_eq!(p.apply_key(KeyCode::F12, true, false, &mut prev), KeyAction::ScreenshotWindow);
-        assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev), KeyAction::Quit);
+        assert_eq!(
+            p.apply_key(KeyCode::F12, false, false, &mut prev, true),
+            KeyAction::ScreenshotTrace
+        );
+        assert_eq!(
+            p.apply_key(KeyCode::F12, true, false, &mut prev, true),
+            KeyAction::ScreenshotWindow
+        );
+        assert_eq!(p.apply_key(KeyCode::KeyQ, false, true, &mut prev, true), KeyAction::Quit);
         let start = p.resolution;
-        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
+        p.apply_key(KeyCode::KeyM, false, false, &mut prev, true);
         assert_eq!(p.resolution, Resolution::MatchWindow);
-        p.apply_key(KeyCode::KeyM, false, false, &mut prev);
+        p.apply_key(KeyCode::KeyM, false, false, &mut prev, true);
         assert_eq!(p.resolution, start);
         for _ in 0..40 {
-            p.apply_key(KeyCode::Minus, false, false, &mut prev);
+            p.apply_key(KeyCode::Minus, false, false, &mut prev, true);
         }
         assert_eq!(p.scene.models, 1);
     }
@@ -303,7 +326,11 @@ mod tests {
             KeyCode::KeyH,
             KeyCode::Equal,
         ] {
-            assert_eq!(p.apply_key(key, false, true, &mut prev), KeyAction::None, "Ctrl+{key:?}");
+            assert_eq!(
+                p.apply_key(key, false, true, &mut prev, true),
+                KeyAction::None,
+                "Ctrl+{key:?}"
+            );
         }
         assert_eq!(
             format!(
@@ -312,9 +339,9 @@ mod tests {
             ),
             before
         );
-        assert_eq!(p.apply_key(KeyCode::KeyO, false, true, &mut prev), KeyAction::OpenModel);
+        assert_eq!(p.apply_key(KeyCode::KeyO, false, true, &mut prev, true), KeyAction::OpenModel);
         // Without Ctrl, A is the acceleration's key.
-        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
+        p.apply_key(KeyCode::KeyA, false, false, &mut prev, true);
         assert_ne!(format!("{:?}", &p.scene), format!("{:?}", params(|_| {}).scene));
     }
 
@@ -323,18 +350,39 @@ mod tests {
         let mut p = params(|_| {});
         let mut previous = Resolution::Square(512);
         assert_eq!(
-            p.apply_key(KeyCode::Escape, false, false, &mut previous),
+            p.apply_key(KeyCode::Escape, false, false, &mut previous, true),
             KeyAction::CancelLoad
         );
+    }
+
+    #[test]
+    fn a_cycles_past_the_vendors_option_where_the_device_has_none() {
+        // It chose the greyed-out option, which fell back to the BVH with a red line (#43).
+        let mut p = params(|_| {});
+        let mut prev = p.resolution;
+        let mut seen = Vec::new();
+        for vendor in [false, true] {
+            p.scene.settings.accel = Accel::Bvh;
+            for _ in 0..3 {
+                p.apply_key(KeyCode::KeyA, false, false, &mut prev, vendor);
+                seen.push(p.scene.settings.accel);
+            }
+        }
+        use Accel::{Brute, Bvh, Vendor};
+        assert_eq!(seen, [Brute, Bvh, Brute, Brute, Vendor, Bvh]);
+        // From the vendor's (a preset asked for it) the next is the BVH either way.
+        p.scene.settings.accel = Vendor;
+        p.apply_key(KeyCode::KeyA, false, false, &mut prev, false);
+        assert_eq!(p.scene.settings.accel, Bvh);
     }
 
     #[test]
     fn brute_force_cost_view_counts_triangles() {
         let mut p = params(|_| {});
         let mut prev = p.resolution;
-        p.apply_key(KeyCode::KeyC, false, false, &mut prev);
+        p.apply_key(KeyCode::KeyC, false, false, &mut prev, true);
         assert_eq!(p.view, ViewMode::Cost(CostMetric::Nodes));
-        p.apply_key(KeyCode::KeyA, false, false, &mut prev);
+        p.apply_key(KeyCode::KeyA, false, false, &mut prev, true);
         assert_eq!(
             p.view,
             ViewMode::Cost(CostMetric::Triangles),

@@ -31,6 +31,14 @@ impl RenderPanel {
             (self.status, self.status_accel) = (None, None);
         }
     }
+
+    /// The user chose an acceleration (the A key): a status written under one no longer
+    /// holds, even if the choice came back round to it before the panel showed.
+    pub(crate) fn accel_chosen(&mut self) {
+        if self.status_accel.is_some() {
+            (self.status, self.status_accel) = (None, None);
+        }
+    }
 }
 
 impl Section for RenderPanel {
@@ -337,5 +345,14 @@ mod tests {
         assert!(panel.status.is_some(), "still tracing with the BVH: the line holds");
         panel.forget_stale_status(Accel::Brute);
         assert!(panel.status.is_none() && panel.status_accel.is_none());
+        // A key's choice drops it at once, whatever it chose; other lines stay.
+        let line = Some(Status::error("vendor ray tracing: none here; tracing with the BVH"));
+        let mut panel =
+            RenderPanel { status: line, status_accel: Some(Accel::Bvh), ..Default::default() };
+        panel.accel_chosen();
+        assert!(panel.status.is_none() && panel.status_accel.is_none());
+        let mut panel = RenderPanel { status: Some(Status::error("other")), ..Default::default() };
+        panel.accel_chosen();
+        assert!(panel.status.is_some());
     }
 }

@@ -126,7 +126,15 @@ impl Tool {
 
     /// Act on a key press that egui did not want.
     pub(super) fn shortcut(&mut self, key: KeyPress) {
-        match self.params.apply_key(key.code, key.shift, key.ctrl, &mut self.previous_resolution) {
+        let (accel, vendor) =
+            (self.params.scene.settings.accel, self.gpu.tracer.vendor_kernel().is_ok());
+        let previous = &mut self.previous_resolution;
+        let action = self.params.apply_key(key.code, key.shift, key.ctrl, previous, vendor);
+        if self.params.scene.settings.accel != accel {
+            // A chose another: a line about the vendor's fallback to the BVH no longer holds.
+            self.ui.panel.render.accel_chosen();
+        }
+        match action {
             KeyAction::None => {}
             // A held key steps a parameter again and again; it does not repeat actions.
             _ if key.repeat => {}
