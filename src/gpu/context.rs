@@ -352,6 +352,9 @@ fn create_messenger(
     Ok((loader, messenger))
 }
 
+/// A physical device, the queue family picked on it and its index among the devices.
+type PickedDevice = (vk::PhysicalDevice, u32, usize);
+
 /// The surface (when a factory is given) and the physical device, queue family and device
 /// index picked to use it.
 fn surface_and_device(
@@ -359,7 +362,7 @@ fn surface_and_device(
     instance: &ash::Instance,
     device_index: Option<usize>,
     make_surface: Option<SurfaceFactory>,
-) -> Result<(Option<vk::SurfaceKHR>, (vk::PhysicalDevice, u32, usize)), GpuError> {
+) -> Result<(Option<vk::SurfaceKHR>, PickedDevice), GpuError> {
     let surface = match make_surface {
         Some(f) => Some(f(entry, instance)?),
         None => None,

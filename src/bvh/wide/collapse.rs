@@ -90,23 +90,27 @@ fn splice(
         let (triangle_out, more) = std::mem::take(&mut triangle_tail).split_at_mut(sub.order.len());
         (node_tail, triangle_tail) = (rest, more);
         // Local node i > 0 becomes node_start - 1 + i; the root goes to `index`.
-        let place = move |mut node: WideNode| {
-            if node.imask() != 0 {
-                node.child_base += node_start as u32 - 1;
-            }
-            node.triangle_base += triangle_start as u32;
-            node
-        };
-        head[index] = place(sub.nodes[0]);
-        work.push((sub, node_out, triangle_out, place));
+        let offsets = (node_start as u32 - 1, triangle_start as u32);
+        head[index] = placed(sub.nodes[0], offsets);
+        work.push((sub, node_out, triangle_out, offsets));
     }
-    work.into_par_iter().for_each(|(sub, node_out, triangle_out, place)| {
+    work.into_par_iter().for_each(|(sub, node_out, triangle_out, offsets)| {
         for (out, &node) in node_out.iter_mut().zip(&sub.nodes[1..]) {
-            *out = place(node);
+            *out = placed(node, offsets);
         }
         triangle_out.copy_from_slice(&sub.order);
     });
     (nodes, order)
+}
+
+/// A subtree's node moved to its place in the whole tree: its children by the subtree's node
+/// offset (when it has any), its triangles by the triangle offset.
+fn placed(mut node: WideNode, (node_offset, triangle_offset): (u32, u32)) -> WideNode {
+    if node.imask() != 0 {
+        node.child_base += node_offset;
+    }
+    node.triangle_base += triangle_offset;
+    node
 }
 
 struct Collapser<'a> {
