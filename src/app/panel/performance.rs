@@ -2,8 +2,8 @@
 //! read-outs, zoom and a selectable window), the numbers, and the frame-time log's
 //! Record / Stop.
 
-use egui::{Color32, RichText, Ui};
-use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
+use egui::{Color32, PointerButton, RichText, Ui};
+use egui_plot::{uniform_grid_spacer, Corner, GridMark, Legend, Line, Plot, PlotPoints};
 
 use crate::app::measure::frame_stats::{FrameStats, Series, HISTORY_SECONDS};
 use crate::app::panel::info::PanelInfo;
@@ -22,19 +22,29 @@ pub(crate) struct PerfPanel {
     pub(crate) seconds: f64,
     /// The frame-time log's last outcome (written, or failed).
     pub(crate) status: Option<Status>,
+    /// The graph shows the whole window again at its next draw (a window was chosen, or the
+    /// settings were reset), whatever zoom the user left it in.
+    reset_graph: bool,
 }
 
 impl Default for PerfPanel {
     fn default() -> Self {
-        Self { seconds: DEFAULT_WINDOW, status: None }
+        Self { seconds: DEFAULT_WINDOW, status: None, reset_graph: false }
     }
 }
 
 impl PerfPanel {
-    /// A window length from the remembered settings, if it is one the graph offers.
+    /// A window length from the remembered settings, if it is one the graph offers; the
+    /// graph leaves any zoom and shows that whole window.
     pub(crate) fn set_seconds(&mut self, seconds: Option<f64>) {
         self.seconds = seconds.filter(|s| WINDOWS.contains(s)).unwrap_or(DEFAULT_WINDOW);
+        self.reset_graph = true;
     }
+}
+
+/// The id of the graph's memory (its zoom), fixed so that tests can read it.
+pub(crate) fn graph_id() -> egui::Id {
+    egui::Id::new("meshtracer frame-time graph")
 }
 
 /// A time in ms in at most five characters below 100 s, to three or four significant
@@ -77,15 +87,16 @@ impl Section for PerfPanel {
 
     fn body(&mut self, ui: &mut Ui, cx: &mut Cx) {
         let (state, info, actions) = (self, cx.info, &mut *cx.actions);
-        frame_graph(ui, info.stats, state.seconds);
+        frame_graph(ui, info.stats, state.seconds, std::mem::take(&mut state.reset_graph));
         ui.horizontal(|ui| {
             ui.label(RichText::new("last").small());
             for s in WINDOWS {
-                ui.selectable_value(
-                    &mut state.seconds,
-                    s,
-                    RichText::new(format!("{s:.0} s")).small(),
-                );
+                let label = RichText::new(format!("{s:.0} s")).small();
+                // Even the window already shown: a click on it is how to leave a zoom.
+                if ui.selectable_label(state.seconds == s, label).clicked() {
+                    state.set_seconds(Some(s));
+                    ui.ctx().request_repaint();
+                }
             }
         });
         egui::Grid::new("times").num_columns(5).spacing([10.0, 2.0]).striped(true).show(ui, |ui| {
@@ -146,23 +157,30 @@ fn log_controls(ui: &mut Ui, state: &PerfPanel, info: &PanelInfo, actions: &mut 
     }
 }
 
-/// The last `seconds` of both series, seconds before now on x: the lines scroll, and a
-/// zoomed view (wheel with Ctrl, or a drag) stays on the same stretch before now until a
-/// double click returns to the whole window.
-fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64) {
+/// The last `seconds` of both series, seconds before now on x: the lines scroll. A drag
+/// across the graph zooms into the stretch it covers (Ctrl+wheel zooms too), and the zoom
+/// stays on that stretch before now until a double click, a window button or "Reset
+/// settings" (`reset`) shows the whole window again.
+fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64, reset: bool) {
     let now = stats.latest();
     let gpu: PlotPoints = stats.gpu.recent(seconds, now).collect();
     let frame: PlotPoints = stats.frame.recent(seconds, now).collect();
-    Plot::new("frame times")
+    let mut plot = Plot::new("frame times")
+        .id(graph_id())
         .height(120.0)
         .legend(Legend::default().position(Corner::LeftTop).background_alpha(0.6))
         .include_x(-seconds)
         .include_x(0.0)
         .include_y(0.0)
         .allow_scroll(false)
-        .y_axis_min_width(18.0)
+        .allow_drag(false)
+        .allow_boxed_zoom(true)
+        .boxed_zoom_pointer_button(PointerButton::Primary)
+        .allow_double_click_reset(true)
+        .y_axis_min_width(40.0)
+        .y_grid_spacer(uniform_grid_spacer(|input| y_steps(input.bounds)))
         .x_axis_formatter(|mark, _| format!("{:.0} s", mark.value))
-        .y_axis_formatter(|mark, _| format!("{:.0}", mark.value))
+        .y_axis_formatter(|mark, _| y_label(mark))
         .label_formatter(|pos| match pos {
             egui_plot::HoverPosition::NearDataPoint { plot_name, position, .. } => {
                 Some(format!("{plot_name}: {:.2} ms\n{:.1} s ago", position.y, -position.x))
@@ -170,16 +188,63 @@ fn frame_graph(ui: &mut Ui, stats: &FrameStats, seconds: f64) {
             egui_plot::HoverPosition::Elsewhere { position } => {
                 Some(format!("{:.1} ms", position.y))
             }
-        })
-        .show(ui, |plot| {
-            plot.line(Line::new("frame ms", frame).color(FRAME_COLOR).width(1.5));
-            plot.line(Line::new("GPU ms", gpu).color(GPU_COLOR).width(1.5));
         });
+    if reset {
+        plot = plot.reset();
+    }
+    plot.show(ui, |plot| {
+        plot.line(Line::new("frame ms", frame).color(FRAME_COLOR).width(1.5));
+        plot.line(Line::new("GPU ms", gpu).color(GPU_COLOR).width(1.5));
+    });
+}
+
+/// The y grid's three step sizes for the visible `bounds` (ms): the labelled one a 1, 2 or 5
+/// times a power of ten that puts four or five labels on the graph's 120 points (egui_plot's
+/// powers of ten alone labelled only "0" for 200-800 ms, the next label being 1000).
+fn y_steps(bounds: (f64, f64)) -> [f64; 3] {
+    let span = (bounds.1 - bounds.0).abs().max(1e-6);
+    let rough = span / 4.0;
+    let power = 10f64.powf(rough.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * power).find(|&s| s >= rough);
+    let step = step.unwrap_or(10.0 * power);
+    [step / 5.0, step, step * 10.0]
+}
+
+/// A y label in ms with as many decimals as its step needs: marks a step apart always
+/// read differently ("250 ms", "0.02 ms").
+fn y_label(mark: GridMark) -> String {
+    let decimals = (-mark.step_size.log10()).ceil().clamp(0.0, 6.0) as usize;
+    format!("{:.*} ms", decimals, mark.value)
 }
 
 #[cfg(test)]
 mod tests {
-    use super::ms_text;
+    use super::{ms_text, y_label, y_steps, GridMark};
+
+    /// The labels of the labelled (middle) step's marks within `bounds`.
+    fn labels(bounds: (f64, f64)) -> Vec<String> {
+        let step = y_steps(bounds)[1];
+        let first = (bounds.0 / step).ceil() as i64;
+        let last = (bounds.1 / step).floor() as i64;
+        (first..=last)
+            .map(|i| y_label(GridMark { value: i as f64 * step, step_size: step }))
+            .collect()
+    }
+
+    #[test]
+    fn the_y_axis_labels_frame_times_of_hundreds_of_ms_distinctly() {
+        // #43: 200-800 ms frames showed a single "0" on the y axis.
+        for bounds in [(0.0, 800.0), (200.0, 800.0), (0.0, 0.8), (0.0, 3.0), (0.0, 60_000.0)] {
+            let l = labels(bounds);
+            assert!(l.len() >= 3, "{bounds:?}: only {l:?}");
+            let mut unique = l.clone();
+            unique.dedup();
+            assert_eq!(unique, l, "{bounds:?}: labels repeat");
+            assert!(l.iter().all(|t| t.ends_with(" ms")), "{l:?}");
+        }
+        assert_eq!(labels((0.0, 800.0)), ["0 ms", "200 ms", "400 ms", "600 ms", "800 ms"]);
+        assert_eq!(labels((0.0, 0.8)), ["0.0 ms", "0.2 ms", "0.4 ms", "0.6 ms", "0.8 ms"]);
+    }
 
     #[test]
     fn times_keep_to_five_characters_below_a_hundred_seconds() {

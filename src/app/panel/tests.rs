@@ -208,3 +208,83 @@ fn a_load_shows_its_phases_and_cancels_from_the_panel() {
     h.run_steps(2); // the bar animates: it never settles
     assert!(h.state().actions.contains(&PanelAction::CancelLoad), "{:?}", h.state().actions);
 }
+
+// ---- #43 points 3, 9, 10: the graph's zoom, the panel's width, the numbers ----
+
+/// A fixture whose graph has 60 s of 200-800 ms frames.
+fn with_slow_frames() -> Fixture {
+    let mut fixture = Fixture::new(VendorInfo::default());
+    for i in 0..120 {
+        let t = i as f64 * 0.5;
+        fixture.stats.push_frame(t, 200.0 + (i % 7) as f64 * 100.0);
+    }
+    fixture
+}
+
+/// The x range the graph shows now.
+fn graph_x(h: &Harness<'_, Fixture>) -> [f64; 2] {
+    let memory = egui_plot::PlotMemory::load(&h.ctx, super::performance::graph_id())
+        .expect("the graph was drawn");
+    [memory.bounds().min()[0], memory.bounds().max()[0]]
+}
+
+/// Zoom the graph into 2-1 s ago, as a drag across it leaves it.
+fn zoom_graph(h: &mut Harness<'_, Fixture>) {
+    let id = super::performance::graph_id();
+    let mut memory = egui_plot::PlotMemory::load(&h.ctx, id).expect("the graph was drawn");
+    memory.auto_bounds = false.into();
+    memory.set_bounds(egui_plot::PlotBounds::from_min_max([-2.0, 0.0], [-1.0, 900.0]));
+    memory.store(&h.ctx, id);
+    h.run();
+    let [min, max] = graph_x(h);
+    assert!(min >= -2.01 && max <= -0.99, "the zoom holds: {min}..{max}");
+}
+
+#[test]
+fn choosing_a_window_after_a_zoom_shows_that_whole_window() {
+    // #43: after "10 s" the graph kept the zoomed range and was empty.
+    let mut h = harness(Vec2::new(1280.0, 2400.0), with_slow_frames());
+    h.run();
+    for (button, seconds) in [("10 s", 10.0), ("30 s", 30.0), ("10 s", 10.0)] {
+        zoom_graph(&mut h);
+        h.get_by_label(button).click();
+        h.run();
+        let [min, max] = graph_x(&h);
+        assert!(min <= -seconds && max >= 0.0, "{button}: the graph shows {min}..{max}");
+        assert!(min >= -seconds * 1.2, "{button}: the graph shows {min}..{max}");
+    }
+}
+
+#[test]
+fn a_double_click_and_reset_settings_leave_the_zoom() {
+    // #43: neither a double click nor "Reset settings" brought the graph back.
+    let mut h = harness(Vec2::new(1280.0, 2400.0), with_slow_frames());
+    h.run();
+    zoom_graph(&mut h);
+    // The middle of the graph, which sits above its window buttons.
+    let below = h.get_by_label("10 s").rect();
+    let graph = egui::pos2(below.center().x, below.top() - 50.0);
+    h.hover_at(graph);
+    // The harness's passes are 0.25 s apart: two clicks one pass apart each are a double
+    // click once the delay allows a second.
+    h.ctx.options_mut(|o| o.input_options.max_double_click_delay = 1.0);
+    for pressed in [true, false, true, false] {
+        h.event(egui::Event::PointerButton {
+            pos: graph,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: Default::default(),
+        });
+        h.step();
+    }
+    h.run();
+    let [min, max] = graph_x(&h);
+    assert!(min <= -10.0 && max >= 0.0, "double click: the graph shows {min}..{max}");
+
+    zoom_graph(&mut h);
+    let ctx = h.ctx.clone();
+    super::remembered::reset(&mut h.state_mut().panel, &ctx);
+    h.run();
+    let [min, max] = graph_x(&h);
+    assert!(min <= -10.0 && max >= 0.0, "Reset settings: the graph shows {min}..{max}");
+}
