@@ -123,3 +123,32 @@ fn a_banded_brute_force_frame_equals_the_unbanded_one() {
     drop(tracer);
     assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
 }
+
+/// Issue #43: after a resize, the rows a long frame's bands have not reached yet are the
+/// background (opaque black, float zeros), not what the memory held: here the previous
+/// frame, whose buffers of the same size the allocator hands out again.
+#[test]
+fn rows_not_yet_traced_after_a_resize_are_cleared() {
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let (scene, _) = SceneSpec::default().load().unwrap();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(&scene)).unwrap();
+    let frame = |width, height| {
+        let settings = RenderSettings { width, height, ..Default::default() };
+        FrameTrace::whole(FrameParams::new(&scene, settings))
+    };
+    tracer.trace_frame(&frame(64, 40)).unwrap();
+    let (width, height) = (40, 64);
+    tracer.set_resolution(width, height).unwrap();
+    let traced = GROUP.height * 2;
+    tracer.trace_band(&frame(width, height), &Band::rows(0..traced, width)).unwrap();
+    let rgba = tracer.read_rgba8().unwrap();
+    let float = tracer.read_image().unwrap();
+    let start = (traced * width) as usize;
+    let black = super::super::trace_pass::CLEAR_RGBA8.to_le_bytes();
+    assert!(rgba.pixels().skip(start).all(|p| p.0 == black), "colour not yet traced is black");
+    assert!(float.pixels[start..].iter().all(|p| *p == [0.0; 4]), "float not yet traced is 0");
+    assert!(rgba.pixels().take(start).any(|p| p.0 != black), "the band was traced");
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}

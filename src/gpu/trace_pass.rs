@@ -226,19 +226,42 @@ impl TraceOutput {
                 limit,
             });
         }
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_SRC
+            | vk::BufferUsageFlags::TRANSFER_DST;
         let loc = gpu_allocator::MemoryLocation::GpuOnly;
         let tiles = TileSchedule::new(ctx, width, height, slots)?;
-        Ok(Self {
+        let output = Self {
             width,
             height,
             rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
             float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
             prim_ids: GpuBuffer::new(ctx, pixels * 4, usage, loc, "primary ids")?,
             tiles: Mutex::new(tiles),
+        };
+        output.clear(ctx)?;
+        Ok(output)
+    }
+
+    /// Fill the colour output with opaque black and the float output with zeros: a long
+    /// frame's bands not yet traced after a resize show the background, never what the
+    /// memory held before (issue #43: random colours for most of a minute).
+    fn clear(&self, ctx: &GpuContext) -> Result<(), GpuError> {
+        let device = &ctx.device;
+        ctx.one_shot(|cmd| {
+            // SAFETY: `cmd` is recording; the buffers are alive until one_shot has waited.
+            unsafe {
+                device.cmd_fill_buffer(cmd, self.rgba8.buffer, 0, vk::WHOLE_SIZE, CLEAR_RGBA8);
+                device.cmd_fill_buffer(cmd, self.float.buffer, 0, vk::WHOLE_SIZE, 0);
+            }
+            let after = [Access::ComputeWrite, Access::TransferRead];
+            barrier::buffers(device, cmd, &[Access::TransferWrite], &after);
         })
     }
 }
+
+/// A pixel of the colour output before it is traced: opaque black (bytes 0, 0, 0, 255).
+pub(crate) const CLEAR_RGBA8: u32 = u32::from_le_bytes([0, 0, 0, 255]);
 
 /// The compute pipeline and its one descriptor set.
 pub(crate) struct TracePass {
