@@ -146,6 +146,7 @@ impl Tool {
         if let Some(path) = &options.preset {
             panel.presets.used(path);
         }
+        session.loader.set_storage_limit(trace_ctx.info.max_storage_buffer_range);
         session.start_load(options.spec.model.clone(), &mut params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow {
             Resolution::Square(512)

@@ -7,10 +7,13 @@
 use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 
+use crate::gpu::scene_buffers::check_triangle_count;
 use crate::progress::{Progress, Snapshot};
+use crate::scene::formats::load_model;
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::loaded::LoadedScene;
+use crate::tracer::packed::Layouts;
 
 /// A loaded model, ready to upload.
 pub(crate) struct LoadedModel {
@@ -35,6 +38,9 @@ pub(crate) enum Poll {
 #[derive(Default)]
 pub(crate) struct ModelLoader {
     job: Option<Job>,
+    /// The tracing device's storage-buffer limit in bytes: a model whose triangles pass it
+    /// is refused before its BVH is built.
+    storage_limit: Option<u64>,
 }
 
 struct Job {
@@ -57,13 +63,14 @@ impl ModelLoader {
     /// its result dropped).
     pub(crate) fn start(&mut self, spec: SceneSpec) {
         self.cancel();
+        let limit = self.storage_limit;
         let (tx, rx) = channel();
         let label = spec.model.label();
         let progress = Progress::default();
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
             let progress = progress.clone();
             move || {
-                let result = load(spec, progress);
+                let result = load(spec, progress, limit);
                 // The receiver is gone when the load was cancelled: nothing to tell.
                 let _ = tx.send(result);
             }
@@ -77,6 +84,12 @@ impl ModelLoader {
                 self.job = Some(Job { label, progress, rx });
             }
         }
+    }
+
+    /// Refuse models whose triangle buffer would pass `limit` bytes (the tracing device's
+    /// storage-buffer range) before building them.
+    pub(crate) fn set_storage_limit(&mut self, limit: u64) {
+        self.storage_limit = Some(limit);
     }
 
     /// Stop the running load, if any: the old model stays. Returns the cancelled model's label.
@@ -121,10 +134,19 @@ impl ModelLoader {
     }
 }
 
-/// The worker's part: read and parse (or generate), build, pack; stops between phases
-/// when cancelled.
-fn load(spec: SceneSpec, progress: Progress) -> Result<LoadedModel, String> {
-    let scene = LoadedScene::load(&spec, &progress).map_err(|e| e.to_string())?;
+/// The worker's part: read and parse (or generate), check the triangles against `limit`
+/// (the device's storage-buffer range), build, pack; stops between phases when cancelled.
+fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<LoadedModel, String> {
+    let model =
+        load_model(&spec.model, &spec.load_options, Some(&progress)).map_err(|e| e.to_string())?;
+    let world = spec.scene_with(model.mesh);
+    if let Some(limit) = limit {
+        let triangles = world.meshes.iter().map(|m| m.triangle_count() as u64).sum();
+        check_triangle_count(triangles, limit).map_err(|e| e.to_string())?;
+    }
+    let layouts = Layouts::switchable(spec.settings.bvh);
+    let mut scene = LoadedScene::pack(world, layouts, &progress).map_err(|e| e.to_string())?;
+    scene.warnings.splice(0..0, model.warnings);
     progress.checkpoint().map_err(|e| e.to_string())?;
     // The loader's and the packing's warnings (textures that could not be read) are shown in
     // the panel, and each is printed once on the terminal.
@@ -177,7 +199,8 @@ mod tests {
         // The worker checks the flag before each phase.
         let progress = Progress::default();
         progress.cancel();
-        let err = load(spec(ModelSource::Generated(2_000), 1), progress.clone()).err().unwrap();
+        let err =
+            load(spec(ModelSource::Generated(2_000), 1), progress.clone(), None).err().unwrap();
         assert_eq!(err, "loading was cancelled");
         assert!(progress.snapshot().phases.is_empty());
     }
@@ -192,5 +215,40 @@ mod tests {
         let phases: Vec<Phase> =
             result.unwrap().progress.snapshot().phases.iter().map(|p| p.phase).collect();
         assert_eq!(phases, [Phase::Parse, Phase::Build, Phase::Pack]);
+    }
+
+    /// Issue #43: a model whose triangle buffer passes the device's storage-buffer limit is
+    /// refused with the upload's message before its BVH is built (no build phase begins).
+    #[test]
+    fn a_model_past_the_storage_limit_is_refused_before_its_build() {
+        let item = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as u64;
+        assert!(check_triangle_count(1000, 1000 * item + 48).is_ok());
+        let err = check_triangle_count(1001, 1000 * item + 48).unwrap_err().to_string();
+        assert_eq!(
+            err,
+            format!(
+                "the scene does not fit this GPU: the triangle buffer needs {} bytes but the \
+                 device allows {} per storage buffer",
+                1001 * item + 48,
+                1000 * item + 48
+            )
+        );
+        // 4M triangles on lavapipe's 128 MiB: the issue's numbers.
+        let err = check_triangle_count(4_000_012, 134_217_728).unwrap_err().to_string();
+        assert!(err.contains("needs 160000528 bytes but the device allows 134217728"), "{err}");
+
+        let progress = Progress::default();
+        let knot = spec(ModelSource::Generated(2_000), 1);
+        let err = load(knot.clone(), progress.clone(), Some(2_000 * item)).err().unwrap();
+        assert!(err.contains("the triangle buffer needs"), "{err}");
+        let phases: Vec<Phase> = progress.snapshot().phases.iter().map(|p| p.phase).collect();
+        assert_eq!(phases, [Phase::Parse], "refused before the build");
+        assert!(load(knot, Progress::default(), Some(1 << 30)).is_ok());
+
+        let mut loader = ModelLoader::default();
+        loader.set_storage_limit(2_000 * item);
+        loader.start(spec(ModelSource::Generated(2_000), 1));
+        let Poll::Done(result) = loader.wait() else { panic!("no result") };
+        assert!(result.err().unwrap().contains("the triangle buffer needs"));
     }
 }
