@@ -61,12 +61,27 @@ fn a_png_text_bomb_as_preset_is_refused_without_inflating_it() {
     let png = png_with_compressed_settings(64 << 20);
     assert!(png.len() < 1 << 20, "the bomb is small: {} bytes", png.len());
     std::fs::write(dir.join("bomb.png"), png).unwrap();
-    let out = run_in(&dir.0, &["render", "--preset", "bomb.png", "-o", "x.png"]);
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.starts_with("error: preset bomb.png: not a readable PNG"), "{err}");
-    assert!(!dir.join("x.png").exists());
+    // A text just over the bound says the same (it said "Out of decompression space. Try
+    // with a larger limit."), and so does one stored uncompressed.
+    std::fs::write(dir.join("over.png"), png_with_compressed_settings((1 << 20) + 1)).unwrap();
+    let mut plain = Vec::new();
+    let mut encoder = png::Encoder::new(&mut plain, 1, 1);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.add_text_chunk("meshtracer".into(), " ".repeat((1 << 20) + 1)).unwrap();
+    let mut writer = encoder.write_header().unwrap();
+    writer.write_image_data(&[0, 0, 0, 255]).unwrap();
+    writer.finish().unwrap();
+    std::fs::write(dir.join("plain.png"), plain).unwrap();
+    for name in ["bomb.png", "over.png", "plain.png"] {
+        let out = run_in(&dir.0, &["render", "--preset", name, "-o", "x.png"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert_eq!(
+            err.trim(),
+            format!("error: preset {name}: the preset text in the PNG is over the limit of 1048576 bytes (a preset is a page of text)")
+        );
+        assert!(!dir.join("x.png").exists());
+    }
 }
 
 #[test]
@@ -217,6 +232,26 @@ fn a_fifo_as_output_is_refused_before_loading_and_never_opened() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert_eq!(err.trim(), "error: cannot write fifo.png: it is not a regular file");
     assert_eq!(dir.names(), ["fifo.png"], "nothing is left beside it");
+}
+
+#[test]
+fn a_fifo_as_texture_is_named_as_not_a_regular_file() {
+    let dir = Scratch::new("fifo-texture");
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n";
+    std::fs::write(dir.join("m.obj"), obj).unwrap();
+    std::fs::write(dir.join("m.mtl"), "newmtl a\nKd 1 1 1\nmap_Kd tex.png\n").unwrap();
+    assert!(Command::new("mkfifo").arg(dir.join("tex.png")).status().unwrap().success());
+    // It was "not found", as if the name were wrong; it is never opened.
+    let out = run_in(
+        &dir.0,
+        &["render", "--cpu", "--model", "m.obj", "--width", "8", "--height", "8", "-o", "x.png"],
+    );
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(
+        err.trim(),
+        "warning: cannot read texture tex.png: not a regular file; using the material's Kd instead"
+    );
 }
 
 #[test]

@@ -405,12 +405,19 @@ fn broken_ply_files_are_one_line_naming_the_file() {
         (
             "range.ply",
             ascii.replace("7 3 3 2 4", "7 3 3 2 99").into_bytes(),
-            "face vertex index 99 is out of range (the file has 7 vertices)",
+            ": vertex index 99 is out of range (the file has 7 vertices)",
         ),
         (
             "corners.ply",
-            ascii.replace("7 3 3 2 4", "7 2 3 2 4").into_bytes(),
-            "a face has 2 corners; at least 3 are needed",
+            ascii.replace("7 3 3 2 4", "7 2 3 2").into_bytes(),
+            ": it has 2 corners; at least 3 are needed",
+        ),
+        // Values past the face's list (it said "a face has 0 corners" of a later line):
+        // the line of the face whose count is wrong, and what is left on it.
+        (
+            "extra.ply",
+            ascii.replace("7 3 3 2 4", "7 3 3 2 4 7 7 7").into_bytes(),
+            ": its vertex count says 3 but the line holds more values (`7 7 7`)",
         ),
         ("cut.ply", little[..little.len() - 9].to_vec(), "cut short"),
         ("notply.ply", b"solid cube\nfacet normal 0 0 1\n".to_vec(), "not a PLY file"),
@@ -424,7 +431,7 @@ fn broken_ply_files_are_one_line_naming_the_file() {
     bad_index[at..at + 4].copy_from_slice(&1000u32.to_le_bytes());
     assert_one_line_error(
         &dir.write("index.ply", bad_index),
-        "face 3: face vertex index 1000 is out of range",
+        "face 3: vertex index 1000 is out of range",
     );
 }
 

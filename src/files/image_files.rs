@@ -136,37 +136,59 @@ pub(crate) const MAX_SETTINGS_TEXT: usize = 1 << 20;
 const PNG_READ_LIMIT: usize = (MAX_RESOLUTION as usize).pow(2) * 4 + (16 << 20);
 
 /// The settings text a PNG carries (its `meshtracer` tEXt, zTXt or iTXt chunk); None for a
-/// PNG without one. The error is the decoder's, for bytes that are not a PNG, for an image
-/// bigger than any we write, or for a settings text over [`MAX_SETTINGS_TEXT`].
-pub fn png_settings(bytes: &[u8]) -> Result<Option<String>, png::DecodingError> {
+/// PNG without one. The error says why, as words that follow "preset NAME: ": the bytes
+/// are not a PNG, the image is bigger than any we write, or the settings text is over
+/// [`MAX_SETTINGS_TEXT`].
+pub fn png_settings(bytes: &[u8]) -> Result<Option<String>, String> {
+    let not_a_png = |e: png::DecodingError| format!("not a readable PNG: {e}");
     let mut reader = png::Decoder::new_with_limits(
         std::io::Cursor::new(bytes),
         png::Limits { bytes: PNG_READ_LIMIT },
     )
-    .read_info()?;
+    .read_info()
+    .map_err(not_a_png)?;
     // Text chunks may also follow the image data: read it all.
     let size = reader
         .output_buffer_size()
         .filter(|&n| n <= PNG_READ_LIMIT)
-        .ok_or(png::DecodingError::LimitsExceeded)?;
+        .ok_or(png::DecodingError::LimitsExceeded)
+        .map_err(not_a_png)?;
     let mut buffer = vec![0; size];
-    reader.next_frame(&mut buffer)?;
-    reader.finish()?;
+    reader.next_frame(&mut buffer).map_err(not_a_png)?;
+    reader.finish().map_err(not_a_png)?;
     let info = reader.info();
+    let too_long = || {
+        format!(
+            "the preset text in the PNG is over the limit of {MAX_SETTINGS_TEXT} bytes (a preset is a page of text)"
+        )
+    };
     // Decompressed with a bound: `get_text` alone would inflate whatever the chunk claims.
-    if let Some(c) = info.utf8_text.iter().find(|c| c.keyword == SETTINGS_KEYWORD) {
+    // png names going past the bound only in its error's Debug text ("Out of decompression
+    // space" otherwise); a test holds the two together.
+    let decompressed = |e: png::DecodingError| {
+        if format!("{e:?}").contains("OutOfDecompressionSpace") {
+            too_long()
+        } else {
+            format!("its preset text cannot be decompressed: {e}")
+        }
+    };
+    let text = if let Some(c) = info.utf8_text.iter().find(|c| c.keyword == SETTINGS_KEYWORD) {
         let mut c = c.clone();
-        c.decompress_text_with_limit(MAX_SETTINGS_TEXT)?;
-        return c.get_text().map(Some);
-    }
-    if let Some(c) = info.compressed_latin1_text.iter().find(|c| c.keyword == SETTINGS_KEYWORD) {
+        c.decompress_text_with_limit(MAX_SETTINGS_TEXT).map_err(decompressed)?;
+        Some(c.get_text().map_err(decompressed)?)
+    } else if let Some(c) =
+        info.compressed_latin1_text.iter().find(|c| c.keyword == SETTINGS_KEYWORD)
+    {
         let mut c = c.clone();
-        c.decompress_text_with_limit(MAX_SETTINGS_TEXT)?;
-        return c.get_text().map(Some);
+        c.decompress_text_with_limit(MAX_SETTINGS_TEXT).map_err(decompressed)?;
+        Some(c.get_text().map_err(decompressed)?)
+    } else {
+        let chunks = &info.uncompressed_latin1_text;
+        chunks.iter().find(|c| c.keyword == SETTINGS_KEYWORD).map(|c| c.text.clone())
+    };
+    // An uncompressed chunk has no bound of its own.
+    match text {
+        Some(text) if text.len() > MAX_SETTINGS_TEXT => Err(too_long()),
+        text => Ok(text),
     }
-    Ok(info
-        .uncompressed_latin1_text
-        .iter()
-        .find(|c| c.keyword == SETTINGS_KEYWORD)
-        .map(|c| c.text.clone()))
 }

@@ -11,14 +11,20 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use serde::de::Error as _;
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use super::obj::LoadOptions;
 use super::paper::{LightOrbit, ModelSource};
 use super::spec::{CameraSpec, SceneSpec};
 use super::EnvironmentSource;
-use crate::render_settings::{self as knobs, Accel, Aov, BvhLayout, RenderSettings};
+use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
+use fields::{
+    de_accumulate, de_ao_radius, de_ao_samples, de_blend, de_bounces, de_copies, de_crease_angle,
+    de_env, de_finite, de_fov, de_from_str, de_light_height, de_light_radius, de_model, de_point,
+    de_side, de_spp, de_version, is_one, ser_display, ser_env, ser_model,
+};
+
+mod fields;
 
 /// The format version this build writes and reads (`version = 1`).
 pub(crate) const VERSION: u32 = 1;
@@ -233,169 +239,6 @@ macro_rules! default_from_file {
 }
 default_from_file!(model: ModelPart, image: ImagePart, tracing: TracingPart, shading: ShadingPart, light: LightPart, camera: CameraPart);
 
-fn ser_model<S: Serializer>(m: &ModelSource, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(&model_arg(m))
-}
-
-fn ser_env<S: Serializer>(e: &Option<EnvironmentSource>, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(&env_arg(e))
-}
-
-fn ser_display<T: std::fmt::Display, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(v.to_string().trim())
-}
-
-fn de_from_str<'de, T: std::str::FromStr<Err = String>, D: Deserializer<'de>>(
-    d: D,
-) -> Result<T, D::Error> {
-    String::deserialize(d)?.parse().map_err(D::Error::custom)
-}
-
-fn de_model<'de, D: Deserializer<'de>>(d: D) -> Result<ModelSource, D::Error> {
-    let text = String::deserialize(d)?;
-    if text.trim().is_empty() {
-        return Err(D::Error::custom("no model given (a model name, torusknot:N or an .obj path)"));
-    }
-    let model = ModelSource::parse(text.trim());
-    model.check_name().map_err(D::Error::custom)?;
-    Ok(model)
-}
-
-fn de_env<'de, D: Deserializer<'de>>(d: D) -> Result<Option<EnvironmentSource>, D::Error> {
-    let text = String::deserialize(d)?;
-    if text.trim().is_empty() {
-        return Err(D::Error::custom("no environment given (none, sky or an image path)"));
-    }
-    Ok(EnvironmentSource::parse(text.trim()))
-}
-
-fn de_in_range<'de, D: Deserializer<'de>>(d: D, range: knobs::Range) -> Result<u32, D::Error> {
-    let n = i64::deserialize(d)?;
-    range.check(n as f64, n).map_err(D::Error::custom)?;
-    Ok(n as u32)
-}
-
-fn de_finite_in<'de, D: Deserializer<'de>>(d: D, range: knobs::Range) -> Result<f32, D::Error> {
-    let v = f64::deserialize(d)?;
-    if !v.is_finite() {
-        return Err(D::Error::custom(format!("{v} is not a finite number")));
-    }
-    // In range before narrowing: 1e308 is out of range, not "inf".
-    range.check(v, number_text(v)).map_err(D::Error::custom)?;
-    Ok(v as f32)
-}
-
-fn de_light_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    de_finite_in(d, knobs::LIGHT_RADIUS)
-}
-
-fn de_light_height<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    de_finite_in(d, knobs::LIGHT_HEIGHT)
-}
-
-fn de_version<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    let v = i64::deserialize(d)?;
-    if v == VERSION as i64 {
-        Ok(VERSION)
-    } else {
-        Err(D::Error::custom(format!(
-            "format version {v} is not one this meshtracer reads (it reads version {VERSION})"
-        )))
-    }
-}
-
-fn de_copies<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::MODELS)
-}
-
-fn de_side<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::RESOLUTION)
-}
-
-fn de_bounces<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::BOUNCES)
-}
-
-fn is_one(n: &u32) -> bool {
-    *n == 1
-}
-
-fn de_accumulate<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::ACCUMULATE)
-}
-
-fn de_spp<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::SPP)
-}
-
-fn de_ao_samples<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
-    de_in_range(d, knobs::AO_SAMPLES)
-}
-
-fn de_ao_radius<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    de_finite_in(d, knobs::AO_RADIUS)
-}
-
-fn de_crease_angle<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f32>, D::Error> {
-    de_finite_in(d, knobs::CREASE_ANGLE_DEGREES).map(Some)
-}
-
-fn de_finite<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    let v = f64::deserialize(d)?;
-    let narrow = v as f32;
-    if !v.is_finite() {
-        Err(D::Error::custom(format!("{v} is not a finite number")))
-    } else if !narrow.is_finite() {
-        Err(D::Error::custom(format!("{} is too large (at most about 3.4e38)", number_text(v))))
-    } else {
-        Ok(narrow)
-    }
-}
-
-/// A number as a message shows it: 1e308 as "1e308", not three hundred digits.
-fn number_text(v: f64) -> String {
-    if v.abs() >= 1e9 {
-        format!("{v:e}")
-    } else {
-        v.to_string()
-    }
-}
-
-fn de_blend<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    de_finite_in(d, knobs::BLEND)
-}
-
-fn de_fov<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-    de_finite_in(d, knobs::FOV_DEGREES)
-}
-
-fn de_point<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
-    let v = Vec::<f32>::deserialize(d)?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        [_, _, _] => Err(D::Error::custom("the coordinates must be finite numbers")),
-        _ => Err(D::Error::custom(format!("expected [x, y, z], got {} number(s)", v.len()))),
-    }
-}
-
-/// The `--model` spelling of a model source (what [`ModelSource::parse`] reads back).
-fn model_arg(model: &ModelSource) -> String {
-    match model {
-        ModelSource::Paper(m) => m.name().to_string(),
-        ModelSource::Generated(n) => format!("torusknot:{n}"),
-        ModelSource::File(p) => p.display().to_string(),
-    }
-}
-
-/// The `--env` spelling of an environment (what [`EnvironmentSource::parse`] reads back).
-fn env_arg(env: &Option<EnvironmentSource>) -> String {
-    match env {
-        None => "none".into(),
-        Some(EnvironmentSource::Sky) => "sky".into(),
-        Some(EnvironmentSource::File(p)) => p.display().to_string(),
-    }
-}
-
 /// A preset that cannot be read: where (line from 1, dotted key) and what is wrong.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PresetError {
@@ -574,7 +417,7 @@ pub fn read(path: &Path) -> Result<Loaded, String> {
         match crate::files::image_files::png_settings(&bytes) {
             Ok(Some(text)) => text,
             Ok(None) => return Err(format!("preset {shown}: the PNG has no meshtracer settings (only PNGs this program wrote carry them)")),
-            Err(e) => return Err(format!("preset {shown}: not a readable PNG: {e}")),
+            Err(e) => return Err(format!("preset {shown}: {e}")),
         }
     } else {
         String::from_utf8(bytes)

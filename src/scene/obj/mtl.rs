@@ -129,14 +129,17 @@ fn split_escaped(text: &str) -> Vec<String> {
     words
 }
 
-/// `dir/spelled` if it is a file, also reading `\` as a path separator (files exported on Windows).
+/// `dir/spelled` if it exists and is not a folder, also reading `\` as a path separator
+/// (files exported on Windows). A FIFO or a device is found, so that its reader says it is
+/// not a regular file rather than this saying "not found".
 fn find_file(dir: &Path, spelled: &str) -> Option<PathBuf> {
+    let found = |p: &Path| p.exists() && !p.is_dir();
     let direct = dir.join(spelled);
-    if direct.is_file() {
+    if found(&direct) {
         return Some(direct);
     }
     let slashed = dir.join(spelled.replace('\\', "/"));
-    slashed.is_file().then_some(slashed)
+    found(&slashed).then_some(slashed)
 }
 
 /// Make colour lines safe for tobj, which panics on a `Kd` with fewer than three values

@@ -76,6 +76,17 @@ impl Body<'_> {
         }
     }
 
+    /// In ASCII, the values left on the line the last value was read from (None when there
+    /// are none, and always in binary). Each element is a line: values left over mean its
+    /// list's count is wrong, and reading on would take them for the next element's.
+    fn rest_of_line(&self) -> Option<&str> {
+        let Body::Ascii { text, pos, .. } = self else { return None };
+        let rest = &text[*pos..];
+        let rest = &rest[..rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len())];
+        let rest = std::str::from_utf8(rest).unwrap_or("?").trim();
+        (!rest.is_empty()).then_some(rest)
+    }
+
     /// Where the reader is, for a message about element `index` of `element`.
     pub(super) fn location(&self, element: &str, index: u64) -> Location {
         match self {
@@ -258,15 +269,21 @@ fn read_faces(
             })
             .map_err(|r| (body.location("face", i), r))?;
         }
-        let at = || body.location("face", i);
+        // A binary file's location names the face already; an ASCII line is given it.
+        let fail = |reason: String| match body.location("face", i) {
+            Location::Line(line) => (Location::Line(line), format!("face {i}: {reason}")),
+            other => (other, reason),
+        };
+        if let Some(rest) = body.rest_of_line() {
+            return Err(fail(format!("its vertex count says {} but the line holds more values ({}); a face is one line: its count, its indices and its other properties", corners.len(), quote(rest))));
+        }
         if corners.len() < 3 {
-            return Err((
-                at(),
-                format!("a face has {} corners; at least 3 are needed", corners.len()),
-            ));
+            return Err(fail(format!("it has {} corners; at least 3 are needed", corners.len())));
         }
         if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
-            return Err((at(), format!("face vertex index {bad} is out of range (the file has {vertex_count} vertices)")));
+            return Err(fail(format!(
+                "vertex index {bad} is out of range (the file has {vertex_count} vertices)"
+            )));
         }
         let c = |k: usize| corners[k] as u32;
         match corners.len() {

@@ -376,9 +376,13 @@ mod tests {
         for (text, expected) in [
             (
                 format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"),
-                "t.ply line 13: face vertex index 7 is out of range",
+                "t.ply line 13: face 0: vertex index 7 is out of range",
             ),
-            (format!("{head}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "t.ply line 13: a face has 2 corners"),
+            (format!("{head}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "t.ply line 13: face 0: it has 2 corners"),
+            (
+                format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 2 7 7 7\n"),
+                "t.ply line 13: face 0: its vertex count says 3 but the line holds more values (`7 7 7`)",
+            ),
             (format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "t.ply line 13: the file ends here"),
             (head.replace("ascii", "utf16"), "t.ply line 2: unknown format `utf16`"),
             (head.replace("float x", "half x"), "t.ply line 4: unknown property type `half`"),
