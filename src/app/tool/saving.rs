@@ -16,22 +16,26 @@ use crate::app::panel::widgets::Status;
 use crate::app::tool::Tool;
 use crate::app::user_files::screenshot::{self, Kind, NameParts};
 use crate::app::views::overlay::Notice;
+use crate::render_settings::{BvhLayout, ACCUMULATE};
 use crate::scene::preset::{self, Loaded, SaveError};
+use crate::scene::spec::SceneSpec;
 
 impl Tool {
-    /// The preset of the traced image, for the screenshots' text chunk: with the frames
-    /// accumulated into it, so that `render --preset shot.png` traces the same image (a
-    /// saved preset leaves them out: they say how long the view was still, not its look).
+    /// The preset of the image seen, for a saved preset and the screenshots' text chunk
+    /// alike: with the frames accumulated into it, so that `render --preset` of either
+    /// traces the same image, and no layout named while the window picks it (auto).
+    fn preset_spec(&self) -> SceneSpec {
+        preset_of(self.scene_spec(), self.session.accumulation.frames, self.params.bvh_auto)
+    }
+
+    /// The preset text of [`Self::preset_spec`].
     pub(super) fn settings_text(&self) -> String {
-        let mut spec = self.scene_spec();
-        spec.accumulate =
-            self.session.accumulation.frames.clamp(1, crate::render_settings::ACCUMULATE.hi as u32);
-        spec.to_preset_text()
+        self.preset_spec().to_preset_text()
     }
 
     /// Save the look as a preset; an existing file is replaced only once the user agreed.
     pub(super) fn save_preset(&mut self, path: &Path, overwrite: bool) {
-        let result = preset::save(&self.scene_spec(), path, overwrite);
+        let result = preset::save(&self.preset_spec(), path, overwrite);
         let presets = &mut self.ui.panel.presets;
         presets.warnings.clear();
         match result {
@@ -214,5 +218,45 @@ impl Tool {
                 self.notice_screenshot();
             }
         }
+    }
+}
+
+/// What a preset saves of the window's `spec`: the `frames` accumulated into the image, and,
+/// while the layout is `auto`, the binary layout a preset leaves unnamed (the window loading
+/// it keeps measuring; a named wide layout would pin it).
+fn preset_of(mut spec: SceneSpec, frames: u32, auto: bool) -> SceneSpec {
+    spec.accumulate = frames.clamp(1, ACCUMULATE.hi as u32);
+    if auto {
+        spec.settings.bvh = BvhLayout::Binary;
+    }
+    spec
+}
+
+#[cfg(test)]
+mod tests {
+    use super::preset_of;
+    use crate::app::state::Params;
+    use crate::render_settings::BvhLayout;
+    use crate::scene::preset;
+    use crate::scene::spec::SceneSpec;
+
+    #[test]
+    fn a_saved_preset_keeps_the_accumulated_frames_and_the_auto_layout() {
+        // #43: a TOML preset saved from the window left out `accumulate` (the PNG's had it)
+        // and pinned `wide` while the layout was auto.
+        let mut window = SceneSpec::default();
+        window.settings.bvh = BvhLayout::Wide; // what auto measured
+        let text = preset_of(window.clone(), 16, true).to_preset_text();
+        let (read, unknown) = preset::from_text(&text).expect("the saved preset reads back");
+        assert!(unknown.is_empty(), "{unknown:?}");
+        assert_eq!(read.accumulate, 16, "{text}");
+        let mut params = Params::new(&SceneSpec::default(), false);
+        params.bvh_auto = true;
+        params.apply_preset(&read);
+        assert!(params.bvh_auto, "the preset keeps the window measuring: {text}");
+
+        let pinned = preset_of(window, 1, false).to_preset_text();
+        let (read, _) = preset::from_text(&pinned).expect("the saved preset reads back");
+        assert_eq!(read.settings.bvh, BvhLayout::Wide, "a chosen layout is kept: {pinned}");
     }
 }
