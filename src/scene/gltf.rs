@@ -8,24 +8,18 @@
 //! every accessor's range inside its buffer view and buffer, before a value is read. So a
 //! broken file is one line naming it, never a panic or an allocation the file cannot back.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use ::gltf::accessor::{DataType, Dimensions};
-use ::gltf::{buffer, image, mesh::Mode, Accessor, Document, Node, Semantic};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use ::gltf::{buffer, image, Accessor, Document, Semantic};
+use glam::Vec3;
 
 use super::obj::{LoadedObj, ObjError};
-use super::{Material, Mesh};
+use super::Material;
 use crate::files::{io_reason, read_regular_file};
+use mesh::build_mesh;
 
-/// The deepest node hierarchy followed (deeper is taken for a cycle).
-const MAX_DEPTH: usize = 64;
-/// The most node visits (a node may be the child of many): a bound on instancing blow-up.
-const MAX_NODE_VISITS: usize = 1 << 20;
-
-/// The most vertices placed (nodes may instance a mesh many times): 3 GiB of positions.
-const MAX_VERTICES: usize = 1 << 28;
+mod mesh;
 
 /// Load a `.gltf` or `.glb` from bytes in memory (a file's are read by
 /// `formats::load_model`; `name` for messages; `base_dir` resolves external buffers and
@@ -293,152 +287,6 @@ fn read_indices(acc: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String>
     }
     let (bytes, stride) = accessor_bytes(acc, buffers, "indices", Dimensions::Scalar)?;
     Ok((0..acc.count()).map(|i| component(bytes, stride, kind, i, 0) as u32).collect())
-}
-
-/// The nodes of the default scene (else the first, else every root node) with their world matrices.
-fn world_nodes<'a>(document: &'a Document) -> Result<Vec<(Node<'a>, Mat4)>, String> {
-    let roots: Vec<Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        None => {
-            let children: std::collections::HashSet<usize> =
-                document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-            document.nodes().filter(|n| !children.contains(&n.index())).collect()
-        }
-    };
-    let mut out = Vec::new();
-    let mut stack: Vec<(Node, Mat4, usize)> =
-        roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > MAX_DEPTH || out.len() + stack.len() + node.children().len() >= MAX_NODE_VISITS {
-            return Err(format!("the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node instances (a cycle?)"));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        stack.extend(
-            node.children().collect::<Vec<_>>().into_iter().rev().map(|c| (c, world, depth + 1)),
-        );
-        out.push((node, world));
-    }
-    Ok(out)
-}
-
-/// Every triangle primitive of the placed nodes, in world space, as one mesh.
-fn build_mesh(
-    document: &Document,
-    buffers: &[Vec<u8>],
-    name: &str,
-    base_dir: Option<&Path>,
-    warnings: &mut Vec<String>,
-) -> Result<Mesh, String> {
-    let mut mesh = Mesh { name: name.to_owned(), ..Default::default() };
-    let mut normals: Vec<Vec3> = Vec::new();
-    let mut all_normals = true;
-    let mut any_texcoords = false;
-    let mut texcoords: Vec<Vec2> = Vec::new();
-    let mut any_colors = false;
-    let mut colors: Vec<[u8; 4]> = Vec::new();
-    let mut material_slots: HashMap<Option<usize>, u32> = HashMap::new();
-    let mut skipped_modes = 0;
-    for (node, world) in world_nodes(document)? {
-        let Some(gmesh) = node.mesh() else { continue };
-        if !world.is_finite() {
-            return Err(format!("node {} has a transform that is not finite", node.index()));
-        }
-        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
-        let flips = Mat3::from_mat4(world).determinant() < 0.0;
-        for prim in gmesh.primitives() {
-            if prim.mode() != Mode::Triangles {
-                skipped_modes += 1;
-                continue;
-            }
-            let at = format!("mesh {} primitive {}", gmesh.index(), prim.index());
-            let position = prim.get(&Semantic::Positions).ok_or(format!("{at} has no POSITION"))?;
-            let p = read_accessor(&position, buffers, "POSITION", Dimensions::Vec3)?;
-            let count = p.len() / 3;
-            let base = mesh.positions.len();
-            if base + count > MAX_VERTICES {
-                return Err(format!("the scene places more than {MAX_VERTICES} vertices"));
-            }
-            mesh.positions
-                .extend(p.chunks_exact(3).map(|c| world.transform_point3(Vec3::from_slice(c))));
-            match prim.get(&Semantic::Normals) {
-                Some(acc) if all_normals => {
-                    let n = read_accessor(&acc, buffers, "NORMAL", Dimensions::Vec3)?;
-                    if n.len() != p.len() {
-                        return Err(format!(
-                            "{at}: NORMAL has {} elements, POSITION {count}",
-                            n.len() / 3
-                        ));
-                    }
-                    normals.extend(
-                        n.chunks_exact(3)
-                            .map(|c| (normal_matrix * Vec3::from_slice(c)).normalize_or_zero()),
-                    );
-                }
-                _ => all_normals = false,
-            }
-            texcoords.resize(base, Vec2::ZERO);
-            if let Some(acc) = prim.get(&Semantic::TexCoords(0)) {
-                let t = read_accessor(&acc, buffers, "TEXCOORD_0", Dimensions::Vec2)?;
-                if t.len() / 2 != count {
-                    return Err(format!(
-                        "{at}: TEXCOORD_0 has {} elements, POSITION {count}",
-                        t.len() / 2
-                    ));
-                }
-                texcoords.extend(t.chunks_exact(2).map(Vec2::from_slice));
-                any_texcoords = true;
-            }
-            // Primitives without COLOR_0 are white, so they look as they would alone.
-            colors.resize(base, [255; 4]);
-            if let Some(acc) = prim.get(&Semantic::Colors(0)) {
-                colors.extend(read_colors(&acc, buffers, count, &at)?);
-                any_colors = true;
-            }
-            let indices = match prim.indices() {
-                Some(acc) => read_indices(&acc, buffers)?,
-                None => (0..count as u32).collect(),
-            };
-            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-                return Err(format!(
-                    "{at}: index {bad} is out of range (the primitive has {count} vertices)"
-                ));
-            }
-            let next = material_slots.len() as u32;
-            let slot = *material_slots.entry(prim.material().index()).or_insert_with(|| {
-                mesh.materials.push(convert_material(&prim.material(), base_dir, name, warnings));
-                next
-            });
-            for t in indices.chunks_exact(3) {
-                let [a, b, c] = [t[0], t[1], t[2]].map(|i| i + base as u32);
-                mesh.triangles.push(if flips { [a, c, b] } else { [a, b, c] });
-                mesh.triangle_materials.push(slot);
-            }
-        }
-    }
-    if skipped_modes > 0 {
-        warnings.push(format!("{name}: {skipped_modes} primitives that are not triangles (points, lines, strips or fans) are skipped"));
-    }
-    if mesh.triangles.is_empty() {
-        return Err("the default scene has no triangles, so there is nothing to trace".to_owned());
-    }
-    if !mesh.positions.iter().all(|p| p.is_finite()) {
-        return Err("a vertex position is not a finite number".to_owned());
-    }
-    if any_texcoords {
-        texcoords.resize(mesh.positions.len(), Vec2::ZERO);
-        mesh.texcoords = texcoords;
-    }
-    if any_colors {
-        colors.resize(mesh.positions.len(), [255; 4]);
-        mesh.colors = colors;
-    }
-    if all_normals && normals.iter().all(|n| n.is_finite() && *n != Vec3::ZERO) {
-        mesh.normals = normals;
-        mesh.has_file_normals = true;
-    } else {
-        mesh.compute_vertex_normals();
-    }
-    Ok(mesh)
 }
 
 /// Our Blinn–Phong material for a glTF metallic-roughness one: the base colour is the
