@@ -273,42 +273,11 @@ fn measure(
     scene: &crate::scene::Scene,
     case: &Case,
     options: &RunOptions,
-    mut clock: Option<&mut ClockGuard>,
+    clock: Option<&mut ClockGuard>,
 ) -> Result<Row, GpuError> {
     let s = case.spec.settings;
-    let triangles = scene.triangle_count() as u64;
-    let rays = s.max_rays();
-    let mut row = Row {
-        series: case.series.clone(),
-        workload: WorkloadHeader {
-            model: match &case.generated {
-                Some(m) => m.name.clone(),
-                None => case.spec.model.label(),
-            },
-            models: case.spec.models,
-            triangles,
-            width: s.width,
-            height: s.height,
-            bounces: s.bounces,
-            accel: s.accel,
-            bvh: s.bvh,
-        },
-        features: case.features.clone(),
-        rays_per_frame: rays,
-        gpu_ms: None,
-        wall_ms: Timing::default(),
-        mrays_per_s: 0.0,
-        fps: 0.0,
-        bvh_build_ms: packed.bvh_build_seconds * 1e3,
-        scene_bytes: tracer.scene_bytes(),
-        paper_fps: case.paper.map(|p| p.0),
-        paper_ms: case.paper.map(|p| p.1),
-        skipped: None,
-        vendor_kernel: None,
-        ours_over_vendor: None,
-        gpu_clock_mhz: None,
-    };
-    if let Some(why) = budget::refusal(&s, triangles) {
+    let mut row = unmeasured_row(tracer, packed, scene, case);
+    if let Some(why) = budget::refusal(&s, row.workload.triangles) {
         row.skipped = Some(why);
         return Ok(row);
     }
@@ -323,13 +292,7 @@ fn measure(
         tracer.prepare(&crate::gpu::FrameTrace::whole(params))?;
     }
     if case.spec.camera.framed {
-        // What share of the frame the model covers: its primitives come before the box's.
-        let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
-        let (image, _) = tracer.render(&ids)?;
-        let model_triangles = scene.meshes[0].triangle_count() as f32;
-        let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
-        let framed =
-            format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64);
+        let framed = framed_share(tracer, scene, s)?;
         // After the case's own label (the AO series names its rays), if it has one.
         row.features =
             if case.features.is_empty() { framed } else { format!("{}, {framed}", case.features) };
@@ -338,26 +301,8 @@ fn measure(
     if options.verbose && s.accel != Accel::Vendor {
         println!("  work: {}", work_per_ray(tracer, scene, s)?);
     }
-    for _ in 0..options.warmup {
-        tracer.trace(&params)?;
-    }
-    let clock_before = match clock.as_deref_mut() {
-        Some(guard) => Some(guard.settle(|| tracer.trace(&params).map(|_| ()))?),
-        None => None,
-    };
-    let mut gpu = Vec::new();
-    let mut wall = Vec::new();
-    for _ in 0..options.frames.max(1) {
-        let start = Instant::now();
-        let t = tracer.trace(&params)?;
-        wall.push(start.elapsed().as_secs_f64() * 1e3);
-        if let Some(g) = t.gpu_ms {
-            gpu.push(g);
-        }
-    }
-    if let (Some(guard), Some(before)) = (clock, clock_before) {
-        row.gpu_clock_mhz = Some(before.min(guard.read()?));
-    }
+    let frames = timed_frames(tracer, &params, options, clock)?;
+    row.gpu_clock_mhz = frames.clock_mhz;
     if s.accel == Accel::Vendor {
         // The driver's structures stand in for our BVH in the build and memory columns. Read
         // after the frames: a tracer new to this row builds them with its first frame (its
@@ -368,13 +313,107 @@ fn measure(
         row.bvh_build_ms = stats.bottom_ms + stats.top_ms;
         row.scene_bytes = stats.bytes;
     }
-    row.wall_ms = Timing::of(&wall).unwrap_or_default();
-    row.gpu_ms = Timing::of(&gpu);
+    row.wall_ms = Timing::of(&frames.wall_ms).unwrap_or_default();
+    row.gpu_ms = Timing::of(&frames.gpu_ms);
     let ms = row.gpu_ms.map_or(row.wall_ms.median, |g| g.median);
     // A measured frame always took time: the rate is never the zero-time fallback.
-    row.mrays_per_s = timing::mrays_per_second(rays, ms);
+    row.mrays_per_s = timing::mrays_per_second(row.rays_per_frame, ms);
     row.fps = 1e3 / row.wall_ms.median;
     Ok(row)
+}
+
+/// `case`'s row before anything is traced: the workload, the scene's build time and bytes,
+/// and no timings yet.
+fn unmeasured_row(
+    tracer: &ComputeTracer,
+    packed: &PackedScene,
+    scene: &crate::scene::Scene,
+    case: &Case,
+) -> Row {
+    let s = case.spec.settings;
+    Row {
+        series: case.series.clone(),
+        workload: WorkloadHeader {
+            model: match &case.generated {
+                Some(m) => m.name.clone(),
+                None => case.spec.model.label(),
+            },
+            models: case.spec.models,
+            triangles: scene.triangle_count() as u64,
+            width: s.width,
+            height: s.height,
+            bounces: s.bounces,
+            accel: s.accel,
+            bvh: s.bvh,
+        },
+        features: case.features.clone(),
+        rays_per_frame: s.max_rays(),
+        gpu_ms: None,
+        wall_ms: Timing::default(),
+        mrays_per_s: 0.0,
+        fps: 0.0,
+        bvh_build_ms: packed.bvh_build_seconds * 1e3,
+        scene_bytes: tracer.scene_bytes(),
+        paper_fps: case.paper.map(|p| p.0),
+        paper_ms: case.paper.map(|p| p.1),
+        skipped: None,
+        vendor_kernel: None,
+        ours_over_vendor: None,
+        gpu_clock_mhz: None,
+    }
+}
+
+/// What share of the frame the model covers, as a feature label ("framed, 40% model"),
+/// from a primitive-id render: the model's primitives come before the box's.
+fn framed_share(
+    tracer: &mut ComputeTracer,
+    scene: &crate::scene::Scene,
+    s: RenderSettings,
+) -> Result<String, GpuError> {
+    let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
+    let (image, _) = tracer.render(&ids)?;
+    let model_triangles = scene.meshes[0].triangle_count() as f32;
+    let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
+    Ok(format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64))
+}
+
+/// The measured frames' times in milliseconds, and the GPU clock they ran at.
+struct Frames {
+    wall_ms: Vec<f64>,
+    gpu_ms: Vec<f64>,
+    /// The lower of the clocks before and after the frames (with a clock guard).
+    clock_mhz: Option<f64>,
+}
+
+/// The warm-up frames, the wait for the clock (with a guard), then the measured frames.
+fn timed_frames(
+    tracer: &mut ComputeTracer,
+    params: &FrameParams,
+    options: &RunOptions,
+    mut clock: Option<&mut ClockGuard>,
+) -> Result<Frames, GpuError> {
+    for _ in 0..options.warmup {
+        tracer.trace(params)?;
+    }
+    let clock_before = match clock.as_deref_mut() {
+        Some(guard) => Some(guard.settle(|| tracer.trace(params).map(|_| ()))?),
+        None => None,
+    };
+    let mut gpu = Vec::new();
+    let mut wall = Vec::new();
+    for _ in 0..options.frames.max(1) {
+        let start = Instant::now();
+        let t = tracer.trace(params)?;
+        wall.push(start.elapsed().as_secs_f64() * 1e3);
+        if let Some(g) = t.gpu_ms {
+            gpu.push(g);
+        }
+    }
+    let clock_mhz = match (clock, clock_before) {
+        (Some(guard), Some(before)) => Some(before.min(guard.read()?)),
+        _ => None,
+    };
+    Ok(Frames { wall_ms: wall, gpu_ms: gpu, clock_mhz })
 }
 
 /// Mean BVH nodes visited and triangles tested per pixel (the cost AOV, summed over the
