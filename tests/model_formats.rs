@@ -619,3 +619,27 @@ fn a_plain_binary_ply_read_on_every_core_equals_its_ascii_twin() {
         "{err}"
     );
 }
+
+/// A header comment in Latin-1 (old exporters write one) is skipped like any other; the
+/// header was refused as "not text" for its one byte that is not UTF-8.
+#[test]
+fn a_ply_header_comment_in_latin1_loads() {
+    let dir = TempDir::new("latin1-ply");
+    let (verts, faces) = shape();
+    let swap = |bytes: &[u8], from: &str, to: &[u8]| {
+        let at = bytes.windows(from.len()).position(|w| w == from.as_bytes()).unwrap();
+        [&bytes[..at], to, &bytes[at + from.len()..]].concat()
+    };
+    for enc in [Encoding::Ascii, Encoding::Little] {
+        let plain = ply_bytes(enc, &verts, &faces);
+        // "créé" in Latin-1.
+        let latin1 = swap(&plain, "comment made by the test", b"comment cr\xe9\xe9 par le test");
+        let a = load_file(&dir.write("plain.ply", &plain)).unwrap().mesh;
+        let b = load_file(&dir.write("latin1.ply", &latin1)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((a.positions, a.triangles), (b.mesh.positions, b.mesh.triangles));
+    }
+    // Anywhere else in the header such a byte is still refused.
+    let plain = ply_bytes(Encoding::Ascii, &verts, &faces);
+    let bad = swap(&plain, "property uchar red", b"property uchar r\xe9d");
+    assert_one_line_error(&dir.write("bad.ply", bad), "line 9: the header is not text");
+}

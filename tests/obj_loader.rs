@@ -719,3 +719,52 @@ fn paper_model_assets_load_back_with_the_generated_counts() {
         );
     }
 }
+
+/// Text from the file in an error is escaped and cut: a face corner that writes escape
+/// sequences (set the terminal's title, red text, clear the screen) or runs for megabytes
+/// was quoted as it was.
+#[test]
+fn a_bad_face_corner_in_an_error_is_escaped_and_cut() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    let long = "x".repeat(5 << 20);
+    let digits = "9".repeat(5 << 20);
+    for face in [
+        "f 1 \x1b]0;PWNED\x07\x1b[31mRED\x1b[2J 3".to_owned(),
+        format!("f 1 {long} 3"),
+        format!("f 1 2/3/4/{long} 3"),
+        format!("f 1 2 {digits}"),
+    ] {
+        let e = load_err(&format!("{head}{face}\n")).to_string();
+        assert!(e.starts_with("test.obj line 4: "), "{}", &e[..e.len().min(300)]);
+        assert!(!e.chars().any(char::is_control), "control characters reach the terminal: {e:?}");
+        assert!(e.len() < 400, "a {}-byte error", e.len());
+    }
+    let e = load_err(&format!("{head}f 1 \x1b]0;PWNED\x07 3\n")).to_string();
+    assert!(e.contains("`\\u{1b}]0;PWNED\\u{7}` is not a face corner"), "{e}");
+}
+
+/// One byte that is not UTF-8 in a comment (a Latin-1 "é", as old exporters write) or in
+/// a name no longer rejects the whole file ("is not an OBJ text file"): the mesh is the
+/// same as without it. In a statement that carries numbers it still does.
+#[test]
+fn latin1_in_comments_and_names_loads_the_same_mesh() {
+    let load_bytes = |bytes: &[u8]| {
+        let options = LoadOptions::default();
+        meshtracer::scene::obj::load_obj_from_bytes(bytes.to_vec(), "l.obj", None, &options)
+    };
+    let plain = "# made by an old exporter\no cube\ng side\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    let a = load_bytes(plain.as_bytes()).unwrap().mesh;
+    let latin1 = plain
+        .as_bytes()
+        .iter()
+        .flat_map(|&b| if b == b'e' { vec![0xe9] } else { vec![b] })
+        .collect::<Vec<u8>>();
+    // Only the comment and the two names have an "e" to turn into a Latin-1 "é".
+    assert!(std::str::from_utf8(&latin1).is_err());
+    let b = load_bytes(&latin1).unwrap_or_else(|e| panic!("{e}")).mesh;
+    assert_eq!((&a.positions, &a.triangles, &a.normals), (&b.positions, &b.triangles, &b.normals));
+    let e = load_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\xe9\nf 1 2 3\n").unwrap_err();
+    assert!(matches!(e, ObjError::NotText { line: 3, .. }), "{e:?}");
+    let e = load_bytes(b"# \xe9\x00 binary\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap_err();
+    assert!(matches!(e, ObjError::NotText { line: 1, .. }), "{e:?}");
+}

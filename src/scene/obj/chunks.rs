@@ -111,6 +111,30 @@ pub(super) fn count_all<'a>(
     Ok((chunks, before))
 }
 
+/// The text of a file that is not all UTF-8, where that is only in comments and in the
+/// names of objects, groups, materials and libraries (old exporters write Latin-1 there):
+/// those bytes become U+FFFD, as an MTL's do, so that `usemtl` names still match the
+/// library's. Anywhere else, or with a NUL byte, it is not OBJ text: the error is the
+/// line's number.
+pub(super) fn lossy_text(bytes: &[u8]) -> Result<String, usize> {
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        if std::str::from_utf8(line).is_err() && (line.contains(&0) || !comment_or_name(line)) {
+            return Err(i + 1);
+        }
+    }
+    Ok(String::from_utf8_lossy(bytes).into_owned())
+}
+
+/// Whether `line` is a comment or a statement that only names something.
+fn comment_or_name(line: &[u8]) -> bool {
+    let mut words = line.split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty());
+    match words.next() {
+        Some(word) if word.starts_with(b"#") => true,
+        Some(word) => matches!(word, b"o" | b"g" | b"usemtl" | b"mtllib"),
+        None => false,
+    }
+}
+
 /// Lines and `v`/`vt`/`vn` statements of one chunk.
 fn count(text: &str) -> Counts {
     let mut counts = Counts::default();

@@ -254,8 +254,8 @@ impl<'a> LineFeeder<'a> {
                 }
                 let Some(index) = parse_index(text) else {
                     return Err(self.parse_error(format!(
-                        "`{}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
-                        String::from_utf8_lossy(corner),
+                        "{} is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                        quote(&String::from_utf8_lossy(corner)),
                         quote(self.current_line)
                     )));
                 };
@@ -271,18 +271,18 @@ impl<'a> LineFeeder<'a> {
                         line: self.line,
                         kind,
                         kind_plural,
-                        index: String::from_utf8_lossy(text).into_owned(),
+                        index: shown_index(text),
                         count: available,
                     });
                 }
                 if !in_range && bad[slot].is_none() {
-                    bad[slot] = Some((String::from_utf8_lossy(text).into_owned(), available));
+                    bad[slot] = Some((shown_index(text), available));
                 }
             }
             if parts.next().is_some() {
                 return Err(self.parse_error(format!(
-                    "`{}` has more than three indices in {}",
-                    String::from_utf8_lossy(corner),
+                    "{} has more than three indices in {}",
+                    quote(&String::from_utf8_lossy(corner)),
                     quote(self.current_line)
                 )));
             }
@@ -404,6 +404,11 @@ fn face_is_valid(corners: &[u8], counts: [u64; 3]) -> bool {
 /// included, unlike `u8::is_ascii_whitespace`).
 fn is_ascii_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+}
+
+/// An index as written, for a message: a file may write a million digits.
+fn shown_index(text: &[u8]) -> String {
+    crate::files::shown(&String::from_utf8_lossy(text), 60)
 }
 
 /// An OBJ index: optional sign, decimal digits. Saturates instead of overflowing, since

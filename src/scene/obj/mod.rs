@@ -85,7 +85,8 @@ pub enum ObjError {
         #[source]
         source: io::Error,
     },
-    /// The bytes are not UTF-8 text: a binary file, or text in another encoding.
+    /// The bytes are not UTF-8 text where it matters (a binary file, or statements in
+    /// another encoding; comments and names may be in any).
     #[error("{name} is not an OBJ text file (invalid UTF-8 on line {line})")]
     NotText {
         /// The file, as named in messages.
@@ -253,7 +254,16 @@ fn parse_text(
         loaded: RefCell::default(),
         warnings: RefCell::default(),
     };
-    let mut parsed = parallel::parse(bytes, name, &libs, chunk_bytes)?;
+    let mut parsed = match parallel::parse(bytes, name, &libs, chunk_bytes) {
+        // Bytes that are not UTF-8 stop the parse before any line is read: where they sit
+        // in comments and names only, the text is read again with them replaced.
+        Err(ObjError::NotText { .. }) => {
+            let text = chunks::lossy_text(bytes)
+                .map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
+            parallel::parse(text.as_bytes(), name, &libs, chunk_bytes)?
+        }
+        other => other?,
+    };
     let mut warnings = libs.warnings.into_inner();
     warn_dropped(
         &mut warnings,

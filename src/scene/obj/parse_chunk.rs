@@ -436,7 +436,8 @@ fn check_face<'w>(
             }
             let Some(index) = parse_index(text.as_bytes()) else {
                 return Err(ErrorKind::Parse(format!(
-                    "`{corner}` is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                    "{} is not a face corner (expected v, v/vt, v//vn or v/vt/vn) in {}",
+                    quote(corner),
                     quote(line)
                 )));
             };
@@ -448,17 +449,18 @@ fn check_face<'w>(
             };
             if !in_range && slot == 0 {
                 return Err(ErrorKind::VertexOutOfRange {
-                    index: text.to_owned(),
+                    index: shown_index(text),
                     count: available,
                 });
             }
             if !in_range && bad[slot].is_none() {
-                bad[slot] = Some((text.to_owned(), available));
+                bad[slot] = Some((shown_index(text), available));
             }
         }
         if parts.next().is_some() {
             return Err(ErrorKind::Parse(format!(
-                "`{corner}` has more than three indices in {}",
+                "{} has more than three indices in {}",
+                quote(corner),
                 quote(line)
             )));
         }
@@ -471,6 +473,11 @@ fn check_face<'w>(
     }
     let [_, texcoord, normal] = bad;
     Ok((texcoord, normal))
+}
+
+/// An index as written, for a message: a file may write a million digits.
+fn shown_index(text: &str) -> String {
+    crate::files::shown(text, 60)
 }
 
 /// An OBJ index: optional sign, decimal digits. Saturates instead of overflowing, since

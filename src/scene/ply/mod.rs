@@ -175,6 +175,12 @@ struct Header {
     body_line: usize,
 }
 
+/// Whether a header line is a `comment` or `obj_info` line.
+fn is_comment(line: &[u8]) -> bool {
+    let first = line.split(|b| b.is_ascii_whitespace()).find(|w| !w.is_empty());
+    matches!(first, Some(b"comment" | b"obj_info"))
+}
+
 /// Read the header up to `end_header`; any line we do not know is an error naming it.
 fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
     let mut format = None;
@@ -190,8 +196,12 @@ fn parse_header(bytes: &[u8]) -> Result<Header, Failure> {
         let end = bytes[pos..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| pos + i);
         let raw = &bytes[pos..end];
         pos = (end + 1).min(bytes.len());
-        let line = std::str::from_utf8(raw)
-            .map_err(|_| (Location::Line(line_no), "the header is not text".to_owned()))?;
+        let line = match std::str::from_utf8(raw) {
+            Ok(line) => line,
+            // A comment may be in any encoding (old exporters write Latin-1): skipped.
+            Err(_) if line_no > 1 && is_comment(raw) => continue,
+            Err(_) => return Err((Location::Line(line_no), "the header is not text".to_owned())),
+        };
         let words: Vec<&str> = line.split_ascii_whitespace().collect();
         let bad = |reason: String| (Location::Line(line_no), reason);
         if line_no == 1 {
