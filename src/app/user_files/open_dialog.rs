@@ -230,11 +230,14 @@ mod tests {
             repeat: false,
             modifiers: egui::Modifiers::NONE,
         };
-        let mut burst = vec![
-            key(egui::Key::Slash),
-            egui::Event::Text("/".into()),
-            egui::Event::Text(model.to_str().unwrap()[1..].into()),
-        ];
+        // Each `/` of the path is a key with its text, as egui-winit gives them.
+        let mut burst = Vec::new();
+        for c in model.to_str().unwrap().chars() {
+            if c == '/' {
+                burst.push(key(egui::Key::Slash));
+            }
+            burst.push(egui::Event::Text(c.to_string()));
+        }
         if enter {
             burst.push(key(egui::Key::Enter));
         }
