@@ -123,7 +123,7 @@ fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
         format!("{:.1} fps", info.stats.fps()),
         format!("GPU {} ms", ms(gpu)),
         format!("frame {} ms", ms(frame)),
-        format!("{} Mrays/s", gpu_now.map_or("-".into(), |(_, mrays)| format!("{mrays:.0}"))),
+        format!("{} Mrays/s", gpu_now.map_or("-".into(), |(_, mrays)| format!("{mrays:.1}"))),
         format!("{} triangles", group(info.triangles)),
     ];
     let banded = info.progress.map(|(p, left)| match left {
