@@ -288,3 +288,19 @@ fn a_double_click_and_reset_settings_leave_the_zoom() {
     let [min, max] = graph_x(&h);
     assert!(min <= -10.0 && max >= 0.0, "Reset settings: the graph shows {min}..{max}");
 }
+
+#[test]
+fn opening_keys_leaves_the_panel_as_wide_as_it_was() {
+    // #43: opening Keys widened the panel from about 300 to 570 points for the rest of the run.
+    for size in [Vec2::new(1280.0, 2400.0), Vec2::new(640.0, 2400.0)] {
+        let mut h = harness(size, Fixture::new(VendorInfo::default()));
+        h.run();
+        let before = h.state().panel_width;
+        h.get_by_label("Keys").click();
+        h.run();
+        let after = h.state().panel_width;
+        assert!(after <= before + 2.0, "{size:?}: Keys widened the panel from {before} to {after}");
+        let line = h.get_by_label_contains("orbit / zoom the camera");
+        assert!(line.rect().right() <= after + 0.5, "{size:?}: a key's line runs past the panel");
+    }
+}
