@@ -18,26 +18,7 @@ impl Tool {
     /// Run egui for this frame; returns its output and the actions the panel asked for,
     /// and updates the image area.
     pub(super) fn run_ui(&mut self) -> (egui::FullOutput, Vec<PanelAction>) {
-        let mut raw = self.ui.egui_state.take_egui_input(&self.window);
-        // The keys are the tool's unless egui wants the keyboard (as it did at the end of the
-        // last frame, which is how it will see them) or the Open dialog shows (its keys,
-        // Escape, Enter and arrows, are its own whether or not a text field has the focus;
-        // Ctrl+O among the keys opens it for those after).
-        let egui_wants_keys = self.ui.egui_ctx.egui_wants_keyboard_input();
-        // Keys that move the focus, or that the Open dialog acts on before its fields run, cut
-        // the frame's input (`input::focus_cut`).
-        let (dialog_open, now) = (self.ui.open_dialog.is_open(), self.input.now());
-        let cut_at = |e: &egui::Event| input::focus_cut(e, dialog_open, egui_wants_keys);
-        let (keys, held) = self.input.take_pass(&mut raw, now, cut_at);
-        if !held.is_empty() {
-            self.ui.egui_state.egui_input_mut().events = held;
-            self.window.request_redraw();
-        }
-        for key in keys {
-            if !egui_wants_keys && !self.ui.open_dialog.is_open() {
-                self.shortcut(key);
-            }
-        }
+        let raw = self.take_input();
         let mut actions = Vec::new();
         let mut central = egui::Rect::NOTHING;
         let settings: RenderSettings = self.params.settings_for(self.area());
@@ -109,7 +90,39 @@ impl Tool {
                 None => {}
             }
         });
-        let ppp = full.pixels_per_point;
+        self.set_image_area(central, full.pixels_per_point);
+        (full, actions)
+    }
+
+    /// This frame's egui input, with the keys that are the tool's taken out of it and acted
+    /// on as shortcuts.
+    fn take_input(&mut self) -> egui::RawInput {
+        let mut raw = self.ui.egui_state.take_egui_input(&self.window);
+        // The keys are the tool's unless egui wants the keyboard (as it did at the end of the
+        // last frame, which is how it will see them) or the Open dialog shows (its keys,
+        // Escape, Enter and arrows, are its own whether or not a text field has the focus;
+        // Ctrl+O among the keys opens it for those after).
+        let egui_wants_keys = self.ui.egui_ctx.egui_wants_keyboard_input();
+        // Keys that move the focus, or that the Open dialog acts on before its fields run, cut
+        // the frame's input (`input::focus_cut`).
+        let (dialog_open, now) = (self.ui.open_dialog.is_open(), self.input.now());
+        let cut_at = |e: &egui::Event| input::focus_cut(e, dialog_open, egui_wants_keys);
+        let (keys, held) = self.input.take_pass(&mut raw, now, cut_at);
+        if !held.is_empty() {
+            self.ui.egui_state.egui_input_mut().events = held;
+            self.window.request_redraw();
+        }
+        for key in keys {
+            if !egui_wants_keys && !self.ui.open_dialog.is_open() {
+                self.shortcut(key);
+            }
+        }
+        raw
+    }
+
+    /// The image area in pixels: what egui left beside the panel (`central`, in points),
+    /// within the window.
+    fn set_image_area(&mut self, central: egui::Rect, ppp: f32) {
         let size = self.window.inner_size();
         let x0 = (central.left() * ppp).round().clamp(0.0, size.width as f32) as i32;
         let y0 = (central.top() * ppp).round().clamp(0.0, size.height as f32) as i32;
@@ -121,7 +134,6 @@ impl Tool {
             width: (x1 - x0).max(0) as u32,
             height: (y1 - y0).max(0) as u32,
         };
-        (full, actions)
     }
 
     /// The vendor path as the panel shows it.
