@@ -8,7 +8,7 @@ use egui_plot::{uniform_grid_spacer, Corner, GridMark, Legend, Line, Plot, PlotP
 use crate::app::measure::frame_stats::{FrameStats, Series, HISTORY_SECONDS};
 use crate::app::panel::info::PanelInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
-use crate::app::panel::widgets::{group, status_line, Status, FRAME_COLOR, GPU_COLOR};
+use crate::app::panel::widgets::{group, mrays_text, status_line, Status, FRAME_COLOR, GPU_COLOR};
 
 /// The graph's window lengths, in seconds.
 pub(crate) const WINDOWS: [f64; 4] = [5.0, 10.0, 30.0, HISTORY_SECONDS];
@@ -116,7 +116,7 @@ impl Section for PerfPanel {
             ui.label(format!("{} (at most)", group(info.settings.max_rays())));
             ui.end_row();
             ui.label("Mrays/s");
-            ui.label(info.stats.gpu_now(&info.settings).map_or("-".into(), |(_, mrays)| format!("{mrays:.1}")));
+            ui.label(mrays_text(info.stats.gpu_now(&info.settings).map(|(_, mrays)| mrays)));
             ui.end_row();
             if let Some((now, highest)) = info.clock_mhz {
                 let why = "the tracing GPU's shader clock, read twice a second. A GPU that idles between frames (vsync, a slow window) is clocked down by its driver and traces slower than `meshtracer bench` shows";

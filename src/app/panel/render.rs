@@ -152,13 +152,22 @@ fn acceleration_row(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
     ui.end_row();
 }
 
+/// The BVH layout's menu text: "auto" alone while the window picks, since the line below
+/// says which layout it traces (the menu's "auto (binary)" beside "now wide" told two).
+fn layout_shown(auto: bool, bvh: BvhLayout) -> String {
+    if auto {
+        "auto".into()
+    } else {
+        bvh.to_string()
+    }
+}
+
 /// The BVH layout's menu (auto or one layout) and what the automatic choice found.
 fn bvh_layout_rows(ui: &mut Ui, params: &mut Params, info: &PanelInfo) {
     ui.label("BVH layout");
     let bvh = params.scene.settings.bvh;
-    let shown = if params.bvh_auto { format!("auto ({bvh})") } else { bvh.to_string() };
     let response = egui::ComboBox::new("bvh_layout", "")
-        .selected_text(shown)
+        .selected_text(layout_shown(params.bvh_auto, bvh))
         .show_ui(ui, |ui| {
             if ui.selectable_label(params.bvh_auto, "auto").clicked() {
                 params.bvh_auto = true;
@@ -354,5 +363,13 @@ mod tests {
         let mut panel = RenderPanel { status: Some(Status::error("other")), ..Default::default() };
         panel.accel_chosen();
         assert!(panel.status.is_some());
+    }
+
+    #[test]
+    fn the_layout_menu_names_auto_alone_while_the_window_picks() {
+        // #43: "auto (binary)" showed beside "timing each layout, now wide".
+        assert_eq!(super::layout_shown(true, BvhLayout::Binary), "auto");
+        assert_eq!(super::layout_shown(true, BvhLayout::Wide), "auto");
+        assert_eq!(super::layout_shown(false, BvhLayout::Wide), BvhLayout::Wide.to_string());
     }
 }

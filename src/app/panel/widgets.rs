@@ -35,6 +35,17 @@ pub(crate) fn group(n: u64) -> String {
     out
 }
 
+/// Mrays/s for the HUD and the panel alike, to two or three significant digits ("0.42",
+/// "3.14", "41.2", "512"), "-" before a frame of today's settings was timed.
+pub(crate) fn mrays_text(mrays: Option<f64>) -> String {
+    match mrays {
+        None => "-".into(),
+        Some(v) if v < 10.0 => format!("{v:.2}"),
+        Some(v) if v < 100.0 => format!("{v:.1}"),
+        Some(v) => format!("{v:.0}"),
+    }
+}
+
 /// Seconds as "12 s" or "3 min".
 pub(crate) fn duration(s: f64) -> String {
     if s < 90.0 {
@@ -108,5 +119,15 @@ mod tests {
         assert_eq!(group(999), "999");
         assert_eq!(group(1000), "1 000");
         assert_eq!(group(1234567), "1 234 567");
+    }
+
+    #[test]
+    fn mrays_keep_two_significant_digits_below_one() {
+        // #43: the HUD said "0 Mrays/s" where the panel said 0.4.
+        assert_eq!(mrays_text(Some(0.4)), "0.40");
+        assert_eq!(mrays_text(Some(0.042)), "0.04");
+        assert_eq!(mrays_text(Some(41.23)), "41.2");
+        assert_eq!(mrays_text(Some(512.4)), "512");
+        assert_eq!(mrays_text(None), "-");
     }
 }

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use egui::{Color32, Pos2, Rect, RichText, Stroke, Ui};
 
 use crate::app::panel::info::PanelInfo;
-use crate::app::panel::widgets::{duration, group, FRAME_COLOR, GPU_COLOR};
+use crate::app::panel::widgets::{duration, group, mrays_text, FRAME_COLOR, GPU_COLOR};
 
 /// How long a screenshot notice stays.
 const NOTICE_TIME: Duration = Duration::from_millis(2500);
@@ -123,7 +123,7 @@ fn hud_numbers(ui: &mut Ui, info: &PanelInfo) {
         format!("{:.1} fps", info.stats.fps()),
         format!("GPU {} ms", ms(gpu)),
         format!("frame {} ms", ms(frame)),
-        format!("{} Mrays/s", gpu_now.map_or("-".into(), |(_, mrays)| format!("{mrays:.1}"))),
+        format!("{} Mrays/s", mrays_text(gpu_now.map(|(_, mrays)| mrays))),
         format!("{} triangles", group(info.triangles)),
     ];
     let banded = info.progress.map(|(p, left)| match left {
