@@ -39,12 +39,18 @@ fn point_text(p: Vec3) -> String {
     format!("{:.2},{:.2},{:.2}", p.x, p.y, p.z)
 }
 
+/// `X,Y,Z` in the shortest form that reads back as the same numbers: what the flags carry,
+/// so a camera copied as flags is the camera seen, not one rounded to the fields' decimals.
+fn exact_point_text(p: Vec3) -> String {
+    format!("{},{},{}", p.x, p.y, p.z)
+}
+
 /// The camera as `--eye`, `--target` and `--fov` flags.
 pub(crate) fn camera_flags(c: &Camera) -> String {
     format!(
-        "--eye {} --target {} --fov {:.1}",
-        point_text(c.position),
-        point_text(c.target),
+        "--eye {} --target {} --fov {}",
+        exact_point_text(c.position),
+        exact_point_text(c.target),
         c.vfov_deg
     )
 }
@@ -157,9 +163,25 @@ mod tests {
             vfov_deg: 42.5,
         };
         let flags = camera_flags(&c);
-        assert_eq!(flags, "--eye 1.00,-2.50,3.25 --target 0.00,0.50,0.00 --fov 42.5");
+        assert_eq!(flags, "--eye 1,-2.5,3.25 --target 0,0.5,0 --fov 42.5");
         let words: Vec<&str> = flags.split(' ').collect();
         assert_eq!(parse_point(words[1]), Ok(c.position));
         assert_eq!(parse_point(words[3]), Ok(c.target));
+    }
+
+    #[test]
+    fn flags_keep_every_digit_of_an_orbited_camera() {
+        // An orbit leaves coordinates like 1.2345679; two decimals moved the copied view.
+        let c = Camera {
+            position: Vec3::new(1.234_567_9, -0.000_123_4, 3.141_592_7),
+            target: Vec3::new(0.1, 0.2, 0.3),
+            up: Vec3::Y,
+            vfov_deg: 42.345_68,
+        };
+        let flags = camera_flags(&c);
+        let words: Vec<&str> = flags.split(' ').collect();
+        assert_eq!(parse_point(words[1]), Ok(c.position), "{flags}");
+        assert_eq!(parse_point(words[3]), Ok(c.target), "{flags}");
+        assert_eq!(words[5].parse::<f32>(), Ok(c.vfov_deg), "{flags}");
     }
 }
