@@ -173,7 +173,7 @@ mod tests {
     fn flags_keep_every_digit_of_an_orbited_camera() {
         // An orbit leaves coordinates like 1.2345679; two decimals moved the copied view.
         let c = Camera {
-            position: Vec3::new(1.234_567_9, -0.000_123_4, 3.141_592_7),
+            position: Vec3::new(1.234_567_9, -0.000_123_4, 3.071_592_7),
             target: Vec3::new(0.1, 0.2, 0.3),
             up: Vec3::Y,
             vfov_deg: 42.345_68,
