@@ -66,20 +66,27 @@ fn the_window_times_each_bvh_layout_and_keeps_one() {
     let dir = TempDir::new("stats-auto");
     let mut cmd = meshtracer(&x.display, dir.path());
     cmd.args(["--width", "48", "--height", "48", "--bounces", "1", "--window", "640x480"]);
-    cmd.args(["--bvh", "auto", "--frames", "60", "--stats-csv", "frames.csv"]);
+    // How many binary frames come before the wide tree is loaded depends on how busy the
+    // machine is (the tree is built beside the frames), so the run is long enough for a late
+    // tree and the checks look at the order of the layouts, not at fixed frame numbers.
+    let frames = 150;
+    cmd.args(["--bvh", "auto", "--frames", &frames.to_string(), "--stats-csv", "frames.csv"]);
     let out = spawn(cmd).wait(Duration::from_secs(300));
     assert_clean_exit(&out);
     let rows = rows(&dir.path().join("frames.csv"));
     let at = column(&rows[0], "acceleration");
     let traced: Vec<&str> =
         rows[1..].iter().filter(|r| r[0] == "frame").map(|r| r[at].as_str()).collect();
-    assert_eq!(traced.len(), 60, "{rows:?}");
+    assert_eq!(traced.len(), frames, "{rows:?}");
     assert_eq!(traced[0], "bvh", "the first frame is the binary tree's: {traced:?}");
+    // The layout kept to the end, and where it began to be kept.
+    let last = traced[frames - 1];
+    let kept_from = traced.iter().rposition(|&l| l != last).map_or(0, |i| i + 1);
     for layout in ["bvh", "wide", "wide-runs"] {
-        assert!(traced.iter().filter(|&&l| l == layout).count() >= 5, "{layout} timed: {traced:?}");
+        let timed = traced[..kept_from].iter().filter(|&&l| l == layout).count();
+        assert!(timed >= 3, "{layout} timed before one was kept: {traced:?}");
     }
-    let last = traced[59];
-    assert!(traced[45..].iter().all(|&l| l == last), "one layout kept at the end: {traced:?}");
+    assert!(frames - kept_from >= 20, "one layout kept at the end: {traced:?}");
 }
 
 #[test]
