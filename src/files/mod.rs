@@ -22,9 +22,9 @@ use anyhow::Context;
 /// device for reading can block or never end.
 pub(crate) fn regular_file_size(path: &Path, what: &str) -> Result<u64, String> {
     let meta = fs::metadata(path)
-        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+        .map_err(|e| format!("cannot read {what} {}: {}", shown_path(path), io_reason(&e)))?;
     if !meta.is_file() {
-        return Err(format!("cannot read {what} {}: not a regular file", path.display()));
+        return Err(format!("cannot read {what} {}: not a regular file", shown_path(path)));
     }
     Ok(meta.len())
 }
@@ -36,7 +36,7 @@ pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, 
     let too_big = || {
         format!(
             "cannot read {what} {}: larger than {} (a {what} is at most that)",
-            path.display(),
+            shown_path(path),
             bytes_text(cap)
         )
     };
@@ -44,12 +44,12 @@ pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, 
         return Err(too_big());
     }
     let file = File::open(path)
-        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+        .map_err(|e| format!("cannot read {what} {}: {}", shown_path(path), io_reason(&e)))?;
     // The size may change between the check and the read: read one byte past the cap.
     let mut bytes = Vec::with_capacity(size as usize);
     file.take(cap + 1)
         .read_to_end(&mut bytes)
-        .map_err(|e| format!("cannot read {what} {}: {}", path.display(), io_reason(&e)))?;
+        .map_err(|e| format!("cannot read {what} {}: {}", shown_path(path), io_reason(&e)))?;
     if bytes.len() as u64 > cap {
         return Err(too_big());
     }
@@ -127,7 +127,7 @@ fn read_at(_: &File, _: &mut [u8], _: u64) -> std::io::Result<usize> {
 /// regular file before opening it.
 pub(crate) fn read_image(path: &Path, what: &str) -> Result<image::DynamicImage, String> {
     regular_file_size(path, what)?;
-    image::open(path).map_err(|e| format!("cannot read {what} {}: {e}", path.display()))
+    image::open(path).map_err(|e| format!("cannot read {what} {}: {e}", shown_path(path)))
 }
 
 /// Makes a write past the file-size limit (`ulimit -f`) fail with "file too large" instead
@@ -151,7 +151,7 @@ pub(crate) fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    let path_shown = path.display().to_string();
+    let path_shown = shown_path(path);
     // A link is written through (the link stays, its file is replaced); a device, FIFO
     // or folder under the name is refused rather than replaced or written into.
     let path = &match fs::metadata(path) {
@@ -206,7 +206,7 @@ pub(crate) fn check_writable(path: &Path) -> anyhow::Result<()> {
         File::create(&tmp)?;
         fs::remove_file(&tmp)
     };
-    check().map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), io_reason(&e)))
+    check().map_err(|e| anyhow::anyhow!("cannot write {}: {}", shown_path(path), io_reason(&e)))
 }
 
 /// Write `bytes` to `path` as [`write_atomic`] does.
@@ -294,6 +294,16 @@ pub(crate) fn shown(text: &str, max: usize) -> String {
 /// The longest name (a material, a file named inside a file) quoted in a message.
 pub(crate) const MAX_QUOTED_NAME: usize = 200;
 
+/// The longest path quoted in a message: longer ones are cut, so that a path made of a whole
+/// file's text never makes a megabyte error line.
+pub(crate) const MAX_QUOTED_PATH: usize = 1000;
+
+/// A path as a message shows it: like [`shown`], since a path given on the command line or
+/// named inside a file may hold escape sequences that would act on the terminal.
+pub(crate) fn shown_path(path: &Path) -> String {
+    shown(&path.to_string_lossy(), MAX_QUOTED_PATH)
+}
+
 /// A hidden name in `path`'s folder, unique to this process and call.
 fn temporary_beside(path: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU32, Ordering};
@@ -365,6 +375,18 @@ mod tests {
         assert!(err.ends_with("it is not a regular file"), "{err}");
         assert!(fs::symlink_metadata(&full).unwrap().file_type().is_symlink(), "the link is kept");
         fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_path_in_an_error_is_escaped_and_cut() {
+        // A path from the command line with a terminal escape (a title change, a clear).
+        let hostile = std::path::PathBuf::from("/no/such/\u{1b}]0;PWNED\u{7}\u{1b}[2J.obj");
+        let err = regular_file_size(&hostile, "model").unwrap_err();
+        assert!(!err.chars().any(char::is_control), "{err:?}");
+        assert!(err.contains("\\u{1b}]0;PWNED"), "{err:?}");
+        let long = std::path::PathBuf::from("x".repeat(100_000));
+        let err = read_capped(&long, "model", 10).unwrap_err();
+        assert!(err.len() < 2 * MAX_QUOTED_PATH, "{} bytes", err.len());
     }
 
     #[test]

@@ -205,7 +205,7 @@ fn summary(spec: &SceneSpec, scene: &Scene, output: &Path, how: &str) -> String 
     };
     format!(
         "wrote {} ({}x{}, {} x{}, {} triangles, {rays}, {accel}; {how})",
-        output.display(),
+        crate::files::shown_path(output),
         s.width,
         s.height,
         spec.model.label(),

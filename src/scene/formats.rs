@@ -47,7 +47,7 @@ impl Format {
             Some("ply") => Ok(Format::Ply),
             Some("gltf" | "glb") => Ok(Format::Gltf),
             _ => Err(ObjError::Invalid {
-                name: path.display().to_string(),
+                name: crate::files::shown_path(path),
                 reason: "unknown model format; expected an OBJ (.obj), PLY (.ply) or glTF 2.0 (.gltf, .glb) file".to_owned(),
             }),
         }
@@ -62,7 +62,7 @@ impl Format {
         path: &Path,
         options: &LoadOptions,
     ) -> Result<LoadedObj, ObjError> {
-        let name = path.display().to_string();
+        let name = crate::files::shown_path(path);
         match self {
             Format::Obj => load_obj_from_bytes(bytes, &name, path.parent(), options),
             Format::Ply => super::ply::load_ply_from_bytes(&bytes, &name),
