@@ -10,18 +10,6 @@ use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::Material;
 
-fn settings(size: u32, bounces: u32) -> RenderSettings {
-    RenderSettings {
-        width: size,
-        height: size,
-        bounces,
-        blend: 0.5,
-        accel: Accel::Bvh,
-        aov: Aov::Color,
-        ..RenderSettings::default()
-    }
-}
-
 #[test]
 fn each_paper_model_matches_the_cpu_reference() {
     for model in PaperModel::ALL {

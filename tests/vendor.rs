@@ -20,18 +20,6 @@ use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{EnvironmentSource, Scene};
 use meshtracer::tracer::{FrameParams, Image, PackedScene};
 
-fn settings(size: u32, bounces: u32) -> RenderSettings {
-    RenderSettings {
-        width: size,
-        height: size,
-        bounces,
-        blend: 0.5,
-        accel: Accel::Bvh,
-        aov: Aov::Color,
-        ..RenderSettings::default()
-    }
-}
-
 /// Every kind of vendor tracing the device has; CI's lavapipe must have one at least.
 fn kernels(ctx: &GpuContext) -> Vec<VendorKernel> {
     let support = &ctx.info.vendor;

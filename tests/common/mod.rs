@@ -15,7 +15,7 @@ use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
 use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
-use meshtracer::render_settings::RenderSettings;
+use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
@@ -55,6 +55,20 @@ pub fn assert_validation_clean(ctx: &GpuContext) {
 }
 
 /// The paper's scene with `model` repeated `count` times.
+/// The colour view of our BVH at `size`² with `bounces` and the paper's blend of 0.5: the
+/// settings the GPU-vs-CPU and vendor tests trace with.
+pub fn settings(size: u32, bounces: u32) -> RenderSettings {
+    RenderSettings {
+        width: size,
+        height: size,
+        bounces,
+        blend: 0.5,
+        accel: Accel::Bvh,
+        aov: Aov::Color,
+        ..RenderSettings::default()
+    }
+}
+
 pub fn paper(model: PaperModel, count: u32) -> Scene {
     let mut mesh = model.mesh();
     prepare_model(&mut mesh);
