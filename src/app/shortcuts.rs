@@ -265,15 +265,8 @@ impl Params {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::app::state::tests::params;
     use crate::render_settings::RenderSettings;
-    use crate::scene::spec::SceneSpec;
-
-    /// The tool's parameters for the default spec changed by `edit` (an interactive run).
-    fn params(edit: impl FnOnce(&mut SceneSpec)) -> Params {
-        let mut spec = SceneSpec::default();
-        edit(&mut spec);
-        Params::new(&spec, false)
-    }
 
     #[test]
     fn keys_change_parameters_within_range() {

@@ -335,12 +335,13 @@ pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::scene::paper::LightOrbit;
 
-    /// The tool's parameters for the default spec changed by `edit` (an interactive run).
-    fn params(edit: impl FnOnce(&mut SceneSpec)) -> Params {
+    /// The tool's parameters for the default spec changed by `edit` (an interactive run);
+    /// the shortcuts' tests start from it too.
+    pub(crate) fn params(edit: impl FnOnce(&mut SceneSpec)) -> Params {
         let mut spec = SceneSpec::default();
         edit(&mut spec);
         Params::new(&spec, false)
