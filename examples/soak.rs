@@ -168,9 +168,9 @@ fn main() -> anyhow::Result<()> {
                 )?);
                 std::hint::black_box(Box::leak(vec![1u8; 1 << 20].into_boxed_slice()));
             }
-            scene.instances = instances(models);
+            scene.instances = instances(models, 0);
             packed.set_instances(&scene.instances);
-            tracer.set_instances(&packed.instances)?;
+            tracer.set_instances(&packed.top_level)?;
         }
         let settings =
             RenderSettings { width: size, height: size, bounces: 2, ..RenderSettings::default() };

@@ -113,7 +113,7 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
         packed.shading.iter().flat_map(|s| s.corners).all(|k| k < vertices),
         "a corner names a vertex past the end"
     );
-    assert_eq!(packed.instances.len(), scene.instances.len());
+    assert_eq!(packed.top_level.instances.len(), scene.instances.len());
     let material_count = packed.materials.len() as u32;
     assert!(
         packed.shading.iter().all(|s| s.material < material_count),

@@ -121,67 +121,10 @@ Hit no_hit(float t_max) {
     return hit;
 }
 
-// The closest hit over all instances in (0, t_max). Instances carry a uniform scale, so
-// the object-space ray keeps world-space distances.
-Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
-    Hit hit = no_hit(INF);
-    uint count = frame.misc.x;
-    vec3 inv_d = safe_inverse(d);
-    for (uint i = 0u; i < count; i++) {
-        Instance inst = instances[i];
-        // Top level: skip instances whose box the ray misses or meets beyond the closest
-        // hit so far. Brute force stays the paper's: every triangle, no culling.
-        if (use_bvh && slab(inst.bounds_min.xyz, inst.bounds_max.xyz, o, inv_d, hit.t) == INF) continue;
-        float s = inst.translation_scale.w;
-        vec3 lo = (o - inst.translation_scale.xyz) / s;
-        vec3 ld = d / s;
-        uint before = hit.tri;
-#ifdef WIDE_ONLY
-        // The wide kernel runs only wide BVH frames of scenes whose every mesh has a wide
-        // tree (TracePass picks it): the binary traversal and brute force are left out.
-        if (inst.offsets.z > 0u) traverse_wide(lo, ld, floatBitsToUint(inst.bounds_min.w), inst.offsets.y, false, hit, cost);
-#else
-#ifndef CORE_ONLY
-        // The wide layout (`--bvh wide`); an empty mesh has no wide nodes, and a mesh
-        // without a wide tree (EMPTY) takes the binary path below.
-        uint wide_words = floatBitsToUint(inst.bounds_min.w);
-        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && wide_words != EMPTY) {
-            if (inst.offsets.z > 0u) traverse_wide(lo, ld, wide_words, inst.offsets.y, false, hit, cost);
-        } else
-#endif
-        if (use_bvh) {
-            traverse_bvh(lo, ld, inst.offsets.x, inst.offsets.y, hit, cost);
-        } else {
-            // The paper's brute force: every triangle of every model, eight per iteration.
-            // Why eight: Mesa 22's lavapipe ends a loop after 65,535 iterations in one
-            // invocation (gallivm's loop limiter, counted over every time the loop runs),
-            // which cut a 22k-triangle mesh short at 2 bounces; eight per iteration lift
-            // that to 524k tests per loop and invocation.
-            uint first = inst.offsets.y, n = inst.offsets.z, k = 0u;
-            for (; k + 8u <= n; k += 8u) {
-                intersect_triangle(lo, ld, first + k, hit);
-                intersect_triangle(lo, ld, first + k + 1u, hit);
-                intersect_triangle(lo, ld, first + k + 2u, hit);
-                intersect_triangle(lo, ld, first + k + 3u, hit);
-                intersect_triangle(lo, ld, first + k + 4u, hit);
-                intersect_triangle(lo, ld, first + k + 5u, hit);
-                intersect_triangle(lo, ld, first + k + 6u, hit);
-                intersect_triangle(lo, ld, first + k + 7u, hit);
-            }
-            for (; k < n; k++) intersect_triangle(lo, ld, first + k, hit);
-            cost.y += n;
-        }
-#endif
-        if (hit.tri != before) hit.instance = i;
-    }
-    return hit;
-}
-
-// Any-hit (occlusion) queries for the AO view: whether anything lies along the ray in
-// (0, t_max). The same traversal as traverse_bvh (or traverse_wide with `first`), but it
-// returns at the first triangle hit instead of looking on for a closer one: an AO ray only
-// asks whether it is blocked.
-// Mirrors src/bvh/traverse.rs (any_hit) and src/tracer/cpu.rs (CpuScene::any_hit).
+// The binary traversal for any-hit (occlusion) queries: whether anything lies along the
+// ray in (0, t_max). The same walk as traverse_bvh, but it returns at the first triangle hit
+// instead of looking on for a closer one: an AO ray only asks whether it is blocked.
+// Mirrors src/bvh/traverse.rs (any_hit).
 
 // Whether one of leaf triangles first..first+n is hit closer than t_max.
 bool leaf_blocks(vec3 o, vec3 d, uint first, uint n, float t_max, inout uvec2 cost) {
@@ -234,50 +177,145 @@ bool traverse_bvh_any(vec3 o, vec3 d, uint node_base, uint tri_base, float t_max
     return false;
 }
 
-// Whether any instance has a triangle along the ray in (0, t_max): our BVH with early exit,
-// or brute force that stops after the block of eight holding the first hit.
-bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
-    uint count = frame.misc.x;
-    vec3 inv_d = safe_inverse(d);
-    for (uint i = 0u; i < count; i++) {
-        Instance inst = instances[i];
-        if (inst.offsets.z == 0u) continue;  // no triangles, and so no nodes of its own
-        if (use_bvh && slab(inst.bounds_min.xyz, inst.bounds_max.xyz, o, inv_d, t_max) == INF) continue;
-        float s = inst.translation_scale.w;
-        vec3 lo = (o - inst.translation_scale.xyz) / s;
-        vec3 ld = d / s;
-#ifndef CORE_ONLY
-        // The wide layout, as closest_hit takes it.
-        uint wide_words = floatBitsToUint(inst.bounds_min.w);
-        if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && wide_words != EMPTY) {
-            Hit hit = no_hit(t_max);
-            if (traverse_wide(lo, ld, wide_words, inst.offsets.y, true, hit, cost)) return true;
-        } else
-#endif
-        if (use_bvh) {
-            if (traverse_bvh_any(lo, ld, inst.offsets.x, inst.offsets.y, t_max, cost)) return true;
-        } else {
-            // Eight per iteration, as closest_hit's brute force (lavapipe's loop limit).
-            Hit hit;
-            hit.t = t_max;
-            uint first = inst.offsets.y, n = inst.offsets.z, k = 0u;
-            for (; k + 8u <= n; k += 8u) {
-                bool blocked = intersect_triangle(lo, ld, first + k, hit);
-                blocked = intersect_triangle(lo, ld, first + k + 1u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 2u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 3u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 4u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 5u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 6u, hit) || blocked;
-                blocked = intersect_triangle(lo, ld, first + k + 7u, hit) || blocked;
-                cost.y += 8u;
-                if (blocked) return true;
-            }
-            for (; k < n; k++) {
-                cost.y += 1u;
-                if (intersect_triangle(lo, ld, first + k, hit)) return true;
-            }
-        }
+
+// The paper's brute force over one mesh's triangles first..first+n, eight per iteration.
+// Why eight: Mesa 22's lavapipe ends a loop after 65,535 iterations in one invocation
+// (gallivm's loop limiter, counted over every time the loop runs), which cut a
+// 22k-triangle mesh short at 2 bounces; eight per iteration lift that to 524k tests per loop
+// and invocation. `any`: return true after the block of eight holding the first hit.
+bool brute_force(vec3 o, vec3 d, uint first, uint n, bool any, inout Hit hit, inout uvec2 cost) {
+    uint k = 0u;
+    for (; k + 8u <= n; k += 8u) {
+        bool found = intersect_triangle(o, d, first + k, hit);
+        found = intersect_triangle(o, d, first + k + 1u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 2u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 3u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 4u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 5u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 6u, hit) || found;
+        found = intersect_triangle(o, d, first + k + 7u, hit) || found;
+        cost.y += 8u;
+        if (any && found) return true;
+    }
+    for (; k < n; k++) {
+        cost.y += 1u;
+        if (intersect_triangle(o, d, first + k, hit) && any) return true;
     }
     return false;
+}
+
+// One instance's mesh along the ray: its wide or binary tree, or brute force. Closest
+// (`any` false): shrinks `hit` to a closer hit of this instance and returns whether it did.
+// Any: returns whether the mesh blocks the ray before hit.t.
+bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
+    Instance inst = instances[i];
+    uint first = inst.offsets.y, n = inst.offsets.z;
+    if (n == 0u) return false;  // no triangles, and so no nodes of its own
+    vec3 lo = point_to_object(inst, o);
+    vec3 ld = vector_to_object(inst, d);
+    uint before = hit.tri;
+    bool blocked = false;
+#ifdef WIDE_ONLY
+    // The wide kernel runs only wide BVH frames of scenes whose every mesh has a wide tree
+    // (TracePass picks it): the binary traversal and brute force are left out.
+    blocked = traverse_wide(lo, ld, inst.wide.x, first, any, hit, cost);
+#else
+#ifndef CORE_ONLY
+    // The wide layout (`--bvh wide`); a mesh without a wide tree (EMPTY) takes the binary
+    // path below.
+    if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && inst.wide.x != EMPTY) {
+        blocked = traverse_wide(lo, ld, inst.wide.x, first, any, hit, cost);
+    } else
+#endif
+    if (use_bvh && any) {
+        blocked = traverse_bvh_any(lo, ld, inst.offsets.x, first, hit.t, cost);
+    } else if (use_bvh) {
+        traverse_bvh(lo, ld, inst.offsets.x, first, hit, cost);
+    } else {
+        blocked = brute_force(lo, ld, first, n, any, hit, cost);
+    }
+#endif
+    if (hit.tri != before) hit.instance = i;
+    return any ? blocked : hit.tri != before;
+}
+
+// A top-level stack entry that is an instance to visit rather than a node.
+const uint TOP_LEAF = 0x80000000u;
+
+// The top level: every instance whose box the ray meets, through the two-child tree over
+// the instances' world boxes (top_nodes, leaves of one instance each; src/tracer/top_level.rs
+// builds it and walks it the same way on the CPU). Of a node's two children the nearer is
+// taken next and the farther pushed with its entry distance, and dropped when popped if
+// the hits found meanwhile end before it. Brute force stays the paper's: every triangle of
+// every instance, no culling. The one walk for closest hits and, with `any`, occlusion
+// (true at the first blocking instance); visit_instance is called in one place only, so
+// the traversals it holds are compiled once per query.
+bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
+    uint count = frame.misc.x;
+    if (count == 0u) return false;
+    vec3 inv_d = safe_inverse(d);
+    uint stack[STACK_SIZE];
+    float entry[STACK_SIZE];
+    uint sp = 0u;
+    uint node = 0u;  // the next node to open, or EMPTY to pop
+    uint next_brute = 0u;
+    while (true) {
+        uint leaf = EMPTY;
+        if (!use_bvh) {
+            if (next_brute == count) break;
+            leaf = next_brute;
+            next_brute += 1u;
+        }
+        while (use_bvh && leaf == EMPTY) {
+            if (node == EMPTY) {
+                if (sp == 0u) break;
+                sp -= 1u;
+                if (entry[sp] > hit.t) continue;  // begins beyond the closest hit found since
+                uint e = stack[sp];
+                if ((e & TOP_LEAF) != 0u) {
+                    leaf = e & ~TOP_LEAF;
+                    break;
+                }
+                node = e;
+            }
+            BvhNode n = top_nodes[node];
+            cost.x += 1u;
+            uint li = floatBitsToUint(n.left_min.w);
+            uint ri = floatBitsToUint(n.right_min.w);
+            float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
+            float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
+            // Leaves (count > 0) are entered as instances to visit.
+            if (floatBitsToUint(n.left_max.w) > 0u) li |= TOP_LEAF;
+            if (floatBitsToUint(n.right_max.w) > 0u) ri |= TOP_LEAF;
+            bool swap = tr < tl;
+            float tn = swap ? tr : tl, tf = swap ? tl : tr;
+            uint near = swap ? ri : li, far = swap ? li : ri;
+            node = EMPTY;
+            if (tf < INF) {
+                stack[sp] = far;
+                entry[sp] = tf;
+                sp += 1u;
+            }
+            if (tn < INF) {
+                if ((near & TOP_LEAF) != 0u) leaf = near & ~TOP_LEAF; else node = near;
+            }
+        }
+        if (leaf == EMPTY) break;
+        if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+    }
+    return false;
+}
+
+// The closest hit over all instances in (0, inf).
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+    Hit hit = no_hit(INF);
+    trace_instances(o, d, false, use_bvh, hit, cost);
+    return hit;
+}
+
+// Whether any instance has a triangle along the ray in (0, t_max): the AO view's
+// occlusion query.
+bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
+    Hit hit = no_hit(t_max);
+    return trace_instances(o, d, true, use_bvh, hit, cost);
 }

@@ -41,13 +41,38 @@ struct BvhNode {
     vec4 right_max;
 };
 
+// A placed mesh (src/tracer/records.rs: GpuInstance, 80 bytes).
 struct Instance {
-    vec4 translation_scale;  // world = object * scale + translation
+    vec4 to_object_x;        // world to object: three rows of a 3x4 matrix
+    vec4 to_object_y;
+    vec4 to_object_z;
     uvec4 offsets;           // node base, triangle base, triangle count, prim-id base
-    vec4 bounds_min;         // world-space box of the instance (the top level's culling test);
-                             // bounds_min.w: its first wide BVH node, in uvec4s (uint bits)
-    vec4 bounds_max;
+    uvec4 wide;              // x: the mesh's first wide BVH node in uvec4s, or EMPTY
 };
+
+// A world-space point and direction in instance `inst`'s mesh space (the direction not
+// normalised, so ray parameters stay world distances).
+vec3 point_to_object(Instance inst, vec3 p) {
+    vec4 h = vec4(p, 1.0);
+    return vec3(dot(inst.to_object_x, h), dot(inst.to_object_y, h), dot(inst.to_object_z, h));
+}
+
+vec3 vector_to_object(Instance inst, vec3 v) {
+    return vec3(dot(inst.to_object_x.xyz, v), dot(inst.to_object_y.xyz, v), dot(inst.to_object_z.xyz, v));
+}
+
+// An object-space normal in world space (not normalised): the transpose of the
+// world-to-object part, the inverse transpose of the instance's transform.
+vec3 normal_to_world(Instance inst, vec3 n) {
+    return inst.to_object_x.xyz * n.x + inst.to_object_y.xyz * n.y + inst.to_object_z.xyz * n.z;
+}
+
+// World-space area of an object-space parallelogram with (unnormalised) normal `c`:
+// |W^T c| / |det W| for the world-to-object part W.
+float world_area_of(Instance inst, vec3 c) {
+    float det = dot(inst.to_object_x.xyz, cross(inst.to_object_y.xyz, inst.to_object_z.xyz));
+    return length(normal_to_world(inst, c)) / abs(det);
+}
 
 // Per triangle, in the order of triangles[]: its shading record. Per vertex
 // (src/tracer/packed.rs: PackedVertices): the normal (3 floats), texture coordinates and
@@ -59,6 +84,9 @@ layout(std430, set = 0, binding = 17) readonly buffer VertexColors { uint vertex
 layout(std430, set = 0, binding = 2) readonly buffer Materials { Material materials[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Nodes { BvhNode nodes[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instances[]; };
+// The top level: a two-child tree over the instances' world boxes (BvhNode, leaves of one
+// instance each, the leaf index an index into instances[]).
+layout(std430, set = 0, binding = 20) readonly buffer TopNodes { BvhNode top_nodes[]; };
 layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };
 layout(std430, set = 0, binding = 6) buffer OutFloat { vec4 out_float[]; };
 // All textures' mip chains, RGBA8 (src/tracer/textures.rs), and where each one starts.
@@ -133,7 +161,7 @@ layout(push_constant) uniform Frame {
     vec4 light_pos;          // xyz: point light position, w: AO radius (the AO view)
     vec4 light_color;        // rgb: light colour, w: AO rays per hit (uint bits)
     uvec4 dims;              // width, height, bounces, flags
-    uvec4 misc;              // instance count, first row of this dispatch, background (rgba8), accumulated frames
+    uvec4 misc;              // instance count (0: trace nothing), first row of this dispatch, background (rgba8), accumulated frames
 } frame;
 
 const float INF = 1e30;

@@ -61,13 +61,13 @@ bool shadows_itself(float u, float v, vec3 e1, vec3 e2, vec3 offset, vec3 to_lig
 // viewer) is blocked and smooth normals cannot leak it through silhouettes. A smoothly
 // shaded hit (smooth_hit) that ns says is lit starts that self-shadow test from Hanika's
 // offset point, so the terminator follows the smooth normals, not the flat triangles.
-// n0..n2: the corner normals on the viewer's side; scale: the instance's.
+// Everything in the mesh's space: l the direction to the light (not normalised), p the
+// hit, light the light's position, n0..n2 the corner normals on the viewer's side.
 bool light_reaches(vec3 l, vec3 ng, vec3 ns, bool smooth_hit, float u, float v, vec3 e1, vec3 e2,
-                   vec3 n0, vec3 n1, vec3 n2, vec3 p, float scale) {
+                   vec3 n0, vec3 n1, vec3 n2, vec3 p, vec3 light) {
     if (dot(ng, l) > 0.0) return true;
     if (!smooth_hit) return false;
     if (dot(ns, l) <= 0.0) return false;
     vec3 offset = terminator_offset(u, v, e1, e2, n0, n1, n2);
-    vec3 to_light = (frame.light_pos.xyz - (p + offset * scale)) / scale;
-    return !shadows_itself(u, v, e1, e2, offset, to_light);
+    return !shadows_itself(u, v, e1, e2, offset, light - (p + offset));
 }

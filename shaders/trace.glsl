@@ -118,10 +118,15 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
         if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
         path_length += hit.t;
         Triangle tri = load_triangle(hit.tri);
+        Instance inst = instances[hit.instance];
         vec3 p = o + d * hit.t;
-        vec3 ng = normalize(cross(tri.e1.xyz, tri.e2.xyz));
-        if (dot(ng, d) > 0.0) ng = -ng;  // two-sided: face the incoming ray
-        vec3 ns = ng;
+        // The triangle's normals in its mesh's space, turned to the viewer there (the same
+        // side as in the world: dot(W^T n, d) = dot(n, W d)), then carried to the world
+        // by the instance's inverse transpose, which keeps a mirrored mesh's outward side.
+        vec3 d_object = vector_to_object(inst, d);
+        vec3 ng_object = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+        if (dot(ng_object, d_object) > 0.0) ng_object = -ng_object;  // two-sided
+        vec3 ns_object = ng_object;
         bool smooth_hit = false;
         float side = 1.0;  // the corner normals flipped to the viewer's side
         vec3 n0 = vec3(0.0), n1 = vec3(0.0), n2 = vec3(0.0);
@@ -132,14 +137,16 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             n2 = vertex_normal(c.z);
             vec3 interp = n0 * (1.0 - hit.u - hit.v) + n1 * hit.u + n2 * hit.v;
             if (dot(interp, interp) > 1e-12) {
-                ns = normalize(interp);
+                ns_object = normalize(interp);
                 smooth_hit = true;
-                if (dot(ns, ng) < 0.0) {  // normals wound against the triangle
-                    ns = -ns;
+                if (dot(ns_object, ng_object) < 0.0) {  // normals wound against the triangle
+                    ns_object = -ns_object;
                     side = -1.0;
                 }
             }
         }
+        vec3 ng = normalize(normal_to_world(inst, ng_object));
+        vec3 ns = normalize(normal_to_world(inst, ns_object));
 #ifndef NO_AO_VIEW
         if (aov == AOV_AO) {
             aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, cost)), 1.0);
@@ -161,8 +168,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             vec2 uv2 = material_uv(mat, vertex_texcoords[c.z]);
             vec2 uv = uv0 * (1.0 - hit.u - hit.v) + uv1 * hit.u + uv2 * hit.v;
             uvec4 info = texture_infos[mat.texture.x];
-            float s = instances[hit.instance].translation_scale.w;
-            float world_area = 0.5 * length(cross(tri.e1.xyz, tri.e2.xyz)) * s * s;
+            float world_area = 0.5 * world_area_of(inst, cross(tri.e1.xyz, tri.e2.xyz));
             vec2 duv1 = uv1 - uv0;
             vec2 duv2 = uv2 - uv0;
             float texel_area = 0.5 * abs(duv1.x * duv2.y - duv1.y * duv2.x) * float(info.y) * float(info.z);
@@ -174,12 +180,15 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             kd *= sample_material_texture(mat, uv, lod).rgb;
         }
         vec3 l = normalize(frame.light_pos.xyz - p);
-        float scale = instances[hit.instance].translation_scale.w;
-        bool lit = light_reaches(l, ng, ns, smooth_hit, hit.u, hit.v, tri.e1.xyz, tri.e2.xyz,
-                                 n0 * side, n1 * side, n2 * side, p, scale);
+        // Whether the light reaches the hit is decided in the mesh's space (the signs of
+        // dot(n, l) are the same there), where the terminator's offset is made.
+        bool lit = light_reaches(vector_to_object(inst, l), ng_object, ns_object, smooth_hit,
+                                 hit.u, hit.v, tri.e1.xyz, tri.e2.xyz, n0 * side, n1 * side,
+                                 n2 * side, point_to_object(inst, p),
+                                 point_to_object(inst, frame.light_pos.xyz));
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
-            uint prim = triangle_prim(hit.tri) + instances[hit.instance].offsets.w;
+            uint prim = triangle_prim(hit.tri) + inst.offsets.w;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
             if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
             if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);

@@ -99,8 +99,9 @@ pub const MAX_BOUNCES: u32 = 8;
 pub const MAX_RESOLUTION: u32 = 8192;
 /// Most camera samples per pixel in one frame.
 pub const MAX_SPP: u32 = 64;
-/// Most copies of the model (the paper's Table 2 lays them out on a 3x3x3 grid).
-pub const MAX_MODELS: u32 = 27;
+/// Most copies of the model (the paper's Table 2 lays 27 out on a 3x3x3 grid; more make a
+/// field around it).
+pub const MAX_MODELS: u32 = 10_000;
 
 /// Image width and height in pixels.
 pub const RESOLUTION: Range = Range::closed(1.0, MAX_RESOLUTION as f64, "");

@@ -124,7 +124,7 @@ fn the_inside_of_a_closed_box_is_enclosed_when_the_radius_spans_it() {
     // Camera at the centre of a cube of side 2; every AO ray meets a wall within 2*sqrt(3).
     let scene = Scene {
         meshes: vec![cube(1.0)],
-        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        instances: vec![Instance::placed(0, Vec3::ZERO, 1.0)],
         camera: Camera {
             position: Vec3::new(0.1, 0.2, 0.3),
             target: Vec3::new(0.5, -0.3, -1.0),

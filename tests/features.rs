@@ -51,7 +51,7 @@ fn smooth_terminator_has_no_stair_steps() {
     }
     let scene = Scene {
         meshes: vec![sphere],
-        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        instances: vec![Instance::placed(0, Vec3::ZERO, 1.0)],
         camera: Camera {
             position: Vec3::new(0.0, 0.0, 3.2),
             target: Vec3::ZERO,

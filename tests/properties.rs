@@ -7,13 +7,13 @@
 
 use std::collections::HashSet;
 
-use glam::Vec3;
+use glam::{Affine3A, EulerRot, Quat, Vec3};
 use meshtracer::bvh::TraversalStats;
 use meshtracer::geometry::Ray;
 use meshtracer::render_settings::Accel;
 use meshtracer::scene::obj::load_obj_from_str;
 use meshtracer::scene::paper::{
-    model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS,
+    field_scale, model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS,
 };
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::cpu::{CpuScene, SceneHit};
@@ -37,7 +37,11 @@ fn config(cases: u32) -> Config {
 #[test]
 fn model_offsets_are_distinct_inside_the_box_and_grow_by_appending() {
     let all = model_offsets(MAX_MODELS);
-    for n in 0..=MAX_MODELS + 3 {
+    // Every count of the paper's lattice and past it, and a few of the field's (a field
+    // is a sphere of grid cells: distinct and apart whatever its size).
+    let counts =
+        (0..=40).chain([99, 100, 101, 999, 1000, 4321, MAX_MODELS - 1, MAX_MODELS, MAX_MODELS + 3]);
+    for n in counts {
         let o = model_offsets(n);
         assert_eq!(o.len(), n.min(MAX_MODELS) as usize, "n = {n}");
         // Adding a model never moves the others.
@@ -45,14 +49,17 @@ fn model_offsets_are_distinct_inside_the_box_and_grow_by_appending() {
         let distinct: HashSet<[u32; 3]> =
             o.iter().map(|v| v.to_array().map(f32::to_bits)).collect();
         assert_eq!(distinct.len(), o.len(), "n = {n}: two models share a place");
+        let half = BOX_HALF_SIZE * field_scale(n);
+        assert_eq!(field_scale(n) == 1.0, n <= 27, "n = {n}: the paper's box holds 27");
         for (i, off) in o.iter().enumerate() {
             assert!(
-                off.abs().max_element() + MODEL_RADIUS < BOX_HALF_SIZE,
+                off.abs().max_element() + MODEL_RADIUS < half,
                 "n = {n}: model {i} at {off} leaves the box"
             );
         }
-        // Models of radius MODEL_RADIUS (boxes of half-size MODEL_RADIUS) never overlap.
-        for (i, a) in o.iter().enumerate() {
+        // Models of radius MODEL_RADIUS (boxes of half-size MODEL_RADIUS) never overlap
+        // (cells of the grid: checked pairwise where that is cheap).
+        for (i, a) in o.iter().enumerate().take(200) {
             for b in &o[i + 1..] {
                 assert!(
                     (*a - *b).abs().max_element() >= 2.0 * MODEL_RADIUS,
@@ -108,12 +115,33 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
         })
 }
 
+/// A scale along one axis: 0.1 to 4, either sign (mirrored).
+fn axis_scale() -> impl Strategy<Value = f32> {
+    (0.1f32..4.0, any::<bool>()).prop_map(|(s, mirrored)| if mirrored { -s } else { s })
+}
+
+/// 0 to 40 instances of `meshes` meshes under any rotation and non-uniform, possibly mirrored
+/// scale, overlapping (spread 10) or far apart (spread 1000).
 fn arb_instances(meshes: usize) -> impl Strategy<Value = Vec<Instance>> {
-    prop::collection::vec(
-        (0..meshes, (-10.0f32..10.0, -10.0f32..10.0, -10.0f32..10.0), 0.1f32..4.0).prop_map(
-            |(mesh, (x, y, z), scale)| Instance { mesh, translation: Vec3::new(x, y, z), scale },
-        ),
-        1..6,
+    let instance = (
+        0..meshes,
+        (coord(1.0), coord(1.0), coord(1.0)),
+        (coord(3.2), coord(3.2), coord(3.2)),
+        (axis_scale(), axis_scale(), axis_scale()),
+    );
+    (prop_oneof![Just(10.0f32), Just(1000.0f32)], prop::collection::vec(instance, 0..40)).prop_map(
+        |(spread, list)| {
+            list.into_iter()
+                .map(|(mesh, (x, y, z), (a, b, c), (sx, sy, sz))| {
+                    let transform = Affine3A::from_scale_rotation_translation(
+                        Vec3::new(sx, sy, sz),
+                        Quat::from_euler(EulerRot::XYZ, a, b, c),
+                        Vec3::new(x, y, z) * spread,
+                    );
+                    Instance::new(mesh, transform).expect("an invertible transform")
+                })
+                .collect()
+        },
     )
 }
 
@@ -135,7 +163,9 @@ fn scene_of(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Scene {
 }
 
 fn arb_scene() -> impl Strategy<Value = Scene> {
-    prop::collection::vec(arb_mesh(), 1..4).prop_flat_map(|meshes| {
+    prop::collection::vec(arb_mesh(), 1..4).prop_flat_map(|mut meshes| {
+        // And a mesh without triangles, which instances may place too.
+        meshes.push(Mesh { name: "empty".into(), ..Default::default() });
         let n = meshes.len();
         (Just(meshes), arb_instances(n)).prop_map(|(meshes, instances)| scene_of(meshes, instances))
     })
@@ -195,11 +225,10 @@ proptest! {
             prim_base += n;
         }
         prop_assert_eq!(packed.materials.len() as u32, material_base);
-        prop_assert_eq!(packed.instances.len(), scene.instances.len());
-        for (inst, gi) in scene.instances.iter().zip(&packed.instances) {
+        prop_assert_eq!(packed.top_level.instances.len(), scene.instances.len());
+        for (inst, gi) in scene.instances.iter().zip(&packed.top_level.instances) {
             let pm = &packed.meshes[inst.mesh];
             prop_assert_eq!((gi.triangle_base, gi.triangle_count, gi.node_base), (pm.triangle_base, pm.triangle_count, pm.node_base));
-            prop_assert_eq!(gi.scale, inst.scale);
         }
     }
 
@@ -209,18 +238,22 @@ proptest! {
     fn two_level_closest_hit_equals_brute_force(scene in arb_scene(), seeds in prop::collection::vec((any::<u32>(), 0.05f32..0.9, 0.05f32..0.9, (-30.0f32..30.0, -30.0f32..30.0, -30.0f32..30.0)), 24)) {
         let packed = PackedScene::new(&scene);
         let cpu = CpuScene::new(&packed);
-        let count = packed.instances.len() as u32;
+        let count = packed.top_level.instances.len() as u32;
+        // Instances with triangles, to aim at.
+        let targets: Vec<&Instance> = scene.instances.iter().filter(|i| scene.meshes[i.mesh].triangle_count() > 0).collect();
+        let unplaced = Instance::placed(0, Vec3::ZERO, 1.0);
         for (k, &(pick, u, v, (x, y, z))) in seeds.iter().enumerate() {
             // Aim at an interior point of a random non-degenerate triangle of a random
             // instance (half the rays), or in a random direction.
             let origin = Vec3::new(x, y, z);
-            let inst = &scene.instances[pick as usize % scene.instances.len()];
+            let aimed = k % 2 == 0 && !targets.is_empty();
+            let inst = targets.get(pick as usize % targets.len().max(1)).copied().unwrap_or(&unplaced);
             let mesh = &scene.meshes[inst.mesh];
             let tri = mesh.corners(pick as usize / 7 % mesh.triangle_count());
             // Inside with a margin: u, v >= 0.025 and u + v <= 0.9.
             let (u, v) = if u + v <= 0.9 { (u, v) } else { (u * 0.9 / (u + v), v * 0.9 / (u + v)) };
-            let target = (tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v) * inst.scale + inst.translation;
-            let dir = if k % 2 == 0 { target - origin } else { Vec3::new(u - 0.5, v - 0.5, (pick % 100) as f32 / 100.0 - 0.5) };
+            let target = inst.transform.transform_point3(tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v);
+            let dir = if aimed { target - origin } else { Vec3::new(u - 0.5, v - 0.5, (pick % 100) as f32 / 100.0 - 0.5) };
             if dir.length() < 1e-3 {
                 continue;
             }
@@ -231,10 +264,11 @@ proptest! {
             let (e1, e2) = (tri[1] - tri[0], tri[2] - tri[0]);
             // Möller–Trumbore's barycentrics in f32 lose about |T| max(|P|, |D||E1|) / |det|
             // ulps: far from a tiny triangle (origin 1e5 sizes away) they are noise.
-            let (local_origin, local_dir) = ((origin - inst.translation) / inst.scale, dir / inst.scale);
+            let to_object = inst.transform.inverse();
+            let (local_origin, local_dir) = (to_object.transform_point3(origin), to_object.transform_vector3(dir));
             let (p, tv) = (local_dir.cross(e2), local_origin - tri[0]);
             let condition = tv.length() * p.length().max(local_dir.length() * e1.length()) / e1.dot(p).abs();
-            if k % 2 == 0 && e1.cross(e2).length() > 1e-2 * e1.length() * e2.length() && condition < 1e4 {
+            if aimed && e1.cross(e2).length() > 1e-2 * e1.length() * e2.length() && condition < 1e4 {
                 // Aimed at the interior of a real triangle: something is hit by t = 1.
                 prop_assert!(brute.is_some_and(|h| h.t <= 1.0 + 1e-4), "ray {}: aimed at a triangle but hit {:?}", k, brute);
             }
@@ -385,11 +419,13 @@ proptest! {
         prop_assert_eq!(scene.instances.len(), n as usize + 1);
         prop_assert_eq!(scene.instances.last().unwrap().mesh, 1, "the box comes last");
         let model = scene.meshes[0].bounds();
+        let box_half = BOX_HALF_SIZE * field_scale(n);
+        prop_assert_eq!(scene.instances[n as usize].world_bounds(scene.meshes[1].bounds()).max.x, box_half);
         for inst in &scene.instances[..n as usize] {
             prop_assert_eq!(inst.mesh, 0);
-            let lo = model.min * inst.scale + inst.translation;
-            let hi = model.max * inst.scale + inst.translation;
-            prop_assert!(lo.cmpgt(Vec3::splat(-BOX_HALF_SIZE)).all() && hi.cmplt(Vec3::splat(BOX_HALF_SIZE)).all(), "{} .. {}", lo, hi);
+            let placed = inst.world_bounds(model);
+            let (lo, hi) = (placed.min, placed.max);
+            prop_assert!(lo.cmpgt(Vec3::splat(-box_half)).all() && hi.cmplt(Vec3::splat(box_half)).all(), "{} .. {}", lo, hi);
         }
     }
 }

@@ -30,7 +30,7 @@ fn scene_of(mesh: Mesh, eye: Vec3, light: Vec3) -> Scene {
 fn scene_looking(mesh: Mesh, eye: Vec3, target: Vec3, light: Vec3) -> Scene {
     Scene {
         meshes: vec![mesh],
-        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        instances: vec![Instance::placed(0, Vec3::ZERO, 1.0)],
         camera: Camera { position: eye, target, up: Vec3::Y, vfov_deg: 60.0 },
         light: PointLight { position: light, color: Vec3::ONE },
         background: Vec3::ZERO,

@@ -183,7 +183,7 @@ fn a_new_model_count_or_model_rebuilds_the_structures_and_still_matches() {
     // Five copies: the instance list changes, only the top level is rebuilt.
     let five = paper(PaperModel::Geosphere, 5);
     packed.set_instances(&five.instances);
-    tracer.set_instances(&packed.instances).unwrap();
+    tracer.set_instances(&packed.top_level).unwrap();
     let (theirs, _) = tracer.render(&FrameParams::new(&five, vendor)).unwrap();
     let after = tracer.vendor_stats().unwrap();
     assert_eq!(after.rebuilt, "top level");

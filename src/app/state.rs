@@ -162,7 +162,7 @@ impl Params {
             view: ViewMode::Color,
             light_speed: 30.0,
             light_paused: scripted,
-            camera: spec.camera.camera(),
+            camera: spec.camera(),
             vsync: true,
             panel_visible: true,
             hud_visible: true,
@@ -200,7 +200,7 @@ impl Params {
 
     /// Put the camera back where the scene opens.
     pub(crate) fn reset_camera(&mut self) {
-        self.camera = self.scene.camera.camera();
+        self.camera = self.scene.camera();
     }
 
     /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.

@@ -257,7 +257,7 @@ pub fn run(
         }
         let (_, packed, tracer) = current.as_mut().unwrap();
         packed.set_instances(&scene.instances);
-        tracer.set_instances(&packed.instances)?;
+        tracer.set_instances(&packed.top_level)?;
         let row = measure(tracer, packed, &scene, case, options, clock.as_mut())?;
         progress(i, &row);
         rows.push(row);

@@ -49,9 +49,13 @@ pub(crate) struct SceneArgs {
     /// keeping sharper edges hard under --smooth. Default: every edge is smoothed.
     #[arg(long, value_name = "DEG", value_parser = parse_crease_angle, allow_hyphen_values = true)]
     pub crease_angle: Option<f32>,
-    /// Number of identical models, laid out along the axes as in the paper's Table 2.
+    /// Number of copies of the model (1..=10000): along the axes as in the paper's Table 2
+    /// up to 27, then a growing field (the mirror box grows to hold it).
     #[arg(long, default_value_t = defaults().models, value_parser = ranged(knobs::MODELS), allow_negative_numbers = true)]
     pub models: u32,
+    /// Turn and scale each copy at random, from this seed (0: identical copies, the paper's).
+    #[arg(long, value_name = "SEED", default_value_t = defaults().scatter)]
+    pub scatter: u32,
     /// Image width in pixels.
     #[arg(long, default_value_t = defaults().settings.width, value_parser = ranged(knobs::RESOLUTION), allow_negative_numbers = true)]
     pub width: u32,
@@ -185,6 +189,9 @@ impl SceneArgs {
         }
         if given("models") {
             spec.models = self.models;
+        }
+        if given("scatter") {
+            spec.scatter = self.scatter;
         }
         if given("width") {
             s.width = self.width;

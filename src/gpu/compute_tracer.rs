@@ -26,7 +26,7 @@ use crate::tracer::budget;
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::{GpuInstance, PackedScene};
+use crate::tracer::packed::{GpuInstance, PackedScene, TopLevel};
 use crate::tracer::textures::EnvironmentMap;
 
 /// Timing of one traced frame.
@@ -155,21 +155,24 @@ impl ComputeTracer {
             v.scene_changed();
         }
         self.scene = Some(upload(&self.ctx)?);
-        self.triangle_total = triangle_total(&packed.instances);
+        self.triangle_total = packed.top_level.triangle_slots();
         (self.has_binary, self.has_wide) = (packed.has_binary(), packed.has_wide());
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
-        self.instances = packed.instances.clone();
+        self.instances = packed.top_level.instances.clone();
         self.rebind();
         Ok(())
     }
 
-    /// Replace the instance list (model count, mirror box): no geometry is re-uploaded.
-    pub fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
+    /// Replace the top level (model count, transforms, mirror box): no geometry is
+    /// re-uploaded. A bigger instance list than the buffers hold gets new buffers.
+    pub fn set_instances(&mut self, top_level: &TopLevel) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         if let Some(scene) = &mut self.scene {
-            scene.set_instances(instances)?;
-            self.triangle_total = triangle_total(instances);
-            self.instances = instances.to_vec();
+            if scene.set_instances(&self.ctx, top_level)? {
+                self.rebind();
+            }
+            self.triangle_total = top_level.triangle_slots();
+            self.instances = top_level.instances.clone();
             if let Ok(v) = &mut self.vendor {
                 v.instances_changed();
             }
@@ -576,10 +579,6 @@ impl ComputeTracer {
         image::RgbaImage::from_raw(out.width, out.height, bytes)
             .ok_or(GpuError::NotReady("the colour readback has the wrong size"))
     }
-}
-
-fn triangle_total(instances: &[GpuInstance]) -> u64 {
-    instances.iter().map(|i| i.triangle_count as u64).sum()
 }
 
 impl Drop for ComputeTracer {

@@ -8,12 +8,14 @@ use ash::vk;
 use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
+use crate::bvh::BvhNode;
 use crate::scene::paper::MAX_MODELS;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::{environment_words, GpuInstance, PackedScene};
+use crate::tracer::packed::{environment_words, GpuInstance, PackedScene, TopLevel};
 use crate::tracer::textures::EnvironmentMap;
 
-/// Room in the instance buffer: every model copy plus the mirror box, plus headroom.
+/// Room in the instance buffers: every model copy plus the mirror box, plus headroom, so
+/// that a change of the model count writes them in place.
 pub(crate) const INSTANCE_CAPACITY: usize = MAX_MODELS as usize + 8;
 
 /// Device buffers of one packed scene.
@@ -26,6 +28,8 @@ pub struct SceneBuffers {
     pub(crate) materials: GpuBuffer,
     pub(crate) nodes: GpuBuffer,
     pub(crate) instances: GpuBuffer,
+    /// The top level's tree over the instances.
+    pub(crate) top_nodes: GpuBuffer,
     pub(crate) texels: GpuBuffer,
     pub(crate) texture_infos: GpuBuffer,
     pub(crate) environment: GpuBuffer,
@@ -44,7 +48,7 @@ pub fn check_fits(ctx: &GpuContext, packed: &PackedScene) -> Result<(), GpuError
 }
 
 /// [`check_fits`] on the bytes of each buffer, in `PackedScene::buffer_sizes`' order.
-fn check_sizes(ctx: &GpuContext, sizes: [u64; 9]) -> Result<(), GpuError> {
+fn check_sizes(ctx: &GpuContext, sizes: [u64; 10]) -> Result<(), GpuError> {
     let names = [
         "triangle",
         "shading",
@@ -54,6 +58,7 @@ fn check_sizes(ctx: &GpuContext, sizes: [u64; 9]) -> Result<(), GpuError> {
         "material",
         "BVH node",
         "instance",
+        "top-level node",
         "texture",
     ];
     let limit = ctx.info.max_storage_buffer_range;
@@ -159,7 +164,9 @@ impl SceneBuffers {
             STORAGE,
             "bvh nodes",
         )?;
-        let instances = instance_buffer(ctx, packed.instances.len())?;
+        let top = &packed.top_level;
+        let instances = top_level_buffer::<GpuInstance>(ctx, top.instances.len(), "instances")?;
+        let top_nodes = top_level_buffer::<BvhNode>(ctx, top.nodes.len(), "top-level nodes")?;
         let texels = storage(bytemuck::cast_slice(&packed.textures.texels), "texels")?;
         let texture_infos = storage(bytemuck::cast_slice(&packed.textures.infos), "texture infos")?;
         let environment_words = environment_words(packed.environment.as_ref());
@@ -173,6 +180,7 @@ impl SceneBuffers {
             materials,
             nodes,
             instances,
+            top_nodes,
             texels,
             texture_infos,
             environment,
@@ -181,7 +189,7 @@ impl SceneBuffers {
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
-        s.set_instances(&packed.instances)?;
+        s.set_instances(ctx, &packed.top_level)?;
         Ok(s)
     }
 
@@ -191,7 +199,7 @@ impl SceneBuffers {
     }
 
     /// Every buffer of the scene.
-    fn all(&self) -> [&GpuBuffer; 11] {
+    fn all(&self) -> [&GpuBuffer; 12] {
         [
             &self.triangles,
             &self.shading,
@@ -201,6 +209,7 @@ impl SceneBuffers {
             &self.materials,
             &self.nodes,
             &self.instances,
+            &self.top_nodes,
             &self.texels,
             &self.texture_infos,
             &self.environment,
@@ -226,27 +235,45 @@ impl SceneBuffers {
         Ok(())
     }
 
-    /// Replace the instance list (the top level); the GPU must not be using it.
-    pub(crate) fn set_instances(&mut self, instances: &[GpuInstance]) -> Result<(), GpuError> {
-        let bytes: &[u8] = bytemuck::cast_slice(instances);
-        assert!(bytes.len() as u64 <= self.instances.size, "more instances than the buffer holds");
-        self.instances.upload(bytes)?;
-        self.instance_count = instances.len() as u32;
-        Ok(())
+    /// Replace the top level (instance records and their tree); the GPU must not be using
+    /// it. Returns true when the buffers were too small and are new (rebind the trace pass).
+    pub(crate) fn set_instances(
+        &mut self,
+        ctx: &Arc<GpuContext>,
+        top: &TopLevel,
+    ) -> Result<bool, GpuError> {
+        let records: &[u8] = bytemuck::cast_slice(&top.instances);
+        let nodes: &[u8] = bytemuck::cast_slice(&top.nodes);
+        let grown =
+            records.len() as u64 > self.instances.size || nodes.len() as u64 > self.top_nodes.size;
+        if grown {
+            self.bytes -= self.instances.size + self.top_nodes.size;
+            self.instances =
+                top_level_buffer::<GpuInstance>(ctx, top.instances.len(), "instances")?;
+            self.top_nodes = top_level_buffer::<BvhNode>(ctx, top.nodes.len(), "top-level nodes")?;
+            self.bytes += self.instances.size + self.top_nodes.size;
+        }
+        self.instances.upload(records)?;
+        self.top_nodes.upload(nodes)?;
+        self.instance_count = top.instances.len() as u32;
+        Ok(grown)
     }
 }
 
-/// The instance buffer, written by `SceneBuffers::set_instances`: room for every model copy
-/// and the mirror box (and `count`, should a scene have more), so that a model count's
-/// change writes it in place.
-fn instance_buffer(ctx: &Arc<GpuContext>, count: usize) -> Result<GpuBuffer, GpuError> {
-    let capacity = (INSTANCE_CAPACITY.max(count) * std::mem::size_of::<GpuInstance>()) as u64;
+/// A buffer of the top level, written by `SceneBuffers::set_instances`: room for `T`s of
+/// every model copy and the mirror box (and `count`, should a scene have more).
+fn top_level_buffer<T>(
+    ctx: &Arc<GpuContext>,
+    count: usize,
+    name: &'static str,
+) -> Result<GpuBuffer, GpuError> {
+    let capacity = (INSTANCE_CAPACITY.max(count).max(1) * std::mem::size_of::<T>()) as u64;
     GpuBuffer::new(
         ctx,
         capacity,
         STORAGE | vk::BufferUsageFlags::TRANSFER_DST,
         gpu_allocator::MemoryLocation::GpuOnly,
-        "instances",
+        name,
     )
 }
 

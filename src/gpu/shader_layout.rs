@@ -66,6 +66,8 @@ pub(crate) enum TraceBuffer {
     /// The same node buffer read as 16-byte words, for the wide BVH's nodes.
     WideNodes,
     Instances,
+    /// The top level's tree over the instances.
+    TopNodes,
     Texels,
     TextureInfos,
     Environment,
@@ -79,7 +81,7 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 18] = [
+    pub const ALL: [TraceBuffer; 19] = [
         Self::Triangles,
         Self::TriangleHalves,
         Self::Shading,
@@ -90,6 +92,7 @@ impl TraceBuffer {
         Self::Nodes,
         Self::WideNodes,
         Self::Instances,
+        Self::TopNodes,
         Self::Texels,
         Self::TextureInfos,
         Self::Environment,
@@ -113,6 +116,7 @@ impl TraceBuffer {
             "Nodes" => Self::Nodes,
             "WideNodes" => Self::WideNodes,
             "Instances" => Self::Instances,
+            "TopNodes" => Self::TopNodes,
             "Texels" => Self::Texels,
             "TextureInfos" => Self::TextureInfos,
             "Environment" => Self::Environment,
@@ -335,14 +339,13 @@ mod tests {
             (
                 "Instance",
                 twin!(GpuInstance {
-                    translation: "translation_scale",
-                    scale: "translation_scale" + 12,
+                    to_object: "to_object_x"..="to_object_z",
                     node_base: "offsets",
                     triangle_base: "offsets" + 4,
                     triangle_count: "offsets" + 8,
                     prim_base: "offsets" + 12,
-                    bounds_min: "bounds_min",
-                    bounds_max: "bounds_max",
+                    wide_words: "wide",
+                    _pad: "wide" + 4,
                 }),
             ),
             (

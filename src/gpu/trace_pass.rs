@@ -152,6 +152,7 @@ pub(crate) fn write_set(
                 TraceBuffer::Materials => &scene.materials,
                 TraceBuffer::Nodes | TraceBuffer::WideNodes => &scene.nodes,
                 TraceBuffer::Instances => &scene.instances,
+                TraceBuffer::TopNodes => &scene.top_nodes,
                 TraceBuffer::Texels => &scene.texels,
                 TraceBuffer::TextureInfos => &scene.texture_infos,
                 TraceBuffer::Environment => &scene.environment,

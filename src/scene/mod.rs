@@ -15,7 +15,7 @@ pub mod spec;
 
 use std::path::PathBuf;
 
-use glam::{Vec2, Vec3};
+use glam::{Affine3A, Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::geometry::Aabb;
@@ -170,14 +170,68 @@ fn piece_bounds(points: &[Vec3]) -> Aabb {
     boxes.into_iter().fold(Aabb::EMPTY, Aabb::union)
 }
 
-/// A placement of a mesh in the world: uniform scale, then translation. Uniform scale keeps
-/// normals and ray distances unchanged by the instance transform.
+/// A placement of a mesh in the world: any invertible affine transform (rotation,
+/// non-uniform or mirrored scale, translation), object to world. The tracers carry rays
+/// into the mesh's space with the inverse and normals out with its transpose, so ray
+/// parameters stay world distances and a mirrored instance keeps its outward side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Instance {
     /// Index into `Scene::meshes`.
     pub mesh: usize,
-    pub translation: Vec3,
-    pub scale: f32,
+    /// Object space to world space.
+    pub transform: Affine3A,
+}
+
+/// Smallest |determinant| a transform may have relative to the cube of its largest
+/// column: below it the inverse loses most of its digits and rays miss the mesh at random.
+const MIN_RELATIVE_DETERMINANT: f32 = 1e-6;
+
+impl Instance {
+    /// `mesh` placed by `transform`; a transform that is not finite or flattens space (a zero
+    /// or nearly zero scale) is refused with one sentence.
+    pub fn new(mesh: usize, transform: Affine3A) -> Result<Self, String> {
+        let m = transform.matrix3;
+        let finite = m.is_finite() && transform.translation.is_finite();
+        let largest =
+            [m.x_axis, m.y_axis, m.z_axis].map(|c| c.length()).into_iter().fold(0.0, f32::max);
+        if !finite {
+            return Err(format!("the transform of an instance of mesh {mesh} is not finite"));
+        }
+        if largest == 0.0 || m.determinant().abs() <= MIN_RELATIVE_DETERMINANT * largest.powi(3) {
+            return Err(format!(
+                "the transform of an instance of mesh {mesh} is singular (it flattens the mesh: \
+                 a scale of zero or axes that coincide)"
+            ));
+        }
+        Ok(Self { mesh, transform })
+    }
+
+    /// `mesh` scaled uniformly by `scale`, then moved by `translation` (the paper's copies).
+    pub fn placed(mesh: usize, translation: Vec3, scale: f32) -> Self {
+        Self {
+            mesh,
+            transform: Affine3A::from_scale_rotation_translation(
+                Vec3::splat(scale),
+                glam::Quat::IDENTITY,
+                translation,
+            ),
+        }
+    }
+
+    /// The world box of `bounds` (the mesh's box) under the transform: its eight corners'.
+    pub fn world_bounds(&self, bounds: Aabb) -> Aabb {
+        if bounds.is_empty() {
+            return bounds;
+        }
+        (0..8).fold(Aabb::EMPTY, |acc, i| {
+            let corner = Vec3::new(
+                if i & 1 == 0 { bounds.min.x } else { bounds.max.x },
+                if i & 2 == 0 { bounds.min.y } else { bounds.max.y },
+                if i & 4 == 0 { bounds.min.z } else { bounds.max.z },
+            );
+            acc.grow_point(self.transform.transform_point3(corner))
+        })
+    }
 }
 
 /// A point light (the paper's orbiting light).
@@ -272,16 +326,8 @@ impl Scene {
         instances: impl Iterator<Item = &'a Instance>,
         mesh_bounds: impl Fn(usize) -> Aabb,
     ) -> Aabb {
-        instances.fold(Aabb::EMPTY, |acc, inst| {
-            let b = mesh_bounds(inst.mesh);
-            if b.is_empty() {
-                return acc;
-            }
-            acc.union(Aabb {
-                min: b.min * inst.scale + inst.translation,
-                max: b.max * inst.scale + inst.translation,
-            })
-        })
+        instances
+            .fold(Aabb::EMPTY, |acc, inst| acc.union(inst.world_bounds(mesh_bounds(inst.mesh))))
     }
 }
 

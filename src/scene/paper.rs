@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use glam::Vec3;
+use glam::{Affine3A, Vec3};
 
 use super::primitives::PaperModel;
 use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
@@ -16,7 +16,8 @@ pub const MODEL_RADIUS: f32 = 1.0;
 /// Distance between a copy and the centre model (Table 2's fixed spacing).
 pub(crate) const MODEL_SPACING: f32 = 2.5;
 /// Copies fill a 3x3x3 lattice inside the box: centre, the six axis neighbours, then the
-/// edges and corners (as many as `render_settings::MODELS` accepts).
+/// edges and corners; more grow it into a field (as many as `render_settings::MODELS`
+/// accepts).
 pub use crate::render_settings::MAX_MODELS;
 
 /// Where the model comes from: one of the paper's generated primitives or a model file
@@ -143,27 +144,73 @@ impl LightOrbit {
 }
 
 /// Offsets of the first `count` models: centre, +x, +y, +z, -x, -y, -z, then the rest of
-/// the 3x3x3 lattice (edges before corners), `MODEL_SPACING` apart.
+/// the 3x3x3 lattice (edges before corners), `MODEL_SPACING` apart: the paper's Table 2
+/// layout. Past 27 the lattice grows into a field: the cells of a cubic grid in order of
+/// distance from the centre, so a larger count only appends copies.
 pub fn model_offsets(count: u32) -> Vec<Vec3> {
-    let mut cells: Vec<Vec3> = Vec::with_capacity(27);
-    for x in -1i32..=1 {
-        for y in -1i32..=1 {
-            for z in -1i32..=1 {
-                cells.push(Vec3::new(x as f32, y as f32, z as f32));
+    let count = count.min(MAX_MODELS) as usize;
+    // The smallest grid holding `count` cells within its inscribed sphere's shells: 3x3x3
+    // up to 27 (the paper's), larger beyond.
+    let half = if count <= 27 { 1 } else { ((count as f64).cbrt() * 0.75).ceil() as i32 + 1 };
+    let mut cells: Vec<[i32; 3]> = Vec::with_capacity((2 * half as usize + 1).pow(3));
+    for x in -half..=half {
+        for y in -half..=half {
+            for z in -half..=half {
+                cells.push([x, y, z]);
             }
         }
     }
     // Order by distance from the centre; among equals, positive axes first as in Table 2.
-    let axis_rank = |v: &Vec3| {
-        let order = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
-        order.iter().position(|a| a == v).unwrap_or(6)
+    let axis_rank = |c: &[i32; 3]| {
+        let order = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, -1]];
+        order.iter().position(|a| a == c).unwrap_or(6)
     };
-    cells.sort_by(|a, b| {
-        let ka = (a.length_squared() as i32, axis_rank(a));
-        let kb = (b.length_squared() as i32, axis_rank(b));
-        ka.cmp(&kb).then(a.to_array().partial_cmp(&b.to_array()).unwrap())
-    });
-    cells.into_iter().take(count.min(MAX_MODELS) as usize).map(|c| c * MODEL_SPACING).collect()
+    let key = |c: &[i32; 3]| (c.iter().map(|v| v * v).sum::<i32>(), axis_rank(c), *c);
+    if count < cells.len() {
+        cells.select_nth_unstable_by_key(count, key);
+        cells.truncate(count);
+    }
+    cells.sort_unstable_by_key(key);
+    cells
+        .into_iter()
+        .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * MODEL_SPACING)
+        .collect()
+}
+
+/// How much the mirror box (and the default camera's distance) grows so that `count`
+/// copies fit inside: 1 up to the paper's 27, then with the field.
+pub fn field_scale(count: u32) -> f32 {
+    let reach = model_offsets(count).iter().map(|o| o.abs().max_element()).fold(0.0, f32::max);
+    ((reach + MODEL_RADIUS + 0.5) / BOX_HALF_SIZE).max(1.0)
+}
+
+/// The transform of copy `index` of a field scattered with `seed` (0: none, the paper's
+/// identical copies): a random rotation and a uniform scale of 0.5 to 1, drawn from the
+/// seed and the index alone, so that every tracer and run places the same field.
+pub fn scatter(index: u32, seed: u32) -> Affine3A {
+    if seed == 0 {
+        return Affine3A::IDENTITY;
+    }
+    // SplitMix64 over (seed, index): numbers in [0, 1) with 24 bits each.
+    let mut state = (u64::from(seed) << 32) | u64::from(index);
+    let mut next = || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u32 << 24) as f32
+    };
+    // A uniformly random rotation (Shoemake's subgroup algorithm).
+    let (u1, u2, u3) = (next(), next(), next());
+    let tau = std::f32::consts::TAU;
+    let rotation = glam::Quat::from_xyzw(
+        (1.0 - u1).sqrt() * (tau * u2).sin(),
+        (1.0 - u1).sqrt() * (tau * u2).cos(),
+        u1.sqrt() * (tau * u3).sin(),
+        u1.sqrt() * (tau * u3).cos(),
+    );
+    let scale = 0.5 + 0.5 * next();
+    Affine3A::from_scale_rotation_translation(Vec3::splat(scale), rotation.normalize(), Vec3::ZERO)
 }
 
 /// Six inward-facing planes closing a cube of half-size `half` (12 triangles). Each face
@@ -228,17 +275,23 @@ pub(crate) const MODEL_MESH: usize = 0;
 /// The mirror box's index in the paper scene's mesh list.
 pub(crate) const MIRROR_BOX_MESH: usize = 1;
 
-/// Instances for `model_count` copies: the models (mesh 0), then the box (mesh 1). Models
-/// come first so their hits shorten the ray before the box, which every ray meets.
-pub fn instances(model_count: u32) -> Vec<Instance> {
+/// Instances for `model_count` copies: the models (mesh 0), each turned and scaled by
+/// [`scatter`] with `seed`, then the box (mesh 1), grown to hold a field ([`field_scale`]).
+/// Models come first so that copy `i` is instance `i`.
+pub fn instances(model_count: u32, seed: u32) -> Vec<Instance> {
+    let model = |(i, offset): (usize, Vec3)| Instance {
+        mesh: MODEL_MESH,
+        transform: Affine3A::from_translation(offset) * scatter(i as u32, seed),
+    };
     model_offsets(model_count)
         .into_iter()
-        .map(|t| Instance { mesh: MODEL_MESH, translation: t, scale: 1.0 })
-        .chain(std::iter::once(Instance {
-            mesh: MIRROR_BOX_MESH,
-            translation: Vec3::ZERO,
-            scale: 1.0,
-        }))
+        .enumerate()
+        .map(model)
+        .chain(std::iter::once(Instance::placed(
+            MIRROR_BOX_MESH,
+            Vec3::ZERO,
+            field_scale(model_count),
+        )))
         .collect()
 }
 
@@ -252,7 +305,7 @@ pub fn open_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
     Scene {
         meshes: vec![model, mirror_box(BOX_HALF_SIZE)],
-        instances: instances(model_count),
+        instances: instances(model_count, 0),
         camera: default_camera(),
         light: PointLight { position: light.position(), color: Vec3::ONE },
         background: Vec3::ZERO,
@@ -294,10 +347,34 @@ mod tests {
         assert_eq!(o[2], Vec3::Y * MODEL_SPACING);
         assert_eq!(o[3], Vec3::Z * MODEL_SPACING);
         assert_eq!(o[4], -Vec3::X * MODEL_SPACING);
-        let all = model_offsets(MAX_MODELS);
+        let all = model_offsets(27);
         assert_eq!(all.len(), 27);
         for off in all {
             assert!(off.abs().max_element() + MODEL_RADIUS < BOX_HALF_SIZE);
+        }
+    }
+
+    #[test]
+    fn a_field_grows_the_box_and_scattering_is_seeded() {
+        let field = instances(1000, 0);
+        assert_eq!(field.len(), 1001);
+        let box_scale = field_scale(1000);
+        assert!(box_scale > 3.0, "{box_scale}");
+        assert_eq!(field[1000].transform.matrix3.x_axis.x, box_scale, "the box grows");
+        // Seed 0 keeps the paper's identical copies; a seed turns and scales each copy the
+        // same way every time, and differently per copy.
+        assert!(field[..1000].iter().all(|i| i.transform.matrix3 == glam::Mat3A::IDENTITY));
+        let (a, b) = (instances(30, 7), instances(30, 7));
+        assert_eq!(a, b);
+        assert_ne!(a[3].transform.matrix3, a[4].transform.matrix3);
+        assert_ne!(instances(30, 8)[3], a[3]);
+        for inst in &a[..30] {
+            let scale = inst.transform.matrix3.x_axis.length();
+            assert!((0.5..=1.0).contains(&scale), "{scale}");
+            assert!(
+                (inst.transform.matrix3.determinant() - scale.powi(3)).abs() < 1e-4,
+                "a rotation, not a mirror"
+            );
         }
     }
 

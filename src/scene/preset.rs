@@ -21,7 +21,7 @@ use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use fields::{
     de_accumulate, de_ao_radius, de_ao_samples, de_blend, de_bounces, de_copies, de_crease_angle,
     de_env, de_finite, de_fov, de_from_str, de_light_height, de_light_radius, de_model, de_point,
-    de_side, de_spp, de_version, is_one, ser_display, ser_env, ser_model,
+    de_side, de_spp, de_version, is_one, is_zero, ser_display, ser_env, ser_model,
 };
 
 mod fields;
@@ -60,6 +60,9 @@ struct ModelPart {
     crease_angle: Option<f32>,
     #[serde(deserialize_with = "de_copies")]
     copies: u32,
+    /// `--scatter`: written only when set.
+    #[serde(skip_serializing_if = "is_zero")]
+    scatter: u32,
     mirror_box: bool,
 }
 
@@ -143,13 +146,14 @@ impl File {
         let s = &spec.settings;
         // Written resolved: a framed or default camera becomes numbers that need no code
         // of this version to mean the same view.
-        let camera = spec.camera.camera();
+        let camera = spec.camera();
         File {
             version: VERSION,
             model: ModelPart {
                 source: spec.model.clone(),
                 crease_angle: spec.load_options.crease_angle,
                 copies: spec.models,
+                scatter: spec.scatter,
                 mirror_box: spec.mirror_box,
             },
             image: ImagePart {
@@ -187,6 +191,7 @@ impl File {
             model: model.source,
             load_options: LoadOptions { crease_angle: model.crease_angle },
             models: model.copies,
+            scatter: model.scatter,
             mirror_box: model.mirror_box,
             light: LightOrbit {
                 radius: light.radius,
@@ -312,6 +317,7 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     // Every key the format has: the default file with the optional keys set.
     let mut all = File::default();
     all.model.crease_angle = Some(0.0);
+    all.model.scatter = 1;
     all.shading.accumulate = 2;
     all.tracing.bvh = BvhLayout::Wide;
     let known = toml::Table::try_from(all).expect("a preset always serializes");

@@ -7,7 +7,8 @@ fn rich_spec() -> SceneSpec {
     SceneSpec {
         model: ModelSource::File("models/my \"bunny\".obj".into()),
         load_options: crate::scene::obj::LoadOptions { crease_angle: Some(30.0) },
-        models: 7,
+        models: 700,
+        scatter: 42,
         mirror_box: false,
         light: LightOrbit { radius: 3.25, height: -1.5, angle_deg: 123.456 },
         camera: CameraSpec {
@@ -50,7 +51,8 @@ fn presets_round_trip() {
         "[model]\n",
         "crease_angle = 30.0\n",
         "source = 'models/my \"bunny\".obj'",
-        "copies = 7\n",
+        "copies = 700\n",
+        "scatter = 42\n",
         "[camera]\n",
         "accel = \"brute\"\n",
         "aov = \"prim-id\"\n",
@@ -119,7 +121,7 @@ fn a_bad_value_names_its_key_and_line() {
         ("[camera]\neye = [1, 2]\n", 2, "camera.eye", "expected [x, y, z]"),
         ("[camera]\nfov = 500\n", 2, "camera.fov", "out of range"),
         ("[model]\nsource = \"geosphre\"\n", 2, "model.source", "geosphere, torusknot"),
-        ("[model]\ncopies = -3\n", 2, "model.copies", "out of range (1..=27)"),
+        ("[model]\ncopies = -3\n", 2, "model.copies", "out of range (1..=10000)"),
         (
             "[model]\ncrease_angle = 200\n",
             2,
@@ -169,7 +171,7 @@ fn saving_renames_into_place_and_asks_before_overwriting() {
     save(&spec, &path, false).unwrap();
     let loaded = read(&path).unwrap();
     assert_eq!(loaded.spec, spec);
-    assert!(loaded.warnings.is_empty());
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
     let other = SceneSpec { models: 3, ..spec.clone() };
     assert_eq!(save(&other, &path, false), Err(SaveError::Exists(path.clone())));
     assert_eq!(read(&path).unwrap().spec, spec, "refused: the file is unchanged");

@@ -70,8 +70,10 @@ pub struct SceneSpec {
     pub model: ModelSource,
     /// How an .obj model is read where the file leaves it open (`--crease-angle`).
     pub load_options: LoadOptions,
-    /// Identical copies along the axes (the paper's Table 2), 1..=27.
+    /// Copies of the model: along the axes (the paper's Table 2) up to 27, a field beyond.
     pub models: u32,
+    /// Seed of the copies' random rotations and scales (0: identical copies).
+    pub scatter: u32,
     /// The paper's six mirror planes around the models.
     pub mirror_box: bool,
     /// The light's orbit and position on it.
@@ -93,6 +95,7 @@ impl Default for SceneSpec {
             model: ModelSource::default(),
             load_options: LoadOptions::default(),
             models: 1,
+            scatter: 0,
             mirror_box: true,
             light: LightOrbit::default(),
             camera: CameraSpec::default(),
@@ -112,13 +115,21 @@ impl SceneSpec {
         if let Some(angle) = self.load_options.crease_angle {
             CREASE_ANGLE_DEGREES.check(angle as f64, format!("the crease angle {angle}"))?;
         }
-        let camera = self.camera.camera();
+        let camera = self.camera();
         if camera.position.distance(camera.target) < 1e-6 {
             return Err(
                 "the camera's eye and target are the same point: it has no direction".into()
             );
         }
         Ok(())
+    }
+
+    /// The camera: the overrides applied to the opening view, which steps back with the
+    /// mirror box when the copies grow into a field, so the whole set is in view.
+    pub fn camera(&self) -> Camera {
+        let mut home = default_camera();
+        home.position *= super::paper::field_scale(self.models);
+        self.camera.apply(home)
     }
 
     /// Read the environment file now, so a bad one fails before any other work.
@@ -130,12 +141,13 @@ impl SceneSpec {
     }
 
     /// The scene around an already loaded and prepared model mesh.
-    pub(crate) fn scene_with(&self, model: Mesh) -> Scene {
+    pub fn scene_with(&self, model: Mesh) -> Scene {
         let mut scene = paper_scene(model, self.models, self.light);
+        scene.instances = super::paper::instances(self.models, self.scatter);
         if !self.mirror_box {
             scene = scene.without_box();
         }
-        scene.camera = self.camera.camera();
+        scene.camera = self.camera();
         scene.environment = self.environment.clone();
         scene
     }

@@ -13,10 +13,10 @@ use super::packed::{
 use super::shading::{
     ao_direction, blinn_phong, light_reaches, reflect, ShadingMaterial, SmoothTriangle,
 };
-use crate::bvh::wide::WideNode;
-use crate::bvh::{self, TraversalStats};
+use super::top_level::Visit;
+use crate::bvh::TraversalStats;
 use crate::contract;
-use crate::geometry::{intersect_triangle, safe_inverse, Aabb, Ray};
+use crate::geometry::Ray;
 use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 
 /// A closest hit in the packed scene.
@@ -30,6 +30,9 @@ pub struct SceneHit {
     /// Index into `PackedScene::instances`.
     pub instance: u32,
 }
+
+mod instances;
+use instances::Query;
 
 /// The shader's PCG hash, for identical sample jitter on both tracers.
 pub(crate) fn pcg(v: u32) -> u32 {
@@ -63,13 +66,23 @@ struct Surface<'a> {
     /// The triangle's edges from its first corner.
     e1: Vec3,
     e2: Vec3,
-    /// Geometric and shading normals, both facing the ray's origin.
+    /// The instance the triangle was hit in.
+    inst: &'a GpuInstance,
+    /// Geometric and shading normals (world space), both facing the ray's origin.
     ng: Vec3,
     ns: Vec3,
+    /// The same normals in the mesh's space.
+    object: ObjectNormals,
     /// The first corner's barycentric weight (`1 - u - v`).
     w: f32,
     /// The corner normals for the terminator offset, when smooth shading applies.
     smooth: Option<SmoothTriangle>,
+}
+
+/// A hit's geometric and shading normals in its mesh's space, facing the viewer.
+struct ObjectNormals {
+    ng: Vec3,
+    ns: Vec3,
 }
 
 /// The packed scene, its triangles also as (v0, e1, e2) `Vec3` triples in the packed order,
@@ -106,90 +119,18 @@ impl<'a> CpuScene<'a> {
         instance_count: u32,
         stats: &mut TraversalStats,
     ) -> Option<SceneHit> {
-        let layout = self.packed.traced_layout(layout);
         let mut best: Option<SceneHit> = None;
-        let inv_dir = safe_inverse(ray.dir);
-        for (i, inst) in self.packed.instances.iter().take(instance_count as usize).enumerate() {
-            // The CPU reference has no vendor traversal: it traces vendor frames with our BVH.
-            let accel = if accel == Accel::Vendor { Accel::Bvh } else { accel };
-            if accel == Accel::Bvh {
-                let bounds = Aabb {
-                    min: Vec3::from_slice(&inst.bounds_min[..3]),
-                    max: Vec3::from_slice(&inst.bounds_max[..3]),
-                };
-                if bounds.intersect(ray, inv_dir, best.map_or(f32::INFINITY, |h| h.t)).is_none() {
-                    continue;
-                }
-            }
-            // Uniform scale: the object-space ray keeps world-space distances.
-            let local = Ray::new(
-                (ray.origin - Vec3::from(inst.translation)) / inst.scale,
-                ray.dir / inst.scale,
-            );
-            let t_max = best.map_or(f32::INFINITY, |h| h.t);
-            let base = inst.triangle_base as usize;
-            let tris = &self.edges[base..base + inst.triangle_count as usize];
-            match accel {
-                Accel::Brute => {
-                    stats.triangles += inst.triangle_count;
-                    for (k, [v0, e1, e2]) in tris.iter().enumerate() {
-                        let t_max = best.map_or(f32::INFINITY, |h| h.t);
-                        if let Some(h) = intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max) {
-                            best = Some(SceneHit {
-                                t: h.t,
-                                u: h.u,
-                                v: h.v,
-                                triangle: (base + k) as u32,
-                                instance: i as u32,
-                            });
-                        }
-                    }
-                }
-                Accel::Bvh | Accel::Vendor => {
-                    // A mesh without triangles has no nodes: its node base is the next mesh's root.
-                    if inst.triangle_count == 0 {
-                        continue;
-                    }
-                    // The instance's nodes start at its node base, their indices relative to it
-                    // (and to the triangle base), as the shader's traverse_bvh reads them.
-                    let found = match self.wide_nodes(inst, layout) {
-                        Some(nodes) => {
-                            bvh::wide::closest_hit(nodes, tris, &local, 0.0, t_max, stats)
-                        }
-                        None => bvh::closest_hit(
-                            &self.packed.nodes[inst.node_base as usize..],
-                            tris,
-                            &local,
-                            0.0,
-                            t_max,
-                            stats,
-                        ),
-                    };
-                    if let Some((k, h)) = found {
-                        best = Some(SceneHit {
-                            t: h.t,
-                            u: h.u,
-                            v: h.v,
-                            triangle: inst.triangle_base + k,
-                            instance: i as u32,
-                        });
-                    }
-                }
-            }
-        }
+        let query = (f32::INFINITY, Query::Closest);
+        self.trace_instances(ray, query, accel, layout, instance_count, stats, |i, hit| {
+            best = Some(SceneHit { instance: i, ..hit });
+            Visit::Closer(hit.t)
+        });
         best
     }
 
-    /// The wide nodes `inst` is traced through in a frame of `layout`: None for binary
-    /// frames, and where the wide layout was not packed or the mesh has no wide tree (its
-    /// binary tree then serves, as on the GPU).
-    fn wide_nodes(&self, inst: &GpuInstance, layout: BvhLayout) -> Option<&[WideNode]> {
-        Some(self.packed.wide_nodes_of(inst)).filter(|nodes| layout.is_wide() && !nodes.is_empty())
-    }
-
-    /// Whether anything of the first `instance_count` instances lies along `ray` in
-    /// (0, t_max): the AO view's occlusion query, the shader's `any_hit` (the vendor's
-    /// frames with our BVH, as for closest hits), through `layout` where it is packed.
+    /// Whether anything of the scene lies along `ray` in (0, t_max): the AO view's
+    /// occlusion query, the shader's `any_hit` (the vendor's frames with our BVH, as for
+    /// closest hits), through `layout` where it is packed.
     pub fn any_hit(
         &self,
         ray: &Ray,
@@ -199,48 +140,10 @@ impl<'a> CpuScene<'a> {
         instance_count: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let layout = self.packed.traced_layout(layout);
-        let inv_dir = safe_inverse(ray.dir);
-        let brute = accel == Accel::Brute;
-        for inst in self.packed.instances.iter().take(instance_count as usize) {
-            if inst.triangle_count == 0 {
-                continue;
-            }
-            let bounds = Aabb {
-                min: Vec3::from_slice(&inst.bounds_min[..3]),
-                max: Vec3::from_slice(&inst.bounds_max[..3]),
-            };
-            if !brute && bounds.intersect(ray, inv_dir, t_max).is_none() {
-                continue;
-            }
-            let local = Ray::new(
-                (ray.origin - Vec3::from(inst.translation)) / inst.scale,
-                ray.dir / inst.scale,
-            );
-            let base = inst.triangle_base as usize;
-            let tris = &self.edges[base..base + inst.triangle_count as usize];
-            let blocked = if brute {
-                tris.iter().any(|[v0, e1, e2]| {
-                    stats.triangles += 1;
-                    intersect_triangle(&local, *v0, *e1, *e2, 0.0, t_max).is_some()
-                })
-            } else if let Some(nodes) = self.wide_nodes(inst, layout) {
-                bvh::wide::any_hit(nodes, tris, &local, 0.0, t_max, stats)
-            } else {
-                bvh::any_hit(
-                    &self.packed.nodes[inst.node_base as usize..],
-                    tris,
-                    &local,
-                    0.0,
-                    t_max,
-                    stats,
-                )
-            };
-            if blocked {
-                return true;
-            }
-        }
-        false
+        let query = (t_max, Query::Any);
+        self.trace_instances(ray, query, accel, layout, instance_count, stats, |_, _| {
+            Visit::Blocked
+        })
     }
 
     /// The AO view's value at hit point `p`: the share of the frame's AO rays from `p`
@@ -331,9 +234,16 @@ impl<'a> CpuScene<'a> {
             };
             let kd = self.diffuse_at(s.textures, gm, &hit, &surface, ray.dir, spread * path_length);
             let l = (params.light_position - p).normalize();
-            let scale = self.packed.instances[hit.instance as usize].scale;
-            let lit =
-                light_reaches(l, ng, ns, surface.smooth.as_ref(), p, params.light_position, scale);
+            // Decided in the mesh's space, as the shader does.
+            let inst = surface.inst;
+            let lit = light_reaches(
+                inst.vector_to_object(l),
+                surface.object.ng,
+                surface.object.ns,
+                surface.smooth.as_ref(),
+                inst.point_to_object(p),
+                inst.point_to_object(params.light_position),
+            );
             let local =
                 blinn_phong(&mat, kd, l, ns, lit, -ray.dir, params.light_color, params.ambient);
             if bounce == 0 {
@@ -367,10 +277,14 @@ impl<'a> CpuScene<'a> {
     fn surface_at(&self, hit: &SceneHit, ray: &Ray, smooth: bool) -> Surface<'a> {
         let tri = &self.packed.triangles[hit.triangle as usize];
         let shading = &self.packed.shading[hit.triangle as usize];
+        let inst = &self.packed.top_level.instances[hit.instance as usize];
         let p = ray.at(hit.t);
         let (e1, e2) = (Vec3::from(tri.e1), Vec3::from(tri.e2));
+        // The normals in the mesh's space, turned to the viewer there (the same side as in
+        // the world), then carried out by the inverse transpose (the shader's comment).
+        let d_object = inst.vector_to_object(ray.dir);
         let mut ng = e1.cross(e2).normalize();
-        if ng.dot(ray.dir) > 0.0 {
+        if ng.dot(d_object) > 0.0 {
             ng = -ng;
         }
         let mut ns = ng;
@@ -391,7 +305,9 @@ impl<'a> CpuScene<'a> {
                 smooth_triangle = Some(SmoothTriangle { u: hit.u, v: hit.v, e1, e2, normals });
             }
         }
-        Surface { tri, shading, p, e1, e2, ng, ns, w, smooth: smooth_triangle }
+        let object = ObjectNormals { ng, ns };
+        let (ng, ns) = (inst.normal_to_world(ng).normalize(), inst.normal_to_world(ns).normalize());
+        Surface { tri, shading, inst, p, e1, e2, ng, ns, object, w, smooth: smooth_triangle }
     }
 
     /// The diffuse colour at the hit: the material's `diffuse`, times the vertex colours and
@@ -418,8 +334,7 @@ impl<'a> CpuScene<'a> {
                 self.packed.vertices.texcoords_of(corners).map(|uv| gm.texture_uv(uv));
             let uv = uv0 * w + uv1 * hit.u + uv2 * hit.v;
             let info = self.packed.textures.infos[gm.texture as usize];
-            let scale = self.packed.instances[hit.instance as usize].scale;
-            let world_area = 0.5 * e1.cross(e2).length() * scale * scale;
+            let world_area = 0.5 * surface.inst.world_area(e1.cross(e2));
             let (d1, d2) = (uv1 - uv0, uv2 - uv0);
             let texel_area =
                 0.5 * (d1.x * d2.y - d1.y * d2.x).abs() * info[1] as f32 * info[2] as f32;
@@ -441,8 +356,7 @@ impl<'a> CpuScene<'a> {
     /// colour, cost, samples and AO views).
     #[inline]
     fn first_hit_aov(&self, aov: Aov, hit: &SceneHit, surface: &Surface) -> Option<Vec4> {
-        let prim =
-            (surface.tri.prim + self.packed.instances[hit.instance as usize].prim_base) as f32;
+        let prim = (surface.tri.prim + surface.inst.prim_base) as f32;
         match aov {
             Aov::Depth => Some(Vec4::new(hit.t, hit.t, hit.t, 1.0)),
             Aov::Normal => Some(surface.ns.extend(1.0)),

@@ -72,7 +72,7 @@ impl LoadedScene {
 
     /// Bytes of each GPU array, as [`PackedScene::buffer_sizes`] once the upload has
     /// written the triangles.
-    pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
+    pub(crate) fn buffer_sizes(&self) -> [u64; 10] {
         let count = self.triangle_count();
         self.packed.buffer_sizes_for(count, count)
     }

@@ -14,6 +14,7 @@ pub(crate) mod prepare;
 mod records;
 pub(crate) mod shading;
 pub mod textures;
+pub mod top_level;
 
 pub use frame::FrameParams;
 pub use image::Image;

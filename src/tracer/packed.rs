@@ -13,7 +13,6 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use glam::Vec3;
 use rayon::prelude::*;
 
 pub use super::prepare::Layouts;
@@ -24,6 +23,8 @@ pub use super::records::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading, PackedVertices,
 };
 use super::textures::{EnvironmentMap, TextureAtlas};
+use super::top_level::MeshPlace;
+pub use super::top_level::TopLevel;
 use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
 use crate::contract::EMPTY;
@@ -69,7 +70,8 @@ pub struct PackedScene {
     /// Packed with [`Layouts::Wide`] and some mesh has a wide tree: such meshes have no
     /// binary nodes, and binary frames are traced as wide ones.
     wide_only: bool,
-    pub instances: Vec<GpuInstance>,
+    /// The instance records and the tree over them.
+    pub top_level: TopLevel,
     pub meshes: Vec<PackedMesh>,
     /// Diffuse textures of all materials.
     pub textures: TextureAtlas,
@@ -230,20 +232,21 @@ impl PackedScene {
         BvhOrder { prims: bvh.prim_indices, material_base, vertex_base }
     }
 
-    /// Rebuild the instance list (the top level) alone; geometry is untouched.
+    /// Rebuild the top level (instance records and their tree) alone; geometry is untouched.
     pub fn set_instances(&mut self, instances: &[Instance]) {
-        self.instances = instance_records(&self.meshes, self.wide_word_base, instances);
+        self.top_level = top_level(&self.meshes, self.wide_word_base, instances);
     }
 
     /// Bytes of each GPU array: triangles (with the shaders' read-ahead), shading, normals,
-    /// texture coordinates, colours, materials, nodes (both layouts), instances, texels.
-    pub(crate) fn buffer_sizes(&self) -> [u64; 9] {
+    /// texture coordinates, colours, materials, nodes (both layouts), instances, the top
+    /// level's nodes, texels.
+    pub(crate) fn buffer_sizes(&self) -> [u64; 10] {
         self.buffer_sizes_for(self.triangles.len(), self.shading.len())
     }
 
     /// [`PackedScene::buffer_sizes`] with `triangles` traversal records and `shading` hit
     /// records (a load's, which its upload writes).
-    pub(crate) fn buffer_sizes_for(&self, triangles: usize, shading: usize) -> [u64; 9] {
+    pub(crate) fn buffer_sizes_for(&self, triangles: usize, shading: usize) -> [u64; 10] {
         fn bytes<T>(v: &[T]) -> u64 {
             std::mem::size_of_val(v) as u64
         }
@@ -257,7 +260,8 @@ impl PackedScene {
             bytes(&v.colors),
             bytes(&self.materials),
             self.nodes_bytes() as u64,
-            bytes(&self.instances),
+            bytes(&self.top_level.instances),
+            bytes(&self.top_level.nodes),
             bytes(&self.textures.texels),
         ]
     }
@@ -275,10 +279,10 @@ impl PackedScene {
 
     /// The wide nodes of instance `inst`'s mesh (root first), as the CPU tracer walks them.
     pub(crate) fn wide_nodes_of(&self, inst: &GpuInstance) -> &[WideNode] {
-        if inst.bounds_min[3].to_bits() == EMPTY {
+        if inst.wide_words == EMPTY {
             return &[];
         }
-        let words = inst.bounds_min[3].to_bits().saturating_sub(self.wide_word_base) as usize;
+        let words = inst.wide_words.saturating_sub(self.wide_word_base) as usize;
         self.wide_nodes.get(words / (std::mem::size_of::<WideNode>() / 16)..).unwrap_or(&[])
     }
 
@@ -286,9 +290,13 @@ impl PackedScene {
     /// unmapping a 10M-triangle model's arrays took tens of milliseconds, which the next
     /// frame would wait for.
     pub(crate) fn into_top_level(mut self) -> PackedTopLevel {
+        let bottom_bytes = (self.nodes_bytes()
+            + self.triangle_count() * std::mem::size_of::<GpuTriangle>())
+            as u64;
         let top = PackedTopLevel {
+            bottom_bytes,
             meshes: std::mem::take(&mut self.meshes),
-            instances: std::mem::take(&mut self.instances),
+            top_level: std::mem::take(&mut self.top_level),
             wide_word_base: self.wide_word_base,
             has_wide: self.has_wide(),
         };
@@ -311,59 +319,74 @@ struct MeshTrees {
 pub struct PackedTopLevel {
     /// Where each mesh sits in the GPU's arrays, and its bounds.
     pub meshes: Vec<PackedMesh>,
-    /// The instance list uploaded last ([`PackedTopLevel::set_instances`]).
-    pub instances: Vec<GpuInstance>,
+    /// The top level uploaded last ([`PackedTopLevel::set_instances`]).
+    pub top_level: TopLevel,
     /// As [`PackedScene`]'s: where the wide nodes start in the GPU's node buffer.
     wide_word_base: u32,
     has_wide: bool,
+    /// Bytes of the bottom levels on the GPU: every mesh's BVH nodes and triangle records.
+    bottom_bytes: u64,
+}
+
+/// What a scene holds, for the panel: its meshes and their instances, triangles stored and
+/// triangles placed, and the GPU bytes of the two levels.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneHolds {
+    pub meshes: usize,
+    pub instances: usize,
+    /// Triangles stored, each mesh's once.
+    pub unique_triangles: u64,
+    /// Triangles in the world, each instance's.
+    pub instanced_triangles: u64,
+    /// Instance records and the tree over them.
+    pub top_bytes: u64,
+    /// Every mesh's BVH nodes and triangle records.
+    pub bottom_bytes: u64,
 }
 
 impl PackedTopLevel {
     /// Rebuild the instance list alone, as [`PackedScene::set_instances`] does.
     pub fn set_instances(&mut self, instances: &[Instance]) {
-        self.instances = instance_records(&self.meshes, self.wide_word_base, instances);
+        self.top_level = top_level(&self.meshes, self.wide_word_base, instances);
     }
 
     /// True when the wide layout was packed (see [`PackedScene::has_wide`]).
     pub fn has_wide(&self) -> bool {
         self.has_wide
     }
+
+    /// What `scene` (the scene this was packed from) holds.
+    pub fn holds(&self, scene: &Scene) -> SceneHolds {
+        SceneHolds {
+            meshes: scene.meshes.len(),
+            instances: scene.instances.len(),
+            unique_triangles: scene.meshes.iter().map(|m| m.triangle_count() as u64).sum(),
+            instanced_triangles: scene.triangle_count() as u64,
+            top_bytes: self.top_level.bytes() as u64,
+            bottom_bytes: self.bottom_bytes,
+        }
+    }
 }
 
-/// The instance list the GPU reads: each of `instances` with its mesh's place in the
-/// packed arrays (from `meshes`) and its world bounds, which the top level culls with.
-fn instance_records(
-    meshes: &[PackedMesh],
-    wide_word_base: u32,
-    instances: &[Instance],
-) -> Vec<GpuInstance> {
-    instances
+/// The top level over `instances`: each with its mesh's place in the packed arrays (from
+/// `meshes`), and the tree over their world boxes.
+fn top_level(meshes: &[PackedMesh], wide_word_base: u32, instances: &[Instance]) -> TopLevel {
+    let places: Vec<MeshPlace> = meshes
         .iter()
-        .map(|inst| {
-            let m = &meshes[inst.mesh];
-            let b = m.bounds;
-            let (lo, hi) = if b.is_empty() {
-                (Vec3::ZERO, Vec3::ZERO)
-            } else {
-                (b.min * inst.scale + inst.translation, b.max * inst.scale + inst.translation)
-            };
-            let wide_words = if m.has_wide {
+        .map(|m| MeshPlace {
+            node_base: m.node_base,
+            triangle_base: m.triangle_base,
+            triangle_count: m.triangle_count,
+            prim_base: m.prim_base,
+            wide_words: if m.has_wide {
                 wide_word_base + m.wide_base * (std::mem::size_of::<WideNode>() / 16) as u32
             } else {
                 EMPTY
-            };
-            GpuInstance {
-                bounds_min: lo.extend(f32::from_bits(wide_words)).to_array(),
-                bounds_max: hi.extend(0.0).to_array(),
-                translation: inst.translation.to_array(),
-                scale: inst.scale,
-                node_base: m.node_base,
-                triangle_base: m.triangle_base,
-                triangle_count: m.triangle_count,
-                prim_base: m.prim_base,
-            }
+            },
+            bounds: m.bounds,
         })
-        .collect()
+        .collect();
+    TopLevel::build(&places, instances)
 }
 
 /// The environment buffer as the shader reads it: width, height, then RGB9E5 texels (a

@@ -10,7 +10,7 @@ fn gpu_structs_match_the_shader_layout() {
     assert_eq!(std::mem::size_of::<GpuTriangle>(), 40);
     assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 16);
     assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
-    assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
+    assert_eq!(std::mem::size_of::<GpuInstance>(), 80);
     assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     assert_eq!(std::mem::size_of::<WideNode>(), 80);
 }
@@ -67,7 +67,7 @@ fn the_mesh_tables_boxes_give_the_scenes_bounds() {
     let mut mesh = PaperModel::TorusKnot.mesh();
     prepare_model(&mut mesh);
     let mut scene = paper_scene(mesh, 3, LightOrbit::default());
-    scene.instances[1].translation.x += 7.5;
+    scene.instances[1].transform.translation.x += 7.5;
     let packed = PackedScene::new(&scene);
     let boxes: Vec<_> = packed.meshes.iter().map(|m| m.bounds).collect();
     assert_eq!(scene.bounds_with(&boxes), scene.bounds());
@@ -96,16 +96,19 @@ fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
             assert_eq!(loaded.triangle(k), full.triangles[k], "triangle {k}");
             assert_eq!(loaded.shading(k), full.shading[k], "hit record {k}");
         }
-        // By their bits: a mesh without a wide tree marks its instances with a NaN.
-        let bits = |i: &[GpuInstance]| bytemuck::cast_slice::<GpuInstance, u32>(i).to_vec();
-        assert_eq!(bits(&loaded.tables().instances), bits(&full.instances));
+        let bits = |t: &TopLevel| {
+            let records: &[u32] = bytemuck::cast_slice(&t.instances);
+            let nodes: &[u32] = bytemuck::cast_slice(&t.nodes);
+            [records, nodes].concat()
+        };
+        assert_eq!(bits(&loaded.tables().top_level), bits(&full.top_level));
         // What the window keeps rebuilds the instance list as the full packing does.
         let (kept, mut top) = loaded.uploaded();
-        let more = crate::scene::paper::instances(5);
+        let more = crate::scene::paper::instances(500, 3);
         let mut full = full;
         full.set_instances(&more);
         top.set_instances(&more);
-        assert_eq!(bits(&top.instances), bits(&full.instances));
+        assert_eq!(bits(&top.top_level), bits(&full.top_level));
         assert_eq!(top.has_wide(), full.has_wide());
         assert_eq!(kept.triangle_count(), scene.triangle_count());
     }

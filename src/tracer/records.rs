@@ -175,12 +175,15 @@ impl GpuMaterial {
 /// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
 pub(crate) const NO_TEXTURE: u32 = crate::contract::EMPTY;
 
-/// A placed mesh (64 bytes): uniform scale then translation, and where its data lives.
+/// A placed mesh (80 bytes): the world-to-object transform that carries rays into the
+/// mesh, and where the mesh's data lives. Its world box is in the top level's nodes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
-    pub(crate) translation: [f32; 3],
-    pub scale: f32,
+    /// World to object, three rows of a 3x4 matrix: `object = rows * (world, 1)`. Normals go
+    /// back to world space by the transpose of its 3x3 part (the inverse transpose of the
+    /// instance's transform).
+    pub(crate) to_object: [[f32; 4]; 3],
     pub node_base: u32,
     pub triangle_base: u32,
     /// Triangle slots from `triangle_base` (more than the mesh's triangles where the build
@@ -188,11 +191,55 @@ pub struct GpuInstance {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
-    /// World-space bounds: the top level culls instances with them. `bounds_min[3]` holds
-    /// (as u32 bits) the mesh's first wide node, in 16-byte words of the node buffer, or
-    /// `EMPTY` for a mesh without a wide tree.
-    pub(crate) bounds_min: [f32; 4],
-    pub(crate) bounds_max: [f32; 4],
+    /// The mesh's first wide node, in 16-byte words of the node buffer, or `EMPTY` for a
+    /// mesh without a wide tree.
+    pub(crate) wide_words: u32,
+    pub(crate) _pad: [u32; 3],
+}
+
+impl GpuInstance {
+    /// A world-space point in the mesh's space.
+    pub(crate) fn point_to_object(&self, p: Vec3) -> Vec3 {
+        let [x, y, z] = self.to_object.map(|r| Vec3::new(r[0], r[1], r[2]).dot(p) + r[3]);
+        Vec3::new(x, y, z)
+    }
+
+    /// A world-space direction in the mesh's space (not normalised: ray parameters stay
+    /// world distances).
+    pub(crate) fn vector_to_object(&self, d: Vec3) -> Vec3 {
+        let [x, y, z] = self.to_object.map(|r| Vec3::new(r[0], r[1], r[2]).dot(d));
+        Vec3::new(x, y, z)
+    }
+
+    /// An object-space normal in world space (not normalised): the transpose of the
+    /// world-to-object part.
+    pub(crate) fn normal_to_world(&self, n: Vec3) -> Vec3 {
+        let [r0, r1, r2] = self.to_object.map(|r| Vec3::new(r[0], r[1], r[2]));
+        r0 * n.x + r1 * n.y + r2 * n.z
+    }
+
+    /// Object to world, the inverse of `to_object` (in double precision), as three rows of a
+    /// 3x4 matrix: what the driver's instances take.
+    pub(crate) fn world_rows(&self) -> [f32; 12] {
+        let r = self.to_object.map(|r| r.map(f64::from));
+        let m = glam::DMat3::from_cols_array(&[
+            r[0][0], r[1][0], r[2][0], r[0][1], r[1][1], r[2][1], r[0][2], r[1][2], r[2][2],
+        ]);
+        let inverse =
+            glam::DAffine3 { matrix3: m, translation: glam::DVec3::new(r[0][3], r[1][3], r[2][3]) }
+                .inverse();
+        let (m, t) = (inverse.matrix3, inverse.translation);
+        let row = |i: usize| [m.x_axis[i], m.y_axis[i], m.z_axis[i], t[i]].map(|v| v as f32);
+        let [a, b, c] = [row(0), row(1), row(2)];
+        [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3]]
+    }
+
+    /// Area in world space of an object-space parallelogram with (unnormalised) normal
+    /// `cross`: |W^T cross| / |det W| for the world-to-object part W.
+    pub(crate) fn world_area(&self, cross: Vec3) -> f32 {
+        let [r0, r1, r2] = self.to_object.map(|r| Vec3::new(r[0], r[1], r[2]));
+        self.normal_to_world(cross).length() / r0.dot(r1.cross(r2)).abs()
+    }
 }
 
 /// One triangle's traversal record and shading record (`prim` in file order; the mesh's

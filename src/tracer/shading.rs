@@ -128,9 +128,9 @@ impl SmoothTriangle {
 /// viewer) is blocked, so smooth normals cannot leak it through silhouettes. For a smoothly
 /// shaded hit that the shading normal `ns` says is lit, that self-shadow test starts from
 /// Hanika's offset point instead, so the terminator follows the smooth normals rather than
-/// the flat triangles (no stair steps on low-polygon meshes). `l` is the unit direction to
-/// the light, `light` its position and `p` the hit, both in world space; `scale` the
-/// instance's. The shader's `light_reaches`.
+/// the flat triangles (no stair steps on low-polygon meshes). Everything in the mesh's
+/// space: `l` the direction to the light (not normalised), `light` its position and `p` the
+/// hit. The shader's `light_reaches`.
 pub fn light_reaches(
     l: Vec3,
     ng: Vec3,
@@ -138,7 +138,6 @@ pub fn light_reaches(
     smooth: Option<&SmoothTriangle>,
     p: Vec3,
     light: Vec3,
-    scale: f32,
 ) -> bool {
     if ng.dot(l) > 0.0 {
         return true;
@@ -148,8 +147,7 @@ pub fn light_reaches(
         return false;
     }
     let offset = tri.terminator_offset();
-    let to_light = (light - (p + offset * scale)) / scale;
-    !tri.shadows_itself(offset, to_light)
+    !tri.shadows_itself(offset, light - (p + offset))
 }
 
 /// Mirror direction of `d` about the unit normal `n`.
@@ -197,14 +195,14 @@ mod tests {
         let c = blinn_phong(&m, m.diffuse, Vec3::Y, Vec3::Y, true, Vec3::Y, Vec3::ONE, 0.1);
         assert!((c - Vec3::splat(0.05 + 0.5 + 0.25)).length() < 1e-6);
         // Light behind the surface: ambient only.
-        let lit = light_reaches(-Vec3::Y, Vec3::Y, Vec3::Y, None, Vec3::ZERO, -Vec3::Y, 1.0);
+        let lit = light_reaches(-Vec3::Y, Vec3::Y, Vec3::Y, None, Vec3::ZERO, -Vec3::Y);
         let c = blinn_phong(&m, m.diffuse, -Vec3::Y, Vec3::Y, lit, Vec3::Y, Vec3::ONE, 0.1);
         assert!((c - Vec3::splat(0.05)).length() < 1e-6);
         // A smooth normal tilted towards a light that is behind the geometric surface: no leak.
         let tilted = Vec3::new(0.0, 0.2, 1.0).normalize();
         let light = Vec3::new(0.0, 3.0, -0.1);
         let l = light.normalize();
-        assert!(!light_reaches(l, Vec3::Z, tilted, None, Vec3::ZERO, light, 1.0));
+        assert!(!light_reaches(l, Vec3::Z, tilted, None, Vec3::ZERO, light));
         let c = blinn_phong(&m, m.diffuse, l, tilted, false, Vec3::Z, Vec3::ONE, 0.1);
         assert!((c - Vec3::splat(0.05)).length() < 1e-6);
     }
@@ -257,25 +255,25 @@ mod tests {
         let l = (light - p).normalize();
         assert!(ng.dot(l) < 0.0 && ns.dot(l) > 0.0, "set-up: between the two planes");
         assert!(
-            !light_reaches(l, ng, ns, None, p, light, 1.0),
+            !light_reaches(l, ng, ns, None, p, light),
             "flat shading: blocked by the triangle's plane"
         );
         assert!(
-            light_reaches(l, ng, ns, Some(&tri), p, light, 1.0),
+            light_reaches(l, ng, ns, Some(&tri), p, light),
             "smooth shading: the offset point sees past the triangle"
         );
         // The same instance scaled by 3: the offset is in object space.
-        assert!(light_reaches(l, ng, ns, Some(&tri), p * 3.0, p * 3.0 + (light - p) * 3.0, 3.0));
+        assert!(light_reaches(l, ng, ns, Some(&tri), p, p + (light - p) * 3.0));
         // Corner normals equal to the face normal (a flat region): the flat test, blocked.
         let flat = SmoothTriangle { normals: [ng; 3], ..tri };
-        assert!(!light_reaches(l, ng, ns, Some(&flat), p, light, 1.0));
+        assert!(!light_reaches(l, ng, ns, Some(&flat), p, light));
         // Light well below the plane: the triangle blocks it from the offset point too (with
         // a shading normal leaning far enough to ask).
         let light = p + (along - ng * 3.0).normalize() * 50.0;
         let l = (light - p).normalize();
         let leaning = (ns + along * 4.0).normalize();
         assert!(leaning.dot(l) > 0.0);
-        assert!(!light_reaches(l, ng, leaning, Some(&tri), p, light, 1.0));
+        assert!(!light_reaches(l, ng, leaning, Some(&tri), p, light));
     }
 
     #[test]

@@ -129,7 +129,7 @@ pub fn quad_mesh(material: Material) -> Mesh {
 pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
     Scene {
         meshes: vec![quad_mesh(material)],
-        instances: vec![Instance { mesh: 0, translation: Vec3::ZERO, scale: 1.0 }],
+        instances: vec![Instance::placed(0, Vec3::ZERO, 1.0)],
         camera: Camera {
             position: Vec3::new(0.0, 0.0, distance),
             target: Vec3::ZERO,

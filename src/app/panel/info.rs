@@ -6,6 +6,7 @@ use crate::app::user_files::model_loader::LoadStatus;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::render_settings::RenderSettings;
 use crate::scene::paper::ModelSource;
+use crate::tracer::packed::SceneHolds;
 
 /// The vendor path as the panel shows it.
 #[derive(Clone, Debug, Default)]
@@ -31,6 +32,8 @@ pub(crate) struct PanelInfo<'a> {
     pub(crate) model: Option<&'a ModelSource>,
     pub(crate) triangles: u64,
     pub(crate) vertices: u64,
+    /// What the scene holds: meshes, instances, and the two levels' sizes.
+    pub(crate) holds: Option<SceneHolds>,
     /// What a frame traced now asks for (a GPU time is shown only for a frame of these).
     pub(crate) settings: RenderSettings,
     /// A load in progress: the model and its phases so far.

@@ -3,6 +3,7 @@
 
 use egui::{RichText, Ui};
 
+use crate::app::panel::info::PanelInfo;
 use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::{group, status_line, Status};
 use crate::app::user_files::model_loader::LoadStatus;
@@ -100,17 +101,67 @@ impl Section for ModelPanel {
         }
         ui.horizontal(|ui| {
             ui.label("Copies");
-            ui.add(egui::Slider::new(&mut params.scene.models, MODELS.u32s()));
+            ui.add(egui::Slider::new(&mut params.scene.models, MODELS.u32s()).logarithmic(true))
+                .on_hover_text("up to 27 along the axes (the paper's Table 2), a field beyond");
         });
-        ui.label(
-            RichText::new(format!(
-                "{} triangles, {} vertices in the scene",
-                group(info.triangles),
-                group(info.vertices)
-            ))
-            .small(),
-        );
+        let mut scattered = params.scene.scatter != 0;
+        if ui
+            .checkbox(&mut scattered, "turn and scale copies at random")
+            .on_hover_text("each copy a random rotation and a scale of 0.5 to 1 (--scatter 1)")
+            .changed()
+        {
+            params.scene.scatter = u32::from(scattered);
+        }
+        ui.label(RichText::new(scene_holds_text(info)).small());
     }
+}
+
+/// What the scene holds, in two lines: meshes and instances with their triangles, then
+/// the GPU bytes of the two levels.
+fn scene_holds_text(info: &PanelInfo) -> String {
+    let Some(h) = info.holds else {
+        return format!(
+            "{} triangles, {} vertices in the scene",
+            group(info.triangles),
+            group(info.vertices)
+        );
+    };
+    let plural = |n: usize, one: &str| {
+        if n == 1 {
+            format!("1 {one}")
+        } else {
+            format!("{} {one}es", group(n as u64))
+        }
+    };
+    format!(
+        "{}, {} instance{}: {} triangles stored, {} placed\ntop level {}, bottom levels {}",
+        plural(h.meshes, "mesh"),
+        group(h.instances as u64),
+        if h.instances == 1 { "" } else { "s" },
+        group(h.unique_triangles),
+        group(h.instanced_triangles),
+        bytes_text(h.top_bytes),
+        bytes_text(h.bottom_bytes),
+    )
+}
+
+/// Bytes in the nearest binary unit (B, KiB, MiB, GiB), three figures.
+fn bytes_text(bytes: u64) -> String {
+    let units = ["B", "KiB", "MiB", "GiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < units.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    let decimals = if unit == 0 || value >= 100.0 {
+        0
+    } else if value >= 10.0 {
+        1
+    } else {
+        2
+    };
+    format!("{value:.decimals$} {}", units[unit])
 }
 
 /// A load in progress: a bar over the phases (each an equal share, the running one filled

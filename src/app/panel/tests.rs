@@ -52,6 +52,7 @@ fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
         model: None,
         triangles: 1000,
         vertices: 500,
+        holds: None,
         settings: f.params.settings_for([256, 256]),
         loading: f
             .loading

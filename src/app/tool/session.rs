@@ -10,6 +10,7 @@ use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::FrameParams;
 use crate::tracer::packed::PackedTopLevel;
+use crate::tracer::packed::SceneHolds;
 use crate::tracer::textures::EnvironmentMap;
 
 use crate::app::panel::widgets::{group, Status};
@@ -33,7 +34,7 @@ pub(crate) struct Model {
 #[derive(Default)]
 struct Applied {
     /// (model count, mirror box) of the instance list.
-    instances: Option<(u32, bool)>,
+    instances: Option<(u32, u32, bool)>,
     resolution: Option<[u32; 2]>,
     environment: Option<Option<EnvironmentSource>>,
 }
@@ -217,14 +218,14 @@ impl Session {
             self.applied.resolution = tracer.resolution();
         }
         let Some(model) = &mut self.model else { return Ok(()) };
-        let want = (params.scene.models, params.scene.mirror_box);
+        let want = (params.scene.models, params.scene.scatter, params.scene.mirror_box);
         if self.applied.instances != Some(want) {
-            model.scene.instances = instances(params.scene.models);
+            model.scene.instances = instances(params.scene.models, params.scene.scatter);
             if !params.scene.mirror_box {
                 model.scene.remove_box();
             }
             model.top_level.set_instances(&model.scene.instances);
-            tracer.set_instances(&model.top_level.instances)?;
+            tracer.set_instances(&model.top_level.top_level)?;
             self.applied.instances = Some(want);
             self.accumulation = Accumulation::default();
         }
@@ -306,6 +307,11 @@ impl Session {
     /// The model's label, for file names ("none" before the first load).
     pub(crate) fn model_label(&self) -> String {
         self.model.as_ref().map_or("none".into(), |m| m.source.label())
+    }
+
+    /// What the scene shown holds (None before the first load).
+    pub(crate) fn holds(&self) -> Option<SceneHolds> {
+        self.model.as_ref().map(|m| m.top_level.holds(&m.scene))
     }
 
     /// Triangles and vertices in the world (all instances).

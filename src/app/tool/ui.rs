@@ -33,6 +33,7 @@ impl Tool {
             model: self.session.model.as_ref().map(|m| &m.source),
             triangles,
             vertices,
+            holds: self.session.holds(),
             settings,
             loading: self.session.loader.status(),
             present_mode: self.gpu.presenter.present_mode_name(),

@@ -195,10 +195,8 @@ impl VendorScene {
             .enumerate()
             .filter_map(|(i, inst)| {
                 let bottom = self.bottoms.get(&inst.triangle_base)?;
-                let [tx, ty, tz] = inst.translation;
-                let s = inst.scale;
                 Some(InstanceRecord {
-                    transform: [s, 0.0, 0.0, tx, 0.0, s, 0.0, ty, 0.0, 0.0, s, tz],
+                    transform: inst.world_rows(),
                     custom_index_and_mask: (i as u32 & 0x00ff_ffff) | (0xff << 24),
                     // Both faces are hit, as in our tracer.
                     sbt_offset_and_flags:

@@ -107,6 +107,10 @@ pub(super) fn de_bounces<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Erro
     de_in_range(d, knobs::BOUNCES)
 }
 
+pub(super) fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
 pub(super) fn is_one(n: &u32) -> bool {
     *n == 1
 }
