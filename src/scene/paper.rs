@@ -177,11 +177,28 @@ pub fn model_offsets(count: u32) -> Vec<Vec3> {
         .collect()
 }
 
-/// How much the mirror box (and the default camera's distance) grows so that `count`
-/// copies fit inside: 1 up to the paper's 27, then with the field.
+/// How far the default camera steps back for `count` copies, as a factor of its distance:
+/// 1 up to the paper's 27; for a field, far enough that the field's bounding sphere fits
+/// the opening view's 60 degrees.
+pub fn camera_scale(count: u32) -> f32 {
+    if count <= 27 {
+        return 1.0;
+    }
+    let radius = model_offsets(count).iter().map(|o| o.length()).fold(0.0, f32::max) + MODEL_RADIUS;
+    let half_fov = (default_camera().vfov_deg * 0.5).to_radians();
+    radius / half_fov.sin() * 1.05 / default_camera().position.length()
+}
+
+/// How much the mirror box grows for `count` copies: 1 up to the paper's 27; for a field,
+/// enough to hold every copy and the stepped-back camera ([`camera_scale`]), which must
+/// see the mirrors from inside.
 pub fn field_scale(count: u32) -> f32 {
+    if count <= 27 {
+        return 1.0;
+    }
     let reach = model_offsets(count).iter().map(|o| o.abs().max_element()).fold(0.0, f32::max);
-    ((reach + MODEL_RADIUS + 0.5) / BOX_HALF_SIZE).max(1.0)
+    let eye = default_camera().position.abs().max_element() * camera_scale(count);
+    ((reach + MODEL_RADIUS).max(eye) + 0.5) / BOX_HALF_SIZE
 }
 
 /// The transform of copy `index` of a field scattered with `seed` (0: none, the paper's
@@ -361,6 +378,14 @@ mod tests {
         let box_scale = field_scale(1000);
         assert!(box_scale > 3.0, "{box_scale}");
         assert_eq!(field[1000].transform.matrix3.x_axis.x, box_scale, "the box grows");
+        // The stepped-back camera is inside the box and has every copy in its view.
+        let eye = default_camera().position * camera_scale(1000);
+        assert!(eye.abs().max_element() < BOX_HALF_SIZE * box_scale);
+        let half_fov = (default_camera().vfov_deg * 0.5).to_radians();
+        for offset in model_offsets(1000) {
+            let angle = (offset - eye).angle_between(-eye);
+            assert!(angle + MODEL_RADIUS / (offset - eye).length() < half_fov, "{offset}");
+        }
         // Seed 0 keeps the paper's identical copies; a seed turns and scales each copy the
         // same way every time, and differently per copy.
         assert!(field[..1000].iter().all(|i| i.transform.matrix3 == glam::Mat3A::IDENTITY));

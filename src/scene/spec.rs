@@ -128,7 +128,7 @@ impl SceneSpec {
     /// mirror box when the copies grow into a field, so the whole set is in view.
     pub fn camera(&self) -> Camera {
         let mut home = default_camera();
-        home.position *= super::paper::field_scale(self.models);
+        home.position *= super::paper::camera_scale(self.models);
         self.camera.apply(home)
     }
 
