@@ -14,6 +14,7 @@ use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::render_settings::Accel;
 use crate::scene::spec::SceneSpec;
+use crate::tracer::packed::SceneHolds;
 
 /// What one harness owns: the parameters and panel state the panel edits, the facts it shows.
 struct Fixture {
@@ -27,6 +28,8 @@ struct Fixture {
     loading: Option<(String, Snapshot)>,
     /// Every action the panel asked for, in order.
     actions: Vec<PanelAction>,
+    /// What the scene holds (None: as before the first load).
+    holds: Option<SceneHolds>,
 }
 
 impl Fixture {
@@ -39,6 +42,7 @@ impl Fixture {
             panel_width: 0.0,
             loading: None,
             actions: Vec::new(),
+            holds: None,
         }
     }
 }
@@ -52,7 +56,7 @@ fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
         model: None,
         triangles: 1000,
         vertices: 500,
-        holds: None,
+        holds: f.holds,
         settings: f.params.settings_for([256, 256]),
         loading: f
             .loading
@@ -304,4 +308,30 @@ fn opening_keys_leaves_the_panel_as_wide_as_it_was() {
         let line = h.get_by_label_contains("orbit / zoom the camera");
         assert!(line.rect().right() <= after + 0.5, "{size:?}: a key's line runs past the panel");
     }
+}
+
+// ---- #44: what the scene holds, and scattered copies ----
+
+#[test]
+fn the_model_section_says_what_the_scene_holds_and_scatters_copies() {
+    let mut fixture = Fixture::new(VendorInfo::default());
+    fixture.holds = Some(SceneHolds {
+        meshes: 2,
+        instances: 10_001,
+        unique_triangles: 92,
+        instanced_triangles: 800_012,
+        top_bytes: 1_440_144,
+        bottom_bytes: 7_520,
+    });
+    let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
+    h.run();
+    h.get_by_label_contains("2 meshes, 10 001 instances: 92 triangles stored, 800 012 placed");
+    h.get_by_label_contains("top level 1.37 MiB, bottom levels 7.34 KiB");
+    assert_eq!(h.state().params.scene.scatter, 0, "the paper's identical copies");
+    h.get_by_label("turn and scale copies at random").click();
+    h.run();
+    assert_eq!(h.state().params.scene.scatter, 1);
+    h.get_by_label("turn and scale copies at random").click();
+    h.run();
+    assert_eq!(h.state().params.scene.scatter, 0);
 }
