@@ -48,12 +48,14 @@ pub(crate) fn render_to_file(
 ) -> anyhow::Result<()> {
     let heat_map_image = heat_map_wanted(format, spec.settings.aov)?;
     spec.validate().map_err(anyhow::Error::msg)?;
-    let (scene, packed) = load(spec)?;
+    // The device first: a model too big for it is refused before its BVH is built (issue
+    // #43: `torusknot:4M` on lavapipe failed only after a 10 s build and 1 GB).
+    let ctx = if on.cpu { None } else { Some(open_context(on.device, on.validation)?) };
+    let (scene, packed) = load(spec, ctx.as_ref().map(|c| c.info.max_storage_buffer_range))?;
     let params = FrameParams::new(&scene, spec.settings);
-    let (image, how) = if on.cpu {
-        trace_on_cpu(&packed, &params, spec.accumulate)
-    } else {
-        trace_on_gpu(&packed, &params, spec.accumulate, on)?
+    let (image, how) = match &ctx {
+        None => trace_on_cpu(&packed, &params, spec.accumulate),
+        Some(ctx) => trace_on_gpu(ctx, &packed, &params, spec.accumulate, on)?,
     };
     let preset_text = spec.to_preset_text();
     write_image(&image, spec, heat_map_image, (output, format), &preset_text)?;
@@ -76,14 +78,21 @@ fn heat_map_wanted(format: OutputFormat, aov: Aov) -> anyhow::Result<bool> {
 
 /// Load the spec's scene and pack it for its layout, logging the warnings. Progress on a
 /// terminal's stderr: big meshes take seconds to load and to build their BVH; scripts
-/// reading stderr get only warnings and the one-line error.
-fn load(spec: &SceneSpec) -> anyhow::Result<(Scene, PackedScene)> {
+/// reading stderr get only warnings and the one-line error. With `limit` (the device's
+/// storage-buffer range) a model whose triangles cannot fit is refused before the build.
+fn load(spec: &SceneSpec, limit: Option<u64>) -> anyhow::Result<(Scene, PackedScene)> {
     let progress = std::io::stderr().is_terminal();
     let started = std::time::Instant::now();
     if progress {
         eprintln!("loading {} ...", spec.model.label());
     }
     let (scene, warnings) = spec.load()?;
+    if let Some(limit) = limit {
+        let triangles = scene.meshes.iter().map(|m| m.triangle_count() as u64).sum();
+        if let Err(e) = super::scene_buffers::check_triangle_count(triangles, limit) {
+            bail!("{} has {triangles} triangles, before its BVH is built: {e}", spec.model.label());
+        }
+    }
     if progress {
         eprintln!(
             "loaded {} triangles in {:.2} s; building the BVH ...",
@@ -114,13 +123,13 @@ fn trace_on_cpu(packed: &PackedScene, params: &FrameParams, accumulate: u32) -> 
 /// The frame on a GPU, `accumulate` frames averaged; and how it went (device, kernel,
 /// trace time and the clock it was taken at).
 fn trace_on_gpu(
+    ctx: &Arc<GpuContext>,
     packed: &PackedScene,
     params: &FrameParams,
     accumulate: u32,
     on: &TraceOn,
 ) -> anyhow::Result<(Image, String)> {
-    let ctx = open_context(on.device, on.validation)?;
-    let mut tracer = ComputeTracer::with_scene(&ctx, packed)?;
+    let mut tracer = ComputeTracer::with_scene(ctx, packed)?;
     if let Some(kernel) = on.vendor_kernel {
         tracer.set_vendor_kernel(kernel)?;
     }
@@ -136,8 +145,8 @@ fn trace_on_gpu(
         tracer.trace(&FrameParams { frame_index, ..*params })?;
     }
     let (image, timing) = tracer.render(&FrameParams { frame_index: accumulate - 1, ..*params })?;
-    let clock = clock_note(&ctx)?;
-    check_validation(&ctx)?;
+    let clock = clock_note(ctx)?;
+    check_validation(ctx)?;
     let mut gpu =
         timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));
     if let (Accel::Vendor, Ok(kernel), Some(stats)) =
