@@ -238,6 +238,9 @@ pub fn run(
         let layout = case.spec.settings.bvh;
         let key = format!("{key}:{:?}:{}:{layout}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {
+            let limit = ctx.info.max_storage_buffer_range;
+            crate::gpu::scene_buffers::check_before_build(&scene, &case.spec.model.label(), limit)
+                .map_err(anyhow::Error::msg)?;
             let packed = PackedScene::with_layouts(&scene, Layouts::only(layout));
             for w in &packed.warnings {
                 log::warn!("{w}");

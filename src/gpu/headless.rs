@@ -88,10 +88,8 @@ fn load(spec: &SceneSpec, limit: Option<u64>) -> anyhow::Result<(Scene, PackedSc
     }
     let (scene, warnings) = spec.load()?;
     if let Some(limit) = limit {
-        let triangles = scene.meshes.iter().map(|m| m.triangle_count() as u64).sum();
-        if let Err(e) = super::scene_buffers::check_triangle_count(triangles, limit) {
-            bail!("{} has {triangles} triangles, before its BVH is built: {e}", spec.model.label());
-        }
+        super::scene_buffers::check_before_build(&scene, &spec.model.label(), limit)
+            .map_err(anyhow::Error::msg)?;
     }
     if progress {
         eprintln!(

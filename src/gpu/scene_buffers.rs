@@ -91,6 +91,19 @@ pub fn check_triangle_count(triangles: u64, limit: u64) -> Result<(), GpuError> 
     Ok(())
 }
 
+/// [`check_triangle_count`] on every mesh of `scene` (a lower bound of its triangle slots:
+/// the build may cut triangles into more), before its BVH is built; the refusal names the
+/// model (`label`) and its count, which the upload's own refusal cannot.
+pub fn check_before_build(
+    scene: &crate::scene::Scene,
+    label: &str,
+    limit: u64,
+) -> Result<(), String> {
+    let triangles = scene.meshes.iter().map(|m| m.triangle_count() as u64).sum();
+    check_triangle_count(triangles, limit)
+        .map_err(|e| format!("{label} has {triangles} triangles, before its BVH is built: {e}"))
+}
+
 /// The triangle and hit-record buffers' usage: the vendor path reads the triangles back to
 /// build the driver's structures (no host copy is kept); the test of what a load writes
 /// reads both.

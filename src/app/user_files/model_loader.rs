@@ -7,7 +7,7 @@
 use std::sync::mpsc::{channel, Receiver, TryRecvError};
 use std::thread;
 
-use crate::gpu::scene_buffers::check_triangle_count;
+use crate::gpu::scene_buffers::check_before_build;
 use crate::progress::{Progress, Snapshot};
 use crate::scene::formats::load_model;
 use crate::scene::paper::ModelSource;
@@ -141,8 +141,7 @@ fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<Loade
         load_model(&spec.model, &spec.load_options, Some(&progress)).map_err(|e| e.to_string())?;
     let world = spec.scene_with(model.mesh);
     if let Some(limit) = limit {
-        let triangles = world.meshes.iter().map(|m| m.triangle_count() as u64).sum();
-        check_triangle_count(triangles, limit).map_err(|e| e.to_string())?;
+        check_before_build(&world, &spec.model.label(), limit)?;
     }
     let layouts = Layouts::switchable(spec.settings.bvh);
     let mut scene = LoadedScene::pack(world, layouts, &progress).map_err(|e| e.to_string())?;
@@ -221,6 +220,7 @@ mod tests {
     /// refused with the upload's message before its BVH is built (no build phase begins).
     #[test]
     fn a_model_past_the_storage_limit_is_refused_before_its_build() {
+        use crate::gpu::scene_buffers::check_triangle_count;
         let item = std::mem::size_of::<crate::tracer::packed::GpuTriangle>() as u64;
         assert!(check_triangle_count(1000, 1000 * item + 48).is_ok());
         let err = check_triangle_count(1001, 1000 * item + 48).unwrap_err().to_string();
@@ -241,6 +241,7 @@ mod tests {
         let knot = spec(ModelSource::Generated(2_000), 1);
         let err = load(knot.clone(), progress.clone(), Some(2_000 * item)).err().unwrap();
         assert!(err.contains("the triangle buffer needs"), "{err}");
+        assert!(err.contains("triangles, before its BVH is built"), "{err}");
         let phases: Vec<Phase> = progress.snapshot().phases.iter().map(|p| p.phase).collect();
         assert_eq!(phases, [Phase::Parse], "refused before the build");
         assert!(load(knot, Progress::default(), Some(1 << 30)).is_ok());
