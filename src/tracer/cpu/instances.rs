@@ -118,38 +118,20 @@ impl CpuScene<'_> {
         }
         // The instance's nodes start at its node base, their indices relative to it (and to
         // the triangle base), as the shader's traverse_bvh reads them.
-        let nodes = self.wide_nodes(inst, layout);
+        let wide = self.wide_nodes(inst, layout);
+        let binary = &self.packed.nodes[inst.node_base as usize..];
         if any {
-            let blocked = match nodes {
+            let blocked = match wide {
                 Some(nodes) => bvh::wide::any_hit(nodes, tris, &local, 0.0, t_max, stats),
-                None => bvh::any_hit(
-                    &self.packed.nodes[inst.node_base as usize..],
-                    tris,
-                    &local,
-                    0.0,
-                    t_max,
-                    stats,
-                ),
+                None => bvh::any_hit(binary, tris, &local, 0.0, t_max, stats),
             };
             // Where it is blocked does not matter to the query.
-            return blocked.then_some(SceneHit {
-                t: t_max,
-                u: 0.0,
-                v: 0.0,
-                triangle: 0,
-                instance: 0,
-            });
+            let anywhere = SceneHit { t: t_max, u: 0.0, v: 0.0, triangle: 0, instance: 0 };
+            return blocked.then_some(anywhere);
         }
-        let found = match nodes {
+        let found = match wide {
             Some(nodes) => bvh::wide::closest_hit(nodes, tris, &local, 0.0, t_max, stats),
-            None => bvh::closest_hit(
-                &self.packed.nodes[inst.node_base as usize..],
-                tris,
-                &local,
-                0.0,
-                t_max,
-                stats,
-            ),
+            None => bvh::closest_hit(binary, tris, &local, 0.0, t_max, stats),
         };
         found.map(|(k, h)| hit(k as usize, h))
     }
