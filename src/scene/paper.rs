@@ -181,10 +181,15 @@ pub fn model_offsets(count: u32) -> Vec<Vec3> {
 /// 1 up to the paper's 27; for a field, far enough that the field's bounding sphere fits
 /// the opening view's 60 degrees.
 pub fn camera_scale(count: u32) -> f32 {
-    if count <= 27 {
+    camera_scale_of(&model_offsets(count))
+}
+
+/// [`camera_scale`] for the copies at `offsets` (`model_offsets`' list).
+fn camera_scale_of(offsets: &[Vec3]) -> f32 {
+    if offsets.len() <= 27 {
         return 1.0;
     }
-    let radius = model_offsets(count).iter().map(|o| o.length()).fold(0.0, f32::max) + MODEL_RADIUS;
+    let radius = offsets.iter().map(|o| o.length()).fold(0.0, f32::max) + MODEL_RADIUS;
     let half_fov = (default_camera().vfov_deg * 0.5).to_radians();
     radius / half_fov.sin() * 1.05 / default_camera().position.length()
 }
@@ -193,11 +198,16 @@ pub fn camera_scale(count: u32) -> f32 {
 /// enough to hold every copy and the stepped-back camera ([`camera_scale`]), which must
 /// see the mirrors from inside.
 pub fn field_scale(count: u32) -> f32 {
-    if count <= 27 {
+    field_scale_of(&model_offsets(count))
+}
+
+/// [`field_scale`] for the copies at `offsets`: the field's layout is made once per count.
+fn field_scale_of(offsets: &[Vec3]) -> f32 {
+    if offsets.len() <= 27 {
         return 1.0;
     }
-    let reach = model_offsets(count).iter().map(|o| o.abs().max_element()).fold(0.0, f32::max);
-    let eye = default_camera().position.abs().max_element() * camera_scale(count);
+    let reach = offsets.iter().map(|o| o.abs().max_element()).fold(0.0, f32::max);
+    let eye = default_camera().position.abs().max_element() * camera_scale_of(offsets);
     ((reach + MODEL_RADIUS).max(eye) + 0.5) / BOX_HALF_SIZE
 }
 
@@ -300,15 +310,13 @@ pub fn instances(model_count: u32, seed: u32) -> Vec<Instance> {
         mesh: MODEL_MESH,
         transform: Affine3A::from_translation(offset) * scatter(i as u32, seed),
     };
-    model_offsets(model_count)
+    let offsets = model_offsets(model_count);
+    let box_scale = field_scale_of(&offsets);
+    offsets
         .into_iter()
         .enumerate()
         .map(model)
-        .chain(std::iter::once(Instance::placed(
-            MIRROR_BOX_MESH,
-            Vec3::ZERO,
-            field_scale(model_count),
-        )))
+        .chain(std::iter::once(Instance::placed(MIRROR_BOX_MESH, Vec3::ZERO, box_scale)))
         .collect()
 }
 
@@ -320,9 +328,14 @@ pub fn open_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 
 /// The paper's scene around an already prepared model mesh.
 pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
+    scattered_scene(model, model_count, 0, light)
+}
+
+/// [`paper_scene`] with its copies turned and scaled by [`scatter`] with `seed`.
+pub fn scattered_scene(model: Mesh, model_count: u32, seed: u32, light: LightOrbit) -> Scene {
     Scene {
         meshes: vec![model, mirror_box(BOX_HALF_SIZE)],
-        instances: instances(model_count, 0),
+        instances: instances(model_count, seed),
         camera: default_camera(),
         light: PointLight { position: light.position(), color: Vec3::ONE },
         background: Vec3::ZERO,

@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::formats::load_model;
 use super::obj::LoadOptions;
-use super::paper::{default_camera, paper_scene, LightOrbit, ModelSource, MODEL_RADIUS};
+use super::paper::{default_camera, scattered_scene, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Mesh, Scene};
 use crate::render_settings::{RenderSettings, CREASE_ANGLE_DEGREES};
 
@@ -142,8 +142,7 @@ impl SceneSpec {
 
     /// The scene around an already loaded and prepared model mesh.
     pub fn scene_with(&self, model: Mesh) -> Scene {
-        let mut scene = paper_scene(model, self.models, self.light);
-        scene.instances = super::paper::instances(self.models, self.scatter);
+        let mut scene = scattered_scene(model, self.models, self.scatter, self.light);
         if !self.mirror_box {
             scene = scene.without_box();
         }
