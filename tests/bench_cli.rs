@@ -339,19 +339,8 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
 
 #[test]
 fn a_knot_too_big_for_the_device_is_refused_before_its_build() {
-    // Issue #43: the count is known once the knot is made; the refusal comes before the
-    // BVH build and names it (the upload's own refusal, after the build, could not).
-    let ctx = common::ctx();
-    let limit = ctx.info.max_storage_buffer_range;
-    drop(ctx);
-    assert!(limit <= 1 << 30, "the test device (CI: lavapipe) allows {limit} bytes a buffer");
-    let triangles = (limit / 40 + 1).to_string();
+    let (limit, triangles) = common::storage_limit_and_a_knot_past_it();
+    let triangles = triangles.to_string();
     let args = ["bench", "--framed", "--triangles", &triangles, "--size", "8", "--frames", "1"];
-    let out = meshtracer(&args, false);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("triangles, before its BVH is built"), "{}", errors[0]);
-    assert!(errors[0].contains(&format!("the device allows {limit}")), "{}", errors[0]);
+    common::assert_refused_before_build(&meshtracer(&args, false), limit);
 }

@@ -391,24 +391,12 @@ fn a_write_past_the_file_size_limit_is_one_line_and_leaves_nothing() {
 #[test]
 fn a_model_too_big_for_the_device_is_refused_before_its_build() {
     // Issue #43: `torusknot:4M` on lavapipe (128 MiB of storage buffer) failed only after a
-    // 10 s build and 1 GB. The count is known once the model is made; the refusal names it
-    // (the upload's own refusal, after the build, could not).
-    let ctx = common::ctx();
-    let limit = ctx.info.max_storage_buffer_range;
-    drop(ctx);
-    assert!(limit <= 1 << 30, "the test device (CI: lavapipe) allows {limit} bytes a buffer");
-    let triangles = limit / 40 + 1;
+    // 10 s build and 1 GB.
+    let (limit, triangles) = common::storage_limit_and_a_knot_past_it();
     let dir = Scratch::new("too-big");
     let model = format!("torusknot:{triangles}");
-    let out = run_in(
-        &dir.0,
-        &["render", "--model", &model, "--width", "8", "--height", "8", "-o", "x.png"],
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    assert!(lines[0].contains("triangles, before its BVH is built"), "{}", lines[0]);
-    assert!(lines[0].contains(&format!("the device allows {limit}")), "{}", lines[0]);
+    let args = ["render", "--model", &model, "--width", "8", "--height", "8", "-o", "x.png"];
+    let out = run_in(&dir.0, &args);
+    common::assert_refused_before_build(&out, limit);
     assert!(!dir.0.join("x.png").exists(), "nothing written");
 }
