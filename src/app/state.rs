@@ -203,6 +203,16 @@ impl Params {
         self.camera = self.scene.camera();
     }
 
+    /// After the copy count changed from `before`: a camera still at the opening view of
+    /// `before` copies takes the opening view of the new count (a field's steps back; the
+    /// paper's lattice comes back inside the mirror box, which a field's camera is outside
+    /// of). A camera the user moved stays where it is.
+    pub(crate) fn follow_field(&mut self, before: u32) {
+        if self.camera == (SceneSpec { models: before, ..self.scene.clone() }).camera() {
+            self.reset_camera();
+        }
+    }
+
     /// Orbit the camera by a mouse drag of (`dx`, `dy`) physical pixels.
     pub(crate) fn drag_camera(&mut self, dx: f32, dy: f32) {
         const RADIANS_PER_PIXEL: f32 = 0.008;
@@ -336,6 +346,21 @@ pub(crate) fn fit_rect(image: [u32; 2], area: PixelRect) -> PixelRect {
 
 #[cfg(test)]
 pub(crate) mod tests {
+
+    #[test]
+    fn the_opening_camera_follows_the_copy_count_and_a_moved_one_stays() {
+        let mut p = Params::new(&SceneSpec { models: 200, ..SceneSpec::default() }, false);
+        let field = p.camera;
+        p.scene.models = 25;
+        p.follow_field(200);
+        assert_eq!(p.camera, SceneSpec::default().camera(), "back inside the paper's box");
+        assert_ne!(p.camera, field);
+        p.drag_camera(40.0, 10.0);
+        let moved = p.camera;
+        p.scene.models = 1000;
+        p.follow_field(25);
+        assert_eq!(p.camera, moved, "the user's camera stays");
+    }
     use super::*;
     use crate::scene::paper::LightOrbit;
 

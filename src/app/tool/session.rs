@@ -226,6 +226,9 @@ impl Session {
             }
             model.top_level.set_instances(&model.scene.instances);
             tracer.set_instances(&model.top_level.top_level)?;
+            if let Some((before, _, _)) = self.applied.instances {
+                params.follow_field(before);
+            }
             self.applied.instances = Some(want);
             self.accumulation = Accumulation::default();
         }
