@@ -28,7 +28,7 @@ fn main() -> anyhow::Result<()> {
     let model = ModelSource::parse(args.get(1).map_or("geosphere", |s| s.as_str()));
     let size: u32 = args.get(2).map_or(Ok(128), |s| s.parse())?;
     let loaded = load_model(&model, &LoadOptions::default(), None)?;
-    let scene = paper_scene(loaded.mesh, 1, LightOrbit::default());
+    let scene = paper_scene(loaded.into_mesh(), 1, LightOrbit::default());
     let packed = PackedScene::new(&scene);
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed)?;

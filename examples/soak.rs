@@ -109,7 +109,7 @@ fn main() -> anyhow::Result<()> {
     }
     let source = ModelSource::parse(&args.model);
     let loaded = load_model(&source, &LoadOptions::default(), None)?;
-    let mut scene = paper_scene(loaded.mesh, MAX_MODELS, LightOrbit::default());
+    let mut scene = paper_scene(loaded.into_mesh(), MAX_MODELS, LightOrbit::default());
     let mut packed = PackedScene::new(&scene);
     let options = ContextOptions {
         validation: args.validation,

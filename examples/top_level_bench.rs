@@ -7,13 +7,13 @@
 
 use std::time::Instant;
 
-use meshtracer::scene::paper::{instances, paper_scene, prepare_model, LightOrbit};
+use meshtracer::scene::paper::{instances, paper_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::tracer::PackedScene;
 
 fn main() {
     let mut mesh = PaperModel::Geosphere.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let mut packed = PackedScene::new(&paper_scene(mesh, 1, LightOrbit::default()));
     println!("copies  median ms  best ms  bytes/instance");
     for count in [100, 1000, 10_000] {

@@ -19,7 +19,7 @@ use meshtracer::scene::obj::{
     load_obj_from_str, load_obj_from_str_chunked, load_obj_from_str_tobj, LoadOptions, LoadedObj,
     ObjError,
 };
-use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit, MAX_MODELS, MODEL_RADIUS};
+use meshtracer::scene::paper::{paper_scene, prepare_mesh, LightOrbit, MAX_MODELS, MODEL_RADIUS};
 use meshtracer::tracer::{cpu, FrameParams, PackedScene};
 
 /// Inputs longer than this are ignored, so that every run stays fast.
@@ -72,7 +72,7 @@ pub fn run(data: &[u8], dir: &Path) -> Outcome {
     check_mesh(&mesh);
 
     let before = mesh.bounds();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     for (i, p) in mesh.positions.iter().enumerate() {
         assert!(p.is_finite(), "vertex {i} is {p} after normalisation");
     }

@@ -135,6 +135,7 @@ fn the_inside_of_a_closed_box_is_enclosed_when_the_radius_spans_it() {
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
+        assembly: Default::default(),
     };
     for (what, image) in render_every_way(&scene, ao(32, 16, 4.0)) {
         assert!(image.pixels.iter().all(|p| p[3] == 1.0), "{what}: every camera ray hits a wall");

@@ -8,7 +8,7 @@ use common::*;
 use glam::{Vec2, Vec3};
 use meshtracer::gpu::ComputeTracer;
 use meshtracer::render_settings::{Aov, RenderSettings};
-use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
+use meshtracer::scene::paper::{open_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
 use meshtracer::scene::{Camera, EnvironmentSource, Instance, Material, PointLight, Scene};
 use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
@@ -21,7 +21,7 @@ fn settings(size: u32) -> RenderSettings {
 #[test]
 fn smooth_shading_matches_cpu_and_hides_facets() {
     let mut sphere = uv_sphere(12, 6); // coarse on purpose
-    prepare_model(&mut sphere);
+    prepare_mesh(&mut sphere);
     for m in &mut sphere.materials {
         m.specular = Vec3::ZERO; // diffuse only: facets are the only sharp steps
     }
@@ -44,7 +44,7 @@ fn smooth_shading_matches_cpu_and_hides_facets() {
 fn smooth_terminator_has_no_stair_steps() {
     let mut sphere = uv_sphere(10, 6);
     assert_eq!(sphere.triangles.len(), 100);
-    prepare_model(&mut sphere);
+    prepare_mesh(&mut sphere);
     for m in &mut sphere.materials {
         m.specular = Vec3::ZERO; // diffuse only: brightness follows N.L
         m.mirror = 0.0;
@@ -62,6 +62,7 @@ fn smooth_terminator_has_no_stair_steps() {
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
+        assembly: Default::default(),
     };
     let size = 128;
     let (gpu, cpu) =
@@ -206,7 +207,7 @@ fn textured_quad_shows_the_checker_texels() {
 #[test]
 fn environment_is_seen_on_misses_and_in_mirrors() {
     let mut mesh = PaperModel::Sphere.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let mut scene = open_scene(mesh, 1, LightOrbit::default());
     scene.environment = Some(EnvironmentSource::Sky);
     let (gpu, cpu) = render_both(&scene, RenderSettings { smooth: true, ..settings(64) });
@@ -251,7 +252,7 @@ fn hdr_environment_keeps_values_above_one() {
     let path = dir.join("bright.exr");
     image::Rgba32FImage::from_pixel(16, 8, image::Rgba([4.0, 4.0, 4.0, 1.0])).save(&path).unwrap();
     let mut mesh = PaperModel::Sphere.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     for m in &mut mesh.materials {
         *m = Material { diffuse: Vec3::ZERO, specular: Vec3::ZERO, mirror: 1.0, ..m.clone() };
     }

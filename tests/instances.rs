@@ -18,7 +18,7 @@ use glam::{Affine3A, EulerRot, Quat, Vec3};
 use meshtracer::gpu::khr_rt::VendorKernel;
 use meshtracer::gpu::ComputeTracer;
 use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
-use meshtracer::scene::paper::prepare_model;
+use meshtracer::scene::paper::prepare_mesh;
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Mesh, PointLight, Scene};
 use meshtracer::tracer::packed::Layouts;
@@ -40,7 +40,7 @@ fn placed(mesh: usize, scale: [f32; 3], rotation: [f32; 3], translation: [f32; 3
 fn instanced_scene() -> Scene {
     let prepared = |m: PaperModel| {
         let mut mesh = m.mesh();
-        prepare_model(&mut mesh);
+        prepare_mesh(&mut mesh);
         mesh
     };
     let floor = quad_mesh(meshtracer::scene::Material::default());
@@ -65,6 +65,7 @@ fn instanced_scene() -> Scene {
         background: Vec3::new(0.1, 0.1, 0.15),
         ambient: 0.1,
         environment: None,
+        assembly: Default::default(),
     }
 }
 
@@ -185,7 +186,7 @@ fn the_vendors_structures_place_instances_as_ours_do() {
 fn a_field_of_copies_matches_the_cpu_and_moving_it_rebuilds_only_the_top_level() {
     // 300 scattered copies: past the paper's lattice, in a grown mirror box.
     let mut mesh = PaperModel::Geosphere.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let spec = meshtracer::scene::spec::SceneSpec { models: 300, scatter: 5, ..Default::default() };
     let scene = spec.scene_with(mesh);
     assert_eq!(scene.instances.len(), 301);

@@ -9,7 +9,7 @@ use std::process::Command;
 use glam::{Mat4, Quat, Vec3};
 use meshtracer::scene::formats::{load_model, LoadError};
 use meshtracer::scene::obj::{load_obj, LoadOptions, LoadedObj};
-use meshtracer::scene::paper::{prepare_model, ModelSource};
+use meshtracer::scene::paper::{prepare_mesh, ModelSource};
 use meshtracer::scene::Mesh;
 
 struct TempDir(PathBuf);
@@ -165,12 +165,13 @@ fn assert_same_geometry(a: &Mesh, b: &Mesh, what: &str) {
 /// `path` loaded as every command loads a model: fitted to the scene's size.
 fn load_file(path: &Path) -> Result<LoadedObj, LoadError> {
     load_model(&ModelSource::File(path.to_owned()), &LoadOptions::default(), None)
+        .map(LoadedObj::from)
 }
 
 /// The OBJ twin at `path`, read by the OBJ reader alone and fitted as a loaded model is.
 fn twin(path: &Path) -> Mesh {
     let mut mesh = load_obj(path).unwrap().mesh;
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     mesh
 }
 

@@ -159,6 +159,7 @@ fn scene_of(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Scene {
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
+        assembly: Default::default(),
     }
 }
 
@@ -414,7 +415,7 @@ proptest! {
     #[test]
     fn paper_scene_places_n_models_inside_the_box(mesh in arb_mesh(), n in 1..=MAX_MODELS) {
         let mut mesh = mesh;
-        meshtracer::scene::paper::prepare_model(&mut mesh);
+        meshtracer::scene::paper::prepare_mesh(&mut mesh);
         let scene = paper_scene(mesh, n, LightOrbit::default());
         prop_assert_eq!(scene.instances.len(), n as usize + 1);
         prop_assert_eq!(scene.instances.last().unwrap().mesh, 1, "the box comes last");

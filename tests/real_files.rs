@@ -36,6 +36,7 @@ fn scene_looking(mesh: Mesh, eye: Vec3, target: Vec3, light: Vec3) -> Scene {
         background: Vec3::ZERO,
         ambient: 0.0,
         environment: None,
+        assembly: Default::default(),
     }
 }
 

@@ -400,3 +400,66 @@ fn a_model_too_big_for_the_device_is_refused_before_its_build() {
     common::assert_refused_before_build(&out, limit);
     assert!(!dir.0.join("x.png").exists(), "nothing written");
 }
+
+/// Scenes of several different models: a preset lists them with their transforms.
+const SEVERAL_MODELS: &str = r#"
+[image]
+width = 96
+height = 64
+
+[model]
+source = "geosphere"
+copies = 2
+
+[[object]]
+model = "tetra.obj"
+translate = [-2.0, -1.0, 0.5]
+rotate = [0, 30, 10]
+scale = [1.5, 0.6, -1.0]
+
+[[object]]
+model = "torusknot:2k"
+translate = [0.5, 1.8, -1.5]
+rotate = [90, 0, 0]
+scale = 0.7
+
+[[object]]
+model = "tetra.obj"
+translate = [1.0, -2.0, 2.0]
+"#;
+
+const TETRAHEDRON: &str =
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+#[test]
+fn a_preset_of_several_models_round_trips_through_toml_and_png() {
+    let dir = Scratch::new("several");
+    std::fs::write(dir.join("tetra.obj"), TETRAHEDRON).unwrap();
+    std::fs::write(dir.join("scene.toml"), SEVERAL_MODELS).unwrap();
+    render(&dir.0, &["--preset", "scene.toml", "-o", "first.png"]);
+    // The PNG carries the objects, and reads back as the preset file's scene.
+    let (carried, _) = preset::from_text(&settings_of(&dir.join("first.png"))).unwrap();
+    let (written, _) = preset::from_text(SEVERAL_MODELS).unwrap();
+    assert_eq!(carried.objects.len(), 3);
+    for (c, w) in carried.objects.iter().zip(&written.objects) {
+        assert_eq!(c.placement, w.placement);
+        assert_eq!(c.model.label(), w.model.label());
+    }
+    // The same image from the PNG alone, and from the CPU reference within its tolerance.
+    render(&dir.0, &["--preset", "first.png", "-o", "again.png"]);
+    render(&dir.0, &["--preset", "first.png", "--cpu", "-o", "cpu.png"]);
+    let load = |n: &str| image::open(dir.join(n)).unwrap().to_rgba8();
+    let (first, again, cpu) = (load("first.png"), load("again.png"), load("cpu.png"));
+    assert!(first == again, "render --preset of the PNG traced another scene");
+    let off = first
+        .pixels()
+        .zip(cpu.pixels())
+        .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2))
+        .count();
+    assert!(off <= first.len() / 4 / 100, "GPU vs CPU: {off} pixels off");
+    // The objects are in the picture: without them it is another image.
+    render(&dir.0, &["--width", "96", "--height", "64", "--models", "2", "-o", "alone.png"]);
+    let alone = load("alone.png");
+    let changed = first.pixels().zip(alone.pixels()).filter(|(p, q)| p != q).count();
+    assert!(changed > first.len() / 4 / 20, "the objects changed only {changed} pixels");
+}

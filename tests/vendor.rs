@@ -15,7 +15,7 @@ use meshtracer::gpu::khr_rt::VendorKernel;
 use meshtracer::gpu::{ComputeTracer, GpuContext};
 use meshtracer::render_settings::{Accel, Aov, RenderSettings};
 use meshtracer::scene::obj::load_obj;
-use meshtracer::scene::paper::{open_scene, prepare_model, LightOrbit};
+use meshtracer::scene::paper::{open_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{EnvironmentSource, Scene};
 use meshtracer::tracer::{FrameParams, Image, PackedScene};
@@ -83,7 +83,7 @@ fn one_and_twenty_seven_copies_match() {
 #[test]
 fn smooth_shading_with_samples_and_an_environment_matches() {
     let mut mesh = PaperModel::TorusKnot.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let mut scene = open_scene(mesh, 1, LightOrbit::default());
     scene.environment = Some(EnvironmentSource::Sky);
     let s = RenderSettings { smooth: true, spp: 4, adaptive: true, ..settings(48, 2) };
@@ -95,7 +95,7 @@ fn vertex_colours_match() {
     // The shading is shared, but the hit's corners come from the driver's primitive id:
     // a wrong triangle would show the wrong colours.
     let mut mesh = PaperModel::TorusKnot.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     mesh.colors = mesh
         .positions
         .iter()
@@ -109,7 +109,7 @@ fn vertex_colours_match() {
 fn a_textured_mesh_matches() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/obj");
     let mut mesh = load_obj(&data.join("texture_options.obj")).expect("the test file loads").mesh;
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let scene = open_scene(mesh, 1, LightOrbit::default());
     let all = assert_all_close(&scene, settings(48, 1), "textured");
     let (_, vendor, _) = &all[0];

@@ -217,6 +217,7 @@ fn gltf_color_0_is_read_and_primitives_without_it_are_white() {
     fs::write(&path, gltf_json(r#", "normalized": true"#)).unwrap();
     let load = |path: &std::path::Path| -> Result<LoadedObj, LoadError> {
         load_model(&ModelSource::File(path.to_owned()), &LoadOptions::default(), None)
+            .map(LoadedObj::from)
     };
     let mesh = load(&path).unwrap().mesh;
     let floats = [[255, 128, 0, 255], [0, 64, 255, 255], [255, 0, 51, 255], [102, 153, 204, 255]];

@@ -19,10 +19,9 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use crate::render_settings::{Accel, Aov, RenderSettings};
-use crate::scene::formats::load_model;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
-use crate::scene::{EnvironmentSource, Mesh};
+use crate::scene::{EnvironmentSource, Mesh, Model};
 use crate::tracer::packed::Layouts;
 use crate::tracer::{budget, FrameParams, PackedScene};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
@@ -194,7 +193,9 @@ pub fn environment(ctx: &GpuContext) -> Environment {
 /// Prepared geometry shared by the rows that use the same mesh.
 struct Loaded {
     key: String,
-    mesh: Mesh,
+    model: Model,
+    /// The objects' other models ([`SceneSpec::object_sources`]).
+    others: Vec<Model>,
 }
 
 /// Run `cases` on `ctx`, calling `progress` after each row.
@@ -212,29 +213,28 @@ pub fn run(
     for (i, case) in cases.iter().enumerate() {
         let key = match &case.generated {
             Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
-            None => format!("{:?}", case.spec.model),
+            None => format!("{:?} {:?}", case.spec.model, case.spec.objects),
         };
         if loaded.as_ref().is_none_or(|l| l.key != key) {
             current = None;
-            let mesh = match &case.generated {
+            let (model, others) = match &case.generated {
                 Some(m) => {
-                    let mut m = (**m).clone();
-                    prepare_model(&mut m);
-                    m
+                    let mut model = Model::from((**m).clone());
+                    prepare_model(&mut model);
+                    (model, Vec::new())
                 }
                 None => {
-                    let spec = &case.spec;
-                    let loaded = load_model(&spec.model, &spec.load_options, None)?;
-                    for w in &loaded.warnings {
+                    let (model, others, warnings) = case.spec.load_models(None)?;
+                    for w in &warnings {
                         log::warn!("{w}");
                     }
-                    loaded.mesh
+                    (model, others)
                 }
             };
-            loaded = Some(Loaded { key: key.clone(), mesh });
+            loaded = Some(Loaded { key: key.clone(), model, others });
         }
-        let mesh = &loaded.as_ref().unwrap().mesh;
-        let scene = case.spec.scene_with(mesh.clone());
+        let l = loaded.as_ref().unwrap();
+        let scene = case.spec.scene_of(l.model.clone(), &l.others);
         let layout = case.spec.settings.bvh;
         let key = format!("{key}:{:?}:{}:{layout}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {

@@ -297,7 +297,7 @@ mod tests {
     use super::*;
     use crate::gpu::{ContextOptions, GpuContext};
     use crate::progress::Progress;
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
     use crate::tracer::packed::Layouts;
 
@@ -308,7 +308,7 @@ mod tests {
         let ctx = GpuContext::new(&ContextOptions::validated())
             .expect("Vulkan with the validation layer");
         let mut mesh = PaperModel::TorusKnot.mesh();
-        prepare_model(&mut mesh);
+        prepare_mesh(&mut mesh);
         mesh.texcoords = mesh.positions.iter().map(|p| Vec2::new(p.x, p.y)).collect();
         mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
         let scene = paper_scene(mesh, 2, LightOrbit::default());

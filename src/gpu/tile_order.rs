@@ -318,14 +318,14 @@ mod tests {
         use crate::gpu::GROUP;
         use crate::gpu::{ComputeTracer, ContextOptions, GpuContext};
         use crate::render_settings::{Aov, RenderSettings};
-        use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+        use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
         use crate::scene::primitives::PaperModel;
         use crate::tracer::{FrameParams, PackedScene};
 
         /// The paper's box around its torus knot, at a size that is no whole number of tiles.
         fn knot_in_the_box() -> (crate::scene::Scene, PackedScene) {
             let mut mesh = PaperModel::TorusKnot.mesh();
-            prepare_model(&mut mesh);
+            prepare_mesh(&mut mesh);
             let scene = paper_scene(mesh, 1, LightOrbit::default());
             let packed = PackedScene::new(&scene);
             (scene, packed)

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::obj::{load_obj_from_bytes, LoadOptions, LoadedObj, ObjError};
 use super::paper::{prepare_model, ModelSource};
+use super::{Mesh, Model};
 use crate::files::read_regular_file_parallel;
 use crate::progress::{Cancelled, Phase, Progress};
 
@@ -61,13 +62,47 @@ impl Format {
         bytes: Vec<u8>,
         path: &Path,
         options: &LoadOptions,
-    ) -> Result<LoadedObj, ObjError> {
+    ) -> Result<LoadedModel, ObjError> {
         let name = crate::files::shown_path(path);
-        match self {
+        let loaded = match self {
             Format::Obj => load_obj_from_bytes(bytes, &name, path.parent(), options),
             Format::Ply => super::ply::load_ply_from_bytes(&bytes, &name),
             Format::Gltf => super::gltf::load_gltf_from_bytes(&bytes, &name, path.parent()),
+        }?;
+        Ok(loaded.into())
+    }
+}
+
+/// A model as [`load_model`] gives it: fitted to the scene, with the loader's warnings.
+#[derive(Clone, Debug)]
+pub struct LoadedModel {
+    pub model: Model,
+    /// What the loader skipped or could not read (a missing .mtl, a texture...).
+    pub warnings: Vec<String>,
+}
+
+impl From<LoadedObj> for LoadedModel {
+    fn from(loaded: LoadedObj) -> Self {
+        LoadedModel { model: loaded.mesh.into(), warnings: loaded.warnings }
+    }
+}
+
+impl From<LoadedModel> for LoadedObj {
+    /// The model flattened into one mesh ([`LoadedModel::into_mesh`]), warnings kept.
+    fn from(loaded: LoadedModel) -> Self {
+        let warnings = loaded.warnings.clone();
+        LoadedObj { mesh: loaded.into_mesh(), warnings }
+    }
+}
+
+impl LoadedModel {
+    /// The model as one mesh ([`Model::flatten`]): what an OBJ or PLY file gives as it is.
+    pub fn into_mesh(self) -> Mesh {
+        let mut model = self.model;
+        if model.is_single_mesh() {
+            return model.meshes.swap_remove(0);
         }
+        model.flatten()
     }
 }
 
@@ -80,17 +115,18 @@ pub fn load_model(
     source: &ModelSource,
     options: &LoadOptions,
     progress: Option<&Progress>,
-) -> Result<LoadedObj, LoadError> {
+) -> Result<LoadedModel, LoadError> {
     let begin = |phase| progress.map_or(Ok(()), |p| p.begin(phase));
     source.check_name().map_err(LoadError::Name)?;
-    let mut loaded = match source {
+    let mut loaded: LoadedModel = match source {
         ModelSource::Paper(m) => {
             begin(Phase::Parse)?;
-            LoadedObj { mesh: m.mesh(), warnings: Vec::new() }
+            LoadedModel { model: m.mesh().into(), warnings: Vec::new() }
         }
         ModelSource::Generated(n) => {
             begin(Phase::Parse)?;
-            LoadedObj { mesh: super::primitives::large_torus_knot(*n), warnings: Vec::new() }
+            let mesh = super::primitives::large_torus_knot(*n);
+            LoadedModel { model: mesh.into(), warnings: Vec::new() }
         }
         ModelSource::File(path) => {
             // An unknown extension is refused before the file is read.
@@ -102,10 +138,10 @@ pub fn load_model(
             format.parse(bytes, path, options)?
         }
     };
-    if loaded.mesh.triangle_count() == 0 {
+    if loaded.model.triangle_count() == 0 {
         return Err(ObjError::NoFaces { name: source.label() }.into());
     }
-    prepare_model(&mut loaded.mesh);
+    prepare_model(&mut loaded.model);
     Ok(loaded)
 }
 
@@ -172,7 +208,7 @@ mod tests {
         let loaded =
             load_model(&ModelSource::Generated(1000), &LoadOptions::default(), Some(&progress))
                 .unwrap();
-        let b = loaded.mesh.bounds();
+        let b = loaded.model.bounds();
         let half = ((b.max - b.min) * 0.5).max_element();
         assert!((half - super::super::paper::MODEL_RADIUS).abs() < 1e-5, "{half}");
         let phases: Vec<Phase> = progress.snapshot().phases.iter().map(|p| p.phase).collect();

@@ -234,6 +234,109 @@ impl Instance {
     }
 }
 
+/// A model as loaded: its meshes and the parts that place them in the model's own frame
+/// (one part at the identity for an OBJ or PLY file or a generated model; a glTF file's
+/// nodes). A scene places the whole model once per copy.
+#[derive(Clone, Debug, Default)]
+pub struct Model {
+    pub meshes: Vec<Mesh>,
+    /// Placements in the model's frame; each `mesh` indexes `meshes`.
+    pub parts: Vec<Instance>,
+}
+
+impl From<Mesh> for Model {
+    fn from(mesh: Mesh) -> Self {
+        Model { meshes: vec![mesh], parts: vec![Instance::placed(0, Vec3::ZERO, 1.0)] }
+    }
+}
+
+impl Model {
+    /// True when the model is one mesh placed as it is (what OBJ and PLY files give).
+    pub fn is_single_mesh(&self) -> bool {
+        self.meshes.len() == 1
+            && self.parts.len() == 1
+            && self.parts[0].transform == Affine3A::IDENTITY
+    }
+
+    /// Triangles of the model as placed, counting each part.
+    pub fn triangle_count(&self) -> usize {
+        self.parts.iter().map(|p| self.meshes[p.mesh].triangle_count()).sum()
+    }
+
+    /// The model's box in its own frame: its parts' boxes.
+    pub fn bounds(&self) -> Aabb {
+        let mesh_bounds: Vec<Aabb> = self.meshes.iter().map(Mesh::bounds).collect();
+        self.parts.iter().fold(Aabb::EMPTY, |acc, p| acc.union(p.world_bounds(mesh_bounds[p.mesh])))
+    }
+
+    /// The model as one mesh, every part's triangles moved to where the part puts them
+    /// (materials appended per mesh): a reference for tests, and for callers that want
+    /// a single mesh.
+    pub fn flatten(&self) -> Mesh {
+        if self.is_single_mesh() {
+            return self.meshes[0].clone();
+        }
+        let mut out = Mesh {
+            name: self.meshes.first().map_or_else(String::new, |m| m.name.clone()),
+            ..Default::default()
+        };
+        let mut material_base = Vec::with_capacity(self.meshes.len());
+        for m in &self.meshes {
+            material_base.push(out.materials.len() as u32);
+            out.materials.extend(m.materials.iter().cloned());
+        }
+        let keep_texcoords = self.parts.iter().all(|p| !self.meshes[p.mesh].texcoords.is_empty());
+        let keep_colors = self.parts.iter().any(|p| !self.meshes[p.mesh].colors.is_empty());
+        out.has_file_normals = self.parts.iter().all(|p| self.meshes[p.mesh].has_file_normals);
+        for part in &self.parts {
+            let m = &self.meshes[part.mesh];
+            let base = out.positions.len() as u32;
+            let normal_matrix = part.transform.matrix3.inverse().transpose();
+            out.positions.extend(m.positions.iter().map(|&p| part.transform.transform_point3(p)));
+            out.normals.extend(m.normals.iter().map(|&n| (normal_matrix * n).normalize_or_zero()));
+            if keep_texcoords {
+                out.texcoords.extend_from_slice(&m.texcoords);
+            }
+            if keep_colors {
+                if m.colors.is_empty() {
+                    out.colors.extend(std::iter::repeat_n([255; 4], m.positions.len()));
+                } else {
+                    out.colors.extend_from_slice(&m.colors);
+                }
+            }
+            // A mirroring part turns its triangles' winding around; keep them facing out.
+            let flip = part.transform.matrix3.determinant() < 0.0;
+            out.triangles.extend(m.triangles.iter().map(|t| {
+                let t = t.map(|k| k + base);
+                if flip {
+                    [t[0], t[2], t[1]]
+                } else {
+                    t
+                }
+            }));
+            out.triangle_materials
+                .extend(m.triangle_materials.iter().map(|&k| k + material_base[part.mesh]));
+        }
+        if out.materials.is_empty() {
+            out.materials.push(Material::default());
+        }
+        out
+    }
+}
+
+/// How a scene was put together from its spec (the model's parts, the mirror box, the
+/// other objects), kept with it so the copies can be placed again without loading
+/// anything: the window's copy count, scatter and mirror-box controls.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Assembly {
+    /// The model's parts, with `mesh` indexing `Scene::meshes`: placed once per copy.
+    pub model_parts: Vec<Instance>,
+    /// The paper's mirror box's mesh, when the scene has one.
+    pub mirror_box: Option<usize>,
+    /// The other objects' instances, already in world space.
+    pub objects: Vec<Instance>,
+}
+
 /// A point light (the paper's orbiting light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointLight {
@@ -274,6 +377,8 @@ pub struct Scene {
     pub ambient: f32,
     /// Environment map seen by misses (None: the background colour, the paper's black).
     pub environment: Option<EnvironmentSource>,
+    /// What the instances were made from (empty for a scene written out by hand).
+    pub assembly: Assembly,
 }
 
 impl Scene {
@@ -296,7 +401,15 @@ impl Scene {
 
     /// Take the paper's mirror box out of the instance list (see [`Scene::without_box`]).
     pub(crate) fn remove_box(&mut self) {
-        self.instances.retain(|i| i.mesh == paper::MODEL_MESH);
+        let mirror_box = self.assembly.mirror_box;
+        self.instances.retain(|i| Some(i.mesh) != mirror_box);
+    }
+
+    /// Place `count` copies of the model again, turned by `scatter`'s seed, with or
+    /// without the mirror box, and the other objects where they were: the instance list
+    /// a spec with these values gives, without loading anything.
+    pub fn place_copies(&mut self, count: u32, scatter: u32, mirror_box: bool) {
+        self.instances = paper::place(&self.assembly, count, scatter, mirror_box);
     }
 
     /// World-space bounding box of all instances.
@@ -304,10 +417,11 @@ impl Scene {
         self.bounds_of(self.instances.iter())
     }
 
-    /// World-space bounding box of the first `count` model copies (not the mirror box):
-    /// what "frame the model" looks at.
-    pub(crate) fn model_bounds(&self, count: usize) -> Aabb {
-        self.bounds_of(self.instances.iter().filter(|i| i.mesh == paper::MODEL_MESH).take(count))
+    /// World-space bounding box of everything but the mirror box: what "frame the
+    /// model" looks at.
+    pub(crate) fn model_bounds(&self) -> Aabb {
+        let mirror_box = self.assembly.mirror_box;
+        self.bounds_of(self.instances.iter().filter(|i| Some(i.mesh) != mirror_box))
     }
 
     /// [`Self::bounds`] from each mesh's own box, `mesh_bounds[i]` for `meshes[i]`: a

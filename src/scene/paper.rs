@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use glam::{Affine3A, Vec3};
 
 use super::primitives::PaperModel;
-use super::{Camera, Instance, Material, Mesh, PointLight, Scene};
+use super::{Assembly, Camera, Instance, Material, Mesh, Model, PointLight, Scene};
 
 /// Half the side of the mirror box.
 pub const BOX_HALF_SIZE: f32 = 4.0;
@@ -105,19 +105,42 @@ pub(crate) fn mirror_material() -> Material {
     }
 }
 
-/// Normalise size and give materials that are only defaults the model look.
-pub fn prepare_model(mesh: &mut Mesh) {
-    mesh.normalize_to(MODEL_RADIUS);
+/// Normalise size (the model's box centred, its largest half-extent [`MODEL_RADIUS`]) and
+/// give materials that are only defaults the model look. A one-mesh model's vertices are
+/// moved; a model of parts keeps its meshes and has its parts' transforms adjusted.
+pub fn prepare_model(model: &mut Model) {
+    if model.is_single_mesh() {
+        model.meshes[0].normalize_to(MODEL_RADIUS);
+    } else {
+        let b = model.bounds();
+        if !b.is_empty() {
+            let half = (b.max - b.min).max_element() * 0.5;
+            let s = if half > 0.0 { MODEL_RADIUS / half } else { 1.0 };
+            let fit = Affine3A::from_scale(Vec3::splat(s))
+                * Affine3A::from_translation(-(b.min + b.max) * 0.5);
+            for part in &mut model.parts {
+                part.transform = fit * part.transform;
+            }
+        }
+    }
     let default = Material::default();
-    let all_default = mesh
-        .materials
+    let all_default = model
+        .meshes
         .iter()
+        .flat_map(|m| &m.materials)
         .all(|m| Material { name: default.name.clone(), ..m.clone() } == default);
     if all_default {
-        for m in &mut mesh.materials {
+        for m in model.meshes.iter_mut().flat_map(|m| &mut m.materials) {
             *m = Material { name: m.name.clone(), ..model_material() };
         }
     }
+}
+
+/// [`prepare_model`] for a model of one mesh.
+pub fn prepare_mesh(mesh: &mut Mesh) {
+    let mut model = Model::from(std::mem::take(mesh));
+    prepare_model(&mut model);
+    *mesh = model.meshes.swap_remove(0);
 }
 
 /// The point light's orbit: a horizontal circle inside the box.
@@ -243,7 +266,7 @@ pub fn scatter(index: u32, seed: u32) -> Affine3A {
 /// Six inward-facing planes closing a cube of half-size `half` (12 triangles). Each face
 /// has its own four vertices with the face's normal, so the mirrors stay flat under
 /// smooth shading.
-pub(crate) fn mirror_box(half: f32) -> Mesh {
+pub(crate) fn mirror_box_mesh(half: f32) -> Mesh {
     let h = half;
     let positions: Vec<Vec3> = (0..8)
         .map(|i| {
@@ -297,27 +320,45 @@ pub(crate) fn default_camera() -> Camera {
     }
 }
 
-/// The model's index in the paper scene's mesh list; the mirror box is [`MIRROR_BOX_MESH`].
+/// The model's index in the paper scene's mesh list (its first, for a model of several
+/// meshes); the mirror box follows the model's meshes.
 pub(crate) const MODEL_MESH: usize = 0;
-/// The mirror box's index in the paper scene's mesh list.
-pub(crate) const MIRROR_BOX_MESH: usize = 1;
 
-/// Instances for `model_count` copies: the models (mesh 0), each turned and scaled by
-/// [`scatter`] with `seed`, then the box (mesh 1), grown to hold a field ([`field_scale`]).
-/// Models come first so that copy `i` is instance `i`.
-pub fn instances(model_count: u32, seed: u32) -> Vec<Instance> {
-    let model = |(i, offset): (usize, Vec3)| Instance {
-        mesh: MODEL_MESH,
-        transform: Affine3A::from_translation(offset) * scatter(i as u32, seed),
-    };
-    let offsets = model_offsets(model_count);
+/// The instances of `count` copies of `assembly`'s model, copy `i` turned and scaled by
+/// [`scatter`] with `seed`, then (with `mirror_box`) the box, grown to hold a field
+/// ([`field_scale`]), then the other objects. Copies come first, each its parts in order,
+/// so that copy `i` of a one-part model is instance `i`.
+pub fn place(assembly: &Assembly, count: u32, seed: u32, mirror_box: bool) -> Vec<Instance> {
+    let offsets = model_offsets(count);
     let box_scale = field_scale_of(&offsets);
-    offsets
-        .into_iter()
-        .enumerate()
-        .map(model)
-        .chain(std::iter::once(Instance::placed(MIRROR_BOX_MESH, Vec3::ZERO, box_scale)))
-        .collect()
+    let copies = offsets.into_iter().enumerate().flat_map(|(i, offset)| {
+        let copy = Affine3A::from_translation(offset) * scatter(i as u32, seed);
+        assembly
+            .model_parts
+            .iter()
+            .map(move |part| Instance { mesh: part.mesh, transform: copy * part.transform })
+    });
+    let mirror = assembly
+        .mirror_box
+        .filter(|_| mirror_box)
+        .map(|mesh| Instance::placed(mesh, Vec3::ZERO, box_scale));
+    copies.chain(mirror).chain(assembly.objects.iter().copied()).collect()
+}
+
+/// What the paper's scene of a one-mesh model is made of: the model (mesh 0) and the
+/// mirror box (mesh 1).
+fn paper_assembly() -> Assembly {
+    Assembly {
+        model_parts: vec![Instance::placed(MODEL_MESH, Vec3::ZERO, 1.0)],
+        mirror_box: Some(1),
+        objects: Vec::new(),
+    }
+}
+
+/// Instances for `model_count` copies of a one-mesh model: the models (mesh 0), each
+/// turned and scaled by [`scatter`] with `seed`, then the box (mesh 1) ([`place`]).
+pub fn instances(model_count: u32, seed: u32) -> Vec<Instance> {
+    place(&paper_assembly(), model_count, seed, true)
 }
 
 /// The paper's scene without its mirror box: the model(s) alone, so that an environment
@@ -333,14 +374,52 @@ pub fn paper_scene(model: Mesh, model_count: u32, light: LightOrbit) -> Scene {
 
 /// [`paper_scene`] with its copies turned and scaled by [`scatter`] with `seed`.
 pub fn scattered_scene(model: Mesh, model_count: u32, seed: u32, light: LightOrbit) -> Scene {
+    assembled_scene(model.into(), &[], &[], model_count, seed, light)
+}
+
+/// The paper's scene of `count` copies of `model` (any number of meshes and parts) and the
+/// mirror box, with objects placed beside them: each a model (`None`: the main one,
+/// `Some(k)`: `others[k]`) and its world transform. Meshes are stored once: the model's,
+/// the box, then each of `others`' in order.
+pub fn assembled_scene(
+    model: Model,
+    others: &[Model],
+    objects: &[(Option<usize>, Affine3A)],
+    count: u32,
+    seed: u32,
+    light: LightOrbit,
+) -> Scene {
+    let mut meshes = model.meshes;
+    let mirror_box = meshes.len();
+    meshes.push(mirror_box_mesh(BOX_HALF_SIZE));
+    let mut bases = Vec::with_capacity(others.len());
+    for other in others {
+        bases.push(meshes.len());
+        meshes.extend(other.meshes.iter().cloned());
+    }
+    let mut placed = Vec::new();
+    for &(which, transform) in objects {
+        let (parts, base) = match which {
+            None => (&model.parts, 0),
+            Some(k) => (&others[k].parts, bases[k]),
+        };
+        placed.extend(
+            parts
+                .iter()
+                .map(|p| Instance { mesh: base + p.mesh, transform: transform * p.transform }),
+        );
+    }
+    let assembly =
+        Assembly { model_parts: model.parts, mirror_box: Some(mirror_box), objects: placed };
     Scene {
-        meshes: vec![model, mirror_box(BOX_HALF_SIZE)],
-        instances: instances(model_count, seed),
+        instances: place(&assembly, count, seed, true),
+        meshes,
         camera: default_camera(),
         light: PointLight { position: light.position(), color: Vec3::ONE },
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
+        assembly,
     }
 }
 
@@ -418,7 +497,7 @@ mod tests {
 
     #[test]
     fn mirror_box_is_closed_and_faces_inward() {
-        let b = mirror_box(2.0);
+        let b = mirror_box_mesh(2.0);
         assert_eq!(b.triangle_count(), 12);
         for i in 0..12 {
             let [a, c1, c2] = b.corners(i);

@@ -15,13 +15,13 @@ use serde::{Deserialize, Serialize};
 
 use super::obj::LoadOptions;
 use super::paper::{LightOrbit, ModelSource};
-use super::spec::{CameraSpec, SceneSpec};
+use super::spec::{CameraSpec, ObjectSpec, Placement, SceneSpec};
 use super::EnvironmentSource;
 use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use fields::{
     de_accumulate, de_ao_radius, de_ao_samples, de_blend, de_bounces, de_copies, de_crease_angle,
     de_env, de_finite, de_fov, de_from_str, de_light_height, de_light_radius, de_model, de_point,
-    de_side, de_spp, de_version, is_one, is_zero, ser_display, ser_env, ser_model,
+    de_scale, de_side, de_spp, de_version, is_one, is_zero, ser_display, ser_env, ser_model,
 };
 
 mod fields;
@@ -47,6 +47,51 @@ struct File {
     shading: ShadingPart,
     light: LightPart,
     camera: CameraPart,
+    /// Other models placed in the scene: `[[object]]` tables, written last (TOML puts
+    /// arrays of tables after the plain tables).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    object: Vec<ObjectPart>,
+}
+
+/// One `[[object]]`: a model and its transform (scale, then rotation in degrees about x,
+/// y, z, then translation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct ObjectPart {
+    #[serde(serialize_with = "ser_model", deserialize_with = "de_model")]
+    model: ModelSource,
+    #[serde(default, deserialize_with = "de_point")]
+    translate: [f32; 3],
+    #[serde(default, deserialize_with = "de_point")]
+    rotate: [f32; 3],
+    #[serde(default = "unit_scale", deserialize_with = "de_scale")]
+    scale: [f32; 3],
+}
+
+fn unit_scale() -> [f32; 3] {
+    [1.0; 3]
+}
+
+impl ObjectPart {
+    fn from_spec(object: &ObjectSpec) -> Self {
+        let p = &object.placement;
+        ObjectPart {
+            model: object.model.clone(),
+            translate: p.translate.to_array(),
+            rotate: p.rotate.to_array(),
+            scale: p.scale.to_array(),
+        }
+    }
+
+    fn into_spec(self) -> ObjectSpec {
+        ObjectSpec {
+            model: self.model,
+            placement: Placement {
+                translate: Vec3::from(self.translate),
+                rotate: Vec3::from(self.rotate),
+                scale: Vec3::from(self.scale),
+            },
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -182,16 +227,18 @@ impl File {
                 target: camera.target.to_array(),
                 fov: camera.vfov_deg,
             },
+            object: spec.objects.iter().map(ObjectPart::from_spec).collect(),
         }
     }
 
     fn into_spec(self) -> SceneSpec {
-        let File { model, image, tracing, shading, light, camera, .. } = self;
+        let File { model, image, tracing, shading, light, camera, object, .. } = self;
         SceneSpec {
             model: model.source,
             load_options: LoadOptions { crease_angle: model.crease_angle },
             models: model.copies,
             scatter: model.scatter,
+            objects: object.into_iter().map(ObjectPart::into_spec).collect(),
             mirror_box: model.mirror_box,
             light: LightOrbit {
                 radius: light.radius,
@@ -307,7 +354,8 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     })?;
     let spec = file.into_spec();
     spec.validate().map_err(|message| {
-        let key = "camera.target";
+        // The check that can fail here: an object's transform, or the camera's direction.
+        let key = if message.starts_with("object ") { "object" } else { "camera.target" };
         PresetError {
             line: key_span(doc.get_ref(), key).map(|s| line_of(s.start)),
             key: Some(key.into()),
@@ -320,6 +368,10 @@ pub fn from_text(text: &str) -> Result<(SceneSpec, Vec<UnknownKey>), PresetError
     all.model.scatter = 1;
     all.shading.accumulate = 2;
     all.tracing.bvh = BvhLayout::Wide;
+    all.object.push(ObjectPart::from_spec(&ObjectSpec {
+        model: ModelSource::default(),
+        placement: Placement::default(),
+    }));
     let known = toml::Table::try_from(all).expect("a preset always serializes");
     let mut unknown = Vec::new();
     unknown_keys(doc.get_ref(), &known, "", &mut |key, span| {
@@ -347,6 +399,16 @@ fn key_at(table: &toml::de::DeTable, span: &Range<usize>) -> Option<String> {
         if let toml::de::DeValue::Table(t) = value.get_ref() {
             if let Some(inner) = key_at(t, span) {
                 return Some(join(key.get_ref(), &inner));
+            }
+        }
+        // `[[object]]` tables, numbered from 1 as the messages count objects.
+        if let toml::de::DeValue::Array(items) = value.get_ref() {
+            for (i, item) in items.iter().enumerate() {
+                if let toml::de::DeValue::Table(t) = item.get_ref() {
+                    if let Some(inner) = key_at(t, span) {
+                        return Some(format!("{}[{}].{inner}", key.get_ref(), i + 1));
+                    }
+                }
             }
         }
         if key.span().contains(&span.start) || value.span().contains(&span.start) {
@@ -380,6 +442,16 @@ fn unknown_keys(
             (None, _) => found(join(prefix, name), key.span()),
             (Some(toml::Value::Table(k)), toml::de::DeValue::Table(t)) => {
                 unknown_keys(t, k, &join(prefix, name), found)
+            }
+            // `[[object]]`: each table against the one known object.
+            (Some(toml::Value::Array(k)), toml::de::DeValue::Array(items)) => {
+                if let Some(toml::Value::Table(k)) = k.first() {
+                    for (i, item) in items.iter().enumerate() {
+                        if let toml::de::DeValue::Table(t) = item.get_ref() {
+                            unknown_keys(t, k, &format!("{}[{}]", join(prefix, name), i + 1), found)
+                        }
+                    }
+                }
             }
             _ => {}
         }
@@ -448,8 +520,12 @@ fn resolve_paths(spec: &mut SceneSpec, folder: &Path) {
             *p = candidate;
         }
     };
-    if let ModelSource::File(p) = &mut spec.model {
-        beside(p);
+    for model in
+        std::iter::once(&mut spec.model).chain(spec.objects.iter_mut().map(|o| &mut o.model))
+    {
+        if let ModelSource::File(p) = model {
+            beside(p);
+        }
     }
     if let Some(EnvironmentSource::File(p)) = &mut spec.environment {
         beside(p);
@@ -460,8 +536,12 @@ fn resolve_paths(spec: &mut SceneSpec, folder: &Path) {
 fn absolute_paths(spec: &SceneSpec) -> SceneSpec {
     let mut spec = spec.clone();
     let absolute = |p: &mut PathBuf| *p = crate::files::canonical_or_given(p);
-    if let ModelSource::File(p) = &mut spec.model {
-        absolute(p);
+    for model in
+        std::iter::once(&mut spec.model).chain(spec.objects.iter_mut().map(|o| &mut o.model))
+    {
+        if let ModelSource::File(p) = model {
+            absolute(p);
+        }
     }
     if let Some(EnvironmentSource::File(p)) = &mut spec.environment {
         absolute(p);

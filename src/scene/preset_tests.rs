@@ -9,6 +9,20 @@ fn rich_spec() -> SceneSpec {
         load_options: crate::scene::obj::LoadOptions { crease_angle: Some(30.0) },
         models: 700,
         scatter: 42,
+        objects: vec![
+            ObjectSpec {
+                model: ModelSource::File("models/dragon.ply".into()),
+                placement: Placement {
+                    translate: Vec3::new(2.5, -0.5, 1.0),
+                    rotate: Vec3::new(0.0, 45.0, -10.0),
+                    scale: Vec3::new(0.5, 0.75, -0.5),
+                },
+            },
+            ObjectSpec {
+                model: ModelSource::Generated(20_000),
+                placement: Placement { translate: Vec3::new(-2.0, 0.0, 0.0), ..Default::default() },
+            },
+        ],
         mirror_box: false,
         light: LightOrbit { radius: 3.25, height: -1.5, angle_deg: 123.456 },
         camera: CameraSpec {
@@ -132,6 +146,26 @@ fn a_bad_value_names_its_key_and_line() {
         ("[camera]\neye = [0, 0, 0]\ntarget = [0, 0, 0]\n", 3, "camera.target", "same point"),
         ("[image]\nwidth 64\n", 2, "", "expected"),
         ("[image]\nao_samples = 0\n", 2, "image.ao_samples", "0 is out of range (1..=256)"),
+        ("[[object]]\ntranslate = [1, 2, 3]\n", 1, "object", "missing field `model`"),
+        (
+            "[[object]]\nmodel = \"sphere\"\n[[object]]\nmodel = \"cylinder\"\nscale = [1, 0, 1]\n",
+            5,
+            "object[2].scale",
+            "a finite number other than 0",
+        ),
+        (
+            "[[object]]\nmodel = \"sphere\"\nscale = [1, 2]\n",
+            3,
+            "object[1].scale",
+            "got 2 number(s)",
+        ),
+        ("[[object]]\nmodel = \"spere\"\n", 2, "object[1].model", "geosphere, torusknot"),
+        (
+            "[[object]]\nmodel = \"sphere\"\nscale = [1e-30, 1, 1]\n",
+            1,
+            "object",
+            "object 1 (sphere) has a singular",
+        ),
         (
             "[image]\nao_radius = -1\n",
             2,
@@ -150,6 +184,25 @@ fn a_bad_value_names_its_key_and_line() {
         assert!(e.to_string().contains(says), "{text:?}: {e}");
         assert!(!e.to_string().contains('\n'), "{e:?}");
     }
+}
+
+#[test]
+fn objects_read_with_defaults_and_a_uniform_scale() {
+    let text = "[[object]]\nmodel = \"sphere\"\nscale = 0.5\ncolour = 1\n\
+                [[object]]\nmodel = \"torusknot:2k\"\nrotate = [0, 90, 0]\n";
+    let (spec, unknown) = from_text(text).unwrap();
+    let found: Vec<(&str, usize)> = unknown.iter().map(|u| (u.key.as_str(), u.line)).collect();
+    assert_eq!(found, [("object[1].colour", 4)], "an unknown key in an object is a warning");
+    assert_eq!(spec.objects.len(), 2);
+    let [a, b] = [&spec.objects[0], &spec.objects[1]];
+    assert_eq!(a.model, ModelSource::parse("sphere"));
+    assert_eq!(a.placement, Placement { scale: Vec3::splat(0.5), ..Default::default() });
+    assert_eq!(b.model, ModelSource::Generated(2000));
+    assert_eq!(b.placement.translate, Vec3::ZERO);
+    assert_eq!(b.placement.scale, Vec3::ONE);
+    // 90 degrees about y takes +x to -z.
+    let x = b.placement.transform().transform_vector3(Vec3::X);
+    assert!((x - Vec3::NEG_Z).length() < 1e-6, "{x}");
 }
 
 #[test]

@@ -3,12 +3,13 @@
 //! window, `render`, `bench` and the tests build their scene from it, so the paper's
 //! scene is assembled in one place.
 
-use glam::Vec3;
+use glam::{Affine3A, EulerRot, Quat, Vec3};
 
-use super::formats::load_model;
+use super::formats::{load_model, LoadError};
 use super::obj::LoadOptions;
-use super::paper::{default_camera, scattered_scene, LightOrbit, ModelSource, MODEL_RADIUS};
-use super::{Camera, EnvironmentSource, Mesh, Scene};
+use super::paper::{assembled_scene, default_camera, LightOrbit, ModelSource, MODEL_RADIUS};
+use super::{Camera, EnvironmentSource, Instance, Model, Scene};
+use crate::progress::Progress;
 use crate::render_settings::{RenderSettings, CREASE_ANGLE_DEGREES};
 
 /// Where the camera is: the scene's default view with optional overrides, or framed.
@@ -63,6 +64,41 @@ impl CameraSpec {
     }
 }
 
+/// A transform as a person writes it: scale (per axis; negative mirrors), then rotation
+/// (degrees about x, then y, then z), then translation, in the scene's units (a model is
+/// fitted to a radius of 1; the mirror box reaches ±4).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub translate: Vec3,
+    /// Degrees about the x, y and z axes, applied in that order.
+    pub rotate: Vec3,
+    pub scale: Vec3,
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Self { translate: Vec3::ZERO, rotate: Vec3::ZERO, scale: Vec3::ONE }
+    }
+}
+
+impl Placement {
+    /// The object-to-world transform.
+    pub fn transform(&self) -> Affine3A {
+        let r = self.rotate * (std::f32::consts::PI / 180.0);
+        let rotation = Quat::from_euler(EulerRot::ZYX, r.z, r.y, r.x);
+        Affine3A::from_scale_rotation_translation(self.scale, rotation, self.translate)
+    }
+}
+
+/// A model placed beside the copies (a preset's `[[object]]`): several different models
+/// make one scene, each mesh stored once however often it is placed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectSpec {
+    /// What is placed: a paper model, a knot or a file, as `--model` spells it.
+    pub model: ModelSource,
+    pub placement: Placement,
+}
+
 /// Everything that decides one traced image, apart from the device it runs on.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneSpec {
@@ -74,6 +110,8 @@ pub struct SceneSpec {
     pub models: u32,
     /// Seed of the copies' random rotations and scales (0: identical copies).
     pub scatter: u32,
+    /// Other models placed in the scene, each with its own transform.
+    pub objects: Vec<ObjectSpec>,
     /// The paper's six mirror planes around the models.
     pub mirror_box: bool,
     /// The light's orbit and position on it.
@@ -96,6 +134,7 @@ impl Default for SceneSpec {
             load_options: LoadOptions::default(),
             models: 1,
             scatter: 0,
+            objects: Vec::new(),
             mirror_box: true,
             light: LightOrbit::default(),
             camera: CameraSpec::default(),
@@ -114,6 +153,17 @@ impl SceneSpec {
             .check(self.accumulate as f64, format!("accumulate {}", self.accumulate))?;
         if let Some(angle) = self.load_options.crease_angle {
             CREASE_ANGLE_DEGREES.check(angle as f64, format!("the crease angle {angle}"))?;
+        }
+        for (i, object) in self.objects.iter().enumerate() {
+            let t = object.placement.transform();
+            Instance::new(0, t).map_err(|_| {
+                format!(
+                    "object {} ({}) has a singular or non-finite transform (a scale of zero, \
+                     or a value that is not a number)",
+                    i + 1,
+                    object.model.label()
+                )
+            })?;
         }
         let camera = self.camera();
         if camera.position.distance(camera.target) < 1e-6 {
@@ -140,24 +190,75 @@ impl SceneSpec {
         Ok(())
     }
 
-    /// The scene around an already loaded and prepared model mesh.
-    pub fn scene_with(&self, model: Mesh) -> Scene {
-        let mut scene = scattered_scene(model, self.models, self.scatter, self.light);
+    /// The models the objects place that are not the main model, each once, in the
+    /// order [`SceneSpec::load_models`] loads them and [`SceneSpec::scene_of`] takes them.
+    pub fn object_sources(&self) -> Vec<&ModelSource> {
+        let mut sources: Vec<&ModelSource> = Vec::new();
+        for object in &self.objects {
+            if object.model != self.model && !sources.contains(&&object.model) {
+                sources.push(&object.model);
+            }
+        }
+        sources
+    }
+
+    /// The scene around an already loaded and prepared model (a mesh, or a model of
+    /// parts), for a spec without objects of other models.
+    pub fn scene_with(&self, model: impl Into<Model>) -> Scene {
+        self.scene_of(model.into(), &[])
+    }
+
+    /// The scene around the loaded model and `others`, the models of
+    /// [`SceneSpec::object_sources`] in that order.
+    pub fn scene_of(&self, model: Model, others: &[Model]) -> Scene {
+        let sources = self.object_sources();
+        // Objects of the main model place it once more; its meshes are not stored again.
+        let objects: Vec<(Option<usize>, Affine3A)> = self
+            .objects
+            .iter()
+            .filter_map(|object| {
+                let which = sources.iter().position(|s| **s == object.model);
+                // A model not handed in (a caller that loaded none) places nothing.
+                which
+                    .is_none_or(|k| k < others.len())
+                    .then(|| (which, object.placement.transform()))
+            })
+            .collect();
+        let mut scene =
+            assembled_scene(model, others, &objects, self.models, self.scatter, self.light);
         if !self.mirror_box {
-            scene = scene.without_box();
+            scene.remove_box();
         }
         scene.camera = self.camera();
         scene.environment = self.environment.clone();
         scene
     }
 
-    /// Load (or generate) the model ([`load_model`]) and build the scene; the loader's
-    /// warnings are returned.
+    /// Load (or generate) the main model and each other model the objects place, each
+    /// once: the main model, the others (as [`SceneSpec::object_sources`]) and every
+    /// loader's warnings.
+    pub fn load_models(
+        &self,
+        progress: Option<&Progress>,
+    ) -> Result<(Model, Vec<Model>, Vec<String>), LoadError> {
+        let main = load_model(&self.model, &self.load_options, progress)?;
+        let mut warnings = main.warnings;
+        let mut others = Vec::new();
+        for source in self.object_sources() {
+            let other = load_model(source, &self.load_options, progress)?;
+            warnings.extend(other.warnings);
+            others.push(other.model);
+        }
+        Ok((main.model, others, warnings))
+    }
+
+    /// Load (or generate) the models ([`SceneSpec::load_models`]) and build the scene;
+    /// the loaders' warnings are returned.
     pub(crate) fn load(&self) -> anyhow::Result<(Scene, Vec<String>)> {
         self.validate().map_err(anyhow::Error::msg)?;
         self.check_environment()?;
-        let loaded = load_model(&self.model, &self.load_options, None)?;
-        Ok((self.scene_with(loaded.mesh), loaded.warnings))
+        let (model, others, warnings) = self.load_models(None)?;
+        Ok((self.scene_of(model, &others), warnings))
     }
 }
 
@@ -191,6 +292,49 @@ mod tests {
         assert_eq!(scene.instances.len(), 4, "no mirror box");
         assert_eq!(scene.camera.position, Vec3::new(0.0, 0.0, 3.0));
         assert_eq!(scene.camera.vfov_deg, 40.0);
+    }
+
+    #[test]
+    fn objects_store_each_model_once_and_place_every_part() {
+        let sphere = ModelSource::parse("sphere");
+        let at = |x: f32| Placement { translate: Vec3::new(x, 0.0, 0.0), ..Default::default() };
+        let spec = SceneSpec {
+            models: 2,
+            objects: vec![
+                ObjectSpec { model: sphere.clone(), placement: at(3.0) },
+                ObjectSpec { model: ModelSource::default(), placement: at(-3.0) },
+                ObjectSpec { model: sphere.clone(), placement: at(0.0) },
+            ],
+            ..Default::default()
+        };
+        assert_eq!(spec.object_sources(), [&sphere], "the main model is not loaded twice");
+        let (scene, _) = spec.load().unwrap();
+        // The geosphere, the box, the sphere: three meshes for six instances.
+        assert_eq!(scene.meshes.len(), 3);
+        let meshes: Vec<usize> = scene.instances.iter().map(|i| i.mesh).collect();
+        assert_eq!(meshes, [0, 0, 1, 2, 0, 2]);
+        assert_eq!(scene.instances[3].transform.translation, Vec3::new(3.0, 0.0, 0.0).into());
+        // Placing the copies again keeps the objects and drops the box on request.
+        let mut again = scene.clone();
+        again.place_copies(1, 0, false);
+        let meshes: Vec<usize> = again.instances.iter().map(|i| i.mesh).collect();
+        assert_eq!(meshes, [0, 2, 0, 2]);
+        // Framing looks at the objects too, not at the box.
+        let b = scene.model_bounds();
+        assert!(b.min.x < -3.5 && b.max.x > 3.5 && b.max.y < 2.0, "{b:?}");
+    }
+
+    #[test]
+    fn a_singular_object_is_refused_by_name() {
+        let spec = SceneSpec {
+            objects: vec![ObjectSpec {
+                model: ModelSource::parse("cylinder"),
+                placement: Placement { scale: Vec3::new(1.0, 0.0, 1.0), ..Default::default() },
+            }],
+            ..Default::default()
+        };
+        let e = spec.validate().unwrap_err();
+        assert!(e.starts_with("object 1 (cylinder) has a singular"), "{e}");
     }
 
     #[test]

@@ -10,7 +10,7 @@ use super::packed::{BvhOrder, Layouts, PackedScene, PackedTopLevel};
 use super::prepare::PreparedScene;
 use super::records::{shading_record, triangle_record, GpuTriangle, GpuTriangleShading};
 use crate::progress::{Cancelled, Phase, Progress};
-use crate::scene::formats::{load_model, LoadError};
+use crate::scene::formats::LoadError;
 use crate::scene::spec::SceneSpec;
 use crate::scene::Scene;
 
@@ -33,10 +33,10 @@ impl LoadedScene {
     /// parse, build and pack phases to `progress` and stopping before the next once
     /// cancelled. The error is one sentence.
     pub fn load(spec: &SceneSpec, progress: &Progress) -> Result<Self, LoadError> {
-        let model = load_model(&spec.model, &spec.load_options, Some(progress))?;
-        let scene = spec.scene_with(model.mesh);
+        let (model, others, warnings) = spec.load_models(Some(progress))?;
+        let scene = spec.scene_of(model, &others);
         let mut loaded = Self::pack(scene, Layouts::switchable(spec.settings.bvh), progress)?;
-        loaded.warnings.splice(0..0, model.warnings);
+        loaded.warnings.splice(0..0, warnings);
         Ok(loaded)
     }
 

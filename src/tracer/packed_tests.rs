@@ -19,10 +19,10 @@ fn gpu_structs_match_the_shader_layout() {
 fn vertex_attributes_are_filled_for_meshes_without_them() {
     // Mesh 0 has neither colours nor texture coordinates, mesh 1 both: the arrays are
     // indexed by global vertex, so mesh 0's vertices read white and (0, 0).
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
     let mut model = PaperModel::Geosphere.mesh();
-    prepare_model(&mut model);
+    prepare_mesh(&mut model);
     let mut scene = paper_scene(model, 1, LightOrbit::default());
     let box_mesh = &mut scene.meshes[1];
     box_mesh.colors = vec![[10, 20, 30, 40]; box_mesh.positions.len()];
@@ -62,10 +62,10 @@ fn vertex_attributes_are_filled_for_meshes_without_them() {
 #[test]
 fn the_mesh_tables_boxes_give_the_scenes_bounds() {
     // The window takes the world bounds (the ray offset) from the mesh table each frame.
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
     let mut mesh = PaperModel::TorusKnot.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let mut scene = paper_scene(mesh, 3, LightOrbit::default());
     scene.instances[1].transform.translation.x += 7.5;
     let packed = PackedScene::new(&scene);
@@ -79,11 +79,11 @@ fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
     // The upload writes a load's triangles from its scene: the same records, in the same
     // slots, as a packing that holds them, for the model and the mirror box after it.
     use crate::progress::{Phase, Progress};
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
     use crate::tracer::loaded::LoadedScene;
     let mut mesh = PaperModel::TorusKnot.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
     let scene = paper_scene(mesh, 2, LightOrbit::default());
     let progress = Progress::default();
@@ -118,10 +118,10 @@ fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
 
 #[test]
 fn layouts_hold_what_their_frames_trace() {
-    use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
     let mut mesh = PaperModel::TorusKnot.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let scene = paper_scene(mesh, 1, LightOrbit::default());
     for (layouts, binary, wide) in
         [(Layouts::Binary, true, false), (Layouts::Wide, false, true), (Layouts::Both, true, true)]

@@ -16,7 +16,7 @@ use std::sync::{Arc, OnceLock};
 use glam::Vec3;
 use meshtracer::gpu::{ComputeTracer, ContextOptions, GpuContext};
 use meshtracer::render_settings::{Accel, Aov, RenderSettings};
-use meshtracer::scene::paper::{paper_scene, prepare_model, LightOrbit};
+use meshtracer::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::packed::Layouts;
@@ -71,7 +71,7 @@ pub fn settings(size: u32, bounces: u32) -> RenderSettings {
 
 pub fn paper(model: PaperModel, count: u32) -> Scene {
     let mut mesh = model.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     paper_scene(mesh, count, LightOrbit::default())
 }
 
@@ -95,7 +95,7 @@ pub fn room_scene() -> Scene {
         ..Default::default()
     };
     mesh.compute_vertex_normals();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     paper_scene(mesh, 1, LightOrbit::default())
 }
 
@@ -140,6 +140,7 @@ pub fn quad_scene(material: Material, distance: f32, light: Vec3) -> Scene {
         background: Vec3::ZERO,
         ambient: 0.1,
         environment: None,
+        assembly: Default::default(),
     }
 }
 

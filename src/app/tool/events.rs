@@ -151,7 +151,7 @@ impl Tool {
     /// Point the camera at the models in view from where it looks now (F).
     fn frame_model(&mut self) {
         if let Some(model) = &self.session.model {
-            let b = model.scene.model_bounds(self.params.scene.models as usize);
+            let b = model.scene.model_bounds();
             if !b.is_empty() {
                 self.params.frame_model(b.center(), b.extent().length() * 0.5);
             }

@@ -56,10 +56,15 @@ impl Tool {
         match preset::read(path) {
             Ok(Loaded { spec, warnings }) => {
                 let options = self.params.scene.load_options;
+                let objects = self.params.scene.objects.clone();
                 self.params.apply_preset(&spec);
-                // Another model, or the same read another way (--crease-angle): load it.
+                // Another model or other objects, or the same read another way
+                // (--crease-angle): load them.
                 let shown = self.session.model.as_ref().map(|m| &m.source);
-                if shown != Some(&spec.model) || self.params.scene.load_options != options {
+                if shown != Some(&spec.model)
+                    || self.params.scene.load_options != options
+                    || self.params.scene.objects != objects
+                {
                     self.session.start_load(
                         spec.model.clone(),
                         &mut self.params,

@@ -5,7 +5,7 @@
 use crate::gpu::{ComputeTracer, FrameTrace};
 use crate::progress::Phase;
 use crate::render_settings::{Accel, Aov, BvhLayout};
-use crate::scene::paper::{instances, ModelSource};
+use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Scene};
 use crate::tracer::frame::FrameParams;
@@ -220,10 +220,8 @@ impl Session {
         let Some(model) = &mut self.model else { return Ok(()) };
         let want = (params.scene.models, params.scene.scatter, params.scene.mirror_box);
         if self.applied.instances != Some(want) {
-            model.scene.instances = instances(params.scene.models, params.scene.scatter);
-            if !params.scene.mirror_box {
-                model.scene.remove_box();
-            }
+            let s = &params.scene;
+            model.scene.place_copies(s.models, s.scatter, s.mirror_box);
             model.top_level.set_instances(&model.scene.instances);
             tracer.set_instances(&model.top_level.top_level)?;
             if let Some((before, _, _)) = self.applied.instances {

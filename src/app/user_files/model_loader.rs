@@ -9,7 +9,6 @@ use std::thread;
 
 use crate::gpu::scene_buffers::check_before_build;
 use crate::progress::{Progress, Snapshot};
-use crate::scene::formats::load_model;
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::loaded::LoadedScene;
@@ -137,15 +136,14 @@ impl ModelLoader {
 /// The worker's part: read and parse (or generate), check the triangles against `limit`
 /// (the device's storage-buffer range), build, pack; stops between phases when cancelled.
 fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<LoadedModel, String> {
-    let model =
-        load_model(&spec.model, &spec.load_options, Some(&progress)).map_err(|e| e.to_string())?;
-    let world = spec.scene_with(model.mesh);
+    let (model, others, warnings) = spec.load_models(Some(&progress)).map_err(|e| e.to_string())?;
+    let world = spec.scene_of(model, &others);
     if let Some(limit) = limit {
         check_before_build(&world, &spec.model.label(), limit)?;
     }
     let layouts = Layouts::switchable(spec.settings.bvh);
     let mut scene = LoadedScene::pack(world, layouts, &progress).map_err(|e| e.to_string())?;
-    scene.warnings.splice(0..0, model.warnings);
+    scene.warnings.splice(0..0, warnings);
     progress.checkpoint().map_err(|e| e.to_string())?;
     // The loader's and the packing's warnings (textures that could not be read) are shown in
     // the panel, and each is printed once on the terminal.

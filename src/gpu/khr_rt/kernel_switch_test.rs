@@ -5,7 +5,7 @@ use crate::gpu::dispatch::Band;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ComputeTracer, ContextOptions, FrameTrace, GpuContext};
 use crate::render_settings::{Accel, RenderSettings};
-use crate::scene::paper::{paper_scene, prepare_model, LightOrbit};
+use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
 use crate::scene::primitives::PaperModel;
 use crate::tracer::{FrameParams, PackedScene};
 
@@ -20,7 +20,7 @@ fn switching_kernels_with_a_frame_in_flight_writes_no_set_in_use() {
         ctx.info.name
     );
     let mut mesh = PaperModel::Geosphere.mesh();
-    prepare_model(&mut mesh);
+    prepare_mesh(&mut mesh);
     let scene = paper_scene(mesh, 1, LightOrbit::default());
     let packed = PackedScene::new(&scene);
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();

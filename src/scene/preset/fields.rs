@@ -190,3 +190,26 @@ pub(super) fn env_arg(env: &Option<EnvironmentSource>) -> String {
         Some(EnvironmentSource::File(p)) => p.display().to_string(),
     }
 }
+
+/// An object's `scale`: one number (uniform) or `[x, y, z]`; finite and not zero (a zero
+/// scale flattens the object: the transform check says so in full).
+pub(super) fn de_scale<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Scale {
+        Uniform(f32),
+        PerAxis(Vec<f32>),
+    }
+    let v = match Scale::deserialize(d)? {
+        Scale::Uniform(s) => vec![s; 3],
+        Scale::PerAxis(v) => v,
+    };
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite() && *c != 0.0) => Ok([x, y, z]),
+        [_, _, _] => Err(D::Error::custom("a scale must be a finite number other than 0")),
+        _ => Err(D::Error::custom(format!(
+            "expected a number or [x, y, z], got {} number(s)",
+            v.len()
+        ))),
+    }
+}
