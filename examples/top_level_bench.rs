@@ -15,7 +15,7 @@ fn main() {
     let mut mesh = PaperModel::Geosphere.mesh();
     prepare_mesh(&mut mesh);
     let mut packed = PackedScene::new(&paper_scene(mesh, 1, LightOrbit::default()));
-    println!("copies  median ms  best ms  bytes/instance");
+    println!("copies  median ms  best ms  bytes/instance  SAH cost");
     for count in [100, 1000, 10_000] {
         let list = instances(count, 1);
         let mut times: Vec<f64> = (0..21)
@@ -27,6 +27,10 @@ fn main() {
             .collect();
         times.sort_by(f64::total_cmp);
         let per_instance = packed.top_level.bytes() as f64 / list.len() as f64;
-        println!("{count:>6}  {:>9.3}  {:>7.3}  {per_instance:>14.1}", times[10], times[0]);
+        let sah = packed.top_level.sah_cost();
+        println!(
+            "{count:>6}  {:>9.3}  {:>7.3}  {per_instance:>14.1}  {sah:>8.1}",
+            times[10], times[0]
+        );
     }
 }
