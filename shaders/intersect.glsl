@@ -209,8 +209,8 @@ bool brute_force(vec3 o, vec3 d, uint first, uint n, bool any, inout Hit hit, in
 // Any: returns whether the mesh blocks the ray before hit.t.
 bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
     Instance inst = instances[i];
-    uint first = inst.offsets.y, n = inst.offsets.z;
-    if (n == 0u) return false;  // no triangles, and so no nodes of its own
+    uint first = inst.offsets.y;
+    if (inst.offsets.x == EMPTY) return false;  // no triangles, and so no nodes of its own
     vec3 lo = point_to_object(inst, o);
     vec3 ld = vector_to_object(inst, d);
     uint before = hit.tri;
@@ -218,13 +218,13 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
 #ifdef WIDE_ONLY
     // The wide kernel runs only wide BVH frames of scenes whose every mesh has a wide tree
     // (TracePass picks it): the binary traversal and brute force are left out.
-    blocked = traverse_wide(lo, ld, inst.wide.x, first, any, hit, cost);
+    blocked = traverse_wide(lo, ld, inst.offsets.z, first, any, hit, cost);
 #else
 #ifndef CORE_ONLY
     // The wide layout (`--bvh wide`); a mesh without a wide tree (EMPTY) takes the binary
     // path below.
-    if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && inst.wide.x != EMPTY) {
-        blocked = traverse_wide(lo, ld, inst.wide.x, first, any, hit, cost);
+    if (use_bvh && (frame.dims.w & FLAG_WIDE) != 0u && inst.offsets.z != EMPTY) {
+        blocked = traverse_wide(lo, ld, inst.offsets.z, first, any, hit, cost);
     } else
 #endif
     if (use_bvh && any) {
@@ -232,7 +232,7 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
     } else if (use_bvh) {
         traverse_bvh(lo, ld, inst.offsets.x, first, hit, cost);
     } else {
-        blocked = brute_force(lo, ld, first, n, any, hit, cost);
+        blocked = brute_force(lo, ld, first, meshes[inst.offsets.w].x, any, hit, cost);
     }
 #endif
     if (hit.tri != before) hit.instance = i;

@@ -46,8 +46,9 @@ struct Instance {
     vec4 to_object_x;        // world to object: three rows of a 3x4 matrix
     vec4 to_object_y;
     vec4 to_object_z;
-    uvec4 offsets;           // node base, triangle base, triangle count, prim-id base
-    uvec4 wide;              // x: the mesh's first wide BVH node in uvec4s, or EMPTY
+    // x: the binary root (EMPTY: a mesh without triangles), y: triangle base, z: the
+    // first wide node in uvec4s (EMPTY: no wide tree), w: the mesh's entry in meshes[]
+    uvec4 offsets;
 };
 
 // A world-space point and direction in instance `inst`'s mesh space (the direction not
@@ -87,6 +88,8 @@ layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instan
 // The top level: a two-child tree over the instances' world boxes (BvhNode, leaves of one
 // instance each, the leaf index an index into instances[]).
 layout(std430, set = 0, binding = 20) readonly buffer TopNodes { BvhNode top_nodes[]; };
+// Per mesh, what the traversal does not read: triangle slots (brute force), prim-id base.
+layout(std430, set = 0, binding = 21) readonly buffer Meshes { uvec2 meshes[]; };
 layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };
 layout(std430, set = 0, binding = 6) buffer OutFloat { vec4 out_float[]; };
 // All textures' mip chains, RGBA8 (src/tracer/textures.rs), and where each one starts.

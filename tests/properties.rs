@@ -229,7 +229,12 @@ proptest! {
         prop_assert_eq!(packed.top_level.instances.len(), scene.instances.len());
         for (inst, gi) in scene.instances.iter().zip(&packed.top_level.instances) {
             let pm = &packed.meshes[inst.mesh];
-            prop_assert_eq!((gi.triangle_base, gi.triangle_count, gi.node_base), (pm.triangle_base, pm.triangle_count, pm.node_base));
+            let table = &packed.top_level.meshes[gi.mesh as usize];
+            prop_assert_eq!(gi.mesh as usize, inst.mesh);
+            prop_assert_eq!((gi.triangle_base, table.triangle_count), (pm.triangle_base, pm.triangle_count));
+            // A mesh without triangles has no nodes to visit.
+            let node_base = if pm.triangle_count == 0 { u32::MAX } else { pm.node_base };
+            prop_assert_eq!(gi.node_base, node_base);
         }
     }
 

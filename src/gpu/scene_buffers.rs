@@ -30,6 +30,8 @@ pub struct SceneBuffers {
     pub(crate) instances: GpuBuffer,
     /// The top level's tree over the instances.
     pub(crate) top_nodes: GpuBuffer,
+    /// The mesh table the instances index (fixed with the meshes).
+    pub(crate) meshes: GpuBuffer,
     pub(crate) texels: GpuBuffer,
     pub(crate) texture_infos: GpuBuffer,
     pub(crate) environment: GpuBuffer,
@@ -180,6 +182,7 @@ impl SceneBuffers {
         let top = &packed.top_level;
         let instances = top_level_buffer::<GpuInstance>(ctx, top.instances.len(), "instances")?;
         let top_nodes = top_level_buffer::<BvhNode>(ctx, top.nodes.len(), "top-level nodes")?;
+        let meshes = storage(bytemuck::cast_slice(&top.meshes), "mesh table")?;
         let texels = storage(bytemuck::cast_slice(&packed.textures.texels), "texels")?;
         let texture_infos = storage(bytemuck::cast_slice(&packed.textures.infos), "texture infos")?;
         let environment_words = environment_words(packed.environment.as_ref());
@@ -194,6 +197,7 @@ impl SceneBuffers {
             nodes,
             instances,
             top_nodes,
+            meshes,
             texels,
             texture_infos,
             environment,
@@ -212,7 +216,7 @@ impl SceneBuffers {
     }
 
     /// Every buffer of the scene.
-    fn all(&self) -> [&GpuBuffer; 12] {
+    fn all(&self) -> [&GpuBuffer; 13] {
         [
             &self.triangles,
             &self.shading,
@@ -223,6 +227,7 @@ impl SceneBuffers {
             &self.nodes,
             &self.instances,
             &self.top_nodes,
+            &self.meshes,
             &self.texels,
             &self.texture_infos,
             &self.environment,

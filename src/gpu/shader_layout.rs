@@ -68,6 +68,8 @@ pub(crate) enum TraceBuffer {
     Instances,
     /// The top level's tree over the instances.
     TopNodes,
+    /// The mesh table: what brute force and the prim-id view read per mesh.
+    Meshes,
     Texels,
     TextureInfos,
     Environment,
@@ -81,7 +83,7 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 19] = [
+    pub const ALL: [TraceBuffer; 20] = [
         Self::Triangles,
         Self::TriangleHalves,
         Self::Shading,
@@ -93,6 +95,7 @@ impl TraceBuffer {
         Self::WideNodes,
         Self::Instances,
         Self::TopNodes,
+        Self::Meshes,
         Self::Texels,
         Self::TextureInfos,
         Self::Environment,
@@ -117,6 +120,7 @@ impl TraceBuffer {
             "WideNodes" => Self::WideNodes,
             "Instances" => Self::Instances,
             "TopNodes" => Self::TopNodes,
+            "Meshes" => Self::Meshes,
             "Texels" => Self::Texels,
             "TextureInfos" => Self::TextureInfos,
             "Environment" => Self::Environment,
@@ -342,10 +346,8 @@ mod tests {
                     to_object: "to_object_x"..="to_object_z",
                     node_base: "offsets",
                     triangle_base: "offsets" + 4,
-                    triangle_count: "offsets" + 8,
-                    prim_base: "offsets" + 12,
-                    wide_words: "wide",
-                    _pad: "wide" + 4,
+                    wide_words: "offsets" + 8,
+                    mesh: "offsets" + 12,
                 }),
             ),
             (

@@ -153,6 +153,7 @@ pub(crate) fn write_set(
                 TraceBuffer::Nodes | TraceBuffer::WideNodes => &scene.nodes,
                 TraceBuffer::Instances => &scene.instances,
                 TraceBuffer::TopNodes => &scene.top_nodes,
+                TraceBuffer::Meshes => &scene.meshes,
                 TraceBuffer::Texels => &scene.texels,
                 TraceBuffer::TextureInfos => &scene.texture_infos,
                 TraceBuffer::Environment => &scene.environment,

@@ -356,7 +356,8 @@ impl<'a> CpuScene<'a> {
     /// colour, cost, samples and AO views).
     #[inline]
     fn first_hit_aov(&self, aov: Aov, hit: &SceneHit, surface: &Surface) -> Option<Vec4> {
-        let prim = (surface.tri.prim + surface.inst.prim_base) as f32;
+        let mesh = &self.packed.top_level.meshes[surface.inst.mesh as usize];
+        let prim = (surface.tri.prim + mesh.prim_base) as f32;
         match aov {
             Aov::Depth => Some(Vec4::new(hit.t, hit.t, hit.t, 1.0)),
             Aov::Normal => Some(surface.ns.extend(1.0)),

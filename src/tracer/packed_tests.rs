@@ -10,7 +10,7 @@ fn gpu_structs_match_the_shader_layout() {
     assert_eq!(std::mem::size_of::<GpuTriangle>(), 40);
     assert_eq!(std::mem::size_of::<GpuTriangleShading>(), 16);
     assert_eq!(std::mem::size_of::<GpuMaterial>(), 64);
-    assert_eq!(std::mem::size_of::<GpuInstance>(), 80);
+    assert_eq!(std::mem::size_of::<GpuInstance>(), 64);
     assert_eq!(std::mem::size_of::<BvhNode>(), 64);
     assert_eq!(std::mem::size_of::<WideNode>(), 80);
 }

@@ -175,8 +175,10 @@ impl GpuMaterial {
 /// `GpuMaterial::texture` of an untextured material (the shader compares it with `EMPTY`).
 pub(crate) const NO_TEXTURE: u32 = crate::contract::EMPTY;
 
-/// A placed mesh (80 bytes): the world-to-object transform that carries rays into the
-/// mesh, and where the mesh's data lives. Its world box is in the top level's nodes.
+/// A placed mesh (64 bytes): the world-to-object transform that carries rays into the
+/// mesh, and where the traversal finds the mesh's trees and triangles. Its world box is in
+/// the top level's nodes; what only brute force and the prim-id view need is in the mesh's
+/// [`GpuMesh`], so that a field of 10,000 copies costs at most 128 bytes a copy.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
@@ -184,17 +186,26 @@ pub struct GpuInstance {
     /// back to world space by the transpose of its 3x3 part (the inverse transpose of the
     /// instance's transform).
     pub(crate) to_object: [[f32; 4]; 3],
+    /// The mesh's binary root, or `EMPTY` for a mesh without triangles (nothing to visit).
     pub node_base: u32,
     pub triangle_base: u32,
-    /// Triangle slots from `triangle_base` (more than the mesh's triangles where the build
-    /// cut some into pieces: one slot per leaf that holds a piece).
-    pub triangle_count: u32,
-    /// Added to a triangle's file-order index to give the prim-id AOV.
-    pub(crate) prim_base: u32,
     /// The mesh's first wide node, in 16-byte words of the node buffer, or `EMPTY` for a
     /// mesh without a wide tree.
     pub(crate) wide_words: u32,
-    pub(crate) _pad: [u32; 3],
+    /// The mesh's index in the mesh table ([`GpuMesh`]).
+    pub mesh: u32,
+}
+
+/// What the traversal does not read per instance (8 bytes a mesh).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMesh {
+    /// Triangle slots from the instances' `triangle_base` (more than the mesh's triangles
+    /// where the build cut some into pieces: one slot per leaf that holds a piece): what
+    /// brute force walks.
+    pub triangle_count: u32,
+    /// Added to a triangle's file-order index to give the prim-id AOV.
+    pub(crate) prim_base: u32,
 }
 
 impl GpuInstance {

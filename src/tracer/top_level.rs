@@ -10,7 +10,8 @@
 use glam::{DAffine3, Vec3};
 use rayon::prelude::*;
 
-use super::records::GpuInstance;
+use super::records::{GpuInstance, GpuMesh};
+use crate::contract::EMPTY;
 use crate::bvh::{BvhChild, BvhNode, TraversalStats};
 use crate::geometry::{safe_inverse, Aabb, Ray};
 use crate::scene::Instance;
@@ -28,10 +29,12 @@ pub(crate) struct MeshPlace {
     pub(crate) bounds: Aabb,
 }
 
-/// The instance records and the tree over them.
+/// The instance records, the tree over them and the mesh table they index.
 #[derive(Clone, Debug, Default)]
 pub struct TopLevel {
     pub instances: Vec<GpuInstance>,
+    /// One record per mesh, as `instances[i].mesh` names it.
+    pub meshes: Vec<GpuMesh>,
     /// Root first; at least one node (a root with two absent children for no instances).
     pub nodes: Vec<BvhNode>,
 }
@@ -56,15 +59,19 @@ impl TopLevel {
                 } else {
                     b
                 };
-                (record(mesh, inst), b)
+                (record(mesh, inst.mesh as u32, inst), b)
             })
             .unzip();
-        Self { instances: records, nodes: tree_over(&boxes) }
+        let meshes = meshes
+            .iter()
+            .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
+            .collect();
+        Self { instances: records, meshes, nodes: tree_over(&boxes) }
     }
 
     /// Triangle slots over all instances (each instance's mesh counted again).
     pub fn triangle_slots(&self) -> u64 {
-        self.instances.iter().map(|i| i.triangle_count as u64).sum()
+        self.instances.iter().map(|i| self.meshes[i.mesh as usize].triangle_count as u64).sum()
     }
 
     /// The tree's surface-area cost: every node's and every instance box's area over the
@@ -78,12 +85,13 @@ impl TopLevel {
     pub fn bytes(&self) -> usize {
         std::mem::size_of_val(self.instances.as_slice())
             + std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.meshes.as_slice())
     }
 }
 
 /// One instance's record: its mesh's place and the inverse of its transform, inverted in
 /// double precision so that the round trip loses no more than the final rounding.
-fn record(mesh: &MeshPlace, inst: &Instance) -> GpuInstance {
+fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
     let to_object =
         DAffine3::from_cols_array(&inst.transform.to_cols_array().map(f64::from)).inverse();
     let m = to_object.matrix3;
@@ -91,12 +99,11 @@ fn record(mesh: &MeshPlace, inst: &Instance) -> GpuInstance {
     let row = |i: usize| [m.x_axis[i] as f32, m.y_axis[i] as f32, m.z_axis[i] as f32, t[i] as f32];
     GpuInstance {
         to_object: [row(0), row(1), row(2)],
-        node_base: mesh.node_base,
+        // A mesh without triangles has no nodes of its own: EMPTY says so to the visit.
+        node_base: if mesh.triangle_count == 0 { EMPTY } else { mesh.node_base },
         triangle_base: mesh.triangle_base,
-        triangle_count: mesh.triangle_count,
-        prim_base: mesh.prim_base,
-        wide_words: mesh.wide_words,
-        _pad: [0; 3],
+        wide_words: if mesh.triangle_count == 0 { EMPTY } else { mesh.wide_words },
+        mesh: index,
     }
 }
 
@@ -295,7 +302,6 @@ mod tests {
     use glam::{Affine3A, Quat, Vec3};
 
     use super::*;
-    use crate::contract::EMPTY;
 
     fn place(bounds: Aabb) -> MeshPlace {
         MeshPlace {

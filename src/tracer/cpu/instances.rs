@@ -6,6 +6,7 @@ use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
 use crate::geometry::{intersect_triangle, Ray};
 use crate::render_settings::{Accel, BvhLayout};
+use crate::contract::EMPTY;
 use crate::tracer::packed::GpuInstance;
 use crate::tracer::top_level::{self, Visit};
 
@@ -85,12 +86,13 @@ impl CpuScene<'_> {
         layout: BvhLayout,
         stats: &mut TraversalStats,
     ) -> Option<SceneHit> {
-        if inst.triangle_count == 0 {
+        if inst.node_base == EMPTY {
             return None; // no triangles, and so no nodes of its own
         }
         let local = Ray::new(inst.point_to_object(ray.origin), inst.vector_to_object(ray.dir));
         let base = inst.triangle_base as usize;
-        let tris = &self.edges[base..base + inst.triangle_count as usize];
+        let count = self.packed.top_level.meshes[inst.mesh as usize].triangle_count as usize;
+        let tris = &self.edges[base..base + count];
         let hit = |k: usize, h: crate::geometry::TriHit| SceneHit {
             t: h.t,
             u: h.u,
