@@ -4,15 +4,14 @@
 //! `trace_instances` in `shaders/intersect.glsl` walks it, for the CPU reference.
 //!
 //! The tree is the bottom levels' node layout ([`BvhNode`]) with leaves of one instance,
-//! whose index is the instance's own: the instance list keeps the scene's order. It is
-//! built as a linear BVH (Morton order), quick enough to rebuild whenever instances move.
+//! whose index is the instance's own: the instance list keeps the scene's order.
 
-use glam::{DAffine3, Vec3};
+use glam::DAffine3;
 use rayon::prelude::*;
 
 use super::records::{GpuInstance, GpuMesh};
+use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats};
 use crate::contract::EMPTY;
-use crate::bvh::{BvhChild, BvhNode, TraversalStats};
 use crate::geometry::{safe_inverse, Aabb, Ray};
 use crate::scene::Instance;
 
@@ -108,89 +107,25 @@ fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
 }
 
 /// The two-child tree over `boxes` with leaves of one box each, a leaf's index the box's:
-/// a linear BVH (Karras 2012), the boxes sorted by their centres' Morton codes and every
-/// range split where its codes' highest differing bit changes. Far quicker to build than
-/// the bottom levels' binned SAH (a sort and one pass: ~0.3 ms for 10,000 boxes against
-/// 4-8 ms), which keeps moving instances live; on fields of copies, a grid, the Morton
-/// order is close to what the SAH picks.
+/// the bottom levels' binned SAH build. (A linear BVH in Morton order built 10,000 boxes in
+/// 1.2 ms instead of 4-5 ms on the H200's host, but its trees cost up to 16% more per frame
+/// on fields of copies: docs/BENCHMARKS.md, twenty-third session.)
 fn tree_over(boxes: &[Aabb]) -> Vec<BvhNode> {
-    let none = BvhChild::EMPTY;
-    if boxes.is_empty() {
-        return vec![BvhNode::new(none, none)];
+    let options = BuildOptions { max_leaf_size: 1, ..BuildOptions::default() };
+    let Bvh { mut nodes, prim_indices } = Bvh::build_from_boxes(boxes, &options);
+    if nodes.is_empty() {
+        return vec![BvhNode::new(BvhChild::EMPTY, BvhChild::EMPTY)];
     }
-    let centres = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.grow_point(b.center()));
-    let extent = centres.max - centres.min;
-    // 10 bits an axis; an axis without extent maps every centre to 0.
-    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), 1023.0 / extent, Vec3::ZERO);
-    // The code in the high half, the box's index in the low: one sort key, ties in order.
-    let mut keys: Vec<u64> = boxes
-        .par_iter()
-        .with_min_len(4096)
-        .enumerate()
-        .map(|(i, b)| {
-            let q = ((b.center() - centres.min) * scale).round();
-            let q = q.clamp(Vec3::ZERO, Vec3::splat(1023.0)).as_uvec3();
-            let code = spread_bits(q.x) << 2 | spread_bits(q.y) << 1 | spread_bits(q.z);
-            u64::from(code) << 32 | i as u64
-        })
-        .collect();
-    keys.par_sort_unstable();
-    if boxes.len() == 1 {
-        // One box: a root holding it as its only child.
-        return vec![BvhNode::new(leaf(keys[0], boxes), none)];
-    }
-    // n boxes make n - 1 nodes, and a range's nodes follow its own parent first, so every
-    // subtree knows where its nodes go and the halves are made in parallel.
-    let mut nodes = vec![BvhNode::new(none, none); boxes.len() - 1];
-    emit(&keys, boxes, &mut nodes, 0);
-    nodes
-}
-
-/// The leaf record of the box `key` names.
-fn leaf(key: u64, boxes: &[Aabb]) -> BvhChild {
-    let index = (key & 0xffff_ffff) as u32;
-    BvhChild { bounds: boxes[index as usize], index, count: 1 }
-}
-
-/// The subtree over `keys` (sorted, at least two), its `keys.len() - 1` nodes written to
-/// `nodes` parent first, the parent being node `at` of the whole tree; returns the box.
-fn emit(keys: &[u64], boxes: &[Aabb], nodes: &mut [BvhNode], at: u32) -> Aabb {
-    let (first, last) = (keys[0] >> 32, keys[keys.len() - 1] >> 32);
-    let split = if first == last {
-        keys.len() / 2 // equal codes: halves
-    } else {
-        // The first key with the highest differing bit set.
-        let bit = 63 - (first ^ last).leading_zeros();
-        keys.partition_point(|k| (k >> 32) >> bit & 1 == 0)
-    };
-    let (lk, rk) = keys.split_at(split);
-    let (node, rest) = nodes.split_first_mut().expect("a range of two or more keys has a node");
-    let (ln, rn) = rest.split_at_mut(split - 1);
-    let (l_at, r_at) = (at + 1, at + split as u32);
-    let side = |keys: &[u64], nodes: &mut [BvhNode], at: u32| {
-        if keys.len() == 1 {
-            leaf(keys[0], boxes)
-        } else {
-            BvhChild { bounds: emit(keys, boxes, nodes, at), index: at, count: 0 }
+    // Leaf ranges index the build's order; with one box a leaf, name the box itself.
+    for node in &mut nodes {
+        let mut children = node.children();
+        for c in children.iter_mut().filter(|c| c.is_leaf()) {
+            assert_eq!(c.count, 1, "the top level's leaves hold one instance each");
+            c.index = prim_indices[c.index as usize];
         }
-    };
-    let (left, right) = if keys.len() > 4096 {
-        rayon::join(|| side(lk, ln, l_at), || side(rk, rn, r_at))
-    } else {
-        (side(lk, ln, l_at), side(rk, rn, r_at))
-    };
-    *node = BvhNode::new(left, right);
-    left.bounds.union(right.bounds)
-}
-
-/// The 10 low bits of `v` spread to every third bit (bit i to bit 3i), for Morton codes.
-fn spread_bits(v: u32) -> u32 {
-    let mut x = v & 0x3ff;
-    x = (x | x << 16) & 0x0300_00ff;
-    x = (x | x << 8) & 0x0300_f00f;
-    x = (x | x << 4) & 0x030c_30c3;
-    x = (x | x << 2) & 0x0924_9249;
-    x
+        *node = BvhNode::new(children[0], children[1]);
+    }
+    nodes
 }
 
 /// [`TopLevel::sah_cost`] of `nodes` (root first).
@@ -343,47 +278,6 @@ mod tests {
             for (i, inst) in instances.iter().enumerate() {
                 assert_eq!(leaf_box(&top.nodes, i as u32), Some(inst.world_bounds(unit)));
             }
-        }
-    }
-
-    #[test]
-    fn morton_bits_interleave() {
-        assert_eq!(spread_bits(0), 0);
-        assert_eq!(spread_bits(1), 1);
-        assert_eq!(spread_bits(0b11), 0b1001);
-        assert_eq!(spread_bits(0x3ff), 0x0924_9249);
-        assert_eq!(spread_bits(0x7ff), 0x0924_9249, "only 10 bits");
-    }
-
-    #[test]
-    fn boxes_at_one_point_make_a_balanced_tree() {
-        let b = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
-        let nodes = tree_over(&vec![b; 64]);
-        assert_eq!(nodes.len(), 63);
-        // Halves down to single boxes: depth 6.
-        fn depth(nodes: &[BvhNode], i: usize) -> usize {
-            1 + nodes[i]
-                .children()
-                .iter()
-                .filter(|c| c.is_inner())
-                .map(|c| depth(nodes, c.index as usize))
-                .max()
-                .unwrap_or(0)
-        }
-        assert_eq!(depth(&nodes, 0), 6);
-    }
-
-    #[test]
-    fn the_morton_tree_is_about_as_good_as_the_sah_one() {
-        // The paper's field and a scattered one: boxes of the copies of a unit mesh.
-        let unit = Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE };
-        for seed in [0, 7] {
-            let instances = crate::scene::paper::instances(3000, seed);
-            let boxes: Vec<Aabb> = instances.iter().map(|i| i.world_bounds(unit)).collect();
-            let options = crate::bvh::BuildOptions { max_leaf_size: 1, ..Default::default() };
-            let sah = crate::bvh::Bvh::build_from_boxes(&boxes, &options).nodes;
-            let (morton, sah) = (sah_cost(&tree_over(&boxes)), sah_cost(&sah));
-            assert!(morton < sah * 1.15, "seed {seed}: Morton {morton:.1}, SAH {sah:.1}");
         }
     }
 

@@ -4,9 +4,9 @@
 use super::{CpuScene, SceneHit};
 use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
+use crate::contract::EMPTY;
 use crate::geometry::{intersect_triangle, Ray};
 use crate::render_settings::{Accel, BvhLayout};
-use crate::contract::EMPTY;
 use crate::tracer::packed::GpuInstance;
 use crate::tracer::top_level::{self, Visit};
 
