@@ -208,8 +208,10 @@ fn a_texture_is_the_right_way_up_from_every_place_a_file_keeps_it() {
         &view,
     );
     std::fs::write(dir.join("view.glb"), glb(&json, &glb_bin)).unwrap();
-    let data_buffer =
-        format!(r#"{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 140}}"#, base64(&bin));
+    let data_buffer = format!(
+        r#"{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 140}}"#,
+        base64(&bin)
+    );
     let base64_image = format!(r#"{{"uri": "data:image/png;base64,{}"}}"#, base64(&png));
     std::fs::write(dir.join("base64.gltf"), quad_json(&data_buffer, &base64_image, "")).unwrap();
     let percent_image = format!(r#"{{"uri": "data:image/png,{}"}}"#, percent_encoded(&png));
@@ -234,7 +236,11 @@ fn a_texture_is_the_right_way_up_from_every_place_a_file_keeps_it() {
         assert!(loaded.warnings.is_empty(), "{file}: {:?}", loaded.warnings);
         let material = &loaded.model.meshes[0].materials[0];
         let source = material.diffuse_texture.as_ref().expect("a texture");
-        assert_eq!(matches!(source, TextureSource::Embedded { .. }), embedded, "{file}: {source:?}");
+        assert_eq!(
+            matches!(source, TextureSource::Embedded { .. }),
+            embedded,
+            "{file}: {source:?}"
+        );
         assert!(material.texture_transform.clamp, "{file}: the sampler clamps");
         matte(&mut loaded.model);
         let scene = scene_of(&loaded.model);
@@ -525,7 +531,8 @@ fn a_thousand_nodes_of_one_mesh_hold_one_mesh_and_a_thousand_transforms() {
         })
         .collect();
     let roots: Vec<String> = (0..1000).map(|i| i.to_string()).collect();
-    let loaded = parse(&nodes_doc(&format!("[{}]", nodes.join(",")), &format!("[{}]", roots.join(","))));
+    let loaded =
+        parse(&nodes_doc(&format!("[{}]", nodes.join(",")), &format!("[{}]", roots.join(","))));
     let mut model = loaded.model;
     assert_eq!(model.meshes.len(), 1);
     assert_eq!(model.meshes[0].triangle_count(), 3, "the mesh is stored once");
@@ -558,7 +565,9 @@ fn each_refusal_is_one_line_naming_the_file_and_what() {
     let cases = [
         (
             "draco.gltf",
-            l_shape(r#", "extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]"#),
+            l_shape(
+                r#", "extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]"#,
+            ),
             "needs `KHR_draco_mesh_compression`, which meshtracer does not read",
         ),
         (
@@ -594,7 +603,10 @@ fn each_refusal_is_one_line_naming_the_file_and_what() {
         ),
         (
             "lines.gltf",
-            l_shape("").replace(r#""attributes": {"POSITION": 0}"#, r#""attributes": {"POSITION": 0}, "mode": 1"#),
+            l_shape("").replace(
+                r#""attributes": {"POSITION": 0}"#,
+                r#""attributes": {"POSITION": 0}, "mode": 1"#,
+            ),
             "the default scene has no triangles",
         ),
         ("object.gltf", "[1, 2]".to_owned(), "the document is not a JSON object"),

@@ -49,9 +49,8 @@ pub fn load_gltf_from_bytes(
     let invalid = |reason: String| ObjError::Invalid { name: name.to_owned(), reason };
     let (json, blob) =
         if bytes.starts_with(b"glTF") { split_glb(bytes).map_err(invalid)? } else { (bytes, None) };
-    let root: Json = serde_json::from_slice(json).map_err(|e| {
-        invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string())))
-    })?;
+    let root: Json = serde_json::from_slice(json)
+        .map_err(|e| invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string()))))?;
     check_document(&root).map_err(invalid)?;
     let buffers = read_buffers(&root, blob, base_dir);
     let doc = Doc::new(&root, &buffers);

@@ -76,14 +76,6 @@ impl TextureSource {
             TextureSource::Embedded { .. } => None,
         }
     }
-
-    /// What to call the texture in a message: its path or its name.
-    pub fn label(&self) -> String {
-        match self {
-            TextureSource::File(p) => crate::files::shown_path(p),
-            TextureSource::Embedded { name, .. } => name.clone(),
-        }
-    }
 }
 
 impl std::fmt::Debug for TextureSource {

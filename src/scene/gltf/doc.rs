@@ -15,13 +15,21 @@ pub(super) struct Doc<'a> {
     buffers: &'a [Result<Vec<u8>, String>],
 }
 
-/// Entry `key` of `v` as a non-negative integer (`1.0` is 1, as JSON does not tell them
-/// apart); None when absent, an error naming `what` when it is anything else.
+/// A JSON number as a non-negative integer: `1.0` is 1, as JSON does not tell them apart.
+pub(super) fn index_of(v: &Json) -> Option<usize> {
+    let whole = |f: &f64| f.fract() == 0.0 && *f >= 0.0 && *f < 9e15;
+    let n = v.as_u64().or_else(|| v.as_f64().filter(whole).map(|f| f as u64))?;
+    Some(usize::try_from(n).unwrap_or(usize::MAX))
+}
+
+/// Entry `key` of `v` as a non-negative integer ([`index_of`]); None when absent, an
+/// error naming `what` when it is anything else.
 pub(super) fn uint(v: &Json, key: &str, what: &str) -> Result<Option<usize>, String> {
-    let Some(x) = v.get(key) else { return Ok(None) };
-    match x.as_u64().or_else(|| x.as_f64().filter(|f| f.fract() == 0.0 && *f >= 0.0 && *f < 9e15).map(|f| f as u64)) {
-        Some(n) => Ok(Some(usize::try_from(n).unwrap_or(usize::MAX))),
-        None => Err(format!("{what}: `{key}` is not a non-negative integer")),
+    match v.get(key) {
+        None => Ok(None),
+        Some(x) => index_of(x)
+            .map(Some)
+            .ok_or_else(|| format!("{what}: `{key}` is not a non-negative integer")),
     }
 }
 

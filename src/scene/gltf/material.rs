@@ -123,11 +123,7 @@ impl Texture<'_> {
             let scale = numbers::<2>(t, "scale").unwrap_or([1.0; 2]);
             let rotation = number(t, "rotation").unwrap_or(0.0) as f32;
             // The extension's `translation * rotation * scale` (rotation counter-clockwise).
-            Affine2::from_scale_angle_translation(
-                Vec2::from(scale),
-                rotation,
-                Vec2::from(offset),
-            )
+            Affine2::from_scale_angle_translation(Vec2::from(scale), rotation, Vec2::from(offset))
         });
         if out.uv_transform.is_some_and(|t| !t.is_finite()) {
             warnings.push(format!(
@@ -159,9 +155,9 @@ impl Texture<'_> {
                     .ok_or("has a data URI that cannot be decoded".to_owned());
             }
             let shown = crate::files::shown(uri, 200);
-            let dir = self.base_dir.ok_or(format!(
-                "is the file `{shown}`, which cannot be read here (no folder)"
-            ))?;
+            let dir = self
+                .base_dir
+                .ok_or(format!("is the file `{shown}`, which cannot be read here (no folder)"))?;
             let path = dir.join(percent_decode(uri));
             return if path.is_file() {
                 Ok(TextureSource::File(path))

@@ -8,7 +8,7 @@ use std::path::Path;
 use glam::{Affine2, Affine3A, Mat4, Quat, Vec2, Vec3};
 use serde_json::Value as Json;
 
-use super::doc::{array, numbers, uint, Accessor, Component, Doc};
+use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc};
 use super::material::{convert_material, Converted};
 use crate::scene::{Instance, Mesh, Model};
 
@@ -45,10 +45,12 @@ pub(super) fn build_model(
     let mut slots: HashMap<usize, Option<usize>> = HashMap::new();
     let mut flattening = 0;
     let mesh_count = array(doc.root, "meshes").len();
-    for (node, index, world) in world_nodes(doc, loader.warnings)? {
+    for (node, index, world) in world_nodes(doc, name, loader.warnings)? {
         let Some(m) = uint(node, "mesh", &format!("node {index}"))? else { continue };
         if m >= mesh_count {
-            return Err(format!("node {index} uses mesh {m}, but the file has {mesh_count} meshes"));
+            return Err(format!(
+                "node {index} uses mesh {m}, but the file has {mesh_count} meshes"
+            ));
         }
         let slot = match slots.get(&m) {
             Some(&slot) => slot,
@@ -86,6 +88,7 @@ pub(super) fn build_model(
 /// or visited more than [`MAX_NODE_VISITS`] times is refused.
 fn world_nodes<'a>(
     doc: &Doc<'a>,
+    name: &str,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<(&'a Json, usize, Mat4)>, String> {
     let nodes = array(doc.root, "nodes");
@@ -96,7 +99,7 @@ fn world_nodes<'a>(
         .and_then(|s| scenes.get(s))
         .or(scenes.first());
     let roots: Vec<usize> = match chosen {
-        Some(scene) => array(scene, "nodes").iter().filter_map(|n| index_of(n)).collect(),
+        Some(scene) => array(scene, "nodes").iter().filter_map(index_of).collect(),
         None => {
             let children: std::collections::HashSet<usize> = nodes
                 .iter()
@@ -124,17 +127,10 @@ fn world_nodes<'a>(
     }
     if missing > 0 {
         warnings.push(format!(
-            "{missing} references to nodes the file does not have are skipped"
+            "{name}: {missing} references to nodes the file does not have are skipped"
         ));
     }
     Ok(out)
-}
-
-/// A JSON number as an index (`1.0` too).
-fn index_of(v: &Json) -> Option<usize> {
-    v.as_u64()
-        .or_else(|| v.as_f64().filter(|f| f.fract() == 0.0 && *f >= 0.0 && *f < 9e15).map(|f| f as u64))
-        .and_then(|n| usize::try_from(n).ok())
 }
 
 /// A node's transform relative to its parent: `matrix` (column-major), else translation,
@@ -233,7 +229,8 @@ impl Loader<'_, '_> {
             Some(n) if b.all_normals => {
                 let acc = self.accessor(n, "NORMAL", &[3])?;
                 let n = sized(self.doc.read(&acc, "NORMAL", |v| v as f32)?, 3, "NORMAL")?;
-                b.normals.extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()));
+                b.normals
+                    .extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()));
             }
             _ => b.all_normals = false,
         }
@@ -266,9 +263,11 @@ impl Loader<'_, '_> {
             let width = acc.width;
             let values = sized(self.doc.read(&acc, "COLOR_0", |v| v as f32)?, width, "COLOR_0")?;
             let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-            b.colors.extend(values.chunks_exact(width).map(|c| {
-                [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]
-            }));
+            b.colors.extend(
+                values.chunks_exact(width).map(|c| {
+                    [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]
+                }),
+            );
             b.any_colors = true;
         }
 
