@@ -295,6 +295,37 @@ fn texture_transforms_and_normalized_texture_coordinates_are_read_in_gltf_space(
     }
 }
 
+#[test]
+fn samplers_repeat_or_clamp_and_what_the_tracers_lack_is_warned() {
+    let png = two_colour_png();
+    let buffer = format!(
+        r#"{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 140}}"#,
+        base64(&quad_bin())
+    );
+    let image = format!(r#"{{"uri": "data:image/png;base64,{}"}}"#, base64(&png));
+    let doc = quad_json(&buffer, &image, "");
+    let with_sampler =
+        |sampler: &str| parse(&doc.replace(r#"{"wrapS": 33071, "wrapT": 33071}"#, sampler));
+    for (sampler, clamp, warning) in [
+        (r#"{"wrapS": 33071, "wrapT": 33071}"#, true, None),
+        ("{}", false, None),
+        (r#"{"wrapS": 33648}"#, false, Some("mirrored repeat, which is read as repeat")),
+        (r#"{"wrapS": 33071}"#, false, Some("clamps in one direction and repeats in the other")),
+    ] {
+        let loaded = with_sampler(sampler);
+        let material = &loaded.model.meshes[0].materials[0];
+        assert_eq!(material.texture_transform.clamp, clamp, "{sampler}");
+        match warning {
+            None => assert!(loaded.warnings.is_empty(), "{sampler}: {:?}", loaded.warnings),
+            Some(w) => assert!(
+                loaded.warnings.len() == 1 && loaded.warnings[0].contains(w),
+                "{sampler}: {:?}",
+                loaded.warnings
+            ),
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Accessors
 
@@ -589,6 +620,16 @@ fn each_refusal_is_one_line_naming_the_file_and_what() {
                 "",
             ),
             "more than 268435456 vertices",
+        ),
+        (
+            "sparse zeros.gltf",
+            triangle_doc(
+                r#"{"componentType": 5126, "count": 20000000, "type": "VEC3"}"#,
+                r#"{"buffer": 0, "byteLength": 108}"#,
+                &bin,
+                "",
+            ),
+            "accessor 0 (POSITION) has 20000000 elements and no buffer view",
         ),
         (
             "mesh.gltf",

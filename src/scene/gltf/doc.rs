@@ -5,9 +5,11 @@
 
 use serde_json::Value as Json;
 
-/// The most elements an accessor without a buffer view may have (its zeros are allocated,
-/// with nothing in the file to back them): as many as the mesh's vertex limit.
-const MAX_ZERO_ELEMENTS: usize = 1 << 28;
+/// The most elements an accessor without a buffer view may have: its zeros are allocated
+/// with nothing in the file to back them, so a few bytes of JSON could ask for gigabytes.
+/// 16M (vertices of a mesh whose positions are all sparse substitutions) is far beyond
+/// what such files hold.
+const MAX_ZERO_ELEMENTS: usize = 1 << 24;
 
 /// The document and its buffers' bytes (or why each cannot be read).
 pub(super) struct Doc<'a> {

@@ -93,8 +93,8 @@ struct Texture<'a> {
 }
 
 impl Texture<'_> {
-    /// The texture `info` (a textureInfo) names, into `out`; an error ends "cannot be read"
-    /// style sentences: "is ...", "has ...".
+    /// The texture `info` (a textureInfo) names, into `out`; an error is the end of a
+    /// sentence that begins with the texture ("is ...", "has ..."), for the warning.
     fn read(
         &self,
         info: &Json,

@@ -218,17 +218,19 @@ impl Loader<'_, '_> {
         self.vertices += count;
         b.mesh.positions.extend(p.chunks_exact(3).map(Vec3::from_slice));
 
-        let sized = |values: Vec<f32>, width: usize, what: &str| {
-            if values.len() == count * width {
-                Ok(values)
+        // Each attribute has one element per vertex, checked before it is read: a count
+        // the file cannot back (no buffer view) is never allocated.
+        let per_vertex = |acc: Accessor, what: &str| {
+            if acc.count == count {
+                Ok(acc)
             } else {
-                Err(format!("{at}: {what} has {} elements, POSITION {count}", values.len() / width))
+                Err(format!("{at}: {what} has {} elements, POSITION {count}", acc.count))
             }
         };
         match attribute("NORMAL")? {
             Some(n) if b.all_normals => {
-                let acc = self.accessor(n, "NORMAL", &[3])?;
-                let n = sized(self.doc.read(&acc, "NORMAL", |v| v as f32)?, 3, "NORMAL")?;
+                let acc = per_vertex(self.accessor(n, "NORMAL", &[3])?, "NORMAL")?;
+                let n = self.doc.read(&acc, "NORMAL", |v| v as f32)?;
                 b.normals
                     .extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()));
             }
@@ -241,8 +243,8 @@ impl Loader<'_, '_> {
         b.texcoords.resize(base, Vec2::ZERO);
         let key = format!("TEXCOORD_{}", converted.texcoord);
         if let Some(t) = attribute(&key)? {
-            let acc = self.accessor(t, &key, &[2])?;
-            let t = sized(self.doc.read(&acc, &key, |v| v as f32)?, 2, &key)?;
+            let acc = per_vertex(self.accessor(t, &key, &[2])?, &key)?;
+            let t = self.doc.read(&acc, &key, |v| v as f32)?;
             let transform = converted.uv_transform.unwrap_or(Affine2::IDENTITY);
             b.texcoords.extend(t.chunks_exact(2).map(|c| {
                 let uv = transform.transform_point2(Vec2::from_slice(c));
@@ -254,14 +256,14 @@ impl Loader<'_, '_> {
         // Primitives without COLOR_0 are white, so they look as they would alone.
         b.colors.resize(base, [255; 4]);
         if let Some(c) = attribute("COLOR_0")? {
-            let acc = self.accessor(c, "COLOR_0", &[3, 4])?;
+            let acc = per_vertex(self.accessor(c, "COLOR_0", &[3, 4])?, "COLOR_0")?;
             if !(acc.component == Component::F32
                 || (acc.normalized && matches!(acc.component, Component::U8 | Component::U16)))
             {
                 return Err(format!("accessor {c} (COLOR_0) has component type {:?}; glTF allows float or normalized unsigned byte or short", acc.component));
             }
             let width = acc.width;
-            let values = sized(self.doc.read(&acc, "COLOR_0", |v| v as f32)?, width, "COLOR_0")?;
+            let values = self.doc.read(&acc, "COLOR_0", |v| v as f32)?;
             let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
             b.colors.extend(
                 values.chunks_exact(width).map(|c| {
