@@ -218,15 +218,7 @@ impl Loader<'_, '_> {
         self.vertices += count;
         b.mesh.positions.extend(p.chunks_exact(3).map(Vec3::from_slice));
 
-        // Each attribute has one element per vertex, checked before it is read: a count
-        // the file cannot back (no buffer view) is never allocated.
-        let per_vertex = |acc: Accessor, what: &str| {
-            if acc.count == count {
-                Ok(acc)
-            } else {
-                Err(format!("{at}: {what} has {} elements, POSITION {count}", acc.count))
-            }
-        };
+        let per_vertex = |acc, what: &str| per_vertex(acc, what, at, count);
         match attribute("NORMAL")? {
             Some(n) if b.all_normals => {
                 let acc = per_vertex(self.accessor(n, "NORMAL", &[3])?, "NORMAL")?;
@@ -256,23 +248,43 @@ impl Loader<'_, '_> {
         // Primitives without COLOR_0 are white, so they look as they would alone.
         b.colors.resize(base, [255; 4]);
         if let Some(c) = attribute("COLOR_0")? {
-            let acc = per_vertex(self.accessor(c, "COLOR_0", &[3, 4])?, "COLOR_0")?;
-            if !(acc.component == Component::F32
-                || (acc.normalized && matches!(acc.component, Component::U8 | Component::U16)))
-            {
-                return Err(format!("accessor {c} (COLOR_0) has component type {:?}; glTF allows float or normalized unsigned byte or short", acc.component));
-            }
-            let width = acc.width;
-            let values = self.doc.read(&acc, "COLOR_0", |v| v as f32)?;
-            let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-            b.colors.extend(
-                values.chunks_exact(width).map(|c| {
-                    [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]
-                }),
-            );
+            b.colors.extend(self.colors(c, at, count)?);
             b.any_colors = true;
         }
 
+        let indices = self.indices(prim, at, count)?;
+        let next = b.slots.len() as u32;
+        let slot = *b.slots.entry(material).or_insert_with(|| {
+            b.mesh.materials.push(converted.material.clone());
+            next
+        });
+        let base = base as u32;
+        let corners = triangles(&indices, mode);
+        b.mesh.triangles.extend(corners.iter().map(|t| t.map(|i| i + base)));
+        b.mesh.triangle_materials.extend(std::iter::repeat_n(slot, corners.len()));
+        Ok(())
+    }
+
+    /// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
+    /// glTF allows) as RGBA8, alpha 255 where absent; `count` is its vertex count.
+    fn colors(&self, c: usize, at: &str, count: usize) -> Result<Vec<[u8; 4]>, String> {
+        let acc = per_vertex(self.accessor(c, "COLOR_0", &[3, 4])?, "COLOR_0", at, count)?;
+        if !(acc.component == Component::F32
+            || (acc.normalized && matches!(acc.component, Component::U8 | Component::U16)))
+        {
+            return Err(format!("accessor {c} (COLOR_0) has component type {:?}; glTF allows float or normalized unsigned byte or short", acc.component));
+        }
+        let values = self.doc.read(&acc, "COLOR_0", |v| v as f32)?;
+        let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        Ok(values
+            .chunks_exact(acc.width)
+            .map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))])
+            .collect())
+    }
+
+    /// A primitive's vertex indices (each checked to be below its vertex `count`), or its
+    /// vertices in order when it has none.
+    fn indices(&self, prim: &Json, at: &str, count: usize) -> Result<Vec<u32>, String> {
         let indices = match uint(prim, "indices", at)? {
             Some(i) => {
                 let acc = self.accessor(i, "indices", &[1])?;
@@ -291,16 +303,7 @@ impl Loader<'_, '_> {
                 "{at}: index {bad} is out of range (the primitive has {count} vertices)"
             ));
         }
-        let next = b.slots.len() as u32;
-        let slot = *b.slots.entry(material).or_insert_with(|| {
-            b.mesh.materials.push(converted.material.clone());
-            next
-        });
-        let base = base as u32;
-        let corners = triangles(&indices, mode);
-        b.mesh.triangles.extend(corners.iter().map(|t| t.map(|i| i + base)));
-        b.mesh.triangle_materials.extend(std::iter::repeat_n(slot, corners.len()));
-        Ok(())
+        Ok(indices)
     }
 
     /// Accessor `index`, checked to have one of `widths` components per element.
@@ -318,6 +321,16 @@ impl Loader<'_, '_> {
             ));
         }
         Ok(acc)
+    }
+}
+
+/// `acc`, checked to have one element per vertex before it is read: a count the file
+/// cannot back (no buffer view) is never allocated.
+fn per_vertex(acc: Accessor, what: &str, at: &str, count: usize) -> Result<Accessor, String> {
+    if acc.count == count {
+        Ok(acc)
+    } else {
+        Err(format!("{at}: {what} has {} elements, POSITION {count}", acc.count))
     }
 }
 
