@@ -10,7 +10,9 @@ use meshtracer::gpu::ComputeTracer;
 use meshtracer::render_settings::{Aov, RenderSettings};
 use meshtracer::scene::paper::{open_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::primitives::{uv_sphere, PaperModel};
-use meshtracer::scene::{Camera, EnvironmentSource, Instance, Material, PointLight, Scene};
+use meshtracer::scene::{
+    Camera, EnvironmentSource, Instance, Material, PointLight, Scene, TextureSource,
+};
 use meshtracer::tracer::textures::{direction_to_equirect, sky_image, TextureAtlas};
 use meshtracer::tracer::{cpu, FrameParams, Image, PackedScene};
 
@@ -119,7 +121,7 @@ fn checker_quad_scene(
         diffuse: Vec3::ONE,
         specular: Vec3::ZERO,
         mirror: 0.0,
-        diffuse_texture: Some(path),
+        diffuse_texture: Some(TextureSource::File(path)),
         ..Material::default()
     };
     let mut scene = quad_scene(m, distance, Vec3::new(0.0, 0.0, distance));
@@ -161,7 +163,7 @@ fn dds_textures_are_read() {
         diffuse: Vec3::ONE,
         specular: Vec3::ZERO,
         mirror: 0.0,
-        diffuse_texture: Some(path),
+        diffuse_texture: Some(TextureSource::File(path)),
         ..Material::default()
     };
     let mut scene = quad_scene(m, 3.0, Vec3::new(0.0, 0.0, 3.0));

@@ -64,12 +64,15 @@ impl Format {
         options: &LoadOptions,
     ) -> Result<LoadedModel, ObjError> {
         let name = crate::files::shown_path(path);
-        let loaded = match self {
-            Format::Obj => load_obj_from_bytes(bytes, &name, path.parent(), options),
-            Format::Ply => super::ply::load_ply_from_bytes(&bytes, &name),
-            Format::Gltf => super::gltf::load_gltf_from_bytes(&bytes, &name, path.parent()),
-        }?;
-        Ok(loaded.into())
+        Ok(match self {
+            Format::Obj => load_obj_from_bytes(bytes, &name, path.parent(), options)?.into(),
+            Format::Ply => super::ply::load_ply_from_bytes(&bytes, &name)?.into(),
+            Format::Gltf => {
+                // A glTF file is a model of parts: its meshes stored once, placed by its nodes.
+                let loaded = super::gltf::load_gltf_from_bytes(&bytes, &name, path.parent())?;
+                LoadedModel { model: loaded.model, warnings: loaded.warnings }
+            }
+        })
     }
 }
 

@@ -1,60 +1,88 @@
-//! glTF 2.0 loading (`.gltf` with its `.bin` buffers and images, or `.glb`): every
-//! triangle primitive of every node of the default scene, in world space, merged into one
-//! mesh.
+//! glTF 2.0 (`.gltf` with its buffers, `.glb`): each mesh the default scene's nodes use,
+//! stored once (its triangle primitives merged), and one part per node that places it, with
+//! the node's world transform: a [`Model`].
 //!
-//! The `gltf` crate parses and validates the document (references, enums, required
-//! fields). The bytes are ours to check: the GLB container, the buffers (read through the
-//! same regular-file check as the other models, and held to their declared length) and
-//! every accessor's range inside its buffer view and buffer, before a value is read. So a
-//! broken file is one line naming it, never a panic or an allocation the file cannot back.
+//! The document is read as plain JSON (`serde_json::Value`) and only what we use is checked,
+//! as the spec and the Khronos validator have it: the `gltf` crate's own validation refused
+//! valid files (accessors without a buffer view, textures without `source`, `1.0` for an
+//! integer, animation targets without `node`). The bytes are ours to check too: the GLB
+//! container, the buffers (read through the same regular-file check as the other models, and
+//! held to their declared length) and every accessor's range inside its buffer view and
+//! buffer, before a value is read. So a broken file is one line naming it, never a panic or
+//! an allocation the file cannot back, and a file is refused only for what breaks its
+//! geometry (or a required extension we do not read, named).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use ::gltf::accessor::{DataType, Dimensions};
-use ::gltf::{buffer, image, Accessor, Document, Semantic};
-use glam::Vec3;
+use serde_json::Value as Json;
 
-use super::obj::{LoadedObj, ObjError};
-use super::Material;
+use super::obj::ObjError;
+use super::Model;
 use crate::files::{io_reason, read_regular_file};
-use mesh::build_mesh;
+use doc::Doc;
 
+mod doc;
+mod material;
 mod mesh;
+
+/// The extensions a file may require that we read; any other required one refuses the file,
+/// naming it.
+const SUPPORTED_REQUIRED: [&str; 2] = ["KHR_mesh_quantization", "KHR_texture_transform"];
+
+/// A glTF file as loaded: its model (meshes stored once, a part per node) and the loader's
+/// warnings (skipped primitives, textures that cannot be read...).
+#[derive(Clone, Debug)]
+pub struct LoadedGltf {
+    pub model: Model,
+    /// One sentence per problem worked around.
+    pub warnings: Vec<String>,
+}
 
 /// Load a `.gltf` or `.glb` from bytes in memory (a file's are read by
 /// `formats::load_model`; `name` for messages; `base_dir` resolves external buffers and
-/// images, and without it only embedded buffers can be read).
+/// images, and without it only what the file holds can be read).
 pub fn load_gltf_from_bytes(
     bytes: &[u8],
     name: &str,
     base_dir: Option<&Path>,
-) -> Result<LoadedObj, ObjError> {
+) -> Result<LoadedGltf, ObjError> {
     let invalid = |reason: String| ObjError::Invalid { name: name.to_owned(), reason };
     let (json, blob) =
         if bytes.starts_with(b"glTF") { split_glb(bytes).map_err(invalid)? } else { (bytes, None) };
-    let not_gltf = |e: &dyn std::fmt::Display| {
-        invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string())))
-    };
-    let root = ::gltf::json::Root::from_slice(json).map_err(|e| not_gltf(&e))?;
-    check_position_indices(&root).map_err(invalid)?;
-    let document = Document::from_json(root).map_err(|e| not_gltf(&e))?;
-    let buffers = read_buffers(&document, blob, base_dir).map_err(invalid)?;
+    let root: Json = serde_json::from_slice(json)
+        .map_err(|e| invalid(format!("not a valid glTF 2.0 file: {}", one_line(&e.to_string()))))?;
+    check_document(&root).map_err(invalid)?;
+    let buffers = read_buffers(&root, blob, base_dir);
+    let doc = Doc::new(&root, &buffers);
     let mut warnings = Vec::new();
-    let mesh = build_mesh(&document, &buffers, name, base_dir, &mut warnings).map_err(invalid)?;
-    Ok(LoadedObj { mesh, warnings })
+    let model = mesh::build_model(&doc, name, base_dir, &mut warnings).map_err(invalid)?;
+    Ok(LoadedGltf { model, warnings })
 }
 
-/// gltf-json 1.4's validation looks up each primitive's POSITION accessor before it checks
-/// that the index exists (and panics where it does not): that one is checked first here.
-fn check_position_indices(root: &::gltf::json::Root) -> Result<(), String> {
-    use ::gltf::json::validation::Checked;
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (p, prim) in mesh.primitives.iter().enumerate() {
-            let position = prim.attributes.get(&Checked::Valid(Semantic::Positions));
-            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
-                let count = root.accessors.len();
-                return Err(format!("mesh {m} primitive {p}: POSITION is accessor {}, but the file has {count} accessors", index.value()));
-            }
+/// What the whole file must be: a JSON object of glTF 2.x, and no required extension we do
+/// not read.
+fn check_document(root: &Json) -> Result<(), String> {
+    if !root.is_object() {
+        return Err("not a valid glTF 2.0 file: the document is not a JSON object".to_owned());
+    }
+    let version = root.pointer("/asset/version").and_then(Json::as_str);
+    match version {
+        Some(v) if v == "2" || v.starts_with("2.") => {}
+        Some(v) => {
+            return Err(format!(
+                "a glTF of version {} (only 2.x is read)",
+                crate::files::shown(v, 20)
+            ))
+        }
+        None => return Err("not a valid glTF 2.0 file: it has no asset.version".to_owned()),
+    }
+    let required = root.get("extensionsRequired").and_then(Json::as_array);
+    for ext in required.into_iter().flatten().filter_map(Json::as_str) {
+        if !SUPPORTED_REQUIRED.contains(&ext) {
+            return Err(format!(
+                "needs `{}`, which meshtracer does not read",
+                crate::files::shown(ext, 80)
+            ));
         }
     }
     Ok(())
@@ -100,238 +128,73 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
     }
 }
 
-/// Every buffer's bytes, each at least its declared `byteLength`.
+/// Every buffer's bytes (each at least its declared `byteLength`), or why it cannot be
+/// read: the error is given only when a buffer view of the geometry uses it.
 fn read_buffers(
-    document: &Document,
+    root: &Json,
     blob: Option<&[u8]>,
     base_dir: Option<&Path>,
-) -> Result<Vec<Vec<u8>>, String> {
-    let mut out = Vec::new();
-    for b in document.buffers() {
-        let data = match b.source() {
-            buffer::Source::Bin => blob
-                .ok_or(format!(
-                    "buffer {} refers to the .glb's binary chunk, which the file does not have",
-                    b.index()
-                ))?
-                .to_vec(),
-            buffer::Source::Uri(uri) if uri.starts_with("data:") => decode_data_uri(uri)
-                .ok_or(format!("buffer {} has a data URI that is not base64", b.index()))?,
-            buffer::Source::Uri(uri) => {
-                let dir = base_dir.ok_or(format!(
-                    "buffer {} is an external file, which cannot be read here",
-                    b.index()
-                ))?;
-                let path = dir.join(percent_decode(uri));
-                let shown =
-                    crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
-                let mut data = read_regular_file(&path)
-                    .map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?;
-                data.truncate(b.length());
-                data
-            }
-        };
-        if data.len() < b.length() {
-            return Err(format!(
-                "buffer {} holds {} bytes, but its byteLength is {}",
-                b.index(),
-                data.len(),
-                b.length()
-            ));
-        }
-        out.push(data);
-    }
-    Ok(out)
+) -> Vec<Result<Vec<u8>, String>> {
+    let buffers = root.get("buffers").and_then(Json::as_array);
+    buffers
+        .into_iter()
+        .flatten()
+        .enumerate()
+        .map(|(i, b)| read_buffer(i, b, blob, base_dir))
+        .collect()
 }
 
-/// The bytes of an accessor, from its first element on, and its stride, after checking
-/// its type and that all of it lies inside its view and buffer.
-fn accessor_bytes<'b>(
-    acc: &Accessor,
-    buffers: &'b [Vec<u8>],
-    what: &str,
-    dims: Dimensions,
-) -> Result<(&'b [u8], usize), String> {
-    let at = || format!("accessor {} ({what})", acc.index());
-    if acc.dimensions() != dims {
-        return Err(format!("{} is of type {:?}, expected {dims:?}", at(), acc.dimensions()));
-    }
-    if acc.sparse().is_some() {
-        return Err(format!("{} is sparse, which is not supported", at()));
-    }
-    let view = acc.view().ok_or_else(|| format!("{} has no buffer view", at()))?;
-    let data = &buffers[view.buffer().index()];
-    let view_end = view.offset().checked_add(view.length()).filter(|&e| e <= data.len());
-    let view_bytes = view_end.map(|e| &data[view.offset()..e]).ok_or_else(|| {
-        format!(
-            "buffer view {} runs past the end of buffer {}",
-            view.index(),
-            view.buffer().index()
-        )
-    })?;
-    let elem = acc.data_type().size() * dims.multiplicity();
-    let stride = view.stride().unwrap_or(elem);
-    if stride < elem {
-        return Err(format!(
-            "buffer view {} has a stride of {stride} bytes, less than an element of {}",
-            view.index(),
-            at()
-        ));
-    }
-    let count = acc.count();
-    let needed = if count == 0 {
-        Some(0)
-    } else {
-        (count - 1)
-            .checked_mul(stride)
-            .and_then(|n| n.checked_add(elem))
-            .and_then(|n| n.checked_add(acc.offset()))
-    };
-    if needed.is_none_or(|n| n > view_bytes.len()) {
-        return Err(format!(
-            "{} runs past the end of its buffer view {} ({count} elements from byte {})",
-            at(),
-            view.index(),
-            acc.offset()
-        ));
-    }
-    Ok((&view_bytes[acc.offset()..], stride))
-}
-
-/// Component `c` of element `i` as f64 (exact for every glTF component type).
-fn component(bytes: &[u8], stride: usize, kind: DataType, i: usize, c: usize) -> f64 {
-    let b = &bytes[i * stride + c * kind.size()..];
-    match kind {
-        DataType::I8 => b[0] as i8 as f64,
-        DataType::U8 => b[0] as f64,
-        DataType::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
-        DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
-        DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-        DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-    }
-}
-
-/// An accessor's values as f32, normalized integers scaled to [0, 1] or [-1, 1].
-fn read_accessor(
-    acc: &Accessor,
-    buffers: &[Vec<u8>],
-    what: &str,
-    dims: Dimensions,
-) -> Result<Vec<f32>, String> {
-    let (bytes, stride) = accessor_bytes(acc, buffers, what, dims)?;
-    let (kind, width) = (acc.data_type(), dims.multiplicity());
-    let scale = match kind {
-        _ if !acc.normalized() => 1.0,
-        DataType::I8 => 127.0,
-        DataType::U8 => 255.0,
-        DataType::I16 => 32767.0,
-        DataType::U16 => 65535.0,
-        DataType::U32 => u32::MAX as f64,
-        DataType::F32 => 1.0,
-    };
-    let mut out = Vec::with_capacity(acc.count() * width);
-    for i in 0..acc.count() {
-        out.extend(
-            (0..width)
-                .map(|c| component(bytes, stride, kind, i, c) / scale)
-                .map(|v| if acc.normalized() { v.max(-1.0) } else { v } as f32),
-        );
-    }
-    Ok(out)
-}
-
-/// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
-/// glTF allows) as RGBA8, alpha 255 where absent; `count` is the primitive's vertex count.
-fn read_colors(
-    acc: &Accessor,
-    buffers: &[Vec<u8>],
-    count: usize,
-    at: &str,
-) -> Result<Vec<[u8; 4]>, String> {
-    let dims = acc.dimensions();
-    if !matches!(dims, Dimensions::Vec3 | Dimensions::Vec4) {
-        return Err(format!(
-            "accessor {} (COLOR_0) is of type {dims:?}, expected Vec3 or Vec4",
-            acc.index()
-        ));
-    }
-    let kind = acc.data_type();
-    if !(kind == DataType::F32
-        || (acc.normalized() && matches!(kind, DataType::U8 | DataType::U16)))
-    {
-        return Err(format!("accessor {} (COLOR_0) has component type {kind:?}; glTF allows float or normalized unsigned byte or short", acc.index()));
-    }
-    let values = read_accessor(acc, buffers, "COLOR_0", dims)?;
-    let width = dims.multiplicity();
-    if values.len() / width != count {
-        return Err(format!(
-            "{at}: COLOR_0 has {} elements, POSITION {count}",
-            values.len() / width
-        ));
-    }
-    let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-    Ok(values
-        .chunks_exact(width)
-        .map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))])
-        .collect())
-}
-
-/// Triangle indices of a primitive (unsigned integer scalars).
-fn read_indices(acc: &Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
-    let kind = acc.data_type();
-    if !matches!(kind, DataType::U8 | DataType::U16 | DataType::U32) {
-        return Err(format!(
-            "accessor {} (indices) has component type {kind:?}, not an unsigned integer",
-            acc.index()
-        ));
-    }
-    let (bytes, stride) = accessor_bytes(acc, buffers, "indices", Dimensions::Scalar)?;
-    Ok((0..acc.count()).map(|i| component(bytes, stride, kind, i, 0) as u32).collect())
-}
-
-/// Our Blinn–Phong material for a glTF metallic-roughness one: the base colour is the
-/// diffuse colour (and texture), metals tint the highlight, roughness widens it.
-fn convert_material(
-    m: &::gltf::Material,
+/// Buffer `i`'s bytes, from the GLB's binary chunk, a `data:` URI or a file beside the model.
+fn read_buffer(
+    i: usize,
+    b: &Json,
+    blob: Option<&[u8]>,
     base_dir: Option<&Path>,
-    name: &str,
-    warnings: &mut Vec<String>,
-) -> Material {
-    let Some(index) = m.index() else { return Material::default() };
-    let pbr = m.pbr_metallic_roughness();
-    let base = Vec3::from_slice(&pbr.base_color_factor()[..3]);
-    let metal = pbr.metallic_factor().clamp(0.0, 1.0);
-    let alpha = pbr.roughness_factor().clamp(0.01, 1.0).powi(2);
-    let label = m.name().map_or_else(
-        || format!("material {index}"),
-        |n| crate::files::shown(n, crate::files::MAX_QUOTED_NAME),
-    );
-    let mut out = Material {
-        name: label.clone(),
-        diffuse: if base.is_finite() { base } else { Material::default().diffuse },
-        specular: Vec3::splat(0.04).lerp(base, metal),
-        shininess: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 1024.0),
-        ..Material::default()
-    };
-    if let Some(info) = pbr.base_color_texture() {
-        match (info.texture().source().source(), base_dir) {
-            (image::Source::Uri { uri, .. }, Some(dir)) if !uri.starts_with("data:") => {
-                let path: PathBuf = dir.join(percent_decode(uri));
-                if path.is_file() {
-                    out.diffuse_texture = Some(path);
-                } else {
-                    warnings.push(format!("{name}: texture `{}` of {label} not found; the material keeps its plain colour", crate::files::shown(uri, 200)));
-                }
-            }
-            _ => warnings.push(format!("{name}: the embedded texture of {label} is not supported; the material keeps its plain colour")),
+) -> Result<Vec<u8>, String> {
+    let length = doc::uint(b, "byteLength", &format!("buffer {i}"))?.unwrap_or(0);
+    let mut data = match b.get("uri").and_then(Json::as_str) {
+        // Only the first buffer may be the GLB's binary chunk.
+        None if i == 0 => blob
+            .ok_or(format!(
+                "buffer {i} refers to the .glb's binary chunk, which the file does not have"
+            ))?
+            .to_vec(),
+        None => return Err(format!("buffer {i} has no uri and is not the .glb's binary chunk")),
+        Some(uri) if uri.starts_with("data:") => decode_data_uri(uri)
+            .ok_or(format!("buffer {i} has a data URI that cannot be decoded"))?,
+        Some(uri) => {
+            let dir = base_dir
+                .ok_or(format!("buffer {i} is an external file, which cannot be read here"))?;
+            let path = dir.join(percent_decode(uri));
+            let shown =
+                crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
+            read_regular_file(&path)
+                .map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?
         }
+    };
+    if data.len() < length {
+        return Err(format!(
+            "buffer {i} holds {} bytes, but its byteLength is {length}",
+            data.len()
+        ));
     }
-    out
+    data.truncate(length);
+    Ok(data)
 }
 
-/// The bytes of a `data:...;base64,` URI.
+/// The bytes of a `data:` URI: base64 after `;base64,`, else the percent-encoded text
+/// after the comma (RFC 2397); None when it is malformed.
 fn decode_data_uri(uri: &str) -> Option<Vec<u8>> {
-    let (_, data) = uri.split_once(";base64,")?;
+    let (header, data) = uri.strip_prefix("data:")?.split_once(',')?;
+    if header.ends_with(";base64") {
+        decode_base64(data)
+    } else {
+        Some(percent_decode_bytes(data.as_bytes()))
+    }
+}
+
+/// Base64 (standard or URL-safe alphabet, padding optional); None on any other character.
+fn decode_base64(data: &str) -> Option<Vec<u8>> {
     let value = |c: u8| match c {
         b'A'..=b'Z' => Some(c - b'A'),
         b'a'..=b'z' => Some(c - b'a' + 26),
@@ -353,9 +216,8 @@ fn decode_data_uri(uri: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
-/// A URI's `%XX` escapes decoded (file names with spaces are written `%20`).
-fn percent_decode(uri: &str) -> String {
-    let b = uri.as_bytes();
+/// `%XX` escapes decoded to the bytes they stand for (other bytes kept as they are).
+fn percent_decode_bytes(b: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
@@ -374,10 +236,30 @@ fn percent_decode(uri: &str) -> String {
             }
         }
     }
-    String::from_utf8_lossy(&out).into_owned()
+    out
 }
 
-/// Several lines of a validation report as one.
+/// A URI's `%XX` escapes decoded (file names with spaces are written `%20`).
+fn percent_decode(uri: &str) -> String {
+    String::from_utf8_lossy(&percent_decode_bytes(uri.as_bytes())).into_owned()
+}
+
+/// Several lines of a parser's report as one.
 fn one_line(text: &str) -> String {
     crate::files::shown(&text.lines().collect::<Vec<_>>().join("; "), 400)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_uris_decode_in_base64_and_percent_encoding() {
+        let bytes = b"\x89PNG \x00\xff";
+        assert_eq!(decode_data_uri("data:image/png;base64,iVBORyAA/w==").unwrap(), bytes);
+        assert_eq!(decode_data_uri("data:image/png,%89PNG%20%00%FF").unwrap(), bytes);
+        assert_eq!(decode_data_uri("data:,plain").unwrap(), b"plain");
+        assert_eq!(decode_data_uri("data:application/octet-stream;base64,@@"), None);
+        assert_eq!(decode_data_uri("data:no comma"), None);
+    }
 }

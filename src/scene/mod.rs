@@ -13,7 +13,8 @@ pub mod preset;
 pub mod primitives;
 pub mod spec;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::{Affine3A, Vec2, Vec3};
 use rayon::prelude::*;
@@ -35,8 +36,9 @@ pub struct Material {
     pub shininess: f32,
     /// 0 = matte, 1 = takes part fully in the mirror blend.
     pub mirror: f32,
-    /// `map_Kd`, when the .mtl names one (resolved relative to the .mtl).
-    pub diffuse_texture: Option<PathBuf>,
+    /// The diffuse texture: `map_Kd` when the .mtl names one (resolved relative to the
+    /// .mtl), a glTF base colour texture (a file beside it, or bytes inside it).
+    pub diffuse_texture: Option<TextureSource>,
     /// How `diffuse_texture` is laid on the surface (`map_Kd`'s `-o`, `-s`, `-clamp`).
     pub texture_transform: TextureTransform,
 }
@@ -53,6 +55,39 @@ pub struct TextureTransform {
     pub offset: Vec2,
     /// `-clamp on`: coordinates outside [0, 1] take the edge texels instead of repeating.
     pub clamp: bool,
+}
+
+/// Where a texture's image comes from: a file on disk (OBJ's `map_Kd`, a glTF's external
+/// image), or encoded bytes the model file holds (a glTF buffer view or `data:` URI), decoded
+/// with the other textures when the scene is prepared.
+#[derive(Clone, PartialEq, Eq, Hash)]
+pub enum TextureSource {
+    /// An image file, read when the scene is prepared.
+    File(PathBuf),
+    /// An encoded image (PNG, JPEG...) held in memory; `name` says where it came from.
+    Embedded { name: String, bytes: Arc<[u8]> },
+}
+
+impl TextureSource {
+    /// The file, when the texture is one.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            TextureSource::File(p) => Some(p),
+            TextureSource::Embedded { .. } => None,
+        }
+    }
+}
+
+impl std::fmt::Debug for TextureSource {
+    /// The path, or the name and size: an embedded image's bytes are not worth printing.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TextureSource::File(p) => f.debug_tuple("File").field(p).finish(),
+            TextureSource::Embedded { name, bytes } => {
+                write!(f, "Embedded({name:?}, {} bytes)", bytes.len())
+            }
+        }
+    }
 }
 
 impl Default for TextureTransform {

@@ -11,7 +11,6 @@
 //! host keeps once the GPU has the geometry.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 use rayon::prelude::*;
 
@@ -30,7 +29,7 @@ use crate::bvh::{Bvh, BvhNode};
 use crate::contract::EMPTY;
 use crate::geometry::Aabb;
 use crate::render_settings::BvhLayout;
-use crate::scene::{Instance, Material, Mesh, Scene};
+use crate::scene::{Instance, Material, Mesh, Scene, TextureSource};
 
 /// Where one mesh's data sits in the packed arrays.
 #[derive(Clone, Debug)]
@@ -121,8 +120,8 @@ impl PackedScene {
         let mut packed =
             PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         let mut texture_index = HashMap::new();
-        for (path, img) in textures {
-            texture_index.insert(path, packed.textures.add(&img));
+        for (source, img) in textures {
+            texture_index.insert(source, packed.textures.add(&img));
         }
         let wide_only = layouts == Layouts::Wide;
         let mut orders = Vec::with_capacity(scene.meshes.len());
@@ -190,7 +189,7 @@ impl PackedScene {
         mesh: &Mesh,
         trees: MeshTrees,
         prim_base: u32,
-        texture_index: &HashMap<PathBuf, u32>,
+        texture_index: &HashMap<TextureSource, u32>,
     ) -> BvhOrder {
         let MeshTrees { bvh, wide, wide_only } = trees;
         let material_base = self.materials.len() as u32;

@@ -2,7 +2,6 @@
 //! the texture decoding), the diffuse textures and the environment map decoded. Done
 //! before [`PackedScene::pack_tables`](super::PackedScene::pack_tables), which only copies.
 
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use image::RgbaImage;
@@ -12,7 +11,7 @@ use super::textures::EnvironmentMap;
 use crate::bvh::wide::{self, WideBvh};
 use crate::bvh::{BuildOptions, Bvh};
 use crate::render_settings::BvhLayout;
-use crate::scene::Scene;
+use crate::scene::{Scene, TextureSource};
 
 /// Which BVH layouts a packing holds, and so which tree frames of each layout trace.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -59,8 +58,8 @@ pub(crate) struct PreparedScene {
     /// Each mesh's wide BVH, over its binary tree's (reordered) triangles, when the layouts
     /// asked for hold it.
     pub wide_bvhs: Vec<Option<WideBvh>>,
-    /// Every readable diffuse texture, by the path materials name it with.
-    pub textures: Vec<(PathBuf, RgbaImage)>,
+    /// Every readable diffuse texture, by the source materials name it with.
+    pub textures: Vec<(TextureSource, RgbaImage)>,
     pub environment: Option<EnvironmentMap>,
     /// Problems worked around (unreadable textures or environment), reported by the caller.
     pub warnings: Vec<String>,
@@ -108,26 +107,26 @@ impl PreparedScene {
     }
 }
 
-/// Decode every textured material's diffuse texture (in parallel); unreadable ones are
-/// warnings, and their materials keep their Kd.
-fn decode_textures(scene: &Scene) -> (Vec<(PathBuf, RgbaImage)>, Vec<String>) {
-    let mut paths: Vec<&Path> = scene
+/// Decode every textured material's diffuse texture (in parallel), files read from disk and
+/// embedded images from their bytes; unreadable ones are warnings, and their materials keep
+/// their Kd.
+fn decode_textures(scene: &Scene) -> (Vec<(TextureSource, RgbaImage)>, Vec<String>) {
+    // In first-seen order, each source once (an embedded image is hashed by its bytes,
+    // so one shared by several materials or meshes is decoded once).
+    let mut seen = std::collections::HashSet::new();
+    let sources: Vec<&TextureSource> = scene
         .meshes
         .iter()
         .filter(|m| !m.texcoords.is_empty())
-        .flat_map(|m| m.materials.iter().filter_map(|mat| mat.diffuse_texture.as_deref()))
+        .flat_map(|m| m.materials.iter().filter_map(|mat| mat.diffuse_texture.as_ref()))
+        .filter(|s| seen.insert(*s))
         .collect();
-    paths.sort();
-    paths.dedup();
-    let decoded: Vec<_> = paths
-        .par_iter()
-        .map(|p| (p.to_path_buf(), crate::files::read_image(p, "texture").map(|i| i.to_rgba8())))
-        .collect();
+    let decoded: Vec<_> = sources.par_iter().map(|s| ((*s).clone(), decode_texture(s))).collect();
     let mut textures = Vec::new();
     let mut warnings = Vec::new();
-    for (path, result) in decoded {
+    for (source, result) in decoded {
         match result {
-            Ok(img) => textures.push((path, img)),
+            Ok(img) => textures.push((source, img)),
             Err(e) => warnings.push(format!(
                 "{}; using the material's Kd instead",
                 crate::files::shown(&e, 2 * crate::files::MAX_QUOTED_NAME)
@@ -135,4 +134,16 @@ fn decode_textures(scene: &Scene) -> (Vec<(PathBuf, RgbaImage)>, Vec<String>) {
         }
     }
     (textures, warnings)
+}
+
+/// One texture's image as RGBA8, or why it cannot be read (one sentence naming it).
+fn decode_texture(source: &TextureSource) -> Result<RgbaImage, String> {
+    match source {
+        TextureSource::File(path) => {
+            crate::files::read_image(path, "texture").map(|i| i.to_rgba8())
+        }
+        TextureSource::Embedded { name, bytes } => image::load_from_memory(bytes)
+            .map(|i| i.to_rgba8())
+            .map_err(|e| format!("cannot read texture {name}: {e}")),
+    }
 }

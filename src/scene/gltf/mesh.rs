@@ -1,245 +1,301 @@
-//! Placing a glTF scene: the nodes of the default scene with their world matrices, and
-//! every triangle primitive they place merged into one mesh in world space.
+//! A glTF scene as a [`Model`]: each glTF mesh the default scene's nodes use becomes one of
+//! our meshes, stored once (its triangle primitives merged, each with its material), and
+//! each node that has a mesh becomes a part placing it with the node's world transform.
 
 use std::collections::HashMap;
 use std::path::Path;
 
-use ::gltf::accessor::Dimensions;
-use ::gltf::{mesh::Mode, Document, Node, Semantic};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Affine2, Affine3A, Mat4, Quat, Vec2, Vec3};
+use serde_json::Value as Json;
 
-use super::{convert_material, read_accessor, read_colors, read_indices};
-use crate::scene::Mesh;
+use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc};
+use super::material::{convert_material, Converted};
+use crate::scene::{Instance, Mesh, Model};
 
 /// The deepest node hierarchy followed (deeper is taken for a cycle).
 const MAX_DEPTH: usize = 64;
 /// The most node visits (a node may be the child of many): a bound on instancing blow-up.
 const MAX_NODE_VISITS: usize = 1 << 20;
-
-/// The most vertices placed (nodes may instance a mesh many times): 3 GiB of positions.
+/// The most vertices stored over all meshes (each once, however many nodes place it).
 const MAX_VERTICES: usize = 1 << 28;
 
-/// The nodes of the default scene (else the first, else every root node) with their world matrices.
-fn world_nodes<'a>(document: &'a Document) -> Result<Vec<(Node<'a>, Mat4)>, String> {
-    let roots: Vec<Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
+/// glTF's primitive modes we turn into triangles; points and lines (0 to 3) are skipped.
+const TRIANGLES: usize = 4;
+const TRIANGLE_STRIP: usize = 5;
+const TRIANGLE_FAN: usize = 6;
+
+/// The model the default scene (else the first, else every root node) draws.
+pub(super) fn build_model(
+    doc: &Doc,
+    name: &str,
+    base_dir: Option<&Path>,
+    warnings: &mut Vec<String>,
+) -> Result<Model, String> {
+    let mut loader = Loader {
+        doc,
+        name,
+        base_dir,
+        warnings,
+        materials: HashMap::new(),
+        vertices: 0,
+        skipped_modes: 0,
+    };
+    let mut model = Model::default();
+    // Our mesh for each glTF mesh used so far (None: it has no triangles).
+    let mut slots: HashMap<usize, Option<usize>> = HashMap::new();
+    let mut flattening = 0;
+    let mesh_count = array(doc.root, "meshes").len();
+    for (node, index, world) in world_nodes(doc, name, loader.warnings)? {
+        let Some(m) = uint(node, "mesh", &format!("node {index}"))? else { continue };
+        if m >= mesh_count {
+            return Err(format!(
+                "node {index} uses mesh {m}, but the file has {mesh_count} meshes"
+            ));
+        }
+        let slot = match slots.get(&m) {
+            Some(&slot) => slot,
+            None => {
+                let slot = loader.mesh(m)?.map(|mesh| {
+                    model.meshes.push(mesh);
+                    model.meshes.len() - 1
+                });
+                slots.insert(m, slot);
+                slot
+            }
+        };
+        let Some(slot) = slot else { continue };
+        // A node scaled to zero (a hidden part, often animated) places nothing.
+        match Instance::new(slot, Affine3A::from_mat4(world)) {
+            Ok(part) => model.parts.push(part),
+            Err(_) => flattening += 1,
+        }
+    }
+    let Loader { skipped_modes, warnings, .. } = loader;
+    if skipped_modes > 0 {
+        warnings.push(format!("{name}: {skipped_modes} primitives that are not triangles (points or lines) are skipped"));
+    }
+    if flattening > 0 {
+        warnings.push(format!("{name}: {flattening} nodes whose transform is not finite or flattens their mesh (a scale of zero) are skipped"));
+    }
+    if model.parts.is_empty() {
+        return Err("the default scene has no triangles, so there is nothing to trace".to_owned());
+    }
+    Ok(model)
+}
+
+/// The scene's nodes (depth first, in file order) with their world matrices. A child index
+/// the file lacks is skipped with a warning; a hierarchy deeper than [`MAX_DEPTH`] (a cycle)
+/// or visited more than [`MAX_NODE_VISITS`] times is refused.
+fn world_nodes<'a>(
+    doc: &Doc<'a>,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<(&'a Json, usize, Mat4)>, String> {
+    let nodes = array(doc.root, "nodes");
+    let scenes = array(doc.root, "scenes");
+    let chosen = uint(doc.root, "scene", "the document")
+        .ok()
+        .flatten()
+        .and_then(|s| scenes.get(s))
+        .or(scenes.first());
+    let roots: Vec<usize> = match chosen {
+        Some(scene) => array(scene, "nodes").iter().filter_map(index_of).collect(),
         None => {
-            let children: std::collections::HashSet<usize> =
-                document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-            document.nodes().filter(|n| !children.contains(&n.index())).collect()
+            let children: std::collections::HashSet<usize> = nodes
+                .iter()
+                .flat_map(|n| array(n, "children").iter().filter_map(index_of))
+                .collect();
+            (0..nodes.len()).filter(|n| !children.contains(n)).collect()
         }
     };
+    let mut missing = 0;
     let mut out = Vec::new();
-    let mut stack: Vec<(Node, Mat4, usize)> =
+    let mut stack: Vec<(usize, Mat4, usize)> =
         roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > MAX_DEPTH || out.len() + stack.len() + node.children().len() >= MAX_NODE_VISITS {
+    while let Some((index, parent, depth)) = stack.pop() {
+        let Some(node) = nodes.get(index) else {
+            missing += 1;
+            continue;
+        };
+        let children = array(node, "children");
+        if depth > MAX_DEPTH || out.len() + stack.len() + children.len() >= MAX_NODE_VISITS {
             return Err(format!("the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node instances (a cycle?)"));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        stack.extend(
-            node.children().collect::<Vec<_>>().into_iter().rev().map(|c| (c, world, depth + 1)),
-        );
-        out.push((node, world));
+        let world = parent * local_matrix(node);
+        stack.extend(children.iter().rev().filter_map(index_of).map(|c| (c, world, depth + 1)));
+        out.push((node, index, world));
+    }
+    if missing > 0 {
+        warnings.push(format!(
+            "{name}: {missing} references to nodes the file does not have are skipped"
+        ));
     }
     Ok(out)
 }
 
-/// Every triangle primitive of the placed nodes, in world space, as one mesh.
-pub(super) fn build_mesh(
-    document: &Document,
-    buffers: &[Vec<u8>],
-    name: &str,
-    base_dir: Option<&Path>,
-    warnings: &mut Vec<String>,
-) -> Result<Mesh, String> {
-    let mut builder = MeshBuilder::new(buffers, name, base_dir, warnings);
-    for (node, world) in world_nodes(document)? {
-        let Some(gmesh) = node.mesh() else { continue };
-        if !world.is_finite() {
-            return Err(format!("node {} has a transform that is not finite", node.index()));
-        }
-        let place = Placement {
-            world,
-            normal_matrix: Mat3::from_mat4(world).inverse().transpose(),
-            flips: Mat3::from_mat4(world).determinant() < 0.0,
-        };
-        for prim in gmesh.primitives() {
-            if prim.mode() != Mode::Triangles {
-                builder.skipped_modes += 1;
-                continue;
-            }
-            let at = format!("mesh {} primitive {}", gmesh.index(), prim.index());
-            builder.add_primitive(&prim, &at, &place)?;
-        }
+/// A node's transform relative to its parent: `matrix` (column-major), else translation,
+/// rotation (a quaternion, normalized) and scale; what is malformed is left at identity.
+fn local_matrix(node: &Json) -> Mat4 {
+    if let Some(m) = numbers::<16>(node, "matrix") {
+        return Mat4::from_cols_array(&m);
     }
-    builder.finish()
+    let t = numbers::<3>(node, "translation").map_or(Vec3::ZERO, Vec3::from);
+    let s = numbers::<3>(node, "scale").map_or(Vec3::ONE, Vec3::from);
+    let r = numbers::<4>(node, "rotation")
+        .map(Quat::from_array)
+        .filter(|q| q.length_squared() > 0.0)
+        .map_or(Quat::IDENTITY, Quat::normalize);
+    Mat4::from_scale_rotation_translation(s, r, t)
 }
 
-/// A node's world matrix with what follows from it for normals and winding.
-struct Placement {
-    world: Mat4,
-    normal_matrix: Mat3,
-    /// A mirroring transform turns the triangles inside out; their corners are swapped back.
-    flips: bool,
-}
-
-/// The merged mesh as it grows, primitive by primitive. Normals, texture coordinates and
-/// colours are kept aside: the mesh gets normals only if every primitive has them, and the
-/// others only if any has them (the rest padded).
-struct MeshBuilder<'a> {
-    buffers: &'a [Vec<u8>],
+/// What building the meshes shares: the document, messages, converted materials.
+struct Loader<'a, 'w> {
+    doc: &'a Doc<'a>,
     name: &'a str,
     base_dir: Option<&'a Path>,
-    warnings: &'a mut Vec<String>,
-    mesh: Mesh,
-    normals: Vec<Vec3>,
-    all_normals: bool,
-    texcoords: Vec<Vec2>,
-    any_texcoords: bool,
-    colors: Vec<[u8; 4]>,
-    any_colors: bool,
-    /// Our material index for each glTF material (`None`: the default material).
-    material_slots: HashMap<Option<usize>, u32>,
+    warnings: &'w mut Vec<String>,
+    /// Each glTF material converted once, however many primitives use it.
+    materials: HashMap<Option<usize>, Converted>,
+    /// Vertices stored so far, over all meshes.
+    vertices: usize,
     skipped_modes: usize,
 }
 
-impl<'a> MeshBuilder<'a> {
-    fn new(
-        buffers: &'a [Vec<u8>],
-        name: &'a str,
-        base_dir: Option<&'a Path>,
-        warnings: &'a mut Vec<String>,
-    ) -> Self {
-        MeshBuilder {
-            buffers,
-            name,
-            base_dir,
-            warnings,
-            mesh: Mesh { name: name.to_owned(), ..Default::default() },
+impl Loader<'_, '_> {
+    /// glTF mesh `m` as one of our meshes: its triangle primitives merged; None when it has
+    /// no triangles.
+    fn mesh(&mut self, m: usize) -> Result<Option<Mesh>, String> {
+        let gmesh = &array(self.doc.root, "meshes")[m];
+        let mut builder = MeshBuilder {
+            mesh: Mesh { name: self.name.to_owned(), ..Default::default() },
             normals: Vec::new(),
             all_normals: true,
             texcoords: Vec::new(),
             any_texcoords: false,
             colors: Vec::new(),
             any_colors: false,
-            material_slots: HashMap::new(),
-            skipped_modes: 0,
+            slots: HashMap::new(),
+        };
+        for (p, prim) in array(gmesh, "primitives").iter().enumerate() {
+            let at = format!("mesh {m} primitive {p}");
+            let mode = uint(prim, "mode", &at)?.unwrap_or(TRIANGLES);
+            if !matches!(mode, TRIANGLES | TRIANGLE_STRIP | TRIANGLE_FAN) {
+                self.skipped_modes += 1;
+                continue;
+            }
+            self.add_primitive(&mut builder, prim, mode, &at)?;
         }
+        builder.finish()
     }
 
-    /// One triangle primitive, placed: its vertices, their attributes, then its triangles.
+    /// One triangle primitive: its material, vertices and their attributes, then triangles.
     fn add_primitive(
         &mut self,
-        prim: &::gltf::Primitive,
+        b: &mut MeshBuilder,
+        prim: &Json,
+        mode: usize,
         at: &str,
-        place: &Placement,
     ) -> Result<(), String> {
-        let base = self.mesh.positions.len();
-        let count = self.add_positions(prim, at, place.world)?;
-        self.add_normals(prim, at, place.normal_matrix, count)?;
-        self.add_texcoords(prim, at, base, count)?;
-        self.add_colors(prim, at, base, count)?;
-        self.add_triangles(prim, at, place.flips, base, count)
-    }
-
-    /// The primitive's positions in world space; returns how many vertices it has.
-    fn add_positions(
-        &mut self,
-        prim: &::gltf::Primitive,
-        at: &str,
-        world: Mat4,
-    ) -> Result<usize, String> {
-        let position = prim.get(&Semantic::Positions).ok_or(format!("{at} has no POSITION"))?;
-        let p = read_accessor(&position, self.buffers, "POSITION", Dimensions::Vec3)?;
-        let count = p.len() / 3;
-        if self.mesh.positions.len() + count > MAX_VERTICES {
-            return Err(format!("the scene places more than {MAX_VERTICES} vertices"));
+        let empty = Json::Null;
+        let attributes = prim.get("attributes").unwrap_or(&empty);
+        let attribute = |key: &str| uint(attributes, key, at);
+        let material = uint(prim, "material", at).ok().flatten();
+        if !self.materials.contains_key(&material) {
+            let converted =
+                convert_material(self.doc, material, self.name, self.base_dir, self.warnings);
+            self.materials.insert(material, converted);
         }
-        self.mesh
-            .positions
-            .extend(p.chunks_exact(3).map(|c| world.transform_point3(Vec3::from_slice(c))));
-        Ok(count)
+        let converted = self.materials[&material].clone();
+        let base = b.mesh.positions.len();
+
+        let position = attribute("POSITION")?.ok_or(format!("{at} has no POSITION"))?;
+        let acc = self.accessor(position, "POSITION", &[3])?;
+        if self.vertices + acc.count > MAX_VERTICES {
+            return Err(format!("the meshes hold more than {MAX_VERTICES} vertices"));
+        }
+        let p = self.doc.read(&acc, "POSITION", |v| v as f32)?;
+        let count = acc.count;
+        self.vertices += count;
+        b.mesh.positions.extend(p.chunks_exact(3).map(Vec3::from_slice));
+
+        let per_vertex = |acc, what: &str| per_vertex(acc, what, at, count);
+        match attribute("NORMAL")? {
+            Some(n) if b.all_normals => {
+                let acc = per_vertex(self.accessor(n, "NORMAL", &[3])?, "NORMAL")?;
+                let n = self.doc.read(&acc, "NORMAL", |v| v as f32)?;
+                b.normals
+                    .extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()));
+            }
+            _ => b.all_normals = false,
+        }
+
+        // The texture coordinates the material's texture reads, its transform baked in,
+        // turned to our convention: glTF's origin is the image's top-left corner, ours
+        // (OBJ's) the bottom-left.
+        b.texcoords.resize(base, Vec2::ZERO);
+        let key = format!("TEXCOORD_{}", converted.texcoord);
+        if let Some(t) = attribute(&key)? {
+            let acc = per_vertex(self.accessor(t, &key, &[2])?, &key)?;
+            let t = self.doc.read(&acc, &key, |v| v as f32)?;
+            let transform = converted.uv_transform.unwrap_or(Affine2::IDENTITY);
+            b.texcoords.extend(t.chunks_exact(2).map(|c| {
+                let uv = transform.transform_point2(Vec2::from_slice(c));
+                Vec2::new(uv.x, 1.0 - uv.y)
+            }));
+            b.any_texcoords = true;
+        }
+
+        // Primitives without COLOR_0 are white, so they look as they would alone.
+        b.colors.resize(base, [255; 4]);
+        if let Some(c) = attribute("COLOR_0")? {
+            b.colors.extend(self.colors(c, at, count)?);
+            b.any_colors = true;
+        }
+
+        let indices = self.indices(prim, at, count)?;
+        let next = b.slots.len() as u32;
+        let slot = *b.slots.entry(material).or_insert_with(|| {
+            b.mesh.materials.push(converted.material.clone());
+            next
+        });
+        let base = base as u32;
+        let corners = triangles(&indices, mode);
+        b.mesh.triangles.extend(corners.iter().map(|t| t.map(|i| i + base)));
+        b.mesh.triangle_materials.extend(std::iter::repeat_n(slot, corners.len()));
+        Ok(())
     }
 
-    /// The primitive's normals in world space, while every primitive so far had them.
-    fn add_normals(
-        &mut self,
-        prim: &::gltf::Primitive,
-        at: &str,
-        normal_matrix: Mat3,
-        count: usize,
-    ) -> Result<(), String> {
-        match prim.get(&Semantic::Normals) {
-            Some(acc) if self.all_normals => {
-                let n = read_accessor(&acc, self.buffers, "NORMAL", Dimensions::Vec3)?;
-                if n.len() != count * 3 {
+    /// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
+    /// glTF allows) as RGBA8, alpha 255 where absent; `count` is its vertex count.
+    fn colors(&self, c: usize, at: &str, count: usize) -> Result<Vec<[u8; 4]>, String> {
+        let acc = per_vertex(self.accessor(c, "COLOR_0", &[3, 4])?, "COLOR_0", at, count)?;
+        if !(acc.component == Component::F32
+            || (acc.normalized && matches!(acc.component, Component::U8 | Component::U16)))
+        {
+            return Err(format!("accessor {c} (COLOR_0) has component type {:?}; glTF allows float or normalized unsigned byte or short", acc.component));
+        }
+        let values = self.doc.read(&acc, "COLOR_0", |v| v as f32)?;
+        let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        Ok(values
+            .chunks_exact(acc.width)
+            .map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))])
+            .collect())
+    }
+
+    /// A primitive's vertex indices (each checked to be below its vertex `count`), or its
+    /// vertices in order when it has none.
+    fn indices(&self, prim: &Json, at: &str, count: usize) -> Result<Vec<u32>, String> {
+        let indices = match uint(prim, "indices", at)? {
+            Some(i) => {
+                let acc = self.accessor(i, "indices", &[1])?;
+                if !acc.component.is_unsigned_integer() {
                     return Err(format!(
-                        "{at}: NORMAL has {} elements, POSITION {count}",
-                        n.len() / 3
+                        "accessor {i} (indices) has component type {:?}, not an unsigned integer",
+                        acc.component
                     ));
                 }
-                self.normals.extend(
-                    n.chunks_exact(3)
-                        .map(|c| (normal_matrix * Vec3::from_slice(c)).normalize_or_zero()),
-                );
+                self.doc.read(&acc, "indices", |v| v as u32)?
             }
-            _ => self.all_normals = false,
-        }
-        Ok(())
-    }
-
-    /// The primitive's TEXCOORD_0, after zeros for earlier vertices without any.
-    fn add_texcoords(
-        &mut self,
-        prim: &::gltf::Primitive,
-        at: &str,
-        base: usize,
-        count: usize,
-    ) -> Result<(), String> {
-        self.texcoords.resize(base, Vec2::ZERO);
-        if let Some(acc) = prim.get(&Semantic::TexCoords(0)) {
-            let t = read_accessor(&acc, self.buffers, "TEXCOORD_0", Dimensions::Vec2)?;
-            if t.len() / 2 != count {
-                return Err(format!(
-                    "{at}: TEXCOORD_0 has {} elements, POSITION {count}",
-                    t.len() / 2
-                ));
-            }
-            self.texcoords.extend(t.chunks_exact(2).map(Vec2::from_slice));
-            self.any_texcoords = true;
-        }
-        Ok(())
-    }
-
-    /// The primitive's COLOR_0, after white for earlier vertices without any.
-    fn add_colors(
-        &mut self,
-        prim: &::gltf::Primitive,
-        at: &str,
-        base: usize,
-        count: usize,
-    ) -> Result<(), String> {
-        // Primitives without COLOR_0 are white, so they look as they would alone.
-        self.colors.resize(base, [255; 4]);
-        if let Some(acc) = prim.get(&Semantic::Colors(0)) {
-            self.colors.extend(read_colors(&acc, self.buffers, count, at)?);
-            self.any_colors = true;
-        }
-        Ok(())
-    }
-
-    /// The primitive's triangles (checked indices) with its material's slot.
-    fn add_triangles(
-        &mut self,
-        prim: &::gltf::Primitive,
-        at: &str,
-        flips: bool,
-        base: usize,
-        count: usize,
-    ) -> Result<(), String> {
-        let indices = match prim.indices() {
-            Some(acc) => read_indices(&acc, self.buffers)?,
             None => (0..count as u32).collect(),
         };
         if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
@@ -247,27 +303,76 @@ impl<'a> MeshBuilder<'a> {
                 "{at}: index {bad} is out of range (the primitive has {count} vertices)"
             ));
         }
-        let next = self.material_slots.len() as u32;
-        let slot = *self.material_slots.entry(prim.material().index()).or_insert_with(|| {
-            let material =
-                convert_material(&prim.material(), self.base_dir, self.name, self.warnings);
-            self.mesh.materials.push(material);
-            next
-        });
-        for t in indices.chunks_exact(3) {
-            let [a, b, c] = [t[0], t[1], t[2]].map(|i| i + base as u32);
-            self.mesh.triangles.push(if flips { [a, c, b] } else { [a, b, c] });
-            self.mesh.triangle_materials.push(slot);
-        }
-        Ok(())
+        Ok(indices)
     }
 
-    /// The finished mesh: the checks over all of it, the attributes padded or dropped, and
-    /// normals computed where the file's are missing or unusable.
-    fn finish(self) -> Result<Mesh, String> {
+    /// Accessor `index`, checked to have one of `widths` components per element.
+    fn accessor(&self, index: usize, what: &str, widths: &[usize]) -> Result<Accessor, String> {
+        let acc = self.doc.accessor(index, what)?;
+        if !widths.contains(&acc.width) {
+            let expected: Vec<String> = widths
+                .iter()
+                .map(|w| if *w == 1 { "SCALAR".into() } else { format!("VEC{w}") })
+                .collect();
+            let kind = if acc.width == 1 { "SCALAR".into() } else { format!("VEC{}", acc.width) };
+            return Err(format!(
+                "accessor {index} ({what}) is of type {kind}, expected {}",
+                expected.join(" or ")
+            ));
+        }
+        Ok(acc)
+    }
+}
+
+/// `acc`, checked to have one element per vertex before it is read: a count the file
+/// cannot back (no buffer view) is never allocated.
+fn per_vertex(acc: Accessor, what: &str, at: &str, count: usize) -> Result<Accessor, String> {
+    if acc.count == count {
+        Ok(acc)
+    } else {
+        Err(format!("{at}: {what} has {} elements, POSITION {count}", acc.count))
+    }
+}
+
+/// The triangles of a list, strip or fan of vertex `indices` (glTF's orders, which keep
+/// every triangle's winding).
+fn triangles(indices: &[u32], mode: usize) -> Vec<[u32; 3]> {
+    let n = indices.len();
+    match mode {
+        TRIANGLE_STRIP => (0..n.saturating_sub(2))
+            .map(|i| {
+                let odd = i % 2;
+                [indices[i], indices[i + 1 + odd], indices[i + 2 - odd]]
+            })
+            .collect(),
+        TRIANGLE_FAN => {
+            (1..n.saturating_sub(1)).map(|i| [indices[i], indices[i + 1], indices[0]]).collect()
+        }
+        _ => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+    }
+}
+
+/// One mesh as it grows, primitive by primitive. Normals, texture coordinates and colours
+/// are kept aside: the mesh gets normals only if every primitive has them, and the others
+/// if any has them (the rest padded).
+struct MeshBuilder {
+    mesh: Mesh,
+    normals: Vec<Vec3>,
+    all_normals: bool,
+    texcoords: Vec<Vec2>,
+    any_texcoords: bool,
+    colors: Vec<[u8; 4]>,
+    any_colors: bool,
+    /// Our material index in this mesh for each glTF material (`None`: the default).
+    slots: HashMap<Option<usize>, u32>,
+}
+
+impl MeshBuilder {
+    /// The finished mesh (None without triangles): the checks over all of it, the
+    /// attributes padded or dropped, and normals computed where the file's are missing or
+    /// unusable.
+    fn finish(self) -> Result<Option<Mesh>, String> {
         let MeshBuilder {
-            name,
-            warnings,
             mut mesh,
             normals,
             all_normals,
@@ -275,16 +380,10 @@ impl<'a> MeshBuilder<'a> {
             any_texcoords,
             mut colors,
             any_colors,
-            skipped_modes,
             ..
         } = self;
-        if skipped_modes > 0 {
-            warnings.push(format!("{name}: {skipped_modes} primitives that are not triangles (points, lines, strips or fans) are skipped"));
-        }
         if mesh.triangles.is_empty() {
-            return Err(
-                "the default scene has no triangles, so there is nothing to trace".to_owned()
-            );
+            return Ok(None);
         }
         if !mesh.positions.iter().all(|p| p.is_finite()) {
             return Err("a vertex position is not a finite number".to_owned());
@@ -303,6 +402,19 @@ impl<'a> MeshBuilder<'a> {
         } else {
             mesh.compute_vertex_normals();
         }
-        Ok(mesh)
+        Ok(Some(mesh))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_their_winding() {
+        assert_eq!(triangles(&[0, 1, 2, 3], TRIANGLE_STRIP), [[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(triangles(&[0, 1, 2, 3], TRIANGLE_FAN), [[1, 2, 0], [2, 3, 0]]);
+        assert_eq!(triangles(&[0, 1], TRIANGLE_STRIP), Vec::<[u32; 3]>::new());
+        assert_eq!(triangles(&[5, 6, 7, 8], TRIANGLES), [[5, 6, 7]]);
     }
 }

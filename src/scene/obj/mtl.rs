@@ -212,7 +212,7 @@ fn convert_material(
             |p| quote_name(&p.display().to_string()),
         );
         let map = texture_map(dir, raw);
-        out.diffuse_texture = map.path;
+        out.diffuse_texture = map.path.map(crate::scene::TextureSource::File);
         out.texture_transform = map.transform;
         if !map.ignored.is_empty() {
             let options = map.ignored.join(", ");
