@@ -12,6 +12,9 @@ use std::time::Instant;
 use meshtracer::scene::obj::{load_obj_from_bytes, LoadOptions};
 use meshtracer::scene::ply::load_ply_from_bytes_chunked;
 
+/// A way to parse the file: its name, and a parse giving the triangle count.
+type Way<'a> = (&'static str, Box<dyn FnMut() -> usize + 'a>);
+
 /// The fastest and the median of `runs` timings of `f`, in ms, and the triangle count.
 fn time(runs: usize, mut f: impl FnMut() -> usize) -> (f64, f64, usize) {
     let mut ms = Vec::new();
@@ -31,7 +34,7 @@ fn main() -> anyhow::Result<()> {
     for path in std::env::args().skip(1) {
         let bytes = std::fs::read(&path)?;
         let mb = bytes.len() as f64 / 1e6;
-        let mut ways: Vec<(&str, Box<dyn FnMut() -> usize>)> = Vec::new();
+        let mut ways: Vec<Way> = Vec::new();
         if path.ends_with(".ply") {
             ways.push(("parallel", Box::new(|| ply(&bytes, &path, Some(256 << 10)))));
             ways.push(("serial", Box::new(|| ply(&bytes, &path, None))));
