@@ -4,7 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::ascii::value;
+use super::number::value;
 use super::{
     finish_mesh, quote, Attributes, ColourColumns, Element, Failure, Header, Location, Property,
     Scalar, MAX_INITIAL_CAPACITY,
@@ -110,28 +110,6 @@ impl Body<'_> {
                 Ok(None)
             }
         }
-    }
-}
-
-/// The least value of an integer type.
-pub(super) fn int_min(kind: Scalar) -> f64 {
-    match kind {
-        Scalar::I8 => i8::MIN as f64,
-        Scalar::I16 => i16::MIN as f64,
-        Scalar::I32 => i32::MIN as f64,
-        _ => 0.0,
-    }
-}
-
-/// The greatest value of an integer type (of u32 for the floats, which are not asked).
-pub(super) fn int_max(kind: Scalar) -> f64 {
-    match kind {
-        Scalar::I8 => i8::MAX as f64,
-        Scalar::U8 => u8::MAX as f64,
-        Scalar::I16 => i16::MAX as f64,
-        Scalar::U16 => u16::MAX as f64,
-        Scalar::I32 => i32::MAX as f64,
-        _ => u32::MAX as f64,
     }
 }
 

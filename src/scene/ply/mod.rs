@@ -25,6 +25,7 @@ mod ascii;
 mod binary;
 mod body;
 mod colours;
+mod number;
 
 use ascii::read_ascii_in_parallel;
 use binary::read_binary_in_parallel;
