@@ -326,6 +326,14 @@ fn load_measures_every_phase_of_a_file_and_a_generated_model() {
         let total = row["to_first_frame_s"].as_f64().unwrap();
         assert!(total >= phases.iter().sum::<f64>(), "the wait includes every phase: {row}");
     }
+    // The tree's quality as tinybvh measures it: the quad's two triangles are one leaf
+    // under the root, whose box is the leaf's: 1 for the root, 2 triangles over all its area.
+    assert_eq!((rows[0]["sah_cost"].as_f64(), rows[0]["bvh_nodes"].as_u64()), (Some(3.0), Some(2)));
+    for row in rows {
+        assert!(row["sah_cost"].as_f64().is_some_and(|c| c >= 1.0), "{row}");
+        assert!(row["bvh_nodes"].as_u64().is_some_and(|n| n >= 2), "{row}");
+    }
+    assert!(stdout.contains("SAH") && stdout.contains("nodes"), "{stdout}");
     assert_eq!(rows[1]["phase_s"][0], 0.0, "a generated model reads no file");
     assert!(rows[1]["triangles"].as_u64().unwrap() >= 2000);
     let csv_text = std::fs::read_to_string(&csv).unwrap();

@@ -43,6 +43,14 @@ pub struct LoadRow {
     /// The peak of each phase, in [`Phase::ALL`]'s order: where the memory goes.
     #[serde(default)]
     pub phase_peak_rss_bytes: [Option<u64>; 5],
+    /// The model's binary tree's SAH cost as tinybvh measures it (both costs 1, over the
+    /// root's area), so that builds are compared at equal quality; None for a tree packed
+    /// wide alone, and in reports from before it was recorded.
+    #[serde(default)]
+    pub sah_cost: Option<f64>,
+    /// That tree's nodes, inner and leaves, as tinybvh's `NodeCount` counts them.
+    #[serde(default)]
+    pub bvh_nodes: Option<u64>,
 }
 
 impl LoadRow {
@@ -81,6 +89,12 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let start = Instant::now();
     let loaded = LoadedScene::load(spec, &progress)?;
     let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
+    // The tree's quality is summed between two phases and its time taken off the wait: the
+    // window never computes it.
+    progress.finish();
+    let quality_start = Instant::now();
+    let quality = loaded.tree_quality(MODEL_MESH);
+    let quality_time = quality_start.elapsed();
     progress.begin(Phase::Upload)?;
     tracer.set_loaded_scene(&loaded)?;
     // As the window does: the host's copy goes on another thread, the first frame does not
@@ -91,7 +105,7 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     // (reading a 1024² float image back took 19 ms on the 2-core dev machine).
     let params = FrameParams::new(&scene, spec.settings);
     let timing = tracer.trace_frame(&FrameTrace::whole(params))?;
-    let to_first_frame_s = start.elapsed().as_secs_f64();
+    let to_first_frame_s = start.elapsed().saturating_sub(quality_time).as_secs_f64();
     let snapshot = progress.snapshot();
     let mut phase_s = [0.0; 5];
     let mut phase_peak_rss_bytes = [None; 5];
@@ -117,13 +131,15 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
         to_first_frame_s,
         peak_rss_bytes,
         phase_peak_rss_bytes,
+        sah_cost: quality.map(|(cost, _)| cost),
+        bvh_nodes: quality.map(|(_, nodes)| nodes),
     })
 }
 
 /// The table `bench --load` prints: a header and one line per row.
 pub fn table(rows: &[LoadRow]) -> String {
     let mut s = format!(
-        "{:<20} {:<9} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7}\n",
+        "{:<20} {:<9} {:>11} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>9} {:>10} {:>7} {:>7} {:>10}\n",
         "model",
         "bvh",
         "triangles",
@@ -137,14 +153,16 @@ pub fn table(rows: &[LoadRow]) -> String {
         "to frame s",
         "peak MB",
         "B/tri+file",
-        "peak in"
+        "peak in",
+        "SAH",
+        "nodes"
     );
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let mb = |b: u64| b as f64 / 1e6;
         let _ = writeln!(
             s,
-            "{:<20} {:<9} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10} {:>7}",
+            "{:<20} {:<9} {:>11} {:>9.1} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>9} {:>10.3} {:>9} {:>10} {:>7} {:>7} {:>10}",
             truncate(&r.model, 20),
             r.bvh.to_string(),
             r.triangles,
@@ -159,6 +177,8 @@ pub fn table(rows: &[LoadRow]) -> String {
             r.peak_rss_bytes.map_or("-".into(), |b| format!("{:.0}", mb(b))),
             r.peak_bytes_per_triangle_beyond_file().map_or("-".into(), |b| format!("{b:.0}")),
             r.peak_phase().map_or("-", |p| p.name()),
+            r.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
+            r.bvh_nodes.map_or("-".into(), |n| n.to_string()),
         );
     }
     s
@@ -166,12 +186,12 @@ pub fn table(rows: &[LoadRow]) -> String {
 
 /// The rows as CSV, one line each, with the device.
 pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
-    let mut s = String::from("model,bvh,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,read_peak_rss_bytes,parse_peak_rss_bytes,build_peak_rss_bytes,pack_peak_rss_bytes,upload_peak_rss_bytes,device,driver,date\n");
+    let mut s = String::from("model,bvh,triangles,file_bytes,read_s,parse_s,build_s,pack_s,upload_s,first_frame_gpu_ms,to_first_frame_s,peak_rss_bytes,read_peak_rss_bytes,parse_peak_rss_bytes,build_peak_rss_bytes,pack_peak_rss_bytes,upload_peak_rss_bytes,device,driver,date,sah_cost,bvh_nodes\n");
     for r in rows {
         let [read, parse, build, pack, upload] = r.phase_s;
         let _ = writeln!(
             s,
-            "{},{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},{},\"{}\",\"{}\",{}",
+            "{},{},{},{},{read:.4},{parse:.4},{build:.4},{pack:.4},{upload:.4},{},{:.4},{},{},\"{}\",\"{}\",{},{},{}",
             r.model,
             r.bvh,
             r.triangles,
@@ -182,7 +202,9 @@ pub fn csv(env: &Environment, rows: &[LoadRow]) -> String {
             r.phase_peak_rss_bytes.map(|p| p.map_or(String::new(), |v| v.to_string())).join(","),
             env.device,
             env.driver,
-            env.date
+            env.date,
+            r.sah_cost.map_or(String::new(), |c| format!("{c:.4}")),
+            r.bvh_nodes.map_or(String::new(), |n| n.to_string()),
         );
     }
     s
@@ -230,30 +252,33 @@ mod tests {
                 Some(1_100_000),
                 None,
             ],
+            sah_cost: Some(59.4567),
+            bvh_nodes: Some(1234),
         };
         assert_eq!(row.peak_bytes_per_triangle_beyond_file(), Some(120.0));
         assert_eq!(row.peak_phase(), Some(Phase::Build));
         let table = table(std::slice::from_ref(&row));
         assert_eq!(table.lines().count(), 2);
-        for figure in ["wide", "0.100", "0.500", "1.50", "1.600", "120", "build"] {
+        for figure in ["wide", "0.100", "0.500", "1.50", "1.600", "120", "build", "59.46", "1234"] {
             assert!(
                 table.lines().nth(1).unwrap().contains(figure),
                 "{figure} missing from {table}"
             );
         }
         let mut old_report = serde_json::to_value(&row).unwrap();
-        old_report.as_object_mut().unwrap().remove("bvh");
-        assert_eq!(
-            serde_json::from_value::<LoadRow>(old_report).unwrap().bvh,
-            BvhLayout::Binary,
-            "a report from before the column"
-        );
+        for column in ["bvh", "sah_cost", "bvh_nodes"] {
+            old_report.as_object_mut().unwrap().remove(column);
+        }
+        let old_row = serde_json::from_value::<LoadRow>(old_report).unwrap();
+        assert_eq!(old_row.bvh, BvhLayout::Binary, "a report from before the column");
+        assert_eq!((old_row.sah_cost, old_row.bvh_nodes), (None, None));
         let env = Environment::default();
         let csv = csv(&env, &[row]);
         assert_eq!(
             csv.lines().nth(1).unwrap().split(',').count(),
             csv.lines().next().unwrap().split(',').count()
         );
+        assert!(csv.lines().nth(1).unwrap().ends_with(",59.4567,1234"), "{csv}");
     }
 
     #[test]

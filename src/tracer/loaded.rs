@@ -65,6 +65,16 @@ impl LoadedScene {
         &self.packed
     }
 
+    /// The SAH cost of mesh `mesh`'s binary tree as tinybvh measures it (both costs 1, over
+    /// the root's area) and its node count (inner nodes and leaves), so that builds are
+    /// compared at equal quality. None when the mesh was packed with a wide tree alone.
+    pub fn tree_quality(&self, mesh: usize) -> Option<(f64, u64)> {
+        let m = self.packed.meshes.get(mesh)?;
+        let nodes = self.packed.nodes.get(m.node_base as usize..)?.get(..m.node_count as usize)?;
+        (!nodes.is_empty())
+            .then(|| (crate::bvh::sah_cost(nodes, 1.0, 1.0), crate::bvh::node_count(nodes) as u64))
+    }
+
     /// Triangle slots of all meshes.
     pub fn triangle_count(&self) -> usize {
         self.packed.triangle_count()

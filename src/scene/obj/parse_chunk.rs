@@ -8,7 +8,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::chunks::{is_ascii_space, keyword, lines, Chunk, Counts};
+use super::chunks::{is_ascii_space, keyword, lines, parse_f32, Chunk, Counts};
 use super::quote;
 
 /// A corner index that is absent (`v//vn` has no texture coordinate).
@@ -161,7 +161,7 @@ impl<'a> Iterator for Words<'a> {
 fn numbers<'w, const N: usize>(words: &mut impl Iterator<Item = &'w str>) -> Option<[f32; N]> {
     let mut out = [0.0; N];
     for slot in &mut out {
-        *slot = words.next()?.parse().ok()?;
+        *slot = parse_f32(words.next()?)?;
     }
     Some(out)
 }

@@ -4,6 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::number::value;
 use super::{
     finish_mesh, quote, Attributes, ColourColumns, Element, Failure, Header, Location, Property,
     Scalar, MAX_INITIAL_CAPACITY,
@@ -39,17 +40,11 @@ impl Body<'_> {
                     return Err("the file ends here: it seems to be cut short".to_owned());
                 }
                 *line += newlines;
-                let word = std::str::from_utf8(&text[start..*pos]).unwrap_or("?");
-                let value = if kind.is_integer() {
-                    word.parse::<i64>().ok().map(|v| v as f64)
-                } else {
-                    word.parse::<f64>().ok()
-                };
-                let in_range =
-                    |v: f64| !kind.is_integer() || (int_min(kind)..=int_max(kind)).contains(&v);
-                value
-                    .filter(|&v| in_range(v))
-                    .ok_or_else(|| format!("{} is not a valid {} value", quote(word), kind.name()))
+                let word = &text[start..*pos];
+                value(word, kind).ok_or_else(|| {
+                    let word = std::str::from_utf8(word).unwrap_or("?");
+                    format!("{} is not a valid {} value", quote(word), kind.name())
+                })
             }
             Body::Binary { data, pos, big_endian } => {
                 let size = kind.size();
@@ -118,26 +113,6 @@ impl Body<'_> {
     }
 }
 
-fn int_min(kind: Scalar) -> f64 {
-    match kind {
-        Scalar::I8 => i8::MIN as f64,
-        Scalar::I16 => i16::MIN as f64,
-        Scalar::I32 => i32::MIN as f64,
-        _ => 0.0,
-    }
-}
-
-fn int_max(kind: Scalar) -> f64 {
-    match kind {
-        Scalar::I8 => i8::MAX as f64,
-        Scalar::U8 => u8::MAX as f64,
-        Scalar::I16 => i16::MAX as f64,
-        Scalar::U16 => u16::MAX as f64,
-        Scalar::I32 => i32::MAX as f64,
-        _ => u32::MAX as f64,
-    }
-}
-
 /// Read every element in order: vertices and faces into the mesh, the rest skipped.
 pub(super) fn read_body(
     header: &Header,
@@ -172,7 +147,7 @@ fn capacity(n: u64) -> usize {
 }
 
 /// Which of a vertex's properties hold what we keep.
-struct VertexColumns {
+pub(super) struct VertexColumns {
     xyz: [usize; 3],
     normal: Option<[usize; 3]>,
     uv: Option<[usize; 2]>,
@@ -181,7 +156,7 @@ struct VertexColumns {
 
 impl VertexColumns {
     /// The columns of `element vertex`; an error when x, y or z is missing.
-    fn of(e: &Element) -> Result<Self, Failure> {
+    pub(super) fn of(e: &Element) -> Result<Self, Failure> {
         let missing = |axis: &str| {
             (Location::File, format!("`element vertex` has no scalar property {axis}"))
         };
@@ -202,6 +177,27 @@ impl VertexColumns {
         let colours = ColourColumns::of(e).map_err(|r| (Location::File, r))?;
         Ok(VertexColumns { xyz, normal, uv, colours })
     }
+
+    /// A record's vertex from its `values` (one per property, widened to f64): its
+    /// position, normal, texture coordinate and colour (zeros for those the file lacks), or
+    /// None when the position is not finite. Both readers of ASCII bodies make each vertex
+    /// here, so they make the same vertices.
+    #[inline]
+    pub(super) fn vertex(&self, values: &[f64]) -> Option<(Vec3, Vec3, Vec2, [u8; 4])> {
+        let p = Vec3::from(self.xyz.map(|k| values[k] as f32));
+        if !p.is_finite() {
+            return None;
+        }
+        let n = self.normal.map_or(Vec3::ZERO, |n| Vec3::from(n.map(|k| values[k] as f32)));
+        let uv = self.uv.map_or(Vec2::ZERO, |uv| Vec2::from(uv.map(|k| values[k] as f32)));
+        let c = self.colours.as_ref().map_or([0; 4], |c| c.rgba(|k| values[k]));
+        Some((p, n, uv, c))
+    }
+
+    /// Whether the file has normals, texture coordinates and colours.
+    pub(super) fn has(&self) -> (bool, bool, bool) {
+        (self.normal.is_some(), self.uv.is_some(), self.colours.is_some())
+    }
 }
 
 /// The vertices: positions (which must be finite) and the attributes the file has.
@@ -211,7 +207,8 @@ fn read_vertices(
     positions: &mut Vec<Vec3>,
     attributes: &mut Attributes,
 ) -> Result<(), Failure> {
-    let VertexColumns { xyz, normal, uv, colours } = VertexColumns::of(e)?;
+    let columns = VertexColumns::of(e)?;
+    let (normals, texcoords, colours) = columns.has();
     positions.reserve(capacity(e.count));
     let mut values = vec![0.0f64; e.properties.len()];
     for i in 0..e.count {
@@ -221,39 +218,31 @@ fn read_vertices(
                 .map_err(|r| (body.location("vertex", i), r))?
                 .unwrap_or(0.0);
         }
-        let p = Vec3::from(xyz.map(|k| values[k] as f32));
-        if !p.is_finite() {
+        let Some((p, n, uv, c)) = columns.vertex(&values) else {
             return Err((body.location("vertex", i), "a vertex position has a coordinate that is not a finite number (NaN, infinity or beyond f32)".to_owned()));
-        }
+        };
         positions.push(p);
-        if let Some(n) = normal {
-            attributes.normals.push(Vec3::from(n.map(|k| values[k] as f32)));
+        if normals {
+            attributes.normals.push(n);
         }
-        if let Some(uv) = uv {
-            attributes.texcoords.push(Vec2::from(uv.map(|k| values[k] as f32)));
+        if texcoords {
+            attributes.texcoords.push(uv);
         }
-        if let Some(c) = &colours {
-            attributes.colors.push(c.rgba(|k| values[k]));
+        if colours {
+            attributes.colors.push(c);
         }
     }
     Ok(())
 }
 
-/// The faces, each split into triangles (quads as the paper does, larger ones into fans);
-/// corners must name one of the `vertex_count` vertices.
+/// The faces, each split into triangles by [`push_face`].
 fn read_faces(
     e: &Element,
     body: &mut Body,
     vertex_count: u64,
     triangles: &mut Vec<[u32; 3]>,
 ) -> Result<(), Failure> {
-    let list = e
-        .properties
-        .iter()
-        .position(|(n, p)| {
-            (n == "vertex_indices" || n == "vertex_index") && matches!(p, Property::List { .. })
-        })
-        .ok_or((Location::File, "`element face` has no list property vertex_indices".to_owned()))?;
+    let list = corner_list(e)?;
     triangles.reserve(capacity(e.count));
     let mut corners: Vec<f64> = Vec::new();
     for i in 0..e.count {
@@ -277,20 +266,43 @@ fn read_faces(
         if let Some(rest) = body.rest_of_line() {
             return Err(fail(format!("its vertex count says {} but the line holds more values ({}); a face is one line: its count, its indices and its other properties", corners.len(), quote(rest))));
         }
-        if corners.len() < 3 {
-            return Err(fail(format!("it has {} corners; at least 3 are needed", corners.len())));
-        }
-        if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
-            return Err(fail(format!(
-                "vertex index {bad} is out of range (the file has {vertex_count} vertices)"
-            )));
-        }
-        let c = |k: usize| corners[k] as u32;
-        match corners.len() {
-            3 => triangles.push([c(0), c(1), c(2)]),
-            4 => triangles.extend([[c(0), c(1), c(3)], [c(1), c(2), c(3)]]),
-            n => triangles.extend((1..n - 1).map(|k| [c(0), c(k), c(k + 1)])),
-        }
+        push_face(&corners, vertex_count, triangles).map_err(fail)?;
+    }
+    Ok(())
+}
+
+/// The index of `element face`'s list of corners.
+pub(super) fn corner_list(e: &Element) -> Result<usize, Failure> {
+    e.properties
+        .iter()
+        .position(|(n, p)| {
+            (n == "vertex_indices" || n == "vertex_index") && matches!(p, Property::List { .. })
+        })
+        .ok_or((Location::File, "`element face` has no list property vertex_indices".to_owned()))
+}
+
+/// Split a face into triangles (quads as the paper does, larger ones into fans); its
+/// corners must name one of the `vertex_count` vertices. Both readers of ASCII bodies end
+/// each face here, so they make the same triangles.
+#[inline]
+pub(super) fn push_face(
+    corners: &[f64],
+    vertex_count: u64,
+    triangles: &mut Vec<[u32; 3]>,
+) -> Result<(), String> {
+    if corners.len() < 3 {
+        return Err(format!("it has {} corners; at least 3 are needed", corners.len()));
+    }
+    if let Some(&bad) = corners.iter().find(|&&c| c < 0.0 || c >= vertex_count as f64) {
+        return Err(format!(
+            "vertex index {bad} is out of range (the file has {vertex_count} vertices)"
+        ));
+    }
+    let c = |k: usize| corners[k] as u32;
+    match corners.len() {
+        3 => triangles.push([c(0), c(1), c(2)]),
+        4 => triangles.extend([[c(0), c(1), c(3)], [c(1), c(2), c(3)]]),
+        n => triangles.extend((1..n - 1).map(|k| [c(0), c(k), c(k + 1)])),
     }
     Ok(())
 }

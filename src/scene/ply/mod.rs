@@ -10,6 +10,10 @@
 //! count and index type) are split as the OBJ loader splits them: quads as the paper
 //! does, larger polygons into fans. Errors name the file and the line (ASCII) or the
 //! element (binary).
+//!
+//! The common files are read on every core (`ascii.rs`: one record a line; `binary.rs`:
+//! fixed-size records); anything else, and any file with a fault, by the serial reader in
+//! `body.rs`, which alone writes the messages.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -17,10 +21,13 @@ use rayon::prelude::*;
 use super::obj::{LoadedObj, ObjError};
 use super::{Material, Mesh};
 
+mod ascii;
 mod binary;
 mod body;
 mod colours;
+mod number;
 
+use ascii::read_ascii_in_parallel;
 use binary::read_binary_in_parallel;
 use body::{read_body, Body};
 use colours::ColourColumns;
@@ -33,6 +40,18 @@ const MAX_HEADER_BYTES: usize = 1 << 20;
 /// Load a PLY (ASCII or binary) from bytes already in memory (`name` is used in messages):
 /// a file's are read by `formats::load_model`, and the tests and the fuzzer give theirs.
 pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjError> {
+    load_ply_from_bytes_chunked(bytes, name, Some(ascii::CHUNK_BYTES))
+}
+
+/// [`load_ply_from_bytes`] with an ASCII body cut into pieces of about `ascii_chunk_bytes`
+/// (1 cuts at every line), or with every file read by the plain serial reader alone (None):
+/// for the tests and the fuzzer, which check that every cut gives what the plain reader gives.
+#[doc(hidden)]
+pub fn load_ply_from_bytes_chunked(
+    bytes: &[u8],
+    name: &str,
+    ascii_chunk_bytes: Option<usize>,
+) -> Result<LoadedObj, ObjError> {
     let fail = |location: Location, reason: String| match location {
         Location::Line(line) => ObjError::Parse { name: name.to_owned(), line, reason },
         Location::Element(what) => {
@@ -44,9 +63,12 @@ pub fn load_ply_from_bytes(bytes: &[u8], name: &str) -> Result<LoadedObj, ObjErr
     let body = &bytes[header.body_start..];
     check_body_size(&header, body).map_err(|r| fail(Location::File, r))?;
     let mut warnings = Vec::new();
-    let fast = match header.format {
-        Format::Binary { big_endian } => read_binary_in_parallel(&header, body, big_endian),
-        Format::Ascii => None,
+    let fast = match (header.format, ascii_chunk_bytes) {
+        (_, None) => None,
+        (Format::Binary { big_endian }, Some(_)) => {
+            read_binary_in_parallel(&header, body, big_endian)
+        }
+        (Format::Ascii, Some(size)) => read_ascii_in_parallel(&header, body, size),
     };
     let mesh = match fast {
         Some((positions, attributes, triangles)) => {
