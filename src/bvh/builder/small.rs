@@ -70,8 +70,8 @@ fn sort_by_centroid(prims: &[Prim], axis: usize, order: &mut [u8]) {
     // Insertion sort of (key, position) pairs: a handful of compares for 8 or fewer
     // (the rank loop below costs n² of them and took 40% of a top level's build).
     let mut sorted = [(0u64, 0u8); SMALL_NODE];
-    for i in 0..n {
-        let item = (keys[i], i as u8);
+    for (i, &key) in keys[..n].iter().enumerate() {
+        let item = (key, i as u8);
         let mut j = i;
         while j > 0 && sorted[j - 1].0 > item.0 {
             sorted[j] = sorted[j - 1];
