@@ -206,6 +206,7 @@ fn trace_on_gpu(
         // A first frame records what each tile costs, so that the frame kept (and timed)
         // takes its tiles costliest first, as every later frame of `view` and `bench` does.
         tracer.trace(params)?;
+        log::debug!("tile costs recorded");
     }
     // Accumulation: every frame but the last folds into the output, the last is read
     // back (and timed).
@@ -213,7 +214,9 @@ fn trace_on_gpu(
         tracer.trace(&FrameParams { frame_index, ..*params })?;
     }
     let (image, timing) = tracer.render(&FrameParams { frame_index: accumulate - 1, ..*params })?;
+    log::debug!("frame traced and read back");
     let clock = clock_note(ctx)?;
+    log::debug!("clock measured");
     check_validation(ctx)?;
     let mut gpu =
         timing.gpu_ms.map_or("no timestamps".into(), |ms| format!("trace {ms:.2} ms{clock}"));

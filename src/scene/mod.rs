@@ -3,6 +3,7 @@
 //! the camera and the light.
 
 pub mod camera;
+mod decimal;
 pub mod formats;
 pub mod gltf;
 mod normals;

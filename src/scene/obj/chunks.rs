@@ -189,35 +189,10 @@ fn find_newline(bytes: &[u8]) -> Option<usize> {
 }
 
 /// A number as `str::parse::<f32>` reads it, with the usual words of an OBJ (a decimal of
-/// at most 7 digits, no exponent) read directly: their digits as an integer (under 2^24)
-/// and the power of ten (at most 10^10) are exact in f32, so the one division rounds
-/// correctly, to the very value `str::parse` gives (Clinger's fast path, which it takes too).
+/// at most 8 digits, no exponent) read directly (`scene/decimal.rs`).
 #[inline(always)]
 pub(super) fn parse_f32(word: &str) -> Option<f32> {
-    const EXACT_POWERS: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
-    let bytes = word.as_bytes();
-    let (negative, digits) = match bytes.first() {
-        Some(b'-') => (true, &bytes[1..]),
-        Some(b'+') => (false, &bytes[1..]),
-        _ => (false, bytes),
-    };
-    let (mut mantissa, mut count, mut point) = (0u32, 0usize, None);
-    for (i, &b) in digits.iter().enumerate() {
-        match b {
-            b'0'..=b'9' if count < 8 => {
-                mantissa = mantissa * 10 + u32::from(b - b'0');
-                count += 1;
-            }
-            b'.' if point.is_none() => point = Some(i),
-            _ => return slow_f32(word),
-        }
-    }
-    let scale = point.map_or(0, |at| digits.len() - at - 1);
-    if count == 0 || mantissa > 1 << 24 || scale > 10 {
-        return slow_f32(word);
-    }
-    let v = mantissa as f32 / EXACT_POWERS[scale];
-    Some(if negative { -v } else { v })
+    crate::scene::decimal::short_f32(word.as_bytes()).or_else(|| slow_f32(word))
 }
 
 /// The rare words: `str::parse`, out of line so that [`parse_f32`] inlines.
@@ -303,57 +278,9 @@ mod tests {
 
     #[test]
     fn numbers_are_what_str_parse_gives() {
-        let mut words: Vec<String> = [
-            "0",
-            "-0",
-            "+0",
-            "1",
-            "-1.5",
-            ".5",
-            "5.",
-            ".",
-            "-",
-            "",
-            "1e5",
-            "inf",
-            "NaN",
-            "0x1",
-            "16777216",
-            "16777217",
-            "1677721.7",
-            "0.0000000001",
-            "0.00000000001",
-            "1.350000",
-            "-0.000000",
-            "12345678",
-            "123456789",
-            "1..2",
-            "1.2.3",
-            "--1",
-            "1-",
-            "\u{e9}",
-        ]
-        .map(String::from)
-        .to_vec();
-        let mut seed = 0x853c_49e6_748f_ea9bu64;
-        for _ in 0..50_000 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            let digits = 1 + (seed % 12) as usize;
-            let point = (seed >> 8) as usize % (digits + 1);
-            let mut w: String = if seed >> 40 & 1 == 1 { "-".into() } else { String::new() };
-            for i in 0..digits {
-                if i == point {
-                    w.push('.');
-                }
-                w.push(char::from(b'0' + ((seed >> (i * 5 % 60)) % 10) as u8));
-            }
-            words.push(w);
-        }
-        for w in &words {
+        for w in crate::scene::decimal::tests::words() {
             let plain = w.parse::<f32>().ok().map(f32::to_bits);
-            assert_eq!(parse_f32(w).map(f32::to_bits), plain, "{w:?}");
+            assert_eq!(parse_f32(&w).map(f32::to_bits), plain, "{w:?}");
         }
     }
 
