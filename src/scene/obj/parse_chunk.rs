@@ -10,6 +10,7 @@ use glam::{Vec2, Vec3};
 
 use super::chunks::{is_ascii_space, keyword, lines, parse_f32, Chunk, Counts};
 use super::quote;
+use crate::scene::decimal::short_f32;
 
 /// A corner index that is absent (`v//vn` has no texture coordinate).
 pub(super) const NONE: u32 = u32::MAX;
@@ -157,6 +158,26 @@ impl<'a> Iterator for Words<'a> {
     }
 }
 
+/// The fast path for a line's first `N` numbers when each is a short decimal
+/// (`scene/decimal.rs`; nearly every `v`, `vt` and `vn` line): the numbers and where the
+/// text after them begins, or None for [`numbers`] to read them (and word what is wrong).
+/// One pass over the bytes, where `words` and `str::parse` would take several.
+#[inline(always)]
+fn short_numbers<const N: usize>(text: &[u8]) -> Option<([f32; N], usize)> {
+    let (mut out, mut i) = ([0.0; N], 0);
+    for slot in &mut out {
+        while i < text.len() && is_ascii_space(text[i]) {
+            i += 1;
+        }
+        let start = i;
+        while i < text.len() && !is_ascii_space(text[i]) {
+            i += 1;
+        }
+        *slot = short_f32(&text[start..i])?;
+    }
+    Some((out, i))
+}
+
 /// `n` numbers from `words`, or None when fewer are there or one is not a number.
 fn numbers<'w, const N: usize>(words: &mut impl Iterator<Item = &'w str>) -> Option<[f32; N]> {
     let mut out = [0.0; N];
@@ -179,7 +200,8 @@ impl<'a> Parser<'a, '_> {
         match word.as_bytes() {
             [b'v'] => self.position(line, rest)?,
             [b'v', b't'] => {
-                let Some(t) = numbers::<2>(&mut words(rest)) else {
+                let fast = short_numbers::<2>(rest.as_bytes()).map(|(t, _)| t);
+                let Some(t) = fast.or_else(|| numbers::<2>(&mut words(rest))) else {
                     return Err(ErrorKind::Parse(format!(
                         "a texture coordinate needs two numbers, but the line reads {}",
                         quoted()
@@ -194,7 +216,8 @@ impl<'a> Parser<'a, '_> {
                 self.counts.texcoords += 1;
             }
             [b'v', b'n'] => {
-                let Some(n) = numbers::<3>(&mut words(rest)) else {
+                let fast = short_numbers::<3>(rest.as_bytes()).map(|(n, _)| n);
+                let Some(n) = fast.or_else(|| numbers::<3>(&mut words(rest))) else {
                     return Err(ErrorKind::Parse(format!(
                         "a normal needs three numbers, but the line reads {}",
                         quoted()
@@ -242,6 +265,15 @@ impl<'a> Parser<'a, '_> {
 
     /// `v x y z`, `v x y z w` (w dropped: a mesh keeps x, y, z) or `v x y z r g b`.
     fn position(&mut self, line: &str, rest: &str) -> Result<(), ErrorKind> {
+        // Three short decimals and nothing after them: finite, no weight, no colour.
+        if let Some((p, end)) = short_numbers::<3>(rest.as_bytes()) {
+            if rest.as_bytes()[end..].iter().all(|&b| is_ascii_space(b)) {
+                let at = self.counts.positions - self.first.positions;
+                put(self.targets.positions, at, Vec3::from(p));
+                self.counts.positions += 1;
+                return Ok(());
+            }
+        }
         let position_error = || {
             ErrorKind::Parse(format!(
                 "a vertex position needs three numbers, but the line reads {}",
