@@ -9,7 +9,9 @@ use std::path::Path;
 
 use common::*;
 use glam::{Affine3A, Mat4, Quat, Vec2, Vec3};
-use meshtracer::render_settings::RenderSettings;
+use meshtracer::gpu::khr_rt::VendorKernel;
+use meshtracer::gpu::ComputeTracer;
+use meshtracer::render_settings::{Accel, RenderSettings};
 use meshtracer::scene::formats::{load_model, LoadedModel};
 use meshtracer::scene::gltf::{load_gltf_from_bytes, LoadedGltf};
 use meshtracer::scene::obj::LoadOptions;
@@ -534,6 +536,7 @@ fn a_shared_mesh_is_stored_once_and_each_node_places_it() {
     let instanced = aside(scene_of(&model));
     let (gpu, cpu) = render_both(&instanced, settings);
     assert_close(&gpu, &cpu, "instanced nodes");
+    assert_vendor_matches(&instanced, settings, &gpu);
     let flat = Model::from(model.flatten());
     assert_eq!(flat.meshes[0].triangle_count(), 9);
     let twin = cpu_render(&aside(scene_of(&flat)), settings);
@@ -543,6 +546,34 @@ fn a_shared_mesh_is_stored_once_and_each_node_places_it() {
     let lit = cpu.pixels.iter().filter(|p| p[0] > 0.0).count();
     // The three thin Ls cover about 40 pixels each when seen face-on.
     assert!(lit > 40, "the model is in view ({lit} pixels)");
+}
+
+/// The vendor's structures (every kernel the device has) trace `scene` as ours did (`ours`).
+fn assert_vendor_matches(scene: &Scene, settings: RenderSettings, ours: &Image) {
+    let ctx = ctx();
+    let support = &ctx.info.vendor;
+    if !require(support.available(), "the vendor's ray tracing is missing") {
+        return;
+    }
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(scene)).expect("upload");
+    for kernel in VendorKernel::ALL.into_iter().filter(|k| k.supported(support)) {
+        tracer.set_vendor_kernel(kernel).expect("a kind the device has");
+        let vendor = RenderSettings { accel: Accel::Vendor, ..settings };
+        let (image, _) = tracer.render(&FrameParams::new(scene, vendor)).expect("trace");
+        assert_within(&image, ours, tolerance::VENDOR, &format!("nodes, vendor's {kernel}"));
+    }
+    drop(tracer);
+    assert_validation_clean(&ctx);
+}
+
+/// Bytes of device memory `scene` takes on the GPU.
+fn gpu_bytes(scene: &Scene) -> u64 {
+    let ctx = ctx();
+    let tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(scene)).expect("upload");
+    let bytes = tracer.scene_bytes();
+    drop(tracer);
+    assert_validation_clean(&ctx);
+    bytes
 }
 
 #[test]
@@ -576,6 +607,54 @@ fn a_thousand_nodes_of_one_mesh_hold_one_mesh_and_a_thousand_transforms() {
     assert_eq!(packed.meshes.len(), 1);
     assert!(packed.triangles.len() < 3 * 4, "{} triangle slots packed", packed.triangles.len());
     assert_eq!(scene.instances.len(), 1000);
+
+    // On the GPU: the same mesh placed once and a thousand times differ by the thousand
+    // placements (an instance record and its share of the top level), not by copies of the
+    // mesh. Checked with a mesh of 20,000 triangles, which a copy per node would show.
+    let big = big_mesh_doc(20_000);
+    let one = parse(&big.replace(r#""NODES""#, r#"[{"mesh": 0}]"#));
+    let nodes: Vec<String> = (0..1000)
+        .map(|i| format!(r#"{{"mesh": 0, "translation": [{}, {}, 0]}}"#, i % 40, i / 40))
+        .collect();
+    let thousand = parse(&big.replace(r#""NODES""#, &format!("[{}]", nodes.join(","))));
+    let [one, thousand] = [one, thousand].map(|l| {
+        let mut model = l.model;
+        prepare_model(&mut model);
+        scene_of(&model)
+    });
+    assert_eq!(thousand.instances.len(), 1000);
+    let (one_bytes, thousand_bytes) = (gpu_bytes(&one), gpu_bytes(&thousand));
+    let per_node = (thousand_bytes - one_bytes) / 999;
+    eprintln!("GPU scene: {one_bytes} bytes for one node, {thousand_bytes} for 1,000");
+    assert!(one_bytes > 20_000 * 36, "the mesh is on the GPU: {one_bytes} bytes");
+    assert!(
+        per_node < 1024,
+        "{per_node} bytes per node ({one_bytes} for one, {thousand_bytes} for 1,000)"
+    );
+}
+
+/// A document whose mesh 0 is `n` separate triangles (positions only, no two alike) and
+/// whose nodes are the placeholder `"NODES"`, all in scene 0.
+fn big_mesh_doc(n: usize) -> String {
+    let values: Vec<f32> = (0..n)
+        .flat_map(|i| {
+            let (x, y) = ((i % 200) as f32 * 0.01, (i / 200) as f32 * 0.01);
+            [x, y, 0.0, x + 0.008, y, 0.0, x, y + 0.008, 0.001 * (i % 7) as f32]
+        })
+        .collect();
+    let bin = f32s(&values);
+    let nodes = r#""nodes": "NODES""#;
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, {nodes},
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": {}}}],
+  "buffers": [{{"uri": "data:application/octet-stream;base64,{}", "byteLength": {}}}]}}"#,
+        3 * n,
+        bin.len(),
+        base64(&bin),
+        bin.len()
+    )
 }
 
 // ---------------------------------------------------------------------------------------
