@@ -19,7 +19,7 @@ use serde_json::Value as Json;
 
 use super::obj::ObjError;
 use super::Model;
-use crate::files::{io_reason, read_regular_file};
+use crate::files::{io_reason, read_regular_prefix};
 use doc::Doc;
 
 mod compressed;
@@ -176,7 +176,9 @@ fn read_buffer(
             let path = dir.join(percent_decode(uri));
             let shown =
                 crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
-            read_regular_file(&path)
+            // Only the declared length is read: a larger file (or a link to one) costs no
+            // more, and a FIFO or device is refused before it is opened.
+            read_regular_prefix(&path, length as u64)
                 .map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?
         }
     };

@@ -159,10 +159,13 @@ impl Texture<'_> {
                 .base_dir
                 .ok_or(format!("is the file `{shown}`, which cannot be read here (no folder)"))?;
             let path = dir.join(percent_decode(uri));
-            return if path.is_file() {
-                Ok(TextureSource::File(path))
-            } else {
-                Err(format!("is the file `{shown}`, which is not found"))
+            // A FIFO or device is refused here, by name, as well as when the image is read.
+            return match crate::files::regular_file_size(&path, "the image") {
+                Ok(_) => Ok(TextureSource::File(path)),
+                Err(_) if !path.exists() => Err(format!("is the file `{shown}`, which is not found")),
+                Err(_) => Err(format!(
+                    "is the file `{shown}`, which is not a regular file (a FIFO, device or folder is never opened)"
+                )),
             };
         }
         let view = uint(image, "bufferView", &format!("image {index}"))
