@@ -52,6 +52,14 @@ pub(crate) fn render_to_file(
     // #43: `torusknot:4M` on lavapipe failed only after a 10 s build and 1 GB).
     let ctx = if on.cpu { None } else { Some(open_context(on.device, on.validation)?) };
     let (scene, packed) = load(spec, ctx.as_ref().map(|c| c.info.max_storage_buffer_range))?;
+    // A file's camera is written into the image's preset as the numbers it traced with.
+    let resolved;
+    let spec = if spec.file_camera.is_some() {
+        resolved = spec.with_camera(scene.camera);
+        &resolved
+    } else {
+        spec
+    };
     let params = FrameParams::new(&scene, spec.settings);
     let (image, how) = match &ctx {
         None => trace_on_cpu(&packed, &params, spec.accumulate),

@@ -11,7 +11,7 @@ use serde_json::Value as Json;
 use super::compressed;
 use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc};
 use super::material::{convert_material, Converted};
-use crate::scene::{Instance, Mesh, Model};
+use crate::scene::{Camera, Instance, Mesh, Model};
 
 /// The deepest node hierarchy followed (deeper is taken for a cycle).
 const MAX_DEPTH: usize = 64;
@@ -47,6 +47,9 @@ pub(super) fn build_model(
     let mut flattening = 0;
     let mesh_count = array(doc.root, "meshes").len();
     for (node, index, world) in world_nodes(doc, name, loader.warnings)? {
+        if let Some(camera) = node_camera(doc, node, world, name, loader.warnings) {
+            model.cameras.push(camera);
+        }
         let Some(m) = uint(node, "mesh", &format!("node {index}"))? else { continue };
         if m >= mesh_count {
             return Err(format!(
@@ -132,6 +135,41 @@ fn world_nodes<'a>(
         ));
     }
     Ok(out)
+}
+
+/// The perspective camera node `node` carries, placed by its world matrix (glTF cameras
+/// look down their local -z, +y up), looking one unit ahead (`prepare_model` moves the
+/// target); None without one. An orthographic camera, or one that cannot be placed, is a
+/// warning.
+fn node_camera(
+    doc: &Doc,
+    node: &Json,
+    world: Mat4,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Option<Camera> {
+    let index = node.get("camera").and_then(index_of)?;
+    let camera = array(doc.root, "cameras").get(index)?;
+    let yfov = camera.pointer("/perspective/yfov").and_then(Json::as_f64);
+    let yfov = yfov.filter(|y| y.is_finite() && *y > 0.0);
+    let Some(yfov) =
+        yfov.filter(|_| camera.get("type").and_then(Json::as_str) == Some("perspective"))
+    else {
+        warnings.push(format!("{name}: camera {index} is not a perspective camera with a field of view, so it is not offered as a viewpoint"));
+        return None;
+    };
+    let position = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+    if !position.is_finite() || forward == Vec3::ZERO || up == Vec3::ZERO {
+        warnings.push(format!(
+            "{name}: camera {index} has a transform that cannot place it; it is not offered"
+        ));
+        return None;
+    }
+    // Our field of view lies in (1, 179) degrees.
+    let vfov_deg = (yfov.to_degrees() as f32).clamp(1.5, 178.5);
+    Some(Camera { position, target: position + forward, up, vfov_deg })
 }
 
 /// A node's transform relative to its parent: `matrix` (column-major), else translation,
