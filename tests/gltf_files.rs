@@ -328,6 +328,31 @@ fn samplers_repeat_or_clamp_and_what_the_tracers_lack_is_warned() {
     }
 }
 
+#[test]
+fn alpha_modes_are_not_read_and_say_so() {
+    let buffer = format!(
+        r#"{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 140}}"#,
+        base64(&quad_bin())
+    );
+    let image = format!(r#"{{"uri": "data:image/png;base64,{}"}}"#, base64(&two_colour_png()));
+    let doc = quad_json(&buffer, &image, "");
+    for mode in ["MASK", "BLEND"] {
+        let masked = doc.replace(
+            r#""materials": [{"pbrMetallicRoughness""#,
+            &format!(r#""materials": [{{"alphaMode": "{mode}", "alphaCutoff": 0.3, "pbrMetallicRoughness""#),
+        );
+        let loaded = parse(&masked);
+        assert!(
+            loaded.warnings.len() == 1
+                && loaded.warnings[0].contains(&format!(
+                    "has alpha mode {mode}, which is not read: it is drawn opaque"
+                )),
+            "{:?}",
+            loaded.warnings
+        );
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Accessors
 

@@ -60,6 +60,14 @@ pub(super) fn convert_material(
         number(pbr, key).filter(|v| v.is_finite()).map_or(1.0, |v| v.clamp(0.0, 1.0) as f32)
     };
     let (metal, roughness) = (unit("metallicFactor"), unit("roughnessFactor"));
+    // Cut-outs and transparency would cost the traversal a texture read per candidate hit.
+    let alpha_mode = m.get("alphaMode").and_then(Json::as_str).unwrap_or("OPAQUE");
+    if alpha_mode != "OPAQUE" {
+        warnings.push(format!(
+            "{name}: {label} has alpha mode {}, which is not read: it is drawn opaque",
+            crate::files::shown(alpha_mode, 20)
+        ));
+    }
     let alpha = roughness.max(0.01).powi(2);
     let mut out = Converted {
         material: Material {
