@@ -11,7 +11,7 @@
 //! buffer, before a value is read. So a broken file is one line naming it, never a panic or
 //! an allocation the file cannot back, and a file is refused only for what breaks its
 //! geometry (or a required extension we do not read, named). Compressed geometry (Draco
-//! primitives, meshopt buffer views) is decoded where it is read (`compressed`).
+//! primitives, meshopt buffer views) is decoded where it is read (`draco`, `meshopt`).
 
 use std::path::Path;
 
@@ -22,10 +22,11 @@ use super::Model;
 use crate::files::{io_reason, read_regular_prefix};
 use doc::Doc;
 
-mod compressed;
 mod doc;
+mod draco;
 mod material;
 mod mesh;
+mod meshopt;
 
 /// The extensions a file may require that we read; any other required one refuses the file,
 /// naming it.

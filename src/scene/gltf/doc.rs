@@ -7,7 +7,7 @@ use std::cell::OnceCell;
 
 use serde_json::Value as Json;
 
-use super::compressed;
+use super::meshopt;
 
 /// The most elements an accessor without a buffer view may have: its zeros are allocated
 /// with nothing in the file to back them, so a few bytes of JSON could ask for gigabytes.
@@ -15,13 +15,27 @@ use super::compressed;
 /// what such files hold.
 const MAX_ZERO_ELEMENTS: usize = 1 << 24;
 
+/// A primitive's vertices as read (from accessors or Draco), before they join its mesh.
+pub(super) struct Vertices {
+    /// x, y, z per vertex.
+    pub positions: Vec<f32>,
+    /// x, y, z per vertex, if the primitive has them.
+    pub normals: Option<Vec<f32>>,
+    /// u, v per vertex in glTF's texture space (origin top-left).
+    pub texcoords: Option<Vec<f32>>,
+    /// RGB or RGBA in [0, 1] per vertex, and which (3 or 4).
+    pub colors: Option<(Vec<f32>, usize)>,
+    /// The vertex indices in the primitive's mode's order.
+    pub indices: Vec<u32>,
+}
+
 /// The document and its buffers' bytes (or why each cannot be read).
 pub(super) struct Doc<'a> {
     pub root: &'a Json,
     buffers: &'a [Result<Vec<u8>, String>],
     /// Each buffer view's bytes as decompressed (`EXT_meshopt_compression`), decoded when
     /// first read, so views nothing reads (animations, other scenes) cost nothing.
-    decoded: Vec<OnceCell<Result<compressed::Decoded, String>>>,
+    decoded: Vec<OnceCell<Result<meshopt::Decoded, String>>>,
 }
 
 /// A JSON number as a non-negative integer: `1.0` is 1, as JSON does not tell them apart.
@@ -234,9 +248,9 @@ impl<'a> Doc<'a> {
         })?;
         let what = format!("buffer view {view}");
         let stride = uint(v, "byteStride", &what)?;
-        if let Some(ext) = compressed::meshopt_extension(v) {
+        if let Some(ext) = meshopt::extension(v) {
             let decoded = self.decoded[view]
-                .get_or_init(|| compressed::meshopt_view(self, ext, &what))
+                .get_or_init(|| self.meshopt_view(ext, &what))
                 .as_ref()
                 .map_err(Clone::clone)?;
             return Ok((decoded.bytes(), stride));
@@ -245,6 +259,23 @@ impl<'a> Doc<'a> {
         let offset = uint(v, "byteOffset", &what)?.unwrap_or(0);
         let length = uint(v, "byteLength", &what)?.unwrap_or(0);
         Ok((self.buffer_range(buffer, offset, length, &what)?, stride))
+    }
+
+    /// The bytes of a meshopt-compressed buffer view (`ext` its extension object, `what`
+    /// names the view), decoded.
+    fn meshopt_view(&self, ext: &Json, what: &str) -> Result<meshopt::Decoded, String> {
+        let need =
+            |key: &str| uint(ext, key, what)?.ok_or(format!("{what}: meshopt `{key}` missing"));
+        let (buffer, length) = (need("buffer")?, need("byteLength")?);
+        let offset = uint(ext, "byteOffset", what)?.unwrap_or(0);
+        let view = meshopt::View {
+            source: self.buffer_range(buffer, offset, length, what)?,
+            stride: need("byteStride")?,
+            count: need("count")?,
+            mode: ext.get("mode").and_then(Json::as_str).unwrap_or(""),
+            filter: ext.get("filter").and_then(Json::as_str).unwrap_or("NONE"),
+        };
+        meshopt::decode(view, what)
     }
 
     /// `length` bytes from `offset` of buffer `buffer`, checked to lie in it; `what` (a buffer

@@ -170,10 +170,14 @@ impl Texture<'_> {
             // A FIFO or device is refused here, by name, as well as when the image is read.
             return match crate::files::regular_file_size(&path, "the image") {
                 Ok(_) => Ok(TextureSource::File(path)),
-                Err(_) if !path.exists() => Err(format!("is the file `{shown}`, which is not found")),
-                Err(_) => Err(format!(
-                    "is the file `{shown}`, which is not a regular file (a FIFO, device or folder is never opened)"
-                )),
+                // The reason after the path: "no such file or directory", "not a regular
+                // file" (a FIFO or device, never opened)...
+                Err(e) => match e.rsplit(": ").next().unwrap_or_default() {
+                    "no such file or directory" => {
+                        Err(format!("is the file `{shown}`, which is not found"))
+                    }
+                    why => Err(format!("is the file `{shown}`, which cannot be read ({why})")),
+                },
             };
         }
         let view = uint(image, "bufferView", &format!("image {index}"))

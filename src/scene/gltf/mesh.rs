@@ -8,8 +8,8 @@ use std::path::Path;
 use glam::{Affine2, Affine3A, Mat4, Quat, Vec2, Vec3};
 use serde_json::Value as Json;
 
-use super::compressed;
-use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc};
+use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc, Vertices};
+use super::draco;
 use super::material::{convert_material, Converted};
 use crate::scene::{Camera, Instance, Mesh, Model};
 
@@ -187,20 +187,6 @@ fn local_matrix(node: &Json) -> Mat4 {
     Mat4::from_scale_rotation_translation(s, r, t)
 }
 
-/// A primitive's vertices as read (from accessors or Draco), before they join its mesh.
-pub(super) struct Vertices {
-    /// x, y, z per vertex.
-    pub positions: Vec<f32>,
-    /// x, y, z per vertex, if the primitive has them.
-    pub normals: Option<Vec<f32>>,
-    /// u, v per vertex in glTF's texture space (origin top-left).
-    pub texcoords: Option<Vec<f32>>,
-    /// RGB or RGBA in [0, 1] per vertex, and which (3 or 4).
-    pub colors: Option<(Vec<f32>, usize)>,
-    /// The vertex indices in the primitive's mode's order.
-    pub indices: Vec<u32>,
-}
-
 /// What building the meshes shares: the document, messages, converted materials.
 struct Loader<'a, 'w> {
     doc: &'a Doc<'a>,
@@ -260,9 +246,7 @@ impl Loader<'_, '_> {
         let texcoord = format!("TEXCOORD_{}", converted.texcoord);
         let (v, mode) = match prim.pointer("/extensions/KHR_draco_mesh_compression") {
             // Draco decodes to a triangle list, whatever the mode says.
-            Some(ext) => {
-                (compressed::draco_primitive(self.doc, ext, prim, &texcoord, at)?, TRIANGLES)
-            }
+            Some(ext) => (draco::draco_primitive(self.doc, ext, prim, &texcoord, at)?, TRIANGLES),
             None => (self.read_vertices(prim, &texcoord, at)?, mode),
         };
         let count = v.positions.len() / 3;
