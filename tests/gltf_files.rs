@@ -258,6 +258,44 @@ fn a_texture_is_the_right_way_up_from_every_place_a_file_keeps_it() {
     }
 }
 
+/// What the Khronos Duck checked (its eye on its head, not its beak), without the Duck: a
+/// textured glTF whose buffer and image are files beside it, the image's four quadrants
+/// (red, green / blue, white) where they belong on the quad, neither turned over nor
+/// mirrored.
+#[test]
+fn an_external_texture_is_neither_turned_over_nor_mirrored() {
+    let dir = Scratch::new("quadrants");
+    let img = image::RgbaImage::from_fn(8, 8, |x, y| {
+        image::Rgba(match (x < 4, y < 4) {
+            (true, true) => [255, 0, 0, 255],
+            (false, true) => [0, 255, 0, 255],
+            (true, false) => [0, 0, 255, 255],
+            (false, false) => [255, 255, 255, 255],
+        })
+    });
+    img.save(dir.join("quadrants.png")).unwrap();
+    std::fs::write(dir.join("quad.bin"), quad_bin()).unwrap();
+    let json =
+        quad_json(r#"{"uri": "quad.bin", "byteLength": 140}"#, r#"{"uri": "quadrants.png"}"#, "");
+    std::fs::write(dir.join("duck.gltf"), json).unwrap();
+    let mut loaded = load(&dir.join("duck.gltf"));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    matte(&mut loaded.model);
+    let image =
+        cpu_render(&scene_of(&loaded.model), RenderSettings { bounces: 0, ..settings(64, 0) });
+    // The quad spans rows and columns 14 to 50; 23 and 41 are its quarters.
+    for (x, y, colour, what) in [
+        (23, 23, [1.0, 0.0, 0.0], "top left red"),
+        (41, 23, [0.0, 1.0, 0.0], "top right green"),
+        (23, 41, [0.0, 0.0, 1.0], "bottom left blue"),
+        (41, 41, [1.0, 1.0, 1.0], "bottom right white"),
+    ] {
+        let p = image.get(x, y);
+        let matches = (0..3).all(|c| (p[c] > 0.5) == (colour[c] > 0.5));
+        assert!(matches, "{what}: pixel ({x}, {y}) is {p:?}");
+    }
+}
+
 #[test]
 fn texture_transforms_and_normalized_texture_coordinates_are_read_in_gltf_space() {
     // Texture coordinates as normalized unsigned bytes: 0 and 255 are 0 and 1.
