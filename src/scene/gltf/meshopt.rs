@@ -37,9 +37,13 @@ pub(super) fn extension(view: &Json) -> Option<&Json> {
 pub(super) struct View<'a> {
     /// The compressed bytes.
     pub source: &'a [u8],
+    /// Bytes per element (`byteStride`).
     pub stride: usize,
+    /// Elements (`count`).
     pub count: usize,
+    /// `ATTRIBUTES`, `TRIANGLES` or `INDICES`.
     pub mode: &'a str,
+    /// `NONE`, `OCTAHEDRAL`, `QUATERNION`, `EXPONENTIAL` or `COLOR`.
     pub filter: &'a str,
 }
 
