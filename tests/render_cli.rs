@@ -463,3 +463,25 @@ fn a_preset_of_several_models_round_trips_through_toml_and_png() {
     let changed = first.pixels().zip(alone.pixels()).filter(|(p, q)| p != q).count();
     assert!(changed > first.len() / 4 / 20, "the objects changed only {changed} pixels");
 }
+
+/// The device opens beside the model's load (`render` overlaps the driver's start-up with
+/// the parse): a device that cannot be opened is still the one error reported, in one
+/// line, whether the model loads or not, and nothing is written.
+#[test]
+fn a_device_that_cannot_open_is_the_one_error_whatever_the_model() {
+    let dir = Scratch::new("nodevice");
+    for model in ["torusknot:2k", "missing.obj"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+            .current_dir(&dir.0)
+            .args(["render", "--device", "99", "--model", model])
+            .args(["--width", "8", "--height", "8", "-o", "x.png"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{model}: {stderr}");
+        let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{model}: expected one line, got:\n{stderr}");
+        assert!(lines[0].contains("device 99"), "{model}: {}", lines[0]);
+        assert!(!dir.join("x.png").exists(), "{model}: x.png was written anyway");
+    }
+}

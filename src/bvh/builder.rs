@@ -13,6 +13,7 @@
 //! (`rayon::join`), each sequential subtree into its own node vector; the pieces are
 //! stitched together in depth-first order at the end, on all threads. Nodes of at least
 //! `PARALLEL_BIN_MIN_PRIMS` are binned and partitioned on all threads (`build/parallel.rs`).
+//! Builds over boxes (a top level) share much smaller pieces of work (`Sharing::BOXES`).
 //! Builds of at least `SAMPLED_TOP_MIN_PRIMS` triangles instead plan those big top nodes on
 //! a sample and scatter the triangles into the buckets below them in one pass
 //! (`build/top.rs`), unless they have large triangles to cut (`build/split.rs`). Nodes of
@@ -105,6 +106,29 @@ const PARALLEL_MIN_PRIMS: usize = 8 * 1024;
 /// where too few subtrees exist to keep the threads busy).
 const PARALLEL_BIN_MIN_PRIMS: usize = 128 * 1024;
 
+/// When a build hands work to other threads: subtrees of at least `fork_min` primitives are
+/// forked, nodes of at least `bin_min` binned and partitioned `chunk` primitives a task.
+#[derive(Clone, Copy)]
+struct Sharing {
+    fork_min: usize,
+    bin_min: usize,
+    chunk: usize,
+}
+
+impl Sharing {
+    /// Triangle builds: millions of primitives, where a task must be big to pay its way.
+    const TRIANGLES: Sharing = Sharing {
+        fork_min: PARALLEL_MIN_PRIMS,
+        bin_min: PARALLEL_BIN_MIN_PRIMS,
+        chunk: parallel::CHUNK,
+    };
+
+    /// Builds over boxes (a top level over instances) are made again whenever instances
+    /// change and should take about a millisecond for 10,000 boxes: they share much sooner
+    /// (a subtree of 256 boxes is still some 100 µs of work, a chunk of 1,024 some 20 µs).
+    const BOXES: Sharing = Sharing { fork_min: 256, bin_min: 4 * 1024, chunk: 1024 };
+}
+
 impl Bvh {
     /// Binned-SAH build over triangles given as corner triples (any order; index i = triangle i).
     pub fn build(triangles: &[[Vec3; 3]], options: &BuildOptions) -> Bvh {
@@ -144,7 +168,7 @@ impl Bvh {
         if count < top::SAMPLED_TOP_MIN_PRIMS || cut_big() {
             let prims = split::split_prims(count, &corners, options.split_budget);
             clock.mark("prim boxes");
-            let bvh = build_from_prims(prims, options, &clock);
+            let bvh = build_from_prims(prims, &Builder::new(options, &clock));
             return (bvh, clock.finish());
         }
         let builder = Builder::new(options, &clock);
@@ -165,7 +189,9 @@ impl Bvh {
                 Prim::new(b.min, b.max, i as u32)
             })
             .collect();
-        build_from_prims(prims, options, &PhaseClock::start())
+        let clock = PhaseClock::start();
+        let builder = Builder { sharing: Sharing::BOXES, ..Builder::new(options, &clock) };
+        build_from_prims(prims, &builder)
     }
 }
 
@@ -213,17 +239,19 @@ struct Split {
 struct Builder<'c> {
     max_leaf: usize,
     bins: usize,
+    sharing: Sharing,
     clock: &'c PhaseClock,
 }
 
-fn build_from_prims(mut prims: Vec<Prim>, options: &BuildOptions, clock: &PhaseClock) -> Bvh {
+fn build_from_prims(mut prims: Vec<Prim>, builder: &Builder) -> Bvh {
+    let clock = builder.clock;
     if prims.is_empty() {
         return Bvh::default();
     }
     let info =
         prims.par_chunks(64 * 1024).map(NodeInfo::of).reduce(|| NodeInfo::EMPTY, NodeInfo::union);
     clock.mark("root bounds");
-    let root = Builder::new(options, clock).build_parallel(&mut prims, 0, info, 1);
+    let root = builder.build_parallel(&mut prims, 0, info, 1);
     clock.mark("tree");
     // The records go before the stitching, which holds the subtrees' nodes and their joined
     // copy at once: 32 bytes a triangle less at the build's peak.
@@ -250,6 +278,7 @@ impl<'c> Builder<'c> {
         Builder {
             max_leaf: options.max_leaf_size.clamp(1, 255) as usize,
             bins: (options.bins as usize).clamp(2, MAX_BINS),
+            sharing: Sharing::TRIANGLES,
             clock,
         }
     }
@@ -298,7 +327,7 @@ impl Builder<'_> {
         info: NodeInfo,
         level: usize,
     ) -> Fragment {
-        if prims.len() < PARALLEL_MIN_PRIMS || prims.len() <= self.max_leaf {
+        if prims.len() < self.sharing.fork_min || prims.len() <= self.max_leaf {
             // At most n - 1 inner nodes: reserved, not touched, and never grown by copying.
             let mut nodes = Vec::with_capacity(prims.len().saturating_sub(1));
             let child = self.clock.subtree(|| {
@@ -357,9 +386,9 @@ impl Builder<'_> {
         let n_bins = self.bins.min(prims.len()); // few primitives need few bins
         let grid = BinGrid::new(&info.centroids, n_bins)?;
 
-        let big = prims.len() >= PARALLEL_BIN_MIN_PRIMS;
+        let big = prims.len() >= self.sharing.bin_min;
         if big {
-            parallel::bin(prims, &grid, n_bins, bins);
+            parallel::bin(prims, &grid, n_bins, bins, self.sharing.chunk);
         } else {
             bins.clear(n_bins);
             bins.add(prims, &grid);
@@ -367,7 +396,11 @@ impl Builder<'_> {
 
         let (axis, plane) = bins.best_plane(&grid, &info.bounds)?;
         let left_of = grid.left_of(axis, plane);
-        let mid = if big { parallel::partition(prims, &left_of) } else { left_of.partition(prims) };
+        let mid = if big {
+            parallel::partition(prims, &left_of, self.sharing.chunk)
+        } else {
+            left_of.partition(prims)
+        };
         // Each side's box is the union of its bins. Its centroids lie in that box and in the
         // node's centroid box: the intersection bounds them (loosely; binning only needs a
         // range that covers them, and tracking them exactly would cost a pass).
@@ -497,6 +530,24 @@ mod tests {
             Ok(())
         );
         assert!(bvh.depth() <= MAX_DEPTH);
+    }
+
+    #[test]
+    fn sharing_work_sooner_builds_the_same_tree() {
+        // 20,000 boxes: the box sharing forks subtrees and bins the top nodes on all
+        // threads, the triangle sharing builds it all on one; the trees must not differ.
+        let boxes: Vec<Aabb> = soup(20_000, 5).iter().map(|t| Aabb::from_points(t)).collect();
+        let o = BuildOptions { max_leaf_size: 1, ..Default::default() };
+        let clock = PhaseClock::start();
+        let prims = || boxes.iter().enumerate().map(|(i, b)| Prim::new(b.min, b.max, i as u32));
+        let build = |sharing| {
+            let builder = Builder { sharing, ..Builder::new(&o, &clock) };
+            build_from_prims(prims().collect(), &builder)
+        };
+        let (shared, alone) = (build(Sharing::BOXES), build(Sharing::TRIANGLES));
+        assert_eq!(shared.prim_indices, alone.prim_indices);
+        assert_eq!(shared.nodes, alone.nodes);
+        assert_eq!(shared.validate_boxes(&boxes, &o), Ok(()));
     }
 
     #[test]

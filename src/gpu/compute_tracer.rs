@@ -20,8 +20,9 @@ use super::lock::lock;
 use super::scene_buffers::SceneBuffers;
 use super::tile_order::TileRect;
 use super::timer::GpuTimer;
+use super::trace_kernels;
 use super::trace_pass::{Kernel, TraceOutput, TracePass};
-use crate::render_settings::{Accel, BvhLayout};
+use crate::render_settings::{Accel, BvhLayout, RenderSettings};
 use crate::tracer::budget;
 use crate::tracer::frame::FrameParams;
 use crate::tracer::image::Image;
@@ -231,18 +232,18 @@ impl ComputeTracer {
         self.pass.kernel()
     }
 
-    /// The headless slot's tile costs (from its last frame) and order (for its next one).
-    #[cfg(test)]
-    pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
-        let out = self.output.as_ref().expect("a frame was traced");
-        let mut tiles = lock(&out.tiles);
-        (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
-    }
-
     /// Start making the trace kernels that the first frame needing one would otherwise wait
     /// for (the window: a CPU device's compiler takes seconds over one).
     pub(crate) fn prepare_kernels_in_background(&self) {
         self.pass.prepare_kernels_in_background();
+    }
+
+    /// Make now the kernel that frames of `settings` run, where it is one made on first
+    /// use: `render` does this beside the BVH build, so its frame does not wait for it.
+    pub(crate) fn make_kernel_for(&self, settings: &RenderSettings) {
+        if let Some(variant) = trace_kernels::made_on_first_use(settings) {
+            self.pass.make_kernel_now(variant);
+        }
     }
 
     /// Whether every trace kernel a frame may need is made, so that none waits for one.

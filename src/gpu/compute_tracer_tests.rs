@@ -10,6 +10,15 @@ use crate::scene::spec::SceneSpec;
 use crate::scene::Scene;
 use crate::tracer::packed::Layouts;
 
+impl ComputeTracer {
+    /// The headless slot's tile costs (from its last frame) and order (for its next one).
+    pub(crate) fn headless_tiles(&self) -> (Vec<u32>, Vec<u32>) {
+        let out = self.output.as_ref().expect("a frame was traced");
+        let mut tiles = lock(&out.tiles);
+        (tiles.costs(self.recorded_slots), tiles.slot_order(self.recorded_slots))
+    }
+}
+
 /// A validated context and the paper's torus knot in its mirror box.
 fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
     let ctx =

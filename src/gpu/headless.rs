@@ -5,6 +5,7 @@
 use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Instant;
 
 use anyhow::bail;
 
@@ -40,6 +41,7 @@ pub(crate) fn output_format(path: &Path) -> anyhow::Result<OutputFormat> {
 }
 
 /// Trace `spec` on `on` and write it to `output` in `format`, printing what was written.
+/// `RUST_LOG=debug` logs when each step ended, in seconds from the start.
 pub(crate) fn render_to_file(
     spec: &SceneSpec,
     output: &Path,
@@ -48,10 +50,21 @@ pub(crate) fn render_to_file(
 ) -> anyhow::Result<()> {
     let heat_map_image = heat_map_wanted(format, spec.settings.aov)?;
     spec.validate().map_err(anyhow::Error::msg)?;
-    // The device first: a model too big for it is refused before its BVH is built (issue
-    // #43: `torusknot:4M` on lavapipe failed only after a 10 s build and 1 GB).
-    let ctx = if on.cpu { None } else { Some(open_context(on.device, on.validation)?) };
-    let (scene, packed) = load(spec, ctx.as_ref().map(|c| c.info.max_storage_buffer_range))?;
+    let clock = Instant::now();
+    let (scene, image, how) = if on.cpu {
+        let (scene, packed) = load(spec, None, clock)?;
+        let params = FrameParams::new(&scene, spec.settings);
+        let (image, how) = trace_on_cpu(&packed, &params, spec.accumulate);
+        (scene, image, how)
+    } else {
+        let (ctx, mut tracer, scene, packed) = load_beside_device(spec, on, clock)?;
+        let params = FrameParams::new(&scene, spec.settings);
+        tracer.set_scene(&packed)?;
+        log::debug!("{:.3} s: uploaded", clock.elapsed().as_secs_f64());
+        let (image, how) = trace_on_gpu(&ctx, &mut tracer, &params, spec.accumulate)?;
+        (scene, image, how)
+    };
+    log::debug!("{:.3} s: traced", clock.elapsed().as_secs_f64());
     // A file's camera is written into the image's preset as the numbers it traced with.
     let resolved;
     let spec = if spec.file_camera.is_some() {
@@ -60,15 +73,50 @@ pub(crate) fn render_to_file(
     } else {
         spec
     };
-    let params = FrameParams::new(&scene, spec.settings);
-    let (image, how) = match &ctx {
-        None => trace_on_cpu(&packed, &params, spec.accumulate),
-        Some(ctx) => trace_on_gpu(ctx, &packed, &params, spec.accumulate, on)?,
-    };
     let preset_text = spec.to_preset_text();
     write_image(&image, spec, heat_map_image, (output, format), &preset_text)?;
     println!("{}", summary(spec, &scene, output, &how));
+    log::debug!("{:.3} s: written", clock.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// The device opened, the tracer made (its kernels compiled) and the scene loaded and
+/// packed, the two sides at once: the driver's start-up and compiler run beside the parse
+/// and the BVH build. The device is still known before the build, so that a model too big
+/// for it is refused first (issue #43: `torusknot:4M` on lavapipe failed only after a 10 s
+/// build and 1 GB); a device that cannot be opened is the error reported.
+fn load_beside_device(
+    spec: &SceneSpec,
+    on: &TraceOn,
+    clock: Instant,
+) -> anyhow::Result<(Arc<GpuContext>, ComputeTracer, Scene, PackedScene)> {
+    std::thread::scope(|s| {
+        let (ctx_tx, ctx_rx) = std::sync::mpsc::channel();
+        let device = s.spawn(move || -> anyhow::Result<ComputeTracer> {
+            let ctx = open_context(on.device, on.validation)?;
+            log::debug!("{:.3} s: device opened", clock.elapsed().as_secs_f64());
+            let _ = ctx_tx.send(ctx.clone());
+            let mut tracer = ComputeTracer::new(&ctx, 0)?;
+            if let Some(kernel) = on.vendor_kernel {
+                tracer.set_vendor_kernel(kernel)?;
+            }
+            tracer.make_kernel_for(&spec.settings);
+            log::debug!("{:.3} s: kernels made", clock.elapsed().as_secs_f64());
+            Ok(tracer)
+        });
+        let loaded = load_scene(spec, clock);
+        let device_failed = |device: std::thread::ScopedJoinHandle<'_, _>| match device.join() {
+            Ok(Err(e)) => e,
+            Ok(Ok(_)) => anyhow::anyhow!("the device thread ended without its device"),
+            Err(_) => anyhow::anyhow!("the device thread panicked"),
+        };
+        let Ok(ctx) = ctx_rx.recv() else { return Err(device_failed(device)) };
+        let (scene, warnings) = loaded?;
+        let limit = ctx.info.max_storage_buffer_range;
+        let packed = pack(spec, &scene, &warnings, Some(limit), clock)?;
+        let tracer = device.join().map_err(|_| anyhow::anyhow!("the device thread panicked"))??;
+        Ok((ctx, tracer, scene, packed))
+    })
 }
 
 /// Whether the AOV goes out as a heat map; an error where `format` cannot hold it. Colour
@@ -84,36 +132,63 @@ fn heat_map_wanted(format: OutputFormat, aov: Aov) -> anyhow::Result<bool> {
     Ok(heat_map_image)
 }
 
-/// Load the spec's scene and pack it for its layout, logging the warnings. Progress on a
-/// terminal's stderr: big meshes take seconds to load and to build their BVH; scripts
-/// reading stderr get only warnings and the one-line error. With `limit` (the device's
-/// storage-buffer range) a model whose triangles cannot fit is refused before the build.
-fn load(spec: &SceneSpec, limit: Option<u64>) -> anyhow::Result<(Scene, PackedScene)> {
-    let progress = std::io::stderr().is_terminal();
-    let started = std::time::Instant::now();
-    if progress {
+/// Load the spec's scene and pack it for its layout ([`load_scene`], [`pack`]).
+fn load(
+    spec: &SceneSpec,
+    limit: Option<u64>,
+    clock: Instant,
+) -> anyhow::Result<(Scene, PackedScene)> {
+    let (scene, warnings) = load_scene(spec, clock)?;
+    let packed = pack(spec, &scene, &warnings, limit, clock)?;
+    Ok((scene, packed))
+}
+
+/// Whether progress goes to stderr: on a terminal, where big meshes take seconds to load
+/// and to build their BVH; scripts reading stderr get only warnings and the one-line error.
+fn shows_progress() -> bool {
+    std::io::stderr().is_terminal()
+}
+
+/// Load the spec's scene, with its warnings.
+fn load_scene(spec: &SceneSpec, clock: Instant) -> anyhow::Result<(Scene, Vec<String>)> {
+    if shows_progress() {
         eprintln!("loading {} ...", spec.model.label());
     }
-    let (scene, warnings) = spec.load()?;
+    let loaded = spec.load()?;
+    log::debug!("{:.3} s: scene loaded", clock.elapsed().as_secs_f64());
+    Ok(loaded)
+}
+
+/// Pack `scene` for the spec's layout, logging its load's `warnings` and the packing's.
+/// With `limit` (the device's storage-buffer range) a model whose triangles cannot fit is
+/// refused before the build.
+fn pack(
+    spec: &SceneSpec,
+    scene: &Scene,
+    warnings: &[String],
+    limit: Option<u64>,
+    clock: Instant,
+) -> anyhow::Result<PackedScene> {
     if let Some(limit) = limit {
-        super::scene_buffers::check_before_build(&scene, &spec.model.label(), limit)
+        super::scene_buffers::check_before_build(scene, &spec.model.label(), limit)
             .map_err(anyhow::Error::msg)?;
     }
-    if progress {
+    if shows_progress() {
         eprintln!(
             "loaded {} triangles in {:.2} s; building the BVH ...",
             scene.triangle_count(),
-            started.elapsed().as_secs_f64()
+            clock.elapsed().as_secs_f64()
         );
     }
-    let packed = PackedScene::with_layouts(&scene, Layouts::only(spec.settings.bvh));
-    if progress {
+    let packed = PackedScene::with_layouts(scene, Layouts::only(spec.settings.bvh));
+    if shows_progress() {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }
+    log::debug!("{:.3} s: packed", clock.elapsed().as_secs_f64());
     for w in warnings.iter().chain(&packed.warnings) {
         log::warn!("{w}");
     }
-    Ok((scene, packed))
+    Ok(packed)
 }
 
 /// The frame on the CPU reference tracer, `accumulate` frames averaged; and how it went.
@@ -130,15 +205,10 @@ fn trace_on_cpu(packed: &PackedScene, params: &FrameParams, accumulate: u32) -> 
 /// trace time and the clock it was taken at).
 fn trace_on_gpu(
     ctx: &Arc<GpuContext>,
-    packed: &PackedScene,
+    tracer: &mut ComputeTracer,
     params: &FrameParams,
     accumulate: u32,
-    on: &TraceOn,
 ) -> anyhow::Result<(Image, String)> {
-    let mut tracer = ComputeTracer::with_scene(ctx, packed)?;
-    if let Some(kernel) = on.vendor_kernel {
-        tracer.set_vendor_kernel(kernel)?;
-    }
     let accel = params.settings.accel;
     if tracer.kernel().orders_tiles() && accel != Accel::Vendor {
         // A first frame records what each tile costs, so that the frame kept (and timed)

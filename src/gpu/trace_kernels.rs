@@ -17,6 +17,7 @@ use super::lock::lock;
 use super::pipeline::create_compute_pipeline;
 use super::pipeline::words;
 use crate::contract;
+use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use crate::tracer::frame::PushConstants;
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
@@ -72,6 +73,17 @@ pub(crate) fn variant(pc: &PushConstants, every_mesh_wide: bool) -> Variant {
         Variant::Full
     } else {
         Variant::Core
+    }
+}
+
+/// The kernel frames of `settings` run where it is one made on first use (wide or leaf
+/// runs; a wide frame over a mesh without a wide tree runs the full kernel instead).
+pub(crate) fn made_on_first_use(settings: &RenderSettings) -> Option<Variant> {
+    let wide = settings.accel == Accel::Bvh && settings.bvh.is_wide();
+    match settings.bvh {
+        BvhLayout::WideRuns if wide => Some(Variant::Runs),
+        _ if wide && settings.aov != Aov::Ao => Some(Variant::Wide),
+        _ => None,
     }
 }
 
@@ -133,6 +145,24 @@ impl KernelVariants {
             }),
         };
         made.unwrap_or(full)
+    }
+
+    /// Make the kernel of `v` now if it is one made on first use (wide or leaf runs), so
+    /// that a caller with other work to overlap can pay for the driver's compiler early.
+    pub(crate) fn make_now(&self, v: Variant) {
+        match v {
+            Variant::Full | Variant::Core => {}
+            Variant::Wide => {
+                self.wide.get_or_init(|| {
+                    make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")
+                });
+            }
+            Variant::Runs => {
+                self.runs.get_or_init(|| {
+                    make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")
+                });
+            }
+        }
     }
 
     /// Start making the wide and leaf-runs kernels on threads of their own, so that the

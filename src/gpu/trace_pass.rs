@@ -20,9 +20,7 @@ use super::pipeline::{self, allocate_one_set, create_layout, destroy_pipeline_ob
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
-#[cfg(test)]
-use super::trace_kernels::Variant;
-use super::trace_kernels::{create_pipeline, KernelVariants, TRACE_ROWS_SPV, TRACE_SPV};
+use super::trace_kernels::{create_pipeline, KernelVariants, Variant, TRACE_ROWS_SPV, TRACE_SPV};
 use crate::contract::{TLAS_BINDING, VENDOR_SLOTS_BINDING};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
@@ -502,6 +500,14 @@ impl TracePass {
     pub(crate) fn prepare_kernels_in_background(&self) {
         if let Some(variants) = &self.variants {
             variants.prepare_in_background();
+        }
+    }
+
+    /// Make the kernel of `v` now rather than at the first frame that runs it
+    /// (`KernelVariants::make_now`).
+    pub(crate) fn make_kernel_now(&self, v: Variant) {
+        if let Some(variants) = &self.variants {
+            variants.make_now(v);
         }
     }
 

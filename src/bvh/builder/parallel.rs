@@ -11,13 +11,13 @@ use super::bins::{BinGrid, BinSet, LeftOf};
 use super::prim::{Bounds, ChildRef, Prim};
 use crate::bvh::{BvhNode, EMPTY};
 
-/// Primitives per task when binning or partitioning a big node.
-const CHUNK: usize = 32 * 1024;
+/// Primitives per task when binning or partitioning a big node of triangles.
+pub(super) const CHUNK: usize = 32 * 1024;
 
-/// Bins `prims` on all threads (chunk by chunk, then merged) into `bins`.
-pub(super) fn bin(prims: &[Prim], grid: &BinGrid, n_bins: usize, bins: &mut BinSet) {
+/// Bins `prims` on all threads (`chunk` at a time, then merged) into `bins`.
+pub(super) fn bin(prims: &[Prim], grid: &BinGrid, n_bins: usize, bins: &mut BinSet, chunk: usize) {
     let reduced = prims
-        .par_chunks(CHUNK)
+        .par_chunks(chunk)
         .map(|chunk| {
             let mut b = BinSet::boxed();
             b.add(chunk, grid);
@@ -30,21 +30,20 @@ pub(super) fn bin(prims: &[Prim], grid: &BinGrid, n_bins: usize, bins: &mut BinS
     bins.copy_from(&reduced);
 }
 
-/// Moves the primitives that pass `left_of` to the front, in place and on all threads, and
-/// returns how many there are.
+/// Moves the primitives that pass `left_of` to the front, in place and on all threads
+/// (`chunk` at a time), and returns how many there are.
 ///
 /// First each chunk partitions itself (as the sequential `partition` does); then the right
 /// primitives that lie in the left part overall and the left ones in the right part, which
 /// in each chunk form at most one run, are swapped pairwise, run by run.
-pub(super) fn partition(prims: &mut [Prim], left_of: &LeftOf) -> usize {
-    let lefts: Vec<usize> =
-        prims.par_chunks_mut(CHUNK).map(|chunk| left_of.partition(chunk)).collect();
+pub(super) fn partition(prims: &mut [Prim], left_of: &LeftOf, chunk: usize) -> usize {
+    let lefts: Vec<usize> = prims.par_chunks_mut(chunk).map(|c| left_of.partition(c)).collect();
     let total_left: usize = lefts.iter().sum();
 
     // The misplaced runs, in order: right primitives before `total_left`, left ones after.
     let (mut wrong_right, mut wrong_left) = (Vec::new(), Vec::new());
     for (i, &left) in lefts.iter().enumerate() {
-        let (start, end) = (i * CHUNK, ((i + 1) * CHUNK).min(prims.len()));
+        let (start, end) = (i * chunk, ((i + 1) * chunk).min(prims.len()));
         let mid = start + left;
         if mid < end.min(total_left) {
             wrong_right.push(mid..end.min(total_left));
@@ -203,7 +202,7 @@ mod tests {
                 let (mut seq, mut par) = (prims.clone(), prims.clone());
                 let left_of = grid.left_of(0, plane);
                 let mid = left_of.partition(&mut seq);
-                assert_eq!(partition(&mut par, &left_of), mid, "plane {plane}");
+                assert_eq!(partition(&mut par, &left_of, CHUNK), mid, "plane {plane}");
                 let left_set = |p: &[Prim]| {
                     let mut left: Vec<u32> = p[..mid].iter().map(|p| p.index).collect();
                     left.sort_unstable();
