@@ -310,6 +310,10 @@ pub struct RenderArgs {
     /// does (a screenshot taken after accumulating carries its N) [default: 1, or the preset's].
     #[arg(long, value_name = "N", value_parser = ranged(knobs::ACCUMULATE), allow_negative_numbers = true)]
     pub(crate) accumulate: Option<u32>,
+    /// Look through the model file's camera N (1: the first of a glTF file's perspective
+    /// cameras), fitted with the model; --eye, --target and --fov still apply over it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) file_camera: Option<u32>,
 }
 
 impl RenderArgs {
@@ -322,6 +326,14 @@ impl RenderArgs {
         let (mut spec, warnings) = self.scene.resolve(self.aov, self.scene.given("aov"))?;
         if let Some(n) = self.accumulate {
             spec.accumulate = n;
+        }
+        if let Some(n) = self.file_camera {
+            // Over a preset, the file's camera replaces the preset's view.
+            let s = &self.scene;
+            spec.file_camera = Some(n);
+            spec.camera.eye = s.eye.filter(|_| s.given("eye"));
+            spec.camera.target = s.target.filter(|_| s.given("target"));
+            spec.camera.fov = s.fov.filter(|_| s.given("fov"));
         }
         Ok((spec, warnings))
     }

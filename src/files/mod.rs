@@ -1,7 +1,8 @@
 //! The one place a file is read or written (`tests/architecture.rs` holds the rest of
 //! `src/` to it). A file a user gives us is checked to be a regular file before it is
-//! opened, since a FIFO or a device could block or never end: models, MTL libraries and
-//! glTF buffers are read whole ([`read_regular_file`], a large model in parallel parts with
+//! opened, since a FIFO or a device could block or never end: models and MTL libraries are
+//! read whole ([`read_regular_file`]; glTF buffers to their declared length with
+//! [`read_regular_prefix`]; a large model in parallel parts with
 //! [`read_regular_file_parallel`]), presets with a bound ([`read_capped`]), textures and
 //! environment maps through [`read_image`]. Every file we write whole goes through
 //! [`write_atomic`], so that a failed write never leaves a half-written file or costs the
@@ -59,14 +60,22 @@ pub(crate) fn read_capped(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>, 
 /// The bytes of a regular file. Devices and pipes are refused before they are opened:
 /// `/dev/zero` would never end, and opening a FIFO waits for a writer.
 pub(crate) fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    read_regular_prefix(path, u64::MAX)
+}
+
+/// The first `len` bytes of a regular file (all of it when shorter), refused as
+/// [`read_regular_file`] refuses: a glTF buffer, whose declared length bounds what is read
+/// and allocated, however large the file it names (or claims) is.
+pub(crate) fn read_regular_prefix(path: &Path, len: u64) -> std::io::Result<Vec<u8>> {
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         let what = if meta.is_dir() { "a directory" } else { "not a regular file" };
         return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("it is {what}")));
     }
-    let mut file = std::fs::File::open(path)?;
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0).saturating_add(1));
-    file.read_to_end(&mut bytes)?;
+    let file = std::fs::File::open(path)?;
+    let expected = usize::try_from(meta.len().min(len)).unwrap_or(0);
+    let mut bytes = Vec::with_capacity(expected.saturating_add(1));
+    file.take(len).read_to_end(&mut bytes)?;
     Ok(bytes)
 }
 

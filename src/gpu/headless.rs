@@ -65,6 +65,14 @@ pub(crate) fn render_to_file(
         (scene, image, how)
     };
     log::debug!("{:.3} s: traced", clock.elapsed().as_secs_f64());
+    // A file's camera is written into the image's preset as the numbers it traced with.
+    let resolved;
+    let spec = if spec.file_camera.is_some() {
+        resolved = spec.with_camera(scene.camera);
+        &resolved
+    } else {
+        spec
+    };
     let preset_text = spec.to_preset_text();
     write_image(&image, spec, heat_map_image, (output, format), &preset_text)?;
     println!("{}", summary(spec, &scene, output, &how));

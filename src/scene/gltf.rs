@@ -10,7 +10,8 @@
 //! held to their declared length) and every accessor's range inside its buffer view and
 //! buffer, before a value is read. So a broken file is one line naming it, never a panic or
 //! an allocation the file cannot back, and a file is refused only for what breaks its
-//! geometry (or a required extension we do not read, named).
+//! geometry (or a required extension we do not read, named). Compressed geometry (Draco
+//! primitives, meshopt buffer views) is decoded where it is read (`draco`, `meshopt`).
 
 use std::path::Path;
 
@@ -18,16 +19,24 @@ use serde_json::Value as Json;
 
 use super::obj::ObjError;
 use super::Model;
-use crate::files::{io_reason, read_regular_file};
+use crate::files::{io_reason, read_regular_prefix};
 use doc::Doc;
 
 mod doc;
+mod draco;
 mod material;
 mod mesh;
+mod meshopt;
 
 /// The extensions a file may require that we read; any other required one refuses the file,
 /// naming it.
-const SUPPORTED_REQUIRED: [&str; 2] = ["KHR_mesh_quantization", "KHR_texture_transform"];
+const SUPPORTED_REQUIRED: [&str; 5] = [
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
 
 /// A glTF file as loaded: its model (meshes stored once, a part per node) and the loader's
 /// warnings (skipped primitives, textures that cannot be read...).
@@ -168,7 +177,9 @@ fn read_buffer(
             let path = dir.join(percent_decode(uri));
             let shown =
                 crate::files::shown(&path.display().to_string(), crate::files::MAX_QUOTED_NAME);
-            read_regular_file(&path)
+            // Only the declared length is read: a larger file (or a link to one) costs no
+            // more, and a FIFO or device is refused before it is opened.
+            read_regular_prefix(&path, length as u64)
                 .map_err(|e| format!("cannot read its buffer {shown}: {}", io_reason(&e)))?
         }
     };

@@ -278,11 +278,18 @@ pub struct Model {
     pub meshes: Vec<Mesh>,
     /// Placements in the model's frame; each `mesh` indexes `meshes`.
     pub parts: Vec<Instance>,
+    /// Viewpoints the file defines (a glTF file's cameras), in the model's frame: fitted
+    /// with it by `paper::prepare_model`, offered by `SceneSpec::file_camera`.
+    pub cameras: Vec<Camera>,
 }
 
 impl From<Mesh> for Model {
     fn from(mesh: Mesh) -> Self {
-        Model { meshes: vec![mesh], parts: vec![Instance::placed(0, Vec3::ZERO, 1.0)] }
+        Model {
+            meshes: vec![mesh],
+            parts: vec![Instance::placed(0, Vec3::ZERO, 1.0)],
+            cameras: Vec::new(),
+        }
     }
 }
 

@@ -105,10 +105,30 @@ pub(crate) fn mirror_material() -> Material {
     }
 }
 
+/// The model's cameras moved and scaled as [`prepare_model`] fits the model (the box's
+/// centre to the origin, its largest half-extent to [`MODEL_RADIUS`]), each looking at the
+/// point of its view line nearest the model's centre (where the window orbits).
+fn fit_cameras(model: &mut Model) {
+    let b = model.bounds();
+    if model.cameras.is_empty() || b.is_empty() {
+        return;
+    }
+    let half = (b.max - b.min).max_element() * 0.5;
+    let s = if half > 0.0 { MODEL_RADIUS / half } else { 1.0 };
+    let centre = (b.min + b.max) * 0.5;
+    for camera in &mut model.cameras {
+        let forward = (camera.target - camera.position).normalize_or_zero();
+        camera.position = (camera.position - centre) * s;
+        let along = (-camera.position).dot(forward).max(0.1 * MODEL_RADIUS);
+        camera.target = camera.position + forward * along;
+    }
+}
+
 /// Normalise size (the model's box centred, its largest half-extent [`MODEL_RADIUS`]) and
 /// give materials that are only defaults the model look. A one-mesh model's vertices are
 /// moved; a model of parts keeps its meshes and has its parts' transforms adjusted.
 pub fn prepare_model(model: &mut Model) {
+    fit_cameras(model);
     if model.is_single_mesh() {
         model.meshes[0].normalize_to(MODEL_RADIUS);
     } else {

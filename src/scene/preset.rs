@@ -251,6 +251,8 @@ impl File {
                 fov: Some(camera.fov),
                 framed: false,
             },
+            // A preset holds the camera as numbers, never the file's camera it came from.
+            file_camera: None,
             environment: shading.environment,
             settings: RenderSettings {
                 width: image.width,

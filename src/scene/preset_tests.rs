@@ -31,6 +31,7 @@ fn rich_spec() -> SceneSpec {
             fov: Some(37.5),
             framed: false,
         },
+        file_camera: None,
         environment: Some(EnvironmentSource::File("skies/noon.hdr".into())),
         settings: RenderSettings {
             width: 640,

@@ -117,6 +117,9 @@ pub struct SceneSpec {
     /// The light's orbit and position on it.
     pub light: LightOrbit,
     pub camera: CameraSpec,
+    /// Look through the model file's camera N (1: the first of a glTF file's cameras in
+    /// its scene), `camera`'s overrides applied over it; None: the opening view.
+    pub file_camera: Option<u32>,
     /// What misses see: None (black, the paper), the generated sky, or a file.
     pub environment: Option<EnvironmentSource>,
     /// Resolution, bounces, blend, acceleration, shading features, AOV.
@@ -138,6 +141,7 @@ impl Default for SceneSpec {
             mirror_box: true,
             light: LightOrbit::default(),
             camera: CameraSpec::default(),
+            file_camera: None,
             environment: None,
             settings: RenderSettings::default(),
             accumulate: 1,
@@ -182,6 +186,31 @@ impl SceneSpec {
         self.camera.apply(home)
     }
 
+    /// The camera for the loaded, prepared `model`: the file camera the spec picks, with
+    /// the overrides applied, if the model has it; else [`SceneSpec::camera`].
+    pub fn camera_for(&self, model: &Model) -> Camera {
+        let picked = self.file_camera.and_then(|n| model.cameras.get((n as usize).checked_sub(1)?));
+        match picked {
+            Some(camera) => self.camera.apply(*camera),
+            None => self.camera(),
+        }
+    }
+
+    /// The spec with its camera written out as the scene traced it (`camera`) instead of
+    /// as a file camera: what a preset records, since it holds no model.
+    pub fn with_camera(&self, camera: Camera) -> SceneSpec {
+        SceneSpec {
+            camera: CameraSpec {
+                eye: Some(camera.position),
+                target: Some(camera.target),
+                fov: Some(camera.vfov_deg),
+                framed: false,
+            },
+            file_camera: None,
+            ..self.clone()
+        }
+    }
+
     /// Read the environment file now, so a bad one fails before any other work.
     pub(crate) fn check_environment(&self) -> anyhow::Result<()> {
         if let Some(EnvironmentSource::File(p)) = &self.environment {
@@ -224,12 +253,13 @@ impl SceneSpec {
                     .then(|| (which, object.placement.transform()))
             })
             .collect();
+        let camera = self.camera_for(&model);
         let mut scene =
             assembled_scene(model, others, &objects, self.models, self.scatter, self.light);
         if !self.mirror_box {
             scene.remove_box();
         }
-        scene.camera = self.camera();
+        scene.camera = camera;
         scene.environment = self.environment.clone();
         scene
     }
@@ -258,6 +288,15 @@ impl SceneSpec {
         self.validate().map_err(anyhow::Error::msg)?;
         self.check_environment()?;
         let (model, others, warnings) = self.load_models(None)?;
+        if let Some(n) = self.file_camera {
+            let count = model.cameras.len();
+            if n == 0 || n as usize > count {
+                anyhow::bail!(
+                    "file camera {n}: {} has {count} cameras (a glTF file's perspective cameras in its scene, numbered from 1)",
+                    self.model.label()
+                );
+            }
+        }
         Ok((self.scene_of(model, &others), warnings))
     }
 }

@@ -3,7 +3,11 @@
 //! accessors are read with all the spec allows (no buffer view: zeros; sparse substitutions;
 //! normalized and, for `KHR_mesh_quantization`, plain integer components).
 
+use std::cell::OnceCell;
+
 use serde_json::Value as Json;
+
+use super::meshopt;
 
 /// The most elements an accessor without a buffer view may have: its zeros are allocated
 /// with nothing in the file to back them, so a few bytes of JSON could ask for gigabytes.
@@ -11,10 +15,27 @@ use serde_json::Value as Json;
 /// what such files hold.
 const MAX_ZERO_ELEMENTS: usize = 1 << 24;
 
+/// A primitive's vertices as read (from accessors or Draco), before they join its mesh.
+pub(super) struct Vertices {
+    /// x, y, z per vertex.
+    pub positions: Vec<f32>,
+    /// x, y, z per vertex, if the primitive has them.
+    pub normals: Option<Vec<f32>>,
+    /// u, v per vertex in glTF's texture space (origin top-left).
+    pub texcoords: Option<Vec<f32>>,
+    /// RGB or RGBA in [0, 1] per vertex, and which (3 or 4).
+    pub colors: Option<(Vec<f32>, usize)>,
+    /// The vertex indices in the primitive's mode's order.
+    pub indices: Vec<u32>,
+}
+
 /// The document and its buffers' bytes (or why each cannot be read).
 pub(super) struct Doc<'a> {
     pub root: &'a Json,
     buffers: &'a [Result<Vec<u8>, String>],
+    /// Each buffer view's bytes as decompressed (`EXT_meshopt_compression`), decoded when
+    /// first read, so views nothing reads (animations, other scenes) cost nothing.
+    decoded: Vec<OnceCell<Result<meshopt::Decoded, String>>>,
 }
 
 /// A JSON number as a non-negative integer: `1.0` is 1, as JSON does not tell them apart.
@@ -152,7 +173,8 @@ struct Sparse {
 impl<'a> Doc<'a> {
     /// The document `root` over its buffers.
     pub fn new(root: &'a Json, buffers: &'a [Result<Vec<u8>, String>]) -> Self {
-        Doc { root, buffers }
+        let decoded = array(root, "bufferViews").iter().map(|_| OnceCell::new()).collect();
+        Doc { root, buffers, decoded }
     }
 
     /// Accessor `index`, its properties checked (not yet its bytes).
@@ -215,8 +237,9 @@ impl<'a> Doc<'a> {
         })
     }
 
-    /// The bytes of buffer view `view` and its byte stride, checked to lie in its buffer.
-    fn view_bytes(&self, view: usize, at: &str) -> Result<(&'a [u8], Option<usize>), String> {
+    /// The bytes of buffer view `view` (decompressed if it is) and its byte stride, checked
+    /// to lie in its buffer.
+    fn view_bytes(&self, view: usize, at: &str) -> Result<(&[u8], Option<usize>), String> {
         let v = array(self.root, "bufferViews").get(view).ok_or_else(|| {
             format!(
                 "{at} uses buffer view {view}, but the file has {}",
@@ -224,7 +247,46 @@ impl<'a> Doc<'a> {
             )
         })?;
         let what = format!("buffer view {view}");
+        let stride = uint(v, "byteStride", &what)?;
+        if let Some(ext) = meshopt::extension(v) {
+            let decoded = self.decoded[view]
+                .get_or_init(|| self.meshopt_view(ext, &what))
+                .as_ref()
+                .map_err(Clone::clone)?;
+            return Ok((decoded.bytes(), stride));
+        }
         let buffer = uint(v, "buffer", &what)?.ok_or(format!("{what} has no buffer"))?;
+        let offset = uint(v, "byteOffset", &what)?.unwrap_or(0);
+        let length = uint(v, "byteLength", &what)?.unwrap_or(0);
+        Ok((self.buffer_range(buffer, offset, length, &what)?, stride))
+    }
+
+    /// The bytes of a meshopt-compressed buffer view (`ext` its extension object, `what`
+    /// names the view), decoded.
+    fn meshopt_view(&self, ext: &Json, what: &str) -> Result<meshopt::Decoded, String> {
+        let need =
+            |key: &str| uint(ext, key, what)?.ok_or(format!("{what}: meshopt `{key}` missing"));
+        let (buffer, length) = (need("buffer")?, need("byteLength")?);
+        let offset = uint(ext, "byteOffset", what)?.unwrap_or(0);
+        let view = meshopt::View {
+            source: self.buffer_range(buffer, offset, length, what)?,
+            stride: need("byteStride")?,
+            count: need("count")?,
+            mode: ext.get("mode").and_then(Json::as_str).unwrap_or(""),
+            filter: ext.get("filter").and_then(Json::as_str).unwrap_or("NONE"),
+        };
+        meshopt::decode(view, what)
+    }
+
+    /// `length` bytes from `offset` of buffer `buffer`, checked to lie in it; `what` (a buffer
+    /// view) names the range in messages.
+    pub fn buffer_range(
+        &self,
+        buffer: usize,
+        offset: usize,
+        length: usize,
+        what: &str,
+    ) -> Result<&'a [u8], String> {
         let data = match self.buffers.get(buffer) {
             Some(Ok(data)) => data,
             Some(Err(e)) => return Err(e.clone()),
@@ -235,18 +297,15 @@ impl<'a> Doc<'a> {
                 ))
             }
         };
-        let offset = uint(v, "byteOffset", &what)?.unwrap_or(0);
-        let length = uint(v, "byteLength", &what)?.unwrap_or(0);
-        let bytes = offset
+        offset
             .checked_add(length)
             .filter(|&e| e <= data.len())
             .map(|e| &data[offset..e])
-            .ok_or(format!("{what} runs past the end of buffer {buffer}"))?;
-        Ok((bytes, uint(v, "byteStride", &what)?))
+            .ok_or(format!("{what} runs past the end of buffer {buffer}"))
     }
 
-    /// The bytes of buffer view `view` (an image's), checked to lie in its buffer.
-    pub fn buffer_view(&self, view: usize, at: &str) -> Result<&'a [u8], String> {
+    /// The bytes of buffer view `view` (an image's or Draco's), checked to lie in its buffer.
+    pub fn buffer_view(&self, view: usize, at: &str) -> Result<&[u8], String> {
         self.view_bytes(view, at).map(|(bytes, _)| bytes)
     }
 
@@ -260,7 +319,7 @@ impl<'a> Doc<'a> {
         elem: usize,
         packed: bool,
         at: &str,
-    ) -> Result<(&'a [u8], usize), String> {
+    ) -> Result<(&[u8], usize), String> {
         let (bytes, stride) = self.view_bytes(view, at)?;
         let stride = if packed { elem } else { stride.unwrap_or(elem) };
         if stride < elem {

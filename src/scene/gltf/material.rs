@@ -60,6 +60,14 @@ pub(super) fn convert_material(
         number(pbr, key).filter(|v| v.is_finite()).map_or(1.0, |v| v.clamp(0.0, 1.0) as f32)
     };
     let (metal, roughness) = (unit("metallicFactor"), unit("roughnessFactor"));
+    // Cut-outs and transparency would cost the traversal a texture read per candidate hit.
+    let alpha_mode = m.get("alphaMode").and_then(Json::as_str).unwrap_or("OPAQUE");
+    if alpha_mode != "OPAQUE" {
+        warnings.push(format!(
+            "{name}: {label} has alpha mode {}, which is not read: it is drawn opaque",
+            crate::files::shown(alpha_mode, 20)
+        ));
+    }
     let alpha = roughness.max(0.01).powi(2);
     let mut out = Converted {
         material: Material {
@@ -159,10 +167,17 @@ impl Texture<'_> {
                 .base_dir
                 .ok_or(format!("is the file `{shown}`, which cannot be read here (no folder)"))?;
             let path = dir.join(percent_decode(uri));
-            return if path.is_file() {
-                Ok(TextureSource::File(path))
-            } else {
-                Err(format!("is the file `{shown}`, which is not found"))
+            // A FIFO or device is refused here, by name, as well as when the image is read.
+            return match crate::files::regular_file_size(&path, "the image") {
+                Ok(_) => Ok(TextureSource::File(path)),
+                // The reason after the path: "no such file or directory", "not a regular
+                // file" (a FIFO or device, never opened)...
+                Err(e) => match e.rsplit(": ").next().unwrap_or_default() {
+                    "no such file or directory" => {
+                        Err(format!("is the file `{shown}`, which is not found"))
+                    }
+                    why => Err(format!("is the file `{shown}`, which cannot be read ({why})")),
+                },
             };
         }
         let view = uint(image, "bufferView", &format!("image {index}"))

@@ -8,9 +8,10 @@ use std::path::Path;
 use glam::{Affine2, Affine3A, Mat4, Quat, Vec2, Vec3};
 use serde_json::Value as Json;
 
-use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc};
+use super::doc::{array, index_of, numbers, uint, Accessor, Component, Doc, Vertices};
+use super::draco;
 use super::material::{convert_material, Converted};
-use crate::scene::{Instance, Mesh, Model};
+use crate::scene::{Camera, Instance, Mesh, Model};
 
 /// The deepest node hierarchy followed (deeper is taken for a cycle).
 const MAX_DEPTH: usize = 64;
@@ -46,6 +47,9 @@ pub(super) fn build_model(
     let mut flattening = 0;
     let mesh_count = array(doc.root, "meshes").len();
     for (node, index, world) in world_nodes(doc, name, loader.warnings)? {
+        if let Some(camera) = node_camera(doc, node, world, name, loader.warnings) {
+            model.cameras.push(camera);
+        }
         let Some(m) = uint(node, "mesh", &format!("node {index}"))? else { continue };
         if m >= mesh_count {
             return Err(format!(
@@ -133,6 +137,41 @@ fn world_nodes<'a>(
     Ok(out)
 }
 
+/// The perspective camera node `node` carries, placed by its world matrix (glTF cameras
+/// look down their local -z, +y up), looking one unit ahead (`prepare_model` moves the
+/// target); None without one. An orthographic camera, or one that cannot be placed, is a
+/// warning.
+fn node_camera(
+    doc: &Doc,
+    node: &Json,
+    world: Mat4,
+    name: &str,
+    warnings: &mut Vec<String>,
+) -> Option<Camera> {
+    let index = node.get("camera").and_then(index_of)?;
+    let camera = array(doc.root, "cameras").get(index)?;
+    let yfov = camera.pointer("/perspective/yfov").and_then(Json::as_f64);
+    let yfov = yfov.filter(|y| y.is_finite() && *y > 0.0);
+    let Some(yfov) =
+        yfov.filter(|_| camera.get("type").and_then(Json::as_str) == Some("perspective"))
+    else {
+        warnings.push(format!("{name}: camera {index} is not a perspective camera with a field of view, so it is not offered as a viewpoint"));
+        return None;
+    };
+    let position = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+    if !position.is_finite() || forward == Vec3::ZERO || up == Vec3::ZERO {
+        warnings.push(format!(
+            "{name}: camera {index} has a transform that cannot place it; it is not offered"
+        ));
+        return None;
+    }
+    // Our field of view lies in (1, 179) degrees.
+    let vfov_deg = (yfov.to_degrees() as f32).clamp(1.5, 178.5);
+    Some(Camera { position, target: position + forward, up, vfov_deg })
+}
+
 /// A node's transform relative to its parent: `matrix` (column-major), else translation,
 /// rotation (a quaternion, normalized) and scale; what is malformed is left at identity.
 fn local_matrix(node: &Json) -> Mat4 {
@@ -188,7 +227,8 @@ impl Loader<'_, '_> {
         builder.finish()
     }
 
-    /// One triangle primitive: its material, vertices and their attributes, then triangles.
+    /// One triangle primitive: its material, vertices and their attributes (from its
+    /// accessors, or its Draco data), then triangles.
     fn add_primitive(
         &mut self,
         b: &mut MeshBuilder,
@@ -196,9 +236,6 @@ impl Loader<'_, '_> {
         mode: usize,
         at: &str,
     ) -> Result<(), String> {
-        let empty = Json::Null;
-        let attributes = prim.get("attributes").unwrap_or(&empty);
-        let attribute = |key: &str| uint(attributes, key, at);
         let material = uint(prim, "material", at).ok().flatten();
         if !self.materials.contains_key(&material) {
             let converted =
@@ -206,25 +243,27 @@ impl Loader<'_, '_> {
             self.materials.insert(material, converted);
         }
         let converted = self.materials[&material].clone();
-        let base = b.mesh.positions.len();
-
-        let position = attribute("POSITION")?.ok_or(format!("{at} has no POSITION"))?;
-        let acc = self.accessor(position, "POSITION", &[3])?;
-        if self.vertices + acc.count > MAX_VERTICES {
+        let texcoord = format!("TEXCOORD_{}", converted.texcoord);
+        let (v, mode) = match prim.pointer("/extensions/KHR_draco_mesh_compression") {
+            // Draco decodes to a triangle list, whatever the mode says.
+            Some(ext) => (draco::draco_primitive(self.doc, ext, prim, &texcoord, at)?, TRIANGLES),
+            None => (self.read_vertices(prim, &texcoord, at)?, mode),
+        };
+        let count = v.positions.len() / 3;
+        if self.vertices + count > MAX_VERTICES {
             return Err(format!("the meshes hold more than {MAX_VERTICES} vertices"));
         }
-        let p = self.doc.read(&acc, "POSITION", |v| v as f32)?;
-        let count = acc.count;
         self.vertices += count;
-        b.mesh.positions.extend(p.chunks_exact(3).map(Vec3::from_slice));
-
-        let per_vertex = |acc, what: &str| per_vertex(acc, what, at, count);
-        match attribute("NORMAL")? {
+        if let Some(&bad) = v.indices.iter().find(|&&i| i as usize >= count) {
+            return Err(format!(
+                "{at}: index {bad} is out of range (the primitive has {count} vertices)"
+            ));
+        }
+        let base = b.mesh.positions.len();
+        b.mesh.positions.extend(v.positions.chunks_exact(3).map(Vec3::from_slice));
+        match v.normals {
             Some(n) if b.all_normals => {
-                let acc = per_vertex(self.accessor(n, "NORMAL", &[3])?, "NORMAL")?;
-                let n = self.doc.read(&acc, "NORMAL", |v| v as f32)?;
-                b.normals
-                    .extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()));
+                b.normals.extend(n.chunks_exact(3).map(|c| Vec3::from_slice(c).normalize_or_zero()))
             }
             _ => b.all_normals = false,
         }
@@ -233,10 +272,7 @@ impl Loader<'_, '_> {
         // turned to our convention: glTF's origin is the image's top-left corner, ours
         // (OBJ's) the bottom-left.
         b.texcoords.resize(base, Vec2::ZERO);
-        let key = format!("TEXCOORD_{}", converted.texcoord);
-        if let Some(t) = attribute(&key)? {
-            let acc = per_vertex(self.accessor(t, &key, &[2])?, &key)?;
-            let t = self.doc.read(&acc, &key, |v| v as f32)?;
+        if let Some(t) = v.texcoords {
             let transform = converted.uv_transform.unwrap_or(Affine2::IDENTITY);
             b.texcoords.extend(t.chunks_exact(2).map(|c| {
                 let uv = transform.transform_point2(Vec2::from_slice(c));
@@ -247,43 +283,79 @@ impl Loader<'_, '_> {
 
         // Primitives without COLOR_0 are white, so they look as they would alone.
         b.colors.resize(base, [255; 4]);
-        if let Some(c) = attribute("COLOR_0")? {
-            b.colors.extend(self.colors(c, at, count)?);
+        if let Some((values, width)) = v.colors {
+            let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+            b.colors.extend(
+                values.chunks_exact(width).map(|c| {
+                    [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))]
+                }),
+            );
             b.any_colors = true;
         }
 
-        let indices = self.indices(prim, at, count)?;
         let next = b.slots.len() as u32;
         let slot = *b.slots.entry(material).or_insert_with(|| {
             b.mesh.materials.push(converted.material.clone());
             next
         });
         let base = base as u32;
-        let corners = triangles(&indices, mode);
+        let corners = triangles(&v.indices, mode);
         b.mesh.triangles.extend(corners.iter().map(|t| t.map(|i| i + base)));
         b.mesh.triangle_materials.extend(std::iter::repeat_n(slot, corners.len()));
         Ok(())
     }
 
+    /// A primitive's vertices from its accessors: POSITION, NORMAL, the `texcoord` its
+    /// material reads, COLOR_0, and its indices.
+    fn read_vertices(&self, prim: &Json, texcoord: &str, at: &str) -> Result<Vertices, String> {
+        let empty = Json::Null;
+        let attributes = prim.get("attributes").unwrap_or(&empty);
+        let attribute = |key: &str| uint(attributes, key, at);
+        let position = attribute("POSITION")?.ok_or(format!("{at} has no POSITION"))?;
+        let acc = self.accessor(position, "POSITION", &[3])?;
+        // Checked before the read: an accessor without a buffer view is allocated zeros.
+        if self.vertices + acc.count > MAX_VERTICES {
+            return Err(format!("the meshes hold more than {MAX_VERTICES} vertices"));
+        }
+        let positions = self.doc.read(&acc, "POSITION", |v| v as f32)?;
+        let count = acc.count;
+        let per_vertex = |acc, what: &str| per_vertex(acc, what, at, count);
+        let normals = match attribute("NORMAL")? {
+            Some(n) => {
+                let acc = per_vertex(self.accessor(n, "NORMAL", &[3])?, "NORMAL")?;
+                Some(self.doc.read(&acc, "NORMAL", |v| v as f32)?)
+            }
+            None => None,
+        };
+        let texcoords = match attribute(texcoord)? {
+            Some(t) => {
+                let acc = per_vertex(self.accessor(t, texcoord, &[2])?, texcoord)?;
+                Some(self.doc.read(&acc, texcoord, |v| v as f32)?)
+            }
+            None => None,
+        };
+        let colors = match attribute("COLOR_0")? {
+            Some(c) => Some(self.colors(c, at, count)?),
+            None => None,
+        };
+        let indices = self.indices(prim, at, count)?;
+        Ok(Vertices { positions, normals, texcoords, colors, indices })
+    }
+
     /// A primitive's `COLOR_0` (RGB or RGBA; float, or normalized unsigned byte or short, as
-    /// glTF allows) as RGBA8, alpha 255 where absent; `count` is its vertex count.
-    fn colors(&self, c: usize, at: &str, count: usize) -> Result<Vec<[u8; 4]>, String> {
+    /// glTF allows) in [0, 1], and its width; `count` is its vertex count.
+    fn colors(&self, c: usize, at: &str, count: usize) -> Result<(Vec<f32>, usize), String> {
         let acc = per_vertex(self.accessor(c, "COLOR_0", &[3, 4])?, "COLOR_0", at, count)?;
         if !(acc.component == Component::F32
             || (acc.normalized && matches!(acc.component, Component::U8 | Component::U16)))
         {
             return Err(format!("accessor {c} (COLOR_0) has component type {:?}; glTF allows float or normalized unsigned byte or short", acc.component));
         }
-        let values = self.doc.read(&acc, "COLOR_0", |v| v as f32)?;
-        let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-        Ok(values
-            .chunks_exact(acc.width)
-            .map(|c| [byte(c[0]), byte(c[1]), byte(c[2]), c.get(3).map_or(255, |&a| byte(a))])
-            .collect())
+        Ok((self.doc.read(&acc, "COLOR_0", |v| v as f32)?, acc.width))
     }
 
-    /// A primitive's vertex indices (each checked to be below its vertex `count`), or its
-    /// vertices in order when it has none.
+    /// A primitive's vertex indices (checked against its vertex count by the caller), or
+    /// its `count` vertices in order when it has none.
     fn indices(&self, prim: &Json, at: &str, count: usize) -> Result<Vec<u32>, String> {
         let indices = match uint(prim, "indices", at)? {
             Some(i) => {
@@ -298,11 +370,6 @@ impl Loader<'_, '_> {
             }
             None => (0..count as u32).collect(),
         };
-        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-            return Err(format!(
-                "{at}: index {bad} is out of range (the primitive has {count} vertices)"
-            ));
-        }
         Ok(indices)
     }
 
