@@ -40,7 +40,8 @@ impl Tool {
         presets.warnings.clear();
         match result {
             Ok(()) => {
-                presets.status = Some(Status::ok(format!("saved {}", path.display())));
+                presets.status =
+                    Some(Status::ok(format!("saved {}", crate::files::shown_path(path))));
                 presets.used(path);
             }
             Err(SaveError::Exists(p)) => {
@@ -74,7 +75,7 @@ impl Tool {
                 let presets = &mut self.ui.panel.presets;
                 presets.status = Some(Status::ok(format!(
                     "loaded {}{}",
-                    path.display(),
+                    crate::files::shown_path(path),
                     if warnings.is_empty() {
                         String::new()
                     } else {
@@ -153,14 +154,14 @@ impl Tool {
         if let Some(path) = &self.script.screenshot {
             let img = self.read_trace()?.context("--screenshot: nothing was traced before exit")?;
             screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
+            println!("wrote {}", crate::files::shown_path(path));
         }
         if let Some(path) = &self.script.screenshot_ui {
             let img = window_image
                 .context("--screenshot-ui: the window was not drawn at exit (minimized?)")?
                 .map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
             screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
+            println!("wrote {}", crate::files::shown_path(path));
         }
         Ok(())
     }

@@ -70,7 +70,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
                 Settings::default(),
                 Some(format!(
                     "cannot read the remembered settings {} ({e}); using the defaults",
-                    path.display()
+                    crate::files::shown_path(path)
                 )),
             )
         }
@@ -81,7 +81,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
             Settings::default(),
             Some(format!(
                 "ignoring the remembered settings {} ({e}); using the defaults",
-                path.display()
+                crate::files::shown_path(path)
             )),
         ),
     }
@@ -91,7 +91,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
 /// leaves half a file; creates the folder.
 pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
     let fail = |e: &dyn std::fmt::Display| {
-        format!("cannot remember the settings in {} ({e})", path.display())
+        format!("cannot remember the settings in {} ({e})", crate::files::shown_path(path))
     };
     let text = toml::to_string(settings).map_err(|e| fail(&e))?;
     if let Some(dir) = path.parent() {
@@ -146,7 +146,7 @@ impl Store {
             Some(path) => match crate::files::remove_file(path) {
                 Ok(()) => Ok(()),
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-                Err(e) => Err(format!("cannot remove {} ({e})", path.display())),
+                Err(e) => Err(format!("cannot remove {} ({e})", crate::files::shown_path(path))),
             },
             None => Ok(()),
         }
@@ -208,6 +208,29 @@ mod tests {
         std::fs::write(&path, "window = [800, 600]\nsomething_new = 1\n").unwrap();
         assert_eq!(read(&path).0.window, Some([800, 600]));
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    /// Issue #43, point 17: the messages beyond the reads' (the `-o` format check, a preset's
+    /// read and save, the remembered settings) escape a path too.
+    #[test]
+    fn paths_in_other_messages_are_escaped() {
+        let dir = temp("escaped");
+        std::fs::create_dir_all(&dir).unwrap();
+        let evil = |name: &str| dir.join(format!("\u{1b}]0;PWNED\u{7}{name}"));
+        let check = |err: String| {
+            assert!(!err.chars().any(char::is_control), "{err:?}");
+            assert!(err.contains("\\u{1b}]0;PWNED\\u{7}"), "{err:?}");
+        };
+        check(crate::files::image_files::OutputFormat::from_path(&evil("x.bmp")).unwrap_err());
+        // A PNG that is not this program's: the preset's own message names it.
+        let png = evil("x.png");
+        std::fs::write(&png, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+        check(crate::scene::preset::read(&png).unwrap_err());
+        let spec = crate::scene::spec::SceneSpec::default();
+        check(crate::scene::preset::save(&spec, &png, false).unwrap_err().to_string());
+        let (_, warning) = read(&png);
+        check(warning.expect("a PNG is no settings file"));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
