@@ -109,6 +109,7 @@ impl Tool {
         let (dialog_open, now) = (self.ui.open_dialog.is_open(), self.input.now());
         let cut_at = |e: &egui::Event| input::focus_cut(e, dialog_open, egui_wants_keys);
         let (keys, held) = self.input.take_pass(&mut raw, now, cut_at);
+        input::trace_pass(&raw.events, dialog_open, egui_wants_keys);
         if !held.is_empty() {
             self.ui.egui_state.egui_input_mut().events = held;
             self.window.request_redraw();
