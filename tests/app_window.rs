@@ -354,6 +354,47 @@ fn a_frame_traced_in_bands_equals_render() {
 }
 
 #[test]
+fn f12_during_a_frame_in_bands_saves_one_whole_frame() {
+    // #43: F12 while a frame was traced in bands saved its new bands over the last frame's
+    // rows (seams); the shot waits for the frame's last band.
+    let x = Xvfb::start();
+    let dir = TempDir::new("f12-bands");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.env("MESHTRACER_TESTS_PER_SUBMISSION", "20000");
+    cmd.args(view_args(&["--accel", "brute", "--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let first = f12(&x, &window, dir.path(), &mut app);
+    let two = headless_render(dir.path(), &with_accel("brute"), "b2.png");
+    assert!(max_diff(&first, &two) <= 1, "the first shot is no whole frame");
+
+    // One bounce more and F12 at once: the shot is the new frame, whole.
+    let shots = |dir: &std::path::Path| {
+        let all = pngs(dir, "meshtracer_");
+        all.into_iter()
+            .filter(|p| !p.to_string_lossy().ends_with("_window.png"))
+            .collect::<Vec<_>>()
+    };
+    assert!(shots(dir.path()).is_empty(), "f12 removes its shot");
+    press(&x.display, &window, &["Prior", "F12"]);
+    let shot = wait_until(Duration::from_secs(120), "the F12 screenshot", || {
+        app.assert_alive();
+        std::thread::sleep(Duration::from_millis(300));
+        shots(dir.path()).pop()
+    });
+    let three_flags = ["--width", "128", "--height", "128", "--bounces", "3", "--accel", "brute"];
+    let three = headless_render(dir.path(), &three_flags, "b3.png");
+    assert!(max_diff(&two, &three) > 1, "2 and 3 bounces look the same: the test proves nothing");
+    assert!(
+        max_diff(&load(&shot), &three) <= 1,
+        "F12 saved a mix of frames (differs from `render --bounces 3` by {})",
+        max_diff(&load(&shot), &three)
+    );
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
 fn the_window_in_costliest_tile_order_equals_render() {
     // lavapipe traces in row order; forced to the GPUs' order, the window's frames in
     // flight each take their tiles by their own last costs, here also in small bands.

@@ -7,7 +7,7 @@ use crate::app::state::fit_rect;
 use crate::app::tool::Tool;
 use crate::app::tool::{devices, input};
 use crate::app::user_files::open_dialog::Purpose;
-use crate::app::user_files::screenshot::{self, Kind};
+use crate::app::user_files::screenshot;
 use crate::app::views::overlay;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::present::PixelRect;
@@ -174,16 +174,7 @@ impl Tool {
             PanelAction::Open(purpose) => self.open(purpose),
             PanelAction::ScreenshotTrace => self.captures.want_trace_shot = true,
             PanelAction::ScreenshotWindow => self.captures.want_window_shot = true,
-            PanelAction::ScreenshotExr => {
-                let path = screenshot::new_path(
-                    &screenshot::screenshot_dir(),
-                    Kind::Trace,
-                    &self.name_parts(),
-                )
-                .with_extension("exr");
-                self.ui.panel.screenshot.status = Some(self.save_exr(&path));
-                self.notice_screenshot();
-            }
+            PanelAction::ScreenshotExr => self.captures.want_exr_shot = true,
             PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
             PanelAction::LoadPreset(path) => self.load_preset(&path),
             PanelAction::Benchmark(frames) => self.timing.benchmarks.want(frames),
