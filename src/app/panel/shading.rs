@@ -53,7 +53,7 @@ impl Section for ShadingPanel {
             ui.add(egui::Slider::new(&mut params.scene.settings.spp, SPP.u32s()).logarithmic(true)).on_hover_text("jittered camera rays per pixel: anti-aliasing (§5)");
             ui.end_row();
             ui.label("Adaptive");
-            ui.checkbox(&mut params.scene.settings.adaptive, "extra samples on edges only").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");
+            ui.checkbox(&mut params.scene.settings.adaptive, "only on edges").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");
             ui.end_row();
             ui.label("Accumulate");
             ui.checkbox(&mut params.accumulate, "while nothing changes").on_hover_text("average successive frames into a smoother image until a setting or the view changes");

@@ -65,15 +65,14 @@ impl Tool {
         let full = self.ui.egui_ctx.run_ui(raw, |ui| {
             if params.panel_visible {
                 let frame = egui::Frame::side_top_panel(ui.style()).inner_margin(8.0);
-                // At most half a small window, so the image stays visible.
-                let max = (ui.available_width() * 0.5).max(160.0);
-                egui::Panel::left("panel")
-                    .default_size(panel::PANEL_WIDTH.min(max))
-                    .size_range(150.0..=max)
-                    .frame(frame)
-                    .show(ui, |ui| {
+                // At most two fifths of the window, never under the width its rows need.
+                let (width, range) = panel::panel_widths(ui.available_width());
+                egui::Panel::left("panel").default_size(width).size_range(range).frame(frame).show(
+                    ui,
+                    |ui| {
                         actions = panel::show(ui, params, panel_state, &info);
-                    });
+                    },
+                );
             }
             central = ui.available_rect_before_wrap();
             overlay::show(

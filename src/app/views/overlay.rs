@@ -74,10 +74,9 @@ pub(crate) fn show(
             });
     }
     if let Some(p) = light.filter(|p| image.contains(*p)) {
-        let painter = ctx.layer_painter(egui::LayerId::new(
-            egui::Order::Foreground,
-            egui::Id::new("light marker"),
-        ));
+        // Under every area: the numbers (HUD), the notice and the Open dialog cover it,
+        // not the other way round (issue #43: the ring was drawn over the numbers).
+        let painter = ctx.layer_painter(egui::LayerId::background());
         painter.circle_stroke(p, 7.0, Stroke::new(2.0, Color32::BLACK));
         painter.circle_stroke(p, 6.0, Stroke::new(1.5, LIGHT_COLOR));
         // The label above the marker, or below it near the image's top edge.
