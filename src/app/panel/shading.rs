@@ -4,8 +4,9 @@
 
 use egui::{RichText, Ui};
 
-use crate::app::panel::section::{Cx, Section};
+use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::group;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::render_settings::SPP;
 use crate::scene::EnvironmentSource;
 
@@ -40,12 +41,17 @@ impl Section for ShadingPanel {
                 Some(EnvironmentSource::Sky) => "sky".to_string(),
                 Some(EnvironmentSource::File(p)) => p.file_name().map_or("file".into(), |f| f.to_string_lossy().into_owned()),
             };
-            egui::ComboBox::new("environment", "").selected_text(label(&params.scene.environment)).show_ui(ui, |ui| {
-                ui.selectable_value(&mut params.scene.environment, None, label(&None));
-                ui.selectable_value(&mut params.scene.environment, Some(EnvironmentSource::Sky), "sky");
-                if let Some(file) = params.environment_file.clone() {
-                    let text = label(&Some(file.clone()));
-                    ui.selectable_value(&mut params.scene.environment, Some(file), text);
+            ui.horizontal(|ui| {
+                egui::ComboBox::new("environment", "").selected_text(label(&params.scene.environment)).truncate().width(100.0).show_ui(ui, |ui| {
+                    ui.selectable_value(&mut params.scene.environment, None, label(&None));
+                    ui.selectable_value(&mut params.scene.environment, Some(EnvironmentSource::Sky), "sky");
+                    if let Some(file) = params.environment_file.clone() {
+                        let text = label(&Some(file.clone()));
+                        ui.selectable_value(&mut params.scene.environment, Some(file), text);
+                    }
+                });
+                if ui.small_button("file…").on_hover_text("choose an environment map: an equirectangular .hdr, .exr, .png or .jpg (as --env)").clicked() {
+                    cx.actions.push(PanelAction::Open(Purpose::Environment));
                 }
             });
             ui.end_row();

@@ -121,6 +121,10 @@ impl Tool {
                 _ => None,
             },
             Purpose::Preset => self.ui.panel.presets.recent.first().cloned(),
+            Purpose::Environment => match &self.params.environment_file {
+                Some(crate::scene::EnvironmentSource::File(p)) => Some(p.clone()),
+                _ => None,
+            },
         };
         self.ui.open_dialog.open(purpose, near.as_deref());
     }

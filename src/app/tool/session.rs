@@ -173,6 +173,9 @@ impl Session {
             None => Status::ok(text),
         });
         panel.model.warnings = warnings;
+        if let ModelSource::File(path) = &source {
+            panel.model.loaded(&std::path::absolute(path).unwrap_or_else(|_| path.clone()));
+        }
         let title = format!("meshtracer — {}", source.label());
         // The new scene's instance list and environment are the loader's defaults: apply ours.
         self.applied.instances = None;

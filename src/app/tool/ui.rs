@@ -87,6 +87,9 @@ impl Tool {
             match open_dialog.show(ui.ctx()) {
                 Some((Purpose::Model, path)) => actions.push(PanelAction::LoadFile(path)),
                 Some((Purpose::Preset, path)) => actions.push(PanelAction::LoadPreset(path)),
+                Some((Purpose::Environment, path)) => {
+                    params.use_environment_file(path);
+                }
                 None => {}
             }
         });

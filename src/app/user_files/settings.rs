@@ -1,5 +1,5 @@
 //! Remembered settings: the window's size, which panel sections are open, the presets
-//! used lately and the graph's window, kept between runs in `settings.toml` in the
+//! and model files used lately and the graph's window, kept between runs in `settings.toml` in the
 //! platform's config folder (`MESHTRACER_CONFIG_DIR` overrides it). `--no-persist` and
 //! scripted runs neither read nor write it, so a script sees the same tool every time.
 //!
@@ -30,6 +30,8 @@ pub(crate) struct Settings {
     pub(crate) sections: BTreeMap<String, bool>,
     /// Presets saved or loaded, the latest first.
     pub(crate) recent_presets: Vec<PathBuf>,
+    /// Model files loaded, the latest first.
+    pub(crate) recent_models: Vec<PathBuf>,
     /// Seconds of history the frame-time graph shows.
     pub(crate) graph_seconds: Option<f64>,
 }
@@ -41,6 +43,7 @@ impl Default for Settings {
             window: None,
             sections: BTreeMap::new(),
             recent_presets: Vec::new(),
+            recent_models: Vec::new(),
             graph_seconds: None,
         }
     }
@@ -171,6 +174,7 @@ mod tests {
         let mut s = Settings {
             window: Some([900, 600]),
             recent_presets: vec![PathBuf::from("/tmp/look.toml")],
+            recent_models: vec![PathBuf::from("/tmp/bunny.obj")],
             graph_seconds: Some(30.0),
             ..Default::default()
         };
