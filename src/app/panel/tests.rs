@@ -370,36 +370,6 @@ fn the_scroll_bar_has_a_column_of_its_own() {
 }
 
 #[test]
-fn the_light_marker_is_drawn_under_the_numbers() {
-    // #43: the light's ring was drawn over the numbers over the image.
-    let fixture = Fixture::new(VendorInfo::default());
-    let ctx = egui::Context::default();
-    let image = egui::Rect::from_min_size(egui::pos2(300.0, 0.0), Vec2::new(500.0, 500.0));
-    let light = image.left_top() + Vec2::new(20.0, 20.0);
-    let mut shapes = Vec::new();
-    for _ in 0..2 {
-        let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
-            crate::app::views::overlay::show(
-                ui.ctx(),
-                image,
-                Some(&info(&fixture)),
-                Some(light),
-                None,
-                None,
-            );
-        });
-        // No renderer here: the font texture's upload is dropped on purpose.
-        out.textures_delta.clear();
-        shapes = out.shapes;
-    }
-    let at = |f: &dyn Fn(&egui::Shape) -> bool| shapes.iter().position(|c| f(&c.shape));
-    let ring = at(&|s| matches!(s, egui::Shape::Circle(_))).expect("the light's ring");
-    let numbers = at(&|s| matches!(s, egui::Shape::Text(t) if t.galley.text().contains("fps")))
-        .expect("the numbers");
-    assert!(ring < numbers, "the ring ({ring}) is painted after the numbers ({numbers})");
-}
-
-#[test]
 fn the_load_bar_moves_while_the_build_reports_nothing() {
     // #43: the bar stood still through the BVH build.
     let bar = |seconds, fraction| {
