@@ -6,7 +6,7 @@ fn main() {
     // A write past `ulimit -f` then fails as one error line and leaves no temporary file.
     meshtracer::files::ignore_file_size_signal();
     // Every warning reaches the terminal once, through the logger, as "warning: ...".
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(cli::LOG_FILTER))
         .format(|out, record| {
             use std::io::Write;
             let level = match record.level() {

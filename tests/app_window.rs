@@ -354,6 +354,47 @@ fn a_frame_traced_in_bands_equals_render() {
 }
 
 #[test]
+fn f12_during_a_frame_in_bands_saves_one_whole_frame() {
+    // #43: F12 while a frame was traced in bands saved its new bands over the last frame's
+    // rows (seams); the shot waits for the frame's last band.
+    let x = Xvfb::start();
+    let dir = TempDir::new("f12-bands");
+    let mut cmd = meshtracer(&x.display, dir.path());
+    cmd.env("MESHTRACER_TESTS_PER_SUBMISSION", "20000");
+    cmd.args(view_args(&["--accel", "brute", "--frames", "1000000"]));
+    let mut app = spawn(cmd);
+    let window = wait_for_window(&x.display, &mut app);
+    let first = f12(&x, &window, dir.path(), &mut app);
+    let two = headless_render(dir.path(), &with_accel("brute"), "b2.png");
+    assert!(max_diff(&first, &two) <= 1, "the first shot is no whole frame");
+
+    // One bounce more and F12 at once: the shot is the new frame, whole.
+    let shots = |dir: &std::path::Path| {
+        let all = pngs(dir, "meshtracer_");
+        all.into_iter()
+            .filter(|p| !p.to_string_lossy().ends_with("_window.png"))
+            .collect::<Vec<_>>()
+    };
+    assert!(shots(dir.path()).is_empty(), "f12 removes its shot");
+    press(&x.display, &window, &["Prior", "F12"]);
+    let shot = wait_until(Duration::from_secs(120), "the F12 screenshot", || {
+        app.assert_alive();
+        std::thread::sleep(Duration::from_millis(300));
+        shots(dir.path()).pop()
+    });
+    let three_flags = ["--width", "128", "--height", "128", "--bounces", "3", "--accel", "brute"];
+    let three = headless_render(dir.path(), &three_flags, "b3.png");
+    assert!(max_diff(&two, &three) > 1, "2 and 3 bounces look the same: the test proves nothing");
+    assert!(
+        max_diff(&load(&shot), &three) <= 1,
+        "F12 saved a mix of frames (differs from `render --bounces 3` by {})",
+        max_diff(&load(&shot), &three)
+    );
+    press(&x.display, &window, &["ctrl+q"]);
+    assert_clean_exit(&app.wait(Duration::from_secs(120)));
+}
+
+#[test]
 fn the_window_in_costliest_tile_order_equals_render() {
     // lavapipe traces in row order; forced to the GPUs' order, the window's frames in
     // flight each take their tiles by their own last costs, here also in small bands.
@@ -411,9 +452,10 @@ fn a_window_traced_on_another_device_context_shows_what_render_makes() {
 fn a_frame_that_takes_minutes_leaves_the_window_answering() {
     // Brute force on a 100k-triangle knot at 256²: 256² x 3 rays x 100k triangles = 2e10
     // tests, minutes per frame on lavapipe. The window traces it in bands, so keys land
-    // while it fills in: F12 saves what is there, and Ctrl+Q quits, before the frame is
-    // done. Counted, not timed: the frame log has no finished frame at the end. A window
-    // that waited for the whole frame before F12 or Ctrl+Q would have logged it.
+    // while it fills in: F12 waits for the frame (no file of half a frame, issue #43) and
+    // Ctrl+Q quits before the frame is done. Counted, not timed: the frame log has no
+    // finished frame at the end. A window that waited for the whole frame before Ctrl+Q
+    // would have logged it.
     let x = Xvfb::start();
     let dir = TempDir::new("long-frame");
     let mut cmd = meshtracer(&x.display, dir.path());
@@ -434,13 +476,17 @@ fn a_frame_that_takes_minutes_leaves_the_window_answering() {
     .args(WINDOW);
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
-    let shot = f12(&x, &window, dir.path(), &mut app);
-    assert_eq!(shot.dimensions(), (256, 256));
+    // The knot loads in a second or two; its first frame then takes minutes.
+    std::thread::sleep(Duration::from_secs(10));
+    press(&x.display, &window, &["F12"]);
+    std::thread::sleep(Duration::from_millis(3000));
+    app.assert_alive();
     press(&x.display, &window, &["ctrl+q"]);
     // The timeouts here only guard against a hang.
     assert_clean_exit(&app.wait(Duration::from_secs(120)));
     let finished = finished_frames(&dir.path().join("frames.csv"));
-    assert_eq!(finished, 0, "F12 and Ctrl+Q waited for the long frame to finish");
+    assert_eq!(finished, 0, "Ctrl+Q waited for the long frame to finish");
+    assert!(pngs(dir.path(), "meshtracer_").is_empty(), "F12 saved part of a frame");
 }
 
 /// The frames a `--stats-csv` log says were finished (rows of kind `frame`).

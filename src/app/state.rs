@@ -129,7 +129,7 @@ pub(crate) struct Params {
     pub(crate) panel_visible: bool,
     /// The frame numbers over the image's corner (the HUD).
     pub(crate) hud_visible: bool,
-    /// The environment file given with `--env`, offered in the panel.
+    /// The environment file given with `--env` or chosen in the panel, offered there.
     pub(crate) environment_file: Option<EnvironmentSource>,
     /// Average successive frames while nothing changes (progressive anti-aliasing).
     pub(crate) accumulate: bool,
@@ -306,6 +306,14 @@ impl Params {
             self.environment_file = fresh.environment_file;
         }
         self.fit_cost_metric();
+    }
+
+    /// Trace with the environment map `path` (the Open dialog's pick), and offer it in the
+    /// panel from now on; a file that cannot be read is reported when it is uploaded.
+    pub(crate) fn use_environment_file(&mut self, path: std::path::PathBuf) {
+        let file = EnvironmentSource::File(path);
+        self.environment_file = Some(file.clone());
+        self.scene.environment = Some(file);
     }
 
     /// The scene spec of what is shown now (`model`, traced with `settings`, seen from

@@ -176,7 +176,8 @@ pub fn preset_cases(suite: &Suite, path: &Path) -> anyhow::Result<(Vec<Case>, Ve
     if suite.bounces_given {
         spec.settings.bounces = suite.bounces;
     }
-    spec.validate().map_err(|e| anyhow::anyhow!("preset {}: {e}", path.display()))?;
+    spec.validate()
+        .map_err(|e| anyhow::anyhow!("preset {}: {e}", crate::files::shown_path(path)))?;
     let accels = if suite.accel_given { suite.accel.clone() } else { vec![spec.settings.accel] };
     let cases = accels
         .into_iter()
@@ -305,15 +306,15 @@ fn write_outputs(
     if let Some(path) = &outputs.json {
         let (frames, warmup) = (run.frames, run.warmup);
         report::write_json(path, &Report { environment: env, frames, warmup, rows })?;
-        println!("wrote {}", path.display());
+        println!("wrote {}", crate::files::shown_path(path));
     }
     if let Some(path) = &outputs.csv {
         report::write_csv(path, env, rows)?;
-        println!("wrote {}", path.display());
+        println!("wrote {}", crate::files::shown_path(path));
     }
     if let Some(dir) = &outputs.charts {
         for path in charts::write_charts(dir, std::slice::from_ref(env), rows)? {
-            println!("wrote {}", path.display());
+            println!("wrote {}", crate::files::shown_path(&path));
         }
     }
     Ok(())
@@ -327,7 +328,7 @@ pub fn charts_from_reports(reports: &[PathBuf], dir: &Path) -> anyhow::Result<()
         let saved = charts::load_report(path)?;
         println!(
             "{}: {} rows ({}, {})",
-            path.display(),
+            crate::files::shown_path(path),
             saved.rows.len(),
             saved.environment.device,
             saved.environment.date
@@ -336,7 +337,7 @@ pub fn charts_from_reports(reports: &[PathBuf], dir: &Path) -> anyhow::Result<()
         rows.extend(saved.rows);
     }
     for path in charts::write_charts(dir, &environments, &rows)? {
-        println!("wrote {}", path.display());
+        println!("wrote {}", crate::files::shown_path(&path));
     }
     Ok(())
 }
@@ -370,11 +371,11 @@ pub fn run_loads(
     if let Some(path) = &outputs.json {
         let report = super::load::LoadReport { environment: &env, rows: &rows };
         super::load::write(path, &serde_json::to_string_pretty(&report)?)?;
-        println!("wrote {}", path.display());
+        println!("wrote {}", crate::files::shown_path(path));
     }
     if let Some(path) = &outputs.csv {
         super::load::write(path, &super::load::csv(&env, &rows))?;
-        println!("wrote {}", path.display());
+        println!("wrote {}", crate::files::shown_path(path));
     }
     Ok(())
 }

@@ -81,3 +81,26 @@ pub fn devices() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The logger's filter when `RUST_LOG` sets none: every warning, but the clipboard crate's
+/// and winit's X11 backend's only from errors up. Without a clipboard manager (a bare X
+/// session, Xvfb) the clipboard warned at every exit after "Copy as flags" that it could not
+/// hand the text over, and winit at every start about XSETTINGS and a 0 mm display: lines
+/// the user can do nothing about (issue #43).
+pub const LOG_FILTER: &str = "warn,arboard=error,winit::platform_impl::linux::x11=error";
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_clipboards_handover_warning_is_not_printed_and_ours_are() {
+        use log::Log;
+        let logger = env_logger::Builder::new().parse_filters(super::LOG_FILTER).build();
+        let warning =
+            |target| log::Metadata::builder().level(log::Level::Warn).target(target).build();
+        assert!(!logger.enabled(&warning("arboard::platform::linux::x11")));
+        assert!(!logger.enabled(&warning("winit::platform_impl::linux::x11::util::randr")));
+        assert!(logger.enabled(&warning("meshtracer::app::tool")));
+        let error = log::Metadata::builder().level(log::Level::Error).target("arboard").build();
+        assert!(logger.enabled(&error), "the clipboard's errors still show");
+    }
+}

@@ -77,7 +77,7 @@ fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
         anyhow::bail!(
             "{flag} {}: screenshots are written as PNG; give a path ending in .png",
-            path.display()
+            crate::files::shown_path(path)
         );
     }
     crate::files::check_writable(path)

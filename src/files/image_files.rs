@@ -33,7 +33,7 @@ impl OutputFormat {
             Some("exr") => Ok(OutputFormat::Exr),
             other => {
                 let what = other.map_or("no extension".to_string(), |e| format!("'.{e}'"));
-                Err(format!("cannot write {}: {what} is not an output format (-o writes .png, .jpg or .jpeg, and .exr for AOVs)", path.display()))
+                Err(format!("cannot write {}: {what} is not an output format (-o writes .png, .jpg or .jpeg, and .exr for AOVs)", crate::files::shown_path(path)))
             }
         }
     }

@@ -485,7 +485,7 @@ const MAX_PNG_BYTES: u64 = 512 << 20;
 /// Read a preset file: TOML, or a PNG this program wrote (its `meshtracer` chunk). The
 /// error is one line naming the file (and the key and the line, for a bad value).
 pub fn read(path: &Path) -> Result<Loaded, String> {
-    let shown = path.display();
+    let shown = crate::files::shown_path(path);
     // A PNG preset is a screenshot (big); a TOML preset is a page of text. Either way the
     // read is bounded, and only a regular file is opened (not a FIFO or /dev/zero).
     let bytes = crate::files::read_capped(path, "the preset", MAX_PNG_BYTES)?;
@@ -563,7 +563,7 @@ pub enum SaveError {
 impl std::fmt::Display for SaveError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            SaveError::Exists(p) => write!(f, "{} exists already", p.display()),
+            SaveError::Exists(p) => write!(f, "{} exists already", crate::files::shown_path(p)),
             SaveError::Io(e) => f.write_str(e),
         }
     }
@@ -576,7 +576,11 @@ pub fn save(spec: &SceneSpec, path: &Path, overwrite: bool) -> Result<(), SaveEr
         return Err(SaveError::Exists(path.to_path_buf()));
     }
     crate::files::write_bytes_atomic(path, to_text(&absolute_paths(spec)).as_bytes()).map_err(|e| {
-        SaveError::Io(format!("could not write the preset {}: {}", path.display(), e.root_cause()))
+        SaveError::Io(format!(
+            "could not write the preset {}: {}",
+            crate::files::shown_path(path),
+            e.root_cause()
+        ))
     })
 }
 

@@ -283,8 +283,9 @@ pub(crate) fn json_path(given: Option<&Path>, screenshot_dir: &Path) -> PathBuf 
 pub(crate) fn append_json(path: &Path, summary: &BenchmarkSummary) -> Result<(), String> {
     let line = serde_json::to_string(summary)
         .map_err(|e| format!("cannot write the benchmark as JSON ({e})"))?;
-    crate::files::append_line(path, &line)
-        .map_err(|e| format!("cannot append the benchmark to {} ({e})", path.display()))
+    crate::files::append_line(path, &line).map_err(|e| {
+        format!("cannot append the benchmark to {} ({e})", crate::files::shown_path(path))
+    })
 }
 
 #[cfg(test)]

@@ -264,7 +264,9 @@ pub(crate) struct Recording {
 impl Recording {
     /// Create (or replace) `path` and write the header.
     pub(crate) fn create(path: &Path) -> Result<Self, String> {
-        let fail = |e: io::Error| format!("cannot write the frame log {}: {e}", path.display());
+        let fail = |e: io::Error| {
+            format!("cannot write the frame log {}: {e}", crate::files::shown_path(path))
+        };
         let file = crate::files::create_log(path).map_err(fail)?;
         Ok(Self { path: path.to_path_buf(), log: FrameLog::new(file).map_err(fail)? })
     }
@@ -276,17 +278,22 @@ impl Recording {
 
     /// Log a traced frame; the error is one sentence naming the file.
     pub(crate) fn frame(&mut self, row: FrameRow, now: Vec<Watched>) -> Result<(), String> {
-        self.log
-            .frame(row, now)
-            .map_err(|e| format!("writing the frame log {} failed: {e}", self.path.display()))
+        self.log.frame(row, now).map_err(|e| {
+            format!("writing the frame log {} failed: {e}", crate::files::shown_path(&self.path))
+        })
     }
 
     /// Close the file; returns what to tell the user.
     pub(crate) fn finish(self) -> Result<String, String> {
         let frames = self.log.frames();
         match self.log.finish() {
-            Ok(_) => Ok(format!("wrote {frames} frames to {}", self.path.display())),
-            Err(e) => Err(format!("writing the frame log {} failed: {e}", self.path.display())),
+            Ok(_) => {
+                Ok(format!("wrote {frames} frames to {}", crate::files::shown_path(&self.path)))
+            }
+            Err(e) => Err(format!(
+                "writing the frame log {} failed: {e}",
+                crate::files::shown_path(&self.path)
+            )),
         }
     }
 }

@@ -36,8 +36,8 @@ impl Section for DisplayPanel {
         ui.separator();
         let remembered = match info.settings_file {
             Some(path) => format!(
-                "window size, open sections and recent presets are remembered in {}",
-                path.display()
+                "window size, open sections, recent presets and models are remembered in {}",
+                crate::files::shown_path(path)
             ),
             None => "settings are not remembered in this run (--no-persist or a scripted run)"
                 .to_string(),

@@ -41,6 +41,14 @@ pub(crate) use widgets::Status;
 /// Default width of the panel in points.
 pub(crate) const PANEL_WIDTH: f32 = 300.0;
 
+/// The side panel's default width and its range in a window `window` points wide: at most
+/// two fifths of it, but never under [`PANEL_WIDTH`], the narrowest its rows fit in. Its rows
+/// once pushed it to half a 640-point window (the cap then); now it keeps 300 there.
+pub(crate) fn panel_widths(window: f32) -> (f32, std::ops::RangeInclusive<f32>) {
+    let max = (window * 0.4).max(PANEL_WIDTH);
+    (PANEL_WIDTH, 150.0..=max)
+}
+
 /// The panel's state between frames: one field per section.
 #[derive(Default)]
 pub(crate) struct PanelState {
@@ -98,6 +106,8 @@ pub(crate) fn show(
     });
     ui.label(RichText::new(info.device).small().weak());
     ui.separator();
+    // A bar of its own beside the sections: a floating one covered the ends of their lines.
+    ui.spacing_mut().scroll = egui::style::ScrollStyle::solid();
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
         let mut cx = Cx { params, info, actions: &mut actions };
         for s in state.sections() {

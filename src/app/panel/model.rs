@@ -1,5 +1,7 @@
-//! The panel's Model section: the built-in models, the path field and Open dialog, a
-//! load in progress and its outcome, and the number of copies.
+//! The panel's Model section: the built-in models, the path field and Open dialog, the
+//! files loaded lately, a load in progress and its outcome, and the number of copies.
+
+use std::path::{Path, PathBuf};
 
 use egui::{RichText, Ui};
 
@@ -24,6 +26,20 @@ pub(crate) struct ModelPanel {
     pub(crate) warnings: Vec<String>,
     /// A file is being dragged over the window.
     pub(crate) hovering_file: bool,
+    /// Model files loaded lately, the latest first (remembered between runs).
+    pub(crate) recent: Vec<PathBuf>,
+}
+
+/// How many recently loaded model files the section lists.
+pub(crate) const RECENT_MODELS: usize = 6;
+
+impl ModelPanel {
+    /// Put `path`, just loaded, first in the recent list (once).
+    pub(crate) fn loaded(&mut self, path: &Path) {
+        self.recent.retain(|p| p != path);
+        self.recent.insert(0, path.to_path_buf());
+        self.recent.truncate(RECENT_MODELS);
+    }
 }
 
 impl Section for ModelPanel {
@@ -84,6 +100,7 @@ impl Section for ModelPanel {
                 .weak(),
             );
         });
+        recent_models(ui, &self.recent, actions);
         if let Some(loading) = &info.loading {
             loading_progress(ui, loading, actions);
         } else if let Some(s) = &self.status {
@@ -114,6 +131,26 @@ impl Section for ModelPanel {
         }
         ui.label(RichText::new(scene_holds_text(info)).small());
     }
+}
+
+/// The model files loaded lately, a small button each (its name; the whole path on hover)
+/// that loads it again as the Open dialog's pick would.
+fn recent_models(ui: &mut Ui, recent: &[PathBuf], actions: &mut Vec<PanelAction>) {
+    if recent.is_empty() {
+        return;
+    }
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new("recent:").small().weak());
+        for p in recent {
+            let name = p.file_name().map_or_else(
+                || crate::files::shown_path(p),
+                |n| crate::files::shown(&n.to_string_lossy(), 40),
+            );
+            if ui.small_button(name).on_hover_text(crate::files::shown_path(p)).clicked() {
+                actions.push(PanelAction::LoadFile(p.clone()));
+            }
+        }
+    });
 }
 
 /// What the scene holds, in two lines: meshes and instances with their triangles, then
@@ -164,16 +201,32 @@ fn bytes_text(bytes: u64) -> String {
     format!("{value:.decimals$} {}", units[unit])
 }
 
+/// How full the load's bar is: each phase an equal share, the running one filled as far as
+/// it reports. A phase that reports nothing (the BVH build) fills by its time instead, as
+/// t / (t + T) of its share with T the time the phases before it took (at least half a
+/// second): the bar moves while it runs and never claims its end.
+pub(crate) fn bar_fraction(snapshot: &crate::progress::Snapshot) -> f32 {
+    let done = snapshot.phases.iter().filter(|p| p.done).count();
+    let before: f64 = snapshot.phases.iter().filter(|p| p.done).map(|p| p.seconds).sum();
+    let running = snapshot.phases.last().filter(|p| !p.done);
+    let share = match running {
+        Some(_) if snapshot.fraction > 0.0 => snapshot.fraction,
+        Some(p) => (p.seconds / (p.seconds + before.max(0.5))) as f32,
+        None => 0.0,
+    };
+    ((done as f32 + share) / Phase::ALL.len() as f32).min(1.0)
+}
+
 /// A load in progress: a bar over the phases (each an equal share, the running one filled
 /// as far as it reports), the finished phases' times, and a Cancel button (Escape).
 fn loading_progress(ui: &mut Ui, loading: &LoadStatus, actions: &mut Vec<PanelAction>) {
     let snapshot = &loading.snapshot;
     let running = snapshot.phases.last();
-    let done = snapshot.phases.iter().filter(|p| p.done).count();
-    let overall = (done as f32 + snapshot.fraction) / Phase::ALL.len() as f32;
+    let overall = bar_fraction(snapshot);
     let text = match running {
         Some(p) if !p.done => format!("{}: {} {:.1} s", loading.label, p.phase.name(), p.seconds),
-        _ => format!("{}: starting", loading.label),
+        Some(_) => format!("{}: uploading", loading.label),
+        None => format!("{}: starting", loading.label),
     };
     ui.horizontal(|ui| {
         if ui

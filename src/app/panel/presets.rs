@@ -102,7 +102,10 @@ impl Section for PresetPanel {
             }
         });
         if let Some(target) = state.confirm.clone() {
-            ui.label(RichText::new(format!("{} exists. Replace it?", target.display())).small());
+            ui.label(
+                RichText::new(format!("{} exists. Replace it?", crate::files::shown_path(&target)))
+                    .small(),
+            );
             ui.horizontal(|ui| {
                 if ui.button("Replace").clicked() {
                     state.confirm = None;

@@ -1,5 +1,5 @@
-//! The panel's part of the remembered settings (`user_files::settings`): the presets used
-//! lately, the graph's window and which sections are open, put into the panel at start,
+//! The panel's part of the remembered settings (`user_files::settings`): the presets and
+//! model files used lately, the graph's window and which sections are open, put into the panel at start,
 //! read back at exit and forgotten on "Reset settings".
 
 use std::collections::BTreeMap;
@@ -12,6 +12,9 @@ use crate::app::user_files::settings::{Settings, FORMAT};
 pub(crate) fn restore(settings: &Settings, panel: &mut PanelState, ctx: &egui::Context) {
     for p in settings.recent_presets.iter().rev() {
         panel.presets.used(p);
+    }
+    for p in settings.recent_models.iter().rev() {
+        panel.model.loaded(p);
     }
     panel.perf.set_seconds(settings.graph_seconds);
     Sections::set(ctx, Sections { open: settings.sections.clone(), reset: false });
@@ -28,20 +31,22 @@ pub(crate) fn snapshot(
         window: window.filter(|&[w, h]| w >= 64 && h >= 64),
         sections: Sections::get(ctx).open,
         // Absolute: the next run may start in another folder.
-        recent_presets: panel
-            .presets
-            .recent
-            .iter()
-            .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()))
-            .collect(),
+        recent_presets: absolute(&panel.presets.recent),
+        recent_models: absolute(&panel.model.recent),
         graph_seconds: Some(panel.perf.seconds),
     }
 }
 
-/// Forget the panel's remembered state: sections, recent presets and the graph's window
-/// go back to how a first run opens.
+/// `paths` made absolute where they can be.
+fn absolute(paths: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+    paths.iter().map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone())).collect()
+}
+
+/// Forget the panel's remembered state: sections, recent presets and models and the
+/// graph's window go back to how a first run opens.
 pub(crate) fn reset(panel: &mut PanelState, ctx: &egui::Context) {
     panel.presets.recent.clear();
+    panel.model.recent.clear();
     panel.perf.set_seconds(None);
     Sections::set(ctx, Sections { open: BTreeMap::new(), reset: true });
 }

@@ -4,8 +4,9 @@
 
 use egui::{RichText, Ui};
 
-use crate::app::panel::section::{Cx, Section};
+use crate::app::panel::section::{Cx, PanelAction, Section};
 use crate::app::panel::widgets::group;
+use crate::app::user_files::open_dialog::Purpose;
 use crate::render_settings::SPP;
 use crate::scene::EnvironmentSource;
 
@@ -40,12 +41,17 @@ impl Section for ShadingPanel {
                 Some(EnvironmentSource::Sky) => "sky".to_string(),
                 Some(EnvironmentSource::File(p)) => p.file_name().map_or("file".into(), |f| f.to_string_lossy().into_owned()),
             };
-            egui::ComboBox::new("environment", "").selected_text(label(&params.scene.environment)).show_ui(ui, |ui| {
-                ui.selectable_value(&mut params.scene.environment, None, label(&None));
-                ui.selectable_value(&mut params.scene.environment, Some(EnvironmentSource::Sky), "sky");
-                if let Some(file) = params.environment_file.clone() {
-                    let text = label(&Some(file.clone()));
-                    ui.selectable_value(&mut params.scene.environment, Some(file), text);
+            ui.horizontal(|ui| {
+                egui::ComboBox::new("environment", "").selected_text(label(&params.scene.environment)).truncate().width(100.0).show_ui(ui, |ui| {
+                    ui.selectable_value(&mut params.scene.environment, None, label(&None));
+                    ui.selectable_value(&mut params.scene.environment, Some(EnvironmentSource::Sky), "sky");
+                    if let Some(file) = params.environment_file.clone() {
+                        let text = label(&Some(file.clone()));
+                        ui.selectable_value(&mut params.scene.environment, Some(file), text);
+                    }
+                });
+                if ui.small_button("file…").on_hover_text("choose an environment map: an equirectangular .hdr, .exr, .png or .jpg (as --env)").clicked() {
+                    cx.actions.push(PanelAction::Open(Purpose::Environment));
                 }
             });
             ui.end_row();
@@ -53,7 +59,7 @@ impl Section for ShadingPanel {
             ui.add(egui::Slider::new(&mut params.scene.settings.spp, SPP.u32s()).logarithmic(true)).on_hover_text("jittered camera rays per pixel: anti-aliasing (§5)");
             ui.end_row();
             ui.label("Adaptive");
-            ui.checkbox(&mut params.scene.settings.adaptive, "extra samples on edges only").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");
+            ui.checkbox(&mut params.scene.settings.adaptive, "only on edges").on_hover_text("adaptive sampling (§5): all samples only where a neighbour's path meets another surface");
             ui.end_row();
             ui.label("Accumulate");
             ui.checkbox(&mut params.accumulate, "while nothing changes").on_hover_text("average successive frames into a smoother image until a setting or the view changes");

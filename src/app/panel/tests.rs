@@ -81,15 +81,13 @@ fn info<'a>(f: &'a Fixture) -> PanelInfo<'a> {
 }
 
 /// The panel as the tool lays it out: a resizable left panel of the default width, at most
-/// half the window.
+/// two fifths of the window.
 fn harness(size: Vec2, fixture: Fixture) -> Harness<'static, Fixture> {
     Harness::builder().with_size(size).build_ui_state(
         |ui, f: &mut Fixture| {
-            let max = (ui.available_width() * 0.5).max(160.0);
-            let response = egui::Panel::left("panel")
-                .default_size(PANEL_WIDTH.min(max))
-                .size_range(150.0..=max)
-                .show(ui, |ui| {
+            let (width, range) = super::panel_widths(ui.available_width());
+            let response =
+                egui::Panel::left("panel").default_size(width).size_range(range).show(ui, |ui| {
                     // The panel edits a copy of what the facts borrow, as the tool's frame does.
                     let mut params = f.params.clone();
                     let mut panel = std::mem::take(&mut f.panel);
@@ -334,4 +332,97 @@ fn the_model_section_says_what_the_scene_holds_and_scatters_copies() {
     h.get_by_label("turn and scale copies at random").click();
     h.run();
     assert_eq!(h.state().params.scene.scatter, 0);
+}
+
+// ---- #43 points 9 and 12: the layout, the load bar, recent models, the environment ----
+
+#[test]
+fn at_640_by_480_the_panel_leaves_the_image_most_of_the_window() {
+    // #43: at 640x480 the panel's rows pushed it to half the window (320 points).
+    let mut h = harness(Vec2::new(640.0, 480.0), Fixture::new(VendorInfo::default()));
+    h.run();
+    let width = h.state().panel_width;
+    assert!(width <= PANEL_WIDTH + 0.5, "the panel is {width} of 640 points wide");
+    let mut wide = harness(Vec2::new(1280.0, 800.0), Fixture::new(VendorInfo::default()));
+    wide.run();
+    assert!((wide.state().panel_width - PANEL_WIDTH).abs() < 20.0, "a big window keeps 300");
+}
+
+#[test]
+fn the_scroll_bar_has_a_column_of_its_own() {
+    // #43: a label ran under the panel's (floating) scroll bar.
+    let mut fixture = Fixture::new(VendorInfo::default());
+    fixture.holds = Some(SceneHolds {
+        meshes: 2,
+        instances: 10_001,
+        unique_triangles: 92,
+        instanced_triangles: 800_012,
+        top_bytes: 1_440_144,
+        bottom_bytes: 7_520,
+    });
+    // Short: the sections scroll.
+    let mut h = harness(Vec2::new(1280.0, 500.0), fixture);
+    h.run();
+    let bar = egui::style::ScrollStyle::solid().bar_width;
+    let right = h.get_by_label("hide (H)").rect().right();
+    let line = h.get_by_label_contains("instances: 92 triangles stored").rect();
+    assert!(line.right() <= right - bar, "the line ends at {} under the bar", line.right());
+}
+
+#[test]
+fn the_load_bar_moves_while_the_build_reports_nothing() {
+    // #43: the bar stood still through the BVH build.
+    let bar = |seconds, fraction| {
+        let phases = vec![
+            PhaseTime { phase: Phase::Parse, seconds: 2.0, done: true, peak_rss_bytes: None },
+            PhaseTime { phase: Phase::Build, seconds, done: false, peak_rss_bytes: None },
+        ];
+        super::model::bar_fraction(&Snapshot { phases, fraction })
+    };
+    let (start, later, much_later) = (bar(0.0, 0.0), bar(2.0, 0.0), bar(60.0, 0.0));
+    assert!(start < later && later < much_later, "{start} {later} {much_later}");
+    assert!(much_later < 2.0 / Phase::ALL.len() as f32, "never past the build's share");
+    assert_eq!(bar(2.0, 0.5), 1.5 / Phase::ALL.len() as f32, "a reported fraction is kept");
+}
+
+#[test]
+fn a_recent_model_loads_again_with_a_click() {
+    let mut fixture = Fixture::new(VendorInfo::default());
+    let (bunny, dragon) =
+        (std::path::PathBuf::from("/m/bunny.obj"), std::path::PathBuf::from("/m/dragon.ply"));
+    fixture.panel.model.loaded(&bunny);
+    fixture.panel.model.loaded(&dragon);
+    fixture.panel.model.loaded(&bunny);
+    assert_eq!(fixture.panel.model.recent, [bunny.clone(), dragon.clone()], "latest first, once");
+    let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
+    h.run();
+    h.get_by_label("dragon.ply").click();
+    h.run();
+    assert_eq!(h.state().actions, [PanelAction::LoadFile(dragon)]);
+    // Remembered between runs, and forgotten on Reset settings.
+    let ctx = h.ctx.clone();
+    let kept = super::remembered::snapshot(None, &h.state().panel, &ctx);
+    assert_eq!(kept.recent_models.len(), 2);
+    let mut next = PanelState::default();
+    super::remembered::restore(&kept, &mut next, &ctx);
+    assert_eq!(next.model.recent, kept.recent_models);
+    super::remembered::reset(&mut next, &ctx);
+    assert!(next.model.recent.is_empty());
+}
+
+#[test]
+fn the_environment_map_is_chosen_in_the_panel() {
+    // #43: the environment file could only be given with --env.
+    let mut h = harness(Vec2::new(1280.0, 2400.0), Fixture::new(VendorInfo::default()));
+    h.run();
+    h.get_by_label("file…").click();
+    h.run();
+    use crate::app::user_files::open_dialog::Purpose;
+    assert_eq!(h.state().actions, [PanelAction::Open(Purpose::Environment)]);
+    // The dialog's pick: traced now and offered in the list from then on.
+    let mut params = Params::new(&SceneSpec::default(), false);
+    params.use_environment_file("/maps/studio.hdr".into());
+    let file = crate::scene::EnvironmentSource::File("/maps/studio.hdr".into());
+    assert_eq!(params.scene.environment, Some(file.clone()));
+    assert_eq!(params.environment_file, Some(file));
 }

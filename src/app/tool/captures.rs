@@ -8,6 +8,8 @@ use crate::app::views::overlay::Notice;
 pub(super) struct Captures {
     /// F12: the traced image, at the end of this frame.
     pub(super) want_trace_shot: bool,
+    /// The panel's EXR button: the float output, as the trace shot once the frame is whole.
+    pub(super) want_exr_shot: bool,
     /// Shift+F12: the window, once a frame is presented.
     pub(super) want_window_shot: bool,
     /// A short notice over the image (a screenshot written).

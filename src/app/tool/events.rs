@@ -6,7 +6,7 @@ use winit::keyboard::PhysicalKey;
 
 use crate::app::shortcuts::KeyAction;
 use crate::app::state::fit_rect;
-use crate::app::tool::input::{Drag, KeyPress};
+use crate::app::tool::input::{self, Drag, KeyPress};
 use crate::app::tool::Tool;
 use crate::app::user_files::open_dialog::Purpose;
 use crate::gpu::present::PixelRect;
@@ -22,6 +22,17 @@ impl Tool {
         // Its `consumed` is not used: for a key it comes from the focus before the clicks
         // that egui has not run yet (keys wait for the frame, `Input::frame_keys`).
         let _ = self.ui.egui_state.on_window_event(&self.window, event);
+        if let WindowEvent::KeyboardInput { event: key, is_synthetic: false, .. } = event {
+            let m = self.input.modifiers;
+            let (ctrl, shift, alt) = (m.control_key(), m.shift_key(), m.alt_key());
+            let modifiers = egui::Modifiers { alt, ctrl, shift, mac_cmd: false, command: ctrl };
+            let pressed = key.state == ElementState::Pressed;
+            if let Some(enter) =
+                input::line_end_as_enter(&key.logical_key, key.text.as_deref(), pressed, modifiers)
+            {
+                self.ui.egui_state.egui_input_mut().events.extend(enter);
+            }
+        }
         let (count, now) = (self.ui.egui_state.egui_input().events.len(), self.input.now());
         self.input.events_arrived(count, now);
         match event {
@@ -110,6 +121,10 @@ impl Tool {
                 _ => None,
             },
             Purpose::Preset => self.ui.panel.presets.recent.first().cloned(),
+            Purpose::Environment => match &self.params.environment_file {
+                Some(crate::scene::EnvironmentSource::File(p)) => Some(p.clone()),
+                _ => None,
+            },
         };
         self.ui.open_dialog.open(purpose, near.as_deref());
     }

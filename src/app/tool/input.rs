@@ -98,6 +98,51 @@ pub(crate) fn focus_cut(event: &egui::Event, dialog_open: bool, egui_wants_keys:
     }
 }
 
+/// A key press that typed a line end but that winit names no key: xdotool types "\n" as the
+/// Linefeed keysym, which winit leaves unidentified, so egui saw no Enter and the Open
+/// dialog's typed path waited (issue #43). It is an Enter for egui: returns the press and
+/// release to add to egui's input.
+pub(crate) fn line_end_as_enter(
+    logical: &winit::keyboard::Key,
+    text: Option<&str>,
+    pressed: bool,
+    modifiers: egui::Modifiers,
+) -> Option<[egui::Event; 2]> {
+    let unnamed = matches!(logical, winit::keyboard::Key::Unidentified(_))
+        || matches!(logical, winit::keyboard::Key::Character(c) if c == "\n" || c == "\r");
+    let line_end = matches!(text, Some("\n" | "\r"));
+    let key = |pressed| egui::Event::Key {
+        key: egui::Key::Enter,
+        physical_key: None,
+        pressed,
+        repeat: false,
+        modifiers,
+    };
+    (pressed && unnamed && line_end).then(|| [key(true), key(false)])
+}
+
+/// Log (at trace level) the keys and text of a pass, to follow where typing goes at a few
+/// frames a second (`RUST_LOG=meshtracer=trace`).
+pub(crate) fn trace_pass(events: &[egui::Event], dialog_open: bool, egui_wants_keys: bool) {
+    if !log::log_enabled!(log::Level::Trace) {
+        return;
+    }
+    let shown: Vec<String> = events
+        .iter()
+        .filter_map(|e| match e {
+            egui::Event::Key { key, pressed, .. } => {
+                Some(format!("{key:?}{}", if *pressed { " down" } else { " up" }))
+            }
+            egui::Event::Text(t) => Some(format!("{t:?}")),
+            _ => None,
+        })
+        .collect();
+    log::trace!(
+        "pass (dialog {dialog_open}, egui wants keys {egui_wants_keys}): {}",
+        shown.join(" ")
+    );
+}
+
 /// The clock the passes' times are read from, started with the input.
 struct Clock(Instant);
 

@@ -464,3 +464,20 @@ fn ctrl_o_a_path_and_enter_in_one_burst_reach_the_dialog_in_four_frames() {
     let mut events = vec![egui::Event::Text("t".into()), key(egui::Key::Enter, none)];
     assert!(input.frame_keys(&mut events, |e| focus_cut(e, false, false)).1.is_empty());
 }
+
+/// Issue #43, point 4: `xdotool type "path\n"` types its line end as the Linefeed keysym,
+/// which winit names no key; it is an Enter for egui (the Open dialog's typed path opens).
+#[test]
+fn a_typed_line_end_that_winit_names_no_key_is_an_enter() {
+    use winit::keyboard::{Key, NativeKey};
+    let none = egui::Modifiers::NONE;
+    let linefeed = Key::Unidentified(NativeKey::Xkb(0xff0a));
+    let enter = line_end_as_enter(&linefeed, Some("\n"), true, none).expect("an Enter");
+    assert!(matches!(enter[0], egui::Event::Key { key: egui::Key::Enter, pressed: true, .. }));
+    assert!(matches!(enter[1], egui::Event::Key { key: egui::Key::Enter, pressed: false, .. }));
+    // Its release adds nothing; a real Return is egui-winit's own Enter, and letters are text.
+    assert!(line_end_as_enter(&linefeed, Some("\n"), false, none).is_none());
+    let ret = Key::Named(winit::keyboard::NamedKey::Enter);
+    assert!(line_end_as_enter(&ret, Some("\r"), true, none).is_none());
+    assert!(line_end_as_enter(&Key::Character("a".into()), Some("a"), true, none).is_none());
+}

@@ -269,7 +269,8 @@ impl Tool {
         let now = Instant::now();
         self.poll_background(now)?;
         if !self.can_draw() && !self.script.is_final_frame(false) {
-            // Minimized or hidden: nothing is traced or drawn (loads still finish above).
+            // Minimized or hidden: nothing is traced or drawn (loads still finish).
+            self.take_finished_load()?;
             self.timing.last_frame = None;
             return Ok(true);
         }
@@ -288,14 +289,22 @@ impl Tool {
         Ok(true)
     }
 
-    /// The light's motion since the last frame, a finished load and a changed shader.
+    /// Install a load that finished, if any. Called after the UI pass has acted on the
+    /// keys and clicks that arrived during the last frame: an Escape or a Cancel pressed
+    /// while the bar still showed the load stops it even when it finished during that frame
+    /// (issue #43: a slow frame let the load in first).
+    fn take_finished_load(&mut self) -> anyhow::Result<()> {
+        if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.ui.panel)? {
+            self.window.set_title(&title);
+        }
+        Ok(())
+    }
+
+    /// The light's motion since the last frame and a changed shader.
     fn poll_background(&mut self, now: Instant) -> anyhow::Result<()> {
         if let Some(last) = self.timing.last_frame {
             // Capped so a stall (a model upload) does not make the light jump.
             self.params.advance_light(now.duration_since(last).as_secs_f32().min(1.0));
-        }
-        if let Some(title) = self.session.poll_loader(&mut self.gpu.tracer, &mut self.ui.panel)? {
-            self.window.set_title(&title);
         }
         if self
             .shader_watch
@@ -317,6 +326,7 @@ impl Tool {
         for action in actions {
             self.act(action)?;
         }
+        self.take_finished_load()?;
         self.ui.egui_state.handle_platform_output(&self.window, full.platform_output);
         let area = self.area();
         if self.timing.benchmarks.progress().is_none() {

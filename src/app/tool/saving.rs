@@ -40,7 +40,8 @@ impl Tool {
         presets.warnings.clear();
         match result {
             Ok(()) => {
-                presets.status = Some(Status::ok(format!("saved {}", path.display())));
+                presets.status =
+                    Some(Status::ok(format!("saved {}", crate::files::shown_path(path))));
                 presets.used(path);
             }
             Err(SaveError::Exists(p)) => {
@@ -74,7 +75,7 @@ impl Tool {
                 let presets = &mut self.ui.panel.presets;
                 presets.status = Some(Status::ok(format!(
                     "loaded {}{}",
-                    path.display(),
+                    crate::files::shown_path(path),
                     if warnings.is_empty() {
                         String::new()
                     } else {
@@ -153,14 +154,14 @@ impl Tool {
         if let Some(path) = &self.script.screenshot {
             let img = self.read_trace()?.context("--screenshot: nothing was traced before exit")?;
             screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
+            println!("wrote {}", crate::files::shown_path(path));
         }
         if let Some(path) = &self.script.screenshot_ui {
             let img = window_image
                 .context("--screenshot-ui: the window was not drawn at exit (minimized?)")?
                 .map_err(|e| anyhow!("--screenshot-ui: {e}"))?;
             screenshot::save_png(&img, &self.settings_text(), path).map_err(anyhow::Error::msg)?;
-            println!("wrote {}", path.display());
+            println!("wrote {}", crate::files::shown_path(path));
         }
         Ok(())
     }
@@ -185,16 +186,24 @@ impl Tool {
         });
     }
 
-    /// The screenshots asked for this frame: the traced image now, the window once a frame
-    /// was presented (`window_image`, unless the scripted run's last frame takes it).
+    /// The screenshots asked for: the traced image (PNG or EXR) once no frame is half traced
+    /// in bands, the window once a frame was presented (`window_image`, unless the scripted
+    /// run's last frame takes it).
     pub(super) fn take_screenshots(
         &mut self,
         presented: bool,
         window_image: Option<&Result<image::RgbaImage, String>>,
         final_frame: bool,
     ) {
-        if self.captures.want_trace_shot {
-            self.captures.want_trace_shot = false;
+        let wanted = self.captures.want_trace_shot || self.captures.want_exr_shot;
+        if wanted && self.frame.progressive.is_some() {
+            // A frame traced in bands holds its new bands over the last frame's rows: the
+            // shot waits for its last band, so it is one whole frame (issue #43: seams).
+            self.ui.panel.screenshot.status =
+                Some(Status::ok("the screenshot waits for the frame being traced in bands"));
+            return self.take_window_shot(presented, window_image, final_frame);
+        }
+        if std::mem::take(&mut self.captures.want_trace_shot) {
             let path = screenshot::new_path(
                 &screenshot::screenshot_dir(),
                 Kind::Trace,
@@ -203,6 +212,26 @@ impl Tool {
             self.ui.panel.screenshot.status = Some(self.save_trace(&path));
             self.notice_screenshot();
         }
+        if std::mem::take(&mut self.captures.want_exr_shot) {
+            let path = screenshot::new_path(
+                &screenshot::screenshot_dir(),
+                Kind::Trace,
+                &self.name_parts(),
+            )
+            .with_extension("exr");
+            self.ui.panel.screenshot.status = Some(self.save_exr(&path));
+            self.notice_screenshot();
+        }
+        self.take_window_shot(presented, window_image, final_frame);
+    }
+
+    /// Shift+F12's shot of the window as presented, once a frame is.
+    fn take_window_shot(
+        &mut self,
+        presented: bool,
+        window_image: Option<&Result<image::RgbaImage, String>>,
+        final_frame: bool,
+    ) {
         if self.captures.want_window_shot && presented {
             self.captures.want_window_shot = false;
             if let Some(image) =

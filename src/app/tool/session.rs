@@ -155,6 +155,13 @@ impl Session {
             self.model.as_ref().is_some_and(|m| m.source == source && !m.top_level.has_wide())
                 && top_level.has_wide();
         let what = if again { "loaded the wide BVH layout of" } else { "loaded" };
+        // The loader's and the packing's warnings (textures that could not be read) are shown
+        // in the panel, and printed once on the terminal: not again with the wide tree.
+        if !again {
+            for w in &warnings {
+                log::warn!("{w}");
+            }
+        }
         let text = format!(
             "{what} {} ({} triangles) in {seconds:.2} s ({} s)",
             source.label(),
@@ -166,6 +173,9 @@ impl Session {
             None => Status::ok(text),
         });
         panel.model.warnings = warnings;
+        if let ModelSource::File(path) = &source {
+            panel.model.loaded(&std::path::absolute(path).unwrap_or_else(|_| path.clone()));
+        }
         let title = format!("meshtracer — {}", source.label());
         // The new scene's instance list and environment are the loader's defaults: apply ours.
         self.applied.instances = None;

@@ -7,7 +7,7 @@ use crate::app::state::fit_rect;
 use crate::app::tool::Tool;
 use crate::app::tool::{devices, input};
 use crate::app::user_files::open_dialog::Purpose;
-use crate::app::user_files::screenshot::{self, Kind};
+use crate::app::user_files::screenshot;
 use crate::app::views::overlay;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::present::PixelRect;
@@ -65,15 +65,14 @@ impl Tool {
         let full = self.ui.egui_ctx.run_ui(raw, |ui| {
             if params.panel_visible {
                 let frame = egui::Frame::side_top_panel(ui.style()).inner_margin(8.0);
-                // At most half a small window, so the image stays visible.
-                let max = (ui.available_width() * 0.5).max(160.0);
-                egui::Panel::left("panel")
-                    .default_size(panel::PANEL_WIDTH.min(max))
-                    .size_range(150.0..=max)
-                    .frame(frame)
-                    .show(ui, |ui| {
+                // At most two fifths of the window, never under the width its rows need.
+                let (width, range) = panel::panel_widths(ui.available_width());
+                egui::Panel::left("panel").default_size(width).size_range(range).frame(frame).show(
+                    ui,
+                    |ui| {
                         actions = panel::show(ui, params, panel_state, &info);
-                    });
+                    },
+                );
             }
             central = ui.available_rect_before_wrap();
             overlay::show(
@@ -88,6 +87,9 @@ impl Tool {
             match open_dialog.show(ui.ctx()) {
                 Some((Purpose::Model, path)) => actions.push(PanelAction::LoadFile(path)),
                 Some((Purpose::Preset, path)) => actions.push(PanelAction::LoadPreset(path)),
+                Some((Purpose::Environment, path)) => {
+                    params.use_environment_file(path);
+                }
                 None => {}
             }
         });
@@ -109,6 +111,7 @@ impl Tool {
         let (dialog_open, now) = (self.ui.open_dialog.is_open(), self.input.now());
         let cut_at = |e: &egui::Event| input::focus_cut(e, dialog_open, egui_wants_keys);
         let (keys, held) = self.input.take_pass(&mut raw, now, cut_at);
+        input::trace_pass(&raw.events, dialog_open, egui_wants_keys);
         if !held.is_empty() {
             self.ui.egui_state.egui_input_mut().events = held;
             self.window.request_redraw();
@@ -173,16 +176,7 @@ impl Tool {
             PanelAction::Open(purpose) => self.open(purpose),
             PanelAction::ScreenshotTrace => self.captures.want_trace_shot = true,
             PanelAction::ScreenshotWindow => self.captures.want_window_shot = true,
-            PanelAction::ScreenshotExr => {
-                let path = screenshot::new_path(
-                    &screenshot::screenshot_dir(),
-                    Kind::Trace,
-                    &self.name_parts(),
-                )
-                .with_extension("exr");
-                self.ui.panel.screenshot.status = Some(self.save_exr(&path));
-                self.notice_screenshot();
-            }
+            PanelAction::ScreenshotExr => self.captures.want_exr_shot = true,
             PanelAction::SavePreset { path, overwrite } => self.save_preset(&path, overwrite),
             PanelAction::LoadPreset(path) => self.load_preset(&path),
             PanelAction::Benchmark(frames) => self.timing.benchmarks.want(frames),

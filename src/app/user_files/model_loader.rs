@@ -145,11 +145,9 @@ fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<Loade
     let mut scene = LoadedScene::pack(world, layouts, &progress).map_err(|e| e.to_string())?;
     scene.warnings.splice(0..0, warnings);
     progress.checkpoint().map_err(|e| e.to_string())?;
-    // The loader's and the packing's warnings (textures that could not be read) are shown in
-    // the panel, and each is printed once on the terminal.
-    for w in &scene.warnings {
-        log::warn!("{w}");
-    }
+    // The pack phase ends here, not when the window takes the model: the first frame's
+    // kernels may keep the window busy for seconds, which is no packing (issue #43).
+    progress.finish();
     Ok(LoadedModel { source: spec.model, scene, progress })
 }
 
@@ -212,6 +210,24 @@ mod tests {
         let phases: Vec<Phase> =
             result.unwrap().progress.snapshot().phases.iter().map(|p| p.phase).collect();
         assert_eq!(phases, [Phase::Parse, Phase::Build, Phase::Pack]);
+    }
+
+    /// Issue #43, point 10: the worker closes its last phase when it is done, so the time
+    /// the window takes to pick the model up (the first frame's kernels) is not counted as
+    /// packing; the upload is a phase of its own after it.
+    #[test]
+    fn the_pack_phase_ends_with_the_worker() {
+        let progress = Progress::default();
+        let loaded = load(spec(ModelSource::Generated(2_000), 1), progress.clone(), None).unwrap();
+        let snapshot = loaded.progress.snapshot();
+        assert!(snapshot.phases.iter().all(|p| p.done), "{:?}", snapshot.phases);
+        let pack = snapshot.seconds(Phase::Pack);
+        // What the window does next: the upload begins later, as its own phase.
+        progress.begin(Phase::Upload).unwrap();
+        progress.finish();
+        let after = progress.snapshot();
+        assert_eq!(after.seconds(Phase::Pack), pack, "the pack phase went on after the worker");
+        assert_eq!(after.phases.last().map(|p| p.phase), Some(Phase::Upload));
     }
 
     /// Issue #43: a model whose triangle buffer passes the device's storage-buffer limit is

@@ -1,5 +1,5 @@
 //! The Open dialog (Ctrl+O, the Model section's "Open model…", the Presets section's
-//! "Open…"): egui-file-dialog, drawn by egui in the tool's own window, so it works under a
+//! "Open…", the Shading section's environment "file…"): egui-file-dialog, drawn by egui in the tool's own window, so it works under a
 //! bare X11 session with no desktop portal, GTK or zenity. It only picks a path; the tool
 //! loads it exactly as a dropped file or a typed path.
 
@@ -14,11 +14,17 @@ pub(crate) enum Purpose {
     Model,
     /// A preset (.toml, or a PNG the program wrote), loaded as the Presets section's Load.
     Preset,
+    /// An environment map (an equirectangular image), chosen in the Shading section.
+    Environment,
 }
 
 /// The name of the filter the dialog opens with, for each purpose.
 const MODEL_FILTER: &str = "Models (.obj, .ply, .gltf, .glb)";
 const PRESET_FILTER: &str = "Presets (.toml, .png)";
+const IMAGE_FILTER: &str = "Images (.hdr, .exr, .png, .jpg)";
+
+/// The extensions of the environment maps the image decoder reads.
+const IMAGE_EXTENSIONS: [&str; 5] = ["hdr", "exr", "png", "jpg", "jpeg"];
 
 /// The dialog, when one is open, and what it is for.
 #[derive(Default)]
@@ -34,13 +40,16 @@ impl OpenDialog {
             .title(match purpose {
                 Purpose::Model => "Open a model",
                 Purpose::Preset => "Open a preset",
+                Purpose::Environment => "Open an environment map",
             })
             .initial_directory(start_folder(near))
             .add_file_filter(MODEL_FILTER, extensions(&crate::scene::formats::MODEL_EXTENSIONS))
             .add_file_filter(PRESET_FILTER, extensions(&["toml", "png"]))
+            .add_file_filter(IMAGE_FILTER, extensions(&IMAGE_EXTENSIONS))
             .default_file_filter(match purpose {
                 Purpose::Model => MODEL_FILTER,
                 Purpose::Preset => PRESET_FILTER,
+                Purpose::Environment => IMAGE_FILTER,
             })
             // "All files" stays in the filter list, to see what else the folder holds.
             .show_all_files_filter(true);

@@ -86,8 +86,9 @@ pub(crate) fn new_path(dir: &Path, kind: Kind, parts: &NameParts) -> PathBuf {
 /// `meshtracer` text chunk (through `files::write_atomic`: a watcher never sees half a file,
 /// a failed write keeps the old one). The error is one sentence.
 pub(crate) fn save_png(image: &RgbaImage, settings: &str, path: &Path) -> Result<(), String> {
-    crate::files::image_files::save_png(image, Some(settings), path)
-        .map_err(|e| format!("could not write {}: {}", path.display(), e.root_cause()))
+    crate::files::image_files::save_png(image, Some(settings), path).map_err(|e| {
+        format!("could not write {}: {}", crate::files::shown_path(path), e.root_cause())
+    })
 }
 
 /// The panel's line for a file written (its full path) or not (why).
@@ -95,7 +96,7 @@ pub(crate) fn status(result: Result<(), String>, path: &Path) -> Status {
     match result {
         Ok(()) => {
             let shown: PathBuf = crate::files::canonical_or_given(path);
-            Status::ok(format!("wrote {}", shown.display()))
+            Status::ok(format!("wrote {}", crate::files::shown_path(&shown)))
         }
         Err(e) => Status::error(e),
     }

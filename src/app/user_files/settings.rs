@@ -1,5 +1,5 @@
 //! Remembered settings: the window's size, which panel sections are open, the presets
-//! used lately and the graph's window, kept between runs in `settings.toml` in the
+//! and model files used lately and the graph's window, kept between runs in `settings.toml` in the
 //! platform's config folder (`MESHTRACER_CONFIG_DIR` overrides it). `--no-persist` and
 //! scripted runs neither read nor write it, so a script sees the same tool every time.
 //!
@@ -30,6 +30,8 @@ pub(crate) struct Settings {
     pub(crate) sections: BTreeMap<String, bool>,
     /// Presets saved or loaded, the latest first.
     pub(crate) recent_presets: Vec<PathBuf>,
+    /// Model files loaded, the latest first.
+    pub(crate) recent_models: Vec<PathBuf>,
     /// Seconds of history the frame-time graph shows.
     pub(crate) graph_seconds: Option<f64>,
 }
@@ -41,6 +43,7 @@ impl Default for Settings {
             window: None,
             sections: BTreeMap::new(),
             recent_presets: Vec::new(),
+            recent_models: Vec::new(),
             graph_seconds: None,
         }
     }
@@ -70,7 +73,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
                 Settings::default(),
                 Some(format!(
                     "cannot read the remembered settings {} ({e}); using the defaults",
-                    path.display()
+                    crate::files::shown_path(path)
                 )),
             )
         }
@@ -81,7 +84,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
             Settings::default(),
             Some(format!(
                 "ignoring the remembered settings {} ({e}); using the defaults",
-                path.display()
+                crate::files::shown_path(path)
             )),
         ),
     }
@@ -91,7 +94,7 @@ pub(crate) fn read(path: &Path) -> (Settings, Option<String>) {
 /// leaves half a file; creates the folder.
 pub(crate) fn write(path: &Path, settings: &Settings) -> Result<(), String> {
     let fail = |e: &dyn std::fmt::Display| {
-        format!("cannot remember the settings in {} ({e})", path.display())
+        format!("cannot remember the settings in {} ({e})", crate::files::shown_path(path))
     };
     let text = toml::to_string(settings).map_err(|e| fail(&e))?;
     if let Some(dir) = path.parent() {
@@ -146,7 +149,7 @@ impl Store {
             Some(path) => match crate::files::remove_file(path) {
                 Ok(()) => Ok(()),
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-                Err(e) => Err(format!("cannot remove {} ({e})", path.display())),
+                Err(e) => Err(format!("cannot remove {} ({e})", crate::files::shown_path(path))),
             },
             None => Ok(()),
         }
@@ -171,6 +174,7 @@ mod tests {
         let mut s = Settings {
             window: Some([900, 600]),
             recent_presets: vec![PathBuf::from("/tmp/look.toml")],
+            recent_models: vec![PathBuf::from("/tmp/bunny.obj")],
             graph_seconds: Some(30.0),
             ..Default::default()
         };
@@ -208,6 +212,29 @@ mod tests {
         std::fs::write(&path, "window = [800, 600]\nsomething_new = 1\n").unwrap();
         assert_eq!(read(&path).0.window, Some([800, 600]));
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    /// Issue #43, point 17: the messages beyond the reads' (the `-o` format check, a preset's
+    /// read and save, the remembered settings) escape a path too.
+    #[test]
+    fn paths_in_other_messages_are_escaped() {
+        let dir = temp("escaped");
+        std::fs::create_dir_all(&dir).unwrap();
+        let evil = |name: &str| dir.join(format!("\u{1b}]0;PWNED\u{7}{name}"));
+        let check = |err: String| {
+            assert!(!err.chars().any(char::is_control), "{err:?}");
+            assert!(err.contains("\\u{1b}]0;PWNED\\u{7}"), "{err:?}");
+        };
+        check(crate::files::image_files::OutputFormat::from_path(&evil("x.bmp")).unwrap_err());
+        // A PNG that is not this program's: the preset's own message names it.
+        let png = evil("x.png");
+        std::fs::write(&png, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+        check(crate::scene::preset::read(&png).unwrap_err());
+        let spec = crate::scene::spec::SceneSpec::default();
+        check(crate::scene::preset::save(&spec, &png, false).unwrap_err().to_string());
+        let (_, warning) = read(&png);
+        check(warning.expect("a PNG is no settings file"));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -56,7 +56,7 @@ impl ShaderWatch {
                 return self.changed(vec![]).then(|| {
                     Status::error(format!(
                         "cannot read the shader folder {}: {e}",
-                        self.dir.display()
+                        crate::files::shown_path(&self.dir)
                     ))
                 })
             }

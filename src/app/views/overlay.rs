@@ -74,10 +74,9 @@ pub(crate) fn show(
             });
     }
     if let Some(p) = light.filter(|p| image.contains(*p)) {
-        let painter = ctx.layer_painter(egui::LayerId::new(
-            egui::Order::Foreground,
-            egui::Id::new("light marker"),
-        ));
+        // Under every area: the numbers (HUD), the notice and the Open dialog cover it,
+        // not the other way round (issue #43: the ring was drawn over the numbers).
+        let painter = ctx.layer_painter(egui::LayerId::background());
         painter.circle_stroke(p, 7.0, Stroke::new(2.0, Color32::BLACK));
         painter.circle_stroke(p, 6.0, Stroke::new(1.5, LIGHT_COLOR));
         // The label above the marker, or below it near the image's top edge.
@@ -161,5 +160,34 @@ fn split_line(ctx: &egui::Context, s: &SplitOverlay) {
         let rect = anchor.anchor_size(Pos2::new(s.x + dx, y), galley.size());
         painter.rect_filled(rect.expand(3.0), 3.0, Color32::from_black_alpha(170));
         painter.galley(rect.min, galley, Color32::WHITE);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue #43: the light's ring was drawn over the numbers over the image. It is painted
+    /// under every area there (the numbers, the notice), here the notice's.
+    #[test]
+    fn the_light_marker_is_painted_under_the_areas_over_the_image() {
+        let ctx = egui::Context::default();
+        let image = Rect::from_min_size(egui::pos2(300.0, 0.0), egui::vec2(500.0, 500.0));
+        let notice = Notice::new("wrote a screenshot with a long name");
+        let light = image.left_bottom() + egui::vec2(20.0, -26.0);
+        let mut shapes = Vec::new();
+        for _ in 0..2 {
+            let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
+                show(ui.ctx(), image, None, Some(light), None, Some(&notice));
+            });
+            // No renderer here: the font texture's upload is dropped on purpose.
+            out.textures_delta.clear();
+            shapes = out.shapes;
+        }
+        let at = |f: &dyn Fn(&egui::Shape) -> bool| shapes.iter().position(|c| f(&c.shape));
+        let ring = at(&|s| matches!(s, egui::Shape::Circle(_))).expect("the light's ring");
+        let text = at(&|s| matches!(s, egui::Shape::Text(t) if t.galley.text().contains("wrote")))
+            .expect("the notice");
+        assert!(ring < text, "the ring ({ring}) is painted after the notice ({text})");
     }
 }

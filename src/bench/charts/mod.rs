@@ -43,10 +43,10 @@ pub struct SavedReport {
 
 /// Read a report written by `bench --json`.
 pub fn load_report(path: &Path) -> anyhow::Result<SavedReport> {
-    let text =
-        crate::files::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = crate::files::read_text(path)
+        .with_context(|| format!("cannot read {}", crate::files::shown_path(path)))?;
     serde_json::from_str(&text)
-        .with_context(|| format!("{} is not a bench JSON report", path.display()))
+        .with_context(|| format!("{} is not a bench JSON report", crate::files::shown_path(path)))
 }
 
 /// Draw the three charts of `rows` into `dir` (created if missing); `environments` name
@@ -56,7 +56,8 @@ pub fn write_charts(
     environments: &[Environment],
     rows: &[Row],
 ) -> anyhow::Result<Vec<PathBuf>> {
-    crate::files::create_folder(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    crate::files::create_folder(dir)
+        .with_context(|| format!("cannot create {}", crate::files::shown_path(dir)))?;
     let machine = machine_line(environments);
     let charts = [
         triangles_chart(rows, &machine),
@@ -66,7 +67,8 @@ pub fn write_charts(
     let mut written = Vec::new();
     for (chart, name) in charts.iter().zip(CHART_FILES) {
         let path = dir.join(name);
-        render(chart, &path).with_context(|| format!("cannot draw {}", path.display()))?;
+        render(chart, &path)
+            .with_context(|| format!("cannot draw {}", crate::files::shown_path(&path)))?;
         written.push(path);
     }
     Ok(written)

@@ -127,10 +127,10 @@ impl Runs {
         outcome.lines = lines;
         outcome.status = Some(match &written {
             Ok(()) => {
-                println!("appended to {}", path.display());
+                println!("appended to {}", crate::files::shown_path(&path));
                 Status::ok(format!(
                     "appended to {}",
-                    crate::files::canonical_or_given(&path).display()
+                    crate::files::shown_path(&crate::files::canonical_or_given(&path))
                 ))
             }
             Err(e) => Status::error(e.clone()),
