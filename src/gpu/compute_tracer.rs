@@ -241,9 +241,7 @@ impl ComputeTracer {
     /// Make now the kernel that frames of `settings` run, where it is one made on first
     /// use: `render` does this beside the BVH build, so its frame does not wait for it.
     pub(crate) fn make_kernel_for(&self, settings: &RenderSettings) {
-        if let Some(variant) = trace_kernels::made_on_first_use(settings) {
-            self.pass.make_kernel_now(variant);
-        }
+        self.pass.make_kernel_now(trace_kernels::variant_for(settings));
     }
 
     /// Whether every trace kernel a frame may need is made, so that none waits for one.

@@ -105,17 +105,17 @@ fn load_beside_device(
             Ok(tracer)
         });
         let loaded = load_scene(spec, clock);
-        let device_failed = |device: std::thread::ScopedJoinHandle<'_, _>| match device.join() {
-            Ok(Err(e)) => e,
-            Ok(Ok(_)) => anyhow::anyhow!("the device thread ended without its device"),
-            Err(_) => anyhow::anyhow!("the device thread panicked"),
+        let join = |device: std::thread::ScopedJoinHandle<'_, anyhow::Result<ComputeTracer>>| {
+            device.join().map_err(|_| anyhow::anyhow!("the device thread panicked"))?
         };
-        let Ok(ctx) = ctx_rx.recv() else { return Err(device_failed(device)) };
+        let Ok(ctx) = ctx_rx.recv() else {
+            // No device was sent: opening it failed, and the thread's error says why.
+            return join(device).and(Err(anyhow::anyhow!("the device thread ended early")));
+        };
         let (scene, warnings) = loaded?;
         let limit = ctx.info.max_storage_buffer_range;
         let packed = pack(spec, &scene, &warnings, Some(limit), clock)?;
-        let tracer = device.join().map_err(|_| anyhow::anyhow!("the device thread panicked"))??;
-        Ok((ctx, tracer, scene, packed))
+        Ok((ctx, join(device)?, scene, packed))
     })
 }
 

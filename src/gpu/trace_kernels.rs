@@ -17,8 +17,8 @@ use super::lock::lock;
 use super::pipeline::create_compute_pipeline;
 use super::pipeline::words;
 use crate::contract;
-use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
-use crate::tracer::frame::PushConstants;
+use crate::render_settings::RenderSettings;
+use crate::tracer::frame::{self, PushConstants};
 
 /// SPIR-V compiled from `shaders/trace.comp` by build.rs.
 pub(super) static TRACE_SPV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
@@ -59,10 +59,10 @@ pub(crate) enum Variant {
     Runs,
 }
 
-/// The kernel for a frame of these push constants over a scene whose every mesh has a wide
-/// tree or not (a mesh without one needs the binary traversal, which the wide kernel lacks).
-pub(crate) fn variant(pc: &PushConstants, every_mesh_wide: bool) -> Variant {
-    let flags = pc.dims[3];
+/// The kernel for a frame of these push-constant flags (`PushConstants::dims[3]`) over a
+/// scene whose every mesh has a wide tree or not (a mesh without one needs the binary
+/// traversal, which the wide kernel lacks).
+pub(crate) fn variant(flags: u32, every_mesh_wide: bool) -> Variant {
     let ao = (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO;
     let wide = flags & contract::FLAG_BVH != 0 && flags & contract::FLAG_WIDE != 0;
     if flags & contract::FLAG_LEAF_RUNS != 0 && wide {
@@ -76,15 +76,10 @@ pub(crate) fn variant(pc: &PushConstants, every_mesh_wide: bool) -> Variant {
     }
 }
 
-/// The kernel frames of `settings` run where it is one made on first use (wide or leaf
-/// runs; a wide frame over a mesh without a wide tree runs the full kernel instead).
-pub(crate) fn made_on_first_use(settings: &RenderSettings) -> Option<Variant> {
-    let wide = settings.accel == Accel::Bvh && settings.bvh.is_wide();
-    match settings.bvh {
-        BvhLayout::WideRuns if wide => Some(Variant::Runs),
-        _ if wide && settings.aov != Aov::Ao => Some(Variant::Wide),
-        _ => None,
-    }
+/// The kernel frames of `settings` run over a scene whose every mesh has a wide tree (what
+/// `render` makes before its first frame).
+pub(crate) fn variant_for(settings: &RenderSettings) -> Variant {
+    variant(frame::flags_for(settings, false), true)
 }
 
 /// A kernel made on first use or in the background: None inside when making it failed
@@ -134,7 +129,7 @@ impl KernelVariants {
         every_mesh_wide: bool,
         full: vk::Pipeline,
     ) -> vk::Pipeline {
-        let made = match variant(pc, every_mesh_wide) {
+        let made = match variant(pc.dims[3], every_mesh_wide) {
             Variant::Full => return full,
             Variant::Core => return self.core,
             Variant::Wide => self
@@ -301,8 +296,6 @@ mod tests {
 
     #[test]
     fn each_frame_runs_the_kernel_that_has_its_code() {
-        let push =
-            |flags: u32| PushConstants { dims: [1, 1, 1, flags], ..bytemuck::Zeroable::zeroed() };
         let (bvh, wide, runs, ao) = (
             contract::FLAG_BVH,
             contract::FLAG_WIDE,
@@ -310,17 +303,17 @@ mod tests {
             contract::AOV_AO << contract::AOV_SHIFT,
         );
         for every_mesh_wide in [false, true] {
-            assert_eq!(variant(&push(bvh), every_mesh_wide), Variant::Core);
-            assert_eq!(variant(&push(0), every_mesh_wide), Variant::Core, "brute force");
-            assert_eq!(variant(&push(bvh | ao), every_mesh_wide), Variant::Full);
-            assert_eq!(variant(&push(bvh | wide | ao), every_mesh_wide), Variant::Full);
-            assert_eq!(variant(&push(bvh | wide | runs), every_mesh_wide), Variant::Runs);
-            assert_eq!(variant(&push(bvh | wide | runs | ao), every_mesh_wide), Variant::Runs);
+            assert_eq!(variant(bvh, every_mesh_wide), Variant::Core);
+            assert_eq!(variant(0, every_mesh_wide), Variant::Core, "brute force");
+            assert_eq!(variant(bvh | ao, every_mesh_wide), Variant::Full);
+            assert_eq!(variant(bvh | wide | ao, every_mesh_wide), Variant::Full);
+            assert_eq!(variant(bvh | wide | runs, every_mesh_wide), Variant::Runs);
+            assert_eq!(variant(bvh | wide | runs | ao, every_mesh_wide), Variant::Runs);
         }
         // The wide kernel only where every mesh has a wide tree.
-        assert_eq!(variant(&push(bvh | wide), true), Variant::Wide);
-        assert_eq!(variant(&push(bvh | wide), false), Variant::Full);
+        assert_eq!(variant(bvh | wide, true), Variant::Wide);
+        assert_eq!(variant(bvh | wide, false), Variant::Full);
         // Brute force with the wide flag (not a BVH frame) keeps the full kernel.
-        assert_eq!(variant(&push(wide), true), Variant::Full);
+        assert_eq!(variant(wide, true), Variant::Full);
     }
 }

@@ -74,23 +74,7 @@ impl FrameParams {
 
     /// The flag word of the push constants (bits and fields from [`contract`]).
     pub(crate) fn flags(&self) -> u32 {
-        let s = &self.settings;
-        let mut f = s.aov.code() << contract::AOV_SHIFT
-            | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
-        for (on, bit) in [
-            (s.accel == Accel::Bvh, contract::FLAG_BVH),
-            (s.accel == Accel::Bvh && s.bvh.is_wide(), contract::FLAG_WIDE),
-            (s.accel == Accel::Bvh && s.bvh == BvhLayout::WideRuns, contract::FLAG_LEAF_RUNS),
-            (s.smooth, contract::FLAG_SMOOTH),
-            (s.textures, contract::FLAG_TEXTURES),
-            (self.environment, contract::FLAG_ENVIRONMENT),
-            (s.adaptive, contract::FLAG_ADAPTIVE),
-        ] {
-            if on {
-                f |= bit;
-            }
-        }
-        f
+        flags_for(&self.settings, self.environment)
     }
 
     /// The background as the shader sees it (quantised to 8 bits per channel).
@@ -122,6 +106,27 @@ impl FrameParams {
             misc: [self.instance_count, first_row, self.background_rgba8(), self.frame_index],
         }
     }
+}
+
+/// The flag word of the push constants for frames of `settings`, with or without an
+/// environment map (bits and fields from [`contract`]).
+pub(crate) fn flags_for(s: &RenderSettings, environment: bool) -> u32 {
+    let mut f = s.aov.code() << contract::AOV_SHIFT
+        | s.spp.clamp(1, contract::SPP_MASK) << contract::SPP_SHIFT;
+    for (on, bit) in [
+        (s.accel == Accel::Bvh, contract::FLAG_BVH),
+        (s.accel == Accel::Bvh && s.bvh.is_wide(), contract::FLAG_WIDE),
+        (s.accel == Accel::Bvh && s.bvh == BvhLayout::WideRuns, contract::FLAG_LEAF_RUNS),
+        (s.smooth, contract::FLAG_SMOOTH),
+        (s.textures, contract::FLAG_TEXTURES),
+        (environment, contract::FLAG_ENVIRONMENT),
+        (s.adaptive, contract::FLAG_ADAPTIVE),
+    ] {
+        if on {
+            f |= bit;
+        }
+    }
+    f
 }
 
 #[cfg(test)]
