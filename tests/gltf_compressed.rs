@@ -4,6 +4,10 @@
 //! settings Blender and `draco_encoder` use; meshoptimizer's, with each filter), and broken
 //! compressed data refused in one line, never a panic.
 
+mod common;
+
+use common::gltf::glb;
+use common::random::mutations;
 use glam::Vec3;
 use meshtracer::scene::gltf::load_gltf_from_bytes;
 use meshtracer::scene::Mesh;
@@ -54,24 +58,6 @@ fn grid() -> Grid {
 
 fn bytes_of<T: bytemuck::Pod>(values: &[T]) -> Vec<u8> {
     bytemuck::cast_slice(values).to_vec()
-}
-
-/// A binary glTF of `json` with `bin` as its binary chunk.
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut json = json.as_bytes().to_vec();
-    json.resize(json.len().div_ceil(4) * 4, b' ');
-    let mut bin = bin.to_vec();
-    bin.resize(bin.len().div_ceil(4) * 4, 0);
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = b"glTF".to_vec();
-    for word in [2, total as u32, json.len() as u32, 0x4E4F_534A] {
-        out.extend(word.to_le_bytes());
-    }
-    out.extend(json);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(0x004E_4942u32.to_le_bytes());
-    out.extend(bin);
-    out
 }
 
 /// The document around one primitive: `accessors`, `views`, `buffers` and the primitive's
@@ -289,16 +275,7 @@ fn broken_draco_data_is_one_line_never_a_panic() {
         .to_string();
     assert!(e.contains("NORMAL is Draco attribute 99, which the data does not have"), "{e}");
     // Bytes changed at random: read or refused, each refusal one line.
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    for _ in 0..300 {
-        let mut mutated = bytes.clone();
-        for _ in 0..3 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let at = (state >> 8) as usize % mutated.len();
-            mutated[at] = (state >> 40) as u8;
-        }
+    for mutated in mutations(&bytes, 0x2545_F491_4F6C_DD1D, 300) {
         if let Err(e) = load_gltf_from_bytes(&draco_glb(&(mutated, ids.clone())), "x.glb", None) {
             assert!(!e.to_string().contains('\n'), "{e}");
         }
@@ -459,16 +436,7 @@ fn broken_meshopt_views_are_one_line_never_a_panic_or_a_large_allocation() {
     let e = refusal(glb(&json, &corrupt));
     assert!(e.contains("buffer view 0: its meshopt data cannot be decoded"), "{e}");
     // Bytes changed at random: read or refused in one line.
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    for _ in 0..300 {
-        let mut mutated = bin.clone();
-        for _ in 0..3 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            let at = (state >> 8) as usize % mutated.len();
-            mutated[at] = (state >> 40) as u8;
-        }
+    for mutated in mutations(&bin, 0x9E37_79B9_7F4A_7C15, 300) {
         if let Err(e) = load_gltf_from_bytes(&glb(&json, &mutated), "x.glb", None) {
             assert!(!e.to_string().contains('\n'), "{e}");
         }

@@ -2,10 +2,13 @@
 //! (.gltf with its .bin, and .glb). Every file is written here: the same mesh in each
 //! format loads as its OBJ twin does, and broken files are one line naming the file.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::gltf::glb;
 use glam::{Mat4, Quat, Vec3};
 use meshtracer::scene::formats::{load_model, LoadError};
 use meshtracer::scene::obj::{load_obj, LoadOptions, LoadedObj};
@@ -302,7 +305,7 @@ fn gltf_nodes_are_placed_by_their_world_transforms() {
     assert_same_geometry(&twin, &loaded.mesh, "two.gltf");
 
     // The same document as a .glb, the buffer in its binary chunk.
-    let glb = glb_bytes(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin);
+    let glb = glb(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin);
     let from_glb = load(&dir.write("two.GLB", glb));
     assert_same_geometry(&twin, &from_glb, "two.glb");
 }
@@ -342,29 +345,6 @@ fn gltf_base_colour_textures_are_paths_beside_the_file() {
             loaded.warnings
         );
     }
-}
-
-fn glb_bytes(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut json = json.as_bytes().to_vec();
-    while json.len() % 4 != 0 {
-        json.push(b' ');
-    }
-    let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = Vec::new();
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((json.len() as u32).to_le_bytes());
-    out.extend(0x4E4F_534Au32.to_le_bytes());
-    out.extend(json);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(0x004E_4942u32.to_le_bytes());
-    out.extend(bin);
-    out
 }
 
 /// The one-line error of loading `path`, which must name it and say `expected`.
@@ -474,7 +454,7 @@ fn broken_gltf_files_are_one_line_naming_the_file() {
         &dir.write("dangling.gltf", dangling),
         "indices is accessor 9, but the file has 2 accessors",
     );
-    let mut glb = glb_bytes(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin);
+    let mut glb = glb(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin);
     let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
     glb[20 + json_len..24 + json_len].copy_from_slice(&100_000u32.to_le_bytes());
     assert_one_line_error(
@@ -522,7 +502,7 @@ fn mutated_files_never_panic() {
         ply_bytes(Encoding::Ascii, &verts, &faces),
         ply_bytes(Encoding::Little, &verts, &faces),
         ply_bytes(Encoding::Big, &verts, &faces),
-        glb_bytes(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin),
+        glb(&gltf_json("", "VEC3").replace(r#""uri": "", "#, ""), &bin),
     ];
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod bvh_oracle;
+pub mod gltf;
 pub mod random;
 pub mod tolerance;
 

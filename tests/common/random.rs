@@ -85,3 +85,21 @@ pub fn room(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
     );
     tris
 }
+
+/// `count` copies of `bytes`, each with three bytes set to random values (a stand-in for
+/// the fuzzer on stable Rust).
+#[allow(dead_code)]
+pub fn mutations(bytes: &[u8], seed: u64, count: usize) -> Vec<Vec<u8>> {
+    let mut rng = Rng(seed);
+    (0..count)
+        .map(|_| {
+            let mut mutated = bytes.to_vec();
+            for _ in 0..3 {
+                let r = rng.next_u64();
+                let at = (r >> 8) as usize % mutated.len();
+                mutated[at] = (r >> 40) as u8;
+            }
+            mutated
+        })
+        .collect()
+}

@@ -310,8 +310,8 @@ fn opening_keys_leaves_the_panel_as_wide_as_it_was() {
 
 // ---- #44: what the scene holds, and scattered copies ----
 
-#[test]
-fn the_model_section_says_what_the_scene_holds_and_scatters_copies() {
+/// A fixture whose scene holds 10,000 copies of the geosphere and the mirror box.
+fn holding_ten_thousand_copies() -> Fixture {
     let mut fixture = Fixture::new(VendorInfo::default());
     fixture.holds = Some(SceneHolds {
         meshes: 2,
@@ -321,6 +321,12 @@ fn the_model_section_says_what_the_scene_holds_and_scatters_copies() {
         top_bytes: 1_440_144,
         bottom_bytes: 7_520,
     });
+    fixture
+}
+
+#[test]
+fn the_model_section_says_what_the_scene_holds_and_scatters_copies() {
+    let fixture = holding_ten_thousand_copies();
     let mut h = harness(Vec2::new(1280.0, 2400.0), fixture);
     h.run();
     h.get_by_label_contains("2 meshes, 10 001 instances: 92 triangles stored, 800 012 placed");
@@ -351,15 +357,7 @@ fn at_640_by_480_the_panel_leaves_the_image_most_of_the_window() {
 #[test]
 fn the_scroll_bar_has_a_column_of_its_own() {
     // #43: a label ran under the panel's (floating) scroll bar.
-    let mut fixture = Fixture::new(VendorInfo::default());
-    fixture.holds = Some(SceneHolds {
-        meshes: 2,
-        instances: 10_001,
-        unique_triangles: 92,
-        instanced_triangles: 800_012,
-        top_bytes: 1_440_144,
-        bottom_bytes: 7_520,
-    });
+    let fixture = holding_ten_thousand_copies();
     // Short: the sections scroll.
     let mut h = harness(Vec2::new(1280.0, 500.0), fixture);
     h.run();
