@@ -27,8 +27,20 @@ fn the_a_key_reaches_the_vendors_tracing_live_and_it_traces_as_render_does() {
     let mut app = spawn(cmd);
     let window = wait_for_window(&x.display, &mut app);
     let _ = f12(&x, &window, dir.path(), &mut app);
-    // BVH, brute force, vendor: each press takes effect on the next frame.
-    press(&x.display, &window, &["a", "a"]);
+    // BVH, brute force, vendor: each press takes effect on the next frame. The second press
+    // waits for a brute-force frame in the log: two presses within one frame both apply
+    // before it is traced, and brute force would then never be seen (it failed so once in
+    // CI on a loaded machine).
+    press(&x.display, &window, &["a"]);
+    let log_path = dir.path().join("frames.csv");
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while std::time::Instant::now() < deadline
+        && !std::fs::read_to_string(&log_path)
+            .is_ok_and(|log| accelerations(&log).iter().any(|a| a == "brute"))
+    {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    press(&x.display, &window, &["a"]);
     std::thread::sleep(Duration::from_secs(2));
     let vendor = f12(&x, &window, dir.path(), &mut app);
     press(&x.display, &window, &["ctrl+q"]);
