@@ -47,7 +47,7 @@ impl TopLevel {
         // double-precision inverse, each box eight transformed corners).
         let (records, boxes): (Vec<GpuInstance>, Vec<Aabb>) = instances
             .par_iter()
-            .with_min_len(1024)
+            .with_min_len(256)
             .map(|inst| {
                 let mesh = &meshes[inst.mesh];
                 let b = inst.world_bounds(mesh.bounds);

@@ -16,6 +16,27 @@ pub(super) const SMALL_NODE: usize = 8;
 pub(super) fn exact_split(prims: &mut [Prim], node_bounds: &Bounds) -> Split {
     let n = prims.len();
     debug_assert!((2..=SMALL_NODE).contains(&n));
+    if n == 2 {
+        return pair_split(prims);
+    }
+    swept_split(prims, node_bounds)
+}
+
+/// The exact split of two primitives: one a side whichever axis orders them, so every axis
+/// costs the same and the sweep would keep x. Half the nodes of a top level (leaves of one
+/// instance) are pairs; this skips their three sorts and sweeps.
+fn pair_split(prims: &mut [Prim]) -> Split {
+    let mut order = [0u8; 2];
+    sort_by_centroid(prims, 0, &mut order);
+    if order[0] == 1 {
+        prims.swap(0, 1);
+    }
+    Split { mid: 1, left: NodeInfo::of(&prims[..1]), right: NodeInfo::of(&prims[1..]) }
+}
+
+/// The exact split by sweeping every centroid plane of every axis.
+fn swept_split(prims: &mut [Prim], node_bounds: &Bounds) -> Split {
+    let n = prims.len();
     // Areas scaled as in the binned sweep, so that huge coordinates stay finite.
     let extent = (node_bounds.max - node_bounds.min).max_element();
     let scale = if extent > 0.0 && (1.0 / extent).is_finite() { 1.0 / extent } else { 1.0 };
@@ -116,6 +137,35 @@ mod tests {
 
     fn prim(x: f32, index: u32) -> Prim {
         Prim::new(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 1.0, 1.0), index)
+    }
+
+    #[test]
+    fn a_pair_splits_as_the_sweep_splits_it() {
+        // Pairs apart, overlapping, with equal centroids on some axes, NaN and infinite.
+        let corners = [0.0, 1.0, -3.0, 0.5, f32::INFINITY, f32::NAN, 1e30, -0.0];
+        let mut pairs = 0;
+        for (i, &a) in corners.iter().enumerate() {
+            for &b in &corners[i..] {
+                for (ia, ib) in [(0u32, 1u32), (1, 0), (7, 7)] {
+                    let p = Prim::new(Vec3::new(a, b, 0.0), Vec3::new(a + 1.0, b + 2.0, 1.0), ia);
+                    let q = Prim::new(Vec3::new(b, a, 0.0), Vec3::new(b + 1.0, a, 3.0), ib);
+                    let mut fast = vec![p, q];
+                    let mut swept = fast.clone();
+                    let bounds = NodeInfo::of(&fast).bounds;
+                    let f = pair_split(&mut fast);
+                    let s = swept_split(&mut swept, &bounds);
+                    assert_eq!(f.mid, s.mid);
+                    let key = |v: &[Prim]| {
+                        v.iter()
+                            .map(|p| (p.index, p.min[0].to_bits(), p.min[1].to_bits()))
+                            .collect::<Vec<_>>()
+                    };
+                    assert_eq!(key(&fast), key(&swept), "{a} {b} {ia} {ib}");
+                    pairs += 1;
+                }
+            }
+        }
+        assert_eq!(pairs, 108);
     }
 
     #[test]
