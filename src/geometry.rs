@@ -74,9 +74,7 @@ impl Aabb {
         }
     }
 
-    /// Surface area (0 for the empty box); only the tests use it, the SAH builder has its
-    /// own scaled half area.
-    #[cfg(test)]
+    /// Surface area (0 for the empty box); the SAH builder has its own scaled half area.
     pub(crate) fn surface_area(&self) -> f32 {
         let e = self.extent();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)

@@ -22,8 +22,8 @@ pub use super::records::{
     GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading, PackedVertices,
 };
 use super::textures::{EnvironmentMap, TextureAtlas};
-use super::top_level::MeshPlace;
 pub use super::top_level::TopLevel;
+use super::top_level::{MeshCover, MeshPlace};
 use crate::bvh::wide::{WideBvh, WideNode};
 use crate::bvh::{Bvh, BvhNode};
 use crate::contract::EMPTY;
@@ -41,6 +41,8 @@ pub struct PackedMesh {
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
     pub(crate) bounds: Aabb,
+    /// Boxes of its tree's top nodes, for tight world boxes of turned instances.
+    pub(crate) cover: MeshCover,
     /// Nodes of the mesh's BVH in `PackedScene::nodes` from `node_base` (the tree is kept
     /// only there: [`PackedMesh::bvh`] puts it back together).
     pub node_count: u32,
@@ -210,6 +212,7 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         let keep_binary = !(wide_only && wide.is_some());
         let node_count = if keep_binary { bvh.nodes.len() as u32 } else { 0 };
+        let cover = MeshCover::of_tree(&bvh.nodes, mesh.bounds());
         if keep_binary {
             append(&mut self.nodes, bvh.nodes);
         }
@@ -227,6 +230,7 @@ impl PackedScene {
             triangle_count,
             prim_base,
             bounds: mesh.bounds(),
+            cover,
         });
         BvhOrder { prims: bvh.prim_indices, material_base, vertex_base }
     }
@@ -382,7 +386,7 @@ fn top_level(meshes: &[PackedMesh], wide_word_base: u32, instances: &[Instance])
             } else {
                 EMPTY
             },
-            bounds: m.bounds,
+            cover: m.cover,
         })
         .collect();
     TopLevel::build(&places, instances)
