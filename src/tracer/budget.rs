@@ -1,6 +1,7 @@
 //! How much work one submission may ask of the GPU, in ray-triangle tests: the one budget
 //! the window, `render` and `bench` share. A frame over the device's budget
-//! ([`tests_per_submission`]) is split into row bands, each its own submission, so no single
+//! ([`tests_per_submission`]) is split into bands (row bands in `render` and `bench`; the
+//! window's may be finer, down to one pixel), each its own submission, so no single
 //! dispatch runs long enough to trip a driver's watchdog or to keep the window from
 //! answering; a frame over [`MAX_TESTS_PER_FRAME`] is refused, since it would take minutes
 //! on any GPU.

@@ -158,11 +158,17 @@ impl Frames {
         // with; any other change starts afresh.
         if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
             self.progressive = Some(Progressive::new(params, GROUP));
+            // A new frame's first band stays within the submission budget, which may be a
+            // few pixels (brute force over a big scene on a CPU device): not sized from a
+            // cheaper frame's bands, nor a whole group of seconds.
+            self.band_pixels = self.band_pixels.min(gpu.tracer.pixels_per_submission(&params));
         }
-        // Within the submission budget, which may be a few pixels (brute force over a big
-        // scene on a CPU device): the first band is not a whole group of seconds.
-        let most = gpu.tracer.pixels_per_submission(&params);
-        self.band_pixels = self.band_pixels.clamp(1, most);
+        // Bands then grow with their measured time up to the budget's rows (at least one
+        // strip of groups), as `render` and `bench` band.
+        let most = (gpu.tracer.rows_per_submission(&params) / GROUP.height) as u64
+            * width.div_ceil(GROUP.width) as u64
+            * GROUP_LANES as u64;
+        self.band_pixels = self.band_pixels.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
         let params = progressive.frame;
         let band =
