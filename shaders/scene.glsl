@@ -163,7 +163,11 @@ layout(push_constant) uniform Frame {
     vec4 cam_up;             // xyz: up * tan(fov/2), w: trace.comp's tile_base (uint bits)
     vec4 light_pos;          // xyz: point light position, w: AO radius (the AO view)
     vec4 light_color;        // rgb: light colour, w: AO rays per hit (uint bits)
-    uvec4 dims;              // width, height, bounces, flags
+    // z: bounces (bits 0-7, BOUNCES_MASK), then the band's lanes: its first lane (bits
+    // 8-15) and span (bits 16-23), so a band finer than a work group traces lanes
+    // first..=first + span of its group (in_band); first 0 and span 255 for every other
+    // band. w: flags.
+    uvec4 dims;              // width, height, bounces and band lanes, flags
     uvec4 misc;              // instance count (0: trace nothing), first row of this dispatch, background (rgba8), accumulated frames
 } frame;
 

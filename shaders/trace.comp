@@ -29,6 +29,8 @@ layout(std430, set = 0, binding = 12) readonly buffer TileOrder { uint tile_orde
 layout(std430, set = 0, binding = 13) buffer TileCosts { uint tile_costs[]; };
 
 void main() {
+    // A band finer than a group: this group's other lanes trace and record nothing.
+    if (!in_band(gl_LocalInvocationIndex)) return;
     uint tiles_x = (frame.dims.x + TILE.x - 1u) / TILE.x;
     uint tile_base = floatBitsToUint(frame.cam_up.w);
     // The tile this group would trace in row order: columns come through the dispatch base,

@@ -91,7 +91,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
     vec3 o = frame.cam_origin_eps.xyz;
     vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
 
-    uint bounces = (aov == AOV_COLOR || aov == AOV_COST || aov == AOV_SAMPLES) ? frame.dims.z : 0u;
+    uint bounces = (aov == AOV_COLOR || aov == AOV_COST || aov == AOV_SAMPLES) ? frame.dims.z & BOUNCES_MASK : 0u;
     float blend = frame.cam_forward_blend.w;
     float eps = frame.cam_origin_eps.w;
     // Ray cone: the angle one pixel subtends; flat mirrors keep it, so the footprint at a
@@ -210,6 +210,16 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
     }
     if (aov == AOV_COLOR || aov == AOV_SAMPLES) return vec4(color, 1.0);
     return aux;
+}
+
+// Whether `lane` of a work group's tile (y * width + x) is in the dispatch's band: a band
+// finer than a group (brute force on a big scene, on a slow device) traces a run of its
+// lanes and the others return at once, writing nothing. One compare (wrapping below
+// `first`); every lane passes for a band of whole groups.
+bool in_band(uint lane) {
+    uint first = (frame.dims.z >> FIRST_LANE_SHIFT) & LANE_MASK;
+    uint span = (frame.dims.z >> LANE_SPAN_SHIFT) & LANE_MASK;
+    return lane - first <= span;
 }
 
 // Everything the frame asks of pixel `px` (row 0 at the top): the adaptive pre-pass key, or

@@ -61,6 +61,21 @@ contract! {
     /// The samples-per-pixel bits once shifted down (8 bits).
     SPP_MASK = 0xff;
 
+    // `dims.z` of the push constants (`FrameParams::push_constants`): the bounces in its
+    // low byte, then the band's lanes (`PushConstants::set_lanes`). A band finer than a
+    // work group traces only lanes `first..=first + span` of its group (lane = y * width
+    // + x within the group's tile); every other band has first 0 and span `LANE_MASK`.
+
+    /// The mirror bounces' bits of `dims.z` (at most `MAX_BOUNCES`, far below).
+    BOUNCES_MASK = 0xff;
+    /// Where the band's first lane sits in `dims.z`.
+    FIRST_LANE_SHIFT = 8;
+    /// Where the band's lanes after its first (its span) sit in `dims.z`.
+    LANE_SPAN_SHIFT = 16;
+    /// The bits of the first lane and of the span once shifted down (work groups of at
+    /// most 256 invocations).
+    LANE_MASK = 0xff;
+
     // AOV codes (`Aov::code`), at `AOV_SHIFT` in the flag word.
 
     /// AOV: shaded colour.
@@ -113,4 +128,8 @@ const _: () = {
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);
+    // Nor the fields of dims.z.
+    let (bounces, first, span) =
+        (BOUNCES_MASK, LANE_MASK << FIRST_LANE_SHIFT, LANE_MASK << LANE_SPAN_SHIFT);
+    assert!(bounces & first == 0 && bounces & span == 0 && first & span == 0);
 };

@@ -34,5 +34,6 @@ bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
 #include "../trace.glsl"
 
 void main() {
+    if (!in_band(gl_LocalInvocationIndex)) return;
     trace_pixel(uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + frame.misc.y));
 }

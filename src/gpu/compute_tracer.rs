@@ -337,6 +337,17 @@ impl ComputeTracer {
         frame.parts().iter().map(|(_, p, _)| rows(p)).min().unwrap_or_else(|| rows(&frame.params))
     }
 
+    /// Pixels per submission for `frame` (at least one): the budget of its costlier part,
+    /// which the window's bands of a long frame stay within.
+    pub(crate) fn pixels_per_submission(&self, frame: &FrameTrace) -> u64 {
+        let budget = self.budget();
+        let pixels = |p: &FrameParams| {
+            budget::pixels_per_submission(&p.settings, self.triangle_total, &budget)
+        };
+        let parts = frame.parts();
+        parts.iter().map(|(_, p, _)| pixels(p)).min().unwrap_or_else(|| pixels(&frame.params))
+    }
+
     /// What one submission may ask of this tracer's device (a CPU device's budget is far
     /// smaller, and its brute-force tests weigh more: see [`budget::Budget`]).
     pub(crate) fn budget(&self) -> budget::Budget {
@@ -421,7 +432,7 @@ impl ComputeTracer {
         let vendor = |p: &FrameParams| {
             self.vendor.as_ref().ok().filter(|_| p.settings.accel == Accel::Vendor)
         };
-        if band.rows.start == 0 && band.columns.start == 0 {
+        if band.starts_frame() {
             for (i, params, columns) in parts.iter().filter(|(_, p, _)| p.settings.adaptive) {
                 match vendor(params) {
                     Some(v) => time(*i, 1, &|| v.record_ids(cmd, params, columns)),

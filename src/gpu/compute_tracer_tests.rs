@@ -1,6 +1,7 @@
 //! Unit tests of `compute_tracer.rs`: which trace kernel a frame runs, and when it is made.
 
 use super::*;
+use crate::gpu::dispatch::GROUP_LANES;
 use crate::gpu::trace_kernels::Variant;
 use crate::gpu::ContextOptions;
 use crate::render_settings::RenderSettings;
@@ -129,6 +130,93 @@ fn a_banded_brute_force_frame_equals_the_unbanded_one() {
     }
     let banded = tracer.read_image().unwrap();
     assert_eq!(banded.pixels, whole.pixels, "bands of {rows} rows");
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
+
+/// Bands of `run` pixels in the order the window traces a long frame's bands finer than a
+/// work group: group by group in reading order, each group's lanes in order (lanes over
+/// the frame's edge ride along). A run that crosses a group's end goes on in the next
+/// group as a second band.
+fn runs_of_lanes(width: u32, height: u32, run: u32) -> Vec<Band> {
+    let mut lanes = Vec::new();
+    for row in (0..height).step_by(GROUP.height as usize) {
+        for column in (0..width).step_by(GROUP.width as usize) {
+            lanes.extend((0..GROUP_LANES).map(|lane| (row, column, lane)));
+        }
+    }
+    let mut bands = Vec::new();
+    for mut chunk in lanes.chunks(run as usize) {
+        while let Some(&(row, column, first)) = chunk.first() {
+            let n = chunk.iter().take_while(|&&(r, c, _)| (r, c) == (row, column)).count();
+            bands.push(Band {
+                rows: row..(row + GROUP.height).min(height),
+                columns: column..(column + GROUP.width).min(width),
+                lanes: first..first + n as u32,
+            });
+            chunk = &chunk[n..];
+        }
+    }
+    bands
+}
+
+/// Issue #43: a brute-force frame traced in bands finer than a work group (runs of 1, 7
+/// and 50 pixels, which cross group and strip boundaries) is the frame traced whole, byte
+/// for byte, in both outputs; and a band writes its own pixels only.
+#[test]
+fn bands_finer_than_a_group_equal_the_unbanded_frame_and_write_only_their_pixels() {
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let (scene, _) = SceneSpec::default().load().unwrap();
+    let mut tracer = ComputeTracer::with_scene(&ctx, &PackedScene::new(&scene)).unwrap();
+    // 40 wide: each strip's second group overhangs the frame by 24 columns.
+    let (width, height) = (40, 8);
+    let settings = RenderSettings { width, height, accel: Accel::Brute, ..Default::default() };
+    let frame = FrameTrace::whole(FrameParams::new(&scene, settings));
+    // Another picture in the outputs first, which bands must overwrite or leave alone.
+    let depth = RenderSettings { aov: crate::render_settings::Aov::Depth, ..settings };
+    let other = FrameTrace::whole(FrameParams::new(&scene, depth));
+    tracer.set_resolution(width, height).unwrap();
+    let whole_band = Band::rows(0..height, width);
+    let outputs = |tracer: &ComputeTracer| {
+        (tracer.read_rgba8().unwrap().into_raw(), tracer.read_image().unwrap().pixels)
+    };
+    tracer.trace_band(&other, &whole_band).unwrap();
+    let (other_rgba, other_float) = outputs(&tracer);
+    tracer.trace_band(&frame, &whole_band).unwrap();
+    let (rgba, float) = outputs(&tracer);
+    assert_ne!(float, other_float, "the two pictures differ");
+
+    // One band of 5 lanes of the second strip's last group: those pixels and no others.
+    tracer.trace_band(&other, &whole_band).unwrap();
+    let band = Band { rows: 4..8, columns: 32..40, lanes: 37..42 };
+    tracer.trace_band(&frame, &band).unwrap();
+    let (band_rgba, band_float) = outputs(&tracer);
+    for y in 0..height {
+        for x in 0..width {
+            let i = (y * width + x) as usize;
+            let lane = (y % GROUP.height) * GROUP.width + x % GROUP.width;
+            let inside =
+                band.rows.contains(&y) && band.columns.contains(&x) && band.lanes.contains(&lane);
+            let (want_rgba, want_float) =
+                if inside { (&rgba, &float) } else { (&other_rgba, &other_float) };
+            assert_eq!(band_rgba[i * 4..i * 4 + 4], want_rgba[i * 4..i * 4 + 4], "({x}, {y})");
+            assert_eq!(band_float[i], want_float[i], "({x}, {y}) inside: {inside}");
+        }
+    }
+    assert_eq!(band.pixels(), 3, "lanes 40 and 41 are over the frame's edge");
+
+    for run in [1, 7, 50] {
+        tracer.trace_band(&other, &whole_band).unwrap();
+        let bands = runs_of_lanes(width, height, run);
+        assert!(bands.iter().all(Band::is_finer_than_a_group));
+        for band in &bands {
+            tracer.trace_band(&frame, band).unwrap();
+        }
+        let (banded_rgba, banded_float) = outputs(&tracer);
+        assert!(banded_rgba == rgba, "bands of {run} pixels: colour");
+        assert!(banded_float == float, "bands of {run} pixels: float");
+    }
     drop(tracer);
     assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
 }

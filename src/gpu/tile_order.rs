@@ -460,10 +460,7 @@ mod tests {
 
     #[test]
     fn a_band_covers_the_tiles_its_pixels_touch() {
-        let band = Band {
-            rows: GROUP.height..GROUP.height * 3 + 1,
-            columns: GROUP.width..GROUP.width * 2 + 5,
-        };
+        let band = Band::rect(GROUP.height..GROUP.height * 3 + 1, GROUP.width..GROUP.width * 2 + 5);
         assert_eq!(TileRect::of_band(&band), rect(1..3, 1..4));
     }
 }

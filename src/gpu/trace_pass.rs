@@ -427,8 +427,10 @@ impl TracePass {
             &[Access::ComputeWrite, Access::TransferRead],
             &[Access::ComputeRead, Access::ComputeWrite],
         );
-        // Rows are offset through the push constants, columns through the dispatch base.
+        // Rows are offset through the push constants, columns through the dispatch base;
+        // a band finer than a group names its lanes there too.
         let mut pc = params.push_constants(band.rows.start);
+        pc.set_lanes(&band.lanes);
         pc.cam_up[3] = f32::from_bits(tile_base);
         self.dispatch(cmd, &pc, band);
     }
@@ -450,11 +452,7 @@ impl TracePass {
         );
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::contract::FLAG_ID_PASS;
-        self.dispatch(
-            cmd,
-            &pc,
-            &Band { rows: 0..params.settings.height, columns: columns.clone() },
-        );
+        self.dispatch(cmd, &pc, &Band::rect(0..params.settings.height, columns.clone()));
     }
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
@@ -463,6 +461,10 @@ impl TracePass {
         let base_x = band.columns.start / GROUP.width;
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
         let groups_y = band.rows.len().div_ceil(GROUP.height as usize) as u32;
+        debug_assert!(
+            !band.is_finer_than_a_group() || groups_x * groups_y == 1,
+            "a band finer than a group is one group: {band:?}"
+        );
         let pipeline = match &self.variants {
             Some(variants) => {
                 variants.for_frame(pc, self.every_mesh_wide.load(Ordering::Relaxed), self.pipeline)

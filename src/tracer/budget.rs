@@ -1,6 +1,7 @@
 //! How much work one submission may ask of the GPU, in ray-triangle tests: the one budget
 //! the window, `render` and `bench` share. A frame over the device's budget
-//! ([`tests_per_submission`]) is split into row bands, each its own submission, so no single
+//! ([`tests_per_submission`]) is split into bands (row bands in `render` and `bench`; the
+//! window's may be finer, down to one pixel), each its own submission, so no single
 //! dispatch runs long enough to trip a driver's watchdog or to keep the window from
 //! answering; a frame over [`MAX_TESTS_PER_FRAME`] is refused, since it would take minutes
 //! on any GPU.
@@ -130,6 +131,15 @@ pub fn refusal(settings: &RenderSettings, triangles: u64) -> Option<String> {
     })
 }
 
+/// Pixels per submission so that each stays under `budget`'s work (at least one): what the
+/// window's bands of a long frame may cover at most, down to part of a work group.
+pub fn pixels_per_submission(settings: &RenderSettings, triangles: u64, budget: &Budget) -> u64 {
+    let pixels = (settings.width as u64 * settings.height as u64).max(1);
+    let per_pixel = settings.max_rays() as f64 / pixels as f64
+        * work_per_ray(settings.accel, triangles, budget);
+    ((budget.work / per_pixel).floor() as u64).clamp(1, pixels)
+}
+
 /// Rows per submission so that each stays under `budget`'s work (rays times the work per
 /// ray: for brute force, times the triangles tested), rounded up to a multiple of
 /// `row_multiple` (the shader's work-group height) and at most the frame.
@@ -202,6 +212,27 @@ mod tests {
         // The default 512², 2-bounce view still fits one submission on a CPU device.
         let view = RenderSettings { width: 512, height: 512, bounces: 2, ..Default::default() };
         assert_eq!(rows_per_submission(&view, 345_944, 8, &CPU), 512);
+    }
+
+    /// Issue #43: brute force over Crytek Sponza (262,267 triangles) at 4 spp and 2 bounces
+    /// asks a few pixels per CPU submission, far under one work group (128 pixels), while
+    /// a BVH view's budget is the whole frame.
+    #[test]
+    fn a_brute_force_pixel_can_be_most_of_a_submission() {
+        let s = RenderSettings {
+            width: 512,
+            height: 512,
+            accel: Accel::Brute,
+            spp: 4,
+            ..Default::default()
+        };
+        let pixels = pixels_per_submission(&s, 262_267, &CPU);
+        assert!((1..16).contains(&pixels), "{pixels}");
+        let work = pixels as f64 * 4.0 * 3.0 * 262_267.0 * CPU_BRUTE_TEST_COST;
+        assert!(work <= CPU.work, "{work:e}");
+        assert_eq!(pixels_per_submission(&s, 1_000_000_000, &CPU), 1, "at least one");
+        let view = RenderSettings { width: 512, height: 512, ..Default::default() };
+        assert_eq!(pixels_per_submission(&view, 262_267, &CPU), 512 * 512);
     }
 
     /// Issue #43: brute force on lavapipe runs about 24 times fewer ray-triangle tests a

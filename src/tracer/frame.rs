@@ -41,8 +41,30 @@ pub(crate) struct PushConstants {
     pub light_pos: [f32; 4],
     /// w: AO rays per primary hit (u32 bits).
     pub light_color: [f32; 4],
+    /// Width, height, bounces and band lanes (`contract::BOUNCES_MASK`, `FIRST_LANE_SHIFT`,
+    /// `LANE_SPAN_SHIFT`: a byte each), flags.
     pub dims: [u32; 4],
     pub misc: [u32; 4],
+}
+
+// The bounces share dims.z with the band's lanes: they must fit their byte.
+const _: () = assert!(crate::render_settings::MAX_BOUNCES <= contract::BOUNCES_MASK);
+
+impl PushConstants {
+    /// Trace only `lanes` of each work group (lane = y * width + x in the group's tile):
+    /// a band finer than a group. The shaders skip the other invocations with one compare,
+    /// `lane - first > span`, which no lane fails for the whole-group default (first 0,
+    /// span `LANE_MASK`) that [`FrameParams::push_constants`] sets.
+    pub(crate) fn set_lanes(&mut self, lanes: &std::ops::Range<u32>) {
+        assert!(
+            !lanes.is_empty() && lanes.end <= contract::LANE_MASK + 1,
+            "lanes {lanes:?} of a work group of at most 256"
+        );
+        let (first, span) = (lanes.start, lanes.end - 1 - lanes.start);
+        self.dims[2] = self.dims[2] & contract::BOUNCES_MASK
+            | first << contract::FIRST_LANE_SHIFT
+            | span << contract::LANE_SPAN_SHIFT;
+    }
 }
 
 impl FrameParams {
@@ -89,11 +111,18 @@ impl FrameParams {
         Vec3::new((v & 255) as f32, (v >> 8 & 255) as f32, (v >> 16 & 255) as f32) / 255.0
     }
 
-    /// The push constants for rows starting at `first_row`.
+    /// The push constants for rows starting at `first_row`, every lane of each work group
+    /// traced ([`PushConstants::set_lanes`] narrows that). `dims.z` packs the bounces
+    /// (low byte, checked against `BOUNCES_MASK`) with the band's lanes.
     pub(crate) fn push_constants(&self, first_row: u32) -> PushConstants {
         let s = &self.settings;
         let c = &self.camera;
         let flags = self.flags();
+        // Settings are validated to MAX_BOUNCES; clamp anyway so that no bounce count can
+        // spill into the lanes.
+        debug_assert!(s.bounces <= crate::render_settings::MAX_BOUNCES, "{} bounces", s.bounces);
+        let bounces = s.bounces.min(contract::BOUNCES_MASK);
+        let whole_group = contract::LANE_MASK << contract::LANE_SPAN_SHIFT;
         PushConstants {
             cam_origin_eps: c.origin.extend(self.ray_epsilon).to_array(),
             cam_forward_blend: c.forward.extend(s.blend).to_array(),
@@ -102,7 +131,7 @@ impl FrameParams {
             // w: the AO view's radius, and its rays per hit as uint bits.
             light_pos: self.light_position.extend(s.ao_radius).to_array(),
             light_color: self.light_color.extend(f32::from_bits(s.ao_samples)).to_array(),
-            dims: [s.width, s.height, s.bounces, flags],
+            dims: [s.width, s.height, bounces | whole_group, flags],
             misc: [self.instance_count, first_row, self.background_rgba8(), self.frame_index],
         }
     }
@@ -136,5 +165,33 @@ mod tests {
     #[test]
     fn push_constants_are_128_bytes() {
         assert_eq!(std::mem::size_of::<PushConstants>(), 128);
+    }
+
+    /// dims.z keeps the bounces whatever lanes a band sets, and the shader's test
+    /// `lane - first > span` (wrapping) skips exactly the lanes outside the band.
+    #[test]
+    fn the_band_lanes_share_dims_z_with_the_bounces() {
+        let scene = crate::scene::paper::paper_scene(
+            crate::scene::primitives::geosphere(0),
+            1,
+            Default::default(),
+        );
+        let settings =
+            RenderSettings { bounces: crate::render_settings::MAX_BOUNCES, ..Default::default() };
+        let mut pc = FrameParams::new(&scene, settings).push_constants(0);
+        let skipped = |pc: &PushConstants, lane: u32| {
+            let z = pc.dims[2];
+            let first = z >> contract::FIRST_LANE_SHIFT & contract::LANE_MASK;
+            let span = z >> contract::LANE_SPAN_SHIFT & contract::LANE_MASK;
+            lane.wrapping_sub(first) > span
+        };
+        assert!((0..256).all(|lane| !skipped(&pc, lane)), "the default traces every lane");
+        for lanes in [0..1, 5..12, 100..128, 127..128, 0..128, 0..256] {
+            pc.set_lanes(&lanes);
+            assert_eq!(pc.dims[2] & contract::BOUNCES_MASK, crate::render_settings::MAX_BOUNCES);
+            for lane in 0..256 {
+                assert_eq!(skipped(&pc, lane), !lanes.contains(&lane), "{lane} in {lanes:?}");
+            }
+        }
     }
 }

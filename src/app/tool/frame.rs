@@ -4,10 +4,10 @@
 
 use crate::app::state::ViewMode;
 use crate::app::tool::devices::Gpu;
-use crate::app::tool::progressive::{adapt_groups, BandTimes, Progressive};
+use crate::app::tool::progressive::{adapt_pixels, BandTimes, Progressive};
 use crate::app::views::aov;
 use crate::app::views::cost::heat_map;
-use crate::gpu::dispatch::GROUP;
+use crate::gpu::dispatch::{GROUP, GROUP_LANES};
 use crate::gpu::{Band, ComputeTracer, FrameTrace};
 use crate::render_settings::RenderSettings;
 
@@ -64,8 +64,9 @@ pub(super) struct Frames {
     pub(super) picture: Option<Picture>,
     /// The long frame being traced in bands, if any.
     pub(super) progressive: Option<Progressive>,
-    /// Work groups per band of a long frame (adapted to the GPU's speed).
-    pub(super) band_groups: u32,
+    /// Pixels per band of a long frame (adapted to the GPU's speed; under a work group's
+    /// where one group is too long).
+    pub(super) band_pixels: u64,
     /// Frames traced to their last pixel so far (the number a band's time comes back with).
     pub(super) traced_frames: u64,
     /// The GPU time of the frame whose bands are being timed.
@@ -82,7 +83,7 @@ impl Default for Frames {
         Self {
             picture: None,
             progressive: None,
-            band_groups: 1,
+            band_pixels: GROUP_LANES as u64,
             traced_frames: 0,
             band_times: BandTimes::default(),
             traced: false,
@@ -157,14 +158,21 @@ impl Frames {
         // with; any other change starts afresh.
         if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
             self.progressive = Some(Progressive::new(params, GROUP));
+            // A new frame's first band stays within the submission budget, which may be a
+            // few pixels (brute force over a big scene on a CPU device): not sized from a
+            // cheaper frame's bands, nor a whole group of seconds.
+            self.band_pixels = self.band_pixels.min(gpu.tracer.pixels_per_submission(&params));
         }
-        let most =
-            (gpu.tracer.rows_per_submission(&params) / GROUP.height) * width.div_ceil(GROUP.width);
-        self.band_groups = self.band_groups.clamp(1, most.max(1));
+        // Bands then grow with their measured time up to the budget's rows (at least one
+        // strip of groups), as `render` and `bench` band.
+        let most = (gpu.tracer.rows_per_submission(&params) / GROUP.height) as u64
+            * width.div_ceil(GROUP.width) as u64
+            * GROUP_LANES as u64;
+        self.band_pixels = self.band_pixels.clamp(1, most.max(1));
         let progressive = self.progressive.as_mut().expect("set above");
         let params = progressive.frame;
         let band =
-            progressive.next_band(self.band_groups).expect("a frame in progress has pixels left");
+            progressive.next_band(self.band_pixels).expect("a frame in progress has pixels left");
         let completes = progressive.is_done();
         if completes {
             self.progressive = None;
@@ -172,7 +180,7 @@ impl Frames {
         if gpu.traces_elsewhere() {
             let ms = gpu.tracer.trace_band(&params, &band)?;
             let total: f64 = ms.iter().flatten().sum();
-            self.band_groups = adapt_groups(self.band_groups, total, u32::MAX);
+            self.band_pixels = adapt_pixels(band.pixels(), total, u64::MAX);
             match cost {
                 None => self.read_back_colour(&gpu.tracer)?,
                 Some(view) if completes => {

@@ -48,7 +48,7 @@ use crate::app::tool::devices::headless_error;
 use crate::app::tool::devices::Gpu;
 use crate::app::tool::frame::{Frames, Prepared, Shown};
 use crate::app::tool::input::Input;
-use crate::app::tool::progressive::adapt_groups;
+use crate::app::tool::progressive::adapt_pixels;
 use crate::app::tool::script::ScriptedRun;
 use crate::app::tool::session::Session;
 use crate::app::tool::timing::Timing;
@@ -370,7 +370,8 @@ impl Tool {
         let recorded_band = prepared.trace.as_ref().is_some_and(|(p, band)| {
             band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64
         });
-        let tag = BandTag { frame: self.frame.traced_frames, last: prepared.completes };
+        let pixels = prepared.trace.as_ref().map_or(0, |(_, band)| band.pixels());
+        let tag = BandTag { frame: self.frame.traced_frames, last: prepared.completes, pixels };
         if let Some(s) = frame_settings {
             self.frame.note_settings(tag.frame, s);
         }
@@ -398,8 +399,12 @@ impl Tool {
             let image = self.gpu.tracer.read_image()?;
             self.frame.set_picture(&image, self.params.view);
         }
-        if let (true, Some(ms)) = (recorded_band, outcome.gpu_ms) {
-            self.frame.band_groups = adapt_groups(self.frame.band_groups, ms, u32::MAX);
+        // Sized from the timed band's own pixels: with frames in flight it may be an
+        // earlier band than the last one recorded, of another size.
+        if let (true, Some(ms), Some(timed)) = (recorded_band, outcome.gpu_ms, outcome.tag) {
+            if timed.pixels > 0 {
+                self.frame.band_pixels = adapt_pixels(timed.pixels, ms, u64::MAX);
+            }
         }
         self.gpu.clock.poll(now);
         Ok(DrawnFrame { prepared, outcome, frame_settings, final_frame, tag })

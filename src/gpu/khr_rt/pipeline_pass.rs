@@ -88,7 +88,9 @@ impl PipelinePass {
     /// them (`Access::ComputeWrite`): a barrier hands the pipeline's writes on to the
     /// compute stage, which later barriers start from.
     pub(crate) fn record(&self, cmd: vk::CommandBuffer, params: &FrameParams, band: &Band) {
-        self.trace(cmd, &params.push_constants(band.rows.start), band);
+        let mut pc = params.push_constants(band.rows.start);
+        pc.set_lanes(&band.lanes);
+        self.trace(cmd, &pc, band);
     }
 
     /// Record adaptive sampling's pre-pass over `columns` (all rows), as the compute pass does.
@@ -100,7 +102,7 @@ impl PipelinePass {
     ) {
         let mut pc = params.push_constants(0);
         pc.dims[3] |= crate::contract::FLAG_ID_PASS;
-        self.trace(cmd, &pc, &Band { rows: 0..params.settings.height, columns: columns.clone() });
+        self.trace(cmd, &pc, &Band::rect(0..params.settings.height, columns.clone()));
     }
 
     fn trace(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {

@@ -47,14 +47,16 @@ pub(crate) enum Show<'a> {
     Pixels { rgba: &'a [u8], width: u32, height: u32 },
 }
 
-/// Which traced frame a band belongs to, and whether it is the frame's last band: handed
-/// back with the band's GPU time, which arrives a frame or two later.
+/// Which traced frame a band belongs to, whether it is the frame's last band and its
+/// pixels: handed back with the band's GPU time, which arrives a frame or two later.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct BandTag {
     /// The traced frame's number (the caller's count).
     pub frame: u64,
     /// The band completes its frame.
     pub last: bool,
+    /// The band's pixels, which the next bands are sized from with its time.
+    pub pixels: u64,
 }
 
 /// One frame to draw.
