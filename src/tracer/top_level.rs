@@ -186,15 +186,16 @@ fn tree_over(boxes: &[Aabb]) -> Vec<BvhNode> {
     if nodes.is_empty() {
         return vec![BvhNode::new(BvhChild::EMPTY, BvhChild::EMPTY)];
     }
-    // Leaf ranges index the build's order; with one box a leaf, name the box itself.
-    for node in &mut nodes {
+    // Leaf ranges index the build's order; with one box a leaf, name the box itself (on
+    // every core: one pass over 10,000 nodes is a tenth of a millisecond on one).
+    nodes.par_iter_mut().with_min_len(1024).for_each(|node| {
         let mut children = node.children();
         for c in children.iter_mut().filter(|c| c.is_leaf()) {
             assert_eq!(c.count, 1, "the top level's leaves hold one instance each");
             c.index = prim_indices[c.index as usize];
         }
         *node = BvhNode::new(children[0], children[1]);
-    }
+    });
     nodes
 }
 
