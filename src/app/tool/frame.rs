@@ -67,8 +67,14 @@ pub(super) struct Frames {
     /// Pixels per band of a long frame (adapted to the GPU's speed; under a work group's
     /// where one group is too long).
     pub(super) band_pixels: u64,
-    /// Frames traced to their last pixel so far (the number a band's time comes back with).
+    /// Frames traced to their last pixel so far.
     pub(super) traced_frames: u64,
+    /// The number of the frame being traced, which its bands' GPU times come back tagged
+    /// with: a new one for every whole frame and every banded frame begun, so that the bands
+    /// of a frame a change cut short never add to the next frame's time (`traced_frames`
+    /// counts finished frames only: a brute-force frame's 30 s of bands once came back as
+    /// the next BVH frame's time and skewed the layout trial).
+    pub(super) number: u64,
     /// The GPU time of the frame whose bands are being timed.
     pub(super) band_times: BandTimes,
     /// A frame has been traced: F12 has something to save.
@@ -85,6 +91,7 @@ impl Default for Frames {
             progressive: None,
             band_pixels: GROUP_LANES as u64,
             traced_frames: 0,
+            number: 0,
             band_times: BandTimes::default(),
             traced: false,
             settings_by_frame: Default::default(),
@@ -122,6 +129,7 @@ impl Frames {
         let cost = (view != ViewMode::Color).then_some(view);
         if gpu.tracer.fits_one_submission(&params) {
             self.progressive = None;
+            self.number += 1;
             if let Some(view) = cost {
                 let (image, timing) = gpu.tracer.render_frame(&params)?;
                 self.set_picture(&image, view);
@@ -158,6 +166,7 @@ impl Frames {
         // with; any other change starts afresh.
         if !self.progressive.as_ref().is_some_and(|p| p.continues(&params)) {
             self.progressive = Some(Progressive::new(params, GROUP));
+            self.number += 1;
             // A new frame's first band stays within the submission budget, which may be a
             // few pixels (brute force over a big scene on a CPU device): not sized from a
             // cheaper frame's bands, nor a whole group of seconds.

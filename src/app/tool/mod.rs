@@ -371,7 +371,7 @@ impl Tool {
             band.pixels() != p.params.settings.width as u64 * p.params.settings.height as u64
         });
         let pixels = prepared.trace.as_ref().map_or(0, |(_, band)| band.pixels());
-        let tag = BandTag { frame: self.frame.traced_frames, last: prepared.completes, pixels };
+        let tag = BandTag { frame: self.frame.number, last: prepared.completes, pixels };
         if let Some(s) = frame_settings {
             self.frame.note_settings(tag.frame, s);
         }
