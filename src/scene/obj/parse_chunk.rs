@@ -531,7 +531,9 @@ fn fast_face(
             }
             let signed = negative || text.get(i) == Some(&b'+');
             i += usize::from(signed);
-            let (start, mut value) = (i, 0u64);
+            let (start, (mut value, digits)) = (i, leading_digits(&text[i..]));
+            i += digits;
+            // Past the eighth digit, or near the end of the chunk: a digit at a time.
             while i < n && text[i].is_ascii_digit() {
                 value = value.wrapping_mul(10).wrapping_add(u64::from(text[i] - b'0'));
                 i += 1;
@@ -561,6 +563,31 @@ fn fast_face(
         }
         out.push(corner);
     }
+}
+
+/// The value and number of the decimal digits that `text` starts with, up to 8 of them,
+/// read eight bytes at once (indices are the bulk of a face; a loop took about 8
+/// instructions a digit); (0, 0) when fewer than 8 bytes are left.
+#[inline(always)]
+fn leading_digits(text: &[u8]) -> (u64, usize) {
+    const SPREAD: u64 = u64::from_ne_bytes([0x80; 8]);
+    let Some(word) = text.first_chunk::<8>() else { return (0, 0) };
+    // Each byte minus '0' (as an xor: a digit is 0x30..=0x39): 0..=9 for a digit.
+    let t = u64::from_le_bytes(*word) ^ u64::from_ne_bytes([b'0'; 8]);
+    // The top bit of a byte is set where it is 10 or more. Adding may carry into the next
+    // byte, but only from a byte that is no digit, so the first such byte is still found.
+    let not_digit = (t.wrapping_add(u64::from_ne_bytes([0x76; 8])) | t) & SPREAD;
+    let count = (not_digit.trailing_zeros() / 8) as usize;
+    if count == 0 {
+        return (0, 0);
+    }
+    // The digits to the top bytes, zeros before them, then pairs, fours and eights
+    // combined (the first byte is the most significant digit).
+    let t = t << (8 * (8 - count));
+    let t = (t & 0x0f0f_0f0f_0f0f_0f0f).wrapping_mul(2561) >> 8;
+    let t = (t & 0x00ff_00ff_00ff_00ff).wrapping_mul(6_553_601) >> 16;
+    let t = (t & 0x0000_ffff_0000_ffff).wrapping_mul(42_949_672_960_001) >> 32;
+    (t, count)
 }
 
 /// A checked OBJ index (1-based, or negative counting back from the last of `available`)
@@ -692,6 +719,32 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn eight_digits_at_once_are_what_a_digit_at_a_time_gives() {
+        let alphabet = b"0123456789/ \n-+:\xc3\xff\x00";
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        for round in 0..200_000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            // Mostly digits, so that every count from 0 to 8 comes up.
+            let text: Vec<u8> = (0..6 + round % 8)
+                .map(|k| {
+                    let pick = (seed >> (k * 5)) as usize;
+                    if pick % 4 == 0 {
+                        alphabet[pick / 4 % alphabet.len()]
+                    } else {
+                        b'0' + (pick / 4 % 10) as u8
+                    }
+                })
+                .collect();
+            let count = text.iter().take(8).take_while(|b| b.is_ascii_digit()).count();
+            let value = text[..count].iter().fold(0u64, |v, &b| v * 10 + u64::from(b - b'0'));
+            let expected = if text.len() < 8 { (0, 0) } else { (value, count) };
+            assert_eq!(leading_digits(&text), expected, "{:?}", String::from_utf8_lossy(&text));
         }
     }
 
