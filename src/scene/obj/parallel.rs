@@ -347,3 +347,24 @@ impl Walk {
         self.start = end;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_utf8_is_found_on_its_line_whatever_the_chunks() {
+        // Chunks read alone, chunks counted (the relative index) and chunks read exactly.
+        let bytes = b"v 1 2 3\nv 1 2 3\nv 1 2 3\nf -1 -2 -3\nf 1 2 3\nv \xff 2 3\nv\n";
+        let libs = MaterialLibraries {
+            base_dir: None,
+            obj_name: "t.obj",
+            loaded: Default::default(),
+            warnings: Default::default(),
+        };
+        for size in 1..bytes.len() + 2 {
+            let e = parse(bytes, "t.obj", &libs, size).err();
+            assert!(matches!(e, Some(ObjError::NotText { line: 6, .. })), "size {size}: {e:?}");
+        }
+    }
+}
