@@ -111,6 +111,35 @@ fn hand_written_cases_parse_the_same_at_every_cut() {
     }
 }
 
+/// Texts for the one-pass reading of a chunk on its own (`parse_alone`) and its way back
+/// to the exact one: faces whose indices are only proven in range once the chunks before
+/// are counted, indices out of range before their line but not at the end of the file,
+/// lines that the one-pass reading must leave to the plain one.
+const ALONE_CASES: &[&str] = &[
+    // in range only through the chunks before; then one past the count at its line
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3 2 1\n",
+    "v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\nf 1 2 3\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/2/1 3/1/2\nvt 1 1\nvn 1 0 0\nf 1/2/2 2/1/1 3/2/2\n",
+    // tabs, spaces and CR around every word; no newline at the end
+    "v\t0\t0\t0 \r\nv 1  0\t 0\t\r\nv 0 1 0\nvt 0.5 0.5 0.0\r\nvn 0 0 1 extra\nf\t1/1/1\t2/1/1  3/1/1 \r\nf 1 2 3",
+    // more than three corners, mixed forms, long and odd numbers
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 2 0\nvt 0 0\nf 1 2 3 4 5\nf 1/1 2/1 3/1 4/1\nf 00000000000000000001 2 3\nf 1 2 99999999999999999999\n",
+    // words the one pass leaves to the plain reading
+    "v 1.5e3 2 3\nv 1 2 3 4\nv 1 2 3x\nv +1 -2. .5\nv 0.000000001 16777217 -0\nf 1 2 3\nf 1 2 -1\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf \nf 1 2\nf 1 2 3\n",
+    "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 x\nf 1 2 3\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\n\n   \n# f 9 9 9\nf 1 2 3\nf 1 2 0\n",
+    "\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\nv 0 0 1\n",
+];
+
+#[test]
+fn chunks_read_alone_parse_as_the_plain_reading_at_every_cut() {
+    for text in ALONE_CASES {
+        check(text, None, &LoadOptions::default(), 1..=text.len() + 1);
+    }
+}
+
 /// A small deterministic random number generator (xorshift), so failures reproduce.
 struct Rng(u64);
 

@@ -25,12 +25,20 @@ pub(crate) fn short_f64(word: &[u8]) -> Option<f64> {
 /// integer (so that f32 holds them exactly); None otherwise.
 #[inline(always)]
 pub(crate) fn short_f32(word: &[u8]) -> Option<f32> {
-    let (negative, mantissa, scale) = parts(word, 8)?;
+    short_f32_prefix(word).and_then(|(v, len)| (len == word.len()).then_some(v))
+}
+
+/// The decimal that `text` starts with (sign, digits and point, up to the first other
+/// byte) as [`short_f32`] reads that word, and its length: for a parser that reads a line
+/// in one pass and checks itself what follows the number.
+#[inline(always)]
+pub(crate) fn short_f32_prefix(text: &[u8]) -> Option<(f32, usize)> {
+    let (negative, mantissa, scale, len) = leading_parts(text, 8)?;
     if mantissa > 1 << 24 || scale >= F32_POWERS.len() {
         return None;
     }
     let v = mantissa as f32 / F32_POWERS[scale];
-    Some(if negative { -v } else { v })
+    Some((if negative { -v } else { v }, len))
 }
 
 /// A decimal's sign, its digits as an integer and the number of digits after its point;
@@ -38,26 +46,33 @@ pub(crate) fn short_f32(word: &[u8]) -> Option<f32> {
 /// after an optional sign.
 #[inline(always)]
 fn parts(word: &[u8], max_digits: usize) -> Option<(bool, u64, usize)> {
-    let (negative, rest) = match word.first() {
-        Some(b'-') => (true, &word[1..]),
-        Some(b'+') => (false, &word[1..]),
-        _ => (false, word),
-    };
+    let (negative, mantissa, scale, len) = leading_parts(word, max_digits)?;
+    (len == word.len()).then_some((negative, mantissa, scale))
+}
+
+/// [`parts`] of the longest start of `text` made of an optional sign, digits and one
+/// point, and that start's length; None when it has no digit or more than `max_digits`.
+#[inline(always)]
+fn leading_parts(text: &[u8], max_digits: usize) -> Option<(bool, u64, usize, usize)> {
+    let negative = text.first() == Some(&b'-');
+    let mut i = usize::from(matches!(text.first(), Some(b'-' | b'+')));
     let (mut mantissa, mut digits, mut point) = (0u64, 0usize, None);
-    for (i, &b) in rest.iter().enumerate() {
+    while let Some(&b) = text.get(i) {
         match b {
             b'0'..=b'9' if digits < max_digits => {
                 mantissa = mantissa * 10 + u64::from(b - b'0');
                 digits += 1;
             }
+            b'0'..=b'9' => return None,
             b'.' if point.is_none() => point = Some(i),
-            _ => return None,
+            _ => break,
         }
+        i += 1;
     }
     if digits == 0 {
         return None;
     }
-    Some((negative, mantissa, point.map_or(0, |at| rest.len() - at - 1)))
+    Some((negative, mantissa, point.map_or(0, |at| i - at - 1), i))
 }
 
 #[cfg(test)]

@@ -49,7 +49,8 @@ pub(super) fn assemble(
         // too big for that goes the serial way, which reports it.
         let parallel = pieces.len() > 1 && {
             let shared = shared.get_or_insert_with(|| Shared::new(parsed.positions.len()));
-            add_model_in_parallel(&pieces, shared, &parsed, channels, &mut mesh)
+            let last = m + 1 == parsed.models.len();
+            add_model_in_parallel(&pieces, shared, &parsed, channels, &mut mesh, last)
         };
         if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
@@ -106,14 +107,15 @@ fn empty_mesh(name: &str, positions: usize, triangles: usize, channels: Channels
     }
 }
 
-/// Add a model spread over several pieces with `par_dedup`; false (nothing added) when its
-/// vertices would not fit 32-bit indices.
+/// Add a model spread over several pieces with `par_dedup` (`last`: the last model);
+/// false (nothing added) when its vertices would not fit 32-bit indices.
 fn add_model_in_parallel(
     pieces: &[Piece],
     shared: &Shared,
     parsed: &Parsed,
     channels: Channels,
     mesh: &mut Mesh,
+    last: bool,
 ) -> bool {
     let sources = Sources {
         positions: &parsed.positions,
@@ -128,7 +130,7 @@ fn add_model_in_parallel(
         colors: &mut mesh.colors,
         triangles: &mut mesh.triangles,
     };
-    add_model(pieces, shared, &sources, out)
+    add_model(pieces, shared, &sources, out, last)
 }
 
 /// Add a model face by face: each new corner makes a vertex, each face its triangles.

@@ -1,14 +1,11 @@
-//! Cutting an OBJ text into chunks that can be parsed in parallel, and the first pass
-//! over them: how many lines and how many `v`/`vt`/`vn` each chunk holds, so that the
-//! second pass knows, for every face, the element counts before its line in the whole
-//! file (what absolute and relative indices are checked and resolved against).
+//! Cutting an OBJ text into chunks that can be parsed in parallel, and counting what a
+//! chunk holds (lines, `v`/`vt`/`vn`) where its own parse could not: the counts before a
+//! chunk are what its faces' absolute and relative indices are checked and resolved against.
 //!
 //! A chunk always starts at the start of a line. A line ending in `\` is never the last
 //! line of a chunk (some writers continue a statement on the next line that way; tobj,
 //! whose behaviour the loader keeps, reads every line on its own), and as chunks end just
 //! after a `\n`, a CRLF is never split.
-
-use rayon::prelude::*;
 
 /// Below this many bytes a file is parsed as one chunk: threads would cost more than they save.
 const MIN_CHUNK_BYTES: usize = 1 << 20;
@@ -22,7 +19,7 @@ pub(super) struct Chunk<'a> {
     pub(super) offset: usize,
 }
 
-/// What the first pass counts in one chunk (and, summed, before a chunk).
+/// What one chunk holds (and, summed, what the chunks before one hold).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Counts {
     /// Lines (a last line without `\n` counts).
@@ -33,12 +30,23 @@ pub(super) struct Counts {
 }
 
 impl Counts {
-    fn add(self, other: Counts) -> Counts {
+    /// The sum of both.
+    pub(super) fn add(self, other: Counts) -> Counts {
         Counts {
             lines: self.lines + other.lines,
             positions: self.positions + other.positions,
             texcoords: self.texcoords + other.texcoords,
             normals: self.normals + other.normals,
+        }
+    }
+
+    /// What `self` holds beyond `before` (which it includes).
+    pub(super) fn minus(self, before: Counts) -> Counts {
+        Counts {
+            lines: self.lines - before.lines,
+            positions: self.positions - before.positions,
+            texcoords: self.texcoords - before.texcoords,
+            normals: self.normals - before.normals,
         }
     }
 }
@@ -79,36 +87,13 @@ fn continues(text: &[u8]) -> bool {
     line.ends_with(b"\\")
 }
 
-/// The first pass: every piece checked to be UTF-8 text and counted. Gives the chunks and
-/// the counts before each (prefix sums, one more than chunks: the last is the total), or
-/// the line of the first invalid byte.
-pub(super) fn count_all<'a>(
-    pieces: &[(usize, &'a [u8])],
-) -> Result<(Vec<Chunk<'a>>, Vec<Counts>), usize> {
-    let each: Vec<Result<(Chunk<'a>, Counts), &'a [u8]>> = pieces
-        .par_iter()
-        .map(|&(offset, bytes)| match std::str::from_utf8(bytes) {
-            Ok(text) => Ok((Chunk { text, offset }, count(text))),
-            Err(e) => Err(&bytes[..e.valid_up_to()]),
-        })
-        .collect();
-    let mut chunks = Vec::with_capacity(each.len());
-    let mut before = Vec::with_capacity(each.len() + 1);
-    let mut sum = Counts::default();
-    before.push(sum);
-    for piece in each {
-        match piece {
-            Ok((chunk, counts)) => {
-                chunks.push(chunk);
-                sum = sum.add(counts);
-                before.push(sum);
-            }
-            Err(valid) => {
-                return Err(1 + sum.lines + valid.iter().filter(|&&b| b == b'\n').count())
-            }
-        }
+/// A piece as a chunk of text, or, when it is not UTF-8, the number of whole lines before
+/// its first invalid byte.
+pub(super) fn text_of(offset: usize, bytes: &[u8]) -> Result<Chunk<'_>, usize> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => Ok(Chunk { text, offset }),
+        Err(e) => Err(bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count()),
     }
-    Ok((chunks, before))
 }
 
 /// The text of a file that is not all UTF-8, where that is only in comments and in the
@@ -136,7 +121,7 @@ fn comment_or_name(line: &[u8]) -> bool {
 }
 
 /// Lines and `v`/`vt`/`vn` statements of one chunk.
-fn count(text: &str) -> Counts {
+pub(super) fn count(text: &str) -> Counts {
     let mut counts = Counts::default();
     for line in lines(text) {
         counts.lines += 1;
@@ -170,7 +155,7 @@ pub(super) fn lines(text: &str) -> impl Iterator<Item = &str> {
 /// The first `\n` in `bytes`, eight bytes at a time. `str::find('\n')` set up a char
 /// searcher (a memchr and a memcmp) for every line: 15% of a 2M-triangle file's parse on one
 /// thread, for lines of 20 to 40 bytes.
-fn find_newline(bytes: &[u8]) -> Option<usize> {
+pub(super) fn find_newline(bytes: &[u8]) -> Option<usize> {
     const ONES: u64 = u64::from_ne_bytes([1; 8]);
     const HIGHS: u64 = u64::from_ne_bytes([0x80; 8]);
     const NEWLINES: u64 = u64::from_ne_bytes([b'\n'; 8]);
@@ -239,7 +224,8 @@ mod tests {
     fn chunks_cover_the_text_at_line_starts_and_keep_continued_lines_together() {
         let text = "v 1 2 3\r\nf 1 \\\r\n 2 3\nvt 0 0\n\nlast";
         for size in 1..text.len() + 2 {
-            let (chunks, before) = count_all(&split(text.as_bytes(), size)).unwrap();
+            let chunks: Vec<Chunk> =
+                split(text.as_bytes(), size).iter().map(|&(o, b)| text_of(o, b).unwrap()).collect();
             assert_eq!(chunks.iter().map(|c| c.text).collect::<String>(), text);
             for c in &chunks {
                 assert!(
@@ -251,17 +237,15 @@ mod tests {
                     "size {size}: {c:?}"
                 );
             }
-            let total = before.last().copied().unwrap();
+            let total = chunks.iter().fold(Counts::default(), |sum, c| sum.add(count(c.text)));
             assert_eq!(total, Counts { lines: 6, positions: 1, texcoords: 1, normals: 0 });
         }
     }
 
     #[test]
-    fn invalid_utf8_is_found_on_its_line_whatever_the_chunks() {
-        let bytes = b"v 1 2 3\nv 1 2 3\nv \xff 2 3\nv\n";
-        for size in 1..bytes.len() + 2 {
-            assert_eq!(count_all(&split(bytes, size)).err(), Some(3), "size {size}");
-        }
+    fn invalid_utf8_is_found_after_the_lines_before_it() {
+        assert_eq!(text_of(5, b"v 1 2 3\nv 1 2 3\nv \xff 2 3\nv\n").err(), Some(2));
+        assert_eq!(text_of(0, b"\xff\n").err(), Some(0));
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! the line of a vertex colour mismatch.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::{LoadOptions, ObjError};
 use crate::scene::Mesh;
@@ -60,9 +61,10 @@ pub(super) fn finish_normals(
     options: &LoadOptions,
 ) {
     let NormalSources { with_normals, all_normals, with_texcoords, models_with_faces } = sources;
-    if all_normals && mesh.normals.iter().all(|n| n.try_normalize().is_some()) {
+    // On every core: these are passes over every vertex of the mesh.
+    if all_normals && mesh.normals.par_iter().all(|n| n.try_normalize().is_some()) {
         // File normals need not be unit length.
-        mesh.normals.iter_mut().for_each(|n| *n = n.normalize());
+        mesh.normals.par_iter_mut().for_each(|n| *n = n.normalize());
         mesh.has_file_normals = true;
     } else if !with_normals && groups.is_none() && options.crease_angle.is_none() {
         if models_with_faces > 1 || with_texcoords {

@@ -71,11 +71,14 @@ fn pack(vt: u32, vn: u32) -> u64 {
 
 /// Add one model (its pieces in order) to `out`; false (nothing added) when its vertices
 /// would not fit 32-bit indices, for the serial path to report.
+///
+/// `last`: no model follows that uses `shared`, which then need not be reset.
 pub(super) fn add_model(
     pieces: &[Piece],
     shared: &Shared,
     sources: &Sources,
     mut out: Output,
+    last: bool,
 ) -> bool {
     let starts: Vec<u32> = pieces
         .iter()
@@ -85,11 +88,17 @@ pub(super) fn add_model(
             Some(start)
         })
         .collect();
-    let model = Model { pieces, starts: &starts, shared };
+    // Without texture coordinates and normals every corner of a position is like its first.
+    let plain = sources.normals.is_none() && sources.texcoords.is_none();
+    let model = Model { pieces, starts: &starts, shared, plain };
     // 1 and 2, in this order: whether a corner is like the first needs the first settled.
     model.mark_first_corners();
-    model.record_first_keys();
-    let makers = model.other_makers(&model.other_corners());
+    let makers = if plain {
+        HashSet::new()
+    } else {
+        model.record_first_keys();
+        model.other_makers(&model.other_corners())
+    };
     // 3. Vertex numbers and triangles per piece.
     let made = model.vertices_made(&makers);
     let base = out.positions.len();
@@ -106,7 +115,9 @@ pub(super) fn add_model(
     let other_vertices = model.write_vertices(sources, &mut out, base, &made, &makers);
     let tri_out = &mut out.triangles[tri_base..];
     model.write_triangles(tri_out, &triangles, &other_vertices, base as u32);
-    model.reset_first_corners();
+    if !last {
+        model.reset_first_corners();
+    }
     true
 }
 
@@ -116,6 +127,8 @@ struct Model<'a, 'b> {
     pieces: &'a [Piece<'b>],
     starts: &'a [u32],
     shared: &'a Shared,
+    /// No corner has a texture coordinate or a normal: `shared.key` is not used.
+    plain: bool,
 }
 
 impl Model<'_, '_> {
@@ -128,14 +141,21 @@ impl Model<'_, '_> {
     /// Corner `k` is neither the first of its position nor like it (the same vt, vn).
     #[inline]
     fn is_other(&self, c: &[u32; 3], k: u32) -> bool {
-        self.first(c) != k && self.shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
+        !self.plain
+            && self.first(c) != k
+            && self.shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
     }
 
     /// 1. The first corner of each position.
     fn mark_first_corners(&self) {
         self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
             for (i, c) in p.corners.iter().enumerate() {
-                self.shared.first[c[0] as usize].fetch_min(start + i as u32, Relaxed);
+                let (first, k) = (&self.shared.first[c[0] as usize], start + i as u32);
+                // A plain load first: most corners meet a position already marked, and
+                // `fetch_min` is a compare-and-swap loop on x86.
+                if first.load(Relaxed) > k {
+                    first.fetch_min(k, Relaxed);
+                }
             }
         });
     }
@@ -271,23 +291,35 @@ impl Model<'_, '_> {
             jobs.push((p, start, mine));
         }
         jobs.into_par_iter().for_each(|(p, start, mine)| {
-            let mut made = Vec::with_capacity(mine.len() + 2);
-            let (mut corner, mut local) = (0usize, Vec::new());
-            for &n in p.arities {
-                local.clear();
-                for (i, c) in p.corners[corner..corner + n as usize].iter().enumerate() {
-                    let k = start + (corner + i) as u32;
-                    let index = if self.is_other(c, k) {
-                        other_vertices[c]
-                    } else {
-                        self.shared.vertex[c[0] as usize].load(Relaxed)
-                    };
-                    local.push(index);
+            let vertex = |c: &[u32; 3], k: u32| {
+                if self.is_other(c, k) {
+                    other_vertices[c]
+                } else {
+                    self.shared.vertex[c[0] as usize].load(Relaxed)
                 }
+            };
+            let mut mine = mine.iter_mut();
+            let (mut corner, mut local, mut made) = (0usize, Vec::new(), Vec::new());
+            for &n in p.arities {
+                let face = &p.corners[corner..corner + n as usize];
+                let k = start + corner as u32;
                 corner += n as usize;
+                // Triangles (nearly all faces) straight into place.
+                if let [a, b, c] = face {
+                    if let Some(t) = mine.next() {
+                        *t = [vertex(a, k), vertex(b, k + 1), vertex(c, k + 2)].map(|v| v + base);
+                    }
+                    continue;
+                }
+                local.clear();
+                local.extend(face.iter().zip(k..).map(|(c, k)| vertex(c, k)));
+                made.clear();
                 triangulate(&local, &[n], base, &mut made);
+                // `made` first: a zip that ends on it takes nothing more from `mine`.
+                for (m, t) in made.iter().zip(&mut mine) {
+                    *t = *m;
+                }
             }
-            mine.copy_from_slice(&made);
         });
     }
 

@@ -1,6 +1,7 @@
-//! The parallel OBJ parse: the text cut into chunks at line starts, counted (first pass),
-//! parsed chunk by chunk with rayon (second pass) into the whole file's element arrays and
-//! per-chunk faces, then joined in order: `mtllib`/`usemtl`/`o`/`g` walked as tobj walked
+//! The parallel OBJ parse: the text cut into chunks at line starts, each parsed on its own
+//! with rayon (the few that need the counts of the chunks before them parsed again once
+//! those are known), the element arrays joined into the whole file's, then the rest
+//! joined in order: `mtllib`/`usemtl`/`o`/`g` walked as tobj walked
 //! them (which decides the models, each a run of faces with one material), smoothing
 //! groups and dropped attributes numbered in the whole file, and the first error in file
 //! order reported, whichever chunk finished first.
@@ -15,13 +16,13 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::chunks::{self, Counts};
+use super::chunks::{self, Chunk, Counts};
 use super::convert::{colour, locate_colour_mismatch};
 use super::line_feeder::{Dropped, DroppedFirst};
 use super::mtl::MaterialLibraries;
 use super::par_dedup::grow;
 use super::parse_chunk::{
-    parse_chunk, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event, Targets,
+    parse_alone, parse_exact, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event,
 };
 use super::ObjError;
 
@@ -79,26 +80,78 @@ pub(super) fn parse(
     chunk_bytes: usize,
 ) -> Result<Parsed, ObjError> {
     let pieces = chunks::split(bytes, chunk_bytes);
-    let (chunks, before) = chunks::count_all(&pieces)
-        .map_err(|line| ObjError::NotText { name: name.to_owned(), line })?;
+    let alone: Vec<Alone> = pieces
+        .par_iter()
+        .map(|&(offset, bytes)| match chunks::text_of(offset, bytes) {
+            Err(lines) => Alone::NotText(lines),
+            Ok(chunk) => match parse_alone(chunk) {
+                Some(faces) => Alone::Parsed(chunk, Box::new(faces)),
+                None => Alone::Counted(chunk, chunks::count(chunk.text)),
+            },
+        })
+        .collect();
     drop(pieces);
-    let total = before.last().copied().unwrap_or_default();
+    // The counts before each chunk, and the first bytes that are not text, in file order.
+    let mut before = Vec::with_capacity(alone.len());
+    let mut sum = Counts::default();
+    for piece in &alone {
+        before.push(sum);
+        sum = sum.add(match piece {
+            Alone::NotText(lines) => {
+                return Err(ObjError::NotText {
+                    name: name.to_owned(),
+                    line: sum.lines + lines + 1,
+                })
+            }
+            Alone::Parsed(_, faces) => faces.counts,
+            Alone::Counted(_, counts) => *counts,
+        });
+    }
+    let results: Vec<ChunkFaces> = alone
+        .into_par_iter()
+        .zip(&before)
+        .map(|(piece, before)| match piece {
+            Alone::Parsed(_, faces) if faces.fits_after(before) => *faces,
+            Alone::Parsed(chunk, _) | Alone::Counted(chunk, _) => parse_exact(chunk, *before),
+            Alone::NotText(_) => ChunkFaces::default(), // returned above
+        })
+        .collect();
     let mut parsed = Parsed {
-        positions: zeros(total.positions),
-        texcoords: zeros(total.texcoords),
-        normals: zeros(total.normals),
+        positions: concat(&results, |r| &r.positions),
+        texcoords: concat(&results, |r| &r.texcoords),
+        normals: concat(&results, |r| &r.normals),
         all_normals: true,
         ..Default::default()
     };
-    let targets = split_targets(&mut parsed, &before);
-    let results: Vec<ChunkFaces> = chunks
-        .par_iter()
-        .zip(targets)
-        .zip(&before)
-        .map(|((c, t), b)| parse_chunk(*c, *b, t))
-        .collect();
     join(results, &mut parsed, bytes, name, libs)?;
     Ok(parsed)
+}
+
+/// A chunk after its parse on its own.
+enum Alone<'a> {
+    /// Parsed, and right if its faces' indices prove in range (boxed: the other two are small).
+    Parsed(Chunk<'a>, Box<ChunkFaces<'a>>),
+    /// Needs the counts before it: only counted so far.
+    Counted(Chunk<'a>, Counts),
+    /// Not UTF-8: the number of whole lines before its first invalid byte.
+    NotText(usize),
+}
+
+/// The chunks' parts of one element array, joined in order on every core.
+fn concat<T: Copy + Default + Send + Sync>(
+    results: &[ChunkFaces],
+    part: impl for<'r> Fn(&'r ChunkFaces<'_>) -> &'r [T] + Sync,
+) -> Vec<T> {
+    let mut all = zeros(results.iter().map(|r| part(r).len()).sum());
+    let mut rest = all.as_mut_slice();
+    let mut jobs = Vec::with_capacity(results.len());
+    for r in results {
+        let (mine, after) = std::mem::take(&mut rest).split_at_mut(part(r).len());
+        rest = after;
+        jobs.push((mine, part(r)));
+    }
+    jobs.into_par_iter().for_each(|(mine, from)| mine.copy_from_slice(from));
+    all
 }
 
 /// `n` zeros on huge pages, written on every core: `vec![zero; n]` wrote (and faulted in)
@@ -107,25 +160,6 @@ fn zeros<T: Copy + Default + Send + Sync>(n: usize) -> Vec<T> {
     let mut v = crate::memory::with_huge_pages(n);
     grow(&mut v, n, T::default());
     v
-}
-
-/// Each chunk's own parts of the element arrays.
-fn split_targets<'t>(parsed: &'t mut Parsed, before: &[Counts]) -> Vec<Targets<'t>> {
-    let (mut p, mut t, mut n) = (
-        parsed.positions.as_mut_slice(),
-        parsed.texcoords.as_mut_slice(),
-        parsed.normals.as_mut_slice(),
-    );
-    before
-        .windows(2)
-        .map(|w| {
-            let (pa, pb) = std::mem::take(&mut p).split_at_mut(w[1].positions - w[0].positions);
-            let (ta, tb) = std::mem::take(&mut t).split_at_mut(w[1].texcoords - w[0].texcoords);
-            let (na, nb) = std::mem::take(&mut n).split_at_mut(w[1].normals - w[0].normals);
-            (p, t, n) = (pb, tb, nb);
-            Targets { positions: pa, texcoords: ta, normals: na }
-        })
-        .collect()
 }
 
 /// The chunks in file order, as tobj would have read them: models, materials, smoothing
@@ -311,5 +345,26 @@ impl Walk {
         self.models.push(ModelRun { faces: faces.clone(), material: self.material });
         self.pops.push((faces, colours));
         self.start = end;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_utf8_is_found_on_its_line_whatever_the_chunks() {
+        // Chunks read alone, chunks counted (the relative index) and chunks read exactly.
+        let bytes = b"v 1 2 3\nv 1 2 3\nv 1 2 3\nf -1 -2 -3\nf 1 2 3\nv \xff 2 3\nv\n";
+        let libs = MaterialLibraries {
+            base_dir: None,
+            obj_name: "t.obj",
+            loaded: Default::default(),
+            warnings: Default::default(),
+        };
+        for size in 1..bytes.len() + 2 {
+            let e = parse(bytes, "t.obj", &libs, size).err();
+            assert!(matches!(e, Some(ObjError::NotText { line: 6, .. })), "size {size}: {e:?}");
+        }
     }
 }
