@@ -564,31 +564,6 @@ impl ComputeTracer {
         let timing = self.trace_frame(frame)?;
         Ok((self.read_image()?, timing))
     }
-
-    fn traced_output(&self) -> Result<&TraceOutput, GpuError> {
-        self.ctx.wait_idle()?;
-        self.output.as_ref().ok_or(GpuError::NotReady("nothing has been traced yet"))
-    }
-
-    /// Read the float output of the last frame.
-    pub fn read_image(&self) -> Result<Image, GpuError> {
-        let out = self.traced_output()?;
-        let bytes = out.float.download(out.width as u64 * out.height as u64 * 16)?;
-        let floats: &[f32] = bytemuck::cast_slice(&bytes);
-        Ok(Image {
-            width: out.width,
-            height: out.height,
-            pixels: floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
-        })
-    }
-
-    /// Read the 8-bit colour output of the last frame (RGBA bytes, row 0 at the top).
-    pub(crate) fn read_rgba8(&self) -> Result<image::RgbaImage, GpuError> {
-        let out = self.traced_output()?;
-        let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
-        image::RgbaImage::from_raw(out.width, out.height, bytes)
-            .ok_or(GpuError::NotReady("the colour readback has the wrong size"))
-    }
 }
 
 impl Drop for ComputeTracer {
@@ -603,6 +578,9 @@ impl Drop for ComputeTracer {
         }
     }
 }
+
+#[path = "compute_tracer_readback.rs"]
+mod readback;
 
 #[cfg(test)]
 #[path = "compute_tracer_tests.rs"]

@@ -7,6 +7,9 @@
 //! whose behaviour the loader keeps, reads every line on its own), and as chunks end just
 //! after a `\n`, a CRLF is never split.
 
+/// A corner index that is absent (`v//vn` has no texture coordinate).
+pub(super) const NONE: u32 = u32::MAX;
+
 /// Below this many bytes a file is parsed as one chunk: threads would cost more than they save.
 const MIN_CHUNK_BYTES: usize = 1 << 20;
 

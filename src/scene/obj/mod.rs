@@ -36,6 +36,7 @@
 mod assemble;
 mod chunks;
 mod convert;
+mod fast_lines;
 mod line_feeder;
 mod mtl;
 #[cfg(any(test, feature = "dev"))]

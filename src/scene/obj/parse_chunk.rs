@@ -15,11 +15,10 @@
 use glam::{Vec2, Vec3};
 
 use super::chunks::{find_newline, is_ascii_space, keyword, parse_f32, Chunk, Counts};
+use super::fast_lines::{blank_to_line_end, fast_face, rest_of_line, short_numbers};
 use super::quote;
-use crate::scene::decimal::short_f32_prefix;
 
-/// A corner index that is absent (`v//vn` has no texture coordinate).
-pub(super) const NONE: u32 = u32::MAX;
+pub(super) use super::chunks::NONE;
 
 /// What happens between faces, in line order. `face` is the number of faces of the
 /// chunk before the line; `colours` the number of vertex colour values before it.
@@ -202,54 +201,6 @@ impl<'a> Iterator for Words<'a> {
             }
         }
     }
-}
-
-/// The fast path for a line's first `N` numbers when each is a short decimal
-/// (`scene/decimal.rs`; nearly every `v`, `vt` and `vn` line): the numbers and where the
-/// text after them begins, or None for [`numbers`] to read them (and word what is wrong).
-/// One pass over the bytes, where `words` and `str::parse` would take several. `text` may
-/// run on past the line: its `\n` ends it.
-#[inline(always)]
-fn short_numbers<const N: usize>(text: &[u8]) -> Option<([f32; N], usize)> {
-    let (mut out, mut i) = ([0.0; N], 0);
-    for slot in &mut out {
-        i = skip_blanks(text, i);
-        let (value, len) = short_f32_prefix(&text[i..])?;
-        i += len;
-        // The number must be the whole word.
-        if text.get(i).is_some_and(|&b| !is_ascii_space(b)) {
-            return None;
-        }
-        *slot = value;
-    }
-    Some((out, i))
-}
-
-/// The first byte at or after `i` that is not whitespace, or is a `\n`.
-#[inline(always)]
-fn skip_blanks(text: &[u8], mut i: usize) -> usize {
-    while i < text.len() && text[i] != b'\n' && is_ascii_space(text[i]) {
-        i += 1;
-    }
-    i
-}
-
-/// The length of the line in `text` (its `\n` included) when nothing but whitespace
-/// follows `i` on it.
-#[inline(always)]
-fn blank_to_line_end(text: &[u8], i: usize) -> Option<usize> {
-    let i = skip_blanks(text, i);
-    match text.get(i) {
-        None => Some(i),
-        Some(b'\n') => Some(i + 1),
-        Some(_) => None,
-    }
-}
-
-/// The length of the line in `text` (its `\n` included), from `i` on it.
-#[inline(always)]
-fn rest_of_line(text: &[u8], i: usize) -> usize {
-    find_newline(&text[i..]).map_or(text.len(), |n| i + n + 1)
 }
 
 /// `n` numbers from `words`, or None when fewer are there or one is not a number.
@@ -500,96 +451,6 @@ impl<'a> Parser<'a> {
     }
 }
 
-/// The fast path for a face whose corners are all well-formed ASCII with indices in range
-/// (nearly every face): `text` is the face after its `f` and may run on past the line
-/// (its `\n` ends it). Gives the corners, resolved, in `out` and the largest index of each
-/// kind in `largest`, and returns the number of corners and the line's length with its
-/// `\n`; or None (with `out` perhaps grown) when [`check_face`] has something to say, or,
-/// without `relative`, for a negative index.
-fn fast_face(
-    text: &[u8],
-    available: [u64; 3],
-    relative: bool,
-    largest: &mut [u64; 3],
-    out: &mut Vec<[u32; 3]>,
-) -> Option<(u32, usize)> {
-    let (n, mut i, mut count) = (text.len(), 0, 0u32);
-    loop {
-        i = skip_blanks(text, i);
-        match text.get(i) {
-            None => return (count >= 3).then_some((count, i)),
-            Some(b'\n') => return (count >= 3).then_some((count, i + 1)),
-            Some(_) => {}
-        }
-        count += 1;
-        let mut corner = [NONE; 3];
-        // One corner: up to three slash-separated indices, v required.
-        for (slot, &available) in available.iter().enumerate() {
-            let negative = text.get(i) == Some(&b'-');
-            if negative && !relative {
-                return None;
-            }
-            let signed = negative || text.get(i) == Some(&b'+');
-            i += usize::from(signed);
-            let (start, (mut value, digits)) = (i, leading_digits(&text[i..]));
-            i += digits;
-            // Past the eighth digit, or near the end of the chunk: a digit at a time.
-            while i < n && text[i].is_ascii_digit() {
-                value = value.wrapping_mul(10).wrapping_add(u64::from(text[i] - b'0'));
-                i += 1;
-            }
-            // More digits than u64 surely holds: out of range, for `check_face` to say so
-            // (the plain multiply-add is what makes this loop fast).
-            if i - start > 18 {
-                return None;
-            }
-            if i == start {
-                // Only texture coordinates and normals may be left out, and without a sign.
-                if slot == 0 || signed {
-                    return None;
-                }
-            } else if (1..=available).contains(&value) {
-                corner[slot] = if negative { available - value } else { value - 1 } as u32;
-                largest[slot] = largest[slot].max(value);
-            } else {
-                return None;
-            }
-            match text.get(i) {
-                Some(b'/') if slot < 2 => i += 1,
-                None => break,
-                Some(&b) if is_ascii_space(b) => break,
-                Some(_) => return None,
-            }
-        }
-        out.push(corner);
-    }
-}
-
-/// The value and number of the decimal digits that `text` starts with, up to 8 of them,
-/// read eight bytes at once (indices are the bulk of a face; a loop took about 8
-/// instructions a digit); (0, 0) when fewer than 8 bytes are left.
-#[inline(always)]
-fn leading_digits(text: &[u8]) -> (u64, usize) {
-    const SPREAD: u64 = u64::from_ne_bytes([0x80; 8]);
-    let Some(word) = text.first_chunk::<8>() else { return (0, 0) };
-    // Each byte minus '0' (as an xor: a digit is 0x30..=0x39): 0..=9 for a digit.
-    let t = u64::from_le_bytes(*word) ^ u64::from_ne_bytes([b'0'; 8]);
-    // The top bit of a byte is set where it is 10 or more. Adding may carry into the next
-    // byte, but only from a byte that is no digit, so the first such byte is still found.
-    let not_digit = (t.wrapping_add(u64::from_ne_bytes([0x76; 8])) | t) & SPREAD;
-    let count = (not_digit.trailing_zeros() / 8) as usize;
-    if count == 0 {
-        return (0, 0);
-    }
-    // The digits to the top bytes, zeros before them, then pairs, fours and eights
-    // combined (the first byte is the most significant digit).
-    let t = t << (8 * (8 - count));
-    let t = (t & 0x0f0f_0f0f_0f0f_0f0f).wrapping_mul(2561) >> 8;
-    let t = (t & 0x00ff_00ff_00ff_00ff).wrapping_mul(6_553_601) >> 16;
-    let t = (t & 0x0000_ffff_0000_ffff).wrapping_mul(42_949_672_960_001) >> 32;
-    (t, count)
-}
-
 /// A checked OBJ index (1-based, or negative counting back from the last of `available`)
 /// as a 0-based index.
 fn resolve(index: i64, available: usize) -> u32 {
@@ -689,73 +550,5 @@ fn parse_index(text: &[u8]) -> Option<i64> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fast_face_path_agrees_with_the_diagnosing_one() {
-        // Every corner list up to 5 characters over a troublesome alphabet, after two
-        // good corners, against 2 vertices, 1 texture coordinate and no normals.
-        let alphabet = b"12-/ 0x+";
-        let mut tail = Vec::new();
-        for len in 0..=5u32 {
-            for mut code in 0..alphabet.len().pow(len) {
-                tail.clear();
-                for _ in 0..len {
-                    tail.push(alphabet[code % alphabet.len()]);
-                    code /= alphabet.len();
-                }
-                let corners = String::from_utf8([b"1/1 -2 ".as_slice(), &tail].concat()).unwrap();
-                let slow = matches!(check_face(words(&corners), [2, 1, 0], "f"), Ok((None, None)));
-                let mut out = Vec::new();
-                let fast = fast_face(corners.as_bytes(), [2, 1, 0], true, &mut [0; 3], &mut out);
-                assert_eq!(fast.is_some(), slow, "f {corners}");
-                if let Some((n, len)) = fast {
-                    assert_eq!(len, corners.len(), "f {corners}");
-                    assert_eq!(
-                        (out.len(), out[0], out[1]),
-                        (n as usize, [0, 0, NONE], [0, NONE, NONE]),
-                        "f {corners}"
-                    );
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn eight_digits_at_once_are_what_a_digit_at_a_time_gives() {
-        let alphabet = b"0123456789/ \n-+:\xc3\xff\x00";
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        for round in 0..200_000 {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            // Mostly digits, so that every count from 0 to 8 comes up.
-            let text: Vec<u8> = (0..6 + round % 8)
-                .map(|k| {
-                    let pick = (seed >> (k * 5)) as usize;
-                    if pick % 4 == 0 {
-                        alphabet[pick / 4 % alphabet.len()]
-                    } else {
-                        b'0' + (pick / 4 % 10) as u8
-                    }
-                })
-                .collect();
-            let count = text.iter().take(8).take_while(|b| b.is_ascii_digit()).count();
-            let value = text[..count].iter().fold(0u64, |v, &b| v * 10 + u64::from(b - b'0'));
-            let expected = if text.len() < 8 { (0, 0) } else { (value, count) };
-            assert_eq!(leading_digits(&text), expected, "{:?}", String::from_utf8_lossy(&text));
-        }
-    }
-
-    #[test]
-    fn words_split_as_split_whitespace_splits() {
-        for text in [" a  b\tc\r", "", "  ", "x\u{3000}y z", "\u{85}q"] {
-            assert_eq!(
-                words(text).collect::<Vec<_>>(),
-                text.split_whitespace().collect::<Vec<_>>(),
-                "{text:?}"
-            );
-        }
-    }
-}
+#[path = "parse_chunk_tests.rs"]
+mod tests;
