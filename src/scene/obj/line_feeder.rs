@@ -13,8 +13,10 @@ use std::borrow::Cow;
 use std::collections::HashSet;
 use std::io::{self, BufRead, Read};
 
+use super::chunks::is_ascii_space;
 #[cfg(any(test, feature = "dev"))]
 use super::convert::locate_colour_mismatch;
+use super::fast_lines::fast_face;
 use super::{quote, ObjError};
 
 /// An out-of-range index of a face corner: the index as written, and how many of its kind
@@ -63,6 +65,8 @@ pub(super) struct LineFeeder<'a> {
     usemtl_seen: HashSet<&'a str>,
     /// The error that made the feeder stop, reported instead of tobj's `ReadError`.
     error: Option<ObjError>,
+    /// The corners the fast face check reads (kept to spare an allocation a face).
+    face_corners: Vec<[u32; 3]>,
 }
 
 impl<'a> LineFeeder<'a> {
@@ -87,6 +91,7 @@ impl<'a> LineFeeder<'a> {
             usemtl_names: Vec::new(),
             usemtl_seen: HashSet::new(),
             error: None,
+            face_corners: Vec::new(),
         }
     }
 
@@ -156,7 +161,10 @@ impl<'a> LineFeeder<'a> {
         self.faces += 1;
         // The fast path: an ASCII face whose indices are all in range.
         if let [b'f', s, corners @ ..] = line.as_bytes() {
-            if is_ascii_space(*s) && line.is_ascii() && face_is_valid(corners, self.counts()) {
+            if is_ascii_space(*s)
+                && line.is_ascii()
+                && face_is_valid(corners, self.counts(), &mut self.face_corners)
+            {
                 self.pending = Some(Cow::Borrowed(line));
                 return;
             }
@@ -364,46 +372,11 @@ fn without_weight(line: &str) -> Option<String> {
 }
 
 /// The fast check of an ASCII face's corners (the text after `f`) against the element
-/// counts so far: true when [`LineFeeder::check_face`] would accept them.
-fn face_is_valid(corners: &[u8], counts: [u64; 3]) -> bool {
-    let (n, mut i, mut corner_count) = (corners.len(), 0, 0);
-    loop {
-        while i < n && is_ascii_space(corners[i]) {
-            i += 1;
-        }
-        if i == n {
-            return corner_count >= 3;
-        }
-        corner_count += 1;
-        // One corner: up to three slash-separated indices, v required.
-        for (slot, &available) in counts.iter().enumerate() {
-            let signed = matches!(corners.get(i), Some(b'-' | b'+'));
-            i += usize::from(signed);
-            let (start, mut value) = (i, 0u64);
-            while i < n && corners[i].is_ascii_digit() {
-                value = value.saturating_mul(10).saturating_add(u64::from(corners[i] - b'0'));
-                i += 1;
-            }
-            // Absolute or relative, the magnitude must lie in 1..=available.
-            let ok =
-                if i == start { slot > 0 && !signed } else { (1..=available).contains(&value) };
-            if !ok {
-                return false;
-            }
-            match corners.get(i) {
-                Some(b'/') if slot < 2 => i += 1,
-                None => break,
-                Some(&b) if is_ascii_space(b) => break,
-                Some(_) => return false,
-            }
-        }
-    }
-}
-
-/// The ASCII characters that `char::is_whitespace` accepts (vertical tab and form feed
-/// included, unlike `u8::is_ascii_whitespace`).
-fn is_ascii_space(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+/// counts so far: true when [`LineFeeder::check_face`] would accept them. The parallel
+/// reader's one-pass face reader decides it (`scratch` takes its corners, unused here).
+fn face_is_valid(corners: &[u8], counts: [u64; 3], scratch: &mut Vec<[u32; 3]>) -> bool {
+    scratch.clear();
+    fast_face(corners, counts, true, &mut [0; 3], scratch).is_some()
 }
 
 /// An index as written, for a message: a file may write a million digits.
