@@ -323,25 +323,12 @@ fn meshopt_streams(g: &Grid, sequence: bool) -> Vec<Stream> {
         ext,
     };
     let ext = "EXT_meshopt_compression";
-    let indices = if sequence {
-        stream(
-            meshopt::encode_index_sequence(&g.indices, n).unwrap(),
-            2,
-            g.indices.len(),
-            "INDICES",
-            "NONE",
-            ext,
-        )
+    let (encoded, mode) = if sequence {
+        (meshopt::encode_index_sequence(&g.indices, n).unwrap(), "INDICES")
     } else {
-        stream(
-            meshopt::encode_index_buffer(&g.indices, n).unwrap(),
-            2,
-            g.indices.len(),
-            "TRIANGLES",
-            "NONE",
-            ext,
-        )
+        (meshopt::encode_index_buffer(&g.indices, n).unwrap(), "TRIANGLES")
     };
+    let indices = stream(encoded, 2, g.indices.len(), mode, "NONE", ext);
     vec![
         stream(v0(&g.positions), 12, n, "ATTRIBUTES", "NONE", ext),
         stream(v0(&oct), 4, n, "ATTRIBUTES", "OCTAHEDRAL", ext),
