@@ -54,7 +54,9 @@ impl CpuScene<'_> {
             Some(hit) => found(i, hit),
             None => Visit::Nothing,
         };
-        if brute {
+        // Brute force visits every instance in order, and so does the BVH a lone instance
+        // (the shader skips the top level's one box).
+        if brute || top.instances.len() == 1 {
             let mut t = t_max;
             for i in 0..top.instances.len() as u32 {
                 match visit(i, t, stats) {
