@@ -119,6 +119,46 @@ pub(super) fn fast_face(
     }
 }
 
+/// The fast path for a face of position indices alone (`f 1 2 3`, the faces of most large
+/// files): what [`fast_face`] reads of such a face, without its work on slashes and signs
+/// (a face with either is left to it). The 0-based indices in `out` (which may run past
+/// `available` as `u32`: `largest` then says so), the largest index in `largest`; returns
+/// the number of corners and the line's length with its `\n`, or None (with `out` perhaps
+/// grown).
+#[inline(always)]
+pub(super) fn plain_face(
+    text: &[u8],
+    available: u64,
+    largest: &mut u64,
+    out: &mut Vec<u32>,
+) -> Option<(u32, usize)> {
+    let (n, mut i, mut count) = (text.len(), 0, 0u32);
+    loop {
+        i = skip_blanks(text, i);
+        match text.get(i) {
+            None => return (count >= 3).then_some((count, i)),
+            Some(b'\n') => return (count >= 3).then_some((count, i + 1)),
+            Some(_) => {}
+        }
+        let (start, (mut value, digits)) = (i, leading_digits(&text[i..]));
+        i += digits;
+        while i < n && text[i].is_ascii_digit() {
+            value = value.wrapping_mul(10).wrapping_add(u64::from(text[i] - b'0'));
+            i += 1;
+        }
+        // No digit (a sign, a slash...), too many, or out of range: `fast_face` decides.
+        if i == start || i - start > 18 || !(1..=available).contains(&value) {
+            return None;
+        }
+        if text.get(i).is_some_and(|&b| !is_ascii_space(b)) {
+            return None;
+        }
+        *largest = (*largest).max(value);
+        out.push((value - 1) as u32);
+        count += 1;
+    }
+}
+
 /// The value and number of the decimal digits that `text` starts with, up to 8 of them,
 /// read eight bytes at once (indices are the bulk of a face; a loop took about 8
 /// instructions a digit); (0, 0) when fewer than 8 bytes are left.

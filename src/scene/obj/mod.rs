@@ -36,6 +36,7 @@
 mod assemble;
 mod chunks;
 mod convert;
+mod corners;
 mod fast_lines;
 mod line_feeder;
 mod mtl;

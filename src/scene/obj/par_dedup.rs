@@ -17,12 +17,13 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::convert::triangulate;
+use super::corners::Corner;
 use super::parse_chunk::NONE;
 
 /// A model's faces within one chunk.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Piece<'b> {
-    pub(super) corners: &'b [[u32; 3]],
+pub(super) struct Piece<'b, C> {
+    pub(super) corners: &'b [C],
     pub(super) arities: &'b [u32],
 }
 
@@ -73,8 +74,8 @@ fn pack(vt: u32, vn: u32) -> u64 {
 /// would not fit 32-bit indices, for the serial path to report.
 ///
 /// `last`: no model follows that uses `shared`, which then need not be reset.
-pub(super) fn add_model(
-    pieces: &[Piece],
+pub(super) fn add_model<C: Corner>(
+    pieces: &[Piece<C>],
     shared: &Shared,
     sources: &Sources,
     mut out: Output,
@@ -123,34 +124,35 @@ pub(super) fn add_model(
 
 /// One model's pieces, where each piece's corners start (model-relative), and the
 /// per-position marks they share.
-struct Model<'a, 'b> {
-    pieces: &'a [Piece<'b>],
+struct Model<'a, 'b, C> {
+    pieces: &'a [Piece<'b, C>],
     starts: &'a [u32],
     shared: &'a Shared,
     /// No corner has a texture coordinate or a normal: `shared.key` is not used.
     plain: bool,
 }
 
-impl Model<'_, '_> {
+impl<C: Corner> Model<'_, '_, C> {
     /// The first corner (model-relative) that uses `c`'s position.
     #[inline]
-    fn first(&self, c: &[u32; 3]) -> u32 {
-        self.shared.first[c[0] as usize].load(Relaxed)
+    fn first(&self, c: C) -> u32 {
+        self.shared.first[c.position() as usize].load(Relaxed)
     }
 
     /// Corner `k` is neither the first of its position nor like it (the same vt, vn).
     #[inline]
-    fn is_other(&self, c: &[u32; 3], k: u32) -> bool {
+    fn is_other(&self, c: C, k: u32) -> bool {
+        let [v, vt, vn] = c.full();
         !self.plain
             && self.first(c) != k
-            && self.shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
+            && self.shared.key[v as usize].load(Relaxed) != pack(vt, vn)
     }
 
     /// 1. The first corner of each position.
     fn mark_first_corners(&self) {
         self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
             for (i, c) in p.corners.iter().enumerate() {
-                let (first, k) = (&self.shared.first[c[0] as usize], start + i as u32);
+                let (first, k) = (&self.shared.first[c.position() as usize], start + i as u32);
                 // A plain load first: most corners meet a position already marked, and
                 // `fetch_min` is a compare-and-swap loop on x86.
                 if first.load(Relaxed) > k {
@@ -163,9 +165,10 @@ impl Model<'_, '_> {
     /// 2. Its (vt, vn).
     fn record_first_keys(&self) {
         self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
-            for (i, c) in p.corners.iter().enumerate() {
+            for (i, &c) in p.corners.iter().enumerate() {
                 if self.first(c) == start + i as u32 {
-                    self.shared.key[c[0] as usize].store(pack(c[1], c[2]), Relaxed);
+                    let [v, vt, vn] = c.full();
+                    self.shared.key[v as usize].store(pack(vt, vn), Relaxed);
                 }
             }
         });
@@ -178,7 +181,7 @@ impl Model<'_, '_> {
             .zip(self.starts)
             .map(|(p, &start)| {
                 (0..p.corners.len() as u32)
-                    .filter(|&i| self.is_other(&p.corners[i as usize], start + i))
+                    .filter(|&i| self.is_other(p.corners[i as usize], start + i))
                     .map(|i| start + i)
                     .collect()
             })
@@ -193,7 +196,7 @@ impl Model<'_, '_> {
             .zip(self.starts)
             .zip(others)
             .flat_map(|((p, &start), list)| {
-                list.iter().map(move |&k| (k, p.corners[(k - start) as usize]))
+                list.iter().map(move |&k| (k, p.corners[(k - start) as usize].full()))
             })
             .filter(|(_, c)| seen.insert(*c))
             .map(|(k, _)| k)
@@ -202,12 +205,13 @@ impl Model<'_, '_> {
 
     /// How many vertices each piece makes.
     fn vertices_made(&self, makers: &HashSet<u32>) -> Vec<usize> {
-        let makes = |c: &[u32; 3], k: u32| self.first(c) == k || makers.contains(&k);
+        let makes = |c: C, k: u32| self.first(c) == k || makers.contains(&k);
         self.pieces
             .par_iter()
             .zip(self.starts)
             .map(|(p, &start)| {
-                p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()
+                let corners = p.corners.iter().enumerate();
+                corners.filter(|&(i, &c)| makes(c, start + i as u32)).count()
             })
             .collect()
     }
@@ -244,9 +248,9 @@ impl Model<'_, '_> {
             .map(|(p, start, mut next, pos, nor, tex, col)| {
                 let mut mine = Vec::new();
                 let mut slot = 0;
-                for (i, c) in p.corners.iter().enumerate() {
-                    let k = start + i as u32;
-                    let primary = self.first(c) == k;
+                for (i, &corner) in p.corners.iter().enumerate() {
+                    let (k, c) = (start + i as u32, corner.full());
+                    let primary = self.first(corner) == k;
                     if !primary && !makers.contains(&k) {
                         continue;
                     }
@@ -264,7 +268,7 @@ impl Model<'_, '_> {
                     if primary {
                         self.shared.vertex[c[0] as usize].store(next, Relaxed);
                     } else {
-                        mine.push((*c, next));
+                        mine.push((c, next));
                     }
                     slot += 1;
                     next += 1;
@@ -291,11 +295,11 @@ impl Model<'_, '_> {
             jobs.push((p, start, mine));
         }
         jobs.into_par_iter().for_each(|(p, start, mine)| {
-            let vertex = |c: &[u32; 3], k: u32| {
-                if self.is_other(c, k) {
-                    other_vertices[c]
+            let vertex = |c: &C, k: u32| {
+                if self.is_other(*c, k) {
+                    other_vertices.get(&c.full()).copied().unwrap_or_default()
                 } else {
-                    self.shared.vertex[c[0] as usize].load(Relaxed)
+                    self.shared.vertex[c.position() as usize].load(Relaxed)
                 }
             };
             let mut mine = mine.iter_mut();
@@ -326,7 +330,9 @@ impl Model<'_, '_> {
     /// Reset the first-use marks of the model's positions for the next model.
     fn reset_first_corners(&self) {
         self.pieces.par_iter().for_each(|p| {
-            p.corners.iter().for_each(|c| self.shared.first[c[0] as usize].store(u32::MAX, Relaxed))
+            p.corners
+                .iter()
+                .for_each(|c| self.shared.first[c.position() as usize].store(u32::MAX, Relaxed))
         });
     }
 }
