@@ -264,3 +264,59 @@ fn random_texts_parse_the_same_at_every_cut_and_match_tobj() {
     // Both outcomes are well represented, or the comparison proves little.
     assert!(loaded > rounds / 3 && loaded < rounds * 9 / 10, "{loaded} of {rounds} texts loaded");
 }
+
+/// A grid of `n` x `m` positions whose faces name them in an order of their own (first
+/// use is not file order), with triangles, quads and pentagons, relative indices, and a
+/// group switch in the middle: faces of position indices alone, de-duplicated over many
+/// chunks (`plain_dedup.rs`) and, with `extra`, with texture coordinates and normals too.
+fn grid_obj(n: usize, m: usize, colours: bool, extra: bool) -> String {
+    let mut text = String::new();
+    for i in 0..n {
+        for j in 0..m {
+            let colour = if colours {
+                format!(" {} 0.5 {}", (i % 2) as f32, (j % 3) as f32 / 2.0)
+            } else {
+                String::new()
+            };
+            text += &format!("v {}.{} {}.25 -{}.5{colour}\n", i, j, j, (i * j) % 7);
+        }
+    }
+    if extra {
+        text += "vt 0.5 0.5\nvn 0 0 1\n";
+    }
+    let at = |i: usize, j: usize| 1 + (i % n) * m + (j % m);
+    let total = n * m;
+    for i in (0..n).rev() {
+        if i == n / 2 {
+            text += "g middle\n";
+        }
+        for j in 0..m {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            let corner =
+                |k: usize| if extra && k % 3 == 0 { format!("{k}/1/1") } else { k.to_string() };
+            text += &match (i + j) % 5 {
+                0 => format!("f {} {} {} {}\n", corner(a), corner(b), corner(c), corner(d)),
+                1 => format!("f {} {} {}\r\n", corner(c), corner(b), corner(a)),
+                2 => format!("f -{} {}\t{} \n", total + 1 - a, corner(c), corner(d)),
+                3 => format!(
+                    "f {} {} {} {} {}\n",
+                    corner(a),
+                    corner(b),
+                    corner(c),
+                    corner(d),
+                    corner(a + 1)
+                ),
+                _ => format!("f {} {} {}\n", corner(d), corner(a), corner(c)),
+            };
+        }
+    }
+    text
+}
+
+#[test]
+fn faces_of_positions_alone_over_many_chunks_match_tobj() {
+    for (colours, extra) in [(false, false), (true, false), (false, true)] {
+        let text = grid_obj(9, 7, colours, extra);
+        assert!(check(&text, None, &LoadOptions::default(), [1, 13, 100, 700, 3000]));
+    }
+}

@@ -14,6 +14,7 @@ use super::corners::Corner;
 use super::par_dedup::{add_model, grow, Output, Piece, Shared, Sources};
 use super::parallel::{Blocks, FaceBlock, ModelRun, Parsed};
 use super::parse_chunk::NONE;
+use super::plain_dedup::{add_plain_model, PlainShared};
 use super::{LoadOptions, ObjError};
 use crate::scene::{Material, Mesh};
 
@@ -65,7 +66,7 @@ fn build<C: Corner>(
     let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
     // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
     let mut dedup: Option<Dedup> = None;
-    let mut shared = None;
+    let mut tables = Tables::default();
     let mut cursor = Cursor { blocks, block: 0, face: 0, corner: 0 };
     let mut corners = Vec::new();
     let mut default_material = None;
@@ -74,9 +75,8 @@ fn build<C: Corner>(
         // A model over several chunks is de-duplicated in parallel, a chunk at a time; one
         // too big for that goes the serial way, which reports it.
         let parallel = pieces.len() > 1 && {
-            let shared = shared.get_or_insert_with(|| Shared::new(parsed.positions.len()));
             let last = m + 1 == parsed.models.len();
-            add_model_in_parallel(&pieces, shared, parsed, channels, &mut mesh, last)
+            add_model_in_parallel(&pieces, &mut tables, parsed, channels, &mut mesh, last)
         };
         if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
@@ -123,11 +123,19 @@ fn empty_mesh(name: &str, positions: usize, triangles: usize, channels: Channels
     }
 }
 
-/// Add a model spread over several pieces with `par_dedup` (`last`: the last model);
-/// false (nothing added) when its vertices would not fit 32-bit indices.
+/// The per-position tables of the parallel de-duplications, made on first use.
+#[derive(Default)]
+struct Tables {
+    plain: Option<PlainShared>,
+    full: Option<Shared>,
+}
+
+/// Add a model spread over several pieces with `plain_dedup` (no texture coordinates and
+/// normals in the mesh) or `par_dedup` (`last`: the last model); false (nothing added)
+/// when its vertices would not fit 32-bit indices.
 fn add_model_in_parallel<C: Corner>(
     pieces: &[Piece<C>],
-    shared: &Shared,
+    tables: &mut Tables,
     parsed: &Parsed,
     channels: Channels,
     mesh: &mut Mesh,
@@ -146,6 +154,12 @@ fn add_model_in_parallel<C: Corner>(
         colors: &mut mesh.colors,
         triangles: &mut mesh.triangles,
     };
+    let positions = parsed.positions.len();
+    if !channels.normals && !channels.texcoords {
+        let shared = tables.plain.get_or_insert_with(|| PlainShared::new(positions));
+        return add_plain_model(pieces, shared, &sources, out, last);
+    }
+    let shared = tables.full.get_or_insert_with(|| Shared::new(positions));
     add_model(pieces, shared, &sources, out, last)
 }
 

@@ -45,6 +45,7 @@ mod oracle;
 mod par_dedup;
 mod parallel;
 mod parse_chunk;
+mod plain_dedup;
 
 use std::cell::RefCell;
 use std::collections::HashSet;

@@ -9,6 +9,8 @@
 //!    normal creases) is settled by a serial pass over just those, with a map.
 //! 3. Each chunk counts the vertices it makes; prefix sums give it its range of vertex
 //!    numbers and triangles, which it fills on its own.
+//!
+//! Without texture coordinates and normals `plain_dedup.rs` does the same in fewer passes.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
@@ -89,17 +91,11 @@ pub(super) fn add_model<C: Corner>(
             Some(start)
         })
         .collect();
-    // Without texture coordinates and normals every corner of a position is like its first.
-    let plain = sources.normals.is_none() && sources.texcoords.is_none();
-    let model = Model { pieces, starts: &starts, shared, plain };
+    let model = Model { pieces, starts: &starts, shared };
     // 1 and 2, in this order: whether a corner is like the first needs the first settled.
     model.mark_first_corners();
-    let makers = if plain {
-        HashSet::new()
-    } else {
-        model.record_first_keys();
-        model.other_makers(&model.other_corners())
-    };
+    model.record_first_keys();
+    let makers = model.other_makers(&model.other_corners());
     // 3. Vertex numbers and triangles per piece.
     let made = model.vertices_made(&makers);
     let base = out.positions.len();
@@ -128,8 +124,6 @@ struct Model<'a, 'b, C> {
     pieces: &'a [Piece<'b, C>],
     starts: &'a [u32],
     shared: &'a Shared,
-    /// No corner has a texture coordinate or a normal: `shared.key` is not used.
-    plain: bool,
 }
 
 impl<C: Corner> Model<'_, '_, C> {
@@ -143,9 +137,7 @@ impl<C: Corner> Model<'_, '_, C> {
     #[inline]
     fn is_other(&self, c: C, k: u32) -> bool {
         let [v, vt, vn] = c.full();
-        !self.plain
-            && self.first(c) != k
-            && self.shared.key[v as usize].load(Relaxed) != pack(vt, vn)
+        self.first(c) != k && self.shared.key[v as usize].load(Relaxed) != pack(vt, vn)
     }
 
     /// 1. The first corner of each position.
@@ -339,7 +331,7 @@ impl<C: Corner> Model<'_, '_, C> {
 
 /// Grow the outputs the model writes to `vertices` and `triangles` elements, on every core
 /// (`resize` writes, and faults in, the new pages on one thread).
-fn grow_outputs(out: &mut Output, sources: &Sources, vertices: usize, triangles: usize) {
+pub(super) fn grow_outputs(out: &mut Output, sources: &Sources, vertices: usize, triangles: usize) {
     grow(out.positions, vertices, Vec3::ZERO);
     if sources.normals.is_some() {
         grow(out.normals, vertices, Vec3::ZERO);
@@ -362,7 +354,7 @@ pub(super) fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) 
 }
 
 /// The first `n` elements of `s` (which keeps the rest), or none when `wanted` is false.
-fn take_front<'a, T>(s: &mut &'a mut [T], n: usize, wanted: bool) -> &'a mut [T] {
+pub(super) fn take_front<'a, T>(s: &mut &'a mut [T], n: usize, wanted: bool) -> &'a mut [T] {
     if !wanted {
         return &mut [];
     }
