@@ -16,7 +16,7 @@ pub(super) fn short_numbers<const N: usize>(text: &[u8]) -> Option<([f32; N], us
     let (mut out, mut i) = ([0.0; N], 0);
     for slot in &mut out {
         i = skip_blanks(text, i);
-        let (value, len) = short_f32_prefix(&text[i..])?;
+        let (value, len) = short_f32_fast(&text[i..])?;
         i += len;
         // The number must be the whole word.
         if text.get(i).is_some_and(|&b| !is_ascii_space(b)) {
@@ -25,6 +25,53 @@ pub(super) fn short_numbers<const N: usize>(text: &[u8]) -> Option<([f32; N], us
         *slot = value;
     }
     Some((out, i))
+}
+
+/// [`short_f32_prefix`], with the usual shape of a number (`-1.234567`: an optional minus,
+/// digits, a point, digits, at most 8 in all) read eight bytes at a time: a byte at a
+/// time took about 20 instructions a byte, two thirds of a `v` line's. Anything else, and
+/// text too near the end of the chunk, goes to `short_f32_prefix`.
+#[inline(always)]
+pub(super) fn short_f32_fast(text: &[u8]) -> Option<(f32, usize)> {
+    /// Powers of ten, exact as u64 and as f32 (5^7 < 2^24).
+    const POWERS: [(u64, f32); 8] = [
+        (1, 1e0),
+        (10, 1e1),
+        (100, 1e2),
+        (1000, 1e3),
+        (1e4 as u64, 1e4),
+        (1e5 as u64, 1e5),
+        (1e6 as u64, 1e6),
+        (1e7 as u64, 1e7),
+    ];
+    let negative = text.first() == Some(&b'-');
+    let mut i = usize::from(negative);
+    let (integer, n) = leading_digits(text.get(i..).unwrap_or_default());
+    // No digit (a plus, a point first...) or 8 of them (perhaps more): the plain reading.
+    if n == 0 || n == 8 {
+        return short_f32_prefix(text);
+    }
+    // Fewer than 8 digits out of 8 bytes read: a byte that is no digit follows them.
+    i += n;
+    let (mantissa, scale) = if text.get(i) == Some(&b'.') {
+        let (fraction, m) = leading_digits(text.get(i + 1..).unwrap_or_default());
+        // `5.`, more than 8 digits in all, or the chunk's end near: the plain reading.
+        let Some(&(power, _)) = POWERS.get(m).filter(|_| m > 0 && n + m <= 8) else {
+            return short_f32_prefix(text);
+        };
+        // At most 7 digits after the point (there is one before), so again a byte that is
+        // no digit follows, where the plain reading stops too (a second point included).
+        i += 1 + m;
+        (integer * power + fraction, m)
+    } else {
+        (integer, 0)
+    };
+    // Past f32's exact integers: the plain reading says no the same way.
+    if mantissa > 1 << 24 {
+        return short_f32_prefix(text);
+    }
+    let v = mantissa as f32 / POWERS[scale].1;
+    Some((if negative { -v } else { v }, i))
 }
 
 /// The first byte at or after `i` that is not whitespace, or is a `\n`.

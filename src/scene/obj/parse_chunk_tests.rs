@@ -1,5 +1,6 @@
 use super::*;
-use crate::scene::obj::fast_lines::{fast_face, leading_digits, plain_face};
+use crate::scene::decimal::short_f32_prefix;
+use crate::scene::obj::fast_lines::{fast_face, leading_digits, plain_face, short_f32_fast};
 
 #[test]
 fn fast_face_path_agrees_with_the_diagnosing_one() {
@@ -84,6 +85,22 @@ fn corners_turn_into_triples_at_the_first_that_needs_one() {
     corners.truncate(3);
     assert_eq!(corners.len(), 3);
     assert_eq!(corners.into_full(), [[1, NONE, NONE], [2, NONE, NONE], [3, NONE, 0]]);
+}
+
+#[test]
+fn numbers_eight_bytes_at_once_are_what_the_plain_reading_gives() {
+    let mut fast = 0;
+    for word in crate::scene::decimal::tests::words() {
+        // What may follow a number on a line, and the end of the chunk.
+        for after in ["", " ", "\n", "\r\n", " 1.5 2.5\n", "x", ".5 ", "/", "0", "12345678 "] {
+            let text = format!("{word}{after}");
+            let plain = short_f32_prefix(text.as_bytes()).map(|(v, n)| (v.to_bits(), n));
+            let read = short_f32_fast(text.as_bytes()).map(|(v, n)| (v.to_bits(), n));
+            assert_eq!(read, plain, "{text:?}");
+            fast += usize::from(read.is_some());
+        }
+    }
+    assert!(fast > 100_000, "{fast}");
 }
 
 #[test]
