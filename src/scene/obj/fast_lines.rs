@@ -49,7 +49,7 @@ pub(super) fn short_f32_fast(text: &[u8]) -> Option<(f32, usize)> {
     let (integer, n) = leading_digits(text.get(i..).unwrap_or_default());
     // No digit (a plus, a point first...) or 8 of them (perhaps more): the plain reading.
     if n == 0 || n == 8 {
-        return short_f32_prefix(text);
+        return plain_f32(text);
     }
     // Fewer than 8 digits out of 8 bytes read: a byte that is no digit follows them.
     i += n;
@@ -57,7 +57,7 @@ pub(super) fn short_f32_fast(text: &[u8]) -> Option<(f32, usize)> {
         let (fraction, m) = leading_digits(text.get(i + 1..).unwrap_or_default());
         // `5.`, more than 8 digits in all, or the chunk's end near: the plain reading.
         let Some(&(power, _)) = POWERS.get(m).filter(|_| m > 0 && n + m <= 8) else {
-            return short_f32_prefix(text);
+            return plain_f32(text);
         };
         // At most 7 digits after the point (there is one before), so again a byte that is
         // no digit follows, where the plain reading stops too (a second point included).
@@ -68,10 +68,18 @@ pub(super) fn short_f32_fast(text: &[u8]) -> Option<(f32, usize)> {
     };
     // Past f32's exact integers: the plain reading says no the same way.
     if mantissa > 1 << 24 {
-        return short_f32_prefix(text);
+        return plain_f32(text);
     }
     let v = mantissa as f32 / POWERS[scale].1;
     Some((if negative { -v } else { v }, i))
+}
+
+/// The rare shapes: `short_f32_prefix`, out of line, so that [`short_f32_fast`]'s inlined
+/// copies stay small (fewer registers spilled in the line loop).
+#[cold]
+#[inline(never)]
+fn plain_f32(text: &[u8]) -> Option<(f32, usize)> {
+    short_f32_prefix(text)
 }
 
 /// The first byte at or after `i` that is not whitespace, or is a `\n`.
@@ -179,31 +187,52 @@ pub(super) fn plain_face(
     largest: &mut u64,
     out: &mut Vec<u32>,
 ) -> Option<(u32, usize)> {
-    let (n, mut i, mut count) = (text.len(), 0, 0u32);
+    // The first three corners in registers (nearly every face is a triangle), stored at once.
+    let (a, i) = plain_index(text, 0, available)?;
+    let (b, i) = plain_index(text, i, available)?;
+    let (c, mut i) = plain_index(text, i, available)?;
+    *largest = (*largest).max(a.max(b).max(c));
+    out.extend_from_slice(&[a, b, c].map(|v| (v - 1) as u32));
+    let mut count = 3;
     loop {
         i = skip_blanks(text, i);
         match text.get(i) {
-            None => return (count >= 3).then_some((count, i)),
-            Some(b'\n') => return (count >= 3).then_some((count, i + 1)),
+            None => return Some((count, i)),
+            Some(b'\n') => return Some((count, i + 1)),
             Some(_) => {}
         }
-        let (start, (mut value, digits)) = (i, leading_digits(&text[i..]));
-        i += digits;
-        while i < n && text[i].is_ascii_digit() {
+        let (v, next) = plain_index(text, i, available)?;
+        *largest = (*largest).max(v);
+        out.push((v - 1) as u32);
+        (i, count) = (next, count + 1);
+    }
+}
+
+/// The index of a plain face corner at or after `i` (blanks skipped), 1-based, and where
+/// the text after it begins; None at the line's end, or for anything but up to 18 digits
+/// of a value in `1..=available` followed by a blank or the end.
+#[inline(always)]
+fn plain_index(text: &[u8], i: usize, available: u64) -> Option<(u64, usize)> {
+    let start = skip_blanks(text, i);
+    let (mut value, digits) = leading_digits(text.get(start..).unwrap_or_default());
+    let mut i = start + digits;
+    // Fewer than 8 digits out of 8 bytes read: a byte that is no digit follows them.
+    // Otherwise (past the eighth digit, or near the end of the chunk) a digit at a time.
+    if digits == 0 || digits == 8 {
+        while i < text.len() && text[i].is_ascii_digit() {
             value = value.wrapping_mul(10).wrapping_add(u64::from(text[i] - b'0'));
             i += 1;
         }
-        // No digit (a sign, a slash...), too many, or out of range: `fast_face` decides.
-        if i == start || i - start > 18 || !(1..=available).contains(&value) {
-            return None;
-        }
-        if text.get(i).is_some_and(|&b| !is_ascii_space(b)) {
-            return None;
-        }
-        *largest = (*largest).max(value);
-        out.push((value - 1) as u32);
-        count += 1;
     }
+    // No digit (a sign, a slash, the line's end...), too many, or out of range: `fast_face`
+    // decides (the plain multiply-add above is exact up to 18 digits).
+    if i == start || i - start > 18 || !(1..=available).contains(&value) {
+        return None;
+    }
+    if text.get(i).is_some_and(|&b| !is_ascii_space(b)) {
+        return None;
+    }
+    Some((value, i))
 }
 
 /// The value and number of the decimal digits that `text` starts with, up to 8 of them,
