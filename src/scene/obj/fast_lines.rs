@@ -46,7 +46,11 @@ pub(super) fn short_f32_fast(text: &[u8]) -> Option<(f32, usize)> {
     ];
     let negative = text.first() == Some(&b'-');
     let mut i = usize::from(negative);
-    let (integer, n) = leading_digits(text.get(i..).unwrap_or_default());
+    let (integer, n) = match text.get(i..i + 2) {
+        // One digit before the point (`-0.123456`, the usual shape): no eight-byte read.
+        Some(&[d, b'.']) if d.is_ascii_digit() => (u64::from(d - b'0'), 1),
+        _ => leading_digits(text.get(i..).unwrap_or_default()),
+    };
     // No digit (a plus, a point first...) or 8 of them (perhaps more): the plain reading.
     if n == 0 || n == 8 {
         return plain_f32(text);
