@@ -140,6 +140,30 @@ fn chunks_read_alone_parse_as_the_plain_reading_at_every_cut() {
     }
 }
 
+/// Texts for the readers of faces of position indices alone (`plain_face`) and of numbers
+/// eight bytes at a time (`short_f32_fast`): what they take and what they must leave to
+/// the general readers, near the end of a chunk and far from it.
+const PLAIN_CASES: &[&str] = &[
+    // long indices (8 digits and more, leading zeros), the last position, signs, slashes
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 00000001 00000002 000000003\nf 3 2 1 00000000000000000002\nf +1 2 3\nf 1/ 2// 3\nf 1 2 3 \t\r\nf 1\t2 3",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 100000000\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 0\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3x\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\nf 1 2 3\n",
+    // numbers: one digit before the point, more, none, eight digits, nine, a second point
+    "v -0.1234567 1.500000 -2.25\nv 12.345678 -123.5 .5\nv 5. -0 +1.5\nv 1.2345678 12345678 0.0000001\nf 1 2 3\n",
+    "v 1.23456789 0 0\nv 0 1.2.3 0\nv 0 0 1\nf 1 2 3\n",
+    "v 0.000001 -0.000000 16777216\nv 1677721.6 0.9999999 1\nv 0 0 1\nvt 0.5 0.25\nvn 0.0 -1.0 0.0\nf 1/1/1 2/1/1 3/1/1\n",
+];
+
+#[test]
+fn plain_faces_and_short_numbers_parse_as_the_plain_reading_at_every_cut() {
+    for text in PLAIN_CASES {
+        check(text, None, &LoadOptions::default(), 1..=text.len() + 1);
+    }
+}
+
 /// A small deterministic random number generator (xorshift), so failures reproduce.
 struct Rng(u64);
 
