@@ -4,12 +4,13 @@
 //! plain serial reader alone, the oracle the parallel readers are held to.
 //!
 //! `cargo run --release --example parse_timings -- a.ply b.obj ...`; `WAY=serial` or
-//! `WAY=parallel` times one of the PLY readers alone (for a profiler).
+//! `WAY=parallel` times one of the PLY readers alone (for a profiler). OBJ files are also
+//! timed as `load` (`load_obj`: the read counted too, as rapidobj's timings count it).
 
 use std::path::Path;
 use std::time::Instant;
 
-use meshtracer::scene::obj::{load_obj_from_bytes, LoadOptions};
+use meshtracer::scene::obj::{load_obj, load_obj_from_bytes, LoadOptions};
 use meshtracer::scene::ply::load_ply_from_bytes_chunked;
 
 /// A way to parse the file: its name, and a parse giving the triangle count.
@@ -48,6 +49,14 @@ fn main() -> anyhow::Result<()> {
                     let text = copies.pop().unwrap_or_default();
                     let dir = Path::new(&name).parent();
                     let loaded = load_obj_from_bytes(text, &name, dir, &LoadOptions::default());
+                    loaded.expect("the OBJ loads").mesh.triangle_count()
+                }),
+            ));
+            let file = path.clone();
+            ways.push((
+                "load",
+                Box::new(move || {
+                    let loaded = load_obj(Path::new(&file));
                     loaded.expect("the OBJ loads").mesh.triangle_count()
                 }),
             ));

@@ -140,6 +140,30 @@ fn chunks_read_alone_parse_as_the_plain_reading_at_every_cut() {
     }
 }
 
+/// Texts for the readers of faces of position indices alone (`plain_face`) and of numbers
+/// eight bytes at a time (`short_f32_fast`): what they take and what they must leave to
+/// the general readers, near the end of a chunk and far from it.
+const PLAIN_CASES: &[&str] = &[
+    // long indices (8 digits and more, leading zeros), the last position, signs, slashes
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 00000001 00000002 000000003\nf 3 2 1 00000000000000000002\nf +1 2 3\nf 1/ 2// 3\nf 1 2 3 \t\r\nf 1\t2 3",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 100000000\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 0\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3x\n",
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\nf 1 2 3\n",
+    // numbers: one digit before the point, more, none, eight digits, nine, a second point
+    "v -0.1234567 1.500000 -2.25\nv 12.345678 -123.5 .5\nv 5. -0 +1.5\nv 1.2345678 12345678 0.0000001\nf 1 2 3\n",
+    "v 1.23456789 0 0\nv 0 1.2.3 0\nv 0 0 1\nf 1 2 3\n",
+    "v 0.000001 -0.000000 16777216\nv 1677721.6 0.9999999 1\nv 0 0 1\nvt 0.5 0.25\nvn 0.0 -1.0 0.0\nf 1/1/1 2/1/1 3/1/1\n",
+];
+
+#[test]
+fn plain_faces_and_short_numbers_parse_as_the_plain_reading_at_every_cut() {
+    for text in PLAIN_CASES {
+        check(text, None, &LoadOptions::default(), 1..=text.len() + 1);
+    }
+}
+
 /// A small deterministic random number generator (xorshift), so failures reproduce.
 struct Rng(u64);
 
@@ -263,4 +287,60 @@ fn random_texts_parse_the_same_at_every_cut_and_match_tobj() {
     }
     // Both outcomes are well represented, or the comparison proves little.
     assert!(loaded > rounds / 3 && loaded < rounds * 9 / 10, "{loaded} of {rounds} texts loaded");
+}
+
+/// A grid of `n` x `m` positions whose faces name them in an order of their own (first
+/// use is not file order), with triangles, quads and pentagons, relative indices, and a
+/// group switch in the middle: faces of position indices alone, de-duplicated over many
+/// chunks (`plain_dedup.rs`) and, with `extra`, with texture coordinates and normals too.
+fn grid_obj(n: usize, m: usize, colours: bool, extra: bool) -> String {
+    let mut text = String::new();
+    for i in 0..n {
+        for j in 0..m {
+            let colour = if colours {
+                format!(" {} 0.5 {}", (i % 2) as f32, (j % 3) as f32 / 2.0)
+            } else {
+                String::new()
+            };
+            text += &format!("v {}.{} {}.25 -{}.5{colour}\n", i, j, j, (i * j) % 7);
+        }
+    }
+    if extra {
+        text += "vt 0.5 0.5\nvn 0 0 1\n";
+    }
+    let at = |i: usize, j: usize| 1 + (i % n) * m + (j % m);
+    let total = n * m;
+    for i in (0..n).rev() {
+        if i == n / 2 {
+            text += "g middle\n";
+        }
+        for j in 0..m {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            let corner =
+                |k: usize| if extra && k % 3 == 0 { format!("{k}/1/1") } else { k.to_string() };
+            text += &match (i + j) % 5 {
+                0 => format!("f {} {} {} {}\n", corner(a), corner(b), corner(c), corner(d)),
+                1 => format!("f {} {} {}\r\n", corner(c), corner(b), corner(a)),
+                2 => format!("f -{} {}\t{} \n", total + 1 - a, corner(c), corner(d)),
+                3 => format!(
+                    "f {} {} {} {} {}\n",
+                    corner(a),
+                    corner(b),
+                    corner(c),
+                    corner(d),
+                    corner(a + 1)
+                ),
+                _ => format!("f {} {} {}\n", corner(d), corner(a), corner(c)),
+            };
+        }
+    }
+    text
+}
+
+#[test]
+fn faces_of_positions_alone_over_many_chunks_match_tobj() {
+    for (colours, extra) in [(false, false), (true, false), (false, true)] {
+        let text = grid_obj(9, 7, colours, extra);
+        assert!(check(&text, None, &LoadOptions::default(), [1, 13, 100, 700, 3000]));
+    }
 }

@@ -10,21 +10,48 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::convert::{finish_normals, triangulate, NormalSources};
+use super::corners::Corner;
 use super::par_dedup::{add_model, grow, Output, Piece, Shared, Sources};
-use super::parallel::{FaceBlock, ModelRun, Parsed};
+use super::parallel::{Blocks, FaceBlock, ModelRun, Parsed};
 use super::parse_chunk::NONE;
+use super::plain_dedup::{add_plain_model, PlainShared};
 use super::{LoadOptions, ObjError};
 use crate::scene::{Material, Mesh};
 
 /// Build the mesh; `materials` are the merged libraries' materials, converted.
 pub(super) fn assemble(
-    parsed: Parsed,
-    mut materials: Vec<Material>,
+    mut parsed: Parsed,
+    materials: Vec<Material>,
     name: &str,
     options: &LoadOptions,
 ) -> Result<Mesh, ObjError> {
-    let triangle_total: usize = parsed
-        .blocks
+    let blocks = std::mem::take(&mut parsed.blocks);
+    let (mut mesh, groups) = match &blocks {
+        Blocks::Plain(blocks) => build(blocks, &parsed, materials, name)?,
+        Blocks::Full(blocks) => build(blocks, &parsed, materials, name)?,
+    };
+    let sources = NormalSources {
+        with_normals: parsed.any_normal,
+        all_normals: parsed.all_normals,
+        with_texcoords: parsed.any_texcoord,
+        models_with_faces: parsed.models.iter().filter(|m| !m.faces.is_empty()).count(),
+    };
+    let non_finite = parsed.non_finite;
+    super::free_in_background((parsed, blocks));
+    check_finite(&mesh, non_finite, name)?;
+    finish_normals(&mut mesh, groups.as_deref(), sources, options);
+    Ok(mesh)
+}
+
+/// The mesh from `blocks` (the faces of `parsed`) before its normals, and the smoothing
+/// group of each triangle (None without `s` lines).
+fn build<C: Corner>(
+    blocks: &[FaceBlock<C>],
+    parsed: &Parsed,
+    mut materials: Vec<Material>,
+    name: &str,
+) -> Result<(Mesh, Option<Vec<u32>>), ObjError> {
+    let triangle_total: usize = blocks
         .par_iter()
         .map(|b| b.arities.iter().map(|&n| (n as usize).saturating_sub(2)).sum::<usize>())
         .sum();
@@ -39,8 +66,8 @@ pub(super) fn assemble(
     let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
     // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
     let mut dedup: Option<Dedup> = None;
-    let mut shared = None;
-    let mut cursor = Cursor { blocks: &parsed.blocks, block: 0, face: 0, corner: 0 };
+    let mut tables = Tables::default();
+    let mut cursor = Cursor { blocks, block: 0, face: 0, corner: 0 };
     let mut corners = Vec::new();
     let mut default_material = None;
     for (m, model) in parsed.models.iter().enumerate() {
@@ -48,14 +75,13 @@ pub(super) fn assemble(
         // A model over several chunks is de-duplicated in parallel, a chunk at a time; one
         // too big for that goes the serial way, which reports it.
         let parallel = pieces.len() > 1 && {
-            let shared = shared.get_or_insert_with(|| Shared::new(parsed.positions.len()));
             let last = m + 1 == parsed.models.len();
-            add_model_in_parallel(&pieces, shared, &parsed, channels, &mut mesh, last)
+            add_model_in_parallel(&pieces, &mut tables, parsed, channels, &mut mesh, last)
         };
         if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
             dedup.start_model(m as u32);
-            add_model_serially(&pieces, dedup, &parsed, channels, &mut corners, &mut mesh, name)?;
+            add_model_serially(&pieces, dedup, parsed, channels, &mut corners, &mut mesh, name)?;
         }
         let material = match model.material {
             Some(i) if i < materials.len() => i as u32,
@@ -68,19 +94,9 @@ pub(super) fn assemble(
         grow(&mut mesh.triangle_materials, mesh.triangles.len(), material);
     }
     mesh.materials = materials;
-    let sources = NormalSources {
-        with_normals: channels.normals,
-        all_normals: parsed.all_normals,
-        with_texcoords: channels.texcoords,
-        models_with_faces: parsed.models.iter().filter(|m| !m.faces.is_empty()).count(),
-    };
     let groups = (!parsed.smoothing.is_empty())
-        .then(|| triangle_groups(&parsed.blocks, &parsed.models, &parsed.smoothing));
-    let non_finite = parsed.non_finite;
-    super::free_in_background(parsed);
-    check_finite(&mesh, non_finite, name)?;
-    finish_normals(&mut mesh, groups.as_deref(), sources, options);
-    Ok(mesh)
+        .then(|| triangle_groups(blocks, &parsed.models, &parsed.smoothing));
+    Ok((mesh, groups))
 }
 
 /// Which vertex attributes the mesh has besides positions.
@@ -92,7 +108,9 @@ struct Channels {
 }
 
 /// A mesh with room for `triangles` and, nearly always enough, one vertex per position (no
-/// regrowing).
+/// regrowing). The triangle arrays, exactly as long as that and never grown, ask for 2 MB
+/// pages: a 512th of the page faults of filling them (the vertex arrays may still grow,
+/// which would split such pages).
 fn empty_mesh(name: &str, positions: usize, triangles: usize, channels: Channels) -> Mesh {
     let room = |wanted: bool| if wanted { positions } else { 0 };
     Mesh {
@@ -101,17 +119,25 @@ fn empty_mesh(name: &str, positions: usize, triangles: usize, channels: Channels
         normals: Vec::with_capacity(room(channels.normals)),
         texcoords: Vec::with_capacity(room(channels.texcoords)),
         colors: Vec::with_capacity(room(channels.colours)),
-        triangles: Vec::with_capacity(triangles),
-        triangle_materials: Vec::with_capacity(triangles),
+        triangles: crate::memory::with_huge_pages(triangles),
+        triangle_materials: crate::memory::with_huge_pages(triangles),
         ..Default::default()
     }
 }
 
-/// Add a model spread over several pieces with `par_dedup` (`last`: the last model);
-/// false (nothing added) when its vertices would not fit 32-bit indices.
-fn add_model_in_parallel(
-    pieces: &[Piece],
-    shared: &Shared,
+/// The per-position tables of the parallel de-duplications, made on first use.
+#[derive(Default)]
+struct Tables {
+    plain: Option<PlainShared>,
+    full: Option<Shared>,
+}
+
+/// Add a model spread over several pieces with `plain_dedup` (no texture coordinates and
+/// normals in the mesh) or `par_dedup` (`last`: the last model); false (nothing added)
+/// when its vertices would not fit 32-bit indices.
+fn add_model_in_parallel<C: Corner>(
+    pieces: &[Piece<C>],
+    tables: &mut Tables,
     parsed: &Parsed,
     channels: Channels,
     mesh: &mut Mesh,
@@ -130,13 +156,19 @@ fn add_model_in_parallel(
         colors: &mut mesh.colors,
         triangles: &mut mesh.triangles,
     };
+    let positions = parsed.positions.len();
+    if !channels.normals && !channels.texcoords {
+        let shared = tables.plain.get_or_insert_with(|| PlainShared::new(positions));
+        return add_plain_model(pieces, shared, &sources, out, last);
+    }
+    let shared = tables.full.get_or_insert_with(|| Shared::new(positions));
     add_model(pieces, shared, &sources, out, last)
 }
 
 /// Add a model face by face: each new corner makes a vertex, each face its triangles.
 /// `corners` is room for one face's vertex numbers, kept between models.
-fn add_model_serially(
-    pieces: &[Piece],
+fn add_model_serially<C: Corner>(
+    pieces: &[Piece<C>],
     dedup: &mut Dedup,
     parsed: &Parsed,
     channels: Channels,
@@ -156,7 +188,8 @@ fn add_model_serially(
     });
     for face in faces {
         corners.clear();
-        for &[v, vt, vn] in face {
+        for &corner in face {
+            let [v, vt, vn] = corner.full();
             let (index, new) = dedup.vertex(v, vt, vn);
             if new {
                 vertex_count += 1;
@@ -222,8 +255,8 @@ fn check_finite(mesh: &Mesh, first_lines: [Option<usize>; 3], name: &str) -> Res
 }
 
 /// The smoothing group of every triangle, in file order.
-fn triangle_groups(
-    blocks: &[FaceBlock],
+fn triangle_groups<C>(
+    blocks: &[FaceBlock<C>],
     models: &[ModelRun],
     smoothing: &[(usize, u32)],
 ) -> Vec<u32> {
@@ -243,16 +276,16 @@ fn triangle_groups(
 
 /// Walks the blocks' faces in order, handing out each model's faces as pieces (its faces
 /// within one block each).
-struct Cursor<'b> {
-    blocks: &'b [FaceBlock],
+struct Cursor<'b, C> {
+    blocks: &'b [FaceBlock<C>],
     block: usize,
     /// Face and corner of `block` where the next model starts.
     face: usize,
     corner: usize,
 }
 
-impl<'b> Cursor<'b> {
-    fn take(&mut self, mut faces: usize) -> Vec<Piece<'b>> {
+impl<'b, C> Cursor<'b, C> {
+    fn take(&mut self, mut faces: usize) -> Vec<Piece<'b, C>> {
         let mut pieces = Vec::new();
         while faces > 0 && self.block < self.blocks.len() {
             let block = &self.blocks[self.block];

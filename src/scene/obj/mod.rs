@@ -36,6 +36,7 @@
 mod assemble;
 mod chunks;
 mod convert;
+mod corners;
 mod fast_lines;
 mod line_feeder;
 mod mtl;
@@ -44,6 +45,7 @@ mod oracle;
 mod par_dedup;
 mod parallel;
 mod parse_chunk;
+mod plain_dedup;
 
 use std::cell::RefCell;
 use std::collections::HashSet;

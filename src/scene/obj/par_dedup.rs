@@ -9,6 +9,8 @@
 //!    normal creases) is settled by a serial pass over just those, with a map.
 //! 3. Each chunk counts the vertices it makes; prefix sums give it its range of vertex
 //!    numbers and triangles, which it fills on its own.
+//!
+//! Without texture coordinates and normals `plain_dedup.rs` does the same in fewer passes.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
@@ -17,12 +19,13 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::convert::triangulate;
+use super::corners::Corner;
 use super::parse_chunk::NONE;
 
 /// A model's faces within one chunk.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Piece<'b> {
-    pub(super) corners: &'b [[u32; 3]],
+pub(super) struct Piece<'b, C> {
+    pub(super) corners: &'b [C],
     pub(super) arities: &'b [u32],
 }
 
@@ -73,8 +76,8 @@ fn pack(vt: u32, vn: u32) -> u64 {
 /// would not fit 32-bit indices, for the serial path to report.
 ///
 /// `last`: no model follows that uses `shared`, which then need not be reset.
-pub(super) fn add_model(
-    pieces: &[Piece],
+pub(super) fn add_model<C: Corner>(
+    pieces: &[Piece<C>],
     shared: &Shared,
     sources: &Sources,
     mut out: Output,
@@ -88,17 +91,11 @@ pub(super) fn add_model(
             Some(start)
         })
         .collect();
-    // Without texture coordinates and normals every corner of a position is like its first.
-    let plain = sources.normals.is_none() && sources.texcoords.is_none();
-    let model = Model { pieces, starts: &starts, shared, plain };
+    let model = Model { pieces, starts: &starts, shared };
     // 1 and 2, in this order: whether a corner is like the first needs the first settled.
     model.mark_first_corners();
-    let makers = if plain {
-        HashSet::new()
-    } else {
-        model.record_first_keys();
-        model.other_makers(&model.other_corners())
-    };
+    model.record_first_keys();
+    let makers = model.other_makers(&model.other_corners());
     // 3. Vertex numbers and triangles per piece.
     let made = model.vertices_made(&makers);
     let base = out.positions.len();
@@ -123,34 +120,31 @@ pub(super) fn add_model(
 
 /// One model's pieces, where each piece's corners start (model-relative), and the
 /// per-position marks they share.
-struct Model<'a, 'b> {
-    pieces: &'a [Piece<'b>],
+struct Model<'a, 'b, C> {
+    pieces: &'a [Piece<'b, C>],
     starts: &'a [u32],
     shared: &'a Shared,
-    /// No corner has a texture coordinate or a normal: `shared.key` is not used.
-    plain: bool,
 }
 
-impl Model<'_, '_> {
+impl<C: Corner> Model<'_, '_, C> {
     /// The first corner (model-relative) that uses `c`'s position.
     #[inline]
-    fn first(&self, c: &[u32; 3]) -> u32 {
-        self.shared.first[c[0] as usize].load(Relaxed)
+    fn first(&self, c: C) -> u32 {
+        self.shared.first[c.position() as usize].load(Relaxed)
     }
 
     /// Corner `k` is neither the first of its position nor like it (the same vt, vn).
     #[inline]
-    fn is_other(&self, c: &[u32; 3], k: u32) -> bool {
-        !self.plain
-            && self.first(c) != k
-            && self.shared.key[c[0] as usize].load(Relaxed) != pack(c[1], c[2])
+    fn is_other(&self, c: C, k: u32) -> bool {
+        let [v, vt, vn] = c.full();
+        self.first(c) != k && self.shared.key[v as usize].load(Relaxed) != pack(vt, vn)
     }
 
     /// 1. The first corner of each position.
     fn mark_first_corners(&self) {
         self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
             for (i, c) in p.corners.iter().enumerate() {
-                let (first, k) = (&self.shared.first[c[0] as usize], start + i as u32);
+                let (first, k) = (&self.shared.first[c.position() as usize], start + i as u32);
                 // A plain load first: most corners meet a position already marked, and
                 // `fetch_min` is a compare-and-swap loop on x86.
                 if first.load(Relaxed) > k {
@@ -163,9 +157,10 @@ impl Model<'_, '_> {
     /// 2. Its (vt, vn).
     fn record_first_keys(&self) {
         self.pieces.par_iter().zip(self.starts).for_each(|(p, &start)| {
-            for (i, c) in p.corners.iter().enumerate() {
+            for (i, &c) in p.corners.iter().enumerate() {
                 if self.first(c) == start + i as u32 {
-                    self.shared.key[c[0] as usize].store(pack(c[1], c[2]), Relaxed);
+                    let [v, vt, vn] = c.full();
+                    self.shared.key[v as usize].store(pack(vt, vn), Relaxed);
                 }
             }
         });
@@ -178,7 +173,7 @@ impl Model<'_, '_> {
             .zip(self.starts)
             .map(|(p, &start)| {
                 (0..p.corners.len() as u32)
-                    .filter(|&i| self.is_other(&p.corners[i as usize], start + i))
+                    .filter(|&i| self.is_other(p.corners[i as usize], start + i))
                     .map(|i| start + i)
                     .collect()
             })
@@ -193,7 +188,7 @@ impl Model<'_, '_> {
             .zip(self.starts)
             .zip(others)
             .flat_map(|((p, &start), list)| {
-                list.iter().map(move |&k| (k, p.corners[(k - start) as usize]))
+                list.iter().map(move |&k| (k, p.corners[(k - start) as usize].full()))
             })
             .filter(|(_, c)| seen.insert(*c))
             .map(|(k, _)| k)
@@ -202,12 +197,13 @@ impl Model<'_, '_> {
 
     /// How many vertices each piece makes.
     fn vertices_made(&self, makers: &HashSet<u32>) -> Vec<usize> {
-        let makes = |c: &[u32; 3], k: u32| self.first(c) == k || makers.contains(&k);
+        let makes = |c: C, k: u32| self.first(c) == k || makers.contains(&k);
         self.pieces
             .par_iter()
             .zip(self.starts)
             .map(|(p, &start)| {
-                p.corners.iter().enumerate().filter(|(i, c)| makes(c, start + *i as u32)).count()
+                let corners = p.corners.iter().enumerate();
+                corners.filter(|&(i, &c)| makes(c, start + i as u32)).count()
             })
             .collect()
     }
@@ -244,9 +240,9 @@ impl Model<'_, '_> {
             .map(|(p, start, mut next, pos, nor, tex, col)| {
                 let mut mine = Vec::new();
                 let mut slot = 0;
-                for (i, c) in p.corners.iter().enumerate() {
-                    let k = start + i as u32;
-                    let primary = self.first(c) == k;
+                for (i, &corner) in p.corners.iter().enumerate() {
+                    let (k, c) = (start + i as u32, corner.full());
+                    let primary = self.first(corner) == k;
                     if !primary && !makers.contains(&k) {
                         continue;
                     }
@@ -264,7 +260,7 @@ impl Model<'_, '_> {
                     if primary {
                         self.shared.vertex[c[0] as usize].store(next, Relaxed);
                     } else {
-                        mine.push((*c, next));
+                        mine.push((c, next));
                     }
                     slot += 1;
                     next += 1;
@@ -291,11 +287,11 @@ impl Model<'_, '_> {
             jobs.push((p, start, mine));
         }
         jobs.into_par_iter().for_each(|(p, start, mine)| {
-            let vertex = |c: &[u32; 3], k: u32| {
-                if self.is_other(c, k) {
-                    other_vertices[c]
+            let vertex = |c: &C, k: u32| {
+                if self.is_other(*c, k) {
+                    other_vertices.get(&c.full()).copied().unwrap_or_default()
                 } else {
-                    self.shared.vertex[c[0] as usize].load(Relaxed)
+                    self.shared.vertex[c.position() as usize].load(Relaxed)
                 }
             };
             let mut mine = mine.iter_mut();
@@ -326,14 +322,16 @@ impl Model<'_, '_> {
     /// Reset the first-use marks of the model's positions for the next model.
     fn reset_first_corners(&self) {
         self.pieces.par_iter().for_each(|p| {
-            p.corners.iter().for_each(|c| self.shared.first[c[0] as usize].store(u32::MAX, Relaxed))
+            p.corners
+                .iter()
+                .for_each(|c| self.shared.first[c.position() as usize].store(u32::MAX, Relaxed))
         });
     }
 }
 
 /// Grow the outputs the model writes to `vertices` and `triangles` elements, on every core
 /// (`resize` writes, and faults in, the new pages on one thread).
-fn grow_outputs(out: &mut Output, sources: &Sources, vertices: usize, triangles: usize) {
+pub(super) fn grow_outputs(out: &mut Output, sources: &Sources, vertices: usize, triangles: usize) {
     grow(out.positions, vertices, Vec3::ZERO);
     if sources.normals.is_some() {
         grow(out.normals, vertices, Vec3::ZERO);
@@ -356,7 +354,7 @@ pub(super) fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, len: usize, value: T) 
 }
 
 /// The first `n` elements of `s` (which keeps the rest), or none when `wanted` is false.
-fn take_front<'a, T>(s: &mut &'a mut [T], n: usize, wanted: bool) -> &'a mut [T] {
+pub(super) fn take_front<'a, T>(s: &mut &'a mut [T], n: usize, wanted: bool) -> &'a mut [T] {
     if !wanted {
         return &mut [];
     }

@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use super::chunks::{self, Chunk, Counts};
 use super::convert::{colour, locate_colour_mismatch};
+use super::corners::{Corner, Corners};
 use super::line_feeder::{Dropped, DroppedFirst};
 use super::mtl::MaterialLibraries;
 use super::par_dedup::grow;
@@ -36,11 +37,49 @@ pub(super) struct ModelRun {
 
 /// The faces of one chunk.
 #[derive(Debug, Default)]
-pub(super) struct FaceBlock {
-    /// (v, vt, vn) per corner, 0-based, `NONE` when absent.
-    pub(super) corners: Vec<[u32; 3]>,
+pub(super) struct FaceBlock<C> {
+    /// Per corner its position index (`u32`) or (v, vt, vn), 0-based, `NONE` when absent.
+    pub(super) corners: Vec<C>,
     /// Corners per face.
     pub(super) arities: Vec<u32>,
+}
+
+/// The chunks' faces in file order, all stored alike: position indices alone when no
+/// corner of the file names more.
+#[derive(Debug)]
+pub(super) enum Blocks {
+    Plain(Vec<FaceBlock<u32>>),
+    Full(Vec<FaceBlock<[u32; 3]>>),
+}
+
+impl Default for Blocks {
+    fn default() -> Self {
+        Blocks::Plain(Vec::new())
+    }
+}
+
+impl Blocks {
+    /// The chunks' corners and arities, as triples if any chunk has them.
+    fn new(chunks: Vec<(Corners, Vec<u32>)>) -> Blocks {
+        let mut plain = Vec::with_capacity(chunks.len());
+        let mut rest = chunks.into_iter();
+        while let Some((corners, arities)) = rest.next() {
+            match corners {
+                Corners::Plain(corners) => plain.push(FaceBlock { corners, arities }),
+                Corners::Full(full) => {
+                    let before = plain.into_iter().map(|b| (Corners::Plain(b.corners), b.arities));
+                    let all: Vec<_> =
+                        before.chain([(Corners::Full(full), arities)]).chain(rest).collect();
+                    return Blocks::Full(
+                        all.into_par_iter()
+                            .map(|(c, arities)| FaceBlock { corners: c.into_full(), arities })
+                            .collect(),
+                    );
+                }
+            }
+        }
+        Blocks::Plain(plain)
+    }
 }
 
 /// The parsed file, joined, without references into the text.
@@ -53,7 +92,7 @@ pub(super) struct Parsed {
     /// from position `v` takes `colors[v]`, as tobj gives it.
     pub(super) colors: Vec<[u8; 4]>,
     /// The faces, chunk by chunk, in file order.
-    pub(super) blocks: Vec<FaceBlock>,
+    pub(super) blocks: Blocks,
     pub(super) models: Vec<ModelRun>,
     /// Where the smoothing group changes: (first face, group); empty without `s` lines.
     pub(super) smoothing: Vec<(usize, u32)>,
@@ -179,6 +218,7 @@ fn join(
     let mut error: Option<ChunkError> = None;
     let (mut face_base, mut colour_base) = (0, 0);
     let mut colour_values = Vec::new();
+    let mut blocks = Vec::with_capacity(results.len());
     for mut chunk in results {
         for event in std::mem::take(&mut chunk.events) {
             walk.event(event, face_base, colour_base, libs);
@@ -195,7 +235,7 @@ fn join(
         colour_base += chunk.colours;
         colour_values.append(&mut chunk.colour_values);
         error = chunk.error.take();
-        parsed.blocks.push(FaceBlock { corners: chunk.corners, arities: chunk.arities });
+        blocks.push((chunk.corners, chunk.arities));
         if error.is_some() {
             break;
         }
@@ -204,8 +244,13 @@ fn join(
         // The last model is closed at the end of the file, even without faces.
         walk.pop(face_base, colour_base);
     }
+    parsed.blocks = Blocks::new(blocks);
     if walk.pops.iter().any(|(faces, colours)| {
-        *colours > 0 && uses_vertex_beyond(&parsed.blocks, faces.clone(), *colours)
+        *colours > 0
+            && match &parsed.blocks {
+                Blocks::Plain(blocks) => uses_vertex_beyond(&blocks[..], faces.clone(), *colours),
+                Blocks::Full(blocks) => uses_vertex_beyond(&blocks[..], faces.clone(), *colours),
+            }
     }) {
         return Err(locate_colour_mismatch(text(), name));
     }
@@ -235,7 +280,11 @@ fn join_dropped(all: &mut Dropped, chunk: &ChunkDropped, face_base: usize) {
 
 /// True when a face among `faces` uses a vertex without a colour value (tobj's check when
 /// it closes a model while some `v` lines carried colours: `colours` values so far).
-fn uses_vertex_beyond(blocks: &[FaceBlock], faces: Range<usize>, colours: usize) -> bool {
+fn uses_vertex_beyond<C: Corner>(
+    blocks: &[FaceBlock<C>],
+    faces: Range<usize>,
+    colours: usize,
+) -> bool {
     let mut first_face = 0;
     for block in blocks {
         let here = first_face..first_face + block.arities.len();
@@ -249,7 +298,7 @@ fn uses_vertex_beyond(blocks: &[FaceBlock], faces: Range<usize>, colours: usize)
             if faces.contains(&(here.start + f))
                 && block.corners[corner..corner + n]
                     .iter()
-                    .any(|c| 3 * c[0] as usize + 2 >= colours)
+                    .any(|c| 3 * c.position() as usize + 2 >= colours)
             {
                 return true;
             }

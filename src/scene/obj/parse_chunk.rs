@@ -15,7 +15,8 @@
 use glam::{Vec2, Vec3};
 
 use super::chunks::{find_newline, is_ascii_space, keyword, parse_f32, Chunk, Counts};
-use super::fast_lines::{blank_to_line_end, fast_face, rest_of_line, short_numbers};
+use super::corners::Corners;
+use super::fast_lines::{blank_to_line_end, fast_face, plain_face, rest_of_line, short_numbers};
 use super::quote;
 
 pub(super) use super::chunks::NONE;
@@ -75,8 +76,9 @@ pub(super) struct ChunkFaces<'a> {
     /// every face index to be in range (the largest excess of an index over the chunk's own
     /// count before its line). Zero from [`parse_exact`], which checks each face itself.
     pub(super) need: [usize; 3],
-    /// Every face's corners in order: (v, vt, vn), 0-based in the whole file, [`NONE`] when absent.
-    pub(super) corners: Vec<[u32; 3]>,
+    /// Every face's corners in order: (v, vt, vn), 0-based in the whole file, [`NONE`] when
+    /// absent; position indices alone while no corner has more.
+    pub(super) corners: Corners,
     /// Corners per face (at least three).
     pub(super) arities: Vec<u32>,
     pub(super) events: Vec<Event<'a>>,
@@ -127,6 +129,7 @@ fn parse(chunk: Chunk<'_>, before: Counts, exact: bool) -> Option<ChunkFaces<'_>
         counts: before,
         exact,
         gave_up: false,
+        scratch: Vec::new(),
     };
     let (text, bytes) = (chunk.text, chunk.text.as_bytes());
     let mut at = 0;
@@ -166,6 +169,8 @@ struct Parser<'a> {
     exact: bool,
     /// Not exact, and a line needs the counts.
     gave_up: bool,
+    /// One face's corners, read before they are stored.
+    scratch: Vec<[u32; 3]>,
 }
 
 /// A line's words as `split_whitespace` splits them, faster for ASCII.
@@ -245,8 +250,8 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// A face that [`fast_face`] takes, stored; its length up to and with its `\n`, or
-    /// None (nothing stored).
+    /// A face that [`plain_face`] or [`fast_face`] takes, stored; its length up to and with
+    /// its `\n`, or None (nothing stored).
     #[inline(always)]
     fn fast_face(&mut self, text: &[u8]) -> Option<usize> {
         let counts = [self.counts.positions, self.counts.texcoords, self.counts.normals];
@@ -254,22 +259,45 @@ impl<'a> Parser<'a> {
         // counts before the chunk.
         let available = if self.exact { counts.map(|n| n as u64) } else { [u64::MAX; 3] };
         let before = self.out.corners.len();
+        if let Corners::Plain(plain) = &mut self.out.corners {
+            let mut largest = 0;
+            if let Some((arity, len)) = plain_face(text, available[0], &mut largest, plain) {
+                self.out.arities.push(arity);
+                self.out.all_normals = false;
+                self.out.need[0] = self.out.need[0].max(excess(largest, counts[0]));
+                return Some(len);
+            }
+            plain.truncate(before);
+        }
         let mut largest = [0; 3];
-        let Some((arity, len)) =
-            fast_face(text, available, self.exact, &mut largest, &mut self.out.corners)
-        else {
+        let read = match &mut self.out.corners {
+            Corners::Full(full) => fast_face(text, available, self.exact, &mut largest, full),
+            Corners::Plain(_) => {
+                self.scratch.clear();
+                let read = fast_face(text, available, self.exact, &mut largest, &mut self.scratch);
+                if read.is_some() {
+                    self.out.corners.extend(&self.scratch);
+                }
+                read
+            }
+        };
+        let Some((arity, len)) = read else {
             self.out.corners.truncate(before);
             return None;
         };
-        for &[_, vt, vn] in &self.out.corners[before..] {
-            self.out.any_texcoord |= vt != NONE;
-            self.out.any_normal |= vn != NONE;
-            self.out.all_normals &= vn != NONE;
+        match &self.out.corners {
+            Corners::Full(full) => {
+                for &[_, vt, vn] in &full[before..] {
+                    self.out.any_texcoord |= vt != NONE;
+                    self.out.any_normal |= vn != NONE;
+                    self.out.all_normals &= vn != NONE;
+                }
+            }
+            Corners::Plain(_) => self.out.all_normals = false,
         }
         self.out.arities.push(arity);
         for ((need, largest), count) in self.out.need.iter_mut().zip(largest).zip(counts) {
-            *need =
-                (*need).max(largest.saturating_sub(count as u64).try_into().unwrap_or(usize::MAX));
+            *need = (*need).max(excess(largest, count));
         }
         Some(len)
     }
@@ -429,7 +457,8 @@ impl<'a> Parser<'a> {
                 (vt, vn)
             }
         };
-        let mut arity = 0;
+        let mut corners = std::mem::take(&mut self.scratch);
+        corners.clear();
         for corner in words(rest) {
             let mut parts = corner.split('/');
             let mut index = |slot: usize, drop: bool| match parts
@@ -443,12 +472,19 @@ impl<'a> Parser<'a> {
             self.out.any_texcoord |= vt != NONE;
             self.out.any_normal |= vn != NONE;
             self.out.all_normals &= vn != NONE;
-            self.out.corners.push([v, vt, vn]);
-            arity += 1;
+            corners.push([v, vt, vn]);
         }
-        self.out.arities.push(arity);
+        self.out.corners.extend(&corners);
+        self.out.arities.push(corners.len() as u32);
+        self.scratch = corners;
         Ok(())
     }
+}
+
+/// How many elements the chunks before must hold for index `largest` (1-based) to be in
+/// range after `count` of the chunk's own.
+fn excess(largest: u64, count: usize) -> usize {
+    largest.saturating_sub(count as u64).try_into().unwrap_or(usize::MAX)
 }
 
 /// A checked OBJ index (1-based, or negative counting back from the last of `available`)

@@ -1,5 +1,6 @@
 use super::*;
-use crate::scene::obj::fast_lines::{fast_face, leading_digits};
+use crate::scene::decimal::short_f32_prefix;
+use crate::scene::obj::fast_lines::{fast_face, leading_digits, plain_face, short_f32_fast};
 
 #[test]
 fn fast_face_path_agrees_with_the_diagnosing_one() {
@@ -29,6 +30,77 @@ fn fast_face_path_agrees_with_the_diagnosing_one() {
             }
         }
     }
+}
+
+#[test]
+fn plain_face_path_takes_what_the_general_one_takes_alike() {
+    // Every corner list up to 6 characters over a troublesome alphabet (signs, slashes,
+    // CR, tabs, a newline), after one good corner, against 3 vertices; and long indices.
+    let alphabet = b"13-/ 0+\r\t\n9";
+    let mut texts =
+        vec![b"1 2 3".to_vec(), b"3 2 1 \r\n".to_vec(), b"1 2 00000000000000000003".to_vec()];
+    texts.push(b"1 2 9999999999999999999".to_vec());
+    texts.push(b"1 2 33333333\n".to_vec());
+    for len in 0..=6u32 {
+        for mut code in 0..alphabet.len().pow(len) {
+            let mut text = b"1 ".to_vec();
+            for _ in 0..len {
+                text.push(alphabet[code % alphabet.len()]);
+                code /= alphabet.len();
+            }
+            texts.push(text);
+        }
+    }
+    let mut taken = 0;
+    for text in &texts {
+        for available in [3, u64::MAX] {
+            let (mut plain, mut largest) = (Vec::new(), 0);
+            let Some(read) = plain_face(text, available, &mut largest, &mut plain) else {
+                continue;
+            };
+            taken += 1;
+            let (mut full, mut largest_full) = (Vec::new(), [0; 3]);
+            let general = fast_face(text, [available, 0, 0], true, &mut largest_full, &mut full);
+            let shown = String::from_utf8_lossy(text);
+            assert_eq!(Some(read), general, "f {shown}");
+            assert_eq!(
+                plain.iter().map(|&v| [v, NONE, NONE]).collect::<Vec<_>>(),
+                full,
+                "f {shown}"
+            );
+            assert_eq!([largest, 0, 0], largest_full, "f {shown}");
+        }
+    }
+    assert!(taken > 1000, "{taken}");
+}
+
+#[test]
+fn corners_turn_into_triples_at_the_first_that_needs_one() {
+    use crate::scene::obj::corners::Corners;
+    let mut corners = Corners::default();
+    corners.extend(&[[1, NONE, NONE], [2, NONE, NONE]]);
+    assert!(matches!(&corners, Corners::Plain(p) if p == &[1, 2]));
+    corners.extend(&[[3, NONE, 0]]);
+    corners.extend(&[[4, NONE, NONE]]);
+    corners.truncate(3);
+    assert_eq!(corners.len(), 3);
+    assert_eq!(corners.into_full(), [[1, NONE, NONE], [2, NONE, NONE], [3, NONE, 0]]);
+}
+
+#[test]
+fn numbers_eight_bytes_at_once_are_what_the_plain_reading_gives() {
+    let mut fast = 0;
+    for word in crate::scene::decimal::tests::words() {
+        // What may follow a number on a line, and the end of the chunk.
+        for after in ["", " ", "\n", "\r\n", " 1.5 2.5\n", "x", ".5 ", "/", "0", "12345678 "] {
+            let text = format!("{word}{after}");
+            let plain = short_f32_prefix(text.as_bytes()).map(|(v, n)| (v.to_bits(), n));
+            let read = short_f32_fast(text.as_bytes()).map(|(v, n)| (v.to_bits(), n));
+            assert_eq!(read, plain, "{text:?}");
+            fast += usize::from(read.is_some());
+        }
+    }
+    assert!(fast > 100_000, "{fast}");
 }
 
 #[test]
