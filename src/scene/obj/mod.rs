@@ -4,9 +4,13 @@
 //! The file is read once, cut into chunks at line starts and parsed chunk by chunk on all
 //! cores (`chunks.rs`, `parse_chunk.rs`), joined in file order (`parallel.rs`) and built
 //! into one mesh (`assemble.rs`, with `par_dedup.rs` for models spread over several
-//! chunks, and `convert.rs` for the normals); the text is freed before the mesh is built. The loader used to be tobj fed line by line (`line_feeder.rs`); that path is
-//! kept as the oracle the tests, benches and the fuzzer compare with (`oracle.rs`, built
-//! only for them: `cfg(test)` or the `dev` feature), and every rule below is the one it had:
+//! chunks, `plain_dedup.rs` for those whose corners name positions alone, and `convert.rs`
+//! for the normals); the text is freed before the mesh is built. Corners are kept as
+//! compactly as the file allows (`corners.rs`: one `u32` each for `f 1 2 3`).
+//!
+//! The loader used to be tobj fed line by line (`line_feeder.rs`); that path is kept as
+//! the oracle the tests, benches and the fuzzer compare with (`oracle.rs`, built only for
+//! them: `cfg(test)` or the `dev` feature), and every rule below is the one it had:
 //!
 //! - Statements read as tobj read them: words split at whitespace, `v x y z` with an
 //!   optional weight w (dropped: a mesh keeps x, y, z) or colour r g b (0..1, kept as
