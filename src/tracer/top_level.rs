@@ -113,38 +113,29 @@ impl TopLevel {
     /// world boxes. Built in a few milliseconds for 10,000 instances, so moving instances
     /// stays live.
     pub(crate) fn build(meshes: &[MeshPlace], instances: &[Instance]) -> Self {
-        // The boxes first, on every core for large fields (each the turned boxes of a
-        // mesh's cover); then the tree over them and the records (each a double-precision
-        // inverse) side by side: the tree's build leaves cores idle that the records fill.
-        let boxes: Vec<Aabb> = instances
+        // Records and boxes in one pass, on every core for large fields (each record is a
+        // double-precision inverse, each box eight transformed corners).
+        let (records, boxes): (Vec<GpuInstance>, Vec<Aabb>) = instances
             .par_iter()
             .with_min_len(256)
             .map(|inst| {
-                let b = meshes[inst.mesh].cover.world_box(&inst.transform);
+                let mesh = &meshes[inst.mesh];
+                let b = mesh.cover.world_box(&inst.transform);
                 // An empty mesh has no box; a point keeps it in the tree (its visit finds
                 // no triangles).
-                if b.is_empty() {
+                let b = if b.is_empty() {
                     Aabb::from_points(&[inst.transform.translation.into()])
                 } else {
                     b
-                }
+                };
+                (record(mesh, inst.mesh as u32, inst), b)
             })
-            .collect();
-        let (nodes, records) = rayon::join(
-            || tree_over(&boxes),
-            || -> Vec<GpuInstance> {
-                instances
-                    .par_iter()
-                    .with_min_len(256)
-                    .map(|inst| record(&meshes[inst.mesh], inst.mesh as u32, inst))
-                    .collect()
-            },
-        );
+            .unzip();
         let meshes = meshes
             .iter()
             .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
             .collect();
-        Self { instances: records, meshes, nodes }
+        Self { instances: records, meshes, nodes: tree_over(&boxes) }
     }
 
     /// Triangle slots over all instances (each instance's mesh counted again).
