@@ -258,18 +258,15 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     float entry[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;  // the next node to open, or EMPTY to pop
-    // Brute force visits every instance in order, and so does the BVH a lone instance: its
-    // box would be the top level's only test (3% of a frame of one 1M knot on the H200).
-    bool walk = use_bvh && count > 1u;
-    uint next_in_order = 0u;
+    uint next_brute = 0u;
     while (true) {
         uint leaf = EMPTY;
-        if (!walk) {
-            if (next_in_order == count) break;
-            leaf = next_in_order;
-            next_in_order += 1u;
+        if (!use_bvh) {
+            if (next_brute == count) break;
+            leaf = next_brute;
+            next_brute += 1u;
         }
-        while (walk && leaf == EMPTY) {
+        while (use_bvh && leaf == EMPTY) {
             if (node == EMPTY) {
                 if (sp == 0u) break;
                 sp -= 1u;

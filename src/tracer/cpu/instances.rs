@@ -54,9 +54,7 @@ impl CpuScene<'_> {
             Some(hit) => found(i, hit),
             None => Visit::Nothing,
         };
-        // Brute force visits every instance in order, and so does the BVH a lone instance
-        // (the shader skips the top level's one box).
-        if brute || top.instances.len() == 1 {
+        if brute {
             let mut t = t_max;
             for i in 0..top.instances.len() as u32 {
                 match visit(i, t, stats) {
