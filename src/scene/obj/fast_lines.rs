@@ -263,3 +263,23 @@ pub(super) fn leading_digits(text: &[u8]) -> (u64, usize) {
     let t = (t & 0x0000_ffff_0000_ffff).wrapping_mul(42_949_672_960_001) >> 32;
     (t, count)
 }
+
+/// `prefix` followed by every string of at most `max_len` bytes over `alphabet`: the short
+/// inputs on which tests hold a one-pass reader to the plain reading, every one of them.
+#[cfg(test)]
+pub(super) fn every_text_after<'a>(
+    prefix: &'a [u8],
+    alphabet: &'a [u8],
+    max_len: u32,
+) -> impl Iterator<Item = Vec<u8>> + 'a {
+    (0..=max_len).flat_map(move |len| {
+        (0..alphabet.len().pow(len)).map(move |mut code| {
+            let mut text = prefix.to_vec();
+            for _ in 0..len {
+                text.push(alphabet[code % alphabet.len()]);
+                code /= alphabet.len();
+            }
+            text
+        })
+    })
+}

@@ -1,33 +1,26 @@
 use super::*;
 use crate::scene::decimal::short_f32_prefix;
-use crate::scene::obj::fast_lines::{fast_face, leading_digits, plain_face, short_f32_fast};
+use crate::scene::obj::fast_lines::{
+    every_text_after, fast_face, leading_digits, plain_face, short_f32_fast,
+};
 
 #[test]
 fn fast_face_path_agrees_with_the_diagnosing_one() {
     // Every corner list up to 5 characters over a troublesome alphabet, after two
     // good corners, against 2 vertices, 1 texture coordinate and no normals.
-    let alphabet = b"12-/ 0x+";
-    let mut tail = Vec::new();
-    for len in 0..=5u32 {
-        for mut code in 0..alphabet.len().pow(len) {
-            tail.clear();
-            for _ in 0..len {
-                tail.push(alphabet[code % alphabet.len()]);
-                code /= alphabet.len();
-            }
-            let corners = String::from_utf8([b"1/1 -2 ".as_slice(), &tail].concat()).unwrap();
-            let slow = matches!(check_face(words(&corners), [2, 1, 0], "f"), Ok((None, None)));
-            let mut out = Vec::new();
-            let fast = fast_face(corners.as_bytes(), [2, 1, 0], true, &mut [0; 3], &mut out);
-            assert_eq!(fast.is_some(), slow, "f {corners}");
-            if let Some((n, len)) = fast {
-                assert_eq!(len, corners.len(), "f {corners}");
-                assert_eq!(
-                    (out.len(), out[0], out[1]),
-                    (n as usize, [0, 0, NONE], [0, NONE, NONE]),
-                    "f {corners}"
-                );
-            }
+    for corners in every_text_after(b"1/1 -2 ", b"12-/ 0x+", 5) {
+        let corners = String::from_utf8(corners).unwrap();
+        let slow = matches!(check_face(words(&corners), [2, 1, 0], "f"), Ok((None, None)));
+        let mut out = Vec::new();
+        let fast = fast_face(corners.as_bytes(), [2, 1, 0], true, &mut [0; 3], &mut out);
+        assert_eq!(fast.is_some(), slow, "f {corners}");
+        if let Some((n, len)) = fast {
+            assert_eq!(len, corners.len(), "f {corners}");
+            assert_eq!(
+                (out.len(), out[0], out[1]),
+                (n as usize, [0, 0, NONE], [0, NONE, NONE]),
+                "f {corners}"
+            );
         }
     }
 }
@@ -41,16 +34,7 @@ fn plain_face_path_takes_what_the_general_one_takes_alike() {
         vec![b"1 2 3".to_vec(), b"3 2 1 \r\n".to_vec(), b"1 2 00000000000000000003".to_vec()];
     texts.push(b"1 2 9999999999999999999".to_vec());
     texts.push(b"1 2 33333333\n".to_vec());
-    for len in 0..=6u32 {
-        for mut code in 0..alphabet.len().pow(len) {
-            let mut text = b"1 ".to_vec();
-            for _ in 0..len {
-                text.push(alphabet[code % alphabet.len()]);
-                code /= alphabet.len();
-            }
-            texts.push(text);
-        }
-    }
+    texts.extend(every_text_after(b"1 ", alphabet, 6));
     let mut taken = 0;
     for text in &texts {
         for available in [3, u64::MAX] {
