@@ -6,6 +6,7 @@
 //! `cargo run --release --example parse_timings -- a.ply b.obj ...`; `WAY=serial` or
 //! `WAY=parallel` times one of the PLY readers alone (for a profiler). OBJ files are also
 //! timed as `load` (`load_obj`: the read counted too, as rapidobj's timings count it).
+//! `RUST_LOG=meshtracer=debug` logs the steps of each load.
 
 use std::path::Path;
 use std::time::Instant;
@@ -30,6 +31,8 @@ fn time(runs: usize, mut f: impl FnMut() -> usize) -> (f64, f64, usize) {
 }
 
 fn main() -> anyhow::Result<()> {
+    // `RUST_LOG=meshtracer=debug` adds the loaders' own steps.
+    env_logger::init();
     let runs: usize = std::env::var("RUNS").ok().and_then(|r| r.parse().ok()).unwrap_or(5);
     println!("{} threads", rayon::current_num_threads());
     for path in std::env::args().skip(1) {

@@ -194,6 +194,27 @@ impl Progress {
     }
 }
 
+/// Wall times of a computation's steps, logged at debug level as each ends (`RUST_LOG=
+/// meshtracer=debug`): for finding where a load's time goes on a machine without a profiler.
+pub(crate) struct Laps {
+    what: &'static str,
+    last: Instant,
+}
+
+impl Laps {
+    /// Starts the clock for `what` (named in every line).
+    pub(crate) fn start(what: &'static str) -> Self {
+        Self { what, last: Instant::now() }
+    }
+
+    /// Logs the time since the previous lap (or the start) as `step`'s.
+    pub(crate) fn lap(&mut self, step: &str) {
+        let now = Instant::now();
+        log::debug!("{} {step}: {:.1} ms", self.what, (now - self.last).as_secs_f64() * 1e3);
+        self.last = now;
+    }
+}
+
 /// Reset the kernel's record of this process's peak resident memory (Linux: writing 5 to
 /// /proc/self/clear_refs); false where that is not possible, so the next reading is the
 /// process's peak so far.

@@ -25,6 +25,7 @@ pub(super) fn assemble(
     name: &str,
     options: &LoadOptions,
 ) -> Result<Mesh, ObjError> {
+    let mut laps = crate::progress::Laps::start("obj assemble");
     let blocks = std::mem::take(&mut parsed.blocks);
     let (mut mesh, groups) = match &blocks {
         Blocks::Plain(blocks) => build(blocks, &parsed, materials, name)?,
@@ -37,9 +38,14 @@ pub(super) fn assemble(
         models_with_faces: parsed.models.iter().filter(|m| !m.faces.is_empty()).count(),
     };
     let non_finite = parsed.non_finite;
-    super::free_in_background((parsed, blocks));
+    laps.lap("de-duplicated");
+    parsed.blocks = blocks;
+    parsed.free();
+    laps.lap("parse freed");
     check_finite(&mesh, non_finite, name)?;
+    laps.lap("checked finite");
     finish_normals(&mut mesh, groups.as_deref(), sources, options);
+    laps.lap("normals");
     Ok(mesh)
 }
 
@@ -63,6 +69,7 @@ fn build<C: Corner>(
         texcoords: parsed.any_texcoord,
         colours: !parsed.colors.is_empty(),
     };
+    let mut laps = crate::progress::Laps::start("obj build");
     let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
     // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
     let mut dedup: Option<Dedup> = None;
@@ -83,6 +90,7 @@ fn build<C: Corner>(
             dedup.start_model(m as u32);
             add_model_serially(&pieces, dedup, parsed, channels, &mut corners, &mut mesh, name)?;
         }
+        laps.lap("a model's vertices");
         let material = match model.material {
             Some(i) if i < materials.len() => i as u32,
             _ => *default_material.get_or_insert_with(|| {
@@ -92,6 +100,7 @@ fn build<C: Corner>(
         };
         // Filled on every core: one model can be the whole mesh.
         grow(&mut mesh.triangle_materials, mesh.triangles.len(), material);
+        laps.lap("a model's materials");
     }
     mesh.materials = materials;
     let groups = (!parsed.smoothing.is_empty())
@@ -158,7 +167,12 @@ fn add_model_in_parallel<C: Corner>(
     };
     let positions = parsed.positions.len();
     if !channels.normals && !channels.texcoords {
-        let shared = tables.plain.get_or_insert_with(|| PlainShared::new(positions));
+        let shared = tables.plain.get_or_insert_with(|| {
+            let mut laps = crate::progress::Laps::start("obj plain de-duplication");
+            let table = PlainShared::new(positions);
+            laps.lap("table made");
+            table
+        });
         return add_plain_model(pieces, shared, &sources, out, last);
     }
     let shared = tables.full.get_or_insert_with(|| Shared::new(positions));

@@ -177,8 +177,10 @@ pub fn load_obj(path: &Path) -> Result<LoadedObj, ObjError> {
 
 /// [`load_obj`] with options.
 pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<LoadedObj, ObjError> {
+    let mut laps = crate::progress::Laps::start("obj load");
     let bytes = crate::files::read_regular_file_parallel(path)
         .map_err(|source| ObjError::Io { path: path.to_owned(), source })?;
+    laps.lap("read");
     // `parent()` of a bare file name is "", which joins to paths relative to the working
     // directory: exactly where the file itself was found.
     load_obj_from_bytes(bytes, &path.display().to_string(), path.parent(), options)
@@ -194,7 +196,7 @@ pub fn load_obj_from_bytes(
     options: &LoadOptions,
 ) -> Result<LoadedObj, ObjError> {
     let parsed = parse_text(&bytes, name, base_dir, chunks::default_chunk_bytes(bytes.len()))?;
-    free_in_background(bytes);
+    crate::memory::free_on_every_core(bytes);
     finish(parsed, name, options)
 }
 
@@ -328,14 +330,6 @@ fn warn_dropped(
         warnings,
         format!("{name} line {}: face {kind} index {} is out of range (the file has {} {had} so far); {these} {outcome}", first.line, first.index, first.count),
     );
-}
-
-/// Free `value` on a thread of its own: unmapping the hundreds of MB of a large file's text
-/// or parse takes tens of milliseconds on one core, which the load need not wait for. The
-/// memory is returned at once all the same (no later than a plain drop would start to).
-fn free_in_background<T: Send + 'static>(value: T) {
-    // Where no thread can be started, the closure, and `value` with it, is dropped here.
-    let _ = std::thread::Builder::new().name("obj-free".to_owned()).spawn(move || drop(value));
 }
 
 /// Record a warning for the caller, who shows it once (the log on the command line, the

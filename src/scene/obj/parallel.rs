@@ -21,7 +21,6 @@ use super::convert::{colour, locate_colour_mismatch};
 use super::corners::{Corner, Corners};
 use super::line_feeder::{Dropped, DroppedFirst};
 use super::mtl::MaterialLibraries;
-use super::par_dedup::grow;
 use super::parse_chunk::{
     parse_alone, parse_exact, ChunkDropped, ChunkError, ChunkFaces, ErrorKind, Event,
 };
@@ -110,6 +109,20 @@ pub(super) struct Parsed {
     pub(super) materials: Vec<tobj::Material>,
 }
 
+impl Parsed {
+    /// Frees the parse's arrays now, on every core (see [`crate::memory::free_on_every_core`]).
+    pub(super) fn free(self) {
+        let Parsed { positions, texcoords, normals, blocks, .. } = self;
+        crate::memory::free_on_every_core(positions);
+        crate::memory::free_on_every_core(texcoords);
+        crate::memory::free_on_every_core(normals);
+        match blocks {
+            Blocks::Plain(blocks) => blocks.into_par_iter().for_each(drop),
+            Blocks::Full(blocks) => blocks.into_par_iter().for_each(drop),
+        }
+    }
+}
+
 /// Parse `bytes` (checked to be UTF-8 on the way) in chunks of about `chunk_bytes`;
 /// `libs` loads the `mtllib` libraries.
 pub(super) fn parse(
@@ -118,6 +131,7 @@ pub(super) fn parse(
     libs: &MaterialLibraries,
     chunk_bytes: usize,
 ) -> Result<Parsed, ObjError> {
+    let mut laps = crate::progress::Laps::start("obj parse");
     let pieces = chunks::split(bytes, chunk_bytes);
     let alone: Vec<Alone> = pieces
         .par_iter()
@@ -130,6 +144,7 @@ pub(super) fn parse(
         })
         .collect();
     drop(pieces);
+    laps.lap("chunks alone");
     // The counts before each chunk, and the first bytes that are not text, in file order.
     let mut before = Vec::with_capacity(alone.len());
     let mut sum = Counts::default();
@@ -155,6 +170,7 @@ pub(super) fn parse(
             Alone::NotText(_) => ChunkFaces::default(), // returned above
         })
         .collect();
+    laps.lap("chunks again");
     let mut parsed = Parsed {
         positions: concat(&results, |r| &r.positions),
         texcoords: concat(&results, |r| &r.texcoords),
@@ -162,7 +178,9 @@ pub(super) fn parse(
         all_normals: true,
         ..Default::default()
     };
+    laps.lap("arrays joined");
     join(results, &mut parsed, bytes, name, libs)?;
+    laps.lap("rest joined");
     Ok(parsed)
 }
 
@@ -181,7 +199,7 @@ fn concat<T: Copy + Default + Send + Sync>(
     results: &[ChunkFaces],
     part: impl for<'r> Fn(&'r ChunkFaces<'_>) -> &'r [T] + Sync,
 ) -> Vec<T> {
-    let mut all = zeros(results.iter().map(|r| part(r).len()).sum());
+    let mut all = crate::memory::filled(results.iter().map(|r| part(r).len()).sum(), T::default());
     let mut rest = all.as_mut_slice();
     let mut jobs = Vec::with_capacity(results.len());
     for r in results {
@@ -191,14 +209,6 @@ fn concat<T: Copy + Default + Send + Sync>(
     }
     jobs.into_par_iter().for_each(|(mine, from)| mine.copy_from_slice(from));
     all
-}
-
-/// `n` zeros on huge pages, written on every core: `vec![zero; n]` wrote (and faulted in)
-/// the element arrays on one thread, 60 MB for a 10M-triangle file's positions.
-fn zeros<T: Copy + Default + Send + Sync>(n: usize) -> Vec<T> {
-    let mut v = crate::memory::with_huge_pages(n);
-    grow(&mut v, n, T::default());
-    v
 }
 
 /// The chunks in file order, as tobj would have read them: models, materials, smoothing

@@ -61,6 +61,7 @@ pub(super) fn add_plain_model<C: Corner>(
     if pieces.len() >= u32::MAX as usize {
         return false;
     }
+    let mut laps = crate::progress::Laps::start("obj plain de-duplication");
     // 1. The first piece of each position.
     pieces.par_iter().enumerate().for_each(|(p, piece)| {
         let mark = (p as u64) << 32 | UNNUMBERED;
@@ -73,6 +74,7 @@ pub(super) fn add_plain_model<C: Corner>(
             }
         }
     });
+    laps.lap("first uses");
     // 2. Each piece numbers the positions it uses first (no other piece writes those).
     let made: Vec<u64> = pieces
         .par_iter()
@@ -89,6 +91,7 @@ pub(super) fn add_plain_model<C: Corner>(
             count
         })
         .collect();
+    laps.lap("numbered");
     // 3. Vertices and triangles.
     let base = out.positions.len();
     let total: u64 = made.iter().sum();
@@ -114,7 +117,9 @@ pub(super) fn add_plain_model<C: Corner>(
         base + total as usize,
         tri_base + triangles.iter().sum::<usize>(),
     );
+    laps.lap("outputs grown");
     write(pieces, shared, sources, &mut out, base, tri_base, &made, &firsts, &triangles);
+    laps.lap("written");
     if !last {
         pieces.par_iter().for_each(|p| {
             p.corners.iter().for_each(|&c| shared.mark(c).store(u64::MAX, Relaxed));
