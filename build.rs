@@ -245,6 +245,19 @@ fn main() {
                     "_rows_runs",
                     &out_dir,
                 );
+                // The full, core and wide kernels again for scenes of one instance.
+                let (one, rows) = (shader_compile::ONE_INSTANCE, shader_compile::ROW_ORDER);
+                let kinds: [(&[&str], &str); 3] = [
+                    (&[], ""),
+                    (&[shader_compile::CORE_ONLY], "_core"),
+                    (&[shader_compile::WIDE_ONLY], "_wide"),
+                ];
+                for (kind, name) in kinds {
+                    let defines = [kind, &[one]].concat();
+                    compile(&path, &contract, &defines, &format!("{name}_one"), &out_dir);
+                    let defines = [&[rows], kind, &[one]].concat();
+                    compile(&path, &contract, &defines, &format!("_rows{name}_one"), &out_dir);
+                }
             }
             std::fs::write(
                 out_dir.join(format!("{stem}_layout.rs")),

@@ -238,10 +238,12 @@ impl ComputeTracer {
         self.pass.prepare_kernels_in_background();
     }
 
-    /// Make now the kernel that frames of `settings` run, where it is one made on first
-    /// use: `render` does this beside the BVH build, so its frame does not wait for it.
-    pub(crate) fn make_kernel_for(&self, settings: &RenderSettings) {
-        self.pass.make_kernel_now(trace_kernels::variant_for(settings));
+    /// Make now the kernel that frames of `settings` run over a scene of `instances`
+    /// instances (None: not known yet), where it is one made on first use: `render` does
+    /// this beside the load and the BVH build, so its frame does not wait for it.
+    pub(crate) fn make_kernel_for(&self, settings: &RenderSettings, instances: Option<u32>) {
+        let one_instance = instances == Some(1);
+        self.pass.make_kernel_now(trace_kernels::variant_for(settings), one_instance);
     }
 
     /// Whether every trace kernel a frame may need is made, so that none waits for one.

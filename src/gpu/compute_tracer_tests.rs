@@ -4,7 +4,7 @@ use super::*;
 use crate::gpu::dispatch::GROUP_LANES;
 use crate::gpu::trace_kernels::Variant;
 use crate::gpu::ContextOptions;
-use crate::render_settings::RenderSettings;
+use crate::render_settings::{Aov, RenderSettings};
 use crate::scene::paper::ModelSource;
 use crate::scene::primitives::PaperModel;
 use crate::scene::spec::SceneSpec;
@@ -20,11 +20,18 @@ impl ComputeTracer {
     }
 }
 
-/// A validated context and the paper's torus knot in its mirror box.
+/// A validated context and the paper's torus knot in its mirror box: two instances, so
+/// that frames run the kernels with the top level's walk.
 fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
+    knots(1, true)
+}
+
+/// A validated context and `models` of the paper's torus knots, in the mirror box or not.
+fn knots(models: u32, mirror_box: bool) -> (Arc<GpuContext>, Scene) {
     let ctx =
         GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
-    let spec = SceneSpec { model: ModelSource::Paper(PaperModel::TorusKnot), ..Default::default() };
+    let model = ModelSource::Paper(PaperModel::TorusKnot);
+    let spec = SceneSpec { model, models, mirror_box, ..Default::default() };
     let (scene, _) = spec.load().unwrap();
     (ctx, scene)
 }
@@ -82,6 +89,36 @@ fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
     assert!(fallback.compare(&binary, 1e-4).fraction_over <= 0.002);
     drop(tracer);
     assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
+
+#[test]
+fn a_scene_of_one_instance_runs_the_one_instance_kernels_as_the_cpu_traces_it() {
+    let cases = [
+        (BvhLayout::Wide, Aov::Color, Variant::Wide),
+        (BvhLayout::Binary, Aov::Color, Variant::Core),
+        (BvhLayout::Wide, Aov::Cost, Variant::Wide),
+        (BvhLayout::Binary, Aov::Ao, Variant::Full),
+    ];
+    // A knot alone, then in the mirror box (two instances: the walk's kernels).
+    for mirror_box in [false, true] {
+        let (ctx, scene) = knots(1, mirror_box);
+        assert_eq!(scene.instances.len(), 1 + usize::from(mirror_box));
+        let packed = PackedScene::with_layouts(&scene, Layouts::Both);
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+        for (bvh, aov, variant) in cases {
+            let settings = RenderSettings { aov, ..small_frame(&scene, bvh).settings };
+            let frame = FrameParams::new(&scene, settings);
+            let (gpu, _) = tracer.render(&frame).unwrap();
+            let twin = tracer.pass.made_one_instance(variant);
+            assert_eq!(twin, !mirror_box, "{variant:?}'s one-instance twin for {aov:?}");
+            let cpu = crate::tracer::cpu::render(&packed, &frame);
+            let over = gpu.compare(&cpu, 1e-4).fraction_over;
+            assert!(over <= 0.002, "box {mirror_box}, {bvh:?} {aov:?}: GPU as CPU ({over})");
+        }
+        assert_eq!(tracer.pass.made(Variant::Wide), mirror_box, "the wide kernel with the walk");
+        drop(tracer);
+        assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+    }
 }
 
 #[test]

@@ -112,6 +112,13 @@ pub(crate) const CORE_ONLY: &str = "CORE_ONLY";
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
 pub(crate) const WIDE_ONLY: &str = "WIDE_ONLY";
 
+/// Defined for the full, core and wide kernels' twins for scenes of one instance (a model
+/// without the mirror box): it is visited without the top level's walk, whose stacks and
+/// state cost those frames 10-13% on the H200 (docs/BENCHMARKS.md, "Twenty-seventh
+/// session").
+#[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
+pub(crate) const ONE_INSTANCE: &str = "ONE_INSTANCE";
+
 /// Defined for the trace kernel's leaf-runs variant (`--bvh wide-runs`): the wide traversal
 /// tests the leaves pending on top of a ray's stack back to back (`traverse_wide.glsl`).
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)

@@ -46,6 +46,24 @@ static TRACE_RUNS_SPV: [&[u8]; 2] = [
     include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_runs.spv")),
 ];
 
+/// The full, core and wide kernels (in [`Variant::one_instance_index`] order) with
+/// `ONE_INSTANCE` defined, for scenes of one instance; each
+/// for GPUs and for CPU devices (row order).
+static TRACE_ONE_SPV: [[&[u8]; 2]; 3] = [
+    [
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_one.spv")),
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_one.spv")),
+    ],
+    [
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_core_one.spv")),
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_core_one.spv")),
+    ],
+    [
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide_one.spv")),
+        include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide_one.spv")),
+    ],
+];
+
 /// Which of our kernels a frame runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Variant {
@@ -57,6 +75,19 @@ pub(crate) enum Variant {
     Wide,
     /// The full kernel with the wide traversal in leaf runs.
     Runs,
+}
+
+impl Variant {
+    /// The index of the variant's `ONE_INSTANCE` twin in [`TRACE_ONE_SPV`]; the leaf-runs
+    /// kernel, kept for measuring the wide traversal, has none.
+    fn one_instance_index(self) -> Option<usize> {
+        match self {
+            Variant::Full => Some(0),
+            Variant::Core => Some(1),
+            Variant::Wide => Some(2),
+            Variant::Runs => None,
+        }
+    }
 }
 
 /// The kernel for a frame of these push-constant flags (`PushConstants::dims[3]`) over a
@@ -95,7 +126,9 @@ pub(crate) struct KernelVariants {
     core: vk::Pipeline,
     wide: Lazy,
     runs: Lazy,
-    /// Threads making `wide` and `runs` in the background, joined before they are destroyed.
+    /// The full, core and wide kernels' `ONE_INSTANCE` twins, made on first use.
+    one_instance: [Lazy; 3],
+    /// Threads making kernels in the background, joined before they are destroyed.
     jobs: Mutex<Vec<JoinHandle<()>>>,
 }
 
@@ -116,57 +149,66 @@ impl KernelVariants {
             core,
             wide: Lazy::default(),
             runs: Lazy::default(),
+            one_instance: Default::default(),
             jobs: Mutex::new(Vec::new()),
         })
     }
 
-    /// The pipeline for a frame of `pc` (`full`: the pass's full kernel); a wide or
-    /// leaf-runs kernel not made yet is made now, or waited for if a background thread is
-    /// making it.
+    /// The pipeline for a frame of `pc` (`full`: the pass's full kernel); a kernel not made
+    /// yet is made now, or waited for if a background thread is making it.
     pub(crate) fn for_frame(
         &self,
         pc: &PushConstants,
         every_mesh_wide: bool,
         full: vk::Pipeline,
     ) -> vk::Pipeline {
-        let made = match variant(pc.dims[3], every_mesh_wide) {
-            Variant::Full => return full,
-            Variant::Core => return self.core,
-            Variant::Wide => self
-                .wide
-                .get_or_init(|| make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")),
-            Variant::Runs => self.runs.get_or_init(|| {
-                make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")
-            }),
-        };
-        made.unwrap_or(full)
+        let v = variant(pc.dims[3], every_mesh_wide);
+        // The instance count of the frame's scene, as the shader reads it.
+        let one_instance = pc.misc[0] == 1;
+        self.made_for(v, one_instance).unwrap_or(match v {
+            Variant::Core => self.core,
+            _ => full,
+        })
     }
 
-    /// Make the kernel of `v` now if it is one made on first use (wide or leaf runs), so
-    /// that a caller with other work to overlap can pay for the driver's compiler early.
-    pub(crate) fn make_now(&self, v: Variant) {
+    /// Make the kernel of `v` (its `ONE_INSTANCE` twin with `one_instance`) now if it is
+    /// one made on first use, so that a caller with other work to overlap can pay for the
+    /// driver's compiler early.
+    pub(crate) fn make_now(&self, v: Variant, one_instance: bool) {
+        self.made_for(v, one_instance);
+    }
+
+    /// The kernel of `v` (or its twin) made on first use, made now if it is not yet; None
+    /// for the full and core kernels, and where the driver failed it.
+    fn made_for(&self, v: Variant, one_instance: bool) -> Option<vk::Pipeline> {
+        if let Some(i) = v.one_instance_index().filter(|_| one_instance) {
+            let code = TRACE_ONE_SPV[i][self.order];
+            return self.one_instance[i]
+                .get_or_init(|| make(&self.ctx, self.layout, code, "one-instance"))
+                .or_else(|| self.made_for(v, false));
+        }
         match v {
-            Variant::Full | Variant::Core => {}
-            Variant::Wide => {
-                self.wide.get_or_init(|| {
-                    make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")
-                });
-            }
-            Variant::Runs => {
-                self.runs.get_or_init(|| {
-                    make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")
-                });
-            }
+            Variant::Full | Variant::Core => None,
+            Variant::Wide => *self
+                .wide
+                .get_or_init(|| make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")),
+            Variant::Runs => *self.runs.get_or_init(|| {
+                make(&self.ctx, self.layout, TRACE_RUNS_SPV[self.order], "leaf-runs")
+            }),
         }
     }
 
-    /// Start making the wide and leaf-runs kernels on threads of their own, so that the
+    /// Start making the kernels made on first use on threads of their own, so that the
     /// first frame that needs one does not wait for the driver's compiler.
     pub(crate) fn prepare_in_background(&self) {
         let mut jobs = lock(&self.jobs);
-        for (cell, code, name) in
+        let names = ["full one-instance", "core one-instance", "wide one-instance"];
+        let twins = self.one_instance.iter().zip(TRACE_ONE_SPV).zip(names);
+        let kernels =
             [(&self.wide, TRACE_WIDE_SPV, "wide"), (&self.runs, TRACE_RUNS_SPV, "leaf-runs")]
-        {
+                .into_iter()
+                .chain(twins.map(|((cell, code), name)| (cell, code, name)));
+        for (cell, code, name) in kernels {
             let (cell, ctx, layout, code) =
                 (cell.clone(), self.ctx.clone(), self.layout, code[self.order]);
             let job = std::thread::Builder::new().name(format!("{name} kernel")).spawn(move || {
@@ -182,10 +224,11 @@ impl KernelVariants {
         }
     }
 
-    /// Whether the wide and leaf-runs kernels are made (or failed), so that a frame of
-    /// either layout runs without waiting for them.
+    /// Whether every kernel made on first use is made (or failed), so that no frame waits
+    /// for one.
     pub(crate) fn ready(&self) -> bool {
-        self.wide.get().is_some() && self.runs.get().is_some()
+        let made = |cell: &Lazy| cell.get().is_some();
+        made(&self.wide) && made(&self.runs) && self.one_instance.iter().all(made)
     }
 
     /// Whether the kernel of `v` (wide or leaf runs) has been made.
@@ -193,6 +236,13 @@ impl KernelVariants {
     pub(crate) fn made(&self, v: Variant) -> bool {
         let cell = if v == Variant::Wide { &self.wide } else { &self.runs };
         cell.get().is_some_and(Option::is_some)
+    }
+
+    /// Whether the `ONE_INSTANCE` twin of `v` has been made.
+    #[cfg(test)]
+    pub(crate) fn made_one_instance(&self, v: Variant) -> bool {
+        v.one_instance_index()
+            .is_some_and(|i| self.one_instance[i].get().is_some_and(Option::is_some))
     }
 
     /// Destroy the kernels, after waiting for the threads still making them.
@@ -208,7 +258,8 @@ impl KernelVariants {
         // SAFETY: the caller promises the GPU no longer uses them; no thread makes them now.
         unsafe {
             d.destroy_pipeline(self.core, None);
-            for made in [self.wide.get(), self.runs.get()].into_iter().flatten().flatten() {
+            let lazies = [&self.wide, &self.runs].into_iter().chain(&self.one_instance);
+            for made in lazies.filter_map(|cell| cell.get()).flatten() {
                 d.destroy_pipeline(*made, None);
             }
         }
@@ -249,7 +300,9 @@ fn make(
 
 #[cfg(test)]
 mod tests {
-    use super::super::shader_compile::{self, CORE_ONLY, LEAF_RUNS, ROW_ORDER, WIDE_ONLY};
+    use super::super::shader_compile::{
+        self, CORE_ONLY, LEAF_RUNS, ONE_INSTANCE, ROW_ORDER, WIDE_ONLY,
+    };
     use super::*;
 
     /// `trace.comp` compiled at run time with `defines`, as bytes.
@@ -281,6 +334,21 @@ mod tests {
                     built[order].len(),
                     full[order].len()
                 );
+            }
+        }
+        // The twins for scenes of one instance: without the top level's walk.
+        let bases = [full, TRACE_CORE_SPV, TRACE_WIDE_SPV];
+        for ((kind, twins), bases) in
+            [None, Some(CORE_ONLY), Some(WIDE_ONLY)].iter().zip(TRACE_ONE_SPV).zip(bases)
+        {
+            for (order, rows) in [vec![], vec![ROW_ORDER]].into_iter().enumerate() {
+                let defines: Vec<&str> =
+                    rows.into_iter().chain(*kind).chain([ONE_INSTANCE]).collect();
+                assert!(
+                    compiled(&defines) == twins[order],
+                    "run-time SPIR-V of {defines:?} differs from build.rs's"
+                );
+                assert!(twins[order].len() < bases[order].len(), "{defines:?} drops the walk");
             }
         }
         for (order, defines) in

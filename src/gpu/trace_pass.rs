@@ -507,9 +507,9 @@ impl TracePass {
 
     /// Make the kernel of `v` now rather than at the first frame that runs it
     /// (`KernelVariants::make_now`).
-    pub(crate) fn make_kernel_now(&self, v: Variant) {
+    pub(crate) fn make_kernel_now(&self, v: Variant, one_instance: bool) {
         if let Some(variants) = &self.variants {
-            variants.make_now(v);
+            variants.make_now(v, one_instance);
         }
     }
 
@@ -522,6 +522,12 @@ impl TracePass {
     #[cfg(test)]
     pub(crate) fn made(&self, v: Variant) -> bool {
         self.variants.as_ref().is_some_and(|k| k.made(v))
+    }
+
+    /// Whether the `ONE_INSTANCE` twin of `v` has been made.
+    #[cfg(test)]
+    pub(crate) fn made_one_instance(&self, v: Variant) -> bool {
+        self.variants.as_ref().is_some_and(|k| k.made_one_instance(v))
     }
 }
 

@@ -150,6 +150,20 @@ impl Default for SceneSpec {
 }
 
 impl SceneSpec {
+    /// The scene's instance count where it is known before the model is loaded: a model
+    /// made in code or read from an OBJ or PLY file is one mesh, whose copies and mirror
+    /// box are the instances; a glTF file's nodes, and placed objects, are known only then.
+    pub(crate) fn instance_count_before_loading(&self) -> Option<u32> {
+        let gltf = |p: &std::path::Path| {
+            p.extension()
+                .is_some_and(|e| matches!(e.to_ascii_lowercase().to_str(), Some("gltf" | "glb")))
+        };
+        if matches!(&self.model, ModelSource::File(p) if gltf(p)) || !self.objects.is_empty() {
+            return None;
+        }
+        Some(self.models + u32::from(self.mirror_box))
+    }
+
     /// Check the settings and the camera; the error is one sentence naming the knob.
     pub fn validate(&self) -> Result<(), String> {
         self.settings.validate()?;
@@ -304,6 +318,25 @@ impl SceneSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_instance_count_is_known_before_loading_only_for_one_mesh_models() {
+        let knot = ModelSource::Generated(1000);
+        for (models, mirror_box) in [(1, true), (1, false), (27, true)] {
+            let spec = SceneSpec { model: knot.clone(), models, mirror_box, ..Default::default() };
+            let counted = spec.instance_count_before_loading();
+            assert_eq!(counted, Some(spec.load().unwrap().0.instances.len() as u32));
+        }
+        let file = |name: &str| ModelSource::File(name.into());
+        let at = |model| SceneSpec { model, ..Default::default() }.instance_count_before_loading();
+        assert_eq!(at(file("a.OBJ")), Some(2));
+        assert_eq!(at(file("a.ply")), Some(2));
+        assert_eq!(at(file("scene.glb")), None, "a glTF file's nodes");
+        assert_eq!(at(file("scene.GLTF")), None);
+        let object = ObjectSpec { model: knot.clone(), placement: Placement::default() };
+        let spec = SceneSpec { model: knot, objects: vec![object], ..Default::default() };
+        assert_eq!(spec.instance_count_before_loading(), None, "placed objects");
+    }
 
     #[test]
     fn the_default_spec_is_the_papers_scene() {
