@@ -1,8 +1,9 @@
 //! Our trace kernels: `shaders/trace.comp` as build.rs compiled it, and its variants built
-//! with `CORE_ONLY`, `WIDE_ONLY` or `LEAF_RUNS` (see `shader_compile`); which one a frame
-//! runs, and making them. Each leaves out code its frames do not use, since unused code still slows a frame
-//! through the registers and instructions it takes. The core kernel is made with the pass;
-//! the wide and leaf-runs kernels on first use, or in the background where the window asks
+//! with `CORE_ONLY`, `WIDE_ONLY` or `LEAF_RUNS`, and the first three's twins with
+//! `ONE_INSTANCE` (see `shader_compile`); which one a frame runs, and making them. Each
+//! leaves out code its frames do not use, since unused code still slows a frame through the
+//! registers and instructions it takes. The core kernel is made with the pass; the others
+//! on first use, or in the background where the window asks
 //! ([`KernelVariants::prepare_in_background`]: a driver compiling a kernel on the CPU, as
 //! lavapipe does, would otherwise hold up the frame that first needs it for seconds).
 
@@ -47,8 +48,8 @@ static TRACE_RUNS_SPV: [&[u8]; 2] = [
 ];
 
 /// The full, core and wide kernels (in [`Variant::one_instance_index`] order) with
-/// `ONE_INSTANCE` defined, for scenes of one instance; each
-/// for GPUs and for CPU devices (row order).
+/// `ONE_INSTANCE` defined, for scenes of one instance; each for GPUs and for CPU devices
+/// (row order).
 static TRACE_ONE_SPV: [[&[u8]; 2]; 3] = [
     [
         include_bytes!(concat!(env!("OUT_DIR"), "/trace_one.spv")),
