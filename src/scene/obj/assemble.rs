@@ -67,7 +67,7 @@ fn build<C: Corner>(
     let channels = Channels {
         normals: parsed.any_normal,
         texcoords: parsed.any_texcoord,
-        colours: !parsed.colors.is_empty(),
+        colours: parsed.models.iter().any(|m| m.coloured && !m.faces.is_empty()),
     };
     let mut laps = crate::progress::Laps::start("obj build");
     let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
@@ -79,16 +79,23 @@ fn build<C: Corner>(
     let mut default_material = None;
     for (m, model) in parsed.models.iter().enumerate() {
         let pieces = cursor.take(model.faces.len());
+        // A model closed before any colour was read has none of its own.
+        let model_channels = Channels { colours: channels.colours && model.coloured, ..channels };
         // A model over several chunks is de-duplicated in parallel, a chunk at a time; one
         // too big for that goes the serial way, which reports it.
         let parallel = pieces.len() > 1 && {
             let last = m + 1 == parsed.models.len();
-            add_model_in_parallel(&pieces, &mut tables, parsed, channels, &mut mesh, last)
+            add_model_in_parallel(&pieces, &mut tables, parsed, model_channels, &mut mesh, last)
         };
         if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
             dedup.start_model(m as u32);
-            add_model_serially(&pieces, dedup, parsed, channels, &mut corners, &mut mesh, name)?;
+            let (channels, corners) = (model_channels, &mut corners);
+            add_model_serially(&pieces, dedup, parsed, channels, corners, &mut mesh, name)?;
+        }
+        if channels.colours {
+            // Its vertices are white in a mesh with colours, as the oracle makes them.
+            grow(&mut mesh.colors, mesh.positions.len(), [255; 4]);
         }
         laps.lap("a model's vertices");
         let material = match model.material {

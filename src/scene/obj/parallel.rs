@@ -32,6 +32,9 @@ pub(super) struct ModelRun {
     pub(super) faces: Range<usize>,
     /// Index into the merged material libraries, when `usemtl` named a known material.
     pub(super) material: Option<usize>,
+    /// Some `v` line before the model's end carried a colour: tobj gives its vertices
+    /// their colours then, and none (white, in a mesh with colours) otherwise.
+    pub(super) coloured: bool,
 }
 
 /// The faces of one chunk.
@@ -401,7 +404,8 @@ impl Walk {
     /// Close the model gathered so far at face `end`.
     fn pop(&mut self, end: usize, colours: usize) {
         let faces = self.start..end;
-        self.models.push(ModelRun { faces: faces.clone(), material: self.material });
+        let coloured = colours > 0;
+        self.models.push(ModelRun { faces: faces.clone(), material: self.material, coloured });
         self.pops.push((faces, colours));
         self.start = end;
     }
