@@ -69,7 +69,6 @@ fn build<C: Corner>(
         texcoords: parsed.any_texcoord,
         colours: parsed.models.iter().any(|m| m.coloured && !m.faces.is_empty()),
     };
-    let mut laps = crate::progress::Laps::start("obj build");
     let mut mesh = empty_mesh(name, parsed.positions.len(), triangle_total, channels);
     // Made on the first model that needs it: its table is a serial fill of 4 bytes a position.
     let mut dedup: Option<Dedup> = None;
@@ -97,7 +96,6 @@ fn build<C: Corner>(
             // Its vertices are white in a mesh with colours, as the oracle makes them.
             grow(&mut mesh.colors, mesh.positions.len(), [255; 4]);
         }
-        laps.lap("a model's vertices");
         let material = match model.material {
             Some(i) if i < materials.len() => i as u32,
             _ => *default_material.get_or_insert_with(|| {
@@ -107,7 +105,6 @@ fn build<C: Corner>(
         };
         // Filled on every core: one model can be the whole mesh.
         grow(&mut mesh.triangle_materials, mesh.triangles.len(), material);
-        laps.lap("a model's materials");
     }
     mesh.materials = materials;
     let groups = (!parsed.smoothing.is_empty())
@@ -174,12 +171,7 @@ fn add_model_in_parallel<C: Corner>(
     };
     let positions = parsed.positions.len();
     if !channels.normals && !channels.texcoords {
-        let shared = tables.plain.get_or_insert_with(|| {
-            let mut laps = crate::progress::Laps::start("obj plain de-duplication");
-            let table = PlainShared::new(positions);
-            laps.lap("table made");
-            table
-        });
+        let shared = tables.plain.get_or_insert_with(|| PlainShared::new(positions));
         return add_plain_model(pieces, shared, &sources, out, last);
     }
     let shared = tables.full.get_or_insert_with(|| Shared::new(positions));
