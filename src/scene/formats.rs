@@ -39,6 +39,11 @@ enum Format {
     Gltf,
 }
 
+/// Whether `path` names a glTF file (`.gltf` or `.glb`), whose nodes may place many meshes.
+pub(super) fn is_gltf(path: &Path) -> bool {
+    matches!(Format::of(path), Ok(Format::Gltf))
+}
+
 impl Format {
     /// The format of `path`, or the one-sentence error naming it.
     fn of(path: &Path) -> Result<Self, ObjError> {

@@ -5,7 +5,7 @@
 
 use glam::{Affine3A, EulerRot, Quat, Vec3};
 
-use super::formats::{load_model, LoadError};
+use super::formats::{is_gltf, load_model, LoadError};
 use super::obj::LoadOptions;
 use super::paper::{assembled_scene, default_camera, LightOrbit, ModelSource, MODEL_RADIUS};
 use super::{Camera, EnvironmentSource, Instance, Model, Scene};
@@ -154,11 +154,7 @@ impl SceneSpec {
     /// made in code or read from an OBJ or PLY file is one mesh, whose copies and mirror
     /// box are the instances; a glTF file's nodes, and placed objects, are known only then.
     pub(crate) fn instance_count_before_loading(&self) -> Option<u32> {
-        let gltf = |p: &std::path::Path| {
-            p.extension()
-                .is_some_and(|e| matches!(e.to_ascii_lowercase().to_str(), Some("gltf" | "glb")))
-        };
-        if matches!(&self.model, ModelSource::File(p) if gltf(p)) || !self.objects.is_empty() {
+        if matches!(&self.model, ModelSource::File(p) if is_gltf(p)) || !self.objects.is_empty() {
             return None;
         }
         Some(self.models + u32::from(self.mirror_box))

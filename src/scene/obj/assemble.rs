@@ -89,8 +89,15 @@ fn build<C: Corner>(
         if !parallel {
             let dedup = dedup.get_or_insert_with(|| Dedup::new(parsed.positions.len()));
             dedup.start_model(m as u32);
-            let (channels, corners) = (model_channels, &mut corners);
-            add_model_serially(&pieces, dedup, parsed, channels, corners, &mut mesh, name)?;
+            add_model_serially(
+                &pieces,
+                dedup,
+                parsed,
+                model_channels,
+                &mut corners,
+                &mut mesh,
+                name,
+            )?;
         }
         if channels.colours {
             // Its vertices are white in a mesh with colours, as the oracle makes them.
