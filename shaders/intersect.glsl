@@ -280,8 +280,29 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     uint sp = 0u;
     uint node = 0u;  // the next node to open, or EMPTY to pop
     uint next_brute = 0u;
+    uint first = EMPTY;  // an instance to visit before anything else
+    if (use_bvh) {
+        BvhNode n = top_nodes[0];
+        if (floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE) {
+            // The scene's enclosure (src/tracer/top_level.rs: the paper's mirror box, whose
+            // box holds every other instance) is visited first; the tree over the others,
+            // the root's right child, waits on the stack. Left in the tree, the enclosure
+            // sat by the root, where every ray visited it, and its box spoilt the splits.
+            cost.x += 1u;
+            first = floatBitsToUint(n.left_min.w);
+            node = EMPTY;
+            uint ri = floatBitsToUint(n.right_min.w);
+            float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
+            if (tr < INF) {
+                stack[0] = floatBitsToUint(n.right_max.w) > 0u ? ri | TOP_LEAF : ri;
+                entry[0] = tr;
+                sp = 1u;
+            }
+        }
+    }
     while (true) {
-        uint leaf = EMPTY;
+        uint leaf = first;
+        first = EMPTY;
         if (!use_bvh) {
             if (next_brute == count) break;
             leaf = next_brute;

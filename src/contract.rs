@@ -30,6 +30,11 @@ contract! {
     /// (`load_triangle`, `load_triangle_pair` for a wide leaf's first two, which may read
     /// the words of a triangle past the last one).
     TRIANGLE_READ_AHEAD = 48;
+    /// The count of a top-level leaf that is the scene's enclosure (the paper's mirror box:
+    /// a few triangles whose box holds every other instance): the root's left child,
+    /// tested triangle by triangle before the walk (`top_level.rs`). Other top-level leaves
+    /// count 1.
+    TOP_ENCLOSURE = 2;
 
     // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
 

@@ -9,12 +9,14 @@ use std::collections::HashSet;
 
 use glam::{Affine3A, EulerRot, Quat, Vec3};
 use meshtracer::bvh::TraversalStats;
+use meshtracer::contract::TOP_ENCLOSURE;
 use meshtracer::geometry::Ray;
 use meshtracer::render_settings::Accel;
 use meshtracer::scene::obj::load_obj_from_str;
 use meshtracer::scene::paper::{
     field_scale, model_offsets, paper_scene, LightOrbit, BOX_HALF_SIZE, MAX_MODELS, MODEL_RADIUS,
 };
+use meshtracer::scene::primitives::PaperModel;
 use meshtracer::scene::{Camera, Instance, Material, Mesh, PointLight, Scene};
 use meshtracer::tracer::cpu::{CpuScene, SceneHit};
 use meshtracer::tracer::PackedScene;
@@ -163,6 +165,26 @@ fn scene_of(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Scene {
     }
 }
 
+/// `scene` inside the paper's mirror box, grown to hold every instance: the top level's
+/// enclosure, which the walk visits before the tree over the others.
+fn enclosed(mut scene: Scene) -> Scene {
+    let paper = paper_scene(PaperModel::Geosphere.mesh(), 1, LightOrbit::default());
+    let mirror = paper.meshes[paper.instances[1].mesh].clone();
+    let reach = scene
+        .instances
+        .iter()
+        .flat_map(|i| {
+            // An empty mesh's instance sits at its translation.
+            let points = scene.meshes[i.mesh].positions.iter();
+            points.map(|p| i.transform.transform_point3(*p)).chain([i.transform.translation.into()])
+        })
+        .fold(1.0f32, |m, p| m.max(p.abs().max_element()));
+    scene.meshes.push(mirror);
+    let scale = (reach * 1.5 + 1.0) / BOX_HALF_SIZE;
+    scene.instances.push(Instance::placed(scene.meshes.len() - 1, Vec3::ZERO, scale));
+    scene
+}
+
 fn arb_scene() -> impl Strategy<Value = Scene> {
     prop::collection::vec(arb_mesh(), 1..4).prop_flat_map(|mut meshes| {
         // And a mesh without triangles, which instances may place too.
@@ -239,10 +261,16 @@ proptest! {
     }
 
     /// Through the instance level (culling by world boxes, object-space rays), the BVH
-    /// finds the same closest hit as testing every triangle of every instance.
+    /// finds the same closest hit as testing every triangle of every instance; in half the
+    /// scenes, inside an enclosure.
     #[test]
-    fn two_level_closest_hit_equals_brute_force(scene in arb_scene(), seeds in prop::collection::vec((any::<u32>(), 0.05f32..0.9, 0.05f32..0.9, (-30.0f32..30.0, -30.0f32..30.0, -30.0f32..30.0)), 24)) {
+    fn two_level_closest_hit_equals_brute_force(scene in arb_scene(), enclose in any::<bool>(), seeds in prop::collection::vec((any::<u32>(), 0.05f32..0.9, 0.05f32..0.9, (-30.0f32..30.0, -30.0f32..30.0, -30.0f32..30.0)), 24)) {
+        let others = scene.instances.len();
+        let scene = if enclose { enclosed(scene) } else { scene };
         let packed = PackedScene::new(&scene);
+        let root_left = packed.top_level.nodes[0].children()[0];
+        // (A scene may hold an enclosure of its own: a small mesh around the others.)
+        prop_assert!(root_left.count == TOP_ENCLOSURE || !enclose || others == 0);
         let cpu = CpuScene::new(&packed);
         let count = packed.top_level.instances.len() as u32;
         // Instances with triangles, to aim at.

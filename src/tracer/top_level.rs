@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::records::{GpuInstance, GpuMesh};
 use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats};
-use crate::contract::EMPTY;
+use crate::contract::{EMPTY, TOP_ENCLOSURE};
 use crate::geometry::{safe_inverse, Aabb, Ray};
 use crate::scene::Instance;
 
@@ -131,11 +131,25 @@ impl TopLevel {
                 (record(mesh, inst.mesh as u32, inst), b)
             })
             .unzip();
+        let enclosure = enclosure(meshes, instances, &boxes);
         let meshes = meshes
             .iter()
             .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
             .collect();
-        Self { instances: records, meshes, nodes: tree_over(&boxes) }
+        let nodes = match enclosure {
+            None => tree_over(&boxes, None),
+            Some(e) => tree_under_enclosure(&boxes, e),
+        };
+        Self { instances: records, meshes, nodes }
+    }
+
+    /// The instance the walk visits before the tree (the root's left child,
+    /// [`TOP_ENCLOSURE`]), if the scene has one.
+    #[cfg(test)]
+    pub(crate) fn enclosure(&self) -> Option<u32> {
+        let root = self.nodes.first()?;
+        let left = root.children()[0];
+        (left.count == TOP_ENCLOSURE).then_some(left.index)
     }
 
     /// Triangle slots over all instances (each instance's mesh counted again).
@@ -176,11 +190,60 @@ fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
     }
 }
 
-/// The two-child tree over `boxes` with leaves of one box each, a leaf's index the box's:
-/// the bottom levels' binned SAH build. (A linear BVH in Morton order built 10,000 boxes in
-/// 1.2 ms instead of 4-5 ms on the H200's host, but its trees cost up to 16% more per frame
-/// on fields of copies: docs/BENCHMARKS.md, twenty-third session.)
-fn tree_over(boxes: &[Aabb]) -> Vec<BvhNode> {
+/// Most triangles an enclosure may have: testing them all costs a ray less than a visit
+/// through the walk (the paper's mirror box has 12).
+const ENCLOSURE_TRIANGLES: u32 = 16;
+
+/// The scene's enclosure: the first instance of a mesh of at most [`ENCLOSURE_TRIANGLES`]
+/// whose world box holds every other instance's, in a scene of two or more (the paper's
+/// mirror box around its models). Nearly every ray starts inside it and ends on it or
+/// nearer, so each would visit it through the walk, first; testing its few triangles
+/// directly, before the walk, costs less and bounds the walk by the wall's distance.
+fn enclosure(meshes: &[MeshPlace], instances: &[Instance], boxes: &[Aabb]) -> Option<usize> {
+    if instances.len() < 2 {
+        return None;
+    }
+    let all = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
+    instances.iter().zip(boxes).position(|(inst, b)| {
+        let count = meshes[inst.mesh].triangle_count;
+        (1..=ENCLOSURE_TRIANGLES).contains(&count) && b.contains(&all)
+    })
+}
+
+/// The tree over `boxes` with instance `enclosure` taken out of it: a root whose left
+/// child is the enclosure's leaf (count [`TOP_ENCLOSURE`]) and whose right is the tree
+/// over the others (their one leaf, for one).
+fn tree_under_enclosure(boxes: &[Aabb], enclosure: usize) -> Vec<BvhNode> {
+    let others: Vec<u32> = (0..boxes.len() as u32).filter(|&i| i as usize != enclosure).collect();
+    let other_boxes: Vec<Aabb> = others.iter().map(|&i| boxes[i as usize]).collect();
+    let below = tree_over(&other_boxes, Some(&others));
+    let left = BvhChild { bounds: boxes[enclosure], index: enclosure as u32, count: TOP_ENCLOSURE };
+    let [first, second] = below[0].children();
+    if below.len() == 1 && second.is_empty() {
+        return vec![BvhNode::new(left, first)];
+    }
+    let bounds = first.bounds.union(second.bounds);
+    let right = BvhChild { bounds, index: 1, count: 0 };
+    let mut nodes = Vec::with_capacity(below.len() + 1);
+    nodes.push(BvhNode::new(left, right));
+    nodes.extend(below.into_iter().map(|node| {
+        let children = node.children().map(|mut c| {
+            if c.is_inner() {
+                c.index += 1;
+            }
+            c
+        });
+        BvhNode::new(children[0], children[1])
+    }));
+    nodes
+}
+
+/// The two-child tree over `boxes` with leaves of one box each, a leaf's index the box's
+/// (or its name in `names`): the bottom levels' binned SAH build. (A linear BVH in Morton
+/// order built 10,000 boxes in 1.2 ms instead of 4-5 ms on the H200's host, but its trees
+/// cost up to 16% more per frame on fields of copies: docs/BENCHMARKS.md, twenty-third
+/// session.)
+fn tree_over(boxes: &[Aabb], names: Option<&[u32]>) -> Vec<BvhNode> {
     let options = BuildOptions { max_leaf_size: 1, ..BuildOptions::default() };
     let Bvh { mut nodes, prim_indices } = Bvh::build_from_boxes(boxes, &options);
     if nodes.is_empty() {
@@ -192,7 +255,8 @@ fn tree_over(boxes: &[Aabb]) -> Vec<BvhNode> {
         let mut children = node.children();
         for c in children.iter_mut().filter(|c| c.is_leaf()) {
             assert_eq!(c.count, 1, "the top level's leaves hold one instance each");
-            c.index = prim_indices[c.index as usize];
+            let k = prim_indices[c.index as usize];
+            c.index = names.map_or(k, |names| names[k as usize]);
         }
         *node = BvhNode::new(children[0], children[1]);
     });
@@ -237,7 +301,9 @@ enum Stop {
 /// whose box the ray meets before the closest hit so far, as the shader's
 /// `trace_instances` does: of a node's two children the nearer next, the farther pushed
 /// with its entry distance and dropped when popped if a hit found since ends before it.
-/// Returns true when a visit said [`Visit::Blocked`]. Counts a node per node opened.
+/// An enclosure (the root's left child, [`TOP_ENCLOSURE`]) is visited first, the root's
+/// right child pushed meanwhile. Returns true when a visit said [`Visit::Blocked`].
+/// Counts a node per node opened.
 pub(crate) fn walk(
     nodes: &[BvhNode],
     ray: &Ray,
@@ -249,6 +315,18 @@ pub(crate) fn walk(
     let mut stack = [(Stop::Node(0), 0.0f32); crate::bvh::STACK_SIZE];
     let mut sp = 0;
     let mut next = Some(Stop::Node(0));
+    let [enclosure, rest] = nodes[0].children();
+    if enclosure.count == TOP_ENCLOSURE {
+        stats.nodes += 1;
+        next = Some(Stop::Instance(enclosure.index));
+        let entry = rest.bounds.intersect(ray, inv_dir, t_max).filter(|_| !rest.is_empty());
+        if let Some(entry) = entry {
+            let stop =
+                if rest.is_leaf() { Stop::Instance(rest.index) } else { Stop::Node(rest.index) };
+            stack[0] = (stop, entry);
+            sp = 1;
+        }
+    }
     loop {
         let stop = match next.take() {
             Some(stop) => stop,
@@ -411,6 +489,82 @@ mod tests {
                 assert!((leaf.min - exact.min).abs().max_element() < slack);
                 assert!((leaf.max - exact.max).abs().max_element() < slack);
             }
+        }
+    }
+
+    /// A walk's visits in order, and the nodes it opened.
+    fn visits(top: &TopLevel, ray: &Ray) -> (Vec<u32>, u32) {
+        let mut stats = TraversalStats::default();
+        let mut order = Vec::new();
+        walk(&top.nodes, ray, f32::INFINITY, &mut stats, |i, _| {
+            order.push(i);
+            Visit::Nothing
+        });
+        (order, stats.nodes)
+    }
+
+    #[test]
+    fn the_mirror_box_around_the_models_is_the_enclosure_visited_first() {
+        let model =
+            MeshPlace { triangle_count: 500, ..place(Aabb::from_points(&[-Vec3::ONE, Vec3::ONE])) };
+        let mirror =
+            MeshPlace { triangle_count: 12, ..place(Aabb::from_points(&[-Vec3::ONE, Vec3::ONE])) };
+        let meshes = [model, mirror];
+        for copies in [1u32, 2, 27, 100] {
+            // The models in a row, then the box around them all, then one more model.
+            let mut instances: Vec<Instance> = (0..copies)
+                .map(|i| Instance::placed(0, Vec3::new(i as f32 * 3.0, 0.0, 0.0), 1.0))
+                .collect();
+            instances.push(Instance::placed(1, Vec3::ZERO, 4.0 * copies as f32));
+            instances.push(Instance::placed(0, Vec3::new(0.0, 2.5, 0.0), 0.5));
+            let enclosure = copies;
+            let top = TopLevel::build(&meshes, &instances);
+            assert_eq!(top.enclosure(), Some(enclosure), "{copies} copies");
+            // The enclosure is the root's left child alone; every other instance is one
+            // leaf of the tree under the root's right child.
+            let leaves = |count| -> Vec<u32> {
+                let children = top.nodes.iter().flat_map(|n| n.children());
+                let mut found: Vec<u32> =
+                    children.filter(|c| c.count == count).map(|c| c.index).collect();
+                found.sort();
+                found
+            };
+            assert_eq!(leaves(TOP_ENCLOSURE), vec![enclosure]);
+            let others: Vec<u32> =
+                (0..instances.len() as u32).filter(|&i| i != enclosure).collect();
+            assert_eq!(leaves(1), others, "{copies} copies: each other instance once");
+            // A ray from inside the box visits it first, then the models it passes.
+            let ray = Ray::new(Vec3::new(-2.0, 0.0, 0.0), Vec3::X);
+            let (order, nodes) = visits(&top, &ray);
+            assert_eq!(order[0], enclosure);
+            assert!(order[1..].contains(&0) && !order[1..].contains(&enclosure));
+            assert!(nodes >= 1, "the root is opened");
+            // A ray that misses every model visits the box alone.
+            let (order, _) = visits(&top, &Ray::new(Vec3::new(-2.0, -1.5, 0.0), -Vec3::Y));
+            assert_eq!(order, vec![enclosure]);
+        }
+    }
+
+    #[test]
+    fn no_enclosure_without_a_small_mesh_around_every_other_instance() {
+        let unit = Aabb::from_points(&[-Vec3::ONE, Vec3::ONE]);
+        let small = MeshPlace { triangle_count: ENCLOSURE_TRIANGLES, ..place(unit) };
+        let big = MeshPlace { triangle_count: ENCLOSURE_TRIANGLES + 1, ..place(unit) };
+        let empty = MeshPlace { triangle_count: 0, ..place(Aabb::EMPTY) };
+        let model = Instance::placed(0, Vec3::new(3.0, 0.0, 0.0), 1.0);
+        let around = |mesh| Instance::placed(mesh, Vec3::ZERO, 10.0);
+        let cases: [(&[MeshPlace], Vec<Instance>, Option<u32>); 5] = [
+            (&[small], vec![model, around(0)], Some(1)),
+            (&[small, big], vec![model, around(1)], None), // too many triangles
+            (&[small], vec![around(0)], None),             // nothing inside
+            (&[small], vec![model, Instance::placed(0, Vec3::ZERO, 2.0)], None), // too small
+            (&[small, empty], vec![model, around(1)], None), // no triangles
+        ];
+        for (k, (meshes, instances, want)) in cases.into_iter().enumerate() {
+            let top = TopLevel::build(meshes, &instances);
+            assert_eq!(top.enclosure(), want, "case {k}");
+            let (order, _) = visits(&top, &Ray::new(Vec3::new(3.0, 0.0, -5.0), Vec3::Z));
+            assert!(order.contains(&0), "case {k}: the model is visited ({order:?})");
         }
     }
 
