@@ -242,6 +242,40 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
 // A top-level stack entry that is an instance to visit rather than a node.
 const uint TOP_LEAF = 0x80000000u;
 
+// The scene's enclosure tested as a closed box, `e` its record (src/tracer/enclosure.rs:
+// EnclosureRecord): from inside, the slab test names the face the ray leaves by, and only
+// that face's two triangles are tested (all twelve where rounding lets the ray slip between
+// them). Returns false where the record is no closed box or the ray starts outside it: the
+// walk then visits the enclosure as any instance. `blocked`: an occlusion query is blocked.
+bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, inout uvec2 cost, out bool blocked) {
+    blocked = false;
+    uint faces_low = floatBitsToUint(e.left_max.w);
+    if (faces_low == EMPTY) return false;
+    uint i = floatBitsToUint(e.left_min.w);
+    Instance inst = instances[i];
+    vec3 lo = point_to_object(inst, o);
+    if (any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz))) return false;
+    vec3 ld = vector_to_object(inst, d);
+    bvec3 up = greaterThanEqual(ld, vec3(0.0));
+    vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
+    uint axis = (t3.x <= t3.y && t3.x <= t3.z) ? 0u : (t3.y <= t3.z ? 1u : 2u);
+    // The wall beyond what was found (or an occlusion query's reach): nothing to test.
+    if (t3[axis] > hit.t * 1.0001) return true;
+    uint face = 2u * axis + (up[axis] ? 1u : 0u);
+    uint pair = face < 4u ? faces_low >> (8u * face) : floatBitsToUint(e.right_min.x) >> (8u * (face - 4u));
+    uint first = inst.offsets.y;
+    uint before = hit.tri;
+    intersect_triangle(lo, ld, first + (pair & 15u), hit);
+    intersect_triangle(lo, ld, first + ((pair >> 4u) & 15u), hit);
+    cost.y += 2u;
+    if (hit.tri == before) brute_force(lo, ld, first, 12u, false, hit, cost);
+    if (hit.tri != before) {
+        hit.instance = i;
+        blocked = occlusion;
+    }
+    return true;
+}
+
 // The top level: every instance whose box the ray meets, through the two-child tree over
 // the instances' world boxes (top_nodes, leaves of one instance each; src/tracer/top_level.rs
 // builds it and walks it the same way on the CPU). Of a node's two children the nearer is
@@ -284,12 +318,16 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     if (use_bvh) {
         BvhNode n = top_nodes[0];
         if (floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE) {
-            // The scene's enclosure (src/tracer/top_level.rs: the paper's mirror box, whose
-            // box holds every other instance) is visited first; the tree over the others,
-            // the root's right child, waits on the stack. Left in the tree, the enclosure
-            // sat by the root, where every ray visited it, and its box spoilt the splits.
+            // The scene's enclosure (src/tracer/enclosure.rs: the paper's mirror box, whose
+            // box holds every other instance) comes first, as a closed box or visited; the
+            // tree over the others, the root's right child, waits on the stack. Left in the
+            // tree, the enclosure sat by the root, where every ray visited it, and its box
+            // spoilt the splits.
             cost.x += 1u;
-            first = floatBitsToUint(n.left_min.w);
+            BvhNode e = top_nodes[floatBitsToUint(n.left_min.w)];
+            bool blocked;
+            if (!closed_box_hit(e, o, d, any, hit, cost, blocked)) first = floatBitsToUint(e.left_min.w);
+            if (blocked) return true;
             node = EMPTY;
             uint ri = floatBitsToUint(n.right_min.w);
             float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);

@@ -5,6 +5,7 @@
 
 pub(crate) mod budget;
 pub mod cpu;
+pub(crate) mod enclosure;
 pub mod frame;
 pub(crate) mod heat_map;
 pub mod image;

@@ -14,6 +14,7 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
+use super::enclosure::ClosedBox;
 pub use super::prepare::Layouts;
 use super::prepare::PreparedScene;
 use super::records::pack_triangle;
@@ -43,6 +44,8 @@ pub struct PackedMesh {
     pub(crate) bounds: Aabb,
     /// Boxes of its tree's top nodes, for tight world boxes of turned instances.
     pub(crate) cover: MeshCover,
+    /// The mesh as a closed box, if it is one (for an enclosure).
+    pub(crate) closed_box: Option<ClosedBox>,
     /// Nodes of the mesh's BVH in `PackedScene::nodes` from `node_base` (the tree is kept
     /// only there: [`PackedMesh::bvh`] puts it back together).
     pub node_count: u32,
@@ -213,6 +216,13 @@ impl PackedScene {
         let keep_binary = !(wide_only && wide.is_some());
         let node_count = if keep_binary { bvh.nodes.len() as u32 } else { 0 };
         let cover = MeshCover::of_tree(&bvh.nodes, mesh.bounds());
+        let closed_box = (bvh.prim_indices.len() == 12)
+            .then(|| {
+                let slots: Vec<_> =
+                    bvh.prim_indices.iter().map(|&k| mesh.corners(k as usize)).collect();
+                ClosedBox::of(&slots)
+            })
+            .flatten();
         if keep_binary {
             append(&mut self.nodes, bvh.nodes);
         }
@@ -231,6 +241,7 @@ impl PackedScene {
             prim_base,
             bounds: mesh.bounds(),
             cover,
+            closed_box,
         });
         BvhOrder { prims: bvh.prim_indices, material_base, vertex_base }
     }
@@ -387,6 +398,7 @@ fn top_level(meshes: &[PackedMesh], wide_word_base: u32, instances: &[Instance])
                 EMPTY
             },
             cover: m.cover,
+            closed_box: m.closed_box,
         })
         .collect();
     TopLevel::build(&places, instances)

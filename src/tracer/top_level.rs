@@ -9,9 +9,10 @@
 use glam::{Affine3A, DAffine3, Vec3A};
 use rayon::prelude::*;
 
+use super::enclosure::{self, ClosedBox, EnclosureRecord};
 use super::records::{GpuInstance, GpuMesh};
 use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, TraversalStats};
-use crate::contract::{EMPTY, TOP_ENCLOSURE};
+use crate::contract::EMPTY;
 use crate::geometry::{safe_inverse, Aabb, Ray};
 use crate::scene::Instance;
 
@@ -26,6 +27,8 @@ pub(crate) struct MeshPlace {
     pub(crate) wide_words: u32,
     /// Boxes that together hold the mesh, in object space.
     pub(crate) cover: MeshCover,
+    /// The mesh as a closed box, if it is one (an enclosure's fast test).
+    pub(crate) closed_box: Option<ClosedBox>,
 }
 
 /// Most boxes a [`MeshCover`] holds.
@@ -131,25 +134,26 @@ impl TopLevel {
                 (record(mesh, inst.mesh as u32, inst), b)
             })
             .unzip();
-        let enclosure = enclosure(meshes, instances, &boxes);
+        let enclosure = enclosure::find(meshes, instances, &boxes)
+            .map(|e| (e, EnclosureRecord::new(e as u32, meshes[instances[e].mesh].closed_box)));
         let meshes = meshes
             .iter()
             .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
             .collect();
         let nodes = match enclosure {
             None => tree_over(&boxes, None),
-            Some(e) => tree_under_enclosure(&boxes, e),
+            Some((e, record)) => enclosure::tree_around(&boxes, e, record, |boxes, names| {
+                tree_over(boxes, Some(names))
+            }),
         };
         Self { instances: records, meshes, nodes }
     }
 
     /// The instance the walk visits before the tree (the root's left child,
-    /// [`TOP_ENCLOSURE`]), if the scene has one.
+    /// `TOP_ENCLOSURE`), if the scene has one.
     #[cfg(test)]
     pub(crate) fn enclosure(&self) -> Option<u32> {
-        let root = self.nodes.first()?;
-        let left = root.children()[0];
-        (left.count == TOP_ENCLOSURE).then_some(left.index)
+        EnclosureRecord::of(&self.nodes).map(EnclosureRecord::instance)
     }
 
     /// Triangle slots over all instances (each instance's mesh counted again).
@@ -161,7 +165,9 @@ impl TopLevel {
     /// root's, a node opened and an instance visited costing 1 each (tinybvh's measure with
     /// C_trav = C_int = 1). Lower is a tree that sends a ray to fewer boxes.
     pub fn sah_cost(&self) -> f64 {
-        sah_cost(&self.nodes)
+        // The enclosure's record, the last node, is no node of the tree.
+        let record = usize::from(EnclosureRecord::of(&self.nodes).is_some());
+        sah_cost(&self.nodes[..self.nodes.len() - record])
     }
 
     /// Bytes of the records and the tree (what the scene costs beyond its meshes).
@@ -188,54 +194,6 @@ fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
         wide_words: if mesh.triangle_count == 0 { EMPTY } else { mesh.wide_words },
         mesh: index,
     }
-}
-
-/// Most triangles an enclosure may have: testing them all costs a ray less than a visit
-/// through the walk (the paper's mirror box has 12).
-const ENCLOSURE_TRIANGLES: u32 = 16;
-
-/// The scene's enclosure: the first instance of a mesh of at most [`ENCLOSURE_TRIANGLES`]
-/// whose world box holds every other instance's, in a scene of two or more (the paper's
-/// mirror box around its models). Nearly every ray starts inside it and ends on it or
-/// nearer, so each would visit it through the walk, first; testing its few triangles
-/// directly, before the walk, costs less and bounds the walk by the wall's distance.
-fn enclosure(meshes: &[MeshPlace], instances: &[Instance], boxes: &[Aabb]) -> Option<usize> {
-    if instances.len() < 2 {
-        return None;
-    }
-    let all = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
-    instances.iter().zip(boxes).position(|(inst, b)| {
-        let count = meshes[inst.mesh].triangle_count;
-        (1..=ENCLOSURE_TRIANGLES).contains(&count) && b.contains(&all)
-    })
-}
-
-/// The tree over `boxes` with instance `enclosure` taken out of it: a root whose left
-/// child is the enclosure's leaf (count [`TOP_ENCLOSURE`]) and whose right is the tree
-/// over the others (their one leaf, for one).
-fn tree_under_enclosure(boxes: &[Aabb], enclosure: usize) -> Vec<BvhNode> {
-    let others: Vec<u32> = (0..boxes.len() as u32).filter(|&i| i as usize != enclosure).collect();
-    let other_boxes: Vec<Aabb> = others.iter().map(|&i| boxes[i as usize]).collect();
-    let below = tree_over(&other_boxes, Some(&others));
-    let left = BvhChild { bounds: boxes[enclosure], index: enclosure as u32, count: TOP_ENCLOSURE };
-    let [first, second] = below[0].children();
-    if below.len() == 1 && second.is_empty() {
-        return vec![BvhNode::new(left, first)];
-    }
-    let bounds = first.bounds.union(second.bounds);
-    let right = BvhChild { bounds, index: 1, count: 0 };
-    let mut nodes = Vec::with_capacity(below.len() + 1);
-    nodes.push(BvhNode::new(left, right));
-    nodes.extend(below.into_iter().map(|node| {
-        let children = node.children().map(|mut c| {
-            if c.is_inner() {
-                c.index += 1;
-            }
-            c
-        });
-        BvhNode::new(children[0], children[1])
-    }));
-    nodes
 }
 
 /// The two-child tree over `boxes` with leaves of one box each, a leaf's index the box's
@@ -297,28 +255,45 @@ enum Stop {
     Instance(u32),
 }
 
-/// Walk the tree for `ray` in (0, `t_max`), calling `visit(i, t_max)` for every instance
-/// whose box the ray meets before the closest hit so far, as the shader's
+/// What a walk asks its caller to visit.
+pub(crate) enum Target<'a> {
+    /// An instance, through its mesh.
+    Instance(u32),
+    /// The enclosure, as a closed box: `None` from the caller (no closed box, or a ray
+    /// from outside it) has it visited as an instance instead.
+    ClosedBox(&'a EnclosureRecord),
+}
+
+/// Walk the tree for `ray` in (0, `t_max`), calling `visit(Target::Instance(i), t_max)` for
+/// every instance whose box the ray meets before the closest hit so far, as the shader's
 /// `trace_instances` does: of a node's two children the nearer next, the farther pushed
 /// with its entry distance and dropped when popped if a hit found since ends before it.
-/// An enclosure (the root's left child, [`TOP_ENCLOSURE`]) is visited first, the root's
-/// right child pushed meanwhile. Returns true when a visit said [`Visit::Blocked`].
-/// Counts a node per node opened.
+/// An enclosure (the root's left child, `TOP_ENCLOSURE`) comes first, offered as a
+/// [`Target::ClosedBox`], then the tree over the others (the root's right child). Returns
+/// true when a visit said [`Visit::Blocked`]. Counts a node per node opened.
 pub(crate) fn walk(
     nodes: &[BvhNode],
     ray: &Ray,
     mut t_max: f32,
     stats: &mut TraversalStats,
-    mut visit: impl FnMut(u32, f32) -> Visit,
+    mut visit: impl FnMut(Target, f32) -> Option<Visit>,
 ) -> bool {
     let inv_dir = safe_inverse(ray.dir);
     let mut stack = [(Stop::Node(0), 0.0f32); crate::bvh::STACK_SIZE];
     let mut sp = 0;
     let mut next = Some(Stop::Node(0));
-    let [enclosure, rest] = nodes[0].children();
-    if enclosure.count == TOP_ENCLOSURE {
+    if let Some(record) = EnclosureRecord::of(nodes) {
         stats.nodes += 1;
-        next = Some(Stop::Instance(enclosure.index));
+        next = match visit(Target::ClosedBox(record), t_max) {
+            Some(Visit::Blocked) => return true,
+            Some(Visit::Closer(t)) => {
+                t_max = t;
+                None
+            }
+            Some(Visit::Nothing) => None,
+            None => Some(Stop::Instance(record.instance())),
+        };
+        let rest = nodes[0].children()[1];
         let entry = rest.bounds.intersect(ray, inv_dir, t_max).filter(|_| !rest.is_empty());
         if let Some(entry) = entry {
             let stop =
@@ -343,10 +318,10 @@ pub(crate) fn walk(
             }
         };
         match stop {
-            Stop::Instance(i) => match visit(i, t_max) {
-                Visit::Nothing => {}
-                Visit::Closer(t) => t_max = t,
-                Visit::Blocked => return true,
+            Stop::Instance(i) => match visit(Target::Instance(i), t_max) {
+                None | Some(Visit::Nothing) => {}
+                Some(Visit::Closer(t)) => t_max = t,
+                Some(Visit::Blocked) => return true,
             },
             Stop::Node(node) => {
                 stats.nodes += 1;
@@ -386,6 +361,8 @@ mod tests {
     use glam::{Affine3A, Quat, Vec3};
 
     use super::*;
+    use crate::contract::TOP_ENCLOSURE;
+    use crate::tracer::enclosure::ENCLOSURE_TRIANGLES;
 
     fn place(bounds: Aabb) -> MeshPlace {
         MeshPlace {
@@ -395,6 +372,7 @@ mod tests {
             prim_base: 0,
             wide_words: EMPTY,
             cover: MeshCover::of_box(bounds),
+            closed_box: None,
         }
     }
 
@@ -496,9 +474,12 @@ mod tests {
     fn visits(top: &TopLevel, ray: &Ray) -> (Vec<u32>, u32) {
         let mut stats = TraversalStats::default();
         let mut order = Vec::new();
-        walk(&top.nodes, ray, f32::INFINITY, &mut stats, |i, _| {
-            order.push(i);
-            Visit::Nothing
+        walk(&top.nodes, ray, f32::INFINITY, &mut stats, |target, _| match target {
+            Target::Instance(i) => {
+                order.push(i);
+                Some(Visit::Nothing)
+            }
+            Target::ClosedBox(_) => None,
         });
         (order, stats.nodes)
     }
@@ -522,14 +503,15 @@ mod tests {
             assert_eq!(top.enclosure(), Some(enclosure), "{copies} copies");
             // The enclosure is the root's left child alone; every other instance is one
             // leaf of the tree under the root's right child.
+            let tree = &top.nodes[..top.nodes.len() - 1]; // the last is the enclosure's record
             let leaves = |count| -> Vec<u32> {
-                let children = top.nodes.iter().flat_map(|n| n.children());
+                let children = tree.iter().flat_map(|n| n.children());
                 let mut found: Vec<u32> =
                     children.filter(|c| c.count == count).map(|c| c.index).collect();
                 found.sort();
                 found
             };
-            assert_eq!(leaves(TOP_ENCLOSURE), vec![enclosure]);
+            assert_eq!(leaves(TOP_ENCLOSURE), vec![top.nodes.len() as u32 - 1]);
             let others: Vec<u32> =
                 (0..instances.len() as u32).filter(|&i| i != enclosure).collect();
             assert_eq!(leaves(1), others, "{copies} copies: each other instance once");

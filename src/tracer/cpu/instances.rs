@@ -2,13 +2,16 @@
 //! its own space (the shader's `trace_instances` and `visit_instance`).
 
 use super::{CpuScene, SceneHit};
+use glam::Vec3;
+
 use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
 use crate::contract::EMPTY;
-use crate::geometry::{intersect_triangle, Ray};
+use crate::geometry::{intersect_triangle, safe_inverse, Ray};
 use crate::render_settings::{Accel, BvhLayout};
+use crate::tracer::enclosure::EnclosureRecord;
 use crate::tracer::packed::GpuInstance;
-use crate::tracer::top_level::{self, Visit};
+use crate::tracer::top_level::{self, Target, Visit};
 
 /// What a walk over the instances looks for: the closest hit, or any hit (occlusion).
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -42,22 +45,15 @@ impl CpuScene<'_> {
         // The CPU reference has no vendor traversal: it traces vendor frames with our BVH.
         let brute = accel == Accel::Brute;
         let any = query == Query::Any;
-        let mut visit = |i: u32, t_max: f32, stats: &mut TraversalStats| match self.visit_instance(
-            &top.instances[i as usize],
-            ray,
-            t_max,
-            brute,
-            any,
-            layout,
-            stats,
-        ) {
-            Some(hit) => found(i, hit),
-            None => Visit::Nothing,
+        let visit = |i: u32, t_max: f32, stats: &mut TraversalStats| {
+            let inst = &top.instances[i as usize];
+            self.visit_instance(inst, ray, t_max, brute, any, layout, stats)
         };
         if brute {
             let mut t = t_max;
             for i in 0..top.instances.len() as u32 {
-                match visit(i, t, stats) {
+                let Some(hit) = visit(i, t, stats) else { continue };
+                match found(i, hit) {
                     Visit::Nothing => {}
                     Visit::Closer(closer) => t = closer,
                     Visit::Blocked => return true,
@@ -66,11 +62,74 @@ impl CpuScene<'_> {
             return false;
         }
         let mut inner = TraversalStats::default();
-        let blocked =
-            top_level::walk(&top.nodes, ray, t_max, stats, |i, t| visit(i, t, &mut inner));
+        let blocked = top_level::walk(&top.nodes, ray, t_max, stats, |target, t| {
+            let (i, hit) = match target {
+                Target::Instance(i) => (i, visit(i, t, &mut inner)),
+                Target::ClosedBox(record) => {
+                    (record.instance(), self.closed_box_hit(record, ray, t, &mut inner)?)
+                }
+            };
+            Some(hit.map_or(Visit::Nothing, |hit| found(i, hit)))
+        });
         stats.nodes += inner.nodes;
         stats.triangles += inner.triangles;
         blocked
+    }
+
+    /// The enclosure of `record` tested as a closed box (the shader's `closed_box_hit`):
+    /// from inside, the two triangles of the face the ray leaves by (all twelve where
+    /// rounding lets the ray slip between them). None where it is no closed box or the ray
+    /// starts outside it; Some(None) for no hit in (0, t_max).
+    fn closed_box_hit(
+        &self,
+        record: &EnclosureRecord,
+        ray: &Ray,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<Option<SceneHit>> {
+        let closed = record.closed_box()?;
+        let inst = &self.packed.top_level.instances[record.instance() as usize];
+        let (min, max) = (closed.bounds.min, closed.bounds.max);
+        let origin = inst.point_to_object(ray.origin);
+        if origin.cmplt(min).any() || origin.cmpgt(max).any() {
+            return None;
+        }
+        let dir = inst.vector_to_object(ray.dir);
+        let up = dir.cmpge(Vec3::ZERO);
+        let t3 = (Vec3::select(up, max, min) - origin) * safe_inverse(dir);
+        let axis = if t3.x <= t3.y && t3.x <= t3.z {
+            0
+        } else if t3.y <= t3.z {
+            1
+        } else {
+            2
+        };
+        if t3[axis] > t_max * 1.0001 {
+            return Some(None); // the wall lies beyond
+        }
+        let face = 2 * axis + usize::from(up.test(axis));
+        let local = Ray::new(origin, dir);
+        let base = inst.triangle_base as usize;
+        let mut best = None;
+        let mut test = |k: usize| {
+            let [v0, e1, e2] = self.edges[base + k];
+            let t = best.as_ref().map_or(t_max, |b: &SceneHit| b.t);
+            if let Some(h) = intersect_triangle(&local, v0, e1, e2, 0.0, t) {
+                let triangle = (base + k) as u32;
+                best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle, instance: 0 });
+            }
+            best.is_some()
+        };
+        let hits = closed.faces[face].map(|k| test(usize::from(k)));
+        stats.triangles += 2;
+        if hits == [false; 2] {
+            // Slipped between the face's triangles: all twelve, as the shader's brute force.
+            for k in 0..12 {
+                test(k);
+            }
+            stats.triangles += 12;
+        }
+        Some(best)
     }
 
     /// One instance's mesh along `ray` in (0, t_max), in the mesh's space (the shader's
