@@ -245,8 +245,9 @@ const uint TOP_LEAF = 0x80000000u;
 // The scene's enclosure tested as a closed box, `e` its record (src/tracer/enclosure.rs:
 // EnclosureRecord): from inside, the slab test names the face the ray leaves by, and only
 // that face's two triangles are tested (all twelve where rounding lets the ray slip between
-// them). Returns false where the record is no closed box or the ray starts outside it: the
-// walk then visits the enclosure as any instance. `blocked`: an occlusion query is blocked.
+// them, or where the ray starts outside). Returns false where the record is no closed box:
+// the walk then visits the enclosure as any instance. `blocked`: an occlusion query is
+// blocked.
 bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, inout uvec2 cost, out bool blocked) {
     blocked = false;
     uint faces_low = floatBitsToUint(e.left_max.w);
@@ -254,21 +255,24 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
     uint i = floatBitsToUint(e.left_min.w);
     Instance inst = instances[i];
     vec3 lo = point_to_object(inst, o);
-    if (any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz))) return false;
     vec3 ld = vector_to_object(inst, d);
-    bvec3 up = greaterThanEqual(ld, vec3(0.0));
-    vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
-    uint axis = (t3.x <= t3.y && t3.x <= t3.z) ? 0u : (t3.y <= t3.z ? 1u : 2u);
-    // The wall beyond what was found (or an occlusion query's reach): nothing to test.
-    if (t3[axis] > hit.t * 1.0001) return true;
-    uint face = 2u * axis + (up[axis] ? 1u : 0u);
-    uint pair = face < 4u ? faces_low >> (8u * face) : floatBitsToUint(e.right_min.x) >> (8u * (face - 4u));
     uint first = inst.offsets.y;
     uint before = hit.tri;
-    intersect_triangle(lo, ld, first + (pair & 15u), hit);
-    intersect_triangle(lo, ld, first + ((pair >> 4u) & 15u), hit);
-    cost.y += 2u;
-    if (hit.tri == before) brute_force(lo, ld, first, 12u, false, hit, cost);
+    if (any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz))) {
+        brute_force(lo, ld, first, 12u, false, hit, cost);  // from outside
+    } else {
+        bvec3 up = greaterThanEqual(ld, vec3(0.0));
+        vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
+        uint axis = (t3.x <= t3.y && t3.x <= t3.z) ? 0u : (t3.y <= t3.z ? 1u : 2u);
+        // The wall beyond what was found (or an occlusion query's reach): nothing to test.
+        if (t3[axis] > hit.t * 1.0001) return true;
+        uint face = 2u * axis + (up[axis] ? 1u : 0u);
+        uint pair = face < 4u ? faces_low >> (8u * face) : floatBitsToUint(e.right_min.x) >> (8u * (face - 4u));
+        intersect_triangle(lo, ld, first + (pair & 15u), hit);
+        intersect_triangle(lo, ld, first + ((pair >> 4u) & 15u), hit);
+        cost.y += 2u;
+        if (hit.tri == before) brute_force(lo, ld, first, 12u, false, hit, cost);
+    }
     if (hit.tri != before) {
         hit.instance = i;
         blocked = occlusion;
@@ -292,16 +296,25 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
 // instances (a model in the mirror box) as a loop of two visits, it cost more than the walk.
 bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
     if (frame.misc.x == 0u) return false;
+    uint leaf = 0u;
     if (use_bvh) {
         BvhNode n = top_nodes[0];
         cost.x += 1u;
-        // One child is the instance's leaf, the other empty.
+        // One child is the instance's leaf, the other empty or the enclosure, a closed box
+        // (TracePass picks this kernel for such a scene's BVH frames), tested first.
         bool left = floatBitsToUint(n.left_min.w) != EMPTY;
+        if (floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE) {
+            bool blocked;
+            closed_box_hit(top_nodes[floatBitsToUint(n.left_min.w)], o, d, any, hit, cost, blocked);
+            if (blocked) return true;
+            left = false;
+        }
+        leaf = floatBitsToUint(left ? n.left_min.w : n.right_min.w);
         vec3 lo = left ? n.left_min.xyz : n.right_min.xyz;
         vec3 hi = left ? n.left_max.xyz : n.right_max.xyz;
         if (slab(lo, hi, o, safe_inverse(d), hit.t) == INF) return false;
     }
-    bool found = visit_instance(0u, o, d, any, use_bvh, hit, cost);
+    bool found = visit_instance(leaf, o, d, any, use_bvh, hit, cost);
     return any && found;
 }
 #else

@@ -169,7 +169,9 @@ impl ComputeTracer {
     pub fn set_instances(&mut self, top_level: &TopLevel) -> Result<(), GpuError> {
         self.ctx.wait_idle()?;
         if let Some(scene) = &mut self.scene {
-            if scene.set_instances(&self.ctx, top_level)? {
+            let grown = scene.set_instances(&self.ctx, top_level)?;
+            self.pass.instances_changed(scene);
+            if grown {
                 self.rebind();
             }
             self.triangle_total = top_level.triangle_slots();
@@ -238,11 +240,11 @@ impl ComputeTracer {
         self.pass.prepare_kernels_in_background();
     }
 
-    /// Make now the kernel that frames of `settings` run over a scene of `instances`
-    /// instances (None: not known yet), where it is one made on first use: `render` does
-    /// this beside the load and the BVH build, so its frame does not wait for it.
-    pub(crate) fn make_kernel_for(&self, settings: &RenderSettings, instances: Option<u32>) {
-        let one_instance = instances == Some(1);
+    /// Make now the kernel that frames of `settings` run over a scene that is one instance
+    /// (`TopLevel::is_one_instance`) or not, where it is one made on first use: `render`
+    /// does this beside the load and the BVH build, so its frame does not wait for it.
+    pub(crate) fn make_kernel_for(&self, settings: &RenderSettings, one_instance: bool) {
+        let one_instance = one_instance && settings.accel == Accel::Bvh;
         self.pass.make_kernel_now(trace_kernels::variant_for(settings), one_instance);
     }
 

@@ -4,7 +4,7 @@ use super::*;
 use crate::gpu::dispatch::GROUP_LANES;
 use crate::gpu::trace_kernels::Variant;
 use crate::gpu::ContextOptions;
-use crate::render_settings::{Aov, RenderSettings};
+use crate::render_settings::{Accel, Aov, RenderSettings};
 use crate::scene::paper::ModelSource;
 use crate::scene::primitives::PaperModel;
 use crate::scene::spec::SceneSpec;
@@ -20,10 +20,10 @@ impl ComputeTracer {
     }
 }
 
-/// A validated context and the paper's torus knot in its mirror box: two instances, so
-/// that frames run the kernels with the top level's walk.
-fn knot_in_the_box() -> (Arc<GpuContext>, Scene) {
-    knots(1, true)
+/// A validated context and two of the paper's torus knots in its mirror box: the top
+/// level's walk visits two instances, so frames run the kernels with the walk.
+fn knots_in_the_box() -> (Arc<GpuContext>, Scene) {
+    knots(2, true)
 }
 
 /// A validated context and `models` of the paper's torus knots, in the mirror box or not.
@@ -46,7 +46,7 @@ fn small_frame(scene: &Scene, bvh: BvhLayout) -> FrameParams {
 
 #[test]
 fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
-    let (ctx, scene) = knot_in_the_box();
+    let (ctx, scene) = knots_in_the_box();
     let mut tracer =
         ComputeTracer::with_scene(&ctx, &PackedScene::with_layouts(&scene, Layouts::Both)).unwrap();
     for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
@@ -63,7 +63,7 @@ fn wide_runs_frames_run_the_leaf_runs_kernel_made_on_first_use() {
 
 #[test]
 fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
-    let (ctx, scene) = knot_in_the_box();
+    let (ctx, scene) = knots_in_the_box();
     let mut packed = PackedScene::with_layouts(&scene, Layouts::Both);
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
     let (binary, _) = tracer.render(&small_frame(&scene, BvhLayout::Binary)).unwrap();
@@ -99,23 +99,42 @@ fn a_scene_of_one_instance_runs_the_one_instance_kernels_as_the_cpu_traces_it() 
         (BvhLayout::Wide, Aov::Cost, Variant::Wide),
         (BvhLayout::Binary, Aov::Ao, Variant::Full),
     ];
-    // A knot alone, then in the mirror box (two instances: the walk's kernels).
-    for mirror_box in [false, true] {
-        let (ctx, scene) = knots(1, mirror_box);
-        assert_eq!(scene.instances.len(), 1 + usize::from(mirror_box));
+    // A knot alone, a knot in the mirror box (a closed-box enclosure around one instance),
+    // from inside and from outside the box, then two knots in the box (the walk's kernels).
+    for (models, mirror_box, outside, one) in [
+        (1, false, false, true),
+        (1, true, false, true),
+        (1, true, true, true),
+        (2, true, false, false),
+    ] {
+        let (ctx, mut scene) = knots(models, mirror_box);
+        if outside {
+            scene.camera.position = glam::Vec3::new(6.0, 4.0, 10.0);
+        }
         let packed = PackedScene::with_layouts(&scene, Layouts::Both);
+        assert_eq!(packed.top_level.is_one_instance(), one);
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
         for (bvh, aov, variant) in cases {
             let settings = RenderSettings { aov, ..small_frame(&scene, bvh).settings };
             let frame = FrameParams::new(&scene, settings);
             let (gpu, _) = tracer.render(&frame).unwrap();
             let twin = tracer.pass.made_one_instance(variant);
-            assert_eq!(twin, !mirror_box, "{variant:?}'s one-instance twin for {aov:?}");
+            let name = format!("{} instances at {}", scene.instances.len(), scene.camera.position);
+            assert_eq!(twin, one, "{name}: {variant:?}'s one-instance twin for {aov:?}");
             let cpu = crate::tracer::cpu::render(&packed, &frame);
             let over = gpu.compare(&cpu, 1e-4).fraction_over;
-            assert!(over <= 0.002, "box {mirror_box}, {bvh:?} {aov:?}: GPU as CPU ({over})");
+            assert!(over <= 0.002, "{name}, {bvh:?} {aov:?}: GPU as CPU ({over})");
         }
-        assert_eq!(tracer.pass.made(Variant::Wide), mirror_box, "the wide kernel with the walk");
+        assert_eq!(tracer.pass.made(Variant::Wide), !one, "the wide kernel with the walk");
+        // Brute force visits every instance: not the twin's frames.
+        let brute = RenderSettings {
+            accel: Accel::Brute,
+            ..small_frame(&scene, BvhLayout::Binary).settings
+        };
+        let frame = FrameParams::new(&scene, brute);
+        let (gpu, _) = tracer.render(&frame).unwrap();
+        let cpu = crate::tracer::cpu::render(&packed, &frame);
+        assert!(gpu.compare(&cpu, 1e-4).fraction_over <= 0.002, "brute force, GPU as CPU");
         drop(tracer);
         assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
     }
@@ -123,7 +142,7 @@ fn a_scene_of_one_instance_runs_the_one_instance_kernels_as_the_cpu_traces_it() 
 
 #[test]
 fn kernels_made_in_the_background_serve_the_frames_that_need_them() {
-    let (ctx, scene) = knot_in_the_box();
+    let (ctx, scene) = knots_in_the_box();
     let mut tracer =
         ComputeTracer::with_scene(&ctx, &PackedScene::with_layouts(&scene, Layouts::Both)).unwrap();
     tracer.prepare_kernels_in_background();

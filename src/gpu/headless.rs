@@ -100,7 +100,7 @@ fn load_beside_device(
             if let Some(kernel) = on.vendor_kernel {
                 tracer.set_vendor_kernel(kernel)?;
             }
-            tracer.make_kernel_for(&spec.settings, spec.instance_count_before_loading());
+            tracer.make_kernel_for(&spec.settings, spec.is_one_instance_before_loading());
             log::debug!("{:.3} s: kernels made", clock.elapsed().as_secs_f64());
             Ok(tracer)
         });

@@ -37,6 +37,9 @@ pub struct SceneBuffers {
     pub(crate) environment: GpuBuffer,
     /// Instances currently uploaded.
     pub(crate) instance_count: u32,
+    /// Whether they are one instance, alone or in a closed-box enclosure
+    /// (`TopLevel::is_one_instance`).
+    pub(crate) one_instance: bool,
     /// Bytes of device memory the scene occupies.
     pub(crate) bytes: u64,
     /// Whether every mesh with triangles has a wide tree, so that wide frames may run the
@@ -202,6 +205,7 @@ impl SceneBuffers {
             texture_infos,
             environment,
             instance_count: 0,
+            one_instance: false,
             bytes: 0,
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
         };
@@ -274,6 +278,7 @@ impl SceneBuffers {
         self.instances.upload(records)?;
         self.top_nodes.upload(nodes)?;
         self.instance_count = top.instances.len() as u32;
+        self.one_instance = top.is_one_instance();
         Ok(grown)
     }
 }

@@ -91,6 +91,15 @@ impl Variant {
     }
 }
 
+/// Whether a frame of `pc` over a scene that is one instance or not runs a `ONE_INSTANCE`
+/// twin: a scene of one instance alone (the instance count as the shader reads it), or
+/// of one in a closed-box enclosure when traced through the BVH (the twin's brute force
+/// visits the first instance only).
+pub(crate) fn runs_one_instance(pc: &PushConstants, one_instance: bool) -> bool {
+    let (instances, bvh) = (pc.misc[0], pc.dims[3] & contract::FLAG_BVH != 0);
+    one_instance && (instances == 1 || (instances > 1 && bvh))
+}
+
 /// The kernel for a frame of these push-constant flags (`PushConstants::dims[3]`) over a
 /// scene whose every mesh has a wide tree or not (a mesh without one needs the binary
 /// traversal, which the wide kernel lacks).
@@ -155,17 +164,18 @@ impl KernelVariants {
         })
     }
 
-    /// The pipeline for a frame of `pc` (`full`: the pass's full kernel); a kernel not made
-    /// yet is made now, or waited for if a background thread is making it.
+    /// The pipeline for a frame of `pc` (`full`: the pass's full kernel) over a scene that
+    /// is one instance or not (`TopLevel::is_one_instance`); a kernel not made yet is made
+    /// now, or waited for if a background thread is making it.
     pub(crate) fn for_frame(
         &self,
         pc: &PushConstants,
         every_mesh_wide: bool,
+        one_instance: bool,
         full: vk::Pipeline,
     ) -> vk::Pipeline {
         let v = variant(pc.dims[3], every_mesh_wide);
-        // The instance count of the frame's scene, as the shader reads it.
-        let one_instance = pc.misc[0] == 1;
+        let one_instance = runs_one_instance(pc, one_instance);
         self.made_for(v, one_instance).unwrap_or(match v {
             Variant::Core => self.core,
             _ => full,

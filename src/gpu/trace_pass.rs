@@ -273,6 +273,8 @@ pub(crate) struct TracePass {
     variants: Option<KernelVariants>,
     /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
     every_mesh_wide: AtomicBool,
+    /// Whether the bound scene is one instance (`SceneBuffers::one_instance`).
+    one_instance: AtomicBool,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
@@ -311,6 +313,7 @@ impl TracePass {
             pipeline,
             variants,
             every_mesh_wide: AtomicBool::new(false),
+            one_instance: AtomicBool::new(false),
             layout,
             set_layout,
             pool,
@@ -407,6 +410,13 @@ impl TracePass {
         );
         write_set(&self.ctx, self.set, scene, output, vendor);
         self.every_mesh_wide.store(scene.every_mesh_wide, Ordering::Relaxed);
+        self.instances_changed(scene);
+    }
+
+    /// Note the bound scene's new top level (`SceneBuffers::set_instances`): whether it is
+    /// one instance picks the kernels of the frames to come.
+    pub(crate) fn instances_changed(&self, scene: &SceneBuffers) {
+        self.one_instance.store(scene.one_instance, Ordering::Relaxed);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
@@ -466,9 +476,12 @@ impl TracePass {
             "a band finer than a group is one group: {band:?}"
         );
         let pipeline = match &self.variants {
-            Some(variants) => {
-                variants.for_frame(pc, self.every_mesh_wide.load(Ordering::Relaxed), self.pipeline)
-            }
+            Some(variants) => variants.for_frame(
+                pc,
+                self.every_mesh_wide.load(Ordering::Relaxed),
+                self.one_instance.load(Ordering::Relaxed),
+                self.pipeline,
+            ),
             None => self.pipeline,
         };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set

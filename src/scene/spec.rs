@@ -150,14 +150,13 @@ impl Default for SceneSpec {
 }
 
 impl SceneSpec {
-    /// The scene's instance count where it is known before the model is loaded: a model
-    /// made in code or read from an OBJ or PLY file is one mesh, whose copies and mirror
-    /// box are the instances; a glTF file's nodes, and placed objects, are known only then.
-    pub(crate) fn instance_count_before_loading(&self) -> Option<u32> {
-        if matches!(&self.model, ModelSource::File(p) if is_gltf(p)) || !self.objects.is_empty() {
-            return None;
-        }
-        Some(self.models + u32::from(self.mirror_box))
+    /// Whether the scene will be one instance (alone or in the mirror box, its closed-box
+    /// enclosure: `TopLevel::is_one_instance`), as far as is known before the model is
+    /// loaded: one copy of a model made in code or read from an OBJ or PLY file, which is
+    /// one mesh; a glTF file's nodes, and placed objects, are known only then (false).
+    pub(crate) fn is_one_instance_before_loading(&self) -> bool {
+        let gltf = matches!(&self.model, ModelSource::File(p) if is_gltf(p));
+        self.models == 1 && !gltf && self.objects.is_empty()
     }
 
     /// Check the settings and the camera; the error is one sentence naming the knob.
@@ -316,22 +315,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_instance_count_is_known_before_loading_only_for_one_mesh_models() {
+    fn one_instance_is_known_before_loading_for_one_copy_of_one_mesh() {
         let knot = ModelSource::Generated(1000);
-        for (models, mirror_box) in [(1, true), (1, false), (27, true)] {
+        for (models, mirror_box) in [(1, true), (1, false), (2, false), (27, true)] {
             let spec = SceneSpec { model: knot.clone(), models, mirror_box, ..Default::default() };
-            let counted = spec.instance_count_before_loading();
-            assert_eq!(counted, Some(spec.load().unwrap().0.instances.len() as u32));
+            let (scene, _) = spec.load().unwrap();
+            let packed = crate::tracer::PackedScene::new(&scene);
+            let want = packed.top_level.is_one_instance();
+            assert_eq!(spec.is_one_instance_before_loading(), want, "{models}, box {mirror_box}");
         }
         let file = |name: &str| ModelSource::File(name.into());
-        let at = |model| SceneSpec { model, ..Default::default() }.instance_count_before_loading();
-        assert_eq!(at(file("a.OBJ")), Some(2));
-        assert_eq!(at(file("a.ply")), Some(2));
-        assert_eq!(at(file("scene.glb")), None, "a glTF file's nodes");
-        assert_eq!(at(file("scene.GLTF")), None);
+        let at = |model| SceneSpec { model, ..Default::default() }.is_one_instance_before_loading();
+        assert!(at(file("a.OBJ")) && at(file("a.ply")));
+        assert!(!at(file("scene.glb")), "a glTF file's nodes");
+        assert!(!at(file("scene.GLTF")));
         let object = ObjectSpec { model: knot.clone(), placement: Placement::default() };
         let spec = SceneSpec { model: knot, objects: vec![object], ..Default::default() };
-        assert_eq!(spec.instance_count_before_loading(), None, "placed objects");
+        assert!(!spec.is_one_instance_before_loading(), "placed objects");
     }
 
     #[test]

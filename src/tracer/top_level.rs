@@ -156,6 +156,14 @@ impl TopLevel {
         EnclosureRecord::of(&self.nodes).map(EnclosureRecord::instance)
     }
 
+    /// Whether the scene is one instance, or one inside an enclosure that is a closed box:
+    /// BVH frames of either run the `ONE_INSTANCE` kernels, which visit one instance
+    /// outside any walk.
+    pub(crate) fn is_one_instance(&self) -> bool {
+        let closed = EnclosureRecord::of(&self.nodes).and_then(EnclosureRecord::closed_box);
+        self.instances.len() == 1 || (self.instances.len() == 2 && closed.is_some())
+    }
+
     /// Triangle slots over all instances (each instance's mesh counted again).
     pub fn triangle_slots(&self) -> u64 {
         self.instances.iter().map(|i| self.meshes[i.mesh as usize].triangle_count as u64).sum()
@@ -259,8 +267,8 @@ enum Stop {
 pub(crate) enum Target<'a> {
     /// An instance, through its mesh.
     Instance(u32),
-    /// The enclosure, as a closed box: `None` from the caller (no closed box, or a ray
-    /// from outside it) has it visited as an instance instead.
+    /// The enclosure, as a closed box: `None` from the caller (no closed box) has it
+    /// visited as an instance instead.
     ClosedBox(&'a EnclosureRecord),
 }
 

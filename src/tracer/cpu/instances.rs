@@ -78,8 +78,8 @@ impl CpuScene<'_> {
 
     /// The enclosure of `record` tested as a closed box (the shader's `closed_box_hit`):
     /// from inside, the two triangles of the face the ray leaves by (all twelve where
-    /// rounding lets the ray slip between them). None where it is no closed box or the ray
-    /// starts outside it; Some(None) for no hit in (0, t_max).
+    /// rounding lets the ray slip between them, or from outside). None where it is no
+    /// closed box; Some(None) for no hit in (0, t_max).
     fn closed_box_hit(
         &self,
         record: &EnclosureRecord,
@@ -91,10 +91,27 @@ impl CpuScene<'_> {
         let inst = &self.packed.top_level.instances[record.instance() as usize];
         let (min, max) = (closed.bounds.min, closed.bounds.max);
         let origin = inst.point_to_object(ray.origin);
-        if origin.cmplt(min).any() || origin.cmpgt(max).any() {
-            return None;
-        }
         let dir = inst.vector_to_object(ray.dir);
+        let local = Ray::new(origin, dir);
+        let base = inst.triangle_base as usize;
+        let mut best = None;
+        let mut test = |k: usize| {
+            let [v0, e1, e2] = self.edges[base + k];
+            let t = best.as_ref().map_or(t_max, |b: &SceneHit| b.t);
+            if let Some(h) = intersect_triangle(&local, v0, e1, e2, 0.0, t) {
+                let triangle = (base + k) as u32;
+                best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle, instance: 0 });
+            }
+            best.is_some()
+        };
+        if origin.cmplt(min).any() || origin.cmpgt(max).any() {
+            // From outside: all twelve, as the shader's brute force.
+            for k in 0..12 {
+                test(k);
+            }
+            stats.triangles += 12;
+            return Some(best);
+        }
         let up = dir.cmpge(Vec3::ZERO);
         let t3 = (Vec3::select(up, max, min) - origin) * safe_inverse(dir);
         let axis = if t3.x <= t3.y && t3.x <= t3.z {
@@ -108,18 +125,6 @@ impl CpuScene<'_> {
             return Some(None); // the wall lies beyond
         }
         let face = 2 * axis + usize::from(up.test(axis));
-        let local = Ray::new(origin, dir);
-        let base = inst.triangle_base as usize;
-        let mut best = None;
-        let mut test = |k: usize| {
-            let [v0, e1, e2] = self.edges[base + k];
-            let t = best.as_ref().map_or(t_max, |b: &SceneHit| b.t);
-            if let Some(h) = intersect_triangle(&local, v0, e1, e2, 0.0, t) {
-                let triangle = (base + k) as u32;
-                best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle, instance: 0 });
-            }
-            best.is_some()
-        };
         let hits = closed.faces[face].map(|k| test(usize::from(k)));
         stats.triangles += 2;
         if hits == [false; 2] {
