@@ -28,6 +28,7 @@ pub(crate) fn find(meshes: &[MeshPlace], instances: &[Instance], boxes: &[Aabb])
     if instances.len() < 2 {
         return None;
     }
+    // On one thread: tens of microseconds for 10,000 boxes, less than waking the pool.
     let all = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
     instances.iter().zip(boxes).position(|(inst, b)| {
         let count = meshes[inst.mesh].triangle_count;
@@ -149,7 +150,8 @@ impl EnclosureRecord {
 /// left child is the enclosure (its world box, count [`TOP_ENCLOSURE`], and the index of
 /// its `record`, the last node) and whose right is `tree_over`'s tree over the others
 /// (their one leaf, for one). `tree_over(boxes, names)` builds a tree whose leaves name
-/// `names[k]` for `boxes[k]`.
+/// `names[k]` for `boxes[k]`. That tree's root moves to the end, so that no other node's
+/// index changes (no node names the root).
 pub(crate) fn tree_around(
     boxes: &[Aabb],
     enclosure: usize,
@@ -158,26 +160,16 @@ pub(crate) fn tree_around(
 ) -> Vec<BvhNode> {
     let others: Vec<u32> = (0..boxes.len() as u32).filter(|&i| i as usize != enclosure).collect();
     let other_boxes: Vec<Aabb> = others.iter().map(|&i| boxes[i as usize]).collect();
-    let below = tree_over(&other_boxes, &others);
-    let [first, second] = below[0].children();
-    let mut nodes = Vec::with_capacity(below.len() + 2);
-    let right = if below.len() == 1 && second.is_empty() {
+    let mut nodes = tree_over(&other_boxes, &others);
+    let below = nodes[0];
+    let [first, second] = below.children();
+    let right = if nodes.len() == 1 && second.is_empty() {
         first
     } else {
-        BvhChild { bounds: first.bounds.union(second.bounds), index: 1, count: 0 }
+        nodes.push(below);
+        let bounds = first.bounds.union(second.bounds);
+        BvhChild { bounds, index: nodes.len() as u32 - 1, count: 0 }
     };
-    nodes.push(BvhNode::new(BvhChild::EMPTY, right));
-    if !right.is_leaf() {
-        nodes.extend(below.into_iter().map(|node| {
-            let children = node.children().map(|mut c| {
-                if c.is_inner() {
-                    c.index += 1;
-                }
-                c
-            });
-            BvhNode::new(children[0], children[1])
-        }));
-    }
     let left =
         BvhChild { bounds: boxes[enclosure], index: nodes.len() as u32, count: TOP_ENCLOSURE };
     nodes[0] = BvhNode::new(left, right);
