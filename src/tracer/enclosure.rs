@@ -13,7 +13,6 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::top_level::MeshPlace;
 use crate::bvh::{BvhChild, BvhNode};
 use crate::contract::{EMPTY, TOP_ENCLOSURE};
 use crate::geometry::Aabb;
@@ -22,16 +21,20 @@ use crate::scene::Instance;
 /// Most triangles an enclosure may have (the paper's mirror box has 12).
 pub(crate) const ENCLOSURE_TRIANGLES: u32 = 16;
 
-/// The first instance of a mesh of at most [`ENCLOSURE_TRIANGLES`] whose world box (of
-/// `boxes`) holds every other instance's, in a scene of two or more.
-pub(crate) fn find(meshes: &[MeshPlace], instances: &[Instance], boxes: &[Aabb]) -> Option<usize> {
+/// The first instance of a mesh of at most [`ENCLOSURE_TRIANGLES`] (`triangles(mesh)`)
+/// whose world box (of `boxes`) holds every other instance's, in a scene of two or more.
+pub(crate) fn find(
+    instances: &[Instance],
+    boxes: &[Aabb],
+    triangles: impl Fn(usize) -> u32,
+) -> Option<usize> {
     if instances.len() < 2 {
         return None;
     }
     // On one thread: tens of microseconds for 10,000 boxes, less than waking the pool.
     let all = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
     instances.iter().zip(boxes).position(|(inst, b)| {
-        let count = meshes[inst.mesh].triangle_count;
+        let count = triangles(inst.mesh);
         (1..=ENCLOSURE_TRIANGLES).contains(&count) && b.contains(&all)
     })
 }

@@ -134,7 +134,8 @@ impl TopLevel {
                 (record(mesh, inst.mesh as u32, inst), b)
             })
             .unzip();
-        let enclosure = enclosure::find(meshes, instances, &boxes)
+        let triangles = |mesh: usize| meshes[mesh].triangle_count;
+        let enclosure = enclosure::find(instances, &boxes, triangles)
             .map(|e| (e, EnclosureRecord::new(e as u32, meshes[instances[e].mesh].closed_box)));
         let meshes = meshes
             .iter()
