@@ -1,9 +1,9 @@
 //! The CPU tracer's walk over the instances: the top level, then each instance's mesh in
 //! its own space (the shader's `trace_instances` and `visit_instance`).
 
-use super::{CpuScene, SceneHit};
 use glam::Vec3;
 
+use super::{CpuScene, SceneHit};
 use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
 use crate::contract::EMPTY;
