@@ -258,9 +258,8 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
     vec3 ld = vector_to_object(inst, d);
     uint first = inst.offsets.y;
     uint before = hit.tri;
-    if (any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz))) {
-        brute_force(lo, ld, first, 12u, false, hit, cost);  // from outside
-    } else {
+    bool all = any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz));
+    if (!all) {
         bvec3 up = greaterThanEqual(ld, vec3(0.0));
         vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
         uint axis = (t3.x <= t3.y && t3.x <= t3.z) ? 0u : (t3.y <= t3.z ? 1u : 2u);
@@ -271,7 +270,14 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
         intersect_triangle(lo, ld, first + (pair & 15u), hit);
         intersect_triangle(lo, ld, first + ((pair >> 4u) & 15u), hit);
         cost.y += 2u;
-        if (hit.tri == before) brute_force(lo, ld, first, 12u, false, hit, cost);
+        all = hit.tri == before;
+    }
+    // From outside, or slipped between the face's triangles: all twelve, in order (a plain
+    // loop: lavapipe's compiler takes minutes over a kernel with more inlined copies of
+    // brute_force's unrolled one).
+    if (all) {
+        for (uint k = 0u; k < 12u; k++) intersect_triangle(lo, ld, first + k, hit);
+        cost.y += 12u;
     }
     if (hit.tri != before) {
         hit.instance = i;
