@@ -84,7 +84,8 @@ fn covers_face(a: &[Vec3; 3], b: &[Vec3; 3], bounds: &Aabb, axis: usize) -> bool
     };
     let mut used: Vec<Vec3> = a.iter().chain(b).copied().collect();
     let shared = a.iter().filter(|p| b.contains(p)).count();
-    used.sort_by(|p, q| p.to_array().partial_cmp(&q.to_array()).unwrap());
+    // total_cmp: a NaN corner must not panic the sort (it is no corner, so no closed box).
+    used.sort_by(|p, q| (p.x.total_cmp(&q.x)).then(p.y.total_cmp(&q.y)).then(p.z.total_cmp(&q.z)));
     used.dedup();
     a.iter().chain(b).all(is_corner) && used.len() == 4 && shared == 2
 }
