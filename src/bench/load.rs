@@ -76,7 +76,12 @@ impl LoadRow {
 /// Load `spec`'s model into `spec`'s scene as the window's loader does ([`LoadedScene::load`]:
 /// read, parse, build, pack, each timed by a [`Progress`]), upload it to `tracer` and trace one
 /// frame at `spec`'s settings. The peak memory counts from the start of this call.
-pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<LoadRow> {
+/// `node_limit` is the device's storage-buffer range ([`LoadedScene::load`]).
+pub fn measure(
+    spec: &SceneSpec,
+    tracer: &mut ComputeTracer,
+    node_limit: Option<u64>,
+) -> anyhow::Result<LoadRow> {
     spec.validate().map_err(anyhow::Error::msg)?;
     spec.model.check_name().map_err(anyhow::Error::msg)?;
     let file_bytes = match &spec.model {
@@ -87,7 +92,7 @@ pub fn measure(spec: &SceneSpec, tracer: &mut ComputeTracer) -> anyhow::Result<L
     let progress = Progress::default();
     progress.track_peak_memory();
     let start = Instant::now();
-    let loaded = LoadedScene::load(spec, &progress)?;
+    let loaded = LoadedScene::load(spec, &progress, node_limit)?;
     let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
     // The tree's quality is summed between two phases and its time taken off the wait: the
     // window never computes it.

@@ -241,7 +241,8 @@ pub fn run(
             let limit = ctx.info.max_storage_buffer_range;
             crate::gpu::scene_buffers::check_before_build(&scene, &case.spec.model.label(), limit)
                 .map_err(anyhow::Error::msg)?;
-            let packed = PackedScene::with_layouts(&scene, Layouts::only(layout));
+            let packed =
+                PackedScene::with_layouts_within(&scene, Layouts::only(layout), Some(limit));
             for w in &packed.warnings {
                 log::warn!("{w}");
             }

@@ -356,13 +356,14 @@ pub fn run_loads(
     print_device(&env);
     println!("each model in the paper's mirror box at {size}x{size}, {bounces} bounces: phase times, the first frame's GPU time, read start to first frame, peak memory (and beyond the file's size, per triangle)");
     let mut tracer = crate::gpu::ComputeTracer::new(&ctx, 0)?;
+    let limit = ctx.info.max_storage_buffer_range;
     let mut rows = Vec::new();
     for name in models {
         for &layout in layouts {
             let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
             let s = &mut spec.settings;
             (s.width, s.height, s.bounces, s.bvh) = (size, size, bounces, layout);
-            let row = super::load::measure(&spec, &mut tracer);
+            let row = super::load::measure(&spec, &mut tracer, Some(limit));
             rows.push(row.map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?);
         }
     }

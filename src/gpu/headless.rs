@@ -180,7 +180,7 @@ fn pack(
             clock.elapsed().as_secs_f64()
         );
     }
-    let packed = PackedScene::with_layouts(scene, Layouts::only(spec.settings.bvh));
+    let packed = PackedScene::with_layouts_within(scene, Layouts::only(spec.settings.bvh), limit);
     if shows_progress() {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }

@@ -323,7 +323,7 @@ mod tests {
         mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
         let scene = paper_scene(mesh, 2, LightOrbit::default());
         let full = PackedScene::new(&scene);
-        let loaded = LoadedScene::pack(scene, Layouts::Binary, &Progress::default()).unwrap();
+        let loaded = LoadedScene::pack(scene, Layouts::Binary, &Progress::default(), None).unwrap();
         assert!(
             loaded.tables().triangles.is_empty() && loaded.tables().shading.is_empty(),
             "nothing of them on the host"

@@ -32,22 +32,29 @@ impl LoadedScene {
     /// (with the binary trees beside wide ones: the window switches), reporting the read,
     /// parse, build and pack phases to `progress` and stopping before the next once
     /// cancelled. The error is one sentence.
-    pub fn load(spec: &SceneSpec, progress: &Progress) -> Result<Self, LoadError> {
+    pub fn load(
+        spec: &SceneSpec,
+        progress: &Progress,
+        node_limit: Option<u64>,
+    ) -> Result<Self, LoadError> {
         let (model, others, warnings) = spec.load_models(Some(progress))?;
         let scene = spec.scene_of(model, &others);
-        let mut loaded = Self::pack(scene, Layouts::switchable(spec.settings.bvh), progress)?;
+        let layouts = Layouts::switchable(spec.settings.bvh);
+        let mut loaded = Self::pack(scene, layouts, progress, node_limit)?;
         loaded.warnings.splice(0..0, warnings);
         Ok(loaded)
     }
 
-    /// The build and pack phases of [`LoadedScene::load`], on a scene already made.
+    /// The build and pack phases of [`LoadedScene::load`], on a scene already made; with
+    /// `node_limit` as [`PackedScene::with_layouts_within`] takes it.
     pub(crate) fn pack(
         scene: Scene,
         layouts: Layouts,
         progress: &Progress,
+        node_limit: Option<u64>,
     ) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
-        let prepared = PreparedScene::new(&scene, layouts);
+        let prepared = PreparedScene::new(&scene, layouts, node_limit);
         progress.begin(Phase::Pack)?;
         let (mut packed, orders) = PackedScene::pack_tables(&scene, prepared, layouts);
         let warnings = std::mem::take(&mut packed.warnings);

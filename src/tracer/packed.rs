@@ -106,7 +106,14 @@ impl PackedScene {
     /// Prepare (build every mesh's BVH in `layouts`, decode textures and the environment)
     /// and pack `scene`.
     pub fn with_layouts(scene: &Scene, layouts: Layouts) -> Self {
-        let prepared = PreparedScene::new(scene, layouts);
+        Self::with_layouts_within(scene, layouts, None)
+    }
+
+    /// [`PackedScene::with_layouts`] for a device whose storage buffers span at most
+    /// `node_limit` bytes: a mesh whose wide tree would take the node buffer past it traces
+    /// its binary tree (a warning says so).
+    pub fn with_layouts_within(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
+        let prepared = PreparedScene::new(scene, layouts, node_limit);
         let (mut packed, orders) = Self::pack_tables(scene, prepared, layouts);
         packed.write_triangles(scene, orders);
         packed

@@ -89,7 +89,7 @@ fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
     let progress = Progress::default();
     for layouts in [Layouts::Binary, Layouts::Both] {
         let full = PackedScene::with_layouts(&scene, layouts);
-        let loaded = LoadedScene::pack(scene.clone(), layouts, &progress).unwrap();
+        let loaded = LoadedScene::pack(scene.clone(), layouts, &progress, None).unwrap();
         assert_eq!(loaded.triangle_count(), full.triangles.len());
         assert_eq!(loaded.buffer_sizes(), full.buffer_sizes());
         for k in 0..full.triangles.len() {
@@ -132,4 +132,48 @@ fn layouts_hold_what_their_frames_trace() {
     assert_eq!(Layouts::only(BvhLayout::Wide), Layouts::Wide);
     assert_eq!(Layouts::switchable(BvhLayout::Wide), Layouts::Both);
     assert_eq!(Layouts::switchable(BvhLayout::Binary), Layouts::Binary);
+}
+
+#[test]
+fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
+    use crate::render_settings::RenderSettings;
+    use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
+    use crate::scene::primitives::PaperModel;
+    use crate::tracer::FrameParams;
+    let mut mesh = PaperModel::TorusKnot.mesh();
+    prepare_mesh(&mut mesh);
+    let scene = paper_scene(mesh, 1, LightOrbit::default());
+    let frame = |bvh| {
+        let settings =
+            RenderSettings { width: 24, height: 24, bounces: 1, bvh, ..Default::default() };
+        FrameParams::new(&scene, settings)
+    };
+    let binary = PackedScene::with_layouts(&scene, Layouts::Binary);
+    let reference = crate::tracer::cpu::render(&binary, &frame(BvhLayout::Binary));
+    for layouts in [Layouts::Wide, Layouts::Both] {
+        let whole = PackedScene::with_layouts(&scene, layouts);
+        // A limit the whole node buffer meets keeps every wide tree, silently.
+        let exact =
+            PackedScene::with_layouts_within(&scene, layouts, Some(whole.nodes_bytes() as u64));
+        assert!(exact.has_wide() && exact.warnings.is_empty(), "{layouts:?}: {:?}", exact.warnings);
+        assert_eq!(exact.nodes_bytes(), whole.nodes_bytes());
+        // One byte less: the last wide tree (the mirror box's) no longer fits, the model's
+        // still does.
+        let limit = whole.nodes_bytes() as u64 - 1;
+        let short = PackedScene::with_layouts_within(&scene, layouts, Some(limit));
+        assert_eq!(short.meshes.iter().map(|m| m.has_wide).collect::<Vec<_>>(), [true, false]);
+        assert_eq!(short.warnings.len(), 1, "{:?}", short.warnings);
+        assert!(short.warnings[0].contains("mirror box"), "{}", short.warnings[0]);
+        // No room for any wide tree: every mesh traces its binary tree, wide frames too,
+        // and each mesh is named once.
+        let none = PackedScene::with_layouts_within(&scene, layouts, Some(1));
+        assert!(!none.has_wide() && none.has_binary(), "{layouts:?}");
+        assert_eq!(none.traced_layout(BvhLayout::Wide), BvhLayout::Binary);
+        assert_eq!(none.warnings.len(), scene.meshes.len(), "{:?}", none.warnings);
+        assert!(none.warnings[0].contains("storage-buffer range"), "{}", none.warnings[0]);
+        for packed in [&short, &none] {
+            let image = crate::tracer::cpu::render(packed, &frame(BvhLayout::Wide));
+            assert!(image.compare(&reference, 1e-4).fraction_over <= 0.002, "{layouts:?}");
+        }
+    }
 }

@@ -69,8 +69,10 @@ pub(crate) struct PreparedScene {
 
 impl PreparedScene {
     /// Build the BVHs (and, where `layouts` holds the wide one, collapse each into it) and
-    /// decode the images `scene` needs.
-    pub(crate) fn new(scene: &Scene, layouts: Layouts) -> Self {
+    /// decode the images `scene` needs. With `node_limit` (the device's storage-buffer
+    /// range), a wide tree that would take the node buffer past it is dropped: its mesh
+    /// traces the binary tree, and a warning says so.
+    pub(crate) fn new(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
         let wide = layouts.builds_wide();
         let (bvhs, textures) = rayon::join(
             || {
@@ -100,11 +102,55 @@ impl PreparedScene {
             },
             || decode_textures(scene),
         );
-        let ((bvhs, wide_bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
+        let ((bvhs, mut wide_bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
+        if let Some(limit) = node_limit {
+            warnings.extend(fit_node_buffer(scene, &bvhs, &mut wide_bvhs, layouts, limit));
+        }
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
         Self { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds }
     }
+}
+
+/// Drops the wide trees that would take the node buffer past `limit` bytes, in mesh order,
+/// and says which. The buffer holds, for each mesh, its wide nodes and (with
+/// [`Layouts::Both`], or where it has no wide tree) its binary nodes; a mesh whose wide tree
+/// is dropped keeps its binary tree, which binary and wide frames then trace. (The 100M-
+/// triangle torus knot's wide tree is 4.37 GB, past the 4 GiB an NVIDIA storage buffer may
+/// span; its binary tree is 3.2 GB.) What still does not fit is refused at the upload.
+fn fit_node_buffer(
+    scene: &Scene,
+    bvhs: &[Bvh],
+    wide_bvhs: &mut [Option<WideBvh>],
+    layouts: Layouts,
+    limit: u64,
+) -> Vec<String> {
+    let bytes = |nodes: usize, size: usize| (nodes * size) as u64;
+    let mut used = 0u64;
+    let mut warnings = Vec::new();
+    for ((mesh, bvh), wide) in scene.meshes.iter().zip(bvhs).zip(wide_bvhs.iter_mut()) {
+        let binary = bytes(bvh.nodes.len(), std::mem::size_of::<crate::bvh::BvhNode>());
+        let Some(w) = wide.as_ref() else {
+            used += binary;
+            continue;
+        };
+        let wide_bytes = bytes(w.nodes.len(), std::mem::size_of::<wide::WideNode>());
+        let with_wide = wide_bytes + if layouts == Layouts::Both { binary } else { 0 };
+        if used + with_wide <= limit {
+            used += with_wide;
+            continue;
+        }
+        warnings.push(format!(
+            "{}: its wide BVH would take the BVH nodes to {:.2} GB, past the device's \
+             storage-buffer range ({:.2} GB), so its binary BVH is traced instead",
+            mesh.name,
+            (used + with_wide) as f64 / 1e9,
+            limit as f64 / 1e9,
+        ));
+        *wide = None;
+        used += binary;
+    }
+    warnings
 }
 
 /// Decode every textured material's diffuse texture (in parallel), files read from disk and

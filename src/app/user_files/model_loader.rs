@@ -142,7 +142,8 @@ fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<Loade
         check_before_build(&world, &spec.model.label(), limit)?;
     }
     let layouts = Layouts::switchable(spec.settings.bvh);
-    let mut scene = LoadedScene::pack(world, layouts, &progress).map_err(|e| e.to_string())?;
+    let mut scene =
+        LoadedScene::pack(world, layouts, &progress, limit).map_err(|e| e.to_string())?;
     scene.warnings.splice(0..0, warnings);
     progress.checkpoint().map_err(|e| e.to_string())?;
     // The pack phase ends here, not when the window takes the model: the first frame's
