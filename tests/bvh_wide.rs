@@ -548,3 +548,38 @@ fn framed_knot_statistics_with_both_trees_agreeing() {
         }
     }
 }
+
+#[test]
+fn a_collapse_within_a_node_count_knows_the_count_before_making_any_node() {
+    // Leaves of 2 (the tracers'), of 8 and 30 (split into pieces, some their own nodes),
+    // and a 60k knot (its subtrees counted on every core).
+    let knot = meshtracer::scene::primitives::large_torus_knot(60_000);
+    let knot: Vec<[Vec3; 3]> = (0..knot.triangle_count()).map(|i| knot.corners(i)).collect();
+    let soup = soup(&mut Rng(9), 2000, 5.0, 0.8);
+    for (name, tris, leaf) in
+        [("knot", &knot, 2), ("soup", &soup, 2), ("soup", &soup, 8), ("soup", &soup, 30)]
+    {
+        let options = BuildOptions { max_leaf_size: leaf, ..BuildOptions::default() };
+        let built = Bvh::build(tris, &options);
+        let made = wide::collapse(&mut built.clone()).nodes.len();
+        // One node short: refused with the count, the binary tree untouched.
+        let mut bvh = built.clone();
+        assert_eq!(
+            wide::collapse_within(&mut bvh, made - 1).map(|w| w.nodes.len()),
+            Err(made),
+            "{name}, leaves of {leaf}"
+        );
+        assert_eq!(bvh.prim_indices, built.prim_indices);
+        assert_eq!(bvh.nodes.len(), built.nodes.len());
+        // Room for exactly that many: the same tree as without a limit.
+        let mut bvh = built.clone();
+        let within = wide::collapse_within(&mut bvh, made).expect("fits");
+        let mut plain = built.clone();
+        let all = wide::collapse(&mut plain);
+        assert_eq!(within.nodes.len(), made);
+        assert!(within.nodes == all.nodes, "{name}, leaves of {leaf}");
+        assert_eq!(bvh.prim_indices, plain.prim_indices);
+    }
+    // An empty tree fits any room, even none.
+    assert_eq!(wide::collapse_within(&mut Bvh::default(), 0).map(|w| w.nodes.len()), Ok(0));
+}

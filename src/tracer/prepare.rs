@@ -77,80 +77,98 @@ impl PreparedScene {
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                // With `wide`, both trees (a packing may keep either or both): the wide tree is
-                // collapsed from the binary one, whose triangles it puts in its own leaf
-                // order. Only on request: the collapse takes as long as the build.
-                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = scene
-                    .meshes
-                    .iter()
-                    .map(|mesh| {
-                        let options = BuildOptions::for_tracing(mesh.triangle_count());
-                        let mut bvh = Bvh::build_indexed(
-                            mesh.triangle_count(),
-                            |i| mesh.corners(i),
-                            &options,
-                        );
-                        // A tree whose traversal could overflow the shader's stack (none of
-                        // the meshes measured comes near) keeps the binary layout alone.
-                        let wide = wide
-                            .then(|| wide::collapse(&mut bvh))
-                            .filter(|w| w.stack_need() <= wide::STACK_SIZE);
-                        (bvh, wide)
-                    })
-                    .unzip();
-                (bvhs, wide_bvhs, start.elapsed().as_secs_f64())
+                let mut budget = NodeBudget { layouts, limit: node_limit, used: 0 };
+                let mut warnings = Vec::new();
+                let mut trees = Vec::with_capacity(scene.meshes.len());
+                for mesh in &scene.meshes {
+                    let options = BuildOptions::for_tracing(mesh.triangle_count());
+                    let mut bvh =
+                        Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
+                    // With `wide`, both trees (a packing may keep either or both): the wide
+                    // tree is collapsed from the binary one, whose triangles it puts in its
+                    // own leaf order. Only on request (the collapse takes as long as the
+                    // build) and where it fits. A tree whose traversal could overflow the
+                    // shader's stack (none of the meshes measured comes near) keeps the
+                    // binary layout alone.
+                    let wide_bvh = if wide {
+                        let room = budget.wide_room(&bvh);
+                        match wide::collapse_within(&mut bvh, room) {
+                            Ok(w) => Some(w).filter(|w| w.stack_need() <= wide::STACK_SIZE),
+                            Err(nodes) => {
+                                warnings.push(budget.refusal(mesh, &bvh, nodes));
+                                None
+                            }
+                        }
+                    } else {
+                        None
+                    };
+                    budget.place(&bvh, wide_bvh.as_ref());
+                    trees.push((bvh, wide_bvh));
+                }
+                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = trees.into_iter().unzip();
+                (bvhs, wide_bvhs, warnings, start.elapsed().as_secs_f64())
             },
             || decode_textures(scene),
         );
-        let ((bvhs, mut wide_bvhs, bvh_build_seconds), (textures, mut warnings)) = (bvhs, textures);
-        if let Some(limit) = node_limit {
-            warnings.extend(fit_node_buffer(scene, &bvhs, &mut wide_bvhs, layouts, limit));
-        }
+        let ((bvhs, wide_bvhs, budget_warnings, bvh_build_seconds), (textures, mut warnings)) =
+            (bvhs, textures);
+        warnings.extend(budget_warnings);
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
         Self { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds }
     }
 }
 
-/// Drops the wide trees that would take the node buffer past `limit` bytes, in mesh order,
-/// and says which. The buffer holds, for each mesh, its wide nodes and (with
-/// [`Layouts::Both`], or where it has no wide tree) its binary nodes; a mesh whose wide tree
-/// is dropped keeps its binary tree, which binary and wide frames then trace. (The 100M-
-/// triangle torus knot's wide tree is 4.37 GB, past the 4 GiB an NVIDIA storage buffer may
-/// span; its binary tree is 3.2 GB.) What still does not fit is refused at the upload.
-fn fit_node_buffer(
-    scene: &Scene,
-    bvhs: &[Bvh],
-    wide_bvhs: &mut [Option<WideBvh>],
+/// The BVH node buffer's bytes so far, mesh by mesh, against the device's storage-buffer
+/// range: which wide trees it can hold. For each mesh it holds the wide nodes and (with
+/// [`Layouts::Both`], or where the mesh has no wide tree) the binary nodes; a mesh whose
+/// wide tree would pass the range keeps its binary tree, which binary and wide frames then
+/// trace. (The 100M-triangle torus knot's binary tree is 3.7 GB and its wide tree fits the
+/// 4 GiB an NVIDIA storage buffer may span, but not both, as the window keeps them.) What
+/// still does not fit is refused at the upload.
+struct NodeBudget {
     layouts: Layouts,
-    limit: u64,
-) -> Vec<String> {
-    let bytes = |nodes: usize, size: usize| (nodes * size) as u64;
-    let mut used = 0u64;
-    let mut warnings = Vec::new();
-    for ((mesh, bvh), wide) in scene.meshes.iter().zip(bvhs).zip(wide_bvhs.iter_mut()) {
-        let binary = bytes(bvh.nodes.len(), std::mem::size_of::<crate::bvh::BvhNode>());
-        let Some(w) = wide.as_ref() else {
-            used += binary;
-            continue;
-        };
-        let wide_bytes = bytes(w.nodes.len(), std::mem::size_of::<wide::WideNode>());
-        let with_wide = wide_bytes + if layouts == Layouts::Both { binary } else { 0 };
-        if used + with_wide <= limit {
-            used += with_wide;
-            continue;
+    limit: Option<u64>,
+    used: u64,
+}
+
+impl NodeBudget {
+    /// The bytes of `binary`'s nodes and `wide` nodes as this packing holds them.
+    fn bytes(&self, binary: usize, wide: Option<usize>) -> u64 {
+        let binary = (binary * std::mem::size_of::<crate::bvh::BvhNode>()) as u64;
+        match wide {
+            None => binary,
+            Some(w) => {
+                let wide = (w * std::mem::size_of::<wide::WideNode>()) as u64;
+                wide + if self.layouts == Layouts::Both { binary } else { 0 }
+            }
         }
-        warnings.push(format!(
+    }
+
+    /// The most nodes `bvh`'s wide tree may have to fit after the meshes placed so far.
+    fn wide_room(&self, bvh: &Bvh) -> usize {
+        let Some(limit) = self.limit else { return usize::MAX };
+        let beside =
+            if self.layouts == Layouts::Both { self.bytes(bvh.nodes.len(), None) } else { 0 };
+        let room = limit.saturating_sub(self.used + beside);
+        (room / std::mem::size_of::<wide::WideNode>() as u64) as usize
+    }
+
+    /// Counts in the nodes of a mesh with binary tree `bvh` and `wide` tree, if it keeps one.
+    fn place(&mut self, bvh: &Bvh, wide: Option<&WideBvh>) {
+        self.used += self.bytes(bvh.nodes.len(), wide.map(|w| w.nodes.len()));
+    }
+
+    /// The warning for `mesh`, whose wide tree of `nodes` nodes did not fit.
+    fn refusal(&self, mesh: &crate::scene::Mesh, bvh: &Bvh, nodes: usize) -> String {
+        format!(
             "{}: its wide BVH would take the BVH nodes to {:.2} GB, past the device's \
              storage-buffer range ({:.2} GB), so its binary BVH is traced instead",
             mesh.name,
-            (used + with_wide) as f64 / 1e9,
-            limit as f64 / 1e9,
-        ));
-        *wide = None;
-        used += binary;
+            (self.used + self.bytes(bvh.nodes.len(), Some(nodes))) as f64 / 1e9,
+            self.limit.unwrap_or(u64::MAX) as f64 / 1e9,
+        )
     }
-    warnings
 }
 
 /// Decode every textured material's diffuse texture (in parallel), files read from disk and

@@ -19,8 +19,15 @@ use crate::geometry::Aabb;
 /// `prim_indices` and leaf indices) into the wide tree's leaf order, which both trees then
 /// share. The binary tree keeps its shape and answers as before.
 pub fn collapse(bvh: &mut Bvh) -> WideBvh {
+    collapse_within(bvh, usize::MAX).unwrap_or_default()
+}
+
+/// [`collapse`] where the wide tree has at most `max_nodes` nodes; otherwise nothing is
+/// written or reordered and the error is how many nodes the plan would make. The count
+/// comes from the plan, before any node is made (the plan is about half the collapse).
+pub fn collapse_within(bvh: &mut Bvh, max_nodes: usize) -> Result<WideBvh, usize> {
     if bvh.nodes.is_empty() {
-        return WideBvh::default();
+        return Ok(WideBvh::default());
     }
     let root = bvh.nodes[0]
         .children()
@@ -28,6 +35,12 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
         .filter(|c| !c.is_empty())
         .fold(Aabb::EMPTY, |b, c| b.union(c.bounds));
     let plan = Plan::new(bvh);
+    if max_nodes < usize::MAX {
+        let nodes = planned_nodes(bvh, &plan, Planned::Node { index: 0, bounds: root });
+        if nodes > max_nodes {
+            return Err(nodes);
+        }
+    }
     // The top of the tree here, the subtrees below it on every core, then spliced in.
     let mut top = Collapser {
         bvh,
@@ -55,7 +68,27 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
     let Collapser { nodes, order, .. } = top;
     let (nodes, order) = splice(nodes, order, subtrees);
     reorder_binary(bvh, &order);
-    WideBvh { nodes }
+    Ok(WideBvh { nodes })
+}
+
+/// The wide nodes the collapse makes for `item` and below it: the node itself and, for each
+/// slot that is no leaf of at most three triangles, that child's (big subtrees on every
+/// core).
+fn planned_nodes(bvh: &Bvh, plan: &Plan, item: Planned) -> usize {
+    let children = children_of(bvh, plan, item);
+    let inner = children.as_slice().iter().filter(|c| match **c {
+        Planned::Leaf { count, .. } => count > MAX_LEAF_TRIANGLES,
+        Planned::Merged { .. } => false,
+        Planned::Node { .. } => true,
+    });
+    let big = |c: &&Planned| match **c {
+        Planned::Node { index, .. } => plan.triangles_under(index) > PARALLEL_MAX_TRIANGLES,
+        _ => false,
+    };
+    let (big, small): (Vec<&Planned>, Vec<&Planned>) = inner.partition(big);
+    let below: usize = big.par_iter().map(|&&c| planned_nodes(bvh, plan, c)).sum::<usize>()
+        + small.iter().map(|&&c| planned_nodes(bvh, plan, c)).sum::<usize>();
+    1 + below
 }
 
 /// Binary subtrees with at most this many triangles are collapsed on their own (in
@@ -177,28 +210,7 @@ impl Collapser<'_> {
 
     /// The (at most eight) children of the wide node made from `item`.
     fn children_of(&self, item: Planned) -> Children {
-        match item {
-            Planned::Node { index, .. } => self.plan.slots(self.bvh, index),
-            // At most three triangles always fit one slot: never a node of its own.
-            Planned::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
-            // A leaf too big for a slot: split into pieces, each with the leaf's box.
-            Planned::Leaf { first, count, bounds } => {
-                let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 {
-                    MAX_LEAF_TRIANGLES
-                } else {
-                    count.div_ceil(WIDTH as u32)
-                };
-                let mut pieces = Children::default();
-                for start in (first..first + count).step_by(per_piece as usize) {
-                    pieces.push(Planned::Leaf {
-                        first: start,
-                        count: per_piece.min(first + count - start),
-                        bounds,
-                    });
-                }
-                pieces
-            }
-        }
+        children_of(self.bvh, self.plan, item)
     }
 
     /// Place every triangle under binary node `index`, leaf by leaf (a merged leaf's
@@ -210,6 +222,32 @@ impl Collapser<'_> {
         }
         for child in children.iter().rev().filter(|c| c.is_inner()) {
             self.push_subtree(child.index);
+        }
+    }
+}
+
+/// The (at most eight) children of the wide node made from `item`, as `plan` cuts `bvh`.
+fn children_of(bvh: &Bvh, plan: &Plan, item: Planned) -> Children {
+    match item {
+        Planned::Node { index, .. } => plan.slots(bvh, index),
+        // At most three triangles always fit one slot: never a node of its own.
+        Planned::Merged { .. } => unreachable!("a merged leaf is placed in its parent's slot"),
+        // A leaf too big for a slot: split into pieces, each with the leaf's box.
+        Planned::Leaf { first, count, bounds } => {
+            let per_piece = if count <= MAX_LEAF_TRIANGLES * WIDTH as u32 {
+                MAX_LEAF_TRIANGLES
+            } else {
+                count.div_ceil(WIDTH as u32)
+            };
+            let mut pieces = Children::default();
+            for start in (first..first + count).step_by(per_piece as usize) {
+                pieces.push(Planned::Leaf {
+                    first: start,
+                    count: per_piece.min(first + count - start),
+                    bounds,
+                });
+            }
+            pieces
         }
     }
 }

@@ -28,7 +28,7 @@ mod plan;
 pub(crate) mod stats;
 mod traverse;
 
-pub use collapse::collapse;
+pub use collapse::{collapse, collapse_within};
 pub use stats::WideStats;
 pub use traverse::{any_hit, closest_hit};
 
