@@ -94,6 +94,9 @@ pub fn measure(
     let start = Instant::now();
     let loaded = LoadedScene::load(spec, &progress, node_limit)?;
     let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
+    for w in &loaded.warnings {
+        log::warn!("{w}");
+    }
     // The tree's quality is summed between two phases and its time taken off the wait: the
     // window never computes it.
     progress.finish();
@@ -128,7 +131,8 @@ pub fn measure(
         phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
     Ok(LoadRow {
         model: spec.model.label(),
-        bvh: spec.settings.bvh,
+        // The layout traced: binary where the wide tree asked for did not fit the device.
+        bvh: tracer.traced_layout(spec.settings.bvh),
         file_bytes,
         triangles,
         phase_s,
