@@ -94,6 +94,9 @@ pub fn measure(
     let start = Instant::now();
     let loaded = LoadedScene::load(spec, &progress, node_limit)?;
     let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
+    // The layout the model traces: binary where its wide tree did not fit the device.
+    let model_wide = loaded.tables().meshes[MODEL_MESH].has_wide;
+    let bvh = if model_wide { spec.settings.bvh } else { BvhLayout::Binary };
     for w in &loaded.warnings {
         log::warn!("{w}");
     }
@@ -131,8 +134,7 @@ pub fn measure(
         phase_peak_rss_bytes.iter().flatten().copied().chain(read_peak_rss()).max();
     Ok(LoadRow {
         model: spec.model.label(),
-        // The layout traced: binary where the wide tree asked for did not fit the device.
-        bvh: tracer.traced_layout(spec.settings.bvh),
+        bvh,
         file_bytes,
         triangles,
         phase_s,

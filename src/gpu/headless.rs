@@ -12,7 +12,7 @@ use anyhow::bail;
 use super::khr_rt::VendorKernel;
 use super::{ClockProbe, ComputeTracer, ContextOptions, GpuContext};
 use crate::files::image_files::{save_jpeg, save_png, OutputFormat};
-use crate::render_settings::{Accel, Aov, BvhLayout};
+use crate::render_settings::{Accel, Aov};
 use crate::scene::spec::SceneSpec;
 use crate::scene::Scene;
 use crate::tracer::heat_map::heat_map;
@@ -51,18 +51,18 @@ pub(crate) fn render_to_file(
     let heat_map_image = heat_map_wanted(format, spec.settings.aov)?;
     spec.validate().map_err(anyhow::Error::msg)?;
     let clock = Instant::now();
-    let (scene, image, how, traced) = if on.cpu {
+    let (scene, image, how, lacks_wide) = if on.cpu {
         let (scene, packed) = load(spec, None, clock)?;
         let params = FrameParams::new(&scene, spec.settings);
         let (image, how) = trace_on_cpu(&packed, &params, spec.accumulate);
-        (scene, image, how, packed.traced_layout(spec.settings.bvh))
+        (scene, image, how, packed.some_mesh_lacks_wide())
     } else {
         let (ctx, mut tracer, scene, packed) = load_beside_device(spec, on, clock)?;
         let params = FrameParams::new(&scene, spec.settings);
         tracer.set_scene(&packed)?;
         log::debug!("{:.3} s: uploaded", clock.elapsed().as_secs_f64());
         let (image, how) = trace_on_gpu(&ctx, &mut tracer, &params, spec.accumulate)?;
-        (scene, image, how, packed.traced_layout(spec.settings.bvh))
+        (scene, image, how, packed.some_mesh_lacks_wide())
     };
     log::debug!("{:.3} s: traced", clock.elapsed().as_secs_f64());
     // A file's camera is written into the image's preset as the numbers it traced with.
@@ -75,7 +75,7 @@ pub(crate) fn render_to_file(
     };
     let preset_text = spec.to_preset_text();
     write_image(&image, spec, heat_map_image, (output, format), &preset_text)?;
-    println!("{}", summary(spec, &scene, output, &how, traced));
+    println!("{}", summary(spec, &scene, output, &how, lacks_wide));
     log::debug!("{:.3} s: written", clock.elapsed().as_secs_f64());
     Ok(())
 }
@@ -278,9 +278,9 @@ fn write_image(
     Ok(())
 }
 
-/// The line saying what was written and how it was traced (`traced`: the BVH layout the
-/// frame traced, binary where a wide tree asked for did not fit the device).
-fn summary(spec: &SceneSpec, scene: &Scene, output: &Path, how: &str, traced: BvhLayout) -> String {
+/// The line saying what was written and how it was traced (`lacks_wide`: some mesh traced
+/// its binary tree, its wide tree not fitting the device).
+fn summary(spec: &SceneSpec, scene: &Scene, output: &Path, how: &str, lacks_wide: bool) -> String {
     let s = &spec.settings;
     // The AO view traces no bounces: say what it traced instead.
     let rays = match s.aov {
@@ -288,7 +288,8 @@ fn summary(spec: &SceneSpec, scene: &Scene, output: &Path, how: &str, traced: Bv
         _ => format!("{} bounce{}", s.bounces, if s.bounces == 1 { "" } else { "s" }),
     };
     let accel = if s.accel == Accel::Bvh && s.bvh.is_wide() {
-        format!("bvh ({})", if traced.is_wide() { s.bvh } else { traced })
+        let binary = if lacks_wide { ", binary where the wide tree did not fit" } else { "" };
+        format!("bvh ({}{binary})", s.bvh)
     } else {
         s.accel.to_string()
     };

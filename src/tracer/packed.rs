@@ -194,6 +194,12 @@ impl PackedScene {
         layout.traced_with(self.has_binary(), self.has_wide())
     }
 
+    /// Whether some mesh with triangles traces its binary tree in wide frames: it has no
+    /// wide tree (one that would not fit the device, `tracer::prepare`).
+    pub fn some_mesh_lacks_wide(&self) -> bool {
+        self.meshes.iter().any(|m| !m.has_wide && m.triangle_count > 0)
+    }
+
     /// Append one mesh: its materials, vertices and trees, and its row of the mesh table;
     /// returns its BVH order (its triangles are written from it).
     fn push_mesh(

@@ -157,6 +157,7 @@ fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
         let exact = PackedScene::with_layouts_within(&scene, layouts, exact);
         assert!(exact.has_wide() && exact.warnings.is_empty(), "{layouts:?}: {:?}", exact.warnings);
         assert_eq!(exact.nodes_bytes(), whole.nodes_bytes());
+        assert!(!exact.some_mesh_lacks_wide());
         // One byte less: the last wide tree (the mirror box's) no longer fits and is not
         // made, the model's still is.
         let limit = Some(whole.nodes_bytes() as u64 - 1);
@@ -164,6 +165,7 @@ fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
         assert_eq!(short.meshes.iter().map(|m| m.has_wide).collect::<Vec<_>>(), [true, false]);
         assert_eq!(short.warnings.len(), 1, "{:?}", short.warnings);
         assert!(short.warnings[0].starts_with("mirror box: "), "{}", short.warnings[0]);
+        assert!(short.some_mesh_lacks_wide());
         // No room for any wide tree: every mesh traces its binary tree, wide frames too,
         // and each mesh is named once.
         let none = PackedScene::with_layouts_within(&scene, layouts, Some(1));
