@@ -56,7 +56,7 @@ impl LoadedScene {
         progress.begin(Phase::Build)?;
         let prepared = PreparedScene::new(&scene, layouts, node_limit);
         progress.begin(Phase::Pack)?;
-        let (mut packed, orders) = PackedScene::pack_tables(&scene, prepared, layouts);
+        let (mut packed, orders) = PackedScene::pack_tables(&scene, prepared);
         let warnings = std::mem::take(&mut packed.warnings);
         Ok(Self { scene, packed, orders, warnings })
     }

@@ -114,21 +114,25 @@ impl PackedScene {
     /// its binary tree (a warning says so).
     pub fn with_layouts_within(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
         let prepared = PreparedScene::new(scene, layouts, node_limit);
-        let (mut packed, orders) = Self::pack_tables(scene, prepared, layouts);
+        let (mut packed, orders) = Self::pack_tables(scene, prepared);
         packed.write_triangles(scene, orders);
         packed
     }
 
     /// Pack `scene` with what `prepared` built and decoded for it, all but the triangles
     /// and hit records, which are left empty: each mesh's [`BvhOrder`] is returned to
-    /// write them. Packing only copies and reorders: nothing here builds or decodes.
-    pub(crate) fn pack_tables(
-        scene: &Scene,
-        prepared: PreparedScene,
-        layouts: Layouts,
-    ) -> (Self, Vec<BvhOrder>) {
-        let PreparedScene { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds } =
-            prepared;
+    /// write them, in the layouts `prepared` kept. Packing only copies and reorders: nothing
+    /// here builds or decodes.
+    pub(crate) fn pack_tables(scene: &Scene, prepared: PreparedScene) -> (Self, Vec<BvhOrder>) {
+        let PreparedScene {
+            bvhs,
+            wide_bvhs,
+            textures,
+            environment,
+            warnings,
+            bvh_build_seconds,
+            layouts,
+        } = prepared;
         let mut packed =
             PackedScene { warnings, bvh_build_seconds, environment, ..Default::default() };
         let mut texture_index = HashMap::new();

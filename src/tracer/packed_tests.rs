@@ -135,7 +135,7 @@ fn layouts_hold_what_their_frames_trace() {
 }
 
 #[test]
-fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
+fn trees_past_the_node_limit_keep_the_wide_trees_alone_then_the_binary_ones() {
     use crate::render_settings::RenderSettings;
     use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
@@ -152,20 +152,32 @@ fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
     let reference = crate::tracer::cpu::render(&binary, &frame(BvhLayout::Binary));
     for layouts in [Layouts::Wide, Layouts::Both] {
         let whole = PackedScene::with_layouts(&scene, layouts);
-        // A limit the whole node buffer meets keeps every wide tree, silently.
+        // A limit the whole node buffer meets keeps every tree, silently.
         let exact = Some(whole.nodes_bytes() as u64);
         let exact = PackedScene::with_layouts_within(&scene, layouts, exact);
         assert!(exact.has_wide() && exact.warnings.is_empty(), "{layouts:?}: {:?}", exact.warnings);
         assert_eq!(exact.nodes_bytes(), whole.nodes_bytes());
+        assert_eq!(exact.has_binary(), layouts == Layouts::Both);
         assert!(!exact.some_mesh_lacks_wide());
-        // One byte less: the last wide tree (the mirror box's) no longer fits and is not
-        // made, the model's still is.
         let limit = Some(whole.nodes_bytes() as u64 - 1);
         let short = PackedScene::with_layouts_within(&scene, layouts, limit);
-        assert_eq!(short.meshes.iter().map(|m| m.has_wide).collect::<Vec<_>>(), [true, false]);
         assert_eq!(short.warnings.len(), 1, "{:?}", short.warnings);
         assert!(short.warnings[0].starts_with("mirror box: "), "{}", short.warnings[0]);
-        assert!(short.some_mesh_lacks_wide());
+        if layouts == Layouts::Both {
+            // One byte less than both trees: the wide trees alone are kept, as `render`
+            // keeps them, and binary frames trace them.
+            let wide_alone = PackedScene::with_layouts(&scene, Layouts::Wide);
+            assert!(short.has_wide() && !short.has_binary() && !short.some_mesh_lacks_wide());
+            assert_eq!(short.nodes_bytes(), wide_alone.nodes_bytes());
+            assert_eq!(short.traced_layout(BvhLayout::Binary), BvhLayout::Wide);
+            assert!(short.warnings[0].contains("wide BVHs alone"), "{}", short.warnings[0]);
+        } else {
+            // One byte less than the wide trees: the last (the mirror box's) is not made,
+            // the model's still is.
+            assert_eq!(short.meshes.iter().map(|m| m.has_wide).collect::<Vec<_>>(), [true, false]);
+            assert!(short.some_mesh_lacks_wide());
+            assert!(short.warnings[0].contains("its binary BVH"), "{}", short.warnings[0]);
+        }
         // No room for any wide tree: every mesh traces its binary tree, wide frames too,
         // and each mesh is named once.
         let none = PackedScene::with_layouts_within(&scene, layouts, Some(1));
@@ -174,8 +186,11 @@ fn a_wide_tree_past_the_node_limit_leaves_its_mesh_the_binary_tree() {
         assert_eq!(none.warnings.len(), scene.meshes.len(), "{:?}", none.warnings);
         assert!(none.warnings[0].contains("storage-buffer range"), "{}", none.warnings[0]);
         for packed in [&short, &none] {
-            let image = crate::tracer::cpu::render(packed, &frame(BvhLayout::Wide));
-            assert!(image.compare(&reference, 1e-4).fraction_over <= 0.002, "{layouts:?}");
+            for bvh in [BvhLayout::Wide, BvhLayout::Binary] {
+                let image = crate::tracer::cpu::render(packed, &frame(bvh));
+                let over = image.compare(&reference, 1e-4).fraction_over;
+                assert!(over <= 0.002, "{layouts:?}, {bvh:?} frames: {over}");
+            }
         }
     }
 }

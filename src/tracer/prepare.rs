@@ -65,19 +65,21 @@ pub(crate) struct PreparedScene {
     pub warnings: Vec<String>,
     /// Seconds spent building BVHs (and collapsing them into wide ones), for reports.
     pub bvh_build_seconds: f64,
+    /// The layouts to pack: those asked for, or [`Layouts::Wide`] where both trees would
+    /// not fit the device beside each other ([`NodeBudget`]).
+    pub layouts: Layouts,
 }
 
 impl PreparedScene {
     /// Build the BVHs (and, where `layouts` holds the wide one, collapse each into it) and
     /// decode the images `scene` needs. With `node_limit` (the device's storage-buffer
-    /// range), a wide tree that would take the node buffer past it is dropped: its mesh
-    /// traces the binary tree, and a warning says so.
+    /// range), the trees are fitted to it ([`NodeBudget`]), and warnings say how.
     pub(crate) fn new(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
         let wide = layouts.builds_wide();
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                let mut budget = NodeBudget { layouts, limit: node_limit, used: 0 };
+                let mut budget = NodeBudget { layouts, limit: node_limit, placed: Vec::new() };
                 let mut warnings = Vec::new();
                 let mut trees = Vec::with_capacity(scene.meshes.len());
                 for mesh in &scene.meshes {
@@ -91,7 +93,7 @@ impl PreparedScene {
                     // shader's stack (none of the meshes measured comes near) keeps the
                     // binary layout alone.
                     let wide_bvh = if wide {
-                        let room = budget.wide_room(&bvh);
+                        let room = budget.wide_room();
                         match wide::collapse_within(&mut bvh, room) {
                             Ok(w) => Some(w).filter(|w| w.stack_need() <= wide::STACK_SIZE),
                             Err(nodes) => {
@@ -102,70 +104,105 @@ impl PreparedScene {
                     } else {
                         None
                     };
-                    budget.place(&bvh, wide_bvh.as_ref());
+                    warnings.extend(budget.place(mesh, &bvh, wide_bvh.as_ref()));
                     trees.push((bvh, wide_bvh));
                 }
                 let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = trees.into_iter().unzip();
-                (bvhs, wide_bvhs, warnings, start.elapsed().as_secs_f64())
+                let seconds = start.elapsed().as_secs_f64();
+                (bvhs, wide_bvhs, budget.layouts, warnings, seconds)
             },
             || decode_textures(scene),
         );
-        let ((bvhs, wide_bvhs, budget_warnings, bvh_build_seconds), (textures, mut warnings)) =
+        let ((bvhs, wide_bvhs, layouts, budget_warnings, bvh_build_seconds), textures) =
             (bvhs, textures);
+        let (textures, mut warnings) = textures;
         warnings.extend(budget_warnings);
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
-        Self { bvhs, wide_bvhs, textures, environment, warnings, bvh_build_seconds }
+        Self { bvhs, wide_bvhs, layouts, textures, environment, warnings, bvh_build_seconds }
     }
 }
 
 /// The BVH node buffer's bytes so far, mesh by mesh, against the device's storage-buffer
-/// range: which wide trees it can hold. For each mesh it holds the wide nodes and (with
-/// [`Layouts::Both`], or where the mesh has no wide tree) the binary nodes; a mesh whose
-/// wide tree would pass the range keeps its binary tree, which binary and wide frames then
-/// trace. (The 100M-triangle torus knot's binary tree is 3.7 GB and its wide tree fits the
-/// 4 GiB an NVIDIA storage buffer may span, but not both, as the window keeps them.) What
-/// still does not fit is refused at the upload.
+/// range: which trees it can hold. For each mesh it holds the wide nodes and (with
+/// [`Layouts::Both`], or where the mesh has no wide tree) the binary nodes. Where both trees
+/// would not fit beside each other (the window keeps both: at 100M triangles 3.7 GB of
+/// binary nodes and 4.2 GB of wide ones, past the 4 GiB an NVIDIA storage buffer may span),
+/// the packing keeps the wide trees alone, as `render` does, and binary frames trace them.
+/// A mesh whose wide tree would still pass the range keeps its binary tree, which both
+/// kinds of frames then trace. What still does not fit is refused at the upload.
 struct NodeBudget {
     layouts: Layouts,
     limit: Option<u64>,
-    used: u64,
+    /// Each mesh placed so far: its binary tree's nodes, and its wide tree's if it keeps one.
+    placed: Vec<(usize, Option<usize>)>,
 }
 
 impl NodeBudget {
-    /// The bytes of `binary`'s nodes and `wide` nodes as this packing holds them.
-    fn bytes(&self, binary: usize, wide: Option<usize>) -> u64 {
+    /// The bytes of `binary` nodes and `wide` nodes as a packing of `layouts` holds them.
+    fn bytes(layouts: Layouts, binary: usize, wide: Option<usize>) -> u64 {
         let binary = (binary * std::mem::size_of::<crate::bvh::BvhNode>()) as u64;
         match wide {
             None => binary,
             Some(w) => {
                 let wide = (w * std::mem::size_of::<wide::WideNode>()) as u64;
-                wide + if self.layouts == Layouts::Both { binary } else { 0 }
+                wide + if layouts == Layouts::Both { binary } else { 0 }
             }
         }
     }
 
-    /// The most nodes `bvh`'s wide tree may have to fit after the meshes placed so far.
-    fn wide_room(&self, bvh: &Bvh) -> usize {
+    /// The bytes of the meshes placed so far, packed as `layouts`.
+    fn used(&self, layouts: Layouts) -> u64 {
+        self.placed.iter().map(|&(binary, wide)| Self::bytes(layouts, binary, wide)).sum()
+    }
+
+    /// The most nodes the next mesh's wide tree may have to fit after the meshes placed so far, the
+    /// binary trees dropped if need be ([`Layouts::Wide`]).
+    fn wide_room(&self) -> usize {
         let Some(limit) = self.limit else { return usize::MAX };
-        let beside =
-            if self.layouts == Layouts::Both { self.bytes(bvh.nodes.len(), None) } else { 0 };
-        let room = limit.saturating_sub(self.used + beside);
+        let room = limit.saturating_sub(self.used(Layouts::Wide));
         (room / std::mem::size_of::<wide::WideNode>() as u64) as usize
     }
 
-    /// Counts in the nodes of a mesh with binary tree `bvh` and `wide` tree, if it keeps one.
-    fn place(&mut self, bvh: &Bvh, wide: Option<&WideBvh>) {
-        self.used += self.bytes(bvh.nodes.len(), wide.map(|w| w.nodes.len()));
+    /// Counts in the nodes of `mesh`, with binary tree `bvh` and `wide` tree if it keeps
+    /// one; where both trees no longer fit beside each other, the packing keeps the wide
+    /// trees alone from here on, and the warning says so.
+    fn place(
+        &mut self,
+        mesh: &crate::scene::Mesh,
+        bvh: &Bvh,
+        wide: Option<&WideBvh>,
+    ) -> Option<String> {
+        let entry = (bvh.nodes.len(), wide.map(|w| w.nodes.len()));
+        self.placed.push(entry);
+        let limit = self.limit?;
+        let both = self.used(Layouts::Both);
+        // Without a wide tree the two packings are the same bytes.
+        let any_wide = self.placed.iter().any(|(_, wide)| wide.is_some());
+        if self.layouts != Layouts::Both || both <= limit || !any_wide {
+            return None;
+        }
+        self.layouts = Layouts::Wide;
+        Some(format!(
+            "{}: the binary and wide BVHs together would take the BVH nodes to {:.2} GB, past \
+             the device's storage-buffer range ({:.2} GB), so the wide BVHs alone are kept \
+             ({:.2} GB) and binary frames trace them",
+            mesh.name,
+            both as f64 / 1e9,
+            limit as f64 / 1e9,
+            self.used(Layouts::Wide) as f64 / 1e9,
+        ))
     }
 
     /// The warning for `mesh`, whose wide tree of `nodes` nodes did not fit.
     fn refusal(&self, mesh: &crate::scene::Mesh, bvh: &Bvh, nodes: usize) -> String {
+        let with =
+            self.used(Layouts::Wide) + Self::bytes(Layouts::Wide, bvh.nodes.len(), Some(nodes));
         format!(
             "{}: its wide BVH would take the BVH nodes to {:.2} GB, past the device's \
              storage-buffer range ({:.2} GB), so its binary BVH is traced instead",
             mesh.name,
-            (self.used + self.bytes(bvh.nodes.len(), Some(nodes))) as f64 / 1e9,
+            with as f64 / 1e9,
             self.limit.unwrap_or(u64::MAX) as f64 / 1e9,
         )
     }
