@@ -126,8 +126,8 @@ impl PreparedScene {
 /// The BVH node buffer's bytes so far, mesh by mesh, against the device's storage-buffer
 /// range: which trees it can hold. For each mesh it holds the wide nodes and (with
 /// [`Layouts::Both`], or where the mesh has no wide tree) the binary nodes. Where both trees
-/// would not fit beside each other (the window keeps both: at 100M triangles 3.7 GB of
-/// binary nodes and 4.2 GB of wide ones, past the 4 GiB an NVIDIA storage buffer may span),
+/// would not fit beside each other (the window keeps both: at 100M triangles 3.67 GB of
+/// binary nodes and 0.70 GB of wide ones, past the 4.29 GB an H200 storage buffer may span),
 /// the packing keeps the wide trees alone, as `render` does, and binary frames trace them.
 /// A mesh whose wide tree would still pass the range keeps its binary tree, which both
 /// kinds of frames then trace. What still does not fit is refused at the upload.
