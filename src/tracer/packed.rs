@@ -110,8 +110,9 @@ impl PackedScene {
     }
 
     /// [`PackedScene::with_layouts`] for a device whose storage buffers span at most
-    /// `node_limit` bytes: a mesh whose wide tree would take the node buffer past it traces
-    /// its binary tree (a warning says so).
+    /// `node_limit` bytes: where both layouts would not fit beside each other the wide trees
+    /// are kept alone, and a mesh whose wide tree would still not fit traces its binary tree
+    /// (warnings say which; `tracer::prepare`).
     pub fn with_layouts_within(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
         let prepared = PreparedScene::new(scene, layouts, node_limit);
         let (mut packed, orders) = Self::pack_tables(scene, prepared);

@@ -79,7 +79,7 @@ impl PreparedScene {
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                let mut budget = NodeBudget { layouts, limit: node_limit, placed: Vec::new() };
+                let mut budget = NodeBudget::new(layouts, node_limit);
                 let mut warnings = Vec::new();
                 let mut trees = Vec::with_capacity(scene.meshes.len());
                 for mesh in &scene.meshes {
@@ -97,7 +97,7 @@ impl PreparedScene {
                         match wide::collapse_within(&mut bvh, room) {
                             Ok(w) => Some(w).filter(|w| w.stack_need() <= wide::STACK_SIZE),
                             Err(nodes) => {
-                                warnings.push(budget.refusal(mesh, &bvh, nodes));
+                                warnings.push(budget.refusal(mesh, nodes));
                                 None
                             }
                         }
@@ -113,9 +113,10 @@ impl PreparedScene {
             },
             || decode_textures(scene),
         );
-        let ((bvhs, wide_bvhs, layouts, budget_warnings, bvh_build_seconds), textures) =
-            (bvhs, textures);
-        let (textures, mut warnings) = textures;
+        let (
+            (bvhs, wide_bvhs, layouts, budget_warnings, bvh_build_seconds),
+            (textures, mut warnings),
+        ) = (bvhs, textures);
         warnings.extend(budget_warnings);
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
@@ -134,34 +135,34 @@ impl PreparedScene {
 struct NodeBudget {
     layouts: Layouts,
     limit: Option<u64>,
-    /// Each mesh placed so far: its binary tree's nodes, and its wide tree's if it keeps one.
-    placed: Vec<(usize, Option<usize>)>,
+    /// Bytes of every mesh's binary nodes placed so far.
+    binary: u64,
+    /// Bytes of the wide nodes of the meshes that keep a wide tree, and of those meshes'
+    /// binary nodes (which a packing of the wide trees alone leaves out). Running sums: a
+    /// glTF scene may hold thousands of meshes.
+    wide: u64,
+    binary_beside_wide: u64,
 }
 
 impl NodeBudget {
-    /// The bytes of `binary` nodes and `wide` nodes as a packing of `layouts` holds them.
-    fn bytes(layouts: Layouts, binary: usize, wide: Option<usize>) -> u64 {
-        let binary = (binary * std::mem::size_of::<crate::bvh::BvhNode>()) as u64;
-        match wide {
-            None => binary,
-            Some(w) => {
-                let wide = (w * std::mem::size_of::<wide::WideNode>()) as u64;
-                wide + if layouts == Layouts::Both { binary } else { 0 }
-            }
-        }
+    fn new(layouts: Layouts, limit: Option<u64>) -> Self {
+        Self { layouts, limit, binary: 0, wide: 0, binary_beside_wide: 0 }
     }
 
     /// The bytes of the meshes placed so far, packed as `layouts`.
     fn used(&self, layouts: Layouts) -> u64 {
-        self.placed.iter().map(|&(binary, wide)| Self::bytes(layouts, binary, wide)).sum()
+        match layouts {
+            Layouts::Both => self.binary + self.wide,
+            _ => self.binary - self.binary_beside_wide + self.wide,
+        }
     }
 
-    /// The most nodes the next mesh's wide tree may have to fit after the meshes placed so far, the
-    /// binary trees dropped if need be ([`Layouts::Wide`]).
+    /// The most nodes the next mesh's wide tree may have to fit after the meshes placed so
+    /// far, the binary trees dropped if need be ([`Layouts::Wide`]).
     fn wide_room(&self) -> usize {
         let Some(limit) = self.limit else { return usize::MAX };
         let room = limit.saturating_sub(self.used(Layouts::Wide));
-        (room / std::mem::size_of::<wide::WideNode>() as u64) as usize
+        (room / WIDE_NODE_BYTES) as usize
     }
 
     /// Counts in the nodes of `mesh`, with binary tree `bvh` and `wide` tree if it keeps
@@ -173,13 +174,16 @@ impl NodeBudget {
         bvh: &Bvh,
         wide: Option<&WideBvh>,
     ) -> Option<String> {
-        let entry = (bvh.nodes.len(), wide.map(|w| w.nodes.len()));
-        self.placed.push(entry);
+        let binary = bvh.nodes.len() as u64 * BINARY_NODE_BYTES;
+        self.binary += binary;
+        if let Some(w) = wide {
+            self.wide += w.nodes.len() as u64 * WIDE_NODE_BYTES;
+            self.binary_beside_wide += binary;
+        }
         let limit = self.limit?;
         let both = self.used(Layouts::Both);
         // Without a wide tree the two packings are the same bytes.
-        let any_wide = self.placed.iter().any(|(_, wide)| wide.is_some());
-        if self.layouts != Layouts::Both || both <= limit || !any_wide {
+        if self.layouts != Layouts::Both || both <= limit || self.wide == 0 {
             return None;
         }
         self.layouts = Layouts::Wide;
@@ -195,9 +199,8 @@ impl NodeBudget {
     }
 
     /// The warning for `mesh`, whose wide tree of `nodes` nodes did not fit.
-    fn refusal(&self, mesh: &crate::scene::Mesh, bvh: &Bvh, nodes: usize) -> String {
-        let with =
-            self.used(Layouts::Wide) + Self::bytes(Layouts::Wide, bvh.nodes.len(), Some(nodes));
+    fn refusal(&self, mesh: &crate::scene::Mesh, nodes: usize) -> String {
+        let with = self.used(Layouts::Wide) + nodes as u64 * WIDE_NODE_BYTES;
         format!(
             "{}: its wide BVH would take the BVH nodes to {:.2} GB, past the device's \
              storage-buffer range ({:.2} GB), so its binary BVH is traced instead",
@@ -207,6 +210,9 @@ impl NodeBudget {
         )
     }
 }
+
+const BINARY_NODE_BYTES: u64 = std::mem::size_of::<crate::bvh::BvhNode>() as u64;
+const WIDE_NODE_BYTES: u64 = std::mem::size_of::<wide::WideNode>() as u64;
 
 /// Decode every textured material's diffuse texture (in parallel), files read from disk and
 /// embedded images from their bytes; unreadable ones are warnings, and their materials keep

@@ -24,7 +24,8 @@ pub fn collapse(bvh: &mut Bvh) -> WideBvh {
 
 /// [`collapse`] where the wide tree has at most `max_nodes` nodes; otherwise nothing is
 /// written or reordered and the error is how many nodes the plan would make. The count
-/// comes from the plan, before any node is made (the plan is about half the collapse).
+/// comes from the plan, before any node is made (the plan and the count are a third to a
+/// half of the collapse).
 pub fn collapse_within(bvh: &mut Bvh, max_nodes: usize) -> Result<WideBvh, usize> {
     if bvh.nodes.is_empty() {
         return Ok(WideBvh::default());
