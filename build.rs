@@ -266,7 +266,7 @@ fn main() {
             .unwrap();
         }
     }
-    for prefix in ["vendor", "probe"] {
+    for prefix in ["vendor", "probe", "build"] {
         println!("cargo:rerun-if-changed=shaders/{prefix}");
         for entry in std::fs::read_dir(format!("shaders/{prefix}")).unwrap() {
             let path = entry.unwrap().path();

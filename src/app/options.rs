@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use crate::scene::spec::SceneSpec;
+use crate::tracer::packed::BvhBuilder;
 
 /// How to start the interactive tool.
 #[derive(Clone, Debug, Default)]
@@ -14,6 +15,8 @@ pub struct ViewOptions {
     pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index; None picks the fastest kind present.
     pub(crate) device: Option<usize>,
+    /// Where the models' BVHs are built.
+    pub(crate) bvh_builder: BvhBuilder,
     /// Trace on this device and show its frames through the window's device (`--device`,
     /// or the one picked); None: the window's device traces.
     pub(crate) trace_device: Option<usize>,

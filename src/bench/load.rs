@@ -16,6 +16,7 @@ use crate::render_settings::BvhLayout;
 use crate::scene::paper::{ModelSource, MODEL_MESH};
 use crate::scene::spec::SceneSpec;
 use crate::tracer::loaded::LoadedScene;
+use crate::tracer::packed::DeviceFit;
 use crate::tracer::FrameParams;
 
 /// One model's load, measured.
@@ -76,11 +77,11 @@ impl LoadRow {
 /// Load `spec`'s model into `spec`'s scene as the window's loader does ([`LoadedScene::load`]:
 /// read, parse, build, pack, each timed by a [`Progress`]), upload it to `tracer` and trace one
 /// frame at `spec`'s settings. The peak memory counts from the start of this call.
-/// `node_limit` is the device's storage-buffer range ([`LoadedScene::load`]).
+/// `device` is the tracer's device: what it holds and builds ([`LoadedScene::load`]).
 pub fn measure(
     spec: &SceneSpec,
     tracer: &mut ComputeTracer,
-    node_limit: Option<u64>,
+    device: DeviceFit,
 ) -> anyhow::Result<LoadRow> {
     spec.validate().map_err(anyhow::Error::msg)?;
     spec.model.check_name().map_err(anyhow::Error::msg)?;
@@ -92,7 +93,7 @@ pub fn measure(
     let progress = Progress::default();
     progress.track_peak_memory();
     let start = Instant::now();
-    let loaded = LoadedScene::load(spec, &progress, node_limit)?;
+    let loaded = LoadedScene::load(spec, &progress, device)?;
     let triangles = loaded.scene().meshes[MODEL_MESH].triangle_count() as u64;
     // The layout the model traces: binary where its wide tree did not fit the device.
     let model_wide = loaded.tables().meshes[MODEL_MESH].has_wide;

@@ -22,7 +22,7 @@ use crate::render_settings::{Accel, Aov, RenderSettings};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh, Model};
-use crate::tracer::packed::Layouts;
+use crate::tracer::packed::{BvhBuilder, DeviceFit, Layouts};
 use crate::tracer::{budget, FrameParams, PackedScene};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
 use timing::Timing;
@@ -167,6 +167,8 @@ pub struct RunOptions {
     pub warmup: u32,
     /// Print where each scene buffer's memory lives when a scene is uploaded.
     pub verbose: bool,
+    /// Where the scenes' BVHs are built.
+    pub bvh_builder: BvhBuilder,
 }
 
 /// The machine a run happened on.
@@ -242,7 +244,11 @@ pub fn run(
             crate::gpu::scene_buffers::check_before_build(&scene, &case.spec.model.label(), limit)
                 .map_err(anyhow::Error::msg)?;
             let packed =
-                PackedScene::with_layouts_within(&scene, Layouts::only(layout), Some(limit));
+                PackedScene::with_layouts_within(
+                    &scene,
+                    Layouts::only(layout),
+                    DeviceFit::new(limit, options.bvh_builder),
+                );
             for w in &packed.warnings {
                 log::warn!("{w}");
             }

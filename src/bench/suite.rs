@@ -13,6 +13,7 @@ use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
+use crate::tracer::packed::{BvhBuilder, DeviceFit};
 
 /// What a `bench` run measures and writes (the command line's flags; `*_given`: the flag
 /// was given, not left at its default).
@@ -348,7 +349,7 @@ pub fn run_loads(
     models: &[String],
     layouts: &[BvhLayout],
     (size, bounces): (u32, u32),
-    (device, validation): (Option<usize>, bool),
+    (device, validation, builder): (Option<usize>, bool, BvhBuilder),
     outputs: &Outputs,
 ) -> anyhow::Result<()> {
     let ctx = open_context(device, validation)?;
@@ -363,7 +364,7 @@ pub fn run_loads(
             let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
             let s = &mut spec.settings;
             (s.width, s.height, s.bounces, s.bvh) = (size, size, bounces, layout);
-            let row = super::load::measure(&spec, &mut tracer, Some(limit));
+            let row = super::load::measure(&spec, &mut tracer, DeviceFit::new(limit, builder));
             rows.push(row.map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?);
         }
     }

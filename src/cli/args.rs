@@ -11,6 +11,7 @@ use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
 use crate::scene::EnvironmentSource;
+use crate::tracer::packed::BvhBuilder;
 
 /// The default scene spec: where every flag's default comes from, so none is restated.
 pub(crate) fn defaults() -> SceneSpec {
@@ -86,6 +87,12 @@ pub(crate) struct SceneArgs {
     /// Vulkan device index (see `meshtracer devices`); default: the fastest kind present.
     #[arg(long)]
     pub device: Option<usize>,
+    /// Where the BVH is built: cpu (binned SAH, the best trees), device (a linear BVH on the
+    /// GPU, in place after the upload: tens of milliseconds where the CPU takes seconds, but
+    /// slower to trace, and binary only) or auto (the device for meshes of 50M triangles
+    /// and more).
+    #[arg(long, value_name = "WHERE", default_value_t = BvhBuilder::Auto)]
+    pub bvh_build: BvhBuilder,
     /// Smooth shading: interpolate vertex normals (the paper shades flat).
     #[arg(long)]
     pub smooth: bool,

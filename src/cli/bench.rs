@@ -11,6 +11,7 @@ use crate::bench::suite::{self, Outputs, Suite};
 use crate::bench::RunOptions;
 use crate::gpu::khr_rt::VendorKernel;
 use crate::render_settings::{self as knobs, Accel, BvhLayout};
+use crate::tracer::packed::BvhBuilder;
 
 /// `meshtracer bench` flags.
 #[derive(Args, Debug, Clone)]
@@ -109,6 +110,10 @@ pub struct BenchArgs {
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
     pub(crate) device: Option<usize>,
+    /// Where the BVHs are built: cpu, device (a linear BVH on the GPU) or auto (the device
+    /// for meshes of 50M triangles and more), as `render --bvh-build` takes it.
+    #[arg(long, value_name = "WHERE", default_value_t = BvhBuilder::Auto)]
+    pub(crate) bvh_build: BvhBuilder,
     /// Turn on the Vulkan validation layer.
     #[arg(long)]
     pub(crate) validation: bool,
@@ -140,7 +145,12 @@ impl BenchArgs {
             ao_samples: self.ao_samples,
             ao_radius: self.ao_radius,
             vendor_kernels: self.vendor_kernel.clone(),
-            run: RunOptions { frames: self.frames, warmup: self.warmup, verbose: self.verbose },
+            run: RunOptions {
+                frames: self.frames,
+                warmup: self.warmup,
+                verbose: self.verbose,
+                bvh_builder: self.bvh_build,
+            },
             resolutions: self.resolutions.clone(),
             accel: self.accel.clone(),
             accel_given: self.given("accel"),
@@ -177,7 +187,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         // The window's first frame is the binary tree's (it loads the wide one after): the
         // default here too; `--bvh` loads those layouts instead, one row each.
         let layouts = if args.given("bvh") { args.bvh.clone() } else { vec![BvhLayout::Binary] };
-        let (size, device) = ((args.size, args.bounces), (args.device, args.validation));
+        let (size, device) =
+            ((args.size, args.bounces), (args.device, args.validation, args.bvh_build));
         return suite::run_loads(&args.load, &layouts, size, device, &args.outputs());
     }
     suite::run(&args.suite())

@@ -16,6 +16,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         device: args.scene.device,
         validation: args.validation,
         vendor_kernel: args.vendor_kernel,
+        bvh_builder: args.scene.bvh_build,
     };
     render_to_file(&spec, &args.output, format, &on)
 }

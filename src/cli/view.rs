@@ -116,6 +116,7 @@ impl ViewArgs {
             spec,
             preset: self.scene.preset.clone(),
             device: self.scene.device,
+            bvh_builder: self.scene.bvh_build,
             trace_device: self.trace_device,
             frames: self.frames,
             screenshot: self.screenshot.clone(),

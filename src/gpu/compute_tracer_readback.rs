@@ -1,9 +1,11 @@
-//! Reading back what the last frame traced: the float output and the 8-bit colour.
+//! Reading back what the GPU made: the last frame's float output and 8-bit colour, and the
+//! trees it built.
 
 use super::ComputeTracer;
 use crate::gpu::error::GpuError;
 use crate::gpu::trace_pass::TraceOutput;
 use crate::tracer::image::Image;
+use crate::tracer::PackedScene;
 
 impl ComputeTracer {
     fn traced_output(&self) -> Result<&TraceOutput, GpuError> {
@@ -29,5 +31,14 @@ impl ComputeTracer {
         let bytes = out.rgba8.download(out.width as u64 * out.height as u64 * 4)?;
         image::RgbaImage::from_raw(out.width, out.height, bytes)
             .ok_or(GpuError::NotReady("the colour readback has the wrong size"))
+    }
+
+    /// Read the trees the device built for the scene uploaded from `packed` back into it
+    /// ([`SceneBuffers::read_back_device_builds`](super::scene_buffers::SceneBuffers)), so
+    /// that the CPU tracer walks the same trees; nothing to do where none was built there.
+    pub fn read_back_device_builds(&self, packed: &mut PackedScene) -> Result<(), GpuError> {
+        self.ctx.wait_idle()?;
+        let scene = self.scene.as_ref().ok_or(GpuError::NotReady("no scene is uploaded"))?;
+        scene.read_back_device_builds(packed)
     }
 }

@@ -16,7 +16,7 @@ use crate::render_settings::{Accel, Aov};
 use crate::scene::spec::SceneSpec;
 use crate::scene::Scene;
 use crate::tracer::heat_map::heat_map;
-use crate::tracer::packed::Layouts;
+use crate::tracer::packed::{BvhBuilder, DeviceFit, Layouts};
 use crate::tracer::{cpu, FrameParams, Image, PackedScene};
 
 /// Where a headless frame is traced.
@@ -30,6 +30,8 @@ pub struct TraceOn {
     pub validation: bool,
     /// How vendor frames trace the driver's structures (None: the device's preferred).
     pub vendor_kernel: Option<VendorKernel>,
+    /// Where the BVHs are built (the CPU tracer's always on the CPU).
+    pub bvh_builder: BvhBuilder,
 }
 
 /// The output file's format, by its extension, once its folder is known to take it:
@@ -52,7 +54,7 @@ pub(crate) fn render_to_file(
     spec.validate().map_err(anyhow::Error::msg)?;
     let clock = Instant::now();
     let (scene, image, how, lacks_wide) = if on.cpu {
-        let (scene, packed) = load(spec, None, clock)?;
+        let (scene, packed) = load(spec, DeviceFit::NONE, clock)?;
         let params = FrameParams::new(&scene, spec.settings);
         let (image, how) = trace_on_cpu(&packed, &params, spec.accumulate);
         (scene, image, how, packed.some_mesh_lacks_wide())
@@ -114,7 +116,8 @@ fn load_beside_device(
         };
         let (scene, warnings) = loaded?;
         let limit = ctx.info.max_storage_buffer_range;
-        let packed = pack(spec, &scene, &warnings, Some(limit), clock)?;
+        let fit = DeviceFit::new(limit, on.bvh_builder);
+        let packed = pack(spec, &scene, &warnings, fit, clock)?;
         Ok((ctx, join(device)?, scene, packed))
     })
 }
@@ -135,11 +138,11 @@ fn heat_map_wanted(format: OutputFormat, aov: Aov) -> anyhow::Result<bool> {
 /// Load the spec's scene and pack it for its layout ([`load_scene`], [`pack`]).
 fn load(
     spec: &SceneSpec,
-    limit: Option<u64>,
+    device: DeviceFit,
     clock: Instant,
 ) -> anyhow::Result<(Scene, PackedScene)> {
     let (scene, warnings) = load_scene(spec, clock)?;
-    let packed = pack(spec, &scene, &warnings, limit, clock)?;
+    let packed = pack(spec, &scene, &warnings, device, clock)?;
     Ok((scene, packed))
 }
 
@@ -159,17 +162,17 @@ fn load_scene(spec: &SceneSpec, clock: Instant) -> anyhow::Result<(Scene, Vec<St
     Ok(loaded)
 }
 
-/// Pack `scene` for the spec's layout, logging its load's `warnings` and the packing's.
-/// With `limit` (the device's storage-buffer range) a model whose triangles cannot fit is
-/// refused before the build.
+/// Pack `scene` for the spec's layout and `device`, logging its load's `warnings` and the
+/// packing's. A model whose triangles cannot fit the device's storage buffers is refused
+/// before the build.
 fn pack(
     spec: &SceneSpec,
     scene: &Scene,
     warnings: &[String],
-    limit: Option<u64>,
+    device: DeviceFit,
     clock: Instant,
 ) -> anyhow::Result<PackedScene> {
-    if let Some(limit) = limit {
+    if let Some(limit) = device.storage_range {
         super::scene_buffers::check_before_build(scene, &spec.model.label(), limit)
             .map_err(anyhow::Error::msg)?;
     }
@@ -180,7 +183,7 @@ fn pack(
             clock.elapsed().as_secs_f64()
         );
     }
-    let packed = PackedScene::with_layouts_within(scene, Layouts::only(spec.settings.bvh), limit);
+    let packed = PackedScene::with_layouts_within(scene, Layouts::only(spec.settings.bvh), device);
     if shows_progress() {
         eprintln!("BVH built in {:.2} s", packed.bvh_build_seconds);
     }

@@ -6,12 +6,15 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::buffer::GpuBuffer;
+use super::bvh_build::BvhBuildPass;
 use super::context::GpuContext;
 use super::error::GpuError;
 use crate::bvh::BvhNode;
 use crate::scene::paper::MAX_MODELS;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::{environment_words, GpuInstance, PackedScene, TopLevel};
+use crate::tracer::packed::{
+    environment_words, DeviceBuild, GpuInstance, PackedScene, TopLevel,
+};
 use crate::tracer::textures::EnvironmentMap;
 
 /// Room in the instance buffers: every model copy plus the mirror box, plus headroom, so
@@ -211,7 +214,60 @@ impl SceneBuffers {
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;
+        s.build_on_device(ctx, &packed.device_builds)?;
         Ok(s)
+    }
+
+    /// Build the binary trees left to the device (`tracer::prepare`), in place: each
+    /// mesh's nodes written and its triangles and hit records put in its tree's order.
+    fn build_on_device(
+        &self,
+        ctx: &Arc<GpuContext>,
+        builds: &[DeviceBuild],
+    ) -> Result<(), GpuError> {
+        if builds.is_empty() {
+            return Ok(());
+        }
+        let start = std::time::Instant::now();
+        let pass = BvhBuildPass::new(ctx)?;
+        let made = start.elapsed();
+        for build in builds {
+            pass.build([&self.triangles, &self.shading, &self.nodes], build)?;
+        }
+        let triangles: u64 = builds.iter().map(|b| u64::from(b.triangle_count)).sum();
+        log::info!(
+            "built the BVH of {triangles} triangles on the device in {:.1} ms ({:.1} ms of it \
+             making the pipelines)",
+            start.elapsed().as_secs_f64() * 1e3,
+            made.as_secs_f64() * 1e3
+        );
+        Ok(())
+    }
+
+    /// Read what the device built back into `packed` (the scene these buffers hold): the
+    /// nodes, triangles and hit records of each mesh it built, so that the host's arrays are
+    /// the GPU's again (the CPU tracer, tests). Afterwards `packed` has no builds pending.
+    pub(crate) fn read_back_device_builds(&self, packed: &mut PackedScene) -> Result<(), GpuError> {
+        fn read<T: bytemuck::Pod>(
+            buffer: &GpuBuffer,
+            first: u32,
+            count: u32,
+            into: &mut [T],
+        ) -> Result<(), GpuError> {
+            let size = std::mem::size_of::<T>() as u64;
+            let bytes =
+                buffer.download_range(u64::from(first) * size, u64::from(count) * size)?;
+            into[first as usize..][..count as usize]
+                .copy_from_slice(bytemuck::cast_slice(&bytes));
+            Ok(())
+        }
+        for b in std::mem::take(&mut packed.device_builds) {
+            let nodes = b.triangle_count.div_ceil(super::bvh_build::LEAF_SIZE) - 1;
+            read(&self.nodes, b.node_base, nodes, &mut packed.nodes)?;
+            read(&self.triangles, b.triangle_base, b.triangle_count, &mut packed.triangles)?;
+            read(&self.shading, b.triangle_base, b.triangle_count, &mut packed.shading)?;
+        }
+        Ok(())
     }
 
     /// One line per buffer: where its memory lives (`bench --verbose`).
@@ -309,7 +365,7 @@ mod tests {
     use crate::progress::Progress;
     use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
-    use crate::tracer::packed::Layouts;
+    use crate::tracer::packed::{DeviceFit, Layouts};
 
     #[test]
     fn a_scene_packed_for_loading_uploads_the_same_bytes() {
@@ -323,7 +379,9 @@ mod tests {
         mesh.colors = vec![[10, 20, 30, 255]; mesh.positions.len()];
         let scene = paper_scene(mesh, 2, LightOrbit::default());
         let full = PackedScene::new(&scene);
-        let loaded = LoadedScene::pack(scene, Layouts::Binary, &Progress::default(), None).unwrap();
+        let loaded =
+            LoadedScene::pack(scene, Layouts::Binary, &Progress::default(), DeviceFit::NONE)
+                .unwrap();
         assert!(
             loaded.tables().triangles.is_empty() && loaded.tables().shading.is_empty(),
             "nothing of them on the host"

@@ -6,7 +6,7 @@
 //! the host (they were its peak). [`LoadedScene`] keeps the scene for that upload, so the
 //! upload cannot be asked for without it.
 
-use super::packed::{BvhOrder, Layouts, PackedScene, PackedTopLevel};
+use super::packed::{BvhOrder, DeviceFit, Layouts, PackedScene, PackedTopLevel};
 use super::prepare::PreparedScene;
 use super::records::{shading_record, triangle_record, GpuTriangle, GpuTriangleShading};
 use crate::progress::{Cancelled, Phase, Progress};
@@ -35,26 +35,26 @@ impl LoadedScene {
     pub fn load(
         spec: &SceneSpec,
         progress: &Progress,
-        node_limit: Option<u64>,
+        device: DeviceFit,
     ) -> Result<Self, LoadError> {
         let (model, others, warnings) = spec.load_models(Some(progress))?;
         let scene = spec.scene_of(model, &others);
         let layouts = Layouts::switchable(spec.settings.bvh);
-        let mut loaded = Self::pack(scene, layouts, progress, node_limit)?;
+        let mut loaded = Self::pack(scene, layouts, progress, device)?;
         loaded.warnings.splice(0..0, warnings);
         Ok(loaded)
     }
 
     /// The build and pack phases of [`LoadedScene::load`], on a scene already made; with
-    /// `node_limit` as [`PackedScene::with_layouts_within`] takes it.
+    /// `device` as [`PackedScene::with_layouts_within`] takes it.
     pub(crate) fn pack(
         scene: Scene,
         layouts: Layouts,
         progress: &Progress,
-        node_limit: Option<u64>,
+        device: DeviceFit,
     ) -> Result<Self, Cancelled> {
         progress.begin(Phase::Build)?;
-        let prepared = PreparedScene::new(&scene, layouts, node_limit);
+        let prepared = PreparedScene::new(&scene, layouts, device);
         progress.begin(Phase::Pack)?;
         let (mut packed, orders) = PackedScene::pack_tables(&scene, prepared);
         let warnings = std::mem::take(&mut packed.warnings);
@@ -74,9 +74,13 @@ impl LoadedScene {
 
     /// The SAH cost of mesh `mesh`'s binary tree as tinybvh measures it (both costs 1, over
     /// the root's area) and its node count (inner nodes and leaves), so that builds are
-    /// compared at equal quality. None when the mesh was packed with a wide tree alone.
+    /// compared at equal quality. None when the mesh was packed with a wide tree alone, or
+    /// its tree is the device's to build (not made yet).
     pub fn tree_quality(&self, mesh: usize) -> Option<(f64, u64)> {
         let m = self.packed.meshes.get(mesh)?;
+        if self.packed.device_builds.iter().any(|b| b.triangle_base == m.triangle_base) {
+            return None;
+        }
         let nodes = self.packed.nodes.get(m.node_base as usize..)?.get(..m.node_count as usize)?;
         (!nodes.is_empty())
             .then(|| (crate::bvh::sah_cost(nodes, 1.0, 1.0), crate::bvh::node_count(nodes) as u64))

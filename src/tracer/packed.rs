@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::enclosure::ClosedBox;
-pub use super::prepare::Layouts;
+pub use super::prepare::{BvhBuilder, DeviceFit, Layouts};
 use super::prepare::PreparedScene;
 use super::records::pack_triangle;
 pub(crate) use super::records::NO_TEXTURE;
@@ -85,6 +85,20 @@ pub struct PackedScene {
     pub warnings: Vec<String>,
     /// Seconds spent building BVHs, for reports.
     pub(crate) bvh_build_seconds: f64,
+    /// The meshes whose binary trees the device builds after the upload (`gpu::bvh_build`):
+    /// here their nodes are zero and their triangles in file order until read back.
+    pub(crate) device_builds: Vec<DeviceBuild>,
+}
+
+/// A mesh whose binary tree the device builds in place after the upload: where its
+/// triangles and its reserved nodes sit in the scene's buffers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct DeviceBuild {
+    pub(crate) triangle_base: u32,
+    pub(crate) triangle_count: u32,
+    pub(crate) node_base: u32,
+    /// The mesh's object-space box (the build's Morton grid spans it).
+    pub(crate) bounds: Aabb,
 }
 
 /// One mesh's triangles (file order) in BVH order, and where its materials and vertices
@@ -106,15 +120,15 @@ impl PackedScene {
     /// Prepare (build every mesh's BVH in `layouts`, decode textures and the environment)
     /// and pack `scene`.
     pub fn with_layouts(scene: &Scene, layouts: Layouts) -> Self {
-        Self::with_layouts_within(scene, layouts, None)
+        Self::with_layouts_within(scene, layouts, DeviceFit::NONE)
     }
 
-    /// [`PackedScene::with_layouts`] for a device whose storage buffers span at most
-    /// `node_limit` bytes: where both layouts would not fit beside each other the wide trees
-    /// are kept alone, and a mesh whose wide tree would still not fit traces its binary tree
-    /// (warnings say which; `tracer::prepare`).
-    pub fn with_layouts_within(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
-        let prepared = PreparedScene::new(scene, layouts, node_limit);
+    /// [`PackedScene::with_layouts`] for `device`: where both layouts would not fit its
+    /// storage buffers beside each other the wide trees are kept alone, a mesh whose wide
+    /// tree would still not fit traces its binary tree (warnings say which;
+    /// `tracer::prepare`), and the meshes it builds itself are left to it.
+    pub fn with_layouts_within(scene: &Scene, layouts: Layouts, device: DeviceFit) -> Self {
+        let prepared = PreparedScene::new(scene, layouts, device);
         let (mut packed, orders) = Self::pack_tables(scene, prepared);
         packed.write_triangles(scene, orders);
         packed
@@ -128,6 +142,7 @@ impl PackedScene {
         let PreparedScene {
             bvhs,
             wide_bvhs,
+            on_device,
             textures,
             environment,
             warnings,
@@ -143,8 +158,9 @@ impl PackedScene {
         let wide_only = layouts == Layouts::Wide;
         let mut orders = Vec::with_capacity(scene.meshes.len());
         let mut prim_base = 0u32;
-        for ((mesh, bvh), wide) in scene.meshes.iter().zip(bvhs).zip(wide_bvhs) {
-            let tree = MeshTrees { bvh, wide, wide_only };
+        let meshes = scene.meshes.iter().zip(bvhs).zip(wide_bvhs).zip(on_device);
+        for (((mesh, bvh), wide), on_device) in meshes {
+            let tree = MeshTrees { bvh, wide, wide_only, on_device };
             orders.push(packed.push_mesh(mesh, tree, prim_base, &texture_index));
             prim_base += mesh.triangle_count() as u32;
         }
@@ -214,7 +230,7 @@ impl PackedScene {
         prim_base: u32,
         texture_index: &HashMap<TextureSource, u32>,
     ) -> BvhOrder {
-        let MeshTrees { bvh, wide, wide_only } = trees;
+        let MeshTrees { bvh, wide, wide_only, on_device } = trees;
         let material_base = self.materials.len() as u32;
         let with_colors = !mesh.colors.is_empty() && mesh.colors.len() == mesh.positions.len();
         let vertex_base = self.vertices.push_mesh(mesh);
@@ -233,8 +249,20 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         let keep_binary = !(wide_only && wide.is_some());
         let node_count = if keep_binary { bvh.nodes.len() as u32 } else { 0 };
-        let cover = MeshCover::of_tree(&bvh.nodes, mesh.bounds());
-        let closed_box = (bvh.prim_indices.len() == 12)
+        let cover = if on_device {
+            MeshCover::of_box(mesh.bounds())
+        } else {
+            MeshCover::of_tree(&bvh.nodes, mesh.bounds())
+        };
+        if on_device {
+            self.device_builds.push(DeviceBuild {
+                triangle_base,
+                triangle_count,
+                node_base,
+                bounds: mesh.bounds(),
+            });
+        }
+        let closed_box = (bvh.prim_indices.len() == 12 && !on_device)
             .then(|| {
                 let slots: Vec<_> =
                     bvh.prim_indices.iter().map(|&k| mesh.corners(k as usize)).collect();
@@ -337,12 +365,14 @@ impl PackedScene {
     }
 }
 
-/// A mesh's trees as the packing takes them: the binary one, the wide one when built, and
-/// whether a mesh with a wide tree leaves its binary nodes out ([`Layouts::Wide`]).
+/// A mesh's trees as the packing takes them: the binary one, the wide one when built,
+/// whether a mesh with a wide tree leaves its binary nodes out ([`Layouts::Wide`]), and
+/// whether the binary one is a stand-in for the device's build.
 struct MeshTrees {
     bvh: Bvh,
     wide: Option<WideBvh>,
     wide_only: bool,
+    on_device: bool,
 }
 
 /// What the host keeps of a scene once the GPU holds its geometry: the mesh table, for the

@@ -136,6 +136,8 @@ fn layouts_hold_what_their_frames_trace() {
 
 #[test]
 fn trees_past_the_node_limit_keep_the_wide_trees_alone_then_the_binary_ones() {
+    // A device that spans `bytes` and builds no tree itself.
+    let within = |bytes| DeviceFit { storage_range: Some(bytes), builds_from: None };
     use crate::render_settings::RenderSettings;
     use crate::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
     use crate::scene::primitives::PaperModel;
@@ -153,13 +155,13 @@ fn trees_past_the_node_limit_keep_the_wide_trees_alone_then_the_binary_ones() {
     for layouts in [Layouts::Wide, Layouts::Both] {
         let whole = PackedScene::with_layouts(&scene, layouts);
         // A limit the whole node buffer meets keeps every tree, silently.
-        let exact = Some(whole.nodes_bytes() as u64);
+        let exact = within(whole.nodes_bytes() as u64);
         let exact = PackedScene::with_layouts_within(&scene, layouts, exact);
         assert!(exact.has_wide() && exact.warnings.is_empty(), "{layouts:?}: {:?}", exact.warnings);
         assert_eq!(exact.nodes_bytes(), whole.nodes_bytes());
         assert_eq!(exact.has_binary(), layouts == Layouts::Both);
         assert!(!exact.some_mesh_lacks_wide());
-        let limit = Some(whole.nodes_bytes() as u64 - 1);
+        let limit = within(whole.nodes_bytes() as u64 - 1);
         let short = PackedScene::with_layouts_within(&scene, layouts, limit);
         assert_eq!(short.warnings.len(), 1, "{:?}", short.warnings);
         assert!(short.warnings[0].starts_with("mirror box: "), "{}", short.warnings[0]);
@@ -180,7 +182,7 @@ fn trees_past_the_node_limit_keep_the_wide_trees_alone_then_the_binary_ones() {
         }
         // No room for any wide tree: every mesh traces its binary tree, wide frames too,
         // and each mesh is named once.
-        let none = PackedScene::with_layouts_within(&scene, layouts, Some(1));
+        let none = PackedScene::with_layouts_within(&scene, layouts, within(1));
         assert!(!none.has_wide() && none.has_binary(), "{layouts:?}");
         assert_eq!(none.traced_layout(BvhLayout::Wide), BvhLayout::Binary);
         assert_eq!(none.warnings.len(), scene.meshes.len(), "{:?}", none.warnings);

@@ -9,9 +9,100 @@ use rayon::prelude::*;
 
 use super::textures::EnvironmentMap;
 use crate::bvh::wide::{self, WideBvh};
-use crate::bvh::{BuildOptions, Bvh};
+use crate::bvh::{BuildOptions, Bvh, BvhNode};
 use crate::render_settings::BvhLayout;
-use crate::scene::{Scene, TextureSource};
+use crate::scene::{Mesh, Scene, TextureSource};
+
+/// From how many triangles a mesh's binary BVH is built on the device, where the device
+/// builds them ([`DeviceFit::builds_from`]) and the user did not say: the CPU build takes
+/// 0.4 s at 10M triangles and 4 s at 100M on 16 cores, the device's tens of milliseconds,
+/// but its tree (Morton order, fixed leaves) traces slower (docs/BENCHMARKS.md).
+pub const DEVICE_BUILD_FROM: usize = 50_000_000;
+
+/// Triangles a leaf of a tree built on the device holds (the last may hold fewer).
+pub const DEVICE_LEAF_SIZE: u32 = 4;
+
+/// The fewest triangles a mesh has to be built on the device even when asked for every
+/// mesh: a smaller one is a leaf or two, and the mirror box's triangles keep the CPU
+/// tree's order (its closed-box test reads them).
+const DEVICE_BUILD_LEAST: usize = 64;
+
+/// Where a scene's BVHs are built.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhBuilder {
+    /// On the device for meshes of at least [`DEVICE_BUILD_FROM`] triangles.
+    #[default]
+    Auto,
+    /// On the CPU (binned SAH), every mesh.
+    Cpu,
+    /// On the device (a linear BVH), every mesh but the smallest.
+    Device,
+}
+
+impl std::str::FromStr for BvhBuilder {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(BvhBuilder::Auto),
+            "cpu" => Ok(BvhBuilder::Cpu),
+            "device" | "gpu" => Ok(BvhBuilder::Device),
+            _ => Err(format!("{s:?} is not a BVH builder: expected auto, cpu or device")),
+        }
+    }
+}
+
+impl std::fmt::Display for BvhBuilder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BvhBuilder::Auto => "auto",
+            BvhBuilder::Cpu => "cpu",
+            BvhBuilder::Device => "device",
+        })
+    }
+}
+
+/// What the device a scene is packed for can hold and do: the bytes a storage buffer may
+/// span (the node buffer is fitted to it, [`NodeBudget`]), and from how many triangles it
+/// builds a mesh's binary BVH itself (`gpu::bvh_build`) after the upload.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceFit {
+    pub storage_range: Option<u64>,
+    pub builds_from: Option<usize>,
+}
+
+impl DeviceFit {
+    /// No device: every tree is built on the CPU, and nothing is fitted.
+    pub const NONE: DeviceFit = DeviceFit { storage_range: None, builds_from: None };
+
+    /// A device whose storage buffers span `storage_range` bytes, building trees as
+    /// `builder` says.
+    pub fn new(storage_range: u64, builder: BvhBuilder) -> Self {
+        let builds_from = match builder {
+            BvhBuilder::Auto => Some(DEVICE_BUILD_FROM),
+            BvhBuilder::Cpu => None,
+            BvhBuilder::Device => Some(0),
+        };
+        Self { storage_range: Some(storage_range), builds_from }
+    }
+
+    /// Whether `mesh`'s binary tree is left to the device.
+    pub(crate) fn builds(&self, mesh: &Mesh) -> bool {
+        self.builds_from
+            .is_some_and(|from| mesh.triangle_count() >= from.max(DEVICE_BUILD_LEAST))
+    }
+}
+
+/// The stand-in for a tree the device will build: its nodes reserved (zero) and its
+/// triangles in file order, which the device's build reorders in place.
+fn reserved_for_device(mesh: &Mesh) -> Bvh {
+    let n = mesh.triangle_count();
+    let leaves = n.div_ceil(DEVICE_LEAF_SIZE as usize);
+    let mut prim_indices = Vec::new();
+    prim_indices.par_extend((0..n as u32).into_par_iter());
+    // Zeroed memory: pages the upload reads without the host writing them.
+    Bvh { nodes: bytemuck::zeroed_vec::<BvhNode>(leaves - 1), prim_indices }
+}
 
 /// Which BVH layouts a packing holds, and so which tree frames of each layout trace.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -65,6 +156,9 @@ pub(crate) struct PreparedScene {
     pub warnings: Vec<String>,
     /// Seconds spent building BVHs (and collapsing them into wide ones), for reports.
     pub bvh_build_seconds: f64,
+    /// Per mesh: whether its binary tree is left to the device (`bvhs` holds the
+    /// [`reserved_for_device`] stand-in).
+    pub on_device: Vec<bool>,
     /// The layouts to pack: those asked for, or [`Layouts::Wide`] where both trees would
     /// not fit the device beside each other ([`NodeBudget`]).
     pub layouts: Layouts,
@@ -72,17 +166,24 @@ pub(crate) struct PreparedScene {
 
 impl PreparedScene {
     /// Build the BVHs (and, where `layouts` holds the wide one, collapse each into it) and
-    /// decode the images `scene` needs. With `node_limit` (the device's storage-buffer
-    /// range), the trees are fitted to it ([`NodeBudget`]), and warnings say how.
-    pub(crate) fn new(scene: &Scene, layouts: Layouts, node_limit: Option<u64>) -> Self {
+    /// decode the images `scene` needs. For a `device` the trees are fitted to its
+    /// storage-buffer range ([`NodeBudget`]), warnings saying how, and the meshes it builds
+    /// itself get stand-ins (no wide tree: wide frames trace their binary ones).
+    pub(crate) fn new(scene: &Scene, layouts: Layouts, device: DeviceFit) -> Self {
         let wide = layouts.builds_wide();
         let (bvhs, textures) = rayon::join(
             || {
                 let start = Instant::now();
-                let mut budget = NodeBudget::new(layouts, node_limit);
+                let mut budget = NodeBudget::new(layouts, device.storage_range);
                 let mut warnings = Vec::new();
                 let mut trees = Vec::with_capacity(scene.meshes.len());
                 for mesh in &scene.meshes {
+                    if device.builds(mesh) {
+                        let bvh = reserved_for_device(mesh);
+                        warnings.extend(budget.place(mesh, &bvh, None));
+                        trees.push((bvh, None, true));
+                        continue;
+                    }
                     let options = BuildOptions::for_tracing(mesh.triangle_count());
                     let mut bvh =
                         Bvh::build_indexed(mesh.triangle_count(), |i| mesh.corners(i), &options);
@@ -105,22 +206,38 @@ impl PreparedScene {
                         None
                     };
                     warnings.extend(budget.place(mesh, &bvh, wide_bvh.as_ref()));
-                    trees.push((bvh, wide_bvh));
+                    trees.push((bvh, wide_bvh, false));
                 }
-                let (bvhs, wide_bvhs): (Vec<Bvh>, Vec<Option<WideBvh>>) = trees.into_iter().unzip();
+                let mut bvhs = Vec::with_capacity(trees.len());
+                let mut wide_bvhs = Vec::with_capacity(trees.len());
+                let mut on_device = Vec::with_capacity(trees.len());
+                for (bvh, wide_bvh, device) in trees {
+                    bvhs.push(bvh);
+                    wide_bvhs.push(wide_bvh);
+                    on_device.push(device);
+                }
                 let seconds = start.elapsed().as_secs_f64();
-                (bvhs, wide_bvhs, budget.layouts, warnings, seconds)
+                (bvhs, wide_bvhs, on_device, budget.layouts, warnings, seconds)
             },
             || decode_textures(scene),
         );
         let (
-            (bvhs, wide_bvhs, layouts, budget_warnings, bvh_build_seconds),
+            (bvhs, wide_bvhs, on_device, layouts, budget_warnings, bvh_build_seconds),
             (textures, mut warnings),
         ) = (bvhs, textures);
         warnings.extend(budget_warnings);
         let (environment, env_warning) = EnvironmentMap::from_source(scene.environment.as_ref());
         warnings.extend(env_warning);
-        Self { bvhs, wide_bvhs, layouts, textures, environment, warnings, bvh_build_seconds }
+        Self {
+            bvhs,
+            wide_bvhs,
+            on_device,
+            layouts,
+            textures,
+            environment,
+            warnings,
+            bvh_build_seconds,
+        }
     }
 }
 
@@ -170,7 +287,7 @@ impl NodeBudget {
     /// trees alone from here on, and the warning says so.
     fn place(
         &mut self,
-        mesh: &crate::scene::Mesh,
+        mesh: &Mesh,
         bvh: &Bvh,
         wide: Option<&WideBvh>,
     ) -> Option<String> {
@@ -199,7 +316,7 @@ impl NodeBudget {
     }
 
     /// The warning for `mesh`, whose wide tree of `nodes` nodes did not fit.
-    fn refusal(&self, mesh: &crate::scene::Mesh, nodes: usize) -> String {
+    fn refusal(&self, mesh: &Mesh, nodes: usize) -> String {
         let with = self.used(Layouts::Wide) + nodes as u64 * WIDE_NODE_BYTES;
         format!(
             "{}: its wide BVH would take the BVH nodes to {:.2} GB, past the device's \

@@ -12,7 +12,7 @@ use crate::progress::{Progress, Snapshot};
 use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::Layouts;
+use crate::tracer::packed::{DeviceFit, Layouts};
 
 /// A loaded model, ready to upload.
 pub(crate) struct LoadedModel {
@@ -37,9 +37,9 @@ pub(crate) enum Poll {
 #[derive(Default)]
 pub(crate) struct ModelLoader {
     job: Option<Job>,
-    /// The tracing device's storage-buffer limit in bytes: a model whose triangles pass it
-    /// is refused before its BVH is built.
-    storage_limit: Option<u64>,
+    /// The tracing device: a model whose triangles pass its storage-buffer range is refused
+    /// before its BVH is built, and it builds the BVHs of the biggest meshes itself.
+    device: DeviceFit,
 }
 
 struct Job {
@@ -62,14 +62,14 @@ impl ModelLoader {
     /// its result dropped).
     pub(crate) fn start(&mut self, spec: SceneSpec) {
         self.cancel();
-        let limit = self.storage_limit;
+        let device = self.device;
         let (tx, rx) = channel();
         let label = spec.model.label();
         let progress = Progress::default();
         let spawned = thread::Builder::new().name("model loader".into()).spawn({
             let progress = progress.clone();
             move || {
-                let result = load(spec, progress, limit);
+                let result = load(spec, progress, device);
                 // The receiver is gone when the load was cancelled: nothing to tell.
                 let _ = tx.send(result);
             }
@@ -85,10 +85,10 @@ impl ModelLoader {
         }
     }
 
-    /// Refuse models whose triangle buffer would pass `limit` bytes (the tracing device's
-    /// storage-buffer range) before building them.
-    pub(crate) fn set_storage_limit(&mut self, limit: u64) {
-        self.storage_limit = Some(limit);
+    /// Load for `device`: refuse models whose triangle buffer would pass its storage-buffer
+    /// range before building them, and leave it the trees it builds.
+    pub(crate) fn set_device(&mut self, device: DeviceFit) {
+        self.device = device;
     }
 
     /// Stop the running load, if any: the old model stays. Returns the cancelled model's label.
@@ -133,17 +133,17 @@ impl ModelLoader {
     }
 }
 
-/// The worker's part: read and parse (or generate), check the triangles against `limit`
-/// (the device's storage-buffer range), build, pack; stops between phases when cancelled.
-fn load(spec: SceneSpec, progress: Progress, limit: Option<u64>) -> Result<LoadedModel, String> {
+/// The worker's part: read and parse (or generate), check the triangles against the
+/// `device`'s storage-buffer range, build, pack; stops between phases when cancelled.
+fn load(spec: SceneSpec, progress: Progress, device: DeviceFit) -> Result<LoadedModel, String> {
     let (model, others, warnings) = spec.load_models(Some(&progress)).map_err(|e| e.to_string())?;
     let world = spec.scene_of(model, &others);
-    if let Some(limit) = limit {
+    if let Some(limit) = device.storage_range {
         check_before_build(&world, &spec.model.label(), limit)?;
     }
     let layouts = Layouts::switchable(spec.settings.bvh);
     let mut scene =
-        LoadedScene::pack(world, layouts, &progress, limit).map_err(|e| e.to_string())?;
+        LoadedScene::pack(world, layouts, &progress, device).map_err(|e| e.to_string())?;
     scene.warnings.splice(0..0, warnings);
     progress.checkpoint().map_err(|e| e.to_string())?;
     // The pack phase ends here, not when the window takes the model: the first frame's
@@ -262,7 +262,7 @@ mod tests {
         assert!(load(knot, Progress::default(), Some(1 << 30)).is_ok());
 
         let mut loader = ModelLoader::default();
-        loader.set_storage_limit(2_000 * item);
+        loader.set_device(DeviceFit { storage_range: Some(2_000 * item), builds_from: None });
         loader.start(spec(ModelSource::Generated(2_000), 1));
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         assert!(result.err().unwrap().contains("the triangle buffer needs"));

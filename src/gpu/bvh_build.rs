@@ -1,0 +1,333 @@
+//! A mesh's binary BVH built on the device, in place in the scene's buffers: a linear BVH
+//! (Karras 2012) for meshes so big that the CPU build is most of a load (100M triangles:
+//! 4 s on 16 cores, against tens of milliseconds here). The CPU build stays the reference
+//! and the default below `tracer::DEVICE_BUILD_FROM` triangles: its SAH trees trace faster.
+//!
+//! The mesh's triangles and hit records are uploaded in file order, with its node range
+//! reserved (`tracer::prepare`); then, in one submission (`shaders/build/`):
+//! 1. the triangles and hit records are copied out to scratch buffers;
+//! 2. `morton.comp`: each triangle's key is the Morton code of its centroid (10 bits an
+//!    axis of the mesh box);
+//! 3. a stable least-significant-digit radix sort of (key, index), 4 bits a pass
+//!    (`radix_count`, `radix_scan`, `radix_scatter`);
+//! 4. `hierarchy.comp`: runs of [`LEAF_SIZE`] sorted triangles are the leaves, and each
+//!    inner node is read off the sorted codes;
+//! 5. `leaves.comp`: each leaf's triangles and hit records moved into sorted order, its box
+//!    made and carried up the tree.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::barrier::{self, Access};
+use super::buffer::GpuBuffer;
+use super::context::GpuContext;
+use super::error::GpuError;
+use super::pipeline::{
+    allocate_one_set, create_compute_pipeline, create_layout, create_set_layout,
+    destroy_pipeline_objects, words,
+};
+use crate::tracer::packed::{DeviceBuild, GpuTriangle, GpuTriangleShading};
+
+/// Triangles a leaf of the device's tree holds (the last may hold fewer).
+pub(crate) use crate::tracer::DEVICE_LEAF_SIZE as LEAF_SIZE;
+
+static MORTON: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_morton.spv"));
+static RADIX_COUNT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_count.spv"));
+static RADIX_SCAN: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_scan.spv"));
+static RADIX_SCATTER: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_scatter.spv"));
+static HIERARCHY: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_hierarchy.spv"));
+static LEAVES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_leaves.spv"));
+
+/// The kernels, in [`BvhBuildPass::pipelines`]' order.
+const KERNELS: [(&[u8], &str); 6] = [
+    (MORTON, "morton"),
+    (RADIX_COUNT, "radix count"),
+    (RADIX_SCAN, "radix scan"),
+    (RADIX_SCATTER, "radix scatter"),
+    (HIERARCHY, "hierarchy"),
+    (LEAVES, "leaves"),
+];
+const MORTON_K: usize = 0;
+const COUNT_K: usize = 1;
+const SCAN_K: usize = 2;
+const SCATTER_K: usize = 3;
+const HIERARCHY_K: usize = 4;
+const LEAVES_K: usize = 5;
+
+/// Bits of the Morton codes (10 an axis) and of a radix pass's digit; items of a radix
+/// work group (`SORT_BLOCK` in `shaders/build/common.glsl`).
+const KEY_BITS: u32 = 30;
+const RADIX_BITS: u32 = 4;
+const SORT_BLOCK: u32 = 2048;
+/// Threads of the one-item-a-thread kernels.
+const GROUP: u32 = 256;
+/// Buffers the kernels bind (`common.glsl`).
+const BINDINGS: u32 = 8;
+
+/// The kernels' push constants (`Build` in `common.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct BuildConstants {
+    lo: [f32; 4],
+    cells: [f32; 4],
+    count: u32,
+    tri_base: u32,
+    node_base: u32,
+    leaf_size: u32,
+    shift: u32,
+    flip: u32,
+    blocks: u32,
+    leaves: u32,
+}
+
+
+/// The build's pipelines and their one descriptor set.
+pub(crate) struct BvhBuildPass {
+    ctx: Arc<GpuContext>,
+    pipelines: [vk::Pipeline; 6],
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+}
+
+impl BvhBuildPass {
+    /// The build's pipelines.
+    pub(crate) fn new(ctx: &Arc<GpuContext>) -> Result<Self, GpuError> {
+        let bindings: Vec<_> = (0..BINDINGS)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_layout =
+            create_set_layout(ctx, &bindings, "creating the BVH build's descriptor layout")?;
+        let mut pass = Self {
+            ctx: ctx.clone(),
+            pipelines: [vk::Pipeline::null(); 6],
+            layout: vk::PipelineLayout::null(),
+            set_layout,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+        };
+        // From here on Drop destroys whatever was made (null handles are ignored).
+        pass.layout = create_layout(
+            ctx,
+            set_layout,
+            vk::ShaderStageFlags::COMPUTE,
+            std::mem::size_of::<BuildConstants>(),
+            "creating the BVH build's pipeline layout",
+        )?;
+        for (pipeline, (spirv, _)) in pass.pipelines.iter_mut().zip(KERNELS) {
+            *pipeline = create_compute_pipeline(
+                ctx,
+                pass.layout,
+                &words(spirv),
+                vk::PipelineCreateFlags::empty(),
+                ["loading a BVH build kernel", "creating a BVH build pipeline"],
+            )?;
+        }
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::STORAGE_BUFFER,
+            descriptor_count: BINDINGS,
+        }];
+        (pass.pool, pass.set) = allocate_one_set(
+            ctx,
+            set_layout,
+            &sizes,
+            [
+                "creating the BVH build's descriptor pool",
+                "allocating the BVH build's descriptor set",
+            ],
+        )?;
+        Ok(pass)
+    }
+
+    /// Build `mesh`'s tree into `nodes` and put its triangles and hit records (uploaded in
+    /// file order) in the tree's order, waiting for the GPU. Meshes of at most
+    /// [`LEAF_SIZE`] triangles are the CPU's (one leaf: `tracer::prepare` never asks).
+    pub(crate) fn build(
+        &self,
+        [triangles, shading, nodes]: [&GpuBuffer; 3],
+        mesh: &DeviceBuild,
+    ) -> Result<(), GpuError> {
+        let n = u64::from(mesh.triangle_count);
+        let leaves = mesh.triangle_count.div_ceil(LEAF_SIZE);
+        assert!(leaves >= 2, "a mesh of one leaf is built on the CPU");
+        let blocks = mesh.triangle_count.div_ceil(SORT_BLOCK);
+        let ctx = &self.ctx;
+        let scratch = |bytes: u64, name| {
+            GpuBuffer::new(
+                ctx,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+                name,
+            )
+        };
+        let tri_bytes = std::mem::size_of::<GpuTriangle>() as u64;
+        let shading_bytes = std::mem::size_of::<GpuTriangleShading>() as u64;
+        let source_triangles = scratch(n * tri_bytes, "BVH build: triangles in file order")?;
+        let source_shading = scratch(n * shading_bytes, "BVH build: hit records in file order")?;
+        let sort = scratch(16 * n, "BVH build: sort keys and values")?;
+        let histogram = scratch(4 * 16 * u64::from(blocks), "BVH build: digit counts")?;
+        // Parents of the leaves and inner nodes, then the inner nodes' arrivals.
+        let tree = scratch(4 * (3 * u64::from(leaves) - 2), "BVH build: parents and arrivals")?;
+        let bound = [
+            triangles,
+            shading,
+            nodes,
+            &source_triangles,
+            &source_shading,
+            &sort,
+            &histogram,
+            &tree,
+        ];
+        self.bind(&bound);
+
+        let extent = (mesh.bounds.max - mesh.bounds.min).max(glam::Vec3::splat(1e-30));
+        let cells = glam::Vec3::splat(1024.0) / extent;
+        let base = BuildConstants {
+            lo: mesh.bounds.min.extend(0.0).into(),
+            cells: cells.extend(0.0).into(),
+            count: mesh.triangle_count,
+            tri_base: mesh.triangle_base,
+            node_base: mesh.node_base,
+            leaf_size: LEAF_SIZE,
+            blocks,
+            leaves,
+            ..Default::default()
+        };
+        let device = &ctx.device;
+        let copies = [
+            (triangles, &source_triangles, tri_bytes),
+            (shading, &source_shading, shading_bytes),
+        ];
+        ctx.one_shot(|cmd| {
+            // SAFETY: `cmd` is recording; every buffer lives until this waited-for
+            // submission ends; the regions lie within them (the upload sized them).
+            unsafe {
+                for (from, to, size) in copies {
+                    let region = vk::BufferCopy {
+                        src_offset: u64::from(mesh.triangle_base) * size,
+                        dst_offset: 0,
+                        size: n * size,
+                    };
+                    device.cmd_copy_buffer(cmd, from.buffer, to.buffer, &[region]);
+                }
+                device.cmd_fill_buffer(cmd, tree.buffer, 0, vk::WHOLE_SIZE, 0);
+            }
+            barrier::buffers(
+                device,
+                cmd,
+                &[Access::TransferWrite, Access::TransferRead, Access::ComputeRead],
+                &[Access::ComputeRead, Access::ComputeWrite],
+            );
+            let step = |kernel: usize, constants: &BuildConstants, groups: u32| {
+                self.dispatch(cmd, kernel, constants, groups);
+                barrier::buffers(
+                    device,
+                    cmd,
+                    &[Access::ComputeWrite],
+                    &[Access::ComputeRead, Access::ComputeWrite],
+                );
+            };
+            step(MORTON_K, &base, mesh.triangle_count.div_ceil(GROUP));
+            // An even number of passes: the sorted keys end in the A arrays.
+            let passes = KEY_BITS.div_ceil(RADIX_BITS).next_multiple_of(2);
+            for pass in 0..passes {
+                let c = BuildConstants { shift: pass * RADIX_BITS, flip: pass % 2, ..base };
+                step(COUNT_K, &c, blocks);
+                step(SCAN_K, &c, 1);
+                step(SCATTER_K, &c, blocks);
+            }
+            step(HIERARCHY_K, &base, (leaves - 1).div_ceil(GROUP));
+            self.dispatch(cmd, LEAVES_K, &base, leaves.div_ceil(GROUP));
+            // The frames after read what this wrote (and the vendor path copies triangles).
+            barrier::buffers(
+                device,
+                cmd,
+                &[Access::ComputeWrite],
+                &[Access::ComputeRead, Access::TransferRead],
+            );
+        })?;
+        Ok(())
+    }
+
+    /// Point the set's bindings at `buffers`, in `common.glsl`'s order.
+    fn bind(&self, buffers: &[&GpuBuffer; BINDINGS as usize]) {
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo { buffer: b.buffer, offset: 0, range: b.size }])
+            .collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(b, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(b as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: the set is not in use (every build waits for its submission); the
+        // buffers are live.
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Record `kernel` over `groups` work groups, spread over x and y where there are more
+    /// than a dimension may hold (`flat_group` in `common.glsl`).
+    fn dispatch(&self, cmd: vk::CommandBuffer, kernel: usize, c: &BuildConstants, groups: u32) {
+        const MAX_X: u32 = 65_535;
+        let (x, y) = if groups <= MAX_X { (groups, 1) } else { (MAX_X, groups.div_ceil(MAX_X)) };
+        let device = &self.ctx.device;
+        // SAFETY: `cmd` is recording; the pipeline, layout and set are live until Drop,
+        // which comes after every waited-for build; the constants fit the range.
+        unsafe {
+            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipelines[kernel]);
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            device.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(c),
+            );
+            device.cmd_dispatch(cmd, x.max(1), y, 1);
+        }
+    }
+}
+
+impl Drop for BvhBuildPass {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        // SAFETY: every build waits for its submission, so the GPU uses none of these; null
+        // handles (a `new` that failed part-way) are ignored by the destroy calls.
+        unsafe {
+            for &p in &self.pipelines {
+                d.destroy_pipeline(p, None);
+            }
+            destroy_pipeline_objects(
+                d,
+                self.pool,
+                vk::Pipeline::null(),
+                self.layout,
+                self.set_layout,
+            );
+        }
+    }
+}
