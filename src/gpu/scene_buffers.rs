@@ -112,9 +112,9 @@ pub fn check_before_build(
         .map_err(|e| format!("{label} has {triangles} triangles, before its BVH is built: {e}"))
 }
 
-/// The triangle and hit-record buffers' usage: the vendor path reads the triangles back to
-/// build the driver's structures (no host copy is kept); the test of what a load writes
-/// reads both.
+/// The triangle, hit-record and node buffers' usage: the vendor path reads the triangles
+/// back to build the driver's structures (no host copy is kept); the test of what a load
+/// writes reads both, and trees the device built are read back.
 const TRIANGLE_USAGE: vk::BufferUsageFlags =
     vk::BufferUsageFlags::from_raw(STORAGE.as_raw() | vk::BufferUsageFlags::TRANSFER_SRC.as_raw());
 const STORAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -182,7 +182,8 @@ impl SceneBuffers {
         let nodes = GpuBuffer::device_local_with_parts(
             ctx,
             &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)],
-            STORAGE,
+            // Read back where the device built trees (`read_back_device_builds`).
+            TRIANGLE_USAGE,
             "bvh nodes",
         )?;
         let top = &packed.top_level;

@@ -475,6 +475,11 @@ fn append<T>(to: &mut Vec<T>, mut from: Vec<T>) {
 }
 
 impl PackedMesh {
+    /// Whether the mesh has a wide tree: without, wide frames trace its binary one.
+    pub fn has_wide_tree(&self) -> bool {
+        self.has_wide
+    }
+
     /// The mesh's BVH as built, put back together from `packed` (for validation: tests,
     /// fuzzing; a scene packed for wide frames alone has none).
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
