@@ -22,7 +22,7 @@ use crate::render_settings::{Accel, Aov, RenderSettings};
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh, Model};
-use crate::tracer::packed::{BvhBuilder, DeviceFit, Layouts};
+use crate::tracer::packed::{BvhBuilder, Layouts};
 use crate::tracer::{budget, FrameParams, PackedScene};
 use clock_guard::{ClockGuard, CLOCKED_DOWN};
 use timing::Timing;
@@ -243,12 +243,11 @@ pub fn run(
             let limit = ctx.info.max_storage_buffer_range;
             crate::gpu::scene_buffers::check_before_build(&scene, &case.spec.model.label(), limit)
                 .map_err(anyhow::Error::msg)?;
-            let packed =
-                PackedScene::with_layouts_within(
-                    &scene,
-                    Layouts::only(layout),
-                    DeviceFit::new(limit, options.bvh_builder),
-                );
+            let packed = PackedScene::with_layouts_within(
+                &scene,
+                Layouts::only(layout),
+                ctx.info.fit(options.bvh_builder),
+            );
             for w in &packed.warnings {
                 log::warn!("{w}");
             }

@@ -13,7 +13,7 @@ use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 use crate::scene::paper::ModelSource;
 use crate::scene::preset::{self, Loaded};
 use crate::scene::spec::SceneSpec;
-use crate::tracer::packed::{BvhBuilder, DeviceFit};
+use crate::tracer::packed::BvhBuilder;
 
 /// What a `bench` run measures and writes (the command line's flags; `*_given`: the flag
 /// was given, not left at its default).
@@ -357,14 +357,13 @@ pub fn run_loads(
     print_device(&env);
     println!("each model in the paper's mirror box at {size}x{size}, {bounces} bounces: phase times, the first frame's GPU time, read start to first frame, peak memory (and beyond the file's size, per triangle)");
     let mut tracer = crate::gpu::ComputeTracer::new(&ctx, 0)?;
-    let limit = ctx.info.max_storage_buffer_range;
     let mut rows = Vec::new();
     for name in models {
         for &layout in layouts {
             let mut spec = SceneSpec { model: ModelSource::parse(name), ..SceneSpec::default() };
             let s = &mut spec.settings;
             (s.width, s.height, s.bounces, s.bvh) = (size, size, bounces, layout);
-            let row = super::load::measure(&spec, &mut tracer, DeviceFit::new(limit, builder));
+            let row = super::load::measure(&spec, &mut tracer, ctx.info.fit(builder));
             rows.push(row.map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?);
         }
     }

@@ -10,7 +10,8 @@
 //!    axis of the mesh box);
 //! 3. a stable least-significant-digit radix sort of (key, index), 4 bits a pass
 //!    (`radix_count`, `radix_scan`, `radix_scatter`);
-//! 4. `hierarchy.comp`: runs of [`LEAF_SIZE`] sorted triangles are the leaves, and each
+//! 4. `hierarchy.comp`: runs of sorted triangles are the leaves (1 to 8 a leaf: as few as
+//!    the node buffer has room for, `tracer::prepare`), and each
 //!    inner node is read off the sorted codes;
 //! 5. `leaves.comp`: each leaf's triangles and hit records moved into sorted order, its box
 //!    made and carried up the tree.
@@ -30,14 +31,10 @@ use super::pipeline::{
 };
 use crate::tracer::packed::{DeviceBuild, GpuTriangle, GpuTriangleShading};
 
-/// Triangles a leaf of the device's tree holds (the last may hold fewer).
-pub(crate) use crate::tracer::DEVICE_LEAF_SIZE as LEAF_SIZE;
-
 static MORTON: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_morton.spv"));
 static RADIX_COUNT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_count.spv"));
 static RADIX_SCAN: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_scan.spv"));
-static RADIX_SCATTER: &[u8] =
-    include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_scatter.spv"));
+static RADIX_SCATTER: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_radix_scatter.spv"));
 static HIERARCHY: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_hierarchy.spv"));
 static LEAVES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_leaves.spv"));
 
@@ -82,7 +79,6 @@ struct BuildConstants {
     blocks: u32,
     leaves: u32,
 }
-
 
 /// The build's pipelines and their one descriptor set.
 pub(crate) struct BvhBuildPass {
@@ -151,14 +147,14 @@ impl BvhBuildPass {
 
     /// Build `mesh`'s tree into `nodes` and put its triangles and hit records (uploaded in
     /// file order) in the tree's order, waiting for the GPU. Meshes of at most
-    /// [`LEAF_SIZE`] triangles are the CPU's (one leaf: `tracer::prepare` never asks).
+    /// one leaf are the CPU's (`tracer::prepare` leaves the device meshes of 64 and more).
     pub(crate) fn build(
         &self,
         [triangles, shading, nodes]: [&GpuBuffer; 3],
         mesh: &DeviceBuild,
     ) -> Result<(), GpuError> {
         let n = u64::from(mesh.triangle_count);
-        let leaves = mesh.triangle_count.div_ceil(LEAF_SIZE);
+        let leaves = mesh.leaves();
         assert!(leaves >= 2, "a mesh of one leaf is built on the CPU");
         let blocks = mesh.triangle_count.div_ceil(SORT_BLOCK);
         let ctx = &self.ctx;
@@ -199,16 +195,14 @@ impl BvhBuildPass {
             count: mesh.triangle_count,
             tri_base: mesh.triangle_base,
             node_base: mesh.node_base,
-            leaf_size: LEAF_SIZE,
+            leaf_size: mesh.leaf_size,
             blocks,
             leaves,
             ..Default::default()
         };
         let device = &ctx.device;
-        let copies = [
-            (triangles, &source_triangles, tri_bytes),
-            (shading, &source_shading, shading_bytes),
-        ];
+        let copies =
+            [(triangles, &source_triangles, tri_bytes), (shading, &source_shading, shading_bytes)];
         ctx.one_shot(|cmd| {
             // SAFETY: `cmd` is recording; every buffer lives until this waited-for
             // submission ends; the regions lie within them (the upload sized them).

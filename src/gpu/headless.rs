@@ -115,8 +115,7 @@ fn load_beside_device(
             return join(device).and(Err(anyhow::anyhow!("the device thread ended early")));
         };
         let (scene, warnings) = loaded?;
-        let limit = ctx.info.max_storage_buffer_range;
-        let fit = DeviceFit::new(limit, on.bvh_builder);
+        let fit = ctx.info.fit(on.bvh_builder);
         let packed = pack(spec, &scene, &warnings, fit, clock)?;
         Ok((ctx, join(device)?, scene, packed))
     })

@@ -14,8 +14,8 @@
 
 pub(crate) mod barrier;
 pub mod buffer;
-pub(crate) mod clock_probe;
 pub(crate) mod bvh_build;
+pub(crate) mod clock_probe;
 pub(crate) mod compute_tracer;
 pub(crate) mod context;
 pub(crate) mod dispatch;

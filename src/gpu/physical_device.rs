@@ -2,6 +2,7 @@
 //! none is named, and what the device offers (limits, driver, the vendor's ray tracing, shader
 //! statistics, the shader clock) as `DeviceInfo`.
 
+use crate::tracer::packed::{BvhBuilder, DeviceFit};
 use std::ffi::CStr;
 
 use ash::vk;
@@ -113,6 +114,12 @@ impl DeviceInfo {
     /// The device is a CPU (lavapipe, SwiftShader).
     pub(crate) fn is_cpu(&self) -> bool {
         self.device_type == device_type_name(vk::PhysicalDeviceType::CPU)
+    }
+
+    /// What a scene packed for this device must fit, and the trees it builds as `builder`
+    /// says (`gpu::bvh_build`).
+    pub(crate) fn fit(&self, builder: BvhBuilder) -> DeviceFit {
+        DeviceFit::new(self.max_storage_buffer_range, builder, !self.is_cpu())
     }
 }
 

@@ -12,9 +12,7 @@ use super::error::GpuError;
 use crate::bvh::BvhNode;
 use crate::scene::paper::MAX_MODELS;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::{
-    environment_words, DeviceBuild, GpuInstance, PackedScene, TopLevel,
-};
+use crate::tracer::packed::{environment_words, DeviceBuild, GpuInstance, PackedScene, TopLevel};
 use crate::tracer::textures::EnvironmentMap;
 
 /// Room in the instance buffers: every model copy plus the mirror box, plus headroom, so
@@ -256,15 +254,12 @@ impl SceneBuffers {
             into: &mut [T],
         ) -> Result<(), GpuError> {
             let size = std::mem::size_of::<T>() as u64;
-            let bytes =
-                buffer.download_range(u64::from(first) * size, u64::from(count) * size)?;
-            into[first as usize..][..count as usize]
-                .copy_from_slice(bytemuck::cast_slice(&bytes));
+            let bytes = buffer.download_range(u64::from(first) * size, u64::from(count) * size)?;
+            into[first as usize..][..count as usize].copy_from_slice(bytemuck::cast_slice(&bytes));
             Ok(())
         }
         for b in std::mem::take(&mut packed.device_builds) {
-            let nodes = b.triangle_count.div_ceil(super::bvh_build::LEAF_SIZE) - 1;
-            read(&self.nodes, b.node_base, nodes, &mut packed.nodes)?;
+            read(&self.nodes, b.node_base, b.nodes(), &mut packed.nodes)?;
             read(&self.triangles, b.triangle_base, b.triangle_count, &mut packed.triangles)?;
             read(&self.shading, b.triangle_base, b.triangle_count, &mut packed.shading)?;
         }

@@ -21,4 +21,4 @@ pub use frame::FrameParams;
 pub use image::Image;
 pub use loaded::LoadedScene;
 pub use packed::PackedScene;
-pub use prepare::{DEVICE_BUILD_FROM, DEVICE_LEAF_SIZE};
+pub use prepare::{DEVICE_BUILD_FROM, DEVICE_LEAF_SIZES};

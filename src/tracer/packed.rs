@@ -15,8 +15,8 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::enclosure::ClosedBox;
-pub use super::prepare::{BvhBuilder, DeviceFit, Layouts};
 use super::prepare::PreparedScene;
+pub use super::prepare::{BvhBuilder, DeviceFit, Layouts};
 use super::records::pack_triangle;
 pub(crate) use super::records::NO_TEXTURE;
 pub use super::records::{
@@ -99,6 +99,20 @@ pub(crate) struct DeviceBuild {
     pub(crate) node_base: u32,
     /// The mesh's object-space box (the build's Morton grid spans it).
     pub(crate) bounds: Aabb,
+    /// Triangles a leaf holds (the last leaf may hold fewer).
+    pub(crate) leaf_size: u32,
+}
+
+impl DeviceBuild {
+    /// Leaves of the tree.
+    pub(crate) fn leaves(&self) -> u32 {
+        self.triangle_count.div_ceil(self.leaf_size)
+    }
+
+    /// Nodes of the tree: one a leaf but one (a node holds two children).
+    pub(crate) fn nodes(&self) -> u32 {
+        self.leaves() - 1
+    }
 }
 
 /// One mesh's triangles (file order) in BVH order, and where its materials and vertices
@@ -249,20 +263,21 @@ impl PackedScene {
         let node_base = self.nodes.len() as u32;
         let keep_binary = !(wide_only && wide.is_some());
         let node_count = if keep_binary { bvh.nodes.len() as u32 } else { 0 };
-        let cover = if on_device {
+        let cover = if on_device.is_some() {
             MeshCover::of_box(mesh.bounds())
         } else {
             MeshCover::of_tree(&bvh.nodes, mesh.bounds())
         };
-        if on_device {
+        if let Some(leaf_size) = on_device {
             self.device_builds.push(DeviceBuild {
                 triangle_base,
                 triangle_count,
                 node_base,
                 bounds: mesh.bounds(),
+                leaf_size,
             });
         }
-        let closed_box = (bvh.prim_indices.len() == 12 && !on_device)
+        let closed_box = (bvh.prim_indices.len() == 12 && on_device.is_none())
             .then(|| {
                 let slots: Vec<_> =
                     bvh.prim_indices.iter().map(|&k| mesh.corners(k as usize)).collect();
@@ -367,12 +382,12 @@ impl PackedScene {
 
 /// A mesh's trees as the packing takes them: the binary one, the wide one when built,
 /// whether a mesh with a wide tree leaves its binary nodes out ([`Layouts::Wide`]), and
-/// whether the binary one is a stand-in for the device's build.
+/// the leaf size of the device's build where the binary one is its stand-in.
 struct MeshTrees {
     bvh: Bvh,
     wide: Option<WideBvh>,
     wide_only: bool,
-    on_device: bool,
+    on_device: Option<u32>,
 }
 
 /// What the host keeps of a scene once the GPU holds its geometry: the mesh table, for the

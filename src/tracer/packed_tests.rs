@@ -89,7 +89,7 @@ fn a_loaded_scene_makes_the_records_a_full_packing_holds() {
     let progress = Progress::default();
     for layouts in [Layouts::Binary, Layouts::Both] {
         let full = PackedScene::with_layouts(&scene, layouts);
-        let loaded = LoadedScene::pack(scene.clone(), layouts, &progress, None).unwrap();
+        let loaded = LoadedScene::pack(scene.clone(), layouts, &progress, DeviceFit::NONE).unwrap();
         assert_eq!(loaded.triangle_count(), full.triangles.len());
         assert_eq!(loaded.buffer_sizes(), full.buffer_sizes());
         for k in 0..full.triangles.len() {

@@ -19,8 +19,9 @@ use crate::scene::{Mesh, Scene, TextureSource};
 /// but its tree (Morton order, fixed leaves) traces slower (docs/BENCHMARKS.md).
 pub const DEVICE_BUILD_FROM: usize = 50_000_000;
 
-/// Triangles a leaf of a tree built on the device holds (the last may hold fewer).
-pub const DEVICE_LEAF_SIZE: u32 = 4;
+/// The triangles a leaf of a tree built on the device may hold (the last leaf fewer): the
+/// least whose nodes fit the node buffer ([`device_leaf_size`]).
+pub const DEVICE_LEAF_SIZES: [u32; 4] = [1, 2, 4, 8];
 
 /// The fewest triangles a mesh has to be built on the device even when asked for every
 /// mesh: a smaller one is a leaf or two, and the mirror box's triangles keep the CPU
@@ -76,10 +77,11 @@ impl DeviceFit {
     pub const NONE: DeviceFit = DeviceFit { storage_range: None, builds_from: None };
 
     /// A device whose storage buffers span `storage_range` bytes, building trees as
-    /// `builder` says.
-    pub fn new(storage_range: u64, builder: BvhBuilder) -> Self {
+    /// `builder` says; `auto` leaves none to a device that is no faster than the host
+    /// (`gpu_device` false: lavapipe runs the build on the CPU, one core a work group).
+    pub fn new(storage_range: u64, builder: BvhBuilder, gpu_device: bool) -> Self {
         let builds_from = match builder {
-            BvhBuilder::Auto => Some(DEVICE_BUILD_FROM),
+            BvhBuilder::Auto => gpu_device.then_some(DEVICE_BUILD_FROM),
             BvhBuilder::Cpu => None,
             BvhBuilder::Device => Some(0),
         };
@@ -88,16 +90,22 @@ impl DeviceFit {
 
     /// Whether `mesh`'s binary tree is left to the device.
     pub(crate) fn builds(&self, mesh: &Mesh) -> bool {
-        self.builds_from
-            .is_some_and(|from| mesh.triangle_count() >= from.max(DEVICE_BUILD_LEAST))
+        self.builds_from.is_some_and(|from| mesh.triangle_count() >= from.max(DEVICE_BUILD_LEAST))
     }
 }
 
-/// The stand-in for a tree the device will build: its nodes reserved (zero) and its
-/// triangles in file order, which the device's build reorders in place.
-fn reserved_for_device(mesh: &Mesh) -> Bvh {
+/// The triangles a leaf holds in the device's tree over `triangles`: the fewest of
+/// [`DEVICE_LEAF_SIZES`] whose nodes (one a leaf but one) fit in `room` bytes.
+pub(crate) fn device_leaf_size(triangles: usize, room: u64) -> u32 {
+    let fits = |&l: &u32| (triangles.div_ceil(l as usize) as u64 - 1) * BINARY_NODE_BYTES <= room;
+    DEVICE_LEAF_SIZES.into_iter().find(fits).unwrap_or(DEVICE_LEAF_SIZES[3])
+}
+
+/// The stand-in for a tree the device will build with leaves of `leaf_size`: its nodes
+/// reserved (zero) and its triangles in file order, which the build reorders in place.
+fn reserved_for_device(mesh: &Mesh, leaf_size: u32) -> Bvh {
     let n = mesh.triangle_count();
-    let leaves = n.div_ceil(DEVICE_LEAF_SIZE as usize);
+    let leaves = n.div_ceil(leaf_size as usize);
     let mut prim_indices = Vec::new();
     prim_indices.par_extend((0..n as u32).into_par_iter());
     // Zeroed memory: pages the upload reads without the host writing them.
@@ -156,9 +164,9 @@ pub(crate) struct PreparedScene {
     pub warnings: Vec<String>,
     /// Seconds spent building BVHs (and collapsing them into wide ones), for reports.
     pub bvh_build_seconds: f64,
-    /// Per mesh: whether its binary tree is left to the device (`bvhs` holds the
-    /// [`reserved_for_device`] stand-in).
-    pub on_device: Vec<bool>,
+    /// Per mesh whose binary tree is left to the device (`bvhs` holds the
+    /// [`reserved_for_device`] stand-in): the triangles its leaves hold.
+    pub on_device: Vec<Option<u32>>,
     /// The layouts to pack: those asked for, or [`Layouts::Wide`] where both trees would
     /// not fit the device beside each other ([`NodeBudget`]).
     pub layouts: Layouts,
@@ -179,9 +187,10 @@ impl PreparedScene {
                 let mut trees = Vec::with_capacity(scene.meshes.len());
                 for mesh in &scene.meshes {
                     if device.builds(mesh) {
-                        let bvh = reserved_for_device(mesh);
+                        let leaf_size = device_leaf_size(mesh.triangle_count(), budget.room());
+                        let bvh = reserved_for_device(mesh, leaf_size);
                         warnings.extend(budget.place(mesh, &bvh, None));
-                        trees.push((bvh, None, true));
+                        trees.push((bvh, None, Some(leaf_size)));
                         continue;
                     }
                     let options = BuildOptions::for_tracing(mesh.triangle_count());
@@ -206,7 +215,7 @@ impl PreparedScene {
                         None
                     };
                     warnings.extend(budget.place(mesh, &bvh, wide_bvh.as_ref()));
-                    trees.push((bvh, wide_bvh, false));
+                    trees.push((bvh, wide_bvh, None));
                 }
                 let mut bvhs = Vec::with_capacity(trees.len());
                 let mut wide_bvhs = Vec::with_capacity(trees.len());
@@ -274,6 +283,12 @@ impl NodeBudget {
         }
     }
 
+    /// The bytes left for the next mesh's nodes, every tree so far kept (`u64::MAX`
+    /// without a limit).
+    fn room(&self) -> u64 {
+        self.limit.map_or(u64::MAX, |l| l.saturating_sub(self.used(self.layouts)))
+    }
+
     /// The most nodes the next mesh's wide tree may have to fit after the meshes placed so
     /// far, the binary trees dropped if need be ([`Layouts::Wide`]).
     fn wide_room(&self) -> usize {
@@ -285,12 +300,7 @@ impl NodeBudget {
     /// Counts in the nodes of `mesh`, with binary tree `bvh` and `wide` tree if it keeps
     /// one; where both trees no longer fit beside each other, the packing keeps the wide
     /// trees alone from here on, and the warning says so.
-    fn place(
-        &mut self,
-        mesh: &Mesh,
-        bvh: &Bvh,
-        wide: Option<&WideBvh>,
-    ) -> Option<String> {
+    fn place(&mut self, mesh: &Mesh, bvh: &Bvh, wide: Option<&WideBvh>) -> Option<String> {
         let binary = bvh.nodes.len() as u64 * BINARY_NODE_BYTES;
         self.binary += binary;
         if let Some(w) = wide {

@@ -60,7 +60,6 @@ use crate::gpu::present::{BandTag, FrameOutcome, FrameRequest, PixelRect, Show, 
 use crate::gpu::{ComputeTracer, FrameTrace, GpuError, PartTimes};
 use crate::render_settings::{Accel, RenderSettings};
 use crate::scene::spec::SceneSpec;
-use crate::tracer::packed::DeviceFit;
 
 /// The tool: the window and its GPU side, the parameters and session, and the parts each
 /// frame goes through (the UI pass, the frame and its bands, captures, timing).
@@ -147,10 +146,7 @@ impl Tool {
         if let Some(path) = &options.preset {
             panel.presets.used(path);
         }
-        session.loader.set_device(DeviceFit::new(
-            trace_ctx.info.max_storage_buffer_range,
-            options.bvh_builder,
-        ));
+        session.loader.set_device(trace_ctx.info.fit(options.bvh_builder));
         session.start_load(options.spec.model.clone(), &mut params, &mut panel);
         let previous_resolution = if params.resolution == Resolution::MatchWindow {
             Resolution::Square(512)

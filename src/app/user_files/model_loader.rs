@@ -195,8 +195,9 @@ mod tests {
         // The worker checks the flag before each phase.
         let progress = Progress::default();
         progress.cancel();
-        let err =
-            load(spec(ModelSource::Generated(2_000), 1), progress.clone(), None).err().unwrap();
+        let err = load(spec(ModelSource::Generated(2_000), 1), progress.clone(), DeviceFit::NONE)
+            .err()
+            .unwrap();
         assert_eq!(err, "loading was cancelled");
         assert!(progress.snapshot().phases.is_empty());
     }
@@ -219,7 +220,9 @@ mod tests {
     #[test]
     fn the_pack_phase_ends_with_the_worker() {
         let progress = Progress::default();
-        let loaded = load(spec(ModelSource::Generated(2_000), 1), progress.clone(), None).unwrap();
+        let loaded =
+            load(spec(ModelSource::Generated(2_000), 1), progress.clone(), DeviceFit::NONE)
+                .unwrap();
         let snapshot = loaded.progress.snapshot();
         assert!(snapshot.phases.iter().all(|p| p.done), "{:?}", snapshot.phases);
         let pack = snapshot.seconds(Phase::Pack);
@@ -252,17 +255,18 @@ mod tests {
         let err = check_triangle_count(4_000_012, 134_217_728).unwrap_err().to_string();
         assert!(err.contains("needs 160000528 bytes but the device allows 134217728"), "{err}");
 
+        let within = |bytes| DeviceFit { storage_range: Some(bytes), builds_from: None };
         let progress = Progress::default();
         let knot = spec(ModelSource::Generated(2_000), 1);
-        let err = load(knot.clone(), progress.clone(), Some(2_000 * item)).err().unwrap();
+        let err = load(knot.clone(), progress.clone(), within(2_000 * item)).err().unwrap();
         assert!(err.contains("the triangle buffer needs"), "{err}");
         assert!(err.contains("triangles, before its BVH is built"), "{err}");
         let phases: Vec<Phase> = progress.snapshot().phases.iter().map(|p| p.phase).collect();
         assert_eq!(phases, [Phase::Parse], "refused before the build");
-        assert!(load(knot, Progress::default(), Some(1 << 30)).is_ok());
+        assert!(load(knot, Progress::default(), within(1 << 30)).is_ok());
 
         let mut loader = ModelLoader::default();
-        loader.set_device(DeviceFit { storage_range: Some(2_000 * item), builds_from: None });
+        loader.set_device(within(2_000 * item));
         loader.start(spec(ModelSource::Generated(2_000), 1));
         let Poll::Done(result) = loader.wait() else { panic!("no result") };
         assert!(result.err().unwrap().contains("the triangle buffer needs"));
