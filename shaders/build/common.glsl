@@ -25,6 +25,12 @@ layout(push_constant) uniform Build {
     uint flip;        // a radix pass: 0 sorts from the A arrays into B, 1 from B into A
     uint blocks;      // a radix pass: blocks of SORT_BLOCK items
     uint leaves;      // leaves of the tree: ceil(count / leaf_size)
+    // The collapse into the wide tree (`collapse.comp`):
+    uint wide_word;   // where the mesh's wide nodes start in `node_words`
+    uint wide_limit;  // wide nodes reserved for it
+    uint bin_base;    // where its binary nodes start in `bin_words`
+    uint patch_binary;  // 1: the binary tree is kept, its leaves pointed at the wide order
+    uint level;       // the collapse's level: its items are in queue (level & 1)
 } pc;
 
 // The scene's triangles as 32-bit words, 10 a triangle (`GpuTriangle`: v0, e1, e2, prim).
@@ -42,8 +48,17 @@ layout(std430, set = 0, binding = 5) buffer Sort { uint sort_words[]; };
 // Each block's digit counts, digit-major (RADIX * blocks), then scanned in place.
 layout(std430, set = 0, binding = 6) buffer Histogram { uint histogram[]; };
 // The tree's bookkeeping: each leaf's parent, then each inner node's (bit 31: right
-// child), then each inner node's arrivals in the refit.
+// child), then each inner node's arrivals in the refit, then the height of each inner
+// node's two children (a leaf's is 0).
 layout(std430, set = 0, binding = 7) coherent buffer Tree { uint tree_words[]; };
+// The collapse: the binary tree it reads (and patches), and its work queues (`collapse.comp`).
+layout(std430, set = 0, binding = 8) buffer BinaryNodes { uint bin_words[]; };
+layout(std430, set = 0, binding = 9) buffer Queue { uint queue_words[]; };
+
+// Where the tree's bookkeeping arrays start in `tree_words`.
+uint inner_parents() { return pc.leaves; }
+uint arrivals() { return 2u * pc.leaves - 1u; }
+uint child_heights() { return 3u * pc.leaves - 2u; }
 
 uint key_a(uint i) { return sort_words[i]; }
 uint value_a(uint i) { return sort_words[pc.count + i]; }

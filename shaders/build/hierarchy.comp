@@ -39,7 +39,7 @@ void set_child(uint node, uint side, uint index, bool leaf) {
     } else {
         node_words[w + 3u] = index;
         node_words[w + 7u] = 0u;
-        tree_words[pc.leaves + index] = node | (side << 31u);
+        tree_words[inner_parents() + index] = node | (side << 31u);
     }
 }
 

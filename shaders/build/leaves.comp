@@ -2,7 +2,8 @@
 // The device BVH build, step 4: each leaf's triangles and hit records moved into sorted
 // order, its box made from its corners, and the boxes carried up the tree: a node's box is
 // written into its parent's record, and the second of the two children to arrive (an
-// atomic count) goes on up with the union of both.
+// atomic count) goes on up with the union of both, and the subtree's height (which the
+// collapse into the wide tree reads).
 #include "common.glsl"
 
 layout(local_size_x = 256) in;
@@ -52,21 +53,25 @@ void main() {
     lo -= pad;
     hi += pad;
     uint at = tree_words[leaf];
-    uint arrivals = 2u * pc.leaves - 1u;
+    uint height = 0u;  // of the subtree carried up: a leaf's is 0
     while (true) {
         uint node = at & 0x7fffffffu;
-        set_box(node, at >> 31u, lo, hi);
+        uint side = at >> 31u;
+        set_box(node, side, lo, hi);
+        tree_words[child_heights() + 2u * node + side] = height;
         memoryBarrierBuffer();
-        if (atomicAdd(tree_words[arrivals + node], 1u) == 0u) {
+        if (atomicAdd(tree_words[arrivals() + node], 1u) == 0u) {
             return;  // the sibling carries the union up
         }
         memoryBarrierBuffer();
         uint w = 16u * (pc.node_base + node);
         lo = min(box_corner(w), box_corner(w + 8u));
         hi = max(box_corner(w + 4u), box_corner(w + 12u));
+        uint h = child_heights() + 2u * node;
+        height = 1u + max(tree_words[h], tree_words[h + 1u]);
         if (node == 0u) {
             return;
         }
-        at = tree_words[pc.leaves + node];
+        at = tree_words[inner_parents() + node];
     }
 }

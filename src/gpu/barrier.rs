@@ -47,6 +47,8 @@ pub(crate) enum Access {
     RayTracingWrite,
     /// Handed to the presentation engine.
     Present,
+    /// Read as a dispatch's arguments (`vkCmdDispatchIndirect`).
+    IndirectRead,
 }
 
 impl Access {
@@ -67,6 +69,7 @@ impl Access {
                 S::RAY_TRACING_SHADER_KHR
             }
             Access::Present => S::BOTTOM_OF_PIPE,
+            Access::IndirectRead => S::DRAW_INDIRECT,
         }
     }
 
@@ -87,6 +90,7 @@ impl Access {
                 A::ACCELERATION_STRUCTURE_READ_KHR
             }
             Access::AccelBuildWrite => A::ACCELERATION_STRUCTURE_WRITE_KHR,
+            Access::IndirectRead => A::INDIRECT_COMMAND_READ,
         }
     }
 
@@ -105,7 +109,8 @@ impl Access {
             Access::RayQueryAccelRead
             | Access::RayTracingAccelRead
             | Access::RayTracingRead
-            | Access::RayTracingWrite => L::GENERAL,
+            | Access::RayTracingWrite
+            | Access::IndirectRead => L::GENERAL,
             Access::TransferRead => L::TRANSFER_SRC_OPTIMAL,
             Access::TransferWrite => L::TRANSFER_DST_OPTIMAL,
             Access::ColorAttachment => L::COLOR_ATTACHMENT_OPTIMAL,

@@ -247,21 +247,32 @@ impl SceneBuffers {
     /// nodes, triangles and hit records of each mesh it built, so that the host's arrays are
     /// the GPU's again (the CPU tracer, tests). Afterwards `packed` has no builds pending.
     pub(crate) fn read_back_device_builds(&self, packed: &mut PackedScene) -> Result<(), GpuError> {
+        /// `into[first..][..count]` from `buffer` at `offset` bytes.
         fn read<T: bytemuck::Pod>(
             buffer: &GpuBuffer,
-            first: u32,
-            count: u32,
+            offset: u64,
+            (first, count): (u32, u32),
             into: &mut [T],
         ) -> Result<(), GpuError> {
             let size = std::mem::size_of::<T>() as u64;
-            let bytes = buffer.download_range(u64::from(first) * size, u64::from(count) * size)?;
-            into[first as usize..][..count as usize].copy_from_slice(bytemuck::cast_slice(&bytes));
+            let bytes = buffer.download_range(offset, u64::from(count) * size)?;
+            into[first as usize..][..count as usize]
+                .copy_from_slice(bytemuck::cast_slice(&bytes));
             Ok(())
         }
         for b in std::mem::take(&mut packed.device_builds) {
-            read(&self.nodes, b.node_base, b.nodes(), &mut packed.nodes)?;
-            read(&self.triangles, b.triangle_base, b.triangle_count, &mut packed.triangles)?;
-            read(&self.shading, b.triangle_base, b.triangle_count, &mut packed.shading)?;
+            if let Some(base) = b.node_base {
+                let at = u64::from(base) * std::mem::size_of::<BvhNode>() as u64;
+                read(&self.nodes, at, (base, b.nodes()), &mut packed.nodes)?;
+            }
+            if let Some(w) = b.wide {
+                let at = u64::from(w.words) * 16;
+                read(&self.nodes, at, (w.base, w.nodes), &mut packed.wide_nodes)?;
+            }
+            let tris = (b.triangle_base, b.triangle_count);
+            let at = |size: usize| u64::from(b.triangle_base) * size as u64;
+            read(&self.triangles, at(40), tris, &mut packed.triangles)?;
+            read(&self.shading, at(16), tris, &mut packed.shading)?;
         }
         Ok(())
     }

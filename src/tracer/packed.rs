@@ -90,17 +90,32 @@ pub struct PackedScene {
     pub(crate) device_builds: Vec<DeviceBuild>,
 }
 
-/// A mesh whose binary tree the device builds in place after the upload: where its
-/// triangles and its reserved nodes sit in the scene's buffers.
+/// A mesh whose trees the device builds in place after the upload: where its triangles
+/// and its reserved nodes sit in the scene's buffers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct DeviceBuild {
     pub(crate) triangle_base: u32,
     pub(crate) triangle_count: u32,
-    pub(crate) node_base: u32,
+    /// Its first binary node, where its binary tree is kept (None: only the wide one is,
+    /// and the build keeps the binary one in scratch memory for the collapse).
+    pub(crate) node_base: Option<u32>,
+    /// The wide nodes reserved for its wide tree, where it has one.
+    pub(crate) wide: Option<WideReserve>,
     /// The mesh's object-space box (the build's Morton grid spans it).
     pub(crate) bounds: Aabb,
     /// Triangles a leaf holds (the last leaf may hold fewer).
     pub(crate) leaf_size: u32,
+}
+
+/// The wide nodes reserved for a mesh's wide tree built on the device
+/// ([`device_wide_nodes`](super::prepare::device_wide_nodes) of them: the tree takes fewer).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct WideReserve {
+    /// The first, in [`PackedScene::wide_nodes`].
+    pub(crate) base: u32,
+    /// The first, in 16-byte words of the GPU's node buffer.
+    pub(crate) words: u32,
+    pub(crate) nodes: u32,
 }
 
 impl DeviceBuild {
@@ -181,6 +196,10 @@ impl PackedScene {
         packed.vertices.finish();
         packed.wide_only = wide_only && packed.meshes.iter().any(|m| m.has_wide);
         packed.wide_word_base = (std::mem::size_of_val(packed.nodes.as_slice()) / 16) as u32;
+        let wide_words = (std::mem::size_of::<WideNode>() / 16) as u32;
+        for wide in packed.device_builds.iter_mut().filter_map(|b| b.wide.as_mut()) {
+            wide.words = packed.wide_word_base + wide.base * wide_words;
+        }
         packed.set_instances(&scene.instances);
         (packed, orders)
     }
@@ -269,10 +288,16 @@ impl PackedScene {
             MeshCover::of_tree(&bvh.nodes, mesh.bounds())
         };
         if let Some(leaf_size) = on_device {
+            let wide = wide.as_ref().map(|w| WideReserve {
+                base: self.wide_nodes.len() as u32,
+                words: 0, // once the binary nodes' bytes are known (`pack_tables`)
+                nodes: w.nodes.len() as u32,
+            });
             self.device_builds.push(DeviceBuild {
                 triangle_base,
                 triangle_count,
-                node_base,
+                node_base: keep_binary.then_some(node_base),
+                wide,
                 bounds: mesh.bounds(),
                 leaf_size,
             });

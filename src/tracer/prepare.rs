@@ -101,15 +101,48 @@ pub(crate) fn device_leaf_size(triangles: usize, room: u64) -> u32 {
     DEVICE_LEAF_SIZES.into_iter().find(fits).unwrap_or(DEVICE_LEAF_SIZES[3])
 }
 
-/// The stand-in for a tree the device will build with leaves of `leaf_size`: its nodes
-/// reserved (zero) and its triangles in file order, which the build reorders in place.
-fn reserved_for_device(mesh: &Mesh, leaf_size: u32) -> Bvh {
+/// The most wide nodes the device's collapse makes of a binary tree of `leaves` leaves, so
+/// many reserved for it. A wide node is full (eight children) unless its binary subtree has
+/// fewer than eight leaves, when it holds the subtree whole; counting the W nodes' children
+/// (W - 1 nodes and `leaves` leaves) against eight a full node and two a small one, and the
+/// small ones' disjoint leaves: 7W <= 4 leaves - 1. Its stack guard (`collapse.comp`) may
+/// stop a node short of eight where the tree is deep; a tree that needs more than this
+/// reserve is refused at the upload.
+pub(crate) fn device_wide_nodes(leaves: usize) -> usize {
+    (4 * leaves).div_ceil(7) + 1
+}
+
+/// The stand-ins for the trees the device will build over `mesh`: the binary tree's nodes
+/// reserved (zero) with its triangles in file order, which the build reorders in place, and
+/// with `wide`, the wide tree's nodes, where they fit: its leaves hold one triangle or two
+/// (a wide leaf slot holds three at most), its binary tree fits a storage buffer of
+/// `storage_range` bytes, and its wide nodes fit the node buffer (`budget`). Otherwise the
+/// binary tree alone, its leaves as small as fit. Returns the leaf size with them.
+fn reserved_for_device(
+    mesh: &Mesh,
+    wide: bool,
+    storage_range: Option<u64>,
+    budget: &NodeBudget,
+) -> (Bvh, Option<WideBvh>, u32) {
     let n = mesh.triangle_count();
-    let leaves = n.div_ceil(leaf_size as usize);
+    let binary_bytes = |leaf: u32| (n.div_ceil(leaf as usize) as u64 - 1) * BINARY_NODE_BYTES;
+    let wide_leaf = DEVICE_LEAF_SIZES[..2].iter().copied().find(|&leaf| {
+        let nodes = device_wide_nodes(n.div_ceil(leaf as usize));
+        binary_bytes(leaf) <= storage_range.unwrap_or(u64::MAX) && nodes <= budget.wide_room()
+    });
+    let (leaf_size, wide) = match wide_leaf.filter(|_| wide) {
+        Some(leaf) => {
+            let nodes = device_wide_nodes(n.div_ceil(leaf as usize));
+            (leaf, Some(WideBvh { nodes: bytemuck::zeroed_vec(nodes) }))
+        }
+        None => (device_leaf_size(n, budget.room()), None),
+    };
     let mut prim_indices = Vec::new();
     prim_indices.par_extend((0..n as u32).into_par_iter());
     // Zeroed memory: pages the upload reads without the host writing them.
-    Bvh { nodes: bytemuck::zeroed_vec::<BvhNode>(leaves - 1), prim_indices }
+    let leaves = n.div_ceil(leaf_size as usize);
+    let bvh = Bvh { nodes: bytemuck::zeroed_vec::<BvhNode>(leaves - 1), prim_indices };
+    (bvh, wide, leaf_size)
 }
 
 /// Which BVH layouts a packing holds, and so which tree frames of each layout trace.
@@ -187,10 +220,10 @@ impl PreparedScene {
                 let mut trees = Vec::with_capacity(scene.meshes.len());
                 for mesh in &scene.meshes {
                     if device.builds(mesh) {
-                        let leaf_size = device_leaf_size(mesh.triangle_count(), budget.room());
-                        let bvh = reserved_for_device(mesh, leaf_size);
-                        warnings.extend(budget.place(mesh, &bvh, None));
-                        trees.push((bvh, None, Some(leaf_size)));
+                        let (bvh, wide_bvh, leaf_size) =
+                            reserved_for_device(mesh, wide, device.storage_range, &budget);
+                        warnings.extend(budget.place(mesh, &bvh, wide_bvh.as_ref()));
+                        trees.push((bvh, wide_bvh, Some(leaf_size)));
                         continue;
                     }
                     let options = BuildOptions::for_tracing(mesh.triangle_count());
