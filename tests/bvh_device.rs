@@ -6,8 +6,9 @@
 //! flat and degenerate meshes, and leaf counts around the leaf size. All under validation.
 
 use glam::Vec3;
-use meshtracer::bvh::{BuildOptions, BvhNode, TraversalStats};
+use meshtracer::bvh::{wide, BuildOptions, BvhNode, TraversalStats};
 use meshtracer::gpu::ComputeTracer;
+use meshtracer::render_settings::{BvhLayout, RenderSettings};
 use meshtracer::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
 use meshtracer::scene::{Material, Mesh, Scene};
 use meshtracer::tracer::packed::{DeviceFit, Layouts};
@@ -111,14 +112,20 @@ fn mesh_of(name: &str, tris: &[[Vec3; 3]]) -> Mesh {
     mesh
 }
 
-/// `scene` packed for `fit`, its model's tree left to the device, uploaded (built there) and
-/// read back; and the tracer holding it.
-fn built_on_device(scene: &Scene, fit: DeviceFit) -> (PackedScene, ComputeTracer) {
+/// `scene` packed for `fit` in `layouts`, its model's trees left to the device, uploaded
+/// (built there) and read back; and the tracer holding it.
+fn built_on_device(
+    scene: &Scene,
+    layouts: Layouts,
+    fit: DeviceFit,
+) -> (PackedScene, ComputeTracer) {
     let ctx = common::ctx();
-    let mut packed = PackedScene::with_layouts_within(scene, Layouts::Binary, fit);
-    let reserved = packed.meshes[0].bvh(&packed);
+    let mut packed = PackedScene::with_layouts_within(scene, layouts, fit);
+    let model = &packed.meshes[0];
+    let (binary, wide) = (model.bvh(&packed).nodes, model.wide_tree(&packed).nodes);
+    let bytes: [&[u8]; 2] = [bytemuck::cast_slice(&binary), bytemuck::cast_slice(&wide)];
     assert!(
-        reserved.nodes.iter().all(|n| *n == BvhNode::default()),
+        bytes.iter().all(|b| b.iter().all(|&b| b == 0)),
         "the model's nodes are the device's to write"
     );
     let tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
@@ -130,23 +137,40 @@ fn built_on_device(scene: &Scene, fit: DeviceFit) -> (PackedScene, ComputeTracer
 #[test]
 fn device_trees_pass_the_checker_and_find_the_brute_force_hits() {
     for ((name, tris), leaf) in meshes().into_iter().zip(DEVICE_LEAF_SIZES.into_iter().cycle()) {
-        check_device_tree(name, &tris, leaf);
+        check_device_trees(name, &tris, Layouts::Binary, leaves_of(tris.len(), leaf));
     }
     // Every leaf size on one mesh.
     let tris = soup(&mut Rng(6), 500, 4.0, 0.7);
     for leaf in DEVICE_LEAF_SIZES {
-        check_device_tree("soup of 500", &tris, leaf);
+        check_device_trees("soup of 500", &tris, Layouts::Binary, leaves_of(tris.len(), leaf));
     }
 }
 
-/// The device's tree over `tris` with leaves of `leaf`, checked as the test above says.
-fn check_device_tree(name: &str, tris: &[[Vec3; 3]], leaf: u32) {
-    let name = &format!("{name}, leaves of {leaf}");
+#[test]
+fn device_wide_trees_find_the_brute_force_hits_beside_or_without_the_binary_ones() {
+    // Both trees (the binary one pointed at the wide tree's triangle order), or the wide
+    // one alone; leaves of one triangle, or two where the binary tree of one would not fit.
+    for (name, tris) in meshes() {
+        check_device_trees(name, &tris, Layouts::Both, ON_DEVICE);
+        check_device_trees(name, &tris, Layouts::Wide, ON_DEVICE);
+    }
+    let tris = soup(&mut Rng(8), 1_001, 4.0, 0.7);
+    check_device_trees("soup, leaves of two", &tris, Layouts::Wide, leaves_of(tris.len(), 2));
+}
+
+/// The device's trees over `tris` packed in `layouts` for `fit`: the binary one (where
+/// kept) against the checker, both against brute force on random rays, the triangle and hit
+/// records the CPU packing's, moved whole.
+fn check_device_trees(name: &str, tris: &[[Vec3; 3]], layouts: Layouts, fit: DeviceFit) {
+    let name = &format!("{name}, {layouts:?}, {fit:?}");
     let scene = paper_scene(mesh_of(name, tris), 1, LightOrbit::default());
     let mesh = &scene.meshes[0];
-    let (packed, _tracer) = built_on_device(&scene, leaves_of(tris.len(), leaf));
-    let bvh = packed.meshes[0].bvh(&packed);
-    assert_eq!(bvh.nodes.len(), nodes_for(tris.len(), leaf), "{name}: a node a leaf but one");
+    let (packed, _tracer) = built_on_device(&scene, layouts, fit);
+    let d = &packed.meshes[0];
+    let bvh = d.bvh(&packed);
+    let wide = d.wide_tree(&packed);
+    assert_eq!(d.has_wide_tree(), layouts != Layouts::Binary, "{name}");
+    assert_eq!(bvh.nodes.is_empty(), layouts == Layouts::Wide, "{name}");
     let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
 
     // The records are the CPU packing's, moved whole: slot k holds triangle prim's.
@@ -157,26 +181,35 @@ fn check_device_tree(name: &str, tris: &[[Vec3; 3]], leaf: u32) {
         let t = cpu_packed.triangles[k as usize];
         by_prim[t.prim as usize] = Some((t, cpu_packed.shading[k as usize]));
     }
-    // The device builds over the records: the corners they give (a zero-area
-    // triangle's edges are zeroed by the packing, so it is the point v0 here).
-    let record_corners: Vec<[Vec3; 3]> = by_prim
-        .iter()
-        .map(|r| {
-            let t = r.expect("every triangle packed").0;
-            let v0 = Vec3::from(t.v0);
-            [v0, v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2)]
-        })
-        .collect();
-    let options = BuildOptions { max_leaf_size: leaf, ..BuildOptions::default() };
-    bvh.validate_with(&record_corners, &options).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let d = &packed.meshes[0];
     for k in d.triangle_base..d.triangle_base + d.triangle_count {
         let t = packed.triangles[k as usize];
         let want = by_prim[t.prim as usize].unwrap_or_else(|| panic!("{name}: prim {}", t.prim));
         assert_eq!((t, packed.shading[k as usize]), want, "{name}: slot {k}");
     }
+    if !bvh.nodes.is_empty() {
+        // The device builds over the records: the corners they give (a zero-area
+        // triangle's edges are zeroed by the packing, so it is the point v0 here).
+        let record_corners: Vec<[Vec3; 3]> = by_prim
+            .iter()
+            .map(|r| {
+                let t = r.expect("every triangle packed").0;
+                let v0 = Vec3::from(t.v0);
+                [v0, v0 + Vec3::from(t.e1), v0 + Vec3::from(t.e2)]
+            })
+            .collect();
+        let leaf = DEVICE_LEAF_SIZES
+            .into_iter()
+            .find(|&l| nodes_for(tris.len(), l) == bvh.nodes.len())
+            .unwrap_or_else(|| panic!("{name}: {} nodes is no leaf size's", bvh.nodes.len()));
+        let options = BuildOptions { max_leaf_size: leaf, ..BuildOptions::default() };
+        bvh.validate_with(&record_corners, &options).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    if d.has_wide_tree() {
+        let need = wide.stack_need();
+        assert!(need <= wide::STACK_SIZE, "{name}: the wide tree needs {need} stack entries");
+    }
 
-    // Closest hits through the device's tree equal brute force over the mesh.
+    // Closest hits through the device's trees equal brute force over the mesh.
     let range = d.triangle_base as usize..(d.triangle_base + d.triangle_count) as usize;
     let ordered: Vec<[Vec3; 3]> = packed.triangles[range]
         .iter()
@@ -187,36 +220,55 @@ fn check_device_tree(name: &str, tris: &[[Vec3; 3]], leaf: u32) {
     let rays = random_rays(&mut rng, &corners, &hittable_corners, Aim::Inside, 1_500);
     let mut hits = 0;
     for (r, ray) in rays.iter().enumerate() {
-        let got =
-            bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, &mut TraversalStats::default());
         let want = brute_force(&hittable_corners, ray);
-        match (got, want) {
-            (None, None) => {}
-            (Some((_, g)), Some((_, w))) => {
-                hits += 1;
-                assert!(
-                    (g.t - w.t).abs() <= 1e-4 * w.t.abs().max(1e-6),
-                    "{name} ray {r}: device tree t = {} vs brute force {}",
-                    g.t,
-                    w.t
-                );
+        let mut got = Vec::new();
+        if !bvh.nodes.is_empty() {
+            let stats = &mut TraversalStats::default();
+            got.push(("binary", bvh.closest_hit(&ordered, ray, 0.0, f32::INFINITY, stats)));
+        }
+        if d.has_wide_tree() {
+            let stats = &mut TraversalStats::default();
+            let hit = wide::closest_hit(&wide.nodes, &ordered, ray, 0.0, f32::INFINITY, stats);
+            got.push(("wide", hit));
+        }
+        for (tree, got) in got {
+            match (got, want) {
+                (None, None) => {}
+                (Some((_, g)), Some((_, w))) => {
+                    hits += 1;
+                    assert!(
+                        (g.t - w.t).abs() <= 1e-4 * w.t.abs().max(1e-6),
+                        "{name} ray {r}: the device's {tree} tree t = {} vs brute force {}",
+                        g.t,
+                        w.t
+                    );
+                }
+                (g, w) => panic!("{name} ray {r}: the device's {tree} tree {g:?} vs {w:?}"),
             }
-            (g, w) => panic!("{name} ray {r}: device tree {g:?} vs brute force {w:?}"),
         }
     }
     assert!(hits > rays.len() / 4, "{name}: only {hits} of {} rays hit", rays.len());
 }
 
 #[test]
-fn frames_of_a_device_tree_equal_the_cpu_reference_and_the_cpu_tree() {
+fn frames_of_device_trees_equal_the_cpu_reference_and_the_cpu_trees() {
     let scene = paper_scene(mesh_of("sphere", &sphere(40, 60)), 3, LightOrbit::default());
-    let (packed, mut tracer) = built_on_device(&scene, ON_DEVICE);
-    let params = FrameParams::new(&scene, common::settings(64, 2));
-    let (gpu, _) = tracer.render(&params).unwrap();
-    let on_read_back = cpu::render(&packed, &params);
-    let cpu_tree = cpu::render(&PackedScene::new(&scene), &params);
-    common::assert_close(&gpu, &on_read_back, "GPU frame vs the CPU tracer on the device's tree");
-    common::assert_close(&gpu, &cpu_tree, "the device's tree vs the CPU-built tree");
+    for (layouts, layout) in [
+        (Layouts::Binary, BvhLayout::Binary),
+        (Layouts::Both, BvhLayout::Binary),
+        (Layouts::Both, BvhLayout::Wide),
+        (Layouts::Wide, BvhLayout::Wide),
+    ] {
+        let what = format!("{layouts:?} packing, {layout} frames");
+        let (packed, mut tracer) = built_on_device(&scene, layouts, ON_DEVICE);
+        let settings = RenderSettings { bvh: layout, ..common::settings(64, 2) };
+        let params = FrameParams::new(&scene, settings);
+        let (gpu, _) = tracer.render(&params).unwrap();
+        let on_read_back = cpu::render(&packed, &params);
+        let cpu_trees = cpu::render(&PackedScene::with_layouts(&scene, layouts), &params);
+        common::assert_close(&gpu, &on_read_back, &format!("{what}: GPU vs CPU, device trees"));
+        common::assert_close(&gpu, &cpu_trees, &format!("{what}: device trees vs CPU trees"));
+    }
     common::assert_validation_clean(&common::ctx());
 }
 
@@ -236,5 +288,8 @@ fn only_meshes_of_the_threshold_and_more_are_left_to_the_device() {
     let mirror = packed.meshes.last().unwrap();
     assert_eq!(mirror.triangle_count, 12);
     assert!(mirror.has_wide_tree(), "the mirror box keeps its CPU trees, the wide one too");
-    assert!(!packed.meshes[0].has_wide_tree(), "a device tree is binary: wide frames trace it");
+    assert!(packed.meshes[0].has_wide_tree(), "the device collapses its tree where asked to");
+    // A packing of binary trees alone holds none.
+    let packed = PackedScene::with_layouts_within(&scene, Layouts::Binary, ON_DEVICE);
+    assert!(!packed.meshes[0].has_wide_tree());
 }

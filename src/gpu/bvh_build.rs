@@ -287,7 +287,7 @@ impl BvhBuildPass {
                 device,
                 cmd,
                 &[Access::TransferWrite, Access::TransferRead, Access::ComputeRead],
-                &[Access::ComputeRead, Access::ComputeWrite],
+                &[Access::ComputeRead, Access::ComputeWrite, Access::IndirectRead],
             );
             let step = |kernel: usize, constants: &BuildConstants, groups: u32| {
                 self.dispatch(cmd, kernel, self.build_set, constants, Groups::Direct(groups));

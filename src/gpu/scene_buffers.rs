@@ -256,8 +256,7 @@ impl SceneBuffers {
         ) -> Result<(), GpuError> {
             let size = std::mem::size_of::<T>() as u64;
             let bytes = buffer.download_range(offset, u64::from(count) * size)?;
-            into[first as usize..][..count as usize]
-                .copy_from_slice(bytemuck::cast_slice(&bytes));
+            into[first as usize..][..count as usize].copy_from_slice(bytemuck::cast_slice(&bytes));
             Ok(())
         }
         for b in std::mem::take(&mut packed.device_builds) {

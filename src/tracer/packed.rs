@@ -520,6 +520,22 @@ impl PackedMesh {
         self.has_wide
     }
 
+    /// The mesh's wide BVH as packed (its nodes up to the next mesh's; a device build's
+    /// reserve may end in nodes it did not need), empty without one.
+    pub fn wide_tree(&self, packed: &PackedScene) -> WideBvh {
+        if !self.has_wide {
+            return WideBvh::default();
+        }
+        let end = packed
+            .meshes
+            .iter()
+            .filter(|m| m.has_wide && m.wide_base > self.wide_base)
+            .map(|m| m.wide_base as usize)
+            .min()
+            .unwrap_or(packed.wide_nodes.len());
+        WideBvh { nodes: packed.wide_nodes[self.wide_base as usize..end].to_vec() }
+    }
+
     /// The mesh's BVH as built, put back together from `packed` (for validation: tests,
     /// fuzzing; a scene packed for wide frames alone has none).
     pub fn bvh(&self, packed: &PackedScene) -> Bvh {
