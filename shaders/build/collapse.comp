@@ -25,7 +25,14 @@ struct Child {
     uint count;   // 0 for an inner node, else the leaf's triangles
     uint parent;  // the binary node that holds it, and on which side (bit 31)
     uint merged;  // a small subtree taken as one leaf: its binary node (else EMPTY)
+    uint height;  // its binary height (a leaf's is 0)
 };
+
+// The binary height of inner node `node`: 1 + its taller child's (a leaf's is 0).
+uint height_below(uint node) {
+    uint h = child_heights() + 2u * node;
+    return 1u + max(tree_words[h], tree_words[h + 1u]);
+}
 
 Child child_of(uint node, uint side) {
     uint w = 16u * (pc.bin_base + node) + 8u * side;
@@ -36,6 +43,7 @@ Child child_of(uint node, uint side) {
     c.count = bin_words[w + 7u];
     c.parent = node | (side << 31u);
     c.merged = EMPTY;
+    c.height = c.count == 0u && c.index != EMPTY ? height_below(c.index) : 0u;
     return c;
 }
 
@@ -92,15 +100,6 @@ void patch_merged(uint root, uint first, uint moved_to) {
     }
 }
 
-// The binary height of an inner node (1 + its taller child's; a leaf's is 0).
-uint height_of(Child c) {
-    if (c.count != 0u) {
-        return 0u;
-    }
-    uint h = child_heights() + 2u * c.index;
-    return 1u + max(tree_words[h], tree_words[h + 1u]);
-}
-
 float area(Child c) {
     vec3 d = max(c.hi - c.lo, vec3(0.0));
     return d.x * d.y + d.y * d.z + d.z * d.x;
@@ -140,23 +139,15 @@ void main() {
     children[1] = child_of(node, 1u);
     // A root over one leaf has an absent right child.
     uint k = children[1].index == EMPTY && children[1].count == 0u ? 1u : 2u;
+    // Inner children whose opening would take the stack past its bound.
+    uint closed = 0u;
     while (k < 8u) {
-        // The inner child of the largest area whose opening keeps the stack within bounds.
+        // The inner child of the largest area not closed.
         int best = -1;
         float best_area = -1.0;
         for (uint c = 0u; c < k; c++) {
-            if (children[c].count != 0u || area(children[c]) <= best_area) {
-                continue;
-            }
-            Child l = child_of(children[c].index, 0u);
-            Child r = child_of(children[c].index, 1u);
-            uint below = max(height_of(l), height_of(r));
-            for (uint o = 0u; o < k; o++) {
-                if (o != c) {
-                    below = max(below, height_of(children[o]));
-                }
-            }
-            if (need + k + below <= NEED_LIMIT) {
+            bool open = children[c].count == 0u && (closed & (1u << c)) == 0u;
+            if (open && area(children[c]) > best_area) {
                 best = int(c);
                 best_area = area(children[c]);
             }
@@ -164,14 +155,25 @@ void main() {
         if (best < 0) {
             break;
         }
-        uint opened = children[best].index;
-        children[best] = child_of(opened, 0u);
-        children[k] = child_of(opened, 1u);
+        Child l = child_of(children[best].index, 0u);
+        Child r = child_of(children[best].index, 1u);
+        uint below = max(l.height, r.height);
+        for (uint o = 0u; o < k; o++) {
+            if (o != uint(best)) {
+                below = max(below, children[o].height);
+            }
+        }
+        if (need + k + below > NEED_LIMIT) {
+            closed |= 1u << uint(best);
+            continue;
+        }
+        children[best] = l;
+        children[k] = r;
         k++;
     }
 
     for (uint c = 0u; c < k; c++) {
-        if (children[c].count == 0u && height_of(children[c]) <= 2u) {
+        if (children[c].count == 0u && children[c].height <= 2u) {
             children[c] = merged(children[c]);
         }
     }

@@ -1,20 +1,25 @@
-//! A mesh's binary BVH built on the device, in place in the scene's buffers: a linear BVH
-//! (Karras 2012) for meshes so big that the CPU build is most of a load (100M triangles:
-//! 4 s on 16 cores, against tens of milliseconds here). The CPU build stays the reference
-//! and the default below `tracer::DEVICE_BUILD_FROM` triangles: its SAH trees trace faster.
+//! A mesh's BVHs built on the device, in place in the scene's buffers: a linear BVH
+//! (Karras 2012), collapsed into the compressed wide tree where one is kept, for meshes so
+//! big that the CPU build is most of a load (100M triangles: 4 s binary and 8 s wide on 16
+//! cores, against 0.4 and 0.9 s here on an H200). The CPU build stays the reference and the
+//! default below `tracer::DEVICE_BUILD_FROM` triangles: its SAH trees trace 1.2-1.3x faster.
 //!
-//! The mesh's triangles and hit records are uploaded in file order, with its node range
-//! reserved (`tracer::prepare`); then, in one submission (`shaders/build/`):
-//! 1. the triangles and hit records are copied out to scratch buffers;
+//! The mesh's triangles and hit records are uploaded in file order, with its nodes reserved
+//! (`tracer::prepare`); then, in one submission (`shaders/build/`):
+//! 1. where the binary tree is the last word, the triangles and hit records are copied out
+//!    to scratch buffers (the collapse instead writes them last, from scratch copies);
 //! 2. `morton.comp`: each triangle's key is the Morton code of its centroid (10 bits an
 //!    axis of the mesh box);
 //! 3. a stable least-significant-digit radix sort of (key, index), 4 bits a pass
 //!    (`radix_count`, `radix_scan`, `radix_scatter`);
 //! 4. `hierarchy.comp`: runs of sorted triangles are the leaves (1 to 8 a leaf: as few as
-//!    the node buffer has room for, `tracer::prepare`), and each
-//!    inner node is read off the sorted codes;
+//!    the node buffer has room for, `tracer::prepare`), and each inner node is read off the
+//!    sorted codes;
 //! 5. `leaves.comp`: each leaf's triangles and hit records moved into sorted order, its box
-//!    made and carried up the tree.
+//!    made and carried up the tree with the subtree's height;
+//! 6. `collapse.comp` and `next_level.comp`, where a wide tree is reserved: the greedy
+//!    collapse into eight-wide nodes, a level a dispatch, the triangles moved into the wide
+//!    leaves' order (and the binary tree, where kept, pointed at them).
 
 use std::sync::Arc;
 
@@ -29,6 +34,7 @@ use super::pipeline::{
     allocate_one_set, create_compute_pipeline, create_layout, create_set_layout,
     destroy_pipeline_objects, words,
 };
+use super::timer::GpuTimer;
 use crate::tracer::packed::{DeviceBuild, GpuTriangle, GpuTriangleShading};
 
 static MORTON: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/build_morton.spv"));
@@ -166,107 +172,113 @@ impl BvhBuildPass {
 
     /// Build `mesh`'s trees (uploaded with its triangles and hit records in file order;
     /// `tracer::prepare` leaves the device meshes of more than one leaf): the binary tree
-    /// into `nodes` (or scratch memory, where only the wide tree is kept), the wide tree
-    /// collapsed from it where one is reserved, and the triangles and hit records put in
-    /// the order of the tree's leaves. Waits for the GPU.
-    pub(crate) fn build(
-        &self,
-        [triangles, shading, nodes]: [&GpuBuffer; 3],
-        mesh: &DeviceBuild,
-    ) -> Result<(), GpuError> {
-        let n = u64::from(mesh.triangle_count);
-        let leaves = mesh.leaves();
-        assert!(leaves >= 2, "a mesh of one leaf is built on the CPU");
-        let blocks = mesh.triangle_count.div_ceil(SORT_BLOCK);
-        let ctx = &self.ctx;
-        let scratch = |bytes: u64, name| {
-            GpuBuffer::new(
-                ctx,
-                bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC
-                    | vk::BufferUsageFlags::INDIRECT_BUFFER,
-                MemoryLocation::GpuOnly,
-                name,
-            )
-        };
-        let tri_bytes = std::mem::size_of::<GpuTriangle>() as u64;
-        let shading_bytes = std::mem::size_of::<GpuTriangleShading>() as u64;
-        let source_triangles = scratch(n * tri_bytes, "BVH build: triangles in file order")?;
-        let source_shading = scratch(n * shading_bytes, "BVH build: hit records in file order")?;
-        let sort = scratch(16 * n, "BVH build: sort keys and values")?;
-        let histogram = scratch(4 * 16 * u64::from(blocks), "BVH build: digit counts")?;
-        // Parents of the leaves and inner nodes, the inner nodes' arrivals, their
-        // children's heights.
-        let tree = scratch(4 * (5 * u64::from(leaves) - 4), "BVH build: parents and heights")?;
-        // Where only the wide tree is kept, the binary tree and the triangles in its order
-        // are the collapse's input, in scratch memory.
-        let wide_alone = mesh.wide.is_some() && mesh.node_base.is_none();
-        let binary_scratch = match mesh.node_base {
-            None => Some(scratch(u64::from(leaves - 1) * 64, "BVH build: binary nodes")?),
-            Some(_) => None,
-        };
-        let sorted = match mesh.wide {
-            Some(_) => Some([
-                scratch(n * tri_bytes, "BVH build: triangles in binary leaf order")?,
-                scratch(n * shading_bytes, "BVH build: hit records in binary leaf order")?,
-            ]),
-            None => None,
-        };
-        let queue = match mesh.wide {
-            Some(w) => Some(scratch(4 * (HEADER + 6 * u64::from(w.nodes)), "BVH build: queues")?),
-            None => None,
-        };
-        let binary_nodes = binary_scratch.as_ref().unwrap_or(nodes);
-        let [built_triangles, built_shading] = match &sorted {
-            Some([t, s]) => [t, s],
-            None => [triangles, shading],
-        };
+    /// into `scene`'s nodes (or scratch memory, where only the wide tree is kept), the wide
+    /// tree collapsed from it where one is reserved, and the triangles and hit records put
+    /// in the order of the tree's leaves. `scene` holds the triangle, hit-record and node
+    /// buffers. Waits for the GPU.
+    pub(crate) fn build(&self, scene: [&GpuBuffer; 3], mesh: &DeviceBuild) -> Result<(), GpuError> {
+        assert!(mesh.leaves() >= 2, "a mesh of one leaf is built on the CPU");
+        let scratch = Scratch::new(&self.ctx, mesh)?;
+        let [triangles, shading, nodes] = scene;
+        let [source_triangles, source_shading] =
+            scratch.copied.as_ref().map_or([triangles, shading], |[t, s]| [t, s]);
+        let [built_triangles, built_shading] =
+            scratch.sorted.as_ref().map_or([triangles, shading], |[t, s]| [t, s]);
+        let binary_nodes = scratch.binary.as_ref().unwrap_or(nodes);
+        let histogram = &scratch.histogram;
         self.bind(
             self.build_set,
             &[
                 built_triangles,
                 built_shading,
                 binary_nodes,
-                &source_triangles,
-                &source_shading,
-                &sort,
-                &histogram,
-                &tree,
-                &histogram,
-                &histogram,
+                source_triangles,
+                source_shading,
+                &scratch.sort,
+                histogram,
+                &scratch.tree,
+                histogram,
+                histogram,
             ],
         );
-        if let (Some([t, s]), Some(queue)) = (&sorted, &queue) {
-            self.bind(
-                self.collapse_set,
-                &[triangles, shading, nodes, t, s, &sort, &histogram, &tree, binary_nodes, queue],
+        if let (Some([t, s]), Some(queue)) = (&scratch.sorted, &scratch.queue) {
+            // The sorted copies in, the scene's buffers out.
+            let (sort, tree) = (&scratch.sort, &scratch.tree);
+            let buffers =
+                [triangles, shading, nodes, t, s, sort, histogram, tree, binary_nodes, queue];
+            self.bind(self.collapse_set, &buffers);
+        }
+        // Each step timed (`RUST_LOG=meshtracer=debug`): the copies, the sort, the binary
+        // tree, the collapse.
+        let timer = GpuTimer::new(&self.ctx, 4)?;
+        self.ctx.one_shot(|cmd| {
+            let time = |slot: u32, end: bool| match (&timer, end) {
+                (Some(t), false) => t.begin(cmd, slot, true),
+                (Some(t), true) => t.end(cmd, slot),
+                (None, _) => {}
+            };
+            time(0, false);
+            self.record_start(cmd, mesh, [triangles, shading], &scratch);
+            time(0, true);
+            time(1, false);
+            let base = constants(mesh, scratch.sorted.is_some());
+            self.record_sort(cmd, &base);
+            time(1, true);
+            time(2, false);
+            self.step(cmd, HIERARCHY_K, &base, (base.leaves - 1).div_ceil(GROUP));
+            self.step(cmd, LEAVES_K, &base, base.leaves.div_ceil(GROUP));
+            time(2, true);
+            time(3, false);
+            if let (Some(wide), Some(queue)) = (mesh.wide, &scratch.queue) {
+                let collapse = BuildConstants {
+                    tri_base: mesh.triangle_base,
+                    wide_word: 4 * wide.words,
+                    wide_limit: wide.nodes,
+                    bin_base: base.node_base,
+                    patch_binary: u32::from(mesh.node_base.is_some()),
+                    ..base
+                };
+                self.record_collapse(cmd, &collapse, queue);
+            }
+            time(3, true);
+            // The frames after read what this wrote (and the vendor path copies triangles).
+            let after = [Access::ComputeRead, Access::TransferRead];
+            barrier::buffers(&self.ctx.device, cmd, &[Access::ComputeWrite], &after);
+        })?;
+        if let Some(t) = &timer {
+            let ms = |slot| t.read_ms(slot).unwrap_or(f64::NAN);
+            log::debug!(
+                "device BVH build of {} triangles, leaves of {}: copies {:.1} ms, sort {:.1} \
+                 ms, binary tree {:.1} ms, collapse {:.1} ms",
+                mesh.triangle_count,
+                mesh.leaf_size,
+                ms(0),
+                ms(1),
+                ms(2),
+                ms(3)
             );
         }
+        scratch.check_collapse(mesh)
+    }
 
-        let extent = (mesh.bounds.max - mesh.bounds.min).max(glam::Vec3::splat(1e-30));
-        let cells = glam::Vec3::splat(1024.0) / extent;
-        let base = BuildConstants {
-            lo: mesh.bounds.min.extend(0.0).into(),
-            cells: cells.extend(0.0).into(),
-            count: mesh.triangle_count,
-            // Into scratch memory from its start, or into the scene's buffers.
-            tri_base: if sorted.is_some() { 0 } else { mesh.triangle_base },
-            node_base: mesh.node_base.unwrap_or(0),
-            leaf_size: mesh.leaf_size,
-            blocks,
-            leaves,
-            ..Default::default()
-        };
-        let device = &ctx.device;
-        let copies =
-            [(triangles, &source_triangles, tri_bytes), (shading, &source_shading, shading_bytes)];
-        ctx.one_shot(|cmd| {
-            // SAFETY: `cmd` is recording; every buffer lives until this waited-for
-            // submission ends; the regions lie within them (the upload sized them).
-            unsafe {
-                for (from, to, size) in copies {
+    /// Record the start: the copies of the sort's input, the bookkeeping zeroed, the
+    /// collapse's first item queued.
+    fn record_start(
+        &self,
+        cmd: vk::CommandBuffer,
+        mesh: &DeviceBuild,
+        [triangles, shading]: [&GpuBuffer; 2],
+        scratch: &Scratch,
+    ) {
+        let device = &self.ctx.device;
+        let n = u64::from(mesh.triangle_count);
+        // SAFETY: `cmd` is recording; every buffer lives until the waited-for submission
+        // ends; the regions lie within them (the upload and `Scratch::new` sized them).
+        unsafe {
+            if let Some([t, s]) = &scratch.copied {
+                for (from, to, size) in
+                    [(triangles, t, TRIANGLE_BYTES), (shading, s, SHADING_BYTES)]
+                {
                     let region = vk::BufferCopy {
                         src_offset: u64::from(mesh.triangle_base) * size,
                         dst_offset: 0,
@@ -274,82 +286,66 @@ impl BvhBuildPass {
                     };
                     device.cmd_copy_buffer(cmd, from.buffer, to.buffer, &[region]);
                 }
-                device.cmd_fill_buffer(cmd, tree.buffer, 0, vk::WHOLE_SIZE, 0);
-                if let Some(queue) = &queue {
-                    // One item, the binary root as wide node 0; its node is taken.
-                    let mut header = [0u32; HEADER as usize + 3];
-                    (header[0], header[2]) = (1, 1);
-                    header[8..11].copy_from_slice(&[1, 1, 1]);
-                    device.cmd_update_buffer(cmd, queue.buffer, 0, bytemuck::cast_slice(&header));
-                }
             }
-            barrier::buffers(
-                device,
-                cmd,
-                &[Access::TransferWrite, Access::TransferRead, Access::ComputeRead],
-                &[Access::ComputeRead, Access::ComputeWrite, Access::IndirectRead],
-            );
-            let step = |kernel: usize, constants: &BuildConstants, groups: u32| {
-                self.dispatch(cmd, kernel, self.build_set, constants, Groups::Direct(groups));
-                barrier::buffers(
-                    device,
-                    cmd,
-                    &[Access::ComputeWrite],
-                    &[Access::ComputeRead, Access::ComputeWrite],
-                );
-            };
-            step(MORTON_K, &base, mesh.triangle_count.div_ceil(GROUP));
-            // An even number of passes: the sorted keys end in the A arrays.
-            let passes = KEY_BITS.div_ceil(RADIX_BITS).next_multiple_of(2);
-            for pass in 0..passes {
-                let c = BuildConstants { shift: pass * RADIX_BITS, flip: pass % 2, ..base };
-                step(COUNT_K, &c, blocks);
-                step(SCAN_K, &c, 1);
-                step(SCATTER_K, &c, blocks);
-            }
-            step(HIERARCHY_K, &base, (leaves - 1).div_ceil(GROUP));
-            step(LEAVES_K, &base, leaves.div_ceil(GROUP));
-            if let (Some(wide), Some(queue)) = (mesh.wide, &queue) {
-                let collapse = BuildConstants {
-                    tri_base: mesh.triangle_base,
-                    wide_word: 4 * wide.words,
-                    wide_limit: wide.nodes,
-                    bin_base: base.node_base,
-                    patch_binary: u32::from(!wide_alone),
-                    ..base
-                };
-                let after = [Access::ComputeRead, Access::ComputeWrite, Access::IndirectRead];
-                // A level a dispatch, as many as the binary tree is deep at most.
-                for level in 0..LEVELS {
-                    let c = BuildConstants { level, ..collapse };
-                    let args = Groups::Indirect(queue.buffer, 4 * INDIRECT_WORD);
-                    self.dispatch(cmd, COLLAPSE_K, self.collapse_set, &c, args);
-                    barrier::buffers(device, cmd, &[Access::ComputeWrite], &after);
-                    self.dispatch(cmd, NEXT_LEVEL_K, self.collapse_set, &c, Groups::Direct(1));
-                    barrier::buffers(device, cmd, &[Access::ComputeWrite], &after);
-                }
-            }
-            // The frames after read what this wrote (and the vendor path copies triangles).
-            barrier::buffers(
-                device,
-                cmd,
-                &[Access::ComputeWrite],
-                &[Access::ComputeRead, Access::TransferRead],
-            );
-        })?;
-        if let (Some(wide), Some(queue)) = (mesh.wide, &queue) {
-            let header = queue.download_range(0, 4 * HEADER)?;
-            let word = |i: usize| u32::from_le_bytes(header[4 * i..4 * i + 4].try_into().unwrap());
-            let (made, placed, overflow) = (word(2), word(3), word(4));
-            log::debug!("device collapse: {made} wide nodes of {} reserved", wide.nodes);
-            if overflow != 0 || placed != mesh.triangle_count {
-                return Err(GpuError::NotReady(
-                    "the wide BVH built on the device needs more nodes than were reserved for it \
-                     (try --bvh binary, or --bvh-build cpu)",
-                ));
+            device.cmd_fill_buffer(cmd, scratch.tree.buffer, 0, vk::WHOLE_SIZE, 0);
+            if let Some(queue) = &scratch.queue {
+                // One item, the binary root as wide node 0; its node is taken.
+                let mut header = [0u32; HEADER as usize + 3];
+                (header[0], header[2]) = (1, 1);
+                header[8..11].copy_from_slice(&[1, 1, 1]);
+                device.cmd_update_buffer(cmd, queue.buffer, 0, bytemuck::cast_slice(&header));
             }
         }
-        Ok(())
+        barrier::buffers(
+            device,
+            cmd,
+            &[Access::TransferWrite, Access::TransferRead, Access::ComputeRead],
+            &[Access::ComputeRead, Access::ComputeWrite, Access::IndirectRead],
+        );
+    }
+
+    /// Record the Morton codes and their radix sort: an even number of passes, so that the
+    /// sorted keys end in the A arrays.
+    fn record_sort(&self, cmd: vk::CommandBuffer, base: &BuildConstants) {
+        self.step(cmd, MORTON_K, base, base.count.div_ceil(GROUP));
+        let passes = KEY_BITS.div_ceil(RADIX_BITS).next_multiple_of(2);
+        for pass in 0..passes {
+            let c = BuildConstants { shift: pass * RADIX_BITS, flip: pass % 2, ..*base };
+            self.step(cmd, COUNT_K, &c, base.blocks);
+            self.step(cmd, SCAN_K, &c, 1);
+            self.step(cmd, SCATTER_K, &c, base.blocks);
+        }
+    }
+
+    /// Record the collapse, a level a dispatch (indirect: the level before queued its
+    /// items), as many as the binary tree is deep at most.
+    fn record_collapse(
+        &self,
+        cmd: vk::CommandBuffer,
+        collapse: &BuildConstants,
+        queue: &GpuBuffer,
+    ) {
+        let device = &self.ctx.device;
+        let after = [Access::ComputeRead, Access::ComputeWrite, Access::IndirectRead];
+        for level in 0..LEVELS {
+            let c = BuildConstants { level, ..*collapse };
+            let args = Groups::Indirect(queue.buffer, 4 * INDIRECT_WORD);
+            self.dispatch(cmd, COLLAPSE_K, self.collapse_set, &c, args);
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &after);
+            self.dispatch(cmd, NEXT_LEVEL_K, self.collapse_set, &c, Groups::Direct(1));
+            barrier::buffers(device, cmd, &[Access::ComputeWrite], &after);
+        }
+    }
+
+    /// Record `kernel` of the binary build over `groups` work groups, and a barrier after.
+    fn step(&self, cmd: vk::CommandBuffer, kernel: usize, c: &BuildConstants, groups: u32) {
+        self.dispatch(cmd, kernel, self.build_set, c, Groups::Direct(groups));
+        barrier::buffers(
+            &self.ctx.device,
+            cmd,
+            &[Access::ComputeWrite],
+            &[Access::ComputeRead, Access::ComputeWrite],
+        );
     }
 
     /// Point `set`'s bindings at `buffers`, in `common.glsl`'s order.
@@ -416,6 +412,112 @@ impl BvhBuildPass {
                 }
             }
         }
+    }
+}
+
+/// Bytes of a triangle record and a hit record.
+const TRIANGLE_BYTES: u64 = std::mem::size_of::<GpuTriangle>() as u64;
+const SHADING_BYTES: u64 = std::mem::size_of::<GpuTriangleShading>() as u64;
+
+/// The push constants of the binary build of `mesh`, writing its triangles into scratch
+/// memory (`sorted`: for the collapse) or into the scene's buffers.
+fn constants(mesh: &DeviceBuild, sorted: bool) -> BuildConstants {
+    let extent = (mesh.bounds.max - mesh.bounds.min).max(glam::Vec3::splat(1e-30));
+    let cells = glam::Vec3::splat(1024.0) / extent;
+    BuildConstants {
+        lo: mesh.bounds.min.extend(0.0).into(),
+        cells: cells.extend(0.0).into(),
+        count: mesh.triangle_count,
+        tri_base: if sorted { 0 } else { mesh.triangle_base },
+        node_base: mesh.node_base.unwrap_or(0),
+        leaf_size: mesh.leaf_size,
+        blocks: mesh.triangle_count.div_ceil(SORT_BLOCK),
+        leaves: mesh.leaves(),
+        ..Default::default()
+    }
+}
+
+/// The scratch memory of one build, freed when it ends.
+struct Scratch {
+    /// The sort's input in file order, copied out where the binary tree is the last word
+    /// (None: the collapse writes the scene's buffers last, so the build reads them).
+    copied: Option<[GpuBuffer; 2]>,
+    /// Keys and values of the sort, twice.
+    sort: GpuBuffer,
+    /// Each block's digit counts.
+    histogram: GpuBuffer,
+    /// Parents of the leaves and inner nodes, the inner nodes' arrivals, their children's
+    /// heights.
+    tree: GpuBuffer,
+    /// The binary tree where only the wide one is kept.
+    binary: Option<GpuBuffer>,
+    /// The triangles and hit records in the binary tree's order, where the collapse moves
+    /// them on into the wide tree's.
+    sorted: Option<[GpuBuffer; 2]>,
+    /// The collapse's work queues.
+    queue: Option<GpuBuffer>,
+}
+
+impl Scratch {
+    fn new(ctx: &Arc<GpuContext>, mesh: &DeviceBuild) -> Result<Self, GpuError> {
+        let n = u64::from(mesh.triangle_count);
+        let leaves = u64::from(mesh.leaves());
+        let buffer = |bytes: u64, name| {
+            GpuBuffer::new(
+                ctx,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                MemoryLocation::GpuOnly,
+                name,
+            )
+        };
+        let records = |what: [&'static str; 2]| -> Result<[GpuBuffer; 2], GpuError> {
+            Ok([buffer(n * TRIANGLE_BYTES, what[0])?, buffer(n * SHADING_BYTES, what[1])?])
+        };
+        let wide = mesh.wide.is_some();
+        Ok(Self {
+            copied: (!wide)
+                .then(|| records(["BVH build: triangles", "BVH build: hit records"]))
+                .transpose()?,
+            sort: buffer(16 * n, "BVH build: sort keys and values")?,
+            histogram: buffer(
+                4 * 16 * u64::from(mesh.triangle_count.div_ceil(SORT_BLOCK)),
+                "BVH build: digit counts",
+            )?,
+            tree: buffer(4 * (5 * leaves - 4), "BVH build: parents and heights")?,
+            binary: mesh
+                .node_base
+                .is_none()
+                .then(|| buffer((leaves - 1) * 64, "BVH build: binary nodes"))
+                .transpose()?,
+            sorted: wide
+                .then(|| records(["BVH build: sorted triangles", "BVH build: sorted hit records"]))
+                .transpose()?,
+            queue: mesh
+                .wide
+                .map(|w| buffer(4 * (HEADER + 6 * u64::from(w.nodes)), "BVH build: queues"))
+                .transpose()?,
+        })
+    }
+
+    /// After the collapse: an error where it needed more wide nodes than were reserved (or
+    /// did not place every triangle).
+    fn check_collapse(&self, mesh: &DeviceBuild) -> Result<(), GpuError> {
+        let (Some(wide), Some(queue)) = (mesh.wide, &self.queue) else { return Ok(()) };
+        let header = queue.download_range(0, 4 * HEADER)?;
+        let word = |i: usize| u32::from_le_bytes(header[4 * i..4 * i + 4].try_into().unwrap());
+        let (made, placed, overflow) = (word(2), word(3), word(4));
+        log::debug!("device collapse: {made} wide nodes of {} reserved", wide.nodes);
+        if overflow != 0 || placed != mesh.triangle_count {
+            return Err(GpuError::NotReady(
+                "the wide BVH built on the device needs more nodes than were reserved for it \
+                 (try --bvh binary, or --bvh-build cpu)",
+            ));
+        }
+        Ok(())
     }
 }
 
