@@ -132,7 +132,25 @@ impl GpuBuffer {
         usage: vk::BufferUsageFlags,
         name: &'static str,
     ) -> Result<Self, GpuError> {
-        let size: usize = parts.iter().map(|p| p.len()).sum();
+        let mut offset = 0;
+        let mut pieces = Vec::with_capacity(parts.len());
+        for part in parts {
+            pieces.push((offset, *part));
+            offset += part.len();
+        }
+        Self::device_local_with_pieces(ctx, offset, &pieces, usage, name)
+    }
+
+    /// A device-local storage buffer of `size` bytes with each of `pieces` (offset, bytes)
+    /// copied to its offset; the bytes between them are left as they are (for the device
+    /// to write).
+    pub(crate) fn device_local_with_pieces(
+        ctx: &Arc<GpuContext>,
+        size: usize,
+        pieces: &[(usize, &[u8])],
+        usage: vk::BufferUsageFlags,
+        name: &'static str,
+    ) -> Result<Self, GpuError> {
         let dst = GpuBuffer::new(
             ctx,
             size as u64,
@@ -140,10 +158,8 @@ impl GpuBuffer {
             MemoryLocation::GpuOnly,
             name,
         )?;
-        let mut offset = 0;
-        for part in parts {
-            dst.upload_in_pieces(part, offset, UPLOAD_CHUNK)?;
-            offset += part.len();
+        for &(offset, piece) in pieces {
+            dst.upload_in_pieces(piece, offset, UPLOAD_CHUNK)?;
         }
         Ok(dst)
     }

@@ -178,7 +178,12 @@ impl BvhBuildPass {
     /// buffers. Waits for the GPU.
     pub(crate) fn build(&self, scene: [&GpuBuffer; 3], mesh: &DeviceBuild) -> Result<(), GpuError> {
         assert!(mesh.leaves() >= 2, "a mesh of one leaf is built on the CPU");
+        let start = std::time::Instant::now();
         let scratch = Scratch::new(&self.ctx, mesh)?;
+        log::debug!(
+            "device BVH build: scratch memory in {:.1} ms",
+            start.elapsed().as_secs_f64() * 1e3
+        );
         let [triangles, shading, nodes] = scene;
         let [source_triangles, source_shading] =
             scratch.copied.as_ref().map_or([triangles, shading], |[t, s]| [t, s]);

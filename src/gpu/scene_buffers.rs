@@ -175,15 +175,7 @@ impl SceneBuffers {
         let vertex_texcoords = storage(bytemuck::cast_slice(&v.texcoords), "vertex texcoords")?;
         let vertex_colors = storage(bytemuck::cast_slice(&v.colors), "vertex colours")?;
         let materials = storage(bytemuck::cast_slice(&packed.materials), "materials")?;
-        // Both layouts in one buffer: the shader reads the binary nodes as `nodes`, the wide
-        // ones as 16-byte words (`wide_nodes`).
-        let nodes = GpuBuffer::device_local_with_parts(
-            ctx,
-            &[bytemuck::cast_slice(&packed.nodes), bytemuck::cast_slice(&packed.wide_nodes)],
-            // Read back where the device built trees (`read_back_device_builds`).
-            TRIANGLE_USAGE,
-            "bvh nodes",
-        )?;
+        let nodes = node_buffer(ctx, packed)?;
         let top = &packed.top_level;
         let instances = top_level_buffer::<GpuInstance>(ctx, top.instances.len(), "instances")?;
         let top_nodes = top_level_buffer::<BvhNode>(ctx, top.nodes.len(), "top-level nodes")?;
@@ -343,6 +335,46 @@ impl SceneBuffers {
         self.one_instance = top.is_one_instance();
         Ok(grown)
     }
+}
+
+/// The BVH nodes, both layouts in one buffer: the shader reads the binary nodes as `nodes`,
+/// the wide ones as 16-byte words (`wide_nodes`). The nodes reserved for the trees the
+/// device builds are not uploaded (the build writes them: at 100M triangles 2.3-3.2 GB of
+/// zeros, a third of a second).
+fn node_buffer(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<GpuBuffer, GpuError> {
+    let binary: &[u8] = bytemuck::cast_slice(&packed.nodes);
+    let wide: &[u8] = bytemuck::cast_slice(&packed.wide_nodes);
+    let node = std::mem::size_of::<BvhNode>();
+    let wide_node = std::mem::size_of::<crate::bvh::wide::WideNode>();
+    // The reserved byte ranges, in the buffer's offsets.
+    let mut holes: Vec<std::ops::Range<usize>> = Vec::new();
+    for b in &packed.device_builds {
+        if let Some(base) = b.node_base {
+            let at = base as usize * node;
+            holes.push(at..at + b.nodes() as usize * node);
+        }
+        if let Some(w) = b.wide {
+            let at = w.words as usize * 16;
+            holes.push(at..at + w.nodes as usize * wide_node);
+        }
+    }
+    // The bytes between every two cuts are either all reserved or all uploaded, from one
+    // layout's array.
+    let total = binary.len() + wide.len();
+    let mut cuts: Vec<usize> = holes.iter().flat_map(|h| [h.start, h.end]).collect();
+    cuts.extend([0, binary.len(), total]);
+    cuts.sort_unstable();
+    cuts.dedup();
+    let mut pieces = Vec::new();
+    for r in cuts.windows(2).map(|w| w[0]..w[1]) {
+        if holes.iter().any(|h| h.start <= r.start && r.end <= h.end) {
+            continue;
+        }
+        let (array, base) = if r.start < binary.len() { (binary, 0) } else { (wide, binary.len()) };
+        pieces.push((r.start, &array[r.start - base..r.end - base]));
+    }
+    // Read back where the device built trees (`read_back_device_builds`).
+    GpuBuffer::device_local_with_pieces(ctx, total, &pieces, TRIANGLE_USAGE, "bvh nodes")
 }
 
 /// A buffer of the top level, written by `SceneBuffers::set_instances`: room for `T`s of
