@@ -6,7 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::buffer::GpuBuffer;
-use super::bvh_build::BvhBuildPass;
+use super::bvh_build::{BuildAhead, BvhBuildPass};
 use super::context::GpuContext;
 use super::error::GpuError;
 use crate::bvh::BvhNode;
@@ -124,19 +124,22 @@ impl SceneBuffers {
     /// Upload the packed scene.
     pub fn upload(ctx: &Arc<GpuContext>, packed: &PackedScene) -> Result<Self, GpuError> {
         check_fits(ctx, packed)?;
-        let triangles = GpuBuffer::device_local_with_parts(
-            ctx,
-            &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]],
-            TRIANGLE_USAGE,
-            "triangles",
-        )?;
-        let shading = GpuBuffer::device_local_with(
-            ctx,
-            bytemuck::cast_slice(&packed.shading),
-            TRIANGLE_USAGE,
-            "shading",
-        )?;
-        Self::around_triangles(ctx, packed, [triangles, shading])
+        let (records, ahead) = beside_build_ahead(ctx, packed, || {
+            let triangles = GpuBuffer::device_local_with_parts(
+                ctx,
+                &[bytemuck::cast_slice(&packed.triangles), &[0; READ_AHEAD]],
+                TRIANGLE_USAGE,
+                "triangles",
+            )?;
+            let shading = GpuBuffer::device_local_with(
+                ctx,
+                bytemuck::cast_slice(&packed.shading),
+                TRIANGLE_USAGE,
+                "shading",
+            )?;
+            Ok([triangles, shading])
+        })?;
+        Self::around_triangles(ctx, packed, records, ahead)
     }
 
     /// Upload a loaded scene: its triangles and hit records are written here, into the
@@ -147,19 +150,22 @@ impl SceneBuffers {
     ) -> Result<Self, GpuError> {
         check_sizes(ctx, loaded.buffer_sizes())?;
         let count = loaded.triangle_count();
-        let triangles = GpuBuffer::device_local_made(
-            ctx,
-            count,
-            READ_AHEAD,
-            TRIANGLE_USAGE,
-            "triangles",
-            |k| loaded.triangle(k),
-        )?;
-        let shading =
-            GpuBuffer::device_local_made(ctx, count, 0, TRIANGLE_USAGE, "shading", |k| {
-                loaded.shading(k)
-            })?;
-        Self::around_triangles(ctx, loaded.tables(), [triangles, shading])
+        let (records, ahead) = beside_build_ahead(ctx, loaded.tables(), || {
+            let triangles = GpuBuffer::device_local_made(
+                ctx,
+                count,
+                READ_AHEAD,
+                TRIANGLE_USAGE,
+                "triangles",
+                |k| loaded.triangle(k),
+            )?;
+            let shading =
+                GpuBuffer::device_local_made(ctx, count, 0, TRIANGLE_USAGE, "shading", |k| {
+                    loaded.shading(k)
+                })?;
+            Ok([triangles, shading])
+        })?;
+        Self::around_triangles(ctx, loaded.tables(), records, ahead)
     }
 
     /// The scene's buffers around its triangles and hit records, already uploaded: the
@@ -168,6 +174,7 @@ impl SceneBuffers {
         ctx: &Arc<GpuContext>,
         packed: &PackedScene,
         [triangles, shading]: [GpuBuffer; 2],
+        ahead: Option<BuildAhead>,
     ) -> Result<Self, GpuError> {
         let storage = |bytes: &[u8], name| GpuBuffer::device_local_with(ctx, bytes, STORAGE, name);
         let v = &packed.vertices;
@@ -205,32 +212,34 @@ impl SceneBuffers {
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;
-        s.build_on_device(ctx, &packed.device_builds)?;
+        s.build_on_device(ctx, &packed.device_builds, ahead)?;
         Ok(s)
     }
 
     /// Build the binary trees left to the device (`tracer::prepare`), in place: each
     /// mesh's nodes written and its triangles and hit records put in its tree's order.
+    /// `ahead`: the first build's pipelines and scratch memory, made during the upload.
     fn build_on_device(
         &self,
         ctx: &Arc<GpuContext>,
         builds: &[DeviceBuild],
+        ahead: Option<BuildAhead>,
     ) -> Result<(), GpuError> {
         if builds.is_empty() {
             return Ok(());
         }
         let start = std::time::Instant::now();
-        let pass = BvhBuildPass::new(ctx)?;
-        let made = start.elapsed();
+        let (pass, mut scratch) = match ahead {
+            Some(a) => (a.pass, Some(a.scratch)),
+            None => (BvhBuildPass::new(ctx)?, None),
+        };
         for build in builds {
-            pass.build([&self.triangles, &self.shading, &self.nodes], build)?;
+            pass.build([&self.triangles, &self.shading, &self.nodes], build, scratch.take())?;
         }
         let triangles: u64 = builds.iter().map(|b| u64::from(b.triangle_count)).sum();
         log::info!(
-            "built the BVH of {triangles} triangles on the device in {:.1} ms ({:.1} ms of it \
-             making the pipelines)",
+            "built the BVH of {triangles} triangles on the device in {:.1} ms after the upload",
             start.elapsed().as_secs_f64() * 1e3,
-            made.as_secs_f64() * 1e3
         );
         Ok(())
     }
@@ -335,6 +344,23 @@ impl SceneBuffers {
         self.one_instance = top.is_one_instance();
         Ok(grown)
     }
+}
+
+/// `upload` (the triangle and hit-record buffers: most of an upload) run beside the making
+/// of what the first of `packed`'s device builds needs, on another thread.
+fn beside_build_ahead(
+    ctx: &Arc<GpuContext>,
+    packed: &PackedScene,
+    upload: impl FnOnce() -> Result<[GpuBuffer; 2], GpuError>,
+) -> Result<([GpuBuffer; 2], Option<BuildAhead>), GpuError> {
+    let Some(first) = packed.device_builds.first() else { return Ok((upload()?, None)) };
+    std::thread::scope(|s| {
+        let ahead = s.spawn(|| BuildAhead::new(ctx, first));
+        let records = upload();
+        let ahead =
+            ahead.join().unwrap_or(Err(GpuError::NotReady("the BVH build's thread failed")));
+        Ok((records?, Some(ahead?)))
+    })
 }
 
 /// The BVH nodes, both layouts in one buffer: the shader reads the binary nodes as `nodes`,
