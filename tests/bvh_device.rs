@@ -156,6 +156,18 @@ fn device_wide_trees_find_the_brute_force_hits_beside_or_without_the_binary_ones
     }
     let tris = soup(&mut Rng(8), 1_001, 4.0, 0.7);
     check_device_trees("soup, leaves of two", &tris, Layouts::Wide, leaves_of(tris.len(), 2));
+    // Both trees asked for where only one fits: the wide one alone (a warning says so), its
+    // binary tree kept in the build's scratch memory.
+    let leaves = tris.len();
+    let both = nodes_for(leaves, 1) * 64 + wide_reserve(leaves) * 80;
+    let fit = DeviceFit { storage_range: Some(both as u64 - 1), ..ON_DEVICE };
+    check_device_trees("soup, room for one tree", &tris, Layouts::Both, fit);
+}
+
+/// The wide nodes reserved for the device's collapse of `leaves` leaves (the bound in
+/// `tracer::prepare`: 7W <= 4 leaves - 1, and one spare).
+fn wide_reserve(leaves: usize) -> usize {
+    (4 * leaves).div_ceil(7) + 1
 }
 
 /// The device's trees over `tris` packed in `layouts` for `fit`: the binary one (where
@@ -170,7 +182,7 @@ fn check_device_trees(name: &str, tris: &[[Vec3; 3]], layouts: Layouts, fit: Dev
     let bvh = d.bvh(&packed);
     let wide = d.wide_tree(&packed);
     assert_eq!(d.has_wide_tree(), layouts != Layouts::Binary, "{name}");
-    assert_eq!(bvh.nodes.is_empty(), layouts == Layouts::Wide, "{name}");
+    assert_eq!(bvh.nodes.is_empty(), !packed.has_binary(), "{name}");
     let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
 
     // The records are the CPU packing's, moved whole: slot k holds triangle prim's.

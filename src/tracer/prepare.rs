@@ -13,10 +13,10 @@ use crate::bvh::{BuildOptions, Bvh, BvhNode};
 use crate::render_settings::BvhLayout;
 use crate::scene::{Mesh, Scene, TextureSource};
 
-/// From how many triangles a mesh's binary BVH is built on the device, where the device
-/// builds them ([`DeviceFit::builds_from`]) and the user did not say: the CPU build takes
-/// 0.4 s at 10M triangles and 4 s at 100M on 16 cores, the device's tens of milliseconds,
-/// but its tree (Morton order, fixed leaves) traces slower (docs/BENCHMARKS.md).
+/// From how many triangles a mesh's BVHs are built on the device, where the device builds
+/// them ([`DeviceFit::builds_from`]) and the user did not say: the CPU takes 0.4 s at 10M
+/// triangles and 4 s at 100M on 16 cores (8 s with the wide tree), an H200 0.4-0.9 s at
+/// 100M, but its trees (Morton order) trace 1.2-1.3x slower (docs/BENCHMARKS.md).
 pub const DEVICE_BUILD_FROM: usize = 50_000_000;
 
 /// The triangles a leaf of a tree built on the device may hold (the last leaf fewer): the
@@ -65,7 +65,7 @@ impl std::fmt::Display for BvhBuilder {
 
 /// What the device a scene is packed for can hold and do: the bytes a storage buffer may
 /// span (the node buffer is fitted to it, [`NodeBudget`]), and from how many triangles it
-/// builds a mesh's binary BVH itself (`gpu::bvh_build`) after the upload.
+/// builds a mesh's BVHs itself (`gpu::bvh_build`) after the upload.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct DeviceFit {
     pub storage_range: Option<u64>,
@@ -88,7 +88,7 @@ impl DeviceFit {
         Self { storage_range: Some(storage_range), builds_from }
     }
 
-    /// Whether `mesh`'s binary tree is left to the device.
+    /// Whether `mesh`'s trees are left to the device.
     pub(crate) fn builds(&self, mesh: &Mesh) -> bool {
         self.builds_from.is_some_and(|from| mesh.triangle_count() >= from.max(DEVICE_BUILD_LEAST))
     }
@@ -197,8 +197,8 @@ pub(crate) struct PreparedScene {
     pub warnings: Vec<String>,
     /// Seconds spent building BVHs (and collapsing them into wide ones), for reports.
     pub bvh_build_seconds: f64,
-    /// Per mesh whose binary tree is left to the device (`bvhs` holds the
-    /// [`reserved_for_device`] stand-in): the triangles its leaves hold.
+    /// Per mesh whose trees are left to the device (`bvhs` and `wide_bvhs` hold the
+    /// [`reserved_for_device`] stand-ins): the triangles its leaves hold.
     pub on_device: Vec<Option<u32>>,
     /// The layouts to pack: those asked for, or [`Layouts::Wide`] where both trees would
     /// not fit the device beside each other ([`NodeBudget`]).
@@ -209,7 +209,7 @@ impl PreparedScene {
     /// Build the BVHs (and, where `layouts` holds the wide one, collapse each into it) and
     /// decode the images `scene` needs. For a `device` the trees are fitted to its
     /// storage-buffer range ([`NodeBudget`]), warnings saying how, and the meshes it builds
-    /// itself get stand-ins (no wide tree: wide frames trace their binary ones).
+    /// itself get stand-ins ([`reserved_for_device`]).
     pub(crate) fn new(scene: &Scene, layouts: Layouts, device: DeviceFit) -> Self {
         let wide = layouts.builds_wide();
         let (bvhs, textures) = rayon::join(
