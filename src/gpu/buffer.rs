@@ -169,9 +169,9 @@ impl GpuBuffer {
         self.upload_in_pieces(data, 0, UPLOAD_CHUNK)
     }
 
-    /// [`Self::upload`] through a staging buffer of at most `chunk` bytes, refilled: a
-    /// 10M-triangle scene then needs 64 MB of staging memory beside it instead of a copy of
-    /// its largest buffer.
+    /// [`Self::upload`] through two staging buffers of at most `chunk` bytes, refilled in
+    /// turn: a 10M-triangle scene then needs 128 MB of staging memory beside it instead of a
+    /// copy of its largest buffer.
     /// `offset`: where in this buffer `data` goes.
     fn upload_in_pieces(&self, data: &[u8], offset: usize, chunk: usize) -> Result<(), GpuError> {
         self.upload_staged(offset, data.len(), chunk, |at, to| {
@@ -213,45 +213,71 @@ impl GpuBuffer {
         Ok(dst)
     }
 
-    /// Write `len` bytes at `offset` of this (device-local) buffer through a staging buffer of
-    /// at most `chunk` bytes, refilled: `fill(at, piece)` writes bytes `at..at + piece.len()`
-    /// of the data into the mapped staging memory.
+    /// Write `len` bytes at `offset` of this (device-local) buffer through two staging
+    /// buffers of at most `chunk` bytes, one filled while the other is copied:
+    /// `fill(at, piece)` writes bytes `at..at + piece.len()` of the data into the mapped
+    /// staging memory.
     fn upload_staged(
         &self,
         offset: usize,
         len: usize,
         chunk: usize,
-        fill: impl Fn(usize, &mut [u8]),
+        fill: impl Fn(usize, &mut [u8]) + Sync,
     ) -> Result<(), GpuError> {
         if len == 0 {
             return Ok(());
         }
         assert!((offset + len) as u64 <= self.size, "upload larger than the buffer");
         let chunk = chunk.clamp(1, len);
-        let mut staging = GpuBuffer::new(
-            &self.ctx,
-            chunk as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-            "staging",
-        )?;
-        for at in (0..len).step_by(chunk) {
-            let piece = chunk.min(len - at);
-            fill(at, &mut staging.mapped().expect("staging memory is mapped")[..piece]);
-            let device = &self.ctx.device;
-            self.ctx.one_shot(|cmd| {
-                let region = [vk::BufferCopy {
-                    src_offset: 0,
-                    dst_offset: (offset + at) as u64,
-                    size: piece as u64,
-                }];
-                // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
-                unsafe { device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region) };
-                // Make the copy visible to the compute shader that reads the buffer next.
-                barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::ComputeRead]);
+        let staging = || {
+            GpuBuffer::new(
+                &self.ctx,
+                chunk as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+                "staging",
+            )
+        };
+        // Two staging buffers: the next piece is filled on another thread while the GPU
+        // copies this one.
+        let pieces: Vec<usize> = (0..len).step_by(chunk).collect();
+        let mut stagings =
+            if pieces.len() > 1 { vec![staging()?, staging()?] } else { vec![staging()?] };
+        let piece_len = |at: usize| chunk.min(len - at);
+        fill(0, &mut stagings[0].mapped().expect("staging memory is mapped")[..piece_len(0)]);
+        for (i, &at) in pieces.iter().enumerate() {
+            let (first, second) = stagings.split_at_mut(1);
+            let (current, next) = if i % 2 == 0 {
+                (&first[0], second.first_mut())
+            } else {
+                (&second[0], Some(&mut first[0]))
+            };
+            let upcoming = pieces.get(i + 1).copied().zip(next);
+            std::thread::scope(|s| {
+                if let Some((next_at, next)) = upcoming {
+                    let fill = &fill;
+                    s.spawn(move || {
+                        let to = next.mapped().expect("staging memory is mapped");
+                        fill(next_at, &mut to[..piece_len(next_at)]);
+                    });
+                }
+                self.copy_from(current, offset + at, piece_len(at))
             })?;
         }
         Ok(())
+    }
+
+    /// Copy the first `len` bytes of `staging` to `offset` in this buffer, waiting for it.
+    fn copy_from(&self, staging: &GpuBuffer, offset: usize, len: usize) -> Result<(), GpuError> {
+        let device = &self.ctx.device;
+        self.ctx.one_shot(|cmd| {
+            let region =
+                [vk::BufferCopy { src_offset: 0, dst_offset: offset as u64, size: len as u64 }];
+            // SAFETY: `cmd` is recording; both buffers are alive until one_shot has waited.
+            unsafe { device.cmd_copy_buffer(cmd, staging.buffer, self.buffer, &region) };
+            // Make the copy visible to the compute shader that reads the buffer next.
+            barrier::buffers(device, cmd, &[Access::TransferWrite], &[Access::ComputeRead]);
+        })
     }
 
     /// Read `len` bytes back from this (device-local) buffer through a staging copy.
