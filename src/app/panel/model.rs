@@ -76,10 +76,14 @@ impl Section for ModelPanel {
                 .add(egui::TextEdit::singleline(&mut self.path).hint_text("model.obj|ply|glb or torusknot:1M").desired_width(ui.available_width() - 52.0))
                 .on_hover_text("an OBJ, PLY or glTF path, a model name (geosphere, torusknot, sphere, cylinder) or torusknot:N, a generated knot of N triangles");
             let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-            let clicked = ui.add_enabled(!self.path.trim().is_empty(), egui::Button::new("Load")).clicked();
+            // Always enabled: on a slow machine a name typed and Load clicked at once reach
+            // the same frame, and a button disabled in the frame before takes no click.
+            let clicked = ui.button("Load").clicked();
             if (clicked || enter) && !self.path.trim().is_empty() {
                 // The same names as --model: built-ins and generated knots too.
                 actions.push(PanelAction::LoadModel(ModelSource::parse(self.path.trim())));
+            } else if clicked {
+                self.status = Some(Status::error("type a model's path or name first, then Load"));
             }
         });
         ui.horizontal(|ui| {

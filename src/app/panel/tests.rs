@@ -13,6 +13,7 @@ use crate::app::user_files::model_loader::LoadStatus;
 use crate::gpu::khr_rt::{AccelStats, VendorKernel};
 use crate::progress::{Phase, PhaseTime, Snapshot};
 use crate::render_settings::Accel;
+use crate::scene::paper::ModelSource;
 use crate::scene::spec::SceneSpec;
 use crate::tracer::packed::SceneHolds;
 
@@ -423,4 +424,25 @@ fn the_environment_map_is_chosen_in_the_panel() {
     let file = crate::scene::EnvironmentSource::File("/maps/studio.hdr".into());
     assert_eq!(params.scene.environment, Some(file.clone()));
     assert_eq!(params.environment_file, Some(file));
+}
+
+#[test]
+fn a_name_typed_and_load_clicked_in_one_frame_loads_it() {
+    let mut h = harness(Vec2::new(1280.0, 2400.0), Fixture::new(VendorInfo::default()));
+    h.run();
+    // The model section's Load (the presets' comes after it). With nothing typed it says
+    // what is missing, and loads nothing.
+    let load = |h: &Harness<'_, Fixture>| h.get_all_by_label("Load").next().unwrap().click();
+    load(&h);
+    h.run();
+    assert!(h.state().actions.is_empty(), "{:?}", h.state().actions);
+    let status = h.state().panel.model.status.as_ref().map(|s| s.text.clone());
+    assert!(status.as_ref().is_some_and(|s| s.contains("type a model")), "{status:?}");
+    // On a slow machine the name and the click arrive in one frame, after a frame whose
+    // field was empty.
+    h.state_mut().panel.model.path = "torusknot:300k".into();
+    load(&h);
+    h.run();
+    let knot = PanelAction::LoadModel(ModelSource::parse("torusknot:300k"));
+    assert_eq!(h.state().actions, [knot]);
 }

@@ -259,9 +259,11 @@ impl Input {
 
     /// The key presses of the frame whose egui input is `events`, and where that input ends:
     /// before the first release of a button pressed earlier in `events`, after the first
-    /// pointer release that anything follows, after the first event cut [`Cut::After`] that
-    /// a key or text event follows, or before the first event cut [`Cut::Before`] that one
-    /// comes before, whichever comes first. The events after the cut are taken out of
+    /// pointer release that anything follows, before the first pointer press that a key or
+    /// text event comes before (a press outside a text field takes its focus before the
+    /// field reads the frame's text: a name typed and Load clicked at once lost the name),
+    /// after the first event cut [`Cut::After`] that a key or text event follows, or before
+    /// the first event cut [`Cut::Before`] that one comes before, whichever comes first. The events after the cut are taken out of
     /// `events` and returned, to go first into the next frame's input; the presses among
     /// them wait for that frame.
     fn frame_keys(
@@ -282,6 +284,10 @@ impl Input {
             .filter(|&cut| events[cut..].iter().any(is_typing));
         let before_first_act = (1..events.len())
             .find(|&i| cut_at(&events[i]) == Cut::Before && events[..i].iter().any(is_typing));
+        let is_press =
+            |e: &egui::Event| matches!(e, egui::Event::PointerButton { pressed: true, .. });
+        let press_after_typing =
+            (1..events.len()).find(|&i| is_press(&events[i]) && events[..i].iter().any(is_typing));
         let pressed_before = |i: usize, released: egui::PointerButton| {
             events[..i].iter().any(|e| matches!(e, egui::Event::PointerButton { pressed: true, button, .. } if *button == released))
         };
@@ -293,11 +299,14 @@ impl Input {
             }
             _ => None,
         });
-        let Some(cut) = [after_release, after_focus_move, before_first_act, release_of_a_press]
-            .into_iter()
-            .flatten()
-            .min()
-        else {
+        let cuts = [
+            after_release,
+            after_focus_move,
+            before_first_act,
+            release_of_a_press,
+            press_after_typing,
+        ];
+        let Some(cut) = cuts.into_iter().flatten().min() else {
             return (std::mem::take(&mut self.keys), Vec::new());
         };
         let held = events.split_off(cut);
