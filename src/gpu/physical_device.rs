@@ -37,6 +37,9 @@ pub struct DeviceInfo {
     /// `VK_KHR_shader_clock` (subgroup clock) is on: `ClockProbe` can measure the shader
     /// clock rate (`bench` reports it per row).
     pub(crate) shader_clock: bool,
+    /// Compute shaders have the subgroup operations the BVH build's collapse uses
+    /// (arithmetic and ballot): without, every tree is built on the CPU.
+    pub(crate) builds_bvhs: bool,
 }
 
 /// What the device offers for tracing with the driver's own acceleration structures.
@@ -117,8 +120,9 @@ impl DeviceInfo {
     }
 
     /// What a scene packed for this device must fit, and the trees it builds as `builder`
-    /// says (`gpu::bvh_build`).
+    /// says (`gpu::bvh_build`; none where its shaders lack the subgroup operations).
     pub(crate) fn fit(&self, builder: BvhBuilder) -> DeviceFit {
+        let builder = if self.builds_bvhs { builder } else { BvhBuilder::Cpu };
         DeviceFit::new(self.max_storage_buffer_range, builder, !self.is_cpu())
     }
 }
@@ -235,7 +239,22 @@ pub(super) fn device_info_of(
         vendor: VendorSupport::default(),
         shader_statistics: false,
         shader_clock: false,
+        builds_bvhs: has_build_subgroup_ops(instance, pd),
     }
+}
+
+/// Whether compute shaders on `pd` have subgroup arithmetic and ballot (Vulkan 1.1's
+/// subgroup properties), which the BVH build's collapse uses.
+fn has_build_subgroup_ops(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+    // SAFETY: `props2` and the subgroup properties chained to it outlive the call.
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let ops = vk::SubgroupFeatureFlags::BASIC
+        | vk::SubgroupFeatureFlags::ARITHMETIC
+        | vk::SubgroupFeatureFlags::BALLOT;
+    subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+        && subgroup.supported_operations.contains(ops)
 }
 
 /// Whether `pd` offers the device extension `name`.
