@@ -11,28 +11,9 @@ mod common;
 
 use common::bvh_oracle::{brute_force, hittable, random_rays, Aim};
 use common::random::{room, soup, Rng};
+use common::sphere;
 
 // --- meshes -------------------------------------------------------------------------------
-
-/// A closed UV sphere with `rings` x `segments` quads (two triangles each).
-fn sphere(rings: usize, segments: usize, radius: f32) -> Vec<[Vec3; 3]> {
-    let p = |i: usize, j: usize| {
-        let (theta, phi) = (
-            std::f32::consts::PI * i as f32 / rings as f32,
-            std::f32::consts::TAU * j as f32 / segments as f32,
-        );
-        Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius
-    };
-    let mut tris = Vec::new();
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
-            tris.push([a, b, c]);
-            tris.push([a, c, d]);
-        }
-    }
-    tris
-}
 
 /// A flat `n` x `n` grid of quads in the plane z = `z`.
 fn grid(n: usize, z: f32) -> Vec<[Vec3; 3]> {

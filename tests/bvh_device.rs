@@ -9,8 +9,8 @@ use glam::Vec3;
 use meshtracer::bvh::{wide, BuildOptions, BvhNode, TraversalStats};
 use meshtracer::gpu::ComputeTracer;
 use meshtracer::render_settings::{BvhLayout, RenderSettings};
-use meshtracer::scene::paper::{paper_scene, prepare_mesh, LightOrbit};
-use meshtracer::scene::{Material, Mesh, Scene};
+use meshtracer::scene::paper::{paper_scene, LightOrbit};
+use meshtracer::scene::Scene;
 use meshtracer::tracer::packed::{DeviceFit, Layouts};
 use meshtracer::tracer::{cpu, FrameParams, PackedScene, DEVICE_LEAF_SIZES};
 
@@ -18,6 +18,7 @@ mod common;
 
 use common::bvh_oracle::{brute_force, hittable, random_rays, Aim};
 use common::random::{soup, Rng};
+use common::{mesh_of, sphere};
 
 /// Every mesh but the mirror box's 12 triangles left to the device, with leaves of one.
 const ON_DEVICE: DeviceFit = DeviceFit { storage_range: None, builds_from: Some(0) };
@@ -31,26 +32,6 @@ fn nodes_for(n: usize, leaf: u32) -> usize {
 /// first mesh) with leaves of `leaf`: the device's leaves hold as few as fit.
 fn leaves_of(n: usize, leaf: u32) -> DeviceFit {
     DeviceFit { storage_range: Some(nodes_for(n, leaf) as u64 * 64), ..ON_DEVICE }
-}
-
-/// A closed UV sphere of radius 1.
-fn sphere(rings: usize, segments: usize) -> Vec<[Vec3; 3]> {
-    let p = |i: usize, j: usize| {
-        let (theta, phi) = (
-            std::f32::consts::PI * i as f32 / rings as f32,
-            std::f32::consts::TAU * j as f32 / segments as f32,
-        );
-        Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin())
-    };
-    let mut tris = Vec::new();
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
-            tris.push([a, b, c]);
-            tris.push([a, c, d]);
-        }
-    }
-    tris
 }
 
 /// The meshes: ordinary, flat, all centroids at one point (every Morton code equal, the
@@ -86,7 +67,7 @@ fn meshes() -> Vec<(&'static str, Vec<[Vec3; 3]>)> {
     let leaf = 4;
     let mut out = vec![
         ("soup", soup(&mut Rng(5), 3_000, 10.0, 0.6)),
-        ("sphere", sphere(30, 50)),
+        ("sphere", sphere(30, 50, 1.0)),
         ("flat grid", flat),
         ("one point", one_point),
     ];
@@ -95,21 +76,6 @@ fn meshes() -> Vec<(&'static str, Vec<[Vec3; 3]>)> {
     }
     out.push(("17 leaves, the last short", soup(&mut Rng(9), 17 * leaf - 1, 3.0, 0.8)));
     out
-}
-
-/// A mesh of `tris`, one material, with computed normals, scaled as every model is.
-fn mesh_of(name: &str, tris: &[[Vec3; 3]]) -> Mesh {
-    let mut mesh = Mesh {
-        name: name.into(),
-        positions: tris.iter().flatten().copied().collect(),
-        triangles: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
-        triangle_materials: vec![0; tris.len()],
-        materials: vec![Material::default()],
-        ..Default::default()
-    };
-    mesh.compute_vertex_normals();
-    prepare_mesh(&mut mesh);
-    mesh
 }
 
 /// `scene` packed for `fit` in `layouts`, its model's trees left to the device, uploaded
@@ -264,7 +230,7 @@ fn check_device_trees(name: &str, tris: &[[Vec3; 3]], layouts: Layouts, fit: Dev
 
 #[test]
 fn frames_of_device_trees_equal_the_cpu_reference_and_the_cpu_trees() {
-    let scene = paper_scene(mesh_of("sphere", &sphere(40, 60)), 3, LightOrbit::default());
+    let scene = paper_scene(mesh_of("sphere", &sphere(40, 60, 1.0)), 3, LightOrbit::default());
     for (layouts, layout) in [
         (Layouts::Binary, BvhLayout::Binary),
         (Layouts::Both, BvhLayout::Binary),
@@ -286,7 +252,7 @@ fn frames_of_device_trees_equal_the_cpu_reference_and_the_cpu_trees() {
 
 #[test]
 fn only_meshes_of_the_threshold_and_more_are_left_to_the_device() {
-    let scene = paper_scene(mesh_of("sphere", &sphere(10, 10)), 1, LightOrbit::default());
+    let scene = paper_scene(mesh_of("sphere", &sphere(10, 10, 1.0)), 1, LightOrbit::default());
     let n = scene.meshes[0].triangle_count();
     let fit = |from| DeviceFit { storage_range: None, builds_from: Some(from) };
     let zeroed = |packed: &PackedScene| {

@@ -87,8 +87,14 @@ pub fn render_both(scene: &Scene, settings: RenderSettings) -> (Image, Image) {
 pub fn room_scene() -> Scene {
     // Enough triangles that the tracers cut (16K and up).
     let tris = random::room(&mut random::Rng(23), 17_000);
+    paper_scene(mesh_of("room", &tris), 1, LightOrbit::default())
+}
+
+/// A mesh of the triangles `tris` (three vertices each), one material, with computed
+/// normals, scaled as every model is.
+pub fn mesh_of(name: &str, tris: &[[Vec3; 3]]) -> Mesh {
     let mut mesh = Mesh {
-        name: "room".into(),
+        name: name.into(),
         positions: tris.iter().flatten().copied().collect(),
         triangles: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
         triangle_materials: vec![0; tris.len()],
@@ -97,7 +103,27 @@ pub fn room_scene() -> Scene {
     };
     mesh.compute_vertex_normals();
     prepare_mesh(&mut mesh);
-    paper_scene(mesh, 1, LightOrbit::default())
+    mesh
+}
+
+/// A closed UV sphere with `rings` x `segments` quads (two triangles each).
+pub fn sphere(rings: usize, segments: usize, radius: f32) -> Vec<[Vec3; 3]> {
+    let p = |i: usize, j: usize| {
+        let (theta, phi) = (
+            std::f32::consts::PI * i as f32 / rings as f32,
+            std::f32::consts::TAU * j as f32 / segments as f32,
+        );
+        Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius
+    };
+    let mut tris = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            tris.push([a, b, c]);
+            tris.push([a, c, d]);
+        }
+    }
+    tris
 }
 
 /// Triangle slots of `scene` packed for tracing against its triangles: more where the
