@@ -31,7 +31,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
 use super::pipeline::{
-    allocate_one_set, create_compute_pipeline, create_layout, create_set_layout,
+    allocate_one_set, bind_compute, create_compute_pipeline, create_layout, create_set_layout,
     destroy_pipeline_objects, words,
 };
 use super::timer::GpuTimer;
@@ -395,20 +395,12 @@ impl BvhBuildPass {
         // which comes after every waited-for build; the constants fit the range; an
         // indirect buffer holds its three words at the offset.
         unsafe {
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipelines[kernel]);
-            device.cmd_bind_descriptor_sets(
+            bind_compute(
+                device,
                 cmd,
-                vk::PipelineBindPoint::COMPUTE,
+                self.pipelines[kernel],
                 self.layout,
-                0,
-                &[set],
-                &[],
-            );
-            device.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
+                set,
                 bytemuck::bytes_of(c),
             );
             match groups {

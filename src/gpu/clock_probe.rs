@@ -14,7 +14,7 @@ use super::buffer::GpuBuffer;
 use super::context::GpuContext;
 use super::error::GpuError;
 use super::pipeline::{
-    allocate_one_set, create_compute_pipeline, create_layout, create_set_layout,
+    allocate_one_set, bind_compute, create_compute_pipeline, create_layout, create_set_layout,
     destroy_pipeline_objects, words,
 };
 use super::timer::GpuTimer;
@@ -148,20 +148,12 @@ impl ClockProbe {
             // SAFETY: `cmd` is recording; the pipeline, layout and set are live until Drop,
             // which comes after this waited-for submission; the constants fit the range.
             unsafe {
-                device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-                device.cmd_bind_descriptor_sets(
+                bind_compute(
+                    device,
                     cmd,
-                    vk::PipelineBindPoint::COMPUTE,
+                    self.pipeline,
                     self.layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
-                device.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
+                    self.set,
                     bytemuck::bytes_of(&constants),
                 );
                 device.cmd_dispatch(cmd, 1, 1, 1);

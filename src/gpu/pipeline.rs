@@ -117,6 +117,29 @@ pub(crate) fn create_compute_pipeline(
     Ok(pipeline.map_err(|(_, r)| GpuError::vk(what[1], r))?[0])
 }
 
+/// Record the binding of a compute pass's `pipeline`, its one `set` (of `layout`) and its
+/// push `constants`, ready for a dispatch.
+///
+/// # Safety
+/// `cmd` is recording; the pipeline, layout and set outlive its execution (their owner waits
+/// for the GPU before dropping them); `constants` fit the layout's push-constant range.
+pub(crate) unsafe fn bind_compute(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set: vk::DescriptorSet,
+    constants: &[u8],
+) {
+    let compute = vk::PipelineBindPoint::COMPUTE;
+    // SAFETY: as the caller promises.
+    unsafe {
+        device.cmd_bind_pipeline(cmd, compute, pipeline);
+        device.cmd_bind_descriptor_sets(cmd, compute, layout, 0, &[set], &[]);
+        device.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, constants);
+    }
+}
+
 /// Destroy a pass's Vulkan objects: its descriptor pool (and sets), pipeline, pipeline
 /// layout and set layout; null handles (a constructor that failed part-way) are ignored.
 ///

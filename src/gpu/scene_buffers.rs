@@ -12,7 +12,10 @@ use super::error::GpuError;
 use crate::bvh::BvhNode;
 use crate::scene::paper::MAX_MODELS;
 use crate::tracer::loaded::LoadedScene;
-use crate::tracer::packed::{environment_words, DeviceBuild, GpuInstance, PackedScene, TopLevel};
+use crate::tracer::packed::{
+    environment_words, DeviceBuild, GpuInstance, GpuTriangle, GpuTriangleShading, PackedScene,
+    TopLevel,
+};
 use crate::tracer::textures::EnvironmentMap;
 
 /// Room in the instance buffers: every model copy plus the mirror box, plus headroom, so
@@ -271,8 +274,8 @@ impl SceneBuffers {
             }
             let tris = (b.triangle_base, b.triangle_count);
             let at = |size: usize| u64::from(b.triangle_base) * size as u64;
-            read(&self.triangles, at(40), tris, &mut packed.triangles)?;
-            read(&self.shading, at(16), tris, &mut packed.shading)?;
+            read(&self.triangles, at(size_of::<GpuTriangle>()), tris, &mut packed.triangles)?;
+            read(&self.shading, at(size_of::<GpuTriangleShading>()), tris, &mut packed.shading)?;
         }
         Ok(())
     }

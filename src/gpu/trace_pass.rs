@@ -16,7 +16,9 @@ use super::context::GpuContext;
 use super::dispatch::{Band, GROUP};
 use super::error::GpuError;
 use super::lock::lock;
-use super::pipeline::{self, allocate_one_set, create_layout, destroy_pipeline_objects, words};
+use super::pipeline::{
+    self, allocate_one_set, bind_compute, create_layout, destroy_pipeline_objects, words,
+};
 use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
@@ -488,22 +490,7 @@ impl TracePass {
         // outlive its execution (the owner waits for the GPU before dropping them) and the
         // push constants fit the layout's range.
         unsafe {
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.layout,
-                0,
-                &[self.set],
-                &[],
-            );
-            device.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(pc),
-            );
+            bind_compute(device, cmd, pipeline, self.layout, self.set, bytemuck::bytes_of(pc));
             device.cmd_dispatch_base(cmd, base_x, 0, 0, groups_x, groups_y, 1);
         }
     }
