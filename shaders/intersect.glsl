@@ -309,18 +309,21 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
         BvhNode n = top_nodes[0];
         cost.x += 1u;
         // One child is the instance's leaf, the other empty or the enclosure, a closed box
-        // (TracePass picks this kernel for such a scene's BVH frames), tested first.
-        bool left = floatBitsToUint(n.left_min.w) != EMPTY;
-        if (floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE) {
-            bool blocked;
-            closed_box_hit(top_nodes[floatBitsToUint(n.left_min.w)], o, d, any, hit, cost, blocked);
-            if (blocked) return true;
-            left = false;
-        }
+        // (TracePass picks this kernel for such a scene's BVH frames), tested after the
+        // instance: a ray that meets the model then skips the wall behind it (the box first
+        // cost the framed rows 7-8% and a model in the box 7% on the H200). As
+        // top_level::walk takes them.
+        bool enclosed = floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE;
+        bool left = floatBitsToUint(n.left_min.w) != EMPTY && !enclosed;
         leaf = floatBitsToUint(left ? n.left_min.w : n.right_min.w);
         vec3 lo = left ? n.left_min.xyz : n.right_min.xyz;
         vec3 hi = left ? n.left_max.xyz : n.right_max.xyz;
-        if (slab(lo, hi, o, safe_inverse(d), hit.t) == INF) return false;
+        if (slab(lo, hi, o, safe_inverse(d), hit.t) < INF) {
+            if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+        }
+        bool blocked = false;
+        if (enclosed) closed_box_hit(top_nodes[floatBitsToUint(n.left_min.w)], o, d, any, hit, cost, blocked);
+        return blocked;
     }
     bool found = visit_instance(leaf, o, d, any, use_bvh, hit, cost);
     return any && found;

@@ -278,7 +278,9 @@ pub(crate) enum Target<'a> {
 /// `trace_instances` does: of a node's two children the nearer next, the farther pushed
 /// with its entry distance and dropped when popped if a hit found since ends before it.
 /// An enclosure (the root's left child, `TOP_ENCLOSURE`) comes first, offered as a
-/// [`Target::ClosedBox`], then the tree over the others (the root's right child). Returns
+/// [`Target::ClosedBox`], then the tree over the others (the root's right child); but a
+/// single instance inside a closed box comes before the box, as the `ONE_INSTANCE`
+/// kernel takes them. Returns
 /// true when a visit said [`Visit::Blocked`]. Counts a node per node opened.
 pub(crate) fn walk(
     nodes: &[BvhNode],
@@ -293,6 +295,10 @@ pub(crate) fn walk(
     let mut next = Some(Stop::Node(0));
     if let Some(record) = EnclosureRecord::of(nodes) {
         stats.nodes += 1;
+        let rest = nodes[0].children()[1];
+        if rest.is_leaf() && record.closed_box().is_some() {
+            return one_in_a_closed_box(rest, record, ray, inv_dir, t_max, visit);
+        }
         next = match visit(Target::ClosedBox(record), t_max) {
             Some(Visit::Blocked) => return true,
             Some(Visit::Closer(t)) => {
@@ -302,7 +308,6 @@ pub(crate) fn walk(
             Some(Visit::Nothing) => None,
             None => Some(Stop::Instance(record.instance())),
         };
-        let rest = nodes[0].children()[1];
         let entry = rest.bounds.intersect(ray, inv_dir, t_max).filter(|_| !rest.is_empty());
         if let Some(entry) = entry {
             let stop =
@@ -356,6 +361,29 @@ pub(crate) fn walk(
             }
         }
     }
+}
+
+/// The walk over one instance (`leaf`) inside a closed-box enclosure, as the shader's
+/// `ONE_INSTANCE` kernel takes it: the instance first, where the ray meets its box, then the
+/// enclosure as a closed box, whose wall is not tested where it lies beyond the instance's
+/// hit. (The box first cost the framed rows 7-8% on the H200: a ray that meets the model
+/// tested the wall behind it too.)
+fn one_in_a_closed_box(
+    leaf: BvhChild,
+    record: &EnclosureRecord,
+    ray: &Ray,
+    inv_dir: glam::Vec3,
+    mut t_max: f32,
+    mut visit: impl FnMut(Target, f32) -> Option<Visit>,
+) -> bool {
+    if leaf.bounds.intersect(ray, inv_dir, t_max).is_some() {
+        match visit(Target::Instance(leaf.index), t_max) {
+            None | Some(Visit::Nothing) => {}
+            Some(Visit::Closer(t)) => t_max = t,
+            Some(Visit::Blocked) => return true,
+        }
+    }
+    matches!(visit(Target::ClosedBox(record), t_max), Some(Visit::Blocked))
 }
 
 /// The world box of `inst`'s record's tree leaf, for tests: the union of the leaves
