@@ -288,7 +288,7 @@ fn torus_knot_matches_and_is_smaller() {
 
 mod common;
 
-use common::{assert_close, paper, render_both};
+use common::{assert_close, assert_same_cost, paper, render_both};
 use meshtracer::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 
 fn wide_settings(size: u32, bounces: u32) -> RenderSettings {
@@ -334,12 +334,7 @@ fn gpu_traces_cut_triangles_as_the_cpu_reference_in_every_layout() {
 fn gpu_wide_cost_view_counts_like_the_cpu_reference() {
     let scene = paper(PaperModel::TorusKnot, 3);
     let (gpu, cpu) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..wide_settings(32, 2) });
-    let differ = gpu.pixels.iter().zip(&cpu.pixels).filter(|(g, c)| g[..2] != c[..2]).count();
-    assert!(
-        differ as f32 <= 0.002 * gpu.pixels.len() as f32,
-        "cost differs on {differ} of {} pixels",
-        gpu.pixels.len()
-    );
+    assert_same_cost(&gpu, &cpu, "wide");
     assert!(cpu.pixels.iter().any(|p| p[0] > 1.0), "the wide BVH is traversed");
     // Fewer nodes than the binary tree visits for the same rays.
     let (binary, _) = render_both(
@@ -399,12 +394,7 @@ fn a_mesh_without_a_wide_tree_traces_its_binary_one_in_wide_frames() {
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
     let (gpu, _) = tracer.render(&cost).unwrap();
     let cpu_cost = cpu::render(&packed, &cost);
-    let differ = gpu.pixels.iter().zip(&cpu_cost.pixels).filter(|(g, c)| g[..2] != c[..2]).count();
-    assert!(
-        differ as f32 <= 0.002 * gpu.pixels.len() as f32,
-        "cost differs on {differ} of {} pixels",
-        gpu.pixels.len()
-    );
+    assert_same_cost(&gpu, &cpu_cost, "one mesh without its wide tree");
     let nodes =
         |img: &meshtracer::tracer::Image| img.pixels.iter().map(|p| p[0] as f64).sum::<f64>();
     assert!(

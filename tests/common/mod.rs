@@ -9,7 +9,7 @@ pub mod random;
 pub mod tolerance;
 
 #[allow(unused_imports)] // each test binary uses some of common
-pub use tolerance::{assert_close, assert_within};
+pub use tolerance::{assert_close, assert_same_cost, assert_within};
 
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
