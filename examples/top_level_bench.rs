@@ -30,8 +30,8 @@ fn main() {
         times.sort_by(f64::total_cmp);
         // The tree alone, over the same world boxes (the rest is the records).
         let boxes: Vec<_> = list.iter().map(|i| i.world_bounds(bounds)).collect();
-        let options = BuildOptions { max_leaf_size: 1, ..BuildOptions::default() };
-        let tree = median_ms(|| drop(Bvh::build_from_boxes(&boxes, &options)));
+        let options = BuildOptions::default();
+        let tree = median_ms(|| drop(Bvh::build_named_leaves(&boxes, None, &options)));
         let per_instance = packed.top_level.bytes() as f64 / list.len() as f64;
         let sah = packed.top_level.sah_cost();
         println!(

@@ -23,6 +23,7 @@
 mod bins;
 mod parallel;
 mod phases;
+mod placed;
 mod prim;
 mod small;
 mod split;
@@ -39,6 +40,9 @@ use self::phases::PhaseClock;
 use self::prim::{Bounds, ChildRef, Prim, MAX_BINS};
 use super::{Bvh, BvhChild, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
+
+/// A box to build over and the name its leaf carries ([`Bvh::build_named_leaves_into`]).
+pub(crate) use self::prim::Prim as LeafBox;
 
 /// Build parameters.
 ///

@@ -14,6 +14,7 @@ mod validate;
 pub mod wide;
 
 pub use builder::BuildOptions;
+pub(crate) use builder::LeafBox;
 pub use stats::{node_count, sah_cost};
 #[cfg(any(test, feature = "dev"))]
 pub use traverse::ordered_edges;

@@ -13,7 +13,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use crate::bvh::{BvhChild, BvhNode};
+use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, LeafBox};
 use crate::contract::{EMPTY, TOP_ENCLOSURE};
 use crate::geometry::Aabb;
 use crate::scene::Instance;
@@ -22,21 +22,21 @@ use crate::scene::Instance;
 pub(crate) const ENCLOSURE_TRIANGLES: u32 = 16;
 
 /// The first instance of a mesh of at most [`ENCLOSURE_TRIANGLES`] (`triangles(mesh)`)
-/// whose world box (of `boxes`) holds every other instance's, in a scene of two or more.
+/// whose world box (`world_box(i)`) holds every other instance's, in a scene of two or more.
 pub(crate) fn find(
     instances: &[Instance],
-    boxes: &[Aabb],
+    world_box: impl Fn(usize) -> Aabb,
     triangles: impl Fn(usize) -> u32,
 ) -> Option<usize> {
     if instances.len() < 2 {
         return None;
     }
+    let small = |inst: &Instance| (1..=ENCLOSURE_TRIANGLES).contains(&triangles(inst.mesh));
+    // Fields of copies have no small mesh: no need to read every box then.
+    instances.iter().position(small)?;
     // On one thread: tens of microseconds for 10,000 boxes, less than waking the pool.
-    let all = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
-    instances.iter().zip(boxes).position(|(inst, b)| {
-        let count = triangles(inst.mesh);
-        (1..=ENCLOSURE_TRIANGLES).contains(&count) && b.contains(&all)
-    })
+    let all = (0..instances.len()).fold(Aabb::EMPTY, |acc, i| acc.union(world_box(i)));
+    (0..instances.len()).find(|&i| small(&instances[i]) && world_box(i).contains(&all))
 }
 
 /// A mesh that is a closed box in its own space: six axis-aligned faces, each two
@@ -150,32 +150,22 @@ impl EnclosureRecord {
     }
 }
 
-/// The top level's nodes over `boxes` with instance `enclosure` taken out: a root whose
-/// left child is the enclosure (its world box, count [`TOP_ENCLOSURE`], and the index of
-/// its `record`, the last node) and whose right is `tree_over`'s tree over the others
-/// (their one leaf, for one). `tree_over(boxes, names)` builds a tree whose leaves name
-/// `names[k]` for `boxes[k]`. That tree's root moves to the end, so that no other node's
-/// index changes (no node names the root).
+/// The top level's nodes over `leaves` (named by instance) with instance `enclosure`
+/// taken out: a root whose left child is the enclosure (its world box, count
+/// [`TOP_ENCLOSURE`], and the index of its `record`, the last node) and whose right is the
+/// tree over the others (their one leaf, for one).
 pub(crate) fn tree_around(
-    boxes: &[Aabb],
+    leaves: &mut Vec<LeafBox>,
     enclosure: usize,
     record: EnclosureRecord,
-    tree_over: impl FnOnce(&[Aabb], &[u32]) -> Vec<BvhNode>,
 ) -> Vec<BvhNode> {
-    let others: Vec<u32> = (0..boxes.len() as u32).filter(|&i| i as usize != enclosure).collect();
-    let other_boxes: Vec<Aabb> = others.iter().map(|&i| boxes[i as usize]).collect();
-    let mut nodes = tree_over(&other_boxes, &others);
-    let below = nodes[0];
-    let [first, second] = below.children();
-    let right = if nodes.len() == 1 && second.is_empty() {
-        first
-    } else {
-        nodes.push(below);
-        let bounds = first.bounds.union(second.bounds);
-        BvhChild { bounds, index: nodes.len() as u32 - 1, count: 0 }
-    };
-    let left =
-        BvhChild { bounds: boxes[enclosure], index: nodes.len() as u32, count: TOP_ENCLOSURE };
+    let bounds = leaves[enclosure].aabb();
+    leaves.swap_remove(enclosure); // the order of the leaves does not change the tree
+                                   // The root, the tree's nodes (one fewer than its leaves), the record.
+    let mut nodes = Vec::with_capacity(leaves.len() + 1);
+    nodes.push(BvhNode::default()); // the root, made once its right child is built
+    let right = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), &mut nodes);
+    let left = BvhChild { bounds, index: nodes.len() as u32, count: TOP_ENCLOSURE };
     nodes[0] = BvhNode::new(left, right);
     nodes.push(bytemuck::cast(record));
     nodes

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::enclosure::{self, ClosedBox, EnclosureRecord};
 use super::records::{GpuInstance, GpuMesh};
-use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode};
+use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, LeafBox};
 use crate::contract::EMPTY;
 use crate::geometry::Aabb;
 use crate::scene::Instance;
@@ -116,15 +116,16 @@ pub struct TopLevel {
 
 impl TopLevel {
     /// Records for `instances` (mesh `m` placed as `meshes[m]` says) and the tree over their
-    /// world boxes. Built in a few milliseconds for 10,000 instances, so moving instances
-    /// stays live.
+    /// world boxes. Built in under a millisecond for 10,000 instances on the H200's host
+    /// (16 threads), so moving instances stays live.
     pub(crate) fn build(meshes: &[MeshPlace], instances: &[Instance]) -> Self {
-        // Records and boxes in one pass, on every core for large fields (each record is a
-        // double-precision inverse, each box eight transformed corners).
-        let (records, boxes): (Vec<GpuInstance>, Vec<Aabb>) = instances
+        // Records and leaf boxes in one pass, on every core for large fields (each record is
+        // a double-precision inverse, each box its mesh's cover turned).
+        let (records, mut leaves): (Vec<GpuInstance>, Vec<LeafBox>) = instances
             .par_iter()
+            .enumerate()
             .with_min_len(256)
-            .map(|inst| {
+            .map(|(i, inst)| {
                 let mesh = &meshes[inst.mesh];
                 let b = mesh.cover.world_box(&inst.transform);
                 // An empty mesh has no box; a point keeps it in the tree (its visit finds
@@ -134,22 +135,21 @@ impl TopLevel {
                 } else {
                     b
                 };
-                (record(mesh, inst.mesh as u32, inst), b)
+                (record(mesh, inst.mesh as u32, inst), LeafBox::named(b, i as u32))
             })
             .unzip();
         let triangles = |mesh: usize| meshes[mesh].triangle_count;
-        let enclosure = enclosure::find(instances, &boxes, triangles)
-            .map(|e| (e, EnclosureRecord::new(e as u32, meshes[instances[e].mesh].closed_box)));
+        let nodes = match enclosure::find(instances, |i| leaves[i].aabb(), triangles) {
+            None => tree_over(&mut leaves),
+            Some(e) => {
+                let closed = meshes[instances[e].mesh].closed_box;
+                enclosure::tree_around(&mut leaves, e, EnclosureRecord::new(e as u32, closed))
+            }
+        };
         let meshes = meshes
             .iter()
             .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
             .collect();
-        let nodes = match enclosure {
-            None => tree_over(&boxes, None),
-            Some((e, record)) => enclosure::tree_around(&boxes, e, record, |boxes, names| {
-                tree_over(boxes, Some(names))
-            }),
-        };
         Self { instances: records, meshes, nodes }
     }
 
@@ -208,29 +208,19 @@ fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
     }
 }
 
-/// The two-child tree over `boxes` with leaves of one box each, a leaf's index the box's
-/// (or its name in `names`): the bottom levels' binned SAH build. (A linear BVH in Morton
-/// order built 10,000 boxes in 1.2 ms instead of 4-5 ms on the H200's host, but its trees
-/// cost up to 16% more per frame on fields of copies: docs/BENCHMARKS.md, twenty-third
-/// session.)
-fn tree_over(boxes: &[Aabb], names: Option<&[u32]>) -> Vec<BvhNode> {
-    let options = BuildOptions { max_leaf_size: 1, ..BuildOptions::default() };
-    let Bvh { mut nodes, prim_indices } = Bvh::build_from_boxes(boxes, &options);
-    if nodes.is_empty() {
-        return vec![BvhNode::new(BvhChild::EMPTY, BvhChild::EMPTY)];
+/// The two-child tree over `leaves` with one instance a leaf (the bottom levels' binned SAH
+/// build). (A linear BVH in Morton order built 10,000 boxes in 1.2 ms instead of 4-5 ms on
+/// the H200's host, but its trees cost up to 16% more per frame on fields of copies:
+/// docs/BENCHMARKS.md, twenty-third session.)
+fn tree_over(leaves: &mut [LeafBox]) -> Vec<BvhNode> {
+    let mut nodes = Vec::new();
+    let root = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), &mut nodes);
+    if root.is_inner() {
+        nodes
+    } else {
+        // No instance, or one: a root over its leaf (or nothing) and an absent child.
+        vec![BvhNode::new(root, BvhChild::EMPTY)]
     }
-    // Leaf ranges index the build's order; with one box a leaf, name the box itself (on
-    // every core: one pass over 10,000 nodes is a tenth of a millisecond on one).
-    nodes.par_iter_mut().with_min_len(1024).for_each(|node| {
-        let mut children = node.children();
-        for c in children.iter_mut().filter(|c| c.is_leaf()) {
-            assert_eq!(c.count, 1, "the top level's leaves hold one instance each");
-            let k = prim_indices[c.index as usize];
-            c.index = names.map_or(k, |names| names[k as usize]);
-        }
-        *node = BvhNode::new(children[0], children[1]);
-    });
-    nodes
 }
 
 /// [`TopLevel::sah_cost`] of `nodes` (root first).

@@ -13,7 +13,7 @@ pub(super) const MAX_BINS: usize = 32;
 /// (32 bytes, so a partition swap moves half a cache line).
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
-pub(super) struct Prim {
+pub(crate) struct Prim {
     pub(super) min: Vec3,
     pub(super) index: u32,
     pub(super) max: Vec3,
@@ -23,6 +23,21 @@ pub(super) struct Prim {
 impl Prim {
     pub(super) fn new(min: Vec3, max: Vec3, index: u32) -> Self {
         Self { min, index, max, _pad: 0 }
+    }
+
+    /// A box to build over, an empty one as a point at the origin, whose leaf is named
+    /// `name` in a named-leaf build ([`crate::bvh::Bvh::build_named_leaves_into`]).
+    pub(crate) fn named(bounds: Aabb, name: u32) -> Self {
+        if bounds.is_empty() {
+            Self::new(Vec3::ZERO, Vec3::ZERO, name)
+        } else {
+            Self::new(bounds.min, bounds.max, name)
+        }
+    }
+
+    /// The box built over.
+    pub(crate) fn aabb(&self) -> Aabb {
+        Aabb { min: self.min, max: self.max }
     }
 
     /// The box of triangle `index`, whose corners are `t`.
