@@ -74,12 +74,6 @@ impl Aabb {
         }
     }
 
-    /// Surface area (0 for the empty box); the SAH builder has its own scaled half area.
-    pub(crate) fn surface_area(&self) -> f32 {
-        let e = self.extent();
-        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
-    }
-
     /// True when `o` lies inside this box (with a small relative slack for float noise).
     pub(crate) fn contains(&self, o: &Aabb) -> bool {
         let slack = (self.extent().max_element() * 1e-6).max(1e-30);
@@ -202,7 +196,5 @@ mod tests {
         let r = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -1.0));
         assert_eq!(b.intersect(&r, r.dir.recip(), 100.0), Some(4.0));
         assert_eq!(b.intersect(&r, r.dir.recip(), 3.0), None);
-        assert!((b.surface_area() - 24.0).abs() < 1e-6);
-        assert_eq!(Aabb::EMPTY.surface_area(), 0.0);
     }
 }

@@ -285,7 +285,8 @@ impl PackedScene {
         let cover = if on_device.is_some() {
             MeshCover::of_box(mesh.bounds())
         } else {
-            MeshCover::of_tree(&bvh.nodes, mesh.bounds())
+            let corners = |slot: u32| mesh.corners(bvh.prim_indices[slot as usize] as usize);
+            MeshCover::of_tree(&bvh.nodes, corners, mesh.bounds())
         };
         if let Some(leaf_size) = on_device {
             let wide = wide.as_ref().map(|w| WideReserve {

@@ -1,0 +1,194 @@
+//! What an instance's world box is made from: its mesh's support function (how far the mesh
+//! reaches along a direction) sampled on a grid over the faces of a cube of directions.
+//!
+//! The world box of a mesh under `x -> A x + t` reaches along world axis k as far as the
+//! mesh reaches along row k of `A` (`h(A_k) + t_k`, and `-h(-A_k) + t_k` the other way).
+//! A support function is sublinear (`h(a u + b v) <= a h(u) + b h(v)` for `a, b >= 0`), so
+//! for a direction inside a triangle of the grid the sampled corners' values, weighted as
+//! the direction's barycentric coordinates there, bound it from above: the box is never
+//! cut, and it is exact along the grid's directions (so an unturned instance gets its
+//! mesh's box). Turned, a knot's box holds at most 3% more area than the box of its turned
+//! vertices, where the turned boxes of its tree's top eight nodes held 65% more
+//! (docs/BENCHMARKS.md, thirty-first and thirty-second sessions). The turned mesh box
+//! (Arvo's method) still bounds it, exactly so for a mesh that is a box.
+
+use glam::{Affine3A, Vec3, Vec3A};
+use rayon::prelude::*;
+
+use crate::bvh::{BvhChild, BvhNode};
+use crate::geometry::Aabb;
+
+/// Cells along a side of a face of the cube of directions.
+const CELLS: usize = 8;
+
+/// Samples along a side of a face.
+const SIDE: usize = CELLS + 1;
+
+/// Samples in the table: six faces of `SIDE` x `SIDE`.
+const SAMPLES: usize = 6 * SIDE * SIDE;
+
+/// Trees of more nodes sample their directions on every core.
+const PARALLEL_NODES: usize = 16 * 1024;
+
+/// A mesh's support function sampled over the cube of directions (see the module doc), or
+/// none for a mesh without triangles.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MeshCover {
+    /// The mesh's box (empty for no mesh).
+    bounds: Aabb,
+    /// `h(g)` for the grid point `g` of each face (`direction`), or none for a mesh known
+    /// only by its box.
+    support: Option<[f32; SAMPLES]>,
+    /// A bound on `|x| + |y| + |z|` over the mesh: the scale of the table's rounding.
+    reach: f32,
+}
+
+impl MeshCover {
+    /// The cover of a mesh known only by its box (a tree built on the device; an empty box:
+    /// no mesh).
+    pub(crate) fn of_box(bounds: Aabb) -> Self {
+        Self { bounds, support: None, reach: 0.0 }
+    }
+
+    /// The cover of a mesh whose tree (`nodes`, root first) holds, in leaf slot `s`, a
+    /// triangle with the corners `corners(s)`; `bounds` its box. Each sample is the exact
+    /// reach of the corners, found by branch and bound down the tree.
+    pub(crate) fn of_tree(
+        nodes: &[BvhNode],
+        corners: impl Fn(u32) -> [Vec3; 3] + Sync,
+        bounds: Aabb,
+    ) -> Self {
+        if nodes.is_empty() || bounds.is_empty() {
+            return Self::of_box(bounds);
+        }
+        let mut support = [0.0; SAMPLES];
+        let sample = |(i, s): (usize, &mut f32)| *s = reach(nodes, &corners, direction(i));
+        // A few microseconds a direction for a big mesh (28 ms for a 1M knot on one thread
+        // of this 2-core machine), well under one for small ones.
+        if nodes.len() > PARALLEL_NODES {
+            support.par_iter_mut().enumerate().for_each(sample);
+        } else {
+            support.iter_mut().enumerate().for_each(sample);
+        }
+        let extent = bounds.min.abs().max(bounds.max.abs());
+        Self { bounds, support: Some(support), reach: extent.x + extent.y + extent.z }
+    }
+
+    /// Bounds from above on how far the mesh reaches along `u` and along `-u` (`max u . x`
+    /// and `max -u . x`): both lie on the same axis of the cube, on opposite faces.
+    fn reaches(&self, support: &[f32; SAMPLES], u: Vec3) -> (f32, f32) {
+        let size = u.abs();
+        let k = if size.x >= size.y && size.x >= size.z {
+            0
+        } else if size.y >= size.z {
+            1
+        } else {
+            2
+        };
+        let major = size[k];
+        if major == 0.0 {
+            return (0.0, 0.0);
+        }
+        // Where `u` passes through its face of the cube, in that face's grid (0 to CELLS
+        // along each side); `-u` passes through the opposite face at CELLS minus that.
+        let half = CELLS as f32 / 2.0;
+        let scale = half / major;
+        let x = (u[(k + 1) % 3] * scale + half).clamp(0.0, CELLS as f32);
+        let y = (u[(k + 2) % 3] * scale + half).clamp(0.0, CELLS as f32);
+        let face = 2 * k + usize::from(u[k] < 0.0);
+        let along = interpolate(support, face, x, y);
+        let against = interpolate(support, face ^ 1, CELLS as f32 - x, CELLS as f32 - y);
+        // The samples and the weights are rounded: a few units in the last place of the
+        // mesh's reach, widened here by far more.
+        let pad = 1e-5 * self.reach * (size.x + size.y + size.z);
+        (major * along + pad, major * against + pad)
+    }
+
+    /// The world box of the covered mesh under `transform`, or an empty box for no mesh:
+    /// the turned mesh box, cut down to the sampled reach where the mesh has a table.
+    pub(crate) fn world_box(&self, transform: &Affine3A) -> Aabb {
+        if self.bounds.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let turned = turned_box(&self.bounds, transform);
+        let Some(support) = &self.support else { return turned };
+        let rows = transform.matrix3.transpose();
+        let t = Vec3::from(transform.translation);
+        let (mut min, mut max) = (turned.min, turned.max);
+        for k in 0..3 {
+            let (along, against) = self.reaches(support, Vec3::from(rows.col(k)));
+            let pad = 1e-6 * t[k].abs();
+            max[k] = max[k].min(t[k] + along + pad);
+            min[k] = min[k].max(t[k] - against - pad);
+        }
+        Aabb { min, max }
+    }
+}
+
+/// The world box of `b` under `transform`, turned by its centre and half extent (Arvo's
+/// method) and widened by a few units in the last place, so that rounding never cuts it.
+fn turned_box(b: &Aabb, transform: &Affine3A) -> Aabb {
+    let m = transform.matrix3;
+    let abs = glam::Mat3A::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+    let center = transform.transform_point3a(Vec3A::from(b.min + b.max) * 0.5);
+    let half = abs * (Vec3A::from(b.max - b.min) * 0.5);
+    let half = half + (center.abs() + half) * 1e-6;
+    Aabb { min: (center - half).into(), max: (center + half).into() }
+}
+
+/// The sampled reach at `(x, y)` of face `face`'s grid: the samples at the corners of the
+/// cell's triangle holding the point, weighted by its barycentric coordinates there.
+fn interpolate(support: &[f32; SAMPLES], face: usize, x: f32, y: f32) -> f32 {
+    let (i, j) = ((x as usize).min(CELLS - 1), (y as usize).min(CELLS - 1));
+    let (fx, fy) = (x - i as f32, y - j as f32);
+    let first = (face * SIDE + i) * SIDE + j;
+    // The triangle is (i, j), (i + 1, j) or (i, j + 1), (i + 1, j + 1); chosen without a
+    // branch, which the turns of a field of copies would mispredict half the time.
+    let (low, high) = (fx.min(fy), fx.max(fy));
+    let middle = first + if fx >= fy { SIDE } else { 1 };
+    (1.0 - high) * support[first] + (high - low) * support[middle] + low * support[first + SIDE + 1]
+}
+
+/// Grid point `i` of the table: on face `f = i / SIDE²` (axis `f / 2`, positive for even
+/// `f`), the point whose other two coordinates (the next axes in turn) are the grid's.
+fn direction(i: usize) -> Vec3 {
+    let (face, cell) = (i / (SIDE * SIDE), i % (SIDE * SIDE));
+    let k = face / 2;
+    let coordinate = |n: usize| -1.0 + 2.0 * n as f32 / CELLS as f32;
+    let mut g = Vec3::ZERO;
+    g[k] = if face % 2 == 0 { 1.0 } else { -1.0 };
+    g[(k + 1) % 3] = coordinate(cell / SIDE);
+    g[(k + 2) % 3] = coordinate(cell % SIDE);
+    g
+}
+
+/// How far the corners reach along `g` (`max g . x`): the tree's boxes visited farthest
+/// reaching first, and those that cannot beat the best corner found skipped.
+fn reach(nodes: &[BvhNode], corners: &(impl Fn(u32) -> [Vec3; 3] + Sync), g: Vec3) -> f32 {
+    let box_reach = |b: &Aabb| {
+        let (center, half) = ((b.min + b.max) * 0.5, (b.max - b.min) * 0.5);
+        center.dot(g) + half.dot(g.abs())
+    };
+    let mut best = f32::NEG_INFINITY;
+    let mut stack: Vec<BvhChild> =
+        nodes[0].children().into_iter().filter(|c| !c.is_empty()).collect();
+    while let Some(child) = stack.pop() {
+        if box_reach(&child.bounds) <= best {
+            continue;
+        }
+        if child.is_leaf() {
+            for slot in child.index..child.index + child.count {
+                for c in corners(slot) {
+                    best = best.max(c.dot(g));
+                }
+            }
+            continue;
+        }
+        let [a, b] = nodes[child.index as usize].children();
+        let (near, far) =
+            if box_reach(&a.bounds) >= box_reach(&b.bounds) { (a, b) } else { (b, a) };
+        // The farther reaching one is popped first.
+        stack.extend([far, near].into_iter().filter(|c| !c.is_empty()));
+    }
+    best
+}
