@@ -151,24 +151,25 @@ impl EnclosureRecord {
 }
 
 /// The top level's nodes over `leaves` (named by instance) with instance `enclosure`
-/// taken out: a root whose left child is the enclosure (its world box, count
+/// taken out, into `nodes`: a root whose left child is the enclosure (its world box, count
 /// [`TOP_ENCLOSURE`], and the index of its `record`, the last node) and whose right is the
 /// tree over the others (their one leaf, for one).
 pub(crate) fn tree_around(
     leaves: &mut Vec<LeafBox>,
     enclosure: usize,
     record: EnclosureRecord,
-) -> Vec<BvhNode> {
+    nodes: &mut Vec<BvhNode>,
+) {
     let bounds = leaves[enclosure].aabb();
     leaves.swap_remove(enclosure); // the order of the leaves does not change the tree
                                    // The root, the tree's nodes (one fewer than its leaves), the record.
-    let mut nodes = Vec::with_capacity(leaves.len() + 1);
+    nodes.clear();
+    nodes.reserve(leaves.len() + 1);
     nodes.push(BvhNode::default()); // the root, made once its right child is built
-    let right = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), &mut nodes);
+    let right = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), nodes);
     let left = BvhChild { bounds, index: nodes.len() as u32, count: TOP_ENCLOSURE };
     nodes[0] = BvhNode::new(left, right);
     nodes.push(bytemuck::cast(record));
-    nodes
 }
 
 #[cfg(test)]

@@ -335,7 +335,7 @@ impl PackedScene {
 
     /// Rebuild the top level (instance records and their tree) alone; geometry is untouched.
     pub fn set_instances(&mut self, instances: &[Instance]) {
-        self.top_level = top_level(&self.meshes, self.wide_word_base, instances);
+        rebuild_top_level(&mut self.top_level, &self.meshes, self.wide_word_base, instances);
     }
 
     /// Bytes of each GPU array: triangles (with the shaders' read-ahead), shading, normals,
@@ -450,7 +450,7 @@ pub struct SceneHolds {
 impl PackedTopLevel {
     /// Rebuild the instance list alone, as [`PackedScene::set_instances`] does.
     pub fn set_instances(&mut self, instances: &[Instance]) {
-        self.top_level = top_level(&self.meshes, self.wide_word_base, instances);
+        rebuild_top_level(&mut self.top_level, &self.meshes, self.wide_word_base, instances);
     }
 
     /// True when the wide layout was packed (see [`PackedScene::has_wide`]).
@@ -471,9 +471,14 @@ impl PackedTopLevel {
     }
 }
 
-/// The top level over `instances`: each with its mesh's place in the packed arrays (from
+/// `top` rebuilt over `instances`: each with its mesh's place in the packed arrays (from
 /// `meshes`), and the tree over their world boxes.
-fn top_level(meshes: &[PackedMesh], wide_word_base: u32, instances: &[Instance]) -> TopLevel {
+fn rebuild_top_level(
+    top: &mut TopLevel,
+    meshes: &[PackedMesh],
+    wide_word_base: u32,
+    instances: &[Instance],
+) {
     let places: Vec<MeshPlace> = meshes
         .iter()
         .map(|m| MeshPlace {
@@ -490,7 +495,7 @@ fn top_level(meshes: &[PackedMesh], wide_word_base: u32, instances: &[Instance])
             closed_box: m.closed_box,
         })
         .collect();
-    TopLevel::build(&places, instances)
+    top.rebuild(&places, instances);
 }
 
 /// The environment buffer as the shader reads it: width, height, then RGB9E5 texels (a

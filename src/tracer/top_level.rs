@@ -44,37 +44,54 @@ pub struct TopLevel {
     pub meshes: Vec<GpuMesh>,
     /// Root first; at least one node (a root with two absent children for no instances).
     pub nodes: Vec<BvhNode>,
+    /// The last build's leaves: their memory, kept for the next rebuild's.
+    leaves: Vec<LeafBox>,
 }
 
 impl TopLevel {
     /// Records for `instances` (mesh `m` placed as `meshes[m]` says) and the tree over their
-    /// world boxes. Built in about a millisecond for 10,000 instances on the H200's host
-    /// (16 threads; docs/BENCHMARKS.md), so moving instances stays live.
+    /// world boxes.
+    #[cfg(test)]
     pub(crate) fn build(meshes: &[MeshPlace], instances: &[Instance]) -> Self {
-        let tree = || {
-            let mut leaves = leaves(meshes, instances);
+        let mut top = Self::default();
+        top.rebuild(meshes, instances);
+        top
+    }
+
+    /// [`TopLevel::build`] into this top level's arrays. Built in about a millisecond for
+    /// 10,000 instances on the H200's host (16 threads; docs/BENCHMARKS.md), so moving
+    /// instances stays live. The arrays keep their memory from the last build: fresh ones
+    /// (about 1.3 MB for 10,000 instances) were page-faulted in on every rebuild, and the
+    /// old ones handed back to the system, which interrupts every core to forget them.
+    pub(crate) fn rebuild(&mut self, meshes: &[MeshPlace], instances: &[Instance]) {
+        let Self { instances: records_out, meshes: mesh_records, nodes, leaves } = self;
+        let mut tree = || {
+            fill_leaves(meshes, instances, leaves);
             let triangles = |mesh: usize| meshes[mesh].triangle_count;
             match enclosure::find(instances, |i| leaves[i].aabb(), triangles) {
-                None => tree_over(&mut leaves),
+                None => tree_over(leaves, nodes),
                 Some(e) => {
                     let closed = meshes[instances[e].mesh].closed_box;
-                    enclosure::tree_around(&mut leaves, e, EnclosureRecord::new(e as u32, closed))
+                    let record = EnclosureRecord::new(e as u32, closed);
+                    enclosure::tree_around(leaves, e, record, nodes)
                 }
             }
         };
         // Big fields make their records (each a double-precision inverse) beside the tree,
         // on the threads its build leaves idle: 0.1 ms off 10,000 copies' rebuild on the
         // H200's host, where the tree keeps about half of the 16 threads busy.
-        let (records, nodes) = if instances.len() < INSTANCES_A_TASK {
-            (records(meshes, instances), tree())
+        if instances.len() < INSTANCES_A_TASK {
+            fill_records(meshes, instances, records_out);
+            tree();
         } else {
-            rayon::join(|| records(meshes, instances), tree)
-        };
-        let meshes = meshes
-            .iter()
-            .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base })
-            .collect();
-        Self { instances: records, meshes, nodes }
+            rayon::join(|| fill_records(meshes, instances, records_out), tree);
+        }
+        mesh_records.clear();
+        mesh_records.extend(
+            meshes
+                .iter()
+                .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base }),
+        );
     }
 
     /// The instance the walk visits before the tree (the root's left child,
@@ -117,18 +134,18 @@ impl TopLevel {
 /// Instances a task where records or leaves are made on every core.
 const INSTANCES_A_TASK: usize = 256;
 
-/// Every instance's record.
-fn records(meshes: &[MeshPlace], instances: &[Instance]) -> Vec<GpuInstance> {
+/// Every instance's record, into `out`.
+fn fill_records(meshes: &[MeshPlace], instances: &[Instance], out: &mut Vec<GpuInstance>) {
     instances
         .par_iter()
         .with_min_len(INSTANCES_A_TASK)
         .map(|inst| record(&meshes[inst.mesh], inst.mesh as u32, inst))
-        .collect()
+        .collect_into_vec(out);
 }
 
-/// Every instance's leaf in the tree: its world box (its mesh's cover turned by its
-/// transform), named by the instance.
-fn leaves(meshes: &[MeshPlace], instances: &[Instance]) -> Vec<LeafBox> {
+/// Every instance's leaf in the tree, into `out`: its world box (its mesh's cover turned by
+/// its transform), named by the instance.
+fn fill_leaves(meshes: &[MeshPlace], instances: &[Instance], out: &mut Vec<LeafBox>) {
     instances
         .par_iter()
         .enumerate()
@@ -144,7 +161,7 @@ fn leaves(meshes: &[MeshPlace], instances: &[Instance]) -> Vec<LeafBox> {
             };
             LeafBox::named(b, i as u32)
         })
-        .collect()
+        .collect_into_vec(out);
 }
 
 /// One instance's record: its mesh's place and the inverse of its transform, inverted in
@@ -165,18 +182,16 @@ fn record(mesh: &MeshPlace, index: u32, inst: &Instance) -> GpuInstance {
     }
 }
 
-/// The two-child tree over `leaves` with one instance a leaf (the bottom levels' binned SAH
+/// The two-child tree over `leaves` with one instance a leaf, into `nodes` (the bottom levels' binned SAH
 /// build). (A linear BVH in Morton order built 10,000 boxes in 1.2 ms instead of 4-5 ms on
 /// the H200's host, but its trees cost up to 16% more per frame on fields of copies:
 /// docs/BENCHMARKS.md, twenty-third session.)
-fn tree_over(leaves: &mut [LeafBox]) -> Vec<BvhNode> {
-    let mut nodes = Vec::new();
-    let root = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), &mut nodes);
-    if root.is_inner() {
-        nodes
-    } else {
+fn tree_over(leaves: &mut [LeafBox], nodes: &mut Vec<BvhNode>) {
+    nodes.clear();
+    let root = Bvh::build_named_leaves_into(leaves, &BuildOptions::default(), nodes);
+    if !root.is_inner() {
         // No instance, or one: a root over its leaf (or nothing) and an absent child.
-        vec![BvhNode::new(root, BvhChild::EMPTY)]
+        nodes.push(BvhNode::new(root, BvhChild::EMPTY));
     }
 }
 
@@ -340,6 +355,36 @@ mod tests {
                 assert!((leaf.min - exact.min).abs().max_element() < slack);
                 assert!((leaf.max - exact.max).abs().max_element() < slack);
             }
+        }
+    }
+
+    #[test]
+    fn a_rebuild_over_the_last_builds_memory_equals_a_fresh_build() {
+        // A field, then scenes with and without the mirror box, bigger and smaller than the
+        // last, each rebuilt into the same top level: nothing of an earlier build may stay.
+        let model = place(Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE });
+        let mirror = MeshPlace { triangle_count: 12, ..model };
+        let meshes = [model, mirror];
+        let field = |n: u32, boxed: bool| -> Vec<Instance> {
+            let copies = (0..n).map(|i| {
+                let turn = Quat::from_rotation_z(i as f32);
+                let at = Vec3::new((i % 10) as f32 * 3.0, (i / 10) as f32 * 3.0, 0.0);
+                Instance::new(0, Affine3A::from_rotation_translation(turn, at)).unwrap()
+            });
+            let room = boxed.then(|| Instance::placed(1, Vec3::ZERO, 4.0 * n as f32 + 8.0));
+            copies.chain(room).collect()
+        };
+        let mut top = TopLevel::default();
+        for (n, boxed) in [(1000, false), (27, true), (300, true), (2, false), (0, false)] {
+            let instances = field(n, boxed);
+            top.rebuild(&meshes, &instances);
+            let fresh = TopLevel::build(&meshes, &instances);
+            // As bytes: the enclosure's record is no box, and its words may read as NaN.
+            let bytes = |nodes: &[BvhNode]| bytemuck::cast_slice::<BvhNode, u8>(nodes).to_vec();
+            assert_eq!(bytes(&top.nodes), bytes(&fresh.nodes), "{n} copies, box {boxed}");
+            assert_eq!(top.instances, fresh.instances, "{n} copies, box {boxed}");
+            assert_eq!(top.meshes.len(), fresh.meshes.len());
+            assert_eq!(top.enclosure(), boxed.then_some(n), "{n} copies, box {boxed}");
         }
     }
 

@@ -11,7 +11,7 @@ pub(super) const MAX_BINS: usize = 32;
 
 /// One primitive's box and original index: the unit that the build sorts in place
 /// (32 bytes, so a partition swap moves half a cache line).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(crate) struct Prim {
     pub(super) min: Vec3,
