@@ -24,8 +24,11 @@ const CELLS: usize = 8;
 /// Samples along a side of a face.
 const SIDE: usize = CELLS + 1;
 
-/// Samples in the table: six faces of `SIDE` x `SIDE`.
-const SAMPLES: usize = 6 * SIDE * SIDE;
+/// Grid points in the table: the three faces of the cube towards +x, +y and +z, `SIDE` x
+/// `SIDE` each. Each holds the reach along its direction `g` and along `-g`, which is the
+/// opposite face's grid point mirrored through the centre: one table entry serves both
+/// faces of an axis.
+const SAMPLES: usize = 3 * SIDE * SIDE;
 
 /// Trees of more nodes sample their directions on every core.
 const PARALLEL_NODES: usize = 16 * 1024;
@@ -36,9 +39,9 @@ const PARALLEL_NODES: usize = 16 * 1024;
 pub(crate) struct MeshCover {
     /// The mesh's box (empty for no mesh).
     bounds: Aabb,
-    /// `h(g)` for the grid point `g` of each face (`direction`), or none for a mesh known
-    /// only by its box.
-    support: Option<[f32; SAMPLES]>,
+    /// `[h(g), h(-g)]` for the grid point `g` of each positive face (`direction`), or none
+    /// for a mesh known only by its box.
+    support: Option<[[f32; 2]; SAMPLES]>,
     /// A bound on `|x| + |y| + |z|` over the mesh: the scale of the table's rounding.
     reach: f32,
 }
@@ -61,8 +64,11 @@ impl MeshCover {
         if nodes.is_empty() || bounds.is_empty() {
             return Self::of_box(bounds);
         }
-        let mut support = [0.0; SAMPLES];
-        let sample = |(i, s): (usize, &mut f32)| *s = reach(nodes, &corners, direction(i));
+        let mut support = [[0.0; 2]; SAMPLES];
+        let sample = |(i, s): (usize, &mut [f32; 2])| {
+            let g = direction(i);
+            *s = [reach(nodes, &corners, g), reach(nodes, &corners, -g)];
+        };
         // About 0.1 ms a direction for a 1M knot (its table 14 ms on this 2-core machine,
         // 3 ms on the H200's host), well under a microsecond for the paper's models.
         if nodes.len() > PARALLEL_NODES {
@@ -81,7 +87,7 @@ impl MeshCover {
     /// to any face, and the branches of a plain version (which axis is longest, and glam's
     /// indexing by a run-time axis) were mispredicted often enough to make a world box cost
     /// 87 ns on this 2-core machine.
-    fn reaches(&self, support: &[f32; SAMPLES], u: Vec3) -> (f32, f32) {
+    fn reaches(&self, support: &[[f32; 2]; SAMPLES], u: Vec3) -> (f32, f32) {
         let u = u.to_array();
         let size = u.map(f32::abs);
         // The longest axis, the first of equals (a NaN row lands on z: its box stays the
@@ -92,16 +98,16 @@ impl MeshCover {
         if major == 0.0 {
             return (0.0, 0.0);
         }
-        // Where `u` passes through its face of the cube, in that face's grid (0 to CELLS
-        // along each side); `-u` passes through the opposite face at CELLS minus that.
+        // Where whichever of `u` and `-u` points to the positive side of axis k passes
+        // through that face of the cube, in its grid (0 to CELLS along each side); the
+        // table there holds the reach along it and against it.
         const NEXT: [usize; 3] = [1, 2, 0];
         let half = CELLS as f32 / 2.0;
-        let scale = half / major;
+        let scale = half.copysign(u[k]) / major;
         let x = (u[NEXT[k]] * scale + half).clamp(0.0, CELLS as f32);
         let y = (u[NEXT[NEXT[k]]] * scale + half).clamp(0.0, CELLS as f32);
-        let face = 2 * k + usize::from(u[k] < 0.0);
-        let along = interpolate(support, face, x, y);
-        let against = interpolate(support, face ^ 1, CELLS as f32 - x, CELLS as f32 - y);
+        let [positive, negative] = interpolate(support, k, x, y);
+        let (along, against) = if u[k] < 0.0 { (negative, positive) } else { (positive, negative) };
         // The samples and the weights are rounded: a few units in the last place of the
         // mesh's reach, widened here by far more.
         let pad = 1e-5 * self.reach * (size[0] + size[1] + size[2]);
@@ -140,27 +146,31 @@ fn turned_box(b: &Aabb, transform: &Affine3A) -> Aabb {
     Aabb { min: (center - half).into(), max: (center + half).into() }
 }
 
-/// The sampled reach at `(x, y)` of face `face`'s grid: the samples at the corners of the
-/// cell's triangle holding the point, weighted by its barycentric coordinates there.
-fn interpolate(support: &[f32; SAMPLES], face: usize, x: f32, y: f32) -> f32 {
+/// The sampled reaches at `(x, y)` of the grid on the positive face of `axis`, along its
+/// direction there and against it: the samples at the corners of the cell's triangle
+/// holding the point, weighted by its barycentric coordinates there. (Against, the corners
+/// are the opposite face's, mirrored through the centre with the triangle holding the
+/// mirrored point, whose weights are these.)
+fn interpolate(support: &[[f32; 2]; SAMPLES], axis: usize, x: f32, y: f32) -> [f32; 2] {
     let (i, j) = ((x as usize).min(CELLS - 1), (y as usize).min(CELLS - 1));
     let (fx, fy) = (x - i as f32, y - j as f32);
-    let first = (face * SIDE + i) * SIDE + j;
+    let first = (axis * SIDE + i) * SIDE + j;
     // The triangle is (i, j), (i + 1, j) or (i, j + 1), (i + 1, j + 1); chosen without a
     // branch, which the turns of a field of copies would mispredict half the time.
     let (low, high) = (fx.min(fy), fx.max(fy));
     let middle = first + if fx >= fy { SIDE } else { 1 };
-    (1.0 - high) * support[first] + (high - low) * support[middle] + low * support[first + SIDE + 1]
+    let (a, b, c) = (support[first], support[middle], support[first + SIDE + 1]);
+    let weigh = |n: usize| (1.0 - high) * a[n] + (high - low) * b[n] + low * c[n];
+    [weigh(0), weigh(1)]
 }
 
-/// Grid point `i` of the table: on face `f = i / SIDE²` (axis `f / 2`, positive for even
-/// `f`), the point whose other two coordinates (the next axes in turn) are the grid's.
+/// Grid point `i` of the table: on the positive face of axis `k = i / SIDE²`, the point
+/// whose other two coordinates (the next axes in turn) are the grid's.
 fn direction(i: usize) -> Vec3 {
-    let (face, cell) = (i / (SIDE * SIDE), i % (SIDE * SIDE));
-    let k = face / 2;
+    let (k, cell) = (i / (SIDE * SIDE), i % (SIDE * SIDE));
     let coordinate = |n: usize| -1.0 + 2.0 * n as f32 / CELLS as f32;
     let mut g = Vec3::ZERO;
-    g[k] = if face % 2 == 0 { 1.0 } else { -1.0 };
+    g[k] = 1.0;
     g[(k + 1) % 3] = coordinate(cell / SIDE);
     g[(k + 2) % 3] = coordinate(cell % SIDE);
     g
