@@ -99,12 +99,22 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
                 prop::collection::vec((0..v as u32, 0..v as u32, 0..v as u32), t),
                 prop::collection::vec(0..m as u32, t),
                 Just(m),
+                // Round: the corners pushed onto a sphere, whose instances' visits test
+                // the mesh's bounding sphere before its tree.
+                any::<bool>().prop_map(move |round| round.then_some(scale)),
             )
         })
-        .prop_map(|(positions, triangles, triangle_materials, m)| {
+        .prop_map(|(positions, triangles, triangle_materials, m, round)| {
+            let on_sphere = |p: Vec3| match round {
+                Some(radius) if p != Vec3::ZERO => p.normalize() * radius,
+                _ => p,
+            };
             let mut mesh = Mesh {
                 name: "soup".into(),
-                positions: positions.into_iter().map(|(x, y, z)| Vec3::new(x, y, z)).collect(),
+                positions: positions
+                    .into_iter()
+                    .map(|(x, y, z)| on_sphere(Vec3::new(x, y, z)))
+                    .collect(),
                 triangles: triangles.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
                 triangle_materials,
                 materials: (0..m)

@@ -196,7 +196,7 @@ pub struct GpuInstance {
     pub mesh: u32,
 }
 
-/// What the traversal does not read per instance (8 bytes a mesh).
+/// What is the same for every instance of a mesh (32 bytes a mesh).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -206,6 +206,10 @@ pub struct GpuMesh {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
+    pub(crate) _pad: [u32; 2],
+    /// The sphere a visit tests before the mesh's tree, in the mesh's space: centre and
+    /// radius, or radius 0 for none (`MeshCover::sphere`).
+    pub(crate) sphere: [f32; 4],
 }
 
 impl GpuInstance {

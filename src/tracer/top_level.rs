@@ -87,11 +87,12 @@ impl TopLevel {
             rayon::join(|| fill_records(meshes, instances, records_out), tree);
         }
         mesh_records.clear();
-        mesh_records.extend(
-            meshes
-                .iter()
-                .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base }),
-        );
+        mesh_records.extend(meshes.iter().map(|m| GpuMesh {
+            triangle_count: m.triangle_count,
+            prim_base: m.prim_base,
+            _pad: [0; 2],
+            sphere: m.cover.sphere(),
+        }));
     }
 
     /// The instance the walk visits before the tree (the root's left child,
@@ -356,6 +357,31 @@ mod tests {
                 assert!((leaf.max - exact.max).abs().max_element() < slack);
             }
         }
+    }
+
+    #[test]
+    fn a_round_mesh_has_a_sphere_holding_every_corner_and_a_box_has_none() {
+        let cover = |mesh: &crate::scene::Mesh| {
+            let tris: Vec<_> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+            let bvh = Bvh::build(&tris, &BuildOptions::default());
+            let corners = |slot: u32| tris[bvh.prim_indices[slot as usize] as usize];
+            MeshCover::of_tree(&bvh.nodes, corners, mesh.bounds())
+        };
+        // A geosphere, moved off the origin: its sphere is centred on its box and holds
+        // every corner, within a few parts in a million of the farthest.
+        let mut round = crate::scene::primitives::geosphere(2);
+        for p in &mut round.positions {
+            *p = *p * 3.0 + Vec3::new(10.0, -4.0, 2.0);
+        }
+        let [x, y, z, r] = cover(&round).sphere();
+        let centre = Vec3::new(x, y, z);
+        assert!((centre - Vec3::new(10.0, -4.0, 2.0)).length() < 1e-4, "{centre}");
+        let far = round.positions.iter().map(|p| (*p - centre).length()).fold(0.0, f32::max);
+        assert!(far <= r && r < far * 1.0001, "radius {r} for a farthest corner at {far}");
+        // A box's sphere would be looser than the box: none. So has a mesh known by its box.
+        let boxed = crate::scene::paper::mirror_box_mesh(2.0);
+        assert_eq!(cover(&boxed).sphere(), [0.0; 4]);
+        assert_eq!(MeshCover::of_box(round.bounds()).sphere(), [0.0; 4]);
     }
 
     #[test]
