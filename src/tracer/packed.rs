@@ -20,7 +20,7 @@ pub use super::prepare::{BvhBuilder, DeviceFit, Layouts};
 use super::records::pack_triangle;
 pub(crate) use super::records::NO_TEXTURE;
 pub use super::records::{
-    GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading, PackedVertices,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuTriangleShading, PackedVertices,
 };
 use super::textures::{EnvironmentMap, TextureAtlas};
 pub use super::top_level::TopLevel;
