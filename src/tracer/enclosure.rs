@@ -161,8 +161,9 @@ pub(crate) fn tree_around(
     nodes: &mut Vec<BvhNode>,
 ) {
     let bounds = leaves[enclosure].aabb();
-    leaves.swap_remove(enclosure); // the order of the leaves does not change the tree
-                                   // The root, the tree's nodes (one fewer than its leaves), the record.
+    // The order of the leaves does not change the tree.
+    leaves.swap_remove(enclosure);
+    // The root, the tree's nodes (one fewer than its leaves), the record.
     nodes.clear();
     nodes.reserve(leaves.len() + 1);
     nodes.push(BvhNode::default()); // the root, made once its right child is built

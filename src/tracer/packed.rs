@@ -42,7 +42,8 @@ pub struct PackedMesh {
     pub prim_base: u32,
     /// Object-space bounds of the mesh.
     pub(crate) bounds: Aabb,
-    /// Boxes of its tree's top nodes, for tight world boxes of turned instances.
+    /// Its reach sampled over directions (tight world boxes for turned instances) and its
+    /// bounding sphere, where that is tighter than its box.
     pub(crate) cover: MeshCover,
     /// The mesh as a closed box, if it is one (for an enclosure).
     pub(crate) closed_box: Option<ClosedBox>,

@@ -177,8 +177,9 @@ pub(crate) const NO_TEXTURE: u32 = crate::contract::EMPTY;
 
 /// A placed mesh (64 bytes): the world-to-object transform that carries rays into the
 /// mesh, and where the traversal finds the mesh's trees and triangles. Its world box is in
-/// the top level's nodes; what only brute force and the prim-id view need is in the mesh's
-/// [`GpuMesh`], so that a field of 10,000 copies costs at most 128 bytes a copy.
+/// the top level's nodes; what is the same for every copy (brute force's count, the prim-id
+/// base, the bounding sphere) is in the mesh's [`GpuMesh`], so that a field of 10,000 copies
+/// costs at most 128 bytes a copy.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
