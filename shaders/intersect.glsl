@@ -235,8 +235,10 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
     // cover.rs): a ray that passes by it, or meets it beyond the closest hit, reads no node.
     // Not in the kernels of one instance, where the test cost the 1M knot's rows 1-2% on the
     // H200 and a lone model's box is entered by the rays that frame it.
-    vec4 sphere = meshes[inst.offsets.w].sphere;
-    if (use_bvh && sphere.w > 0.0 && !meets_sphere(lo, ld, sphere, hit.t)) return false;
+    if (use_bvh && (frame.dims.w & FLAG_SPHERES) != 0u) {
+        vec4 sphere = meshes[inst.offsets.w].sphere;
+        if (sphere.w > 0.0 && !meets_sphere(lo, ld, sphere, hit.t)) return false;
+    }
 #endif
     uint before = hit.tri;
     bool blocked = false;

@@ -54,6 +54,9 @@ contract! {
     FLAG_ADAPTIVE = 1 << 7;
     /// Flag: adaptive sampling's pre-pass, which writes the path keys only.
     FLAG_ID_PASS = 1 << 8;
+    /// Flag: some mesh of the scene has a bounding sphere that its instances' visits test
+    /// (`GpuMesh::sphere`); without it the walk skips the check (the mesh record's load).
+    FLAG_SPHERES = 1 << 9;
     /// Flag: with `FLAG_BVH`, traverse the compressed wide BVH (`--bvh wide`) instead of
     /// the binary one.
     FLAG_WIDE = 1 << 15;
@@ -129,7 +132,8 @@ const _: () = {
         | FLAG_TEXTURES
         | FLAG_ENVIRONMENT
         | FLAG_ADAPTIVE
-        | FLAG_ID_PASS;
+        | FLAG_ID_PASS
+        | FLAG_SPHERES;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);

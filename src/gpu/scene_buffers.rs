@@ -49,6 +49,9 @@ pub struct SceneBuffers {
     /// Whether every mesh with triangles has a wide tree, so that wide frames may run the
     /// kernel without the binary traversal (`TracePass`).
     pub(crate) every_mesh_wide: bool,
+    /// Whether some mesh has a bounding sphere for its instances' visits to test
+    /// (`contract::FLAG_SPHERES`).
+    pub(crate) any_sphere: bool,
 }
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
@@ -212,6 +215,7 @@ impl SceneBuffers {
             one_instance: false,
             bytes: 0,
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
+            any_sphere: top.meshes.iter().any(|m| m.sphere[3] > 0.0),
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;

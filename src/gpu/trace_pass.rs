@@ -275,6 +275,9 @@ pub(crate) struct TracePass {
     variants: Option<KernelVariants>,
     /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
     every_mesh_wide: AtomicBool,
+    /// Whether some mesh of the bound scene has a bounding sphere (`SceneBuffers::any_sphere`):
+    /// frames then set `FLAG_SPHERES`.
+    any_sphere: AtomicBool,
     /// Whether the bound scene is one instance (`SceneBuffers::one_instance`).
     one_instance: AtomicBool,
     layout: vk::PipelineLayout,
@@ -315,6 +318,7 @@ impl TracePass {
             pipeline,
             variants,
             every_mesh_wide: AtomicBool::new(false),
+            any_sphere: AtomicBool::new(false),
             one_instance: AtomicBool::new(false),
             layout,
             set_layout,
@@ -412,6 +416,7 @@ impl TracePass {
         );
         write_set(&self.ctx, self.set, scene, output, vendor);
         self.every_mesh_wide.store(scene.every_mesh_wide, Ordering::Relaxed);
+        self.any_sphere.store(scene.any_sphere, Ordering::Relaxed);
         self.instances_changed(scene);
     }
 
@@ -469,6 +474,13 @@ impl TracePass {
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
+        // A scene without spheres spares every instance visit the check: on the H200 it
+        // cost fields of 10,000 knots 0.7-1%.
+        let mut pc = *pc;
+        if self.any_sphere.load(Ordering::Relaxed) {
+            pc.dims[3] |= crate::contract::FLAG_SPHERES;
+        }
+        let pc = &pc;
         debug_assert!(band.columns.start % GROUP.width == 0, "a band starts at a group boundary");
         let base_x = band.columns.start / GROUP.width;
         let groups_x = band.columns.len().div_ceil(GROUP.width as usize) as u32;
