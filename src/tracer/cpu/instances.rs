@@ -182,11 +182,9 @@ impl CpuScene<'_> {
             }
             return best;
         }
-        // The mesh's bounding sphere first, where it has one, but not in a scene of one
-        // instance (as the shader's visit and its `ONE_INSTANCE` kernels).
-        let top = &self.packed.top_level;
-        let sphere = top.meshes[inst.mesh as usize].sphere;
-        if sphere[3] > 0.0 && !top.is_one_instance() && !meets_sphere(&local, sphere, t_max) {
+        // The mesh's bounding sphere first, where it has one (as the shader's visit).
+        let sphere = self.packed.top_level.meshes[inst.mesh as usize].sphere;
+        if self.spheres_tested && sphere[3] > 0.0 && !meets_sphere(&local, sphere, t_max) {
             return None;
         }
         // The instance's nodes start at its node base, their indices relative to it (and to

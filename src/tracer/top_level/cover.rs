@@ -45,7 +45,8 @@ pub(crate) struct MeshCover {
     /// A bound on `|x| + |y| + |z|` over the mesh: the scale of the table's rounding.
     reach: f32,
     /// The sphere around the mesh's box centre that holds every corner (centre, radius),
-    /// where it is tighter than the box; radius 0 where it is not, or is unknown.
+    /// where it is clearly tighter than the box (`SPHERE_MOST_OUTLINE`); radius 0 where it
+    /// is not, or is unknown.
     sphere: [f32; 4],
 }
 
@@ -98,8 +99,8 @@ impl MeshCover {
     ///
     /// Without branches on the direction: the turns of a field of copies send each row
     /// to any face, and the branches of a plain version (which axis is longest, and glam's
-    /// indexing by a run-time axis) were mispredicted often enough to make a world box cost
-    /// 87 ns on this 2-core machine.
+    /// indexing by a run-time axis) went either way; dropping them took 7% off the world
+    /// boxes of 10,000 turned copies on this 2-core machine (867 -> 806 µs on one thread).
     fn reaches(&self, support: &[[f32; 2]; SAMPLES], u: Vec3) -> (f32, f32) {
         let u = u.to_array();
         let size = u.map(f32::abs);
