@@ -236,6 +236,11 @@ fn main() {
                     "_rows_wide",
                     &out_dir,
                 );
+                // Each again for top levels with sphere leaves.
+                let spheres = [shader_compile::WIDE_ONLY, shader_compile::SPHERE_LEAVES];
+                compile(&path, &contract, &spheres, "_wide_spheres", &out_dir);
+                let rows_spheres = [&[shader_compile::ROW_ORDER][..], &spheres].concat();
+                compile(&path, &contract, &rows_spheres, "_rows_wide_spheres", &out_dir);
                 // Each with the wide traversal's leaf runs, for `--bvh wide-runs` frames.
                 compile(&path, &contract, &[shader_compile::LEAF_RUNS], "_runs", &out_dir);
                 compile(

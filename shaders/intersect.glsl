@@ -204,23 +204,6 @@ bool brute_force(vec3 o, vec3 d, uint first, uint n, bool any, inout Hit hit, in
     return false;
 }
 
-// Whether the ray o + t d meets the sphere (centre s.xyz, radius s.w) for some t in
-// [0, t_max], loosely: it may say yes for a ray that passes by within rounding, never no for
-// one that meets it. From the ray's closest approach to the centre, which keeps its
-// precision far from the sphere (Haines et al., Ray Tracing Gems, chapter 7). Mirrors
-// meets_sphere in src/tracer/cpu/instances.rs.
-bool meets_sphere(vec3 o, vec3 d, vec4 s, float t_max) {
-    vec3 oc = o - s.xyz;
-    float inv_a = 1.0 / dot(d, d);
-    float tm = -dot(oc, d) * inv_a;
-    vec3 l = oc + tm * d;
-    float r = s.w + 1e-5 * (s.w + length(oc));
-    float h2 = r * r - dot(l, l);
-    if (h2 < 0.0) return false;
-    float dt = sqrt(h2 * inv_a);
-    return tm + dt >= 0.0 && tm - dt <= t_max * 1.0001;
-}
-
 // One instance's mesh along the ray: its wide or binary tree, or brute force. Closest
 // (`any` false): shrinks `hit` to a closer hit of this instance and returns whether it did.
 // Any: returns whether the mesh blocks the ray before hit.t.
@@ -230,16 +213,6 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
     if (inst.offsets.x == EMPTY) return false;  // no triangles, and so no nodes of its own
     vec3 lo = point_to_object(inst, o);
     vec3 ld = vector_to_object(inst, d);
-#ifndef ONE_INSTANCE
-    // The mesh's bounding sphere where it is tighter than its box (src/tracer/top_level/
-    // cover.rs): a ray that passes by it, or meets it beyond the closest hit, reads no node.
-    // Not in the kernels of one instance, where the test cost the 1M knot's rows 1-2% on the
-    // H200 and a lone model's box is entered by the rays that frame it.
-    if (use_bvh && (frame.dims.w & FLAG_SPHERES) != 0u) {
-        vec4 sphere = meshes[inst.offsets.w].sphere;
-        if (sphere.w > 0.0 && !meets_sphere(lo, ld, sphere, hit.t)) return false;
-    }
-#endif
     uint before = hit.tri;
     bool blocked = false;
 #ifdef WIDE_ONLY
@@ -313,6 +286,35 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
     return true;
 }
 
+// Where the ray o + t d enters the sphere (centre c, radius `radius`; 0 from inside), if it
+// meets it for some t in [0, t_max], else INF; loosely: a ray that passes by within rounding
+// may be let in, one that meets it is never turned away, and the entry is never later than
+// the true one. From the ray's closest approach to the centre, which keeps its precision far
+// from the sphere (Haines et al., Ray Tracing Gems, chapter 7). Mirrors sphere_entry in
+// src/tracer/top_level/walk.rs.
+float sphere_entry(vec3 c, float radius, vec3 o, vec3 d, float t_max) {
+    vec3 oc = o - c;
+    float inv_a = 1.0 / dot(d, d);
+    float tm = -dot(oc, d) * inv_a;
+    vec3 l = oc + tm * d;
+    float r = radius + 1e-5 * (radius + length(oc));
+    float h2 = r * r - dot(l, l);
+    float dt = sqrt(max(h2, 0.0) * inv_a);
+    return (h2 >= 0.0 && tm + dt >= 0.0 && tm - dt <= t_max * 1.0001) ? max(tm - dt, 0.0) : INF;
+}
+
+// Where the ray enters a top-level child (lo, hi: its words; INF for a miss or no child):
+// its box, or with `spheres` (FLAG_SPHERES, the same for every lane) a sphere leaf's sphere
+// (TOP_SPHERE: the instance's world bounding sphere where its mesh is round,
+// src/tracer/top_level.rs). A ray that passes by a round mesh inside its box is then turned
+// away before the instance's record, transform and tree are read: on the paper's geospheres
+// 65-72% of the instances entered through their boxes gave no closer hit.
+float child_entry(vec4 lo, vec4 hi, vec3 o, vec3 d, vec3 inv_d, float t_max, bool spheres) {
+    if (floatBitsToUint(lo.w) == EMPTY) return INF;
+    if (spheres && floatBitsToUint(hi.w) == TOP_SPHERE) return sphere_entry(lo.xyz, hi.x, o, d, t_max);
+    return slab(lo.xyz, hi.xyz, o, inv_d, t_max);
+}
+
 // The top level: every instance whose box the ray meets, through the two-child tree over
 // the instances' world boxes (top_nodes, leaves of one instance each; src/tracer/top_level.rs
 // builds it and walks it the same way on the CPU). Of a node's two children the nearer is
@@ -366,6 +368,14 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     uint node = 0u;  // the next node to open, or EMPTY to pop
     uint next_brute = 0u;
     uint first = EMPTY;  // an instance to visit before anything else
+#if defined(WIDE_ONLY) && !defined(SPHERE_LEAVES)
+    // Its twin with SPHERE_LEAVES runs the frames of top levels with sphere leaves
+    // (TracePass picks it): the spheres' code cost the fields of 10,000 knots, which have
+    // none, 2-3% on the H200 even where the flag left it unused.
+    const bool spheres = false;
+#else
+    bool spheres = (frame.dims.w & FLAG_SPHERES) != 0u;
+#endif
     if (use_bvh) {
         BvhNode n = top_nodes[0];
         if (floatBitsToUint(n.left_max.w) == TOP_ENCLOSURE) {
@@ -381,7 +391,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             if (blocked) return true;
             node = EMPTY;
             uint ri = floatBitsToUint(n.right_min.w);
-            float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
+            float tr = child_entry(n.right_min, n.right_max, o, d, inv_d, hit.t, spheres);
             if (tr < INF) {
                 stack[0] = floatBitsToUint(n.right_max.w) > 0u ? ri | TOP_LEAF : ri;
                 entry[0] = tr;
@@ -413,8 +423,8 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             cost.x += 1u;
             uint li = floatBitsToUint(n.left_min.w);
             uint ri = floatBitsToUint(n.right_min.w);
-            float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
-            float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
+            float tl = child_entry(n.left_min, n.left_max, o, d, inv_d, hit.t, spheres);
+            float tr = child_entry(n.right_min, n.right_max, o, d, inv_d, hit.t, spheres);
             // Leaves (count > 0) are entered as instances to visit.
             if (floatBitsToUint(n.left_max.w) > 0u) li |= TOP_LEAF;
             if (floatBitsToUint(n.right_max.w) > 0u) ri |= TOP_LEAF;

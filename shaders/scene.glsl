@@ -88,12 +88,10 @@ layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instan
 // The top level: a two-child tree over the instances' world boxes (BvhNode, leaves of one
 // instance each, the leaf index an index into instances[]).
 layout(std430, set = 0, binding = 20) readonly buffer TopNodes { BvhNode top_nodes[]; };
-// Per mesh, what the traversal does not read: triangle slots (brute force), prim-id base.
-// A mesh's record (src/tracer/records.rs: GpuMesh): counts.x its triangle slots (brute
-// force), counts.y its prim-id base; the sphere its visit tests first (radius 0: none).
+// Per mesh, what the traversal does not read (src/tracer/records.rs: GpuMesh): counts.x
+// its triangle slots (brute force), counts.y its prim-id base.
 struct MeshRecord {
     uvec4 counts;
-    vec4 sphere;
 };
 layout(std430, set = 0, binding = 21) readonly buffer Meshes { MeshRecord meshes[]; };
 layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };

@@ -35,6 +35,10 @@ contract! {
     /// tested triangle by triangle before the walk (`top_level.rs`). Other top-level leaves
     /// count 1.
     TOP_ENCLOSURE = 2;
+    /// The count of a top-level leaf that holds its instance's world bounding sphere in
+    /// place of its box (centre in the min corner, radius in the max corner's x), tested
+    /// by the walk before the instance is visited (`top_level.rs`, `fit_spheres`).
+    TOP_SPHERE = 3;
 
     // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
 
@@ -54,8 +58,8 @@ contract! {
     FLAG_ADAPTIVE = 1 << 7;
     /// Flag: adaptive sampling's pre-pass, which writes the path keys only.
     FLAG_ID_PASS = 1 << 8;
-    /// Flag: some mesh of the scene has a bounding sphere that its instances' visits test
-    /// (`GpuMesh::sphere`); without it the walk skips the check (the mesh record's load).
+    /// Flag: some top-level leaf is a sphere (`TOP_SPHERE`); without it the walk tests
+    /// every leaf as a box and skips the check.
     FLAG_SPHERES = 1 << 9;
     /// Flag: with `FLAG_BVH`, traverse the compressed wide BVH (`--bvh wide`) instead of
     /// the binary one.

@@ -305,3 +305,33 @@ fn rows_not_yet_traced_after_a_resize_are_cleared() {
     drop(tracer);
     assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
 }
+
+#[test]
+fn round_copies_run_the_wide_kernels_sphere_twin_and_every_kernel_as_the_cpu_traces_them() {
+    let ctx =
+        GpuContext::new(&ContextOptions::validated()).expect("Vulkan with the validation layer");
+    let model = ModelSource::Paper(PaperModel::Geosphere);
+    let spec = SceneSpec { model, models: 4, mirror_box: true, ..Default::default() };
+    let (scene, _) = spec.load().unwrap();
+    let packed = PackedScene::with_layouts(&scene, Layouts::Both);
+    assert!(packed.top_level.has_spheres, "geospheres' leaves are spheres");
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    // The wide kernel's sphere twin, the core kernel (binary) and the full one (AO), which
+    // test sphere leaves always.
+    for (bvh, aov) in [
+        (BvhLayout::Wide, Aov::Color),
+        (BvhLayout::Binary, Aov::Color),
+        (BvhLayout::Binary, Aov::Ao),
+    ] {
+        let settings = RenderSettings { aov, ..small_frame(&scene, bvh).settings };
+        let frame = FrameParams::new(&scene, settings);
+        let (gpu, _) = tracer.render(&frame).unwrap();
+        let cpu = crate::tracer::cpu::render(&packed, &frame);
+        let over = gpu.compare(&cpu, 1e-4).fraction_over;
+        assert!(over <= 0.002, "{bvh:?} {aov:?}: GPU as CPU ({over})");
+    }
+    assert!(tracer.pass.made_wide_spheres(), "the wide frame ran the sphere twin");
+    assert!(!tracer.pass.made(Variant::Wide), "and not the wide kernel, which takes boxes");
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}

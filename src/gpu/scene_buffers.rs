@@ -49,8 +49,8 @@ pub struct SceneBuffers {
     /// Whether every mesh with triangles has a wide tree, so that wide frames may run the
     /// kernel without the binary traversal (`TracePass`).
     pub(crate) every_mesh_wide: bool,
-    /// Whether some mesh has a bounding sphere for its instances' visits to test
-    /// (`contract::FLAG_SPHERES`).
+    /// Whether the top level has a sphere leaf (`TopLevel::has_spheres`,
+    /// `contract::FLAG_SPHERES`).
     pub(crate) any_sphere: bool,
 }
 
@@ -215,7 +215,7 @@ impl SceneBuffers {
             one_instance: false,
             bytes: 0,
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
-            any_sphere: top.meshes.iter().any(|m| m.sphere[3] > 0.0),
+            any_sphere: false,
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;
@@ -349,6 +349,7 @@ impl SceneBuffers {
         self.top_nodes.upload(nodes)?;
         self.instance_count = top.instances.len() as u32;
         self.one_instance = top.is_one_instance();
+        self.any_sphere = top.has_spheres;
         Ok(grown)
     }
 }

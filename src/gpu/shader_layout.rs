@@ -358,7 +358,6 @@ mod tests {
                     triangle_count: "counts",
                     prim_base: "counts" + 4,
                     _pad: "counts" + 8,
-                    sphere: "sphere",
                 }),
             ),
             (

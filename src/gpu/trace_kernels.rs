@@ -1,6 +1,6 @@
 //! Our trace kernels: `shaders/trace.comp` as build.rs compiled it, and its variants built
-//! with `CORE_ONLY`, `WIDE_ONLY` or `LEAF_RUNS`, and the first three's twins with
-//! `ONE_INSTANCE` (see `shader_compile`); which one a frame runs, and making them. Each
+//! with `CORE_ONLY`, `WIDE_ONLY` or `LEAF_RUNS`, the first three's twins with
+//! `ONE_INSTANCE` and the wide kernel's with `SPHERE_LEAVES` (see `shader_compile`); which one a frame runs, and making them. Each
 //! leaves out code its frames do not use, since unused code still slows a frame through the
 //! registers and instructions it takes. The core kernel is made with the pass; the others
 //! on first use, or in the background where the window asks
@@ -39,6 +39,12 @@ static TRACE_CORE_SPV: [&[u8]; 2] = [
 static TRACE_WIDE_SPV: [&[u8]; 2] = [
     include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide.spv")),
     include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide.spv")),
+];
+
+/// The wide kernels with `SPHERE_LEAVES` defined: for top levels with sphere leaves.
+static TRACE_WIDE_SPHERES_SPV: [&[u8]; 2] = [
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_wide_spheres.spv")),
+    include_bytes!(concat!(env!("OUT_DIR"), "/trace_rows_wide_spheres.spv")),
 ];
 
 /// Each with `LEAF_RUNS` defined: the wide traversal in leaf runs (`--bvh wide-runs`).
@@ -135,6 +141,8 @@ pub(crate) struct KernelVariants {
     order: usize,
     core: vk::Pipeline,
     wide: Lazy,
+    /// The wide kernel's twin for top levels with sphere leaves.
+    wide_spheres: Lazy,
     runs: Lazy,
     /// The full, core and wide kernels' `ONE_INSTANCE` twins, made on first use.
     one_instance: [Lazy; 3],
@@ -158,6 +166,7 @@ impl KernelVariants {
             order,
             core,
             wide: Lazy::default(),
+            wide_spheres: Lazy::default(),
             runs: Lazy::default(),
             one_instance: Default::default(),
             jobs: Mutex::new(Vec::new()),
@@ -165,8 +174,9 @@ impl KernelVariants {
     }
 
     /// The pipeline for a frame of `pc` (`full`: the pass's full kernel) over a scene that
-    /// is one instance or not (`TopLevel::is_one_instance`); a kernel not made yet is made
-    /// now, or waited for if a background thread is making it.
+    /// is one instance or not (`TopLevel::is_one_instance`), and whose top level has sphere
+    /// leaves where `pc` says so (`FLAG_SPHERES`); a kernel not made yet is made now, or
+    /// waited for if a background thread is making it.
     pub(crate) fn for_frame(
         &self,
         pc: &PushConstants,
@@ -176,7 +186,8 @@ impl KernelVariants {
     ) -> vk::Pipeline {
         let v = variant(pc.dims[3], every_mesh_wide);
         let one_instance = runs_one_instance(pc, one_instance);
-        self.made_for(v, one_instance).unwrap_or(match v {
+        let spheres = pc.dims[3] & contract::FLAG_SPHERES != 0;
+        self.made_for(v, one_instance, spheres).unwrap_or(match v {
             Variant::Core => self.core,
             _ => full,
         })
@@ -186,20 +197,24 @@ impl KernelVariants {
     /// one made on first use, so that a caller with other work to overlap can pay for the
     /// driver's compiler early.
     pub(crate) fn make_now(&self, v: Variant, one_instance: bool) {
-        self.made_for(v, one_instance);
+        self.made_for(v, one_instance, false);
     }
 
-    /// The kernel of `v` (or its twin) made on first use, made now if it is not yet; None
-    /// for the full and core kernels, and where the driver failed it.
-    fn made_for(&self, v: Variant, one_instance: bool) -> Option<vk::Pipeline> {
+    /// The kernel of `v` (or a twin: for one instance, or for sphere leaves) made on first
+    /// use, made now if it is not yet; None for the full and core kernels, and where the
+    /// driver failed it.
+    fn made_for(&self, v: Variant, one_instance: bool, spheres: bool) -> Option<vk::Pipeline> {
         if let Some(i) = v.one_instance_index().filter(|_| one_instance) {
             let code = TRACE_ONE_SPV[i][self.order];
             return self.one_instance[i]
                 .get_or_init(|| make(&self.ctx, self.layout, code, "one-instance"))
-                .or_else(|| self.made_for(v, false));
+                .or_else(|| self.made_for(v, false, spheres));
         }
         match v {
             Variant::Full | Variant::Core => None,
+            Variant::Wide if spheres => *self.wide_spheres.get_or_init(|| {
+                make(&self.ctx, self.layout, TRACE_WIDE_SPHERES_SPV[self.order], "wide spheres")
+            }),
             Variant::Wide => *self
                 .wide
                 .get_or_init(|| make(&self.ctx, self.layout, TRACE_WIDE_SPV[self.order], "wide")),
@@ -215,10 +230,13 @@ impl KernelVariants {
         let mut jobs = lock(&self.jobs);
         let names = ["full one-instance", "core one-instance", "wide one-instance"];
         let twins = self.one_instance.iter().zip(TRACE_ONE_SPV).zip(names);
-        let kernels =
-            [(&self.wide, TRACE_WIDE_SPV, "wide"), (&self.runs, TRACE_RUNS_SPV, "leaf-runs")]
-                .into_iter()
-                .chain(twins.map(|((cell, code), name)| (cell, code, name)));
+        let kernels = [
+            (&self.wide, TRACE_WIDE_SPV, "wide"),
+            (&self.wide_spheres, TRACE_WIDE_SPHERES_SPV, "wide spheres"),
+            (&self.runs, TRACE_RUNS_SPV, "leaf-runs"),
+        ]
+        .into_iter()
+        .chain(twins.map(|((cell, code), name)| (cell, code, name)));
         for (cell, code, name) in kernels {
             let (cell, ctx, layout, code) =
                 (cell.clone(), self.ctx.clone(), self.layout, code[self.order]);
@@ -239,7 +257,10 @@ impl KernelVariants {
     /// for one.
     pub(crate) fn ready(&self) -> bool {
         let made = |cell: &Lazy| cell.get().is_some();
-        made(&self.wide) && made(&self.runs) && self.one_instance.iter().all(made)
+        made(&self.wide)
+            && made(&self.wide_spheres)
+            && made(&self.runs)
+            && self.one_instance.iter().all(made)
     }
 
     /// Whether the kernel of `v` (wide or leaf runs) has been made.
@@ -247,6 +268,12 @@ impl KernelVariants {
     pub(crate) fn made(&self, v: Variant) -> bool {
         let cell = if v == Variant::Wide { &self.wide } else { &self.runs };
         cell.get().is_some_and(Option::is_some)
+    }
+
+    /// Whether the wide kernel's twin for sphere leaves has been made.
+    #[cfg(test)]
+    pub(crate) fn made_wide_spheres(&self) -> bool {
+        self.wide_spheres.get().is_some_and(Option::is_some)
     }
 
     /// Whether the `ONE_INSTANCE` twin of `v` has been made.
@@ -269,7 +296,8 @@ impl KernelVariants {
         // SAFETY: the caller promises the GPU no longer uses them; no thread makes them now.
         unsafe {
             d.destroy_pipeline(self.core, None);
-            let lazies = [&self.wide, &self.runs].into_iter().chain(&self.one_instance);
+            let lazies =
+                [&self.wide, &self.wide_spheres, &self.runs].into_iter().chain(&self.one_instance);
             for made in lazies.filter_map(|cell| cell.get()).flatten() {
                 d.destroy_pipeline(*made, None);
             }
@@ -312,7 +340,7 @@ fn make(
 #[cfg(test)]
 mod tests {
     use super::super::shader_compile::{
-        self, CORE_ONLY, LEAF_RUNS, ONE_INSTANCE, ROW_ORDER, WIDE_ONLY,
+        self, CORE_ONLY, LEAF_RUNS, ONE_INSTANCE, ROW_ORDER, SPHERE_LEAVES, WIDE_ONLY,
     };
     use super::*;
 
@@ -361,6 +389,16 @@ mod tests {
                 );
                 assert!(twins[order].len() < bases[order].len(), "{defines:?} drops the walk");
             }
+        }
+        // The wide kernel's twin for sphere leaves: with the spheres' code.
+        for (order, rows) in [vec![], vec![ROW_ORDER]].into_iter().enumerate() {
+            let defines: Vec<&str> = rows.into_iter().chain([WIDE_ONLY, SPHERE_LEAVES]).collect();
+            assert!(
+                compiled(&defines) == TRACE_WIDE_SPHERES_SPV[order],
+                "run-time SPIR-V of {defines:?} differs from build.rs's"
+            );
+            let (twin, wide) = (TRACE_WIDE_SPHERES_SPV[order], TRACE_WIDE_SPV[order]);
+            assert!(twin.len() > wide.len(), "{defines:?} adds the spheres' test");
         }
         for (order, defines) in
             [vec![LEAF_RUNS], vec![ROW_ORDER, LEAF_RUNS]].into_iter().enumerate()

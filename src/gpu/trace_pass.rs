@@ -275,7 +275,7 @@ pub(crate) struct TracePass {
     variants: Option<KernelVariants>,
     /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
     every_mesh_wide: AtomicBool,
-    /// Whether some mesh of the bound scene has a bounding sphere (`SceneBuffers::any_sphere`):
+    /// Whether the bound scene's top level has a sphere leaf (`SceneBuffers::any_sphere`):
     /// frames then set `FLAG_SPHERES`.
     any_sphere: AtomicBool,
     /// Whether the bound scene is one instance (`SceneBuffers::one_instance`).
@@ -416,14 +416,15 @@ impl TracePass {
         );
         write_set(&self.ctx, self.set, scene, output, vendor);
         self.every_mesh_wide.store(scene.every_mesh_wide, Ordering::Relaxed);
-        self.any_sphere.store(scene.any_sphere, Ordering::Relaxed);
         self.instances_changed(scene);
     }
 
     /// Note the bound scene's new top level (`SceneBuffers::set_instances`): whether it is
-    /// one instance picks the kernels of the frames to come.
+    /// one instance picks the kernels of the frames to come, and whether it has sphere
+    /// leaves their flag.
     pub(crate) fn instances_changed(&self, scene: &SceneBuffers) {
         self.one_instance.store(scene.one_instance, Ordering::Relaxed);
+        self.any_sphere.store(scene.any_sphere, Ordering::Relaxed);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
@@ -474,8 +475,8 @@ impl TracePass {
 
     fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
         let device = &self.ctx.device;
-        // A scene without spheres spares every instance visit the check: on the H200 it
-        // cost fields of 10,000 knots 0.7-1%.
+        // A top level without sphere leaves spares the walk the check: on the H200 the
+        // check in every instance visit cost fields of 10,000 knots 0.7-1%.
         let mut pc = *pc;
         if self.any_sphere.load(Ordering::Relaxed) {
             pc.dims[3] |= crate::contract::FLAG_SPHERES;
@@ -534,6 +535,12 @@ impl TracePass {
     #[cfg(test)]
     pub(crate) fn made(&self, v: Variant) -> bool {
         self.variants.as_ref().is_some_and(|k| k.made(v))
+    }
+
+    /// Whether the wide kernel's twin for sphere leaves has been made.
+    #[cfg(test)]
+    pub(crate) fn made_wide_spheres(&self) -> bool {
+        self.variants.as_ref().is_some_and(KernelVariants::made_wide_spheres)
     }
 
     /// Whether the `ONE_INSTANCE` twin of `v` has been made.

@@ -90,19 +90,12 @@ struct ObjectNormals {
 pub struct CpuScene<'a> {
     packed: &'a PackedScene,
     edges: Vec<[Vec3; 3]>,
-    /// Whether instance visits test their mesh's bounding sphere: not in a scene of one
-    /// instance, as the shader's `ONE_INSTANCE` kernels do not.
-    spheres_tested: bool,
 }
 
 impl<'a> CpuScene<'a> {
     /// Prepare a packed scene for CPU tracing.
     pub fn new(packed: &'a PackedScene) -> Self {
-        Self {
-            packed,
-            edges: packed.triangles.iter().map(|t| t.edges()).collect(),
-            spheres_tested: !packed.top_level.is_one_instance(),
-        }
+        Self { packed, edges: packed.triangles.iter().map(|t| t.edges()).collect() }
     }
 
     /// Closest hit over the first `instance_count` instances, in (0, inf), through the binary

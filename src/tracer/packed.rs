@@ -43,7 +43,7 @@ pub struct PackedMesh {
     /// Object-space bounds of the mesh.
     pub(crate) bounds: Aabb,
     /// Its reach sampled over directions (tight world boxes for turned instances) and its
-    /// bounding sphere, where that is tighter than its box.
+    /// bounding sphere, where that is tighter than its box (its instances' sphere leaves).
     pub(crate) cover: MeshCover,
     /// The mesh as a closed box, if it is one (for an enclosure).
     pub(crate) closed_box: Option<ClosedBox>,

@@ -178,8 +178,8 @@ pub(crate) const NO_TEXTURE: u32 = crate::contract::EMPTY;
 /// A placed mesh (64 bytes): the world-to-object transform that carries rays into the
 /// mesh, and where the traversal finds the mesh's trees and triangles. Its world box is in
 /// the top level's nodes; what is the same for every copy (brute force's count, the prim-id
-/// base, the bounding sphere) is in the mesh's [`GpuMesh`], so that a field of 10,000 copies
-/// costs at most 128 bytes a copy.
+/// base) is in the mesh's [`GpuMesh`], so that a field of 10,000 copies costs at most 128
+/// bytes a copy.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
@@ -197,7 +197,7 @@ pub struct GpuInstance {
     pub mesh: u32,
 }
 
-/// What is the same for every instance of a mesh (32 bytes a mesh).
+/// What is the same for every instance of a mesh (16 bytes a mesh).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -208,9 +208,6 @@ pub struct GpuMesh {
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
     pub(crate) _pad: [u32; 2],
-    /// The sphere a visit tests before the mesh's tree, in the mesh's space: centre and
-    /// radius, or radius 0 for none (`MeshCover::sphere`).
-    pub(crate) sphere: [f32; 4],
 }
 
 impl GpuInstance {

@@ -4,7 +4,10 @@
 //! `trace_instances` in `shaders/intersect.glsl` walks it, for the CPU reference.
 //!
 //! The tree is the bottom levels' node layout ([`BvhNode`]) with leaves of one instance,
-//! whose index is the instance's own: the instance list keeps the scene's order.
+//! whose index is the instance's own: the instance list keeps the scene's order. A leaf
+//! whose mesh is round holds its instance's world bounding sphere instead of its box
+//! ([`TOP_SPHERE`]), so that the walk turns away the rays that pass by the mesh before
+//! it visits the instance.
 
 use glam::DAffine3;
 use rayon::prelude::*;
@@ -12,7 +15,7 @@ use rayon::prelude::*;
 use super::enclosure::{self, ClosedBox, EnclosureRecord};
 use super::records::{GpuInstance, GpuMesh};
 use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, LeafBox};
-use crate::contract::EMPTY;
+use crate::contract::{EMPTY, TOP_SPHERE};
 use crate::geometry::Aabb;
 use crate::scene::Instance;
 
@@ -44,8 +47,12 @@ pub struct TopLevel {
     pub meshes: Vec<GpuMesh>,
     /// Root first; at least one node (a root with two absent children for no instances).
     pub nodes: Vec<BvhNode>,
-    /// The last build's leaves: their memory, kept for the next rebuild's.
+    /// Whether some leaf of the tree is a sphere ([`TOP_SPHERE`]).
+    pub(crate) has_spheres: bool,
+    /// The last build's leaves and their world spheres (by instance, radius 0 for none):
+    /// their memory, kept for the next rebuild's.
     leaves: Vec<LeafBox>,
+    spheres: Vec<[f32; 4]>,
 }
 
 impl TopLevel {
@@ -64,18 +71,32 @@ impl TopLevel {
     /// (about 1.3 MB for 10,000 instances) were page-faulted in on every rebuild, and the
     /// old ones handed back to the system, which interrupts every core to forget them.
     pub(crate) fn rebuild(&mut self, meshes: &[MeshPlace], instances: &[Instance]) {
-        let Self { instances: records_out, meshes: mesh_records, nodes, leaves } = self;
+        let Self {
+            instances: records_out,
+            meshes: mesh_records,
+            nodes,
+            has_spheres,
+            leaves,
+            spheres,
+        } = self;
         let mut tree = || {
-            fill_leaves(meshes, instances, leaves);
+            fill_leaves(meshes, instances, leaves, spheres);
             let triangles = |mesh: usize| meshes[mesh].triangle_count;
-            match enclosure::find(instances, |i| leaves[i].aabb(), triangles) {
+            let enclosure = enclosure::find(instances, |i| leaves[i].aabb(), triangles);
+            let closed = enclosure.and_then(|e| meshes[instances[e].mesh].closed_box);
+            match enclosure {
                 None => tree_over(leaves, nodes),
                 Some(e) => {
-                    let closed = meshes[instances[e].mesh].closed_box;
                     let record = EnclosureRecord::new(e as u32, closed);
                     enclosure::tree_around(leaves, e, record, nodes)
                 }
             }
+            // A scene of one instance (or one in a closed box) runs the ONE_INSTANCE
+            // kernels, which open the root without a walk and take its leaf as a box.
+            let one = instances.len() == 1 || (instances.len() == 2 && closed.is_some());
+            // The enclosure's record, the last node, is no node of the tree.
+            let tree_nodes = nodes.len() - usize::from(enclosure.is_some());
+            *has_spheres = !one && fit_spheres(&mut nodes[..tree_nodes], spheres);
         };
         // Big fields make their records (each a double-precision inverse) beside the tree,
         // on the threads its build leaves idle: 0.1 ms off 10,000 copies' rebuild on the
@@ -91,7 +112,6 @@ impl TopLevel {
             triangle_count: m.triangle_count,
             prim_base: m.prim_base,
             _pad: [0; 2],
-            sphere: m.cover.sphere(),
         }));
     }
 
@@ -145,14 +165,21 @@ fn fill_records(meshes: &[MeshPlace], instances: &[Instance], out: &mut Vec<GpuI
 }
 
 /// Every instance's leaf in the tree, into `out`: its world box (its mesh's cover turned by
-/// its transform), named by the instance.
-fn fill_leaves(meshes: &[MeshPlace], instances: &[Instance], out: &mut Vec<LeafBox>) {
+/// its transform), named by the instance; and into `spheres` its world sphere, where its
+/// mesh has one that stays tighter than the box (radius 0 where not).
+fn fill_leaves(
+    meshes: &[MeshPlace],
+    instances: &[Instance],
+    out: &mut Vec<LeafBox>,
+    spheres: &mut Vec<[f32; 4]>,
+) {
     instances
         .par_iter()
         .enumerate()
         .with_min_len(INSTANCES_A_TASK)
         .map(|(i, inst)| {
-            let b = meshes[inst.mesh].cover.world_box(&inst.transform);
+            let cover = &meshes[inst.mesh].cover;
+            let b = cover.world_box(&inst.transform);
             // An empty mesh has no box; a point keeps it in the tree (its visit finds no
             // triangles).
             let b = if b.is_empty() {
@@ -160,9 +187,37 @@ fn fill_leaves(meshes: &[MeshPlace], instances: &[Instance], out: &mut Vec<LeafB
             } else {
                 b
             };
-            LeafBox::named(b, i as u32)
+            let sphere = cover.world_sphere(&inst.transform, &b).unwrap_or([0.0; 4]);
+            (LeafBox::named(b, i as u32), sphere)
         })
-        .collect_into_vec(out);
+        .unzip_into_vecs(out, spheres);
+}
+
+/// Nodes a task where leaves are made spheres on every core.
+const NODES_A_TASK: usize = 1024;
+
+/// Each leaf of `nodes` (the tree, without an enclosure's record) whose instance has a
+/// world sphere in `spheres` made a [`TOP_SPHERE`] leaf holding it; whether any was.
+fn fit_spheres(nodes: &mut [BvhNode], spheres: &[[f32; 4]]) -> bool {
+    let fit = |min: &mut [f32; 3], max: &mut [f32; 3], index: u32, count: &mut u32| {
+        if *count != 1 {
+            return false; // an inner node, an absent child or an enclosure
+        }
+        let [x, y, z, r] = spheres[index as usize];
+        if r > 0.0 {
+            (*min, *max, *count) = ([x, y, z], [r, 0.0, 0.0], TOP_SPHERE);
+        }
+        r > 0.0
+    };
+    nodes
+        .par_iter_mut()
+        .with_min_len(NODES_A_TASK)
+        .map(|n| {
+            let left = fit(&mut n.left_min, &mut n.left_max, n.left_index, &mut n.left_count);
+            let right = fit(&mut n.right_min, &mut n.right_max, n.right_index, &mut n.right_count);
+            left | right
+        })
+        .reduce(|| false, |a, b| a | b)
 }
 
 /// One instance's record: its mesh's place and the inverse of its transform, inverted in
@@ -202,15 +257,28 @@ fn sah_cost(nodes: &[BvhNode]) -> f64 {
         let e = (b.max - b.min).as_dvec3();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     };
-    let children: Vec<_> =
-        nodes.iter().flat_map(|n| n.children()).filter(|c| !c.is_empty()).collect();
-    let root = children.iter().fold(Aabb::EMPTY, |acc, c| acc.union(c.bounds));
+    let children: Vec<Aabb> = nodes
+        .iter()
+        .flat_map(|n| n.children())
+        .filter(|c| !c.is_empty())
+        .map(|c| outer_box(&c))
+        .collect();
+    let root = children.iter().fold(Aabb::EMPTY, |acc, c| acc.union(*c));
     let root_area = area(&root);
     if root_area <= 0.0 {
         return 0.0;
     }
     // The root is opened by every ray; every other box is entered in proportion to its area.
-    1.0 + children.iter().map(|c| area(&c.bounds) / root_area).sum::<f64>()
+    1.0 + children.iter().map(|c| area(c) / root_area).sum::<f64>()
+}
+
+/// The box of a top-level child: its own, or a sphere leaf's cube around the sphere.
+fn outer_box(child: &BvhChild) -> Aabb {
+    if child.count != TOP_SPHERE {
+        return child.bounds;
+    }
+    let (centre, radius) = (child.bounds.min, child.bounds.max.x);
+    Aabb { min: centre - radius, max: centre + radius }
 }
 
 /// The world box of `inst`'s record's tree leaf, for tests: the union of the leaves
@@ -359,14 +427,108 @@ mod tests {
         }
     }
 
+    /// A mesh's cover, built from its tree.
+    fn cover(mesh: &crate::scene::Mesh) -> MeshCover {
+        let tris: Vec<_> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+        let bvh = Bvh::build(&tris, &BuildOptions::default());
+        let corners = |slot: u32| tris[bvh.prim_indices[slot as usize] as usize];
+        MeshCover::of_tree(&bvh.nodes, corners, mesh.bounds())
+    }
+
+    #[test]
+    fn a_round_instance_has_a_world_sphere_holding_every_vertex_unless_squashed() {
+        let mut round = crate::scene::primitives::geosphere(2);
+        for p in &mut round.positions {
+            *p = *p * 3.0 + Vec3::new(10.0, -4.0, 2.0);
+        }
+        let cover = cover(&round);
+        let [_, _, _, r] = cover.sphere();
+        let uniform = (0..12).map(|i| {
+            let f = i as f32;
+            let turn = Quat::from_euler(glam::EulerRot::XYZ, f * 0.7, f * 1.3, -f);
+            let scale = Vec3::splat(0.25 + f).copysign(Vec3::new(1.0, 1.0 - f % 2.0 * 2.0, 1.0));
+            Affine3A::from_scale_rotation_translation(scale, turn, Vec3::new(f, -3.0 * f, 1e3))
+        });
+        // A shear (a scale along a turned axis), whose stretch is bounded loosely: its
+        // sphere still holds every vertex.
+        let shear = |k: f32| {
+            let m = glam::Mat3::from_cols(Vec3::X, Vec3::new(k, 1.0, 0.0), Vec3::new(0.0, k, 1.0));
+            (Affine3A::from_mat3_translation(m, Vec3::new(-5.0, 2.0, 0.0)), true)
+        };
+        let straight = uniform.chain(turns()).map(|t| (t, false));
+        let (mut kept, mut squashed) = (0, 0);
+        for (t, sheared) in straight.chain([shear(0.2), shear(-0.4)]) {
+            let world = cover.world_box(&t);
+            let Some([x, y, z, radius]) = cover.world_sphere(&t, &world) else {
+                squashed += 1;
+                continue;
+            };
+            kept += 1;
+            let centre = Vec3::new(x, y, z);
+            let far = round.positions.iter().map(|&p| (t.transform_point3(p) - centre).length());
+            let far = far.fold(0.0, f32::max);
+            assert!(far <= radius, "a vertex {far} from the centre, radius {radius}");
+            // The largest stretch: as far as the farthest of many directions goes, and for
+            // a turn and a uniform scale, the scale itself.
+            let stretch = (0..2000)
+                .map(|k| {
+                    let (a, b) = (k as f32 * 2.399, (k as f32 / 1000.0 - 1.0).acos());
+                    let u = Vec3::new(b.sin() * a.cos(), b.sin() * a.sin(), b.cos());
+                    t.transform_vector3(u).length()
+                })
+                .fold(0.0, f32::max);
+            assert!(
+                sheared || radius <= r * stretch * 1.01 + 1e-3,
+                "{radius} for {r} stretched {stretch}"
+            );
+        }
+        // Every turn with a uniform scale keeps its sphere; of the non-uniform scales (up to
+        // 6:1), the flattest give it up for their box.
+        assert!(kept >= 13 && squashed > 0, "{kept} kept, {squashed} squashed");
+    }
+
+    #[test]
+    fn round_leaves_are_spheres_past_one_instance_and_the_walk_meets_them() {
+        let geosphere = crate::scene::primitives::geosphere(2);
+        let bounds = geosphere.bounds();
+        let ball = MeshPlace { cover: cover(&geosphere), ..place(bounds) };
+        let room = crate::scene::paper::mirror_box_mesh(1.0);
+        let walls: Vec<[Vec3; 3]> = (0..12).map(|i| room.corners(i)).collect();
+        let closed_box = enclosure::ClosedBox::of(&walls);
+        assert!(closed_box.is_some());
+        let mirror = MeshPlace { triangle_count: 12, closed_box, ..place(room.bounds()) };
+        // Inside every copy's box, beside its sphere (radius 1): the box's corner region.
+        let (y, z) = (0.9 * bounds.max.y, 0.9 * bounds.max.z);
+        assert!(y * y + z * z > 1.01, "the corner ray passes inside the sphere");
+        for (copies, boxed) in [(1u32, false), (1, true), (2, false), (27, true), (300, false)] {
+            let mut instances: Vec<Instance> = (0..copies)
+                .map(|i| Instance::placed(0, Vec3::new(3.0 * i as f32, 0.0, 0.0), 1.0))
+                .collect();
+            if boxed {
+                instances.push(Instance::placed(1, Vec3::ZERO, 8.0 * copies as f32));
+            }
+            let top = TopLevel::build(&[ball, mirror], &instances);
+            let tree = &top.nodes[..top.nodes.len() - usize::from(boxed)];
+            let children = tree.iter().flat_map(|n| n.children());
+            let spheres = children.filter(|c| c.count == TOP_SPHERE).count();
+            // A lone copy (alone or in a closed box) runs the one-instance kernels, which
+            // take its leaf as a box.
+            let want = if copies == 1 { 0 } else { copies as usize };
+            assert_eq!((spheres, top.has_spheres), (want, want > 0), "{copies}, box {boxed}");
+            let met = |ray: Ray| {
+                let (order, _) = visits(&top, &ray);
+                order.iter().filter(|&&i| i < copies).count()
+            };
+            // A ray down the row meets every copy; one through the boxes' corners, only the
+            // boxes: the spheres turn it away.
+            assert_eq!(met(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X)), copies as usize);
+            let corner = met(Ray::new(Vec3::new(-5.0, y, z), Vec3::X));
+            assert_eq!(corner, if want > 0 { 0 } else { copies as usize }, "{copies}, box {boxed}");
+        }
+    }
+
     #[test]
     fn a_round_mesh_has_a_sphere_holding_every_corner_and_a_box_has_none() {
-        let cover = |mesh: &crate::scene::Mesh| {
-            let tris: Vec<_> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-            let bvh = Bvh::build(&tris, &BuildOptions::default());
-            let corners = |slot: u32| tris[bvh.prim_indices[slot as usize] as usize];
-            MeshCover::of_tree(&bvh.nodes, corners, mesh.bounds())
-        };
         // A geosphere, moved off the origin: its sphere is centred on its box and holds
         // every corner, within a few parts in a million of the farthest.
         let mut round = crate::scene::primitives::geosphere(2);

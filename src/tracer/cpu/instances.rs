@@ -182,11 +182,6 @@ impl CpuScene<'_> {
             }
             return best;
         }
-        // The mesh's bounding sphere first, where it has one (as the shader's visit).
-        let sphere = self.packed.top_level.meshes[inst.mesh as usize].sphere;
-        if self.spheres_tested && sphere[3] > 0.0 && !meets_sphere(&local, sphere, t_max) {
-            return None;
-        }
         // The instance's nodes start at its node base, their indices relative to it (and to
         // the triangle base), as the shader's traverse_bvh reads them.
         let wide = self.wide_nodes(inst, layout);
@@ -212,86 +207,5 @@ impl CpuScene<'_> {
     /// binary tree then serves, as on the GPU).
     fn wide_nodes(&self, inst: &GpuInstance, layout: BvhLayout) -> Option<&[WideNode]> {
         Some(self.packed.wide_nodes_of(inst)).filter(|nodes| layout.is_wide() && !nodes.is_empty())
-    }
-}
-
-/// Whether `ray` meets the sphere `[centre, radius]` for some t in [0, t_max], loosely (the
-/// shader's `meets_sphere`, step for step): yes for a ray that passes by within rounding,
-/// never no for one that meets it. From the ray's closest approach to the centre, which
-/// keeps its precision far from the sphere (Haines et al., Ray Tracing Gems, chapter 7).
-fn meets_sphere(ray: &Ray, sphere: [f32; 4], t_max: f32) -> bool {
-    let [x, y, z, radius] = sphere;
-    let oc = ray.origin - Vec3::new(x, y, z);
-    let inv_a = 1.0 / ray.dir.dot(ray.dir);
-    let tm = -oc.dot(ray.dir) * inv_a;
-    let l = oc + tm * ray.dir;
-    let r = radius + 1e-5 * (radius + oc.length());
-    let h2 = r * r - l.dot(l);
-    if h2 < 0.0 {
-        return false;
-    }
-    let dt = (h2 * inv_a).sqrt();
-    tm + dt >= 0.0 && tm - dt <= t_max * 1.0001
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The ray against the sphere in double precision: the distance by which it misses
-    /// (negative: how deep it passes inside), its entry and exit, and the slack a clear
-    /// miss must exceed (a hundredth of the radius, and the test's own padding for rays
-    /// from far away), as a distance and along the ray.
-    fn exact(ray: &Ray, sphere: [f32; 4]) -> (f64, f64, f64, f64, f64) {
-        let d = ray.dir.as_dvec3();
-        let oc = ray.origin.as_dvec3() - Vec3::new(sphere[0], sphere[1], sphere[2]).as_dvec3();
-        let tm = -oc.dot(d) / d.dot(d);
-        let closest = (oc + tm * d).length();
-        let r = f64::from(sphere[3]);
-        let half = (r * r - closest * closest).max(0.0).sqrt() / d.length();
-        let slack = 0.01 * r + 1e-4 * oc.length();
-        (closest - r, tm - half, tm + half, slack, slack / d.length())
-    }
-
-    #[test]
-    fn the_sphere_test_never_turns_away_a_ray_that_meets_the_sphere() {
-        // Rays from near and far (up to 10^4 radii), with directions of any length (an
-        // instance's scale), grazing, missing by a little and passing through.
-        let mut seed = 7u32;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32
-        };
-        let (mut met, mut turned_away) = (0, 0);
-        for _ in 0..20_000 {
-            let radius = 10f32.powf(next() * 6.0 - 3.0);
-            let centre = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * radius * 20.0;
-            let sphere = [centre.x, centre.y, centre.z, radius];
-            let away = radius * 10f32.powf(next() * 4.0);
-            let origin = centre + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0 * away;
-            // Aim at a point near the sphere's surface: inside, on it, or just outside.
-            let aim = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or(Vec3::X);
-            let target = centre + aim * radius * (0.9 + 0.2 * next());
-            let dir = (target - origin) * 10f32.powf(next() * 4.0 - 2.0);
-            if dir.length_squared() == 0.0 || !dir.is_finite() {
-                continue;
-            }
-            let ray = Ray::new(origin, dir);
-            let t_max = if next() < 0.5 { f32::INFINITY } else { next() * 2.0 };
-            let (miss, enter, exit, slack, slack_t) = exact(&ray, sphere);
-            let meets = miss <= 0.0 && exit >= 0.0 && enter <= f64::from(t_max);
-            let said = meets_sphere(&ray, sphere, t_max);
-            assert!(said || !meets, "{ray:?} meets {sphere:?} before {t_max}");
-            met += usize::from(meets);
-            // Clear misses (beside, behind or beyond t_max by more than the slack) are
-            // turned away: the test is no constant yes.
-            let clear =
-                miss > slack || exit < -slack_t || enter > 1.01 * f64::from(t_max) + slack_t;
-            turned_away += usize::from(clear && !said);
-            assert!(said == meets || !clear, "{ray:?} clearly misses {sphere:?} before {t_max}");
-        }
-        assert!(met > 3_000 && turned_away > 3_000, "{met} met, {turned_away} turned away");
     }
 }
