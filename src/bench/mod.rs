@@ -252,11 +252,6 @@ pub fn run(
                 log::warn!("{w}");
             }
             let tracer = ComputeTracer::with_scene(ctx, &packed)?;
-            if options.verbose && i == 0 {
-                for line in tracer.shader_statistics() {
-                    println!("  trace shader: {line}");
-                }
-            }
             if options.verbose {
                 for line in tracer.describe_memory() {
                     println!("  memory: {line}");
@@ -311,6 +306,12 @@ fn measure(
         println!("  work: {}", work_per_ray(tracer, scene, s)?);
     }
     let frames = timed_frames(tracer, &params, options, clock)?;
+    if options.verbose && s.accel != Accel::Vendor {
+        // The kernel the frames ran, which the first frame made if it was made on first use.
+        for line in tracer.frame_kernel_statistics(&params) {
+            println!("  kernel: {line}");
+        }
+    }
     row.gpu_clock_mhz = frames.clock_mhz;
     if s.accel == Accel::Vendor {
         // The driver's structures stand in for our BVH in the build and memory columns. Read

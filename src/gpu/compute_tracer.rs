@@ -269,10 +269,10 @@ impl ComputeTracer {
         self.pass.reload(spirv)
     }
 
-    /// The driver's statistics of the compiled trace shader, one line each (`bench --verbose`;
-    /// empty where the device does not report them).
-    pub(crate) fn shader_statistics(&self) -> Vec<String> {
-        self.pass.shader_statistics()
+    /// The driver's statistics of the trace kernel that frames of `params` run, one line
+    /// each (`bench --verbose`; empty where the device does not report them).
+    pub(crate) fn frame_kernel_statistics(&self, params: &FrameParams) -> Vec<String> {
+        self.pass.frame_kernel_statistics(params)
     }
 
     /// Where each scene buffer's memory lives, one line each (`bench --verbose`).

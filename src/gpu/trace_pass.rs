@@ -332,10 +332,16 @@ impl TracePass {
         self.kernel
     }
 
-    /// What the driver compiled the shader to, one `name: value` per statistic it reports
-    /// (registers, local and shared memory, instructions); empty where the device does not
-    /// offer `VK_KHR_pipeline_executable_properties`.
-    pub(crate) fn shader_statistics(&self) -> Vec<String> {
+    /// What the driver compiled the kernel that frames of `params` run (`dispatch` picks
+    /// it) to, one `name: value` per statistic it reports (registers, local and shared
+    /// memory, instructions); empty where the device does not offer
+    /// `VK_KHR_pipeline_executable_properties`.
+    pub(crate) fn frame_kernel_statistics(&self, params: &FrameParams) -> Vec<String> {
+        let (_, pipeline) = self.frame_kernel(&params.push_constants(0));
+        self.statistics_of(pipeline)
+    }
+
+    fn statistics_of(&self, pipeline: vk::Pipeline) -> Vec<String> {
         if !self.ctx.info.shader_statistics {
             return Vec::new();
         }
@@ -343,14 +349,14 @@ impl TracePass {
             &self.ctx.instance,
             &self.ctx.device,
         );
-        let pipeline = vk::PipelineInfoKHR::default().pipeline(self.pipeline);
+        let pipeline = vk::PipelineInfoKHR::default().pipeline(pipeline);
         // SAFETY: the pipeline is live and was created with CAPTURE_STATISTICS.
         let executables =
             unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
         let mut lines = Vec::new();
         for index in 0..executables.len() as u32 {
             let info = vk::PipelineExecutableInfoKHR::default()
-                .pipeline(self.pipeline)
+                .pipeline(pipeline.pipeline)
                 .executable_index(index);
             // SAFETY: as above; `index` is one of the pipeline's executables.
             let statistics =
@@ -473,14 +479,29 @@ impl TracePass {
         self.dispatch(cmd, &pc, &Band::rect(0..params.settings.height, columns.clone()));
     }
 
-    fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
-        let device = &self.ctx.device;
+    /// The push constants a frame of `pc` runs with over the bound scene, and its kernel.
+    fn frame_kernel(&self, pc: &PushConstants) -> (PushConstants, vk::Pipeline) {
         // A top level without sphere leaves spares the walk the check: on the H200 the
         // check in every instance visit cost fields of 10,000 knots 0.7-1%.
         let mut pc = *pc;
         if self.any_sphere.load(Ordering::Relaxed) {
             pc.dims[3] |= crate::contract::FLAG_SPHERES;
         }
+        let pipeline = match &self.variants {
+            Some(variants) => variants.for_frame(
+                &pc,
+                self.every_mesh_wide.load(Ordering::Relaxed),
+                self.one_instance.load(Ordering::Relaxed),
+                self.pipeline,
+            ),
+            None => self.pipeline,
+        };
+        (pc, pipeline)
+    }
+
+    fn dispatch(&self, cmd: vk::CommandBuffer, pc: &PushConstants, band: &Band) {
+        let device = &self.ctx.device;
+        let (pc, pipeline) = self.frame_kernel(pc);
         let pc = &pc;
         debug_assert!(band.columns.start % GROUP.width == 0, "a band starts at a group boundary");
         let base_x = band.columns.start / GROUP.width;
@@ -490,15 +511,6 @@ impl TracePass {
             !band.is_finer_than_a_group() || groups_x * groups_y == 1,
             "a band finer than a group is one group: {band:?}"
         );
-        let pipeline = match &self.variants {
-            Some(variants) => variants.for_frame(
-                pc,
-                self.every_mesh_wide.load(Ordering::Relaxed),
-                self.one_instance.load(Ordering::Relaxed),
-                self.pipeline,
-            ),
-            None => self.pipeline,
-        };
         // SAFETY: `cmd` is recording; the pipeline (created with DISPATCH_BASE), layout and set
         // outlive its execution (the owner waits for the GPU before dropping them) and the
         // push constants fit the layout's range.
