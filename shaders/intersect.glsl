@@ -362,8 +362,10 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     uint count = frame.misc.x;
     if (count == 0u) return false;
     vec3 inv_d = safe_inverse(d);
-    uint stack[STACK_SIZE];
-    float entry[STACK_SIZE];
+    // Pending entries: a node, or TOP_LEAF | an instance, and the bits of the distance at
+    // which the ray enters it (one array of pairs, not two: 0.5-1.2% off the model series
+    // on the H200).
+    uvec2 stack[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;  // the next node to open, or EMPTY to pop
     uint next_brute = 0u;
@@ -393,8 +395,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             uint ri = floatBitsToUint(n.right_min.w);
             float tr = child_entry(n.right_min, n.right_max, o, d, inv_d, hit.t, spheres);
             if (tr < INF) {
-                stack[0] = floatBitsToUint(n.right_max.w) > 0u ? ri | TOP_LEAF : ri;
-                entry[0] = tr;
+                stack[0] = uvec2(floatBitsToUint(n.right_max.w) > 0u ? ri | TOP_LEAF : ri, floatBitsToUint(tr));
                 sp = 1u;
             }
         }
@@ -411,8 +412,8 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             if (node == EMPTY) {
                 if (sp == 0u) break;
                 sp -= 1u;
-                if (entry[sp] > hit.t) continue;  // begins beyond the closest hit found since
-                uint e = stack[sp];
+                if (uintBitsToFloat(stack[sp].y) > hit.t) continue;  // begins beyond the closest hit found since
+                uint e = stack[sp].x;
                 if ((e & TOP_LEAF) != 0u) {
                     leaf = e & ~TOP_LEAF;
                     break;
@@ -433,8 +434,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             uint near = swap ? ri : li, far = swap ? li : ri;
             node = EMPTY;
             if (tf < INF) {
-                stack[sp] = far;
-                entry[sp] = tf;
+                stack[sp] = uvec2(far, floatBitsToUint(tf));
                 sp += 1u;
             }
             if (tn < INF) {
