@@ -99,8 +99,8 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
                 prop::collection::vec((0..v as u32, 0..v as u32, 0..v as u32), t),
                 prop::collection::vec(0..m as u32, t),
                 Just(m),
-                // Round: the corners pushed onto a sphere, whose instances' visits test
-                // the mesh's bounding sphere before its tree.
+                // Round: the corners pushed onto a sphere, whose instances' leaves in the
+                // top level are then their bounding spheres.
                 any::<bool>().prop_map(move |round| round.then_some(scale)),
             )
         })
