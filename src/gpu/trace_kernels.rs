@@ -325,6 +325,46 @@ pub(super) fn create_pipeline(
     )
 }
 
+/// What the driver compiled `pipeline` to, one `name: value` per statistic it reports
+/// (registers, local and shared memory, instructions); empty where the device does not
+/// offer `VK_KHR_pipeline_executable_properties`.
+pub(super) fn statistics(ctx: &GpuContext, pipeline: vk::Pipeline) -> Vec<String> {
+    if !ctx.info.shader_statistics {
+        return Vec::new();
+    }
+    let loader = ash::khr::pipeline_executable_properties::Device::new(&ctx.instance, &ctx.device);
+    let pipeline = vk::PipelineInfoKHR::default().pipeline(pipeline);
+    // SAFETY: the pipeline is live and was created with CAPTURE_STATISTICS.
+    let executables =
+        unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
+    let mut lines = Vec::new();
+    for index in 0..executables.len() as u32 {
+        let info = vk::PipelineExecutableInfoKHR::default()
+            .pipeline(pipeline.pipeline)
+            .executable_index(index);
+        // SAFETY: as above; `index` is one of the pipeline's executables.
+        let statistics =
+            unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
+        for st in statistics {
+            let name =
+                st.name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            // SAFETY: `format` says which member of the union the driver wrote.
+            let value = unsafe {
+                match st.format {
+                    vk::PipelineExecutableStatisticFormatKHR::BOOL32 => {
+                        (st.value.b32 == vk::TRUE).to_string()
+                    }
+                    vk::PipelineExecutableStatisticFormatKHR::INT64 => st.value.i64.to_string(),
+                    vk::PipelineExecutableStatisticFormatKHR::UINT64 => st.value.u64.to_string(),
+                    _ => format!("{:.3}", st.value.f64),
+                }
+            };
+            lines.push(format!("{name}: {value}"));
+        }
+    }
+    lines
+}
+
 /// Make the kernel `name` from `code`; None, logged, when the driver fails it.
 fn make(
     ctx: &GpuContext,

@@ -338,51 +338,7 @@ impl TracePass {
     /// `VK_KHR_pipeline_executable_properties`.
     pub(crate) fn frame_kernel_statistics(&self, params: &FrameParams) -> Vec<String> {
         let (_, pipeline) = self.frame_kernel(&params.push_constants(0));
-        self.statistics_of(pipeline)
-    }
-
-    fn statistics_of(&self, pipeline: vk::Pipeline) -> Vec<String> {
-        if !self.ctx.info.shader_statistics {
-            return Vec::new();
-        }
-        let loader = ash::khr::pipeline_executable_properties::Device::new(
-            &self.ctx.instance,
-            &self.ctx.device,
-        );
-        let pipeline = vk::PipelineInfoKHR::default().pipeline(pipeline);
-        // SAFETY: the pipeline is live and was created with CAPTURE_STATISTICS.
-        let executables =
-            unsafe { loader.get_pipeline_executable_properties(&pipeline) }.unwrap_or_default();
-        let mut lines = Vec::new();
-        for index in 0..executables.len() as u32 {
-            let info = vk::PipelineExecutableInfoKHR::default()
-                .pipeline(pipeline.pipeline)
-                .executable_index(index);
-            // SAFETY: as above; `index` is one of the pipeline's executables.
-            let statistics =
-                unsafe { loader.get_pipeline_executable_statistics(&info) }.unwrap_or_default();
-            for st in statistics {
-                let name = st
-                    .name_as_c_str()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                // SAFETY: `format` says which member of the union the driver wrote.
-                let value = unsafe {
-                    match st.format {
-                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => {
-                            (st.value.b32 == vk::TRUE).to_string()
-                        }
-                        vk::PipelineExecutableStatisticFormatKHR::INT64 => st.value.i64.to_string(),
-                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => {
-                            st.value.u64.to_string()
-                        }
-                        _ => format!("{:.3}", st.value.f64),
-                    }
-                };
-                lines.push(format!("{name}: {value}"));
-            }
-        }
-        lines
+        super::trace_kernels::statistics(&self.ctx, pipeline)
     }
 
     /// Swap in a pipeline built from `spirv` (a shader with the same interface, checked by
