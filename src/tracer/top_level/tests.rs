@@ -232,6 +232,13 @@ fn round_leaves_are_spheres_past_one_instance_and_the_walk_meets_them() {
         assert_eq!(met(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X)), copies as usize);
         let corner = met(Ray::new(Vec3::new(-5.0, y, z), Vec3::X));
         assert_eq!(corner, if want > 0 { 0 } else { copies as usize }, "{copies}, box {boxed}");
+        // A ray that grazes a corner of the first copy (at the origin), just inside it and
+        // along its surface, enters that copy: the sphere holds the mesh to its corners.
+        for &p in &geosphere.positions {
+            let along = p.any_orthonormal_vector();
+            let graze = Ray::new(p * 0.999 - along * 4.0, along);
+            assert!(visits(&top, &graze).0.contains(&0), "{copies}, box {boxed}: past {p}");
+        }
     }
 }
 
