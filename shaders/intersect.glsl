@@ -232,7 +232,7 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
     } else if (use_bvh) {
         traverse_bvh(lo, ld, inst.offsets.x, first, hit, cost);
     } else {
-        blocked = brute_force(lo, ld, first, meshes[inst.offsets.w].counts.x, any, hit, cost);
+        blocked = brute_force(lo, ld, first, meshes[inst.offsets.w].x, any, hit, cost);
     }
 #endif
     if (hit.tri != before) hit.instance = i;

@@ -188,7 +188,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                                  point_to_object(inst, frame.light_pos.xyz));
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
         if (bounce == 0u) {
-            uint prim = triangle_prim(hit.tri) + meshes[inst.offsets.w].counts.y;
+            uint prim = triangle_prim(hit.tri) + meshes[inst.offsets.w].y;
             if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
             if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
             if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);

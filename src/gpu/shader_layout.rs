@@ -152,9 +152,7 @@ mod tests {
     use super::*;
     use crate::bvh::BvhNode;
     use crate::tracer::frame::PushConstants;
-    use crate::tracer::packed::{
-        GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuTriangleShading,
-    };
+    use crate::tracer::packed::{GpuInstance, GpuMaterial, GpuTriangle, GpuTriangleShading};
 
     #[test]
     fn every_binding_is_a_known_buffer_and_every_buffer_is_bound_once() {
@@ -350,14 +348,6 @@ mod tests {
                     triangle_base: "offsets" + 4,
                     wide_words: "offsets" + 8,
                     mesh: "offsets" + 12,
-                }),
-            ),
-            (
-                "MeshRecord",
-                twin!(GpuMesh {
-                    triangle_count: "counts",
-                    prim_base: "counts" + 4,
-                    _pad: "counts" + 8,
                 }),
             ),
             (

@@ -1,8 +1,9 @@
 //! Our trace kernels: `shaders/trace.comp` as build.rs compiled it, and its variants built
 //! with `CORE_ONLY`, `WIDE_ONLY` or `LEAF_RUNS`, the first three's twins with
-//! `ONE_INSTANCE` and the wide kernel's with `SPHERE_LEAVES` (see `shader_compile`); which one a frame runs, and making them. Each
-//! leaves out code its frames do not use, since unused code still slows a frame through the
-//! registers and instructions it takes. The core kernel is made with the pass; the others
+//! `ONE_INSTANCE` and the wide kernel's with `SPHERE_LEAVES` (see `shader_compile`); which
+//! one a frame runs, and making them. Each leaves out code its frames do not use, since
+//! unused code still slows a frame through the registers and instructions it takes. The
+//! core kernel is made with the pass; the others
 //! on first use, or in the background where the window asks
 //! ([`KernelVariants::prepare_in_background`]: a driver compiling a kernel on the CPU, as
 //! lavapipe does, would otherwise hold up the frame that first needs it for seconds).

@@ -437,8 +437,8 @@ impl TracePass {
 
     /// The push constants a frame of `pc` runs with over the bound scene, and its kernel.
     fn frame_kernel(&self, pc: &PushConstants) -> (PushConstants, vk::Pipeline) {
-        // A top level without sphere leaves spares the walk the check: on the H200 the
-        // check in every instance visit cost fields of 10,000 knots 0.7-1%.
+        // The flag says the top level has sphere leaves: the walk then tests them, and a
+        // wide frame runs the wide kernel's twin that can (`SPHERE_LEAVES`).
         let mut pc = *pc;
         if self.any_sphere.load(Ordering::Relaxed) {
             pc.dims[3] |= crate::contract::FLAG_SPHERES;

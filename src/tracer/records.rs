@@ -197,7 +197,7 @@ pub struct GpuInstance {
     pub mesh: u32,
 }
 
-/// What is the same for every instance of a mesh (16 bytes a mesh).
+/// What is the same for every instance of a mesh (8 bytes a mesh).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -207,7 +207,6 @@ pub struct GpuMesh {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
-    pub(crate) _pad: [u32; 2],
 }
 
 impl GpuInstance {

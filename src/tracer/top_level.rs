@@ -107,11 +107,11 @@ impl TopLevel {
             rayon::join(|| fill_records(meshes, instances, records_out), tree);
         }
         mesh_records.clear();
-        mesh_records.extend(meshes.iter().map(|m| GpuMesh {
-            triangle_count: m.triangle_count,
-            prim_base: m.prim_base,
-            _pad: [0; 2],
-        }));
+        mesh_records.extend(
+            meshes
+                .iter()
+                .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base }),
+        );
     }
 
     /// The instance the walk visits before the tree (the root's left child,

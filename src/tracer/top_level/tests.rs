@@ -40,10 +40,7 @@ fn turns() -> Vec<Affine3A> {
 /// A knot's cover, built from its tree, and the knot.
 fn knot_cover() -> (MeshCover, crate::scene::Mesh) {
     let mesh = crate::scene::primitives::torus_knot(2, 3, 96, 8);
-    let tris: Vec<_> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
-    let bvh = Bvh::build(&tris, &BuildOptions::default());
-    let corners = |slot: u32| tris[bvh.prim_indices[slot as usize] as usize];
-    (MeshCover::of_tree(&bvh.nodes, corners, mesh.bounds()), mesh)
+    (cover(&mesh), mesh)
 }
 
 #[test]
