@@ -79,14 +79,18 @@ void add_to_path_key(inout uint key, uint surface, float throughput) {
 }
 
 // The colour (or AOV) of one camera sample at `pos` (pixel units, row 0 at the top), and
-// the key of the surfaces along its path (adaptive sampling's edge test). `sample_seed`
-// seeds the AO view's rays.
-vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec2 cost, inout uint key) {
+// with `keyed` (adaptive sampling's pre-pass) the key of the surfaces along its path (the
+// edge test). `sample_seed` seeds the AO view's rays.
+//
+// What the loop carries from bounce to bounce is kept small: the kernels that walk a top
+// level were at 128 registers, and a lane's state across the bounces' traversals is what
+// put them there (an AOV's value set only as the loop ends, not carried; the throughput
+// one float, since a mirror scales every channel alike; the key's code gone from the
+// frame's calls). Returns inside the loop instead of breaks cost the AO view 3% on the H200.
+vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, bool keyed, inout uvec2 cost, inout uint key) {
     uint width = frame.dims.x;
     uint height = frame.dims.y;
     uint flags = frame.dims.w;
-    // Only the adaptive pre-pass needs the path key.
-    bool keyed = (flags & FLAG_ID_PASS) != 0u;
     vec2 ndc = vec2(pos.x / float(width) * 2.0 - 1.0, 1.0 - pos.y / float(height) * 2.0);
     vec3 o = frame.cam_origin_eps.xyz;
     vec3 d = normalize(frame.cam_forward_blend.xyz + ndc.x * frame.cam_right_ambient.xyz + ndc.y * frame.cam_up.xyz);
@@ -100,13 +104,15 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
     float path_length = 0.0;
 
     vec3 color = vec3(0.0);
-    vec3 throughput = vec3(1.0);
+    float throughput = 1.0;
+    // An AOV's value, set only just before the loop ends, so that it is no state the loop
+    // carries (the cost view's colour, and a single-value AOV's miss, keep this one).
     vec4 aux = vec4(-1.0, -1.0, -1.0, 0.0);
 
     for (uint bounce = 0u; bounce <= bounces; bounce++) {
         Hit hit = closest_hit(o, d, use_bvh, cost);
         if (hit.tri == EMPTY) {
-            if (keyed) add_to_path_key(key, EMPTY, throughput.x);
+            if (keyed) add_to_path_key(key, EMPTY, throughput);
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
             color += throughput * miss;
             if (bounce == 0u && aov == AOV_NORMAL) aux = vec4(0.0);
@@ -115,7 +121,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
 #endif
             break;
         }
-        if (keyed) add_to_path_key(key, surface_key(hit), throughput.x);
+        if (keyed) add_to_path_key(key, surface_key(hit), throughput);
         path_length += hit.t;
         Triangle tri = load_triangle(hit.tri);
         Instance inst = instances[hit.instance];
@@ -153,6 +159,20 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
             break;
         }
 #endif
+        // The single-value AOVs trace no bounce: their value is the first hit's.
+        if (aov == AOV_DEPTH) {
+            aux = vec4(hit.t, hit.t, hit.t, 1.0);
+            break;
+        }
+        if (aov == AOV_NORMAL) {
+            aux = vec4(ns, 1.0);
+            break;
+        }
+        if (aov == AOV_PRIM_ID) {
+            float prim = float(triangle_prim(hit.tri) + meshes[inst.offsets.w].y);
+            aux = vec4(prim, prim, prim, 1.0);
+            break;
+        }
         TriangleShading sh = shading[hit.tri];
         Material mat = materials[sh.material];
         vec3 kd = mat.diffuse_mirror.rgb;
@@ -187,12 +207,6 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, inout uvec
                                  n2 * side, point_to_object(inst, p),
                                  point_to_object(inst, frame.light_pos.xyz));
         vec3 local_color = blinn_phong(kd, mat, l, ns, lit, -d);
-        if (bounce == 0u) {
-            uint prim = triangle_prim(hit.tri) + meshes[inst.offsets.w].y;
-            if (aov == AOV_DEPTH) aux = vec4(hit.t, hit.t, hit.t, 1.0);
-            if (aov == AOV_NORMAL) aux = vec4(ns, 1.0);
-            if (aov == AOV_PRIM_ID) aux = vec4(float(prim), float(prim), float(prim), 1.0);
-        }
         float r = blend * mat.diffuse_mirror.a;
         if (bounce == bounces) {
             color += throughput * local_color;
@@ -246,7 +260,7 @@ uint trace_pixel(uvec2 px) {
         // The key of the path through the pixel centre: primary hit and mirror bounces.
         uvec2 unused_cost = uvec2(0u);
         uint key = 0u;
-        trace_sample(vec2(px) + 0.5, AOV_COLOR, 0u, use_bvh, unused_cost, key);
+        trace_sample(vec2(px) + 0.5, AOV_COLOR, 0u, use_bvh, true, unused_cost, key);
         prim_ids[pixel] = key;
         return 0u;
     }
@@ -265,6 +279,14 @@ uint trace_pixel(uvec2 px) {
         bool edge = l != id || r != id || u != id || dn != id;
         if (!edge) spp = 1u;
     }
+#ifdef WIDE_ONLY
+    // The wide kernels trace one sample a pixel; frames of more run the full kernel
+    // (trace_kernels::variant). Without the sample loop's state live across the trace, the
+    // wide kernels that walk a top level take 96 registers instead of 128, and 5 work groups
+    // fit an SM instead of 4: the model series 3-6% faster on the H200 (docs/BENCHMARKS.md,
+    // "Thirty-fifth session").
+    spp = 1u;
+#endif
     // The paper's single ray through the centre unless several samples are asked for.
     bool jitter = !single_value && (spp > 1u || frame_index > 0u);
 
@@ -279,7 +301,7 @@ uint trace_pixel(uvec2 px) {
             uint seed = sample_seed;
             offset = vec2(random01(seed), random01(seed));
         }
-        sum += trace_sample(vec2(px) + offset, aov, sample_seed, use_bvh, cost, key);
+        sum += trace_sample(vec2(px) + offset, aov, sample_seed, use_bvh, false, cost, key);
     }
     vec4 value = sum / float(spp);
 

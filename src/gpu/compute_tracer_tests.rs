@@ -92,6 +92,26 @@ fn wide_frames_run_the_wide_kernel_where_every_mesh_has_a_wide_tree() {
 }
 
 #[test]
+fn wide_frames_of_several_samples_run_the_full_kernel_as_the_cpu_traces_them() {
+    // The wide kernel traces one sample a pixel (its sample loop left out for registers).
+    let (ctx, scene) = knots_in_the_box();
+    let packed = PackedScene::with_layouts(&scene, Layouts::Both);
+    let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    let settings = RenderSettings { spp: 4, ..small_frame(&scene, BvhLayout::Wide).settings };
+    let frame = FrameParams::new(&scene, settings);
+    let (gpu, _) = tracer.render(&frame).unwrap();
+    assert!(!tracer.pass.made(Variant::Wide), "four samples a pixel: the full kernel");
+    let over = gpu.compare(&crate::tracer::cpu::render(&packed, &frame), 1e-4).fraction_over;
+    assert!(over <= 0.002, "GPU as CPU at 4 spp ({over})");
+    let one = FrameParams::new(&scene, RenderSettings { spp: 1, ..settings });
+    let (single, _) = tracer.render(&one).unwrap();
+    assert!(tracer.pass.made(Variant::Wide), "one sample a pixel: the wide kernel");
+    assert!(gpu.compare(&single, 1e-4).fraction_over > 0.0, "the samples were averaged");
+    drop(tracer);
+    assert!(ctx.validation_messages().is_empty(), "{:?}", ctx.validation_messages());
+}
+
+#[test]
 fn a_scene_of_one_instance_runs_the_one_instance_kernels_as_the_cpu_traces_it() {
     let cases = [
         (BvhLayout::Wide, Aov::Color, Variant::Wide),

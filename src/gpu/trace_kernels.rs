@@ -109,13 +109,15 @@ pub(crate) fn runs_one_instance(pc: &PushConstants, one_instance: bool) -> bool 
 
 /// The kernel for a frame of these push-constant flags (`PushConstants::dims[3]`) over a
 /// scene whose every mesh has a wide tree or not (a mesh without one needs the binary
-/// traversal, which the wide kernel lacks).
+/// traversal, which the wide kernel lacks). The wide kernel traces one sample a pixel, so
+/// frames of more (`--spp`) run the full kernel.
 pub(crate) fn variant(flags: u32, every_mesh_wide: bool) -> Variant {
     let ao = (flags >> contract::AOV_SHIFT) & contract::AOV_MASK == contract::AOV_AO;
     let wide = flags & contract::FLAG_BVH != 0 && flags & contract::FLAG_WIDE != 0;
+    let one_sample = (flags >> contract::SPP_SHIFT) & contract::SPP_MASK <= 1;
     if flags & contract::FLAG_LEAF_RUNS != 0 && wide {
         Variant::Runs
-    } else if wide && every_mesh_wide && !ao {
+    } else if wide && every_mesh_wide && !ao && one_sample {
         Variant::Wide
     } else if ao || flags & contract::FLAG_WIDE != 0 {
         Variant::Full
@@ -473,5 +475,10 @@ mod tests {
         assert_eq!(variant(bvh | wide, false), Variant::Full);
         // Brute force with the wide flag (not a BVH frame) keeps the full kernel.
         assert_eq!(variant(wide, true), Variant::Full);
+        // The wide kernel traces one sample a pixel: more run the full kernel.
+        let spp = |n: u32| n << contract::SPP_SHIFT;
+        assert_eq!(variant(bvh | wide | spp(1), true), Variant::Wide);
+        assert_eq!(variant(bvh | wide | spp(2), true), Variant::Full);
+        assert_eq!(variant(bvh | wide | spp(4) | contract::FLAG_ADAPTIVE, true), Variant::Full);
     }
 }
