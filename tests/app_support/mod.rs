@@ -317,16 +317,55 @@ pub fn f12(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> image::Rgba
 
 /// The file of the newest F12 screenshot after pressing F12 (it carries its preset), left
 /// in `dir`.
+///
+/// F12 is pressed once, and again only if no shot came for a while (a frame on a loaded
+/// lavapipe can take that long). A press while a shot waits for the frame's end is that
+/// shot, but one after it is saved asks for another: so after a second press the shots
+/// are let land before the newest is taken and the older new ones removed. Pressing every
+/// 0.7 s left such late shots behind, which a test's next F12 then took for its own.
 pub fn f12_file(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> PathBuf {
-    let before = pngs(dir, "meshtracer_").len();
-    wait_until(Duration::from_secs(90), "an F12 screenshot", || {
-        app.assert_alive();
-        press(&x.display, window, &["F12"]);
-        std::thread::sleep(Duration::from_millis(700));
-        let all: Vec<_> = pngs(dir, "meshtracer_")
+    const AGAIN_AFTER: Duration = Duration::from_secs(20);
+    const QUIET: Duration = Duration::from_secs(5);
+    let trace_shots = || -> Vec<PathBuf> {
+        pngs(dir, "meshtracer_")
             .into_iter()
             .filter(|p| !p.to_string_lossy().ends_with("_window.png"))
-            .collect();
-        (all.len() > before).then(|| all.last().cloned()).flatten()
-    })
+            .collect()
+    };
+    let before = trace_shots();
+    let new_shots =
+        || -> Vec<PathBuf> { trace_shots().into_iter().filter(|p| !before.contains(p)).collect() };
+    let start = Instant::now();
+    let mut presses = 0;
+    let mut pressed_at = start;
+    while new_shots().is_empty() {
+        app.assert_alive();
+        if presses == 0 || pressed_at.elapsed() >= AGAIN_AFTER {
+            press(&x.display, window, &["F12"]);
+            presses += 1;
+            pressed_at = Instant::now();
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(90),
+            "timed out waiting for an F12 screenshot"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    if presses > 1 {
+        let (mut count, mut since) = (new_shots().len(), Instant::now());
+        while since.elapsed() < QUIET && start.elapsed() < Duration::from_secs(150) {
+            app.assert_alive();
+            std::thread::sleep(Duration::from_millis(300));
+            let now = new_shots().len();
+            if now != count {
+                (count, since) = (now, Instant::now());
+            }
+        }
+    }
+    let mut shots = new_shots();
+    let newest = shots.pop().expect("a new shot");
+    for older in shots {
+        std::fs::remove_file(older).unwrap();
+    }
+    newest
 }
