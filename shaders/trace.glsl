@@ -283,7 +283,7 @@ uint trace_pixel(uvec2 px) {
     // The wide kernels trace one sample a pixel; frames of more run the full kernel
     // (trace_kernels::variant). Without the sample loop's state live across the trace, the
     // wide kernels that walk a top level take 96 registers instead of 128, and 5 work groups
-    // fit an SM instead of 4: the model series 3-6% faster on the H200 (docs/BENCHMARKS.md,
+    // fit an SM instead of 4: the model series 4-6% faster on the H200 (docs/BENCHMARKS.md,
     // "Thirty-fifth session").
     spp = 1u;
 #endif
