@@ -139,14 +139,7 @@ fn keys_take_screenshots_and_change_parameters() {
     let window = wait_for_window(&x.display, &mut app);
 
     // F12 until the traced image appears in the screenshot folder (the model may still be loading).
-    let shot = wait_until(Duration::from_secs(90), "an F12 screenshot", || {
-        app.assert_alive();
-        press(&x.display, &window, &["F12"]);
-        std::thread::sleep(Duration::from_millis(700));
-        pngs(dir.path(), "meshtracer_")
-            .into_iter()
-            .find(|p| !p.to_string_lossy().ends_with("_window.png"))
-    });
+    let shot = f12_file(&x, &window, dir.path(), &mut app);
     let name = shot.file_name().unwrap().to_string_lossy().to_string();
     assert!(name.contains("_geosphere_x1_128x128_b2_blend0.50"), "{name}");
     let before = headless_render(dir.path(), &SCENE, "ref2.png");
