@@ -242,10 +242,27 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
 // A top-level stack entry that is an instance to visit rather than a node.
 const uint TOP_LEAF = 0x80000000u;
 
+// The barycentrics (u, v) of `q`, a face point in its face's unit square, in the face
+// triangle whose corners `code` names (three 2-bit codes, v0's lowest: bit 0 set where the
+// corner sits at the box's max along the face's first in-plane axis, bit 1 along its
+// second). Half the unit square, so the edges' determinant is 1 or -1, its own inverse.
+// Mirrors face_barycentrics in src/tracer/enclosure.rs.
+vec2 face_barycentrics(vec2 q, uint code) {
+    vec2 c0 = vec2(float(code & 1u), float((code >> 1u) & 1u));
+    vec2 e1 = vec2(float((code >> 2u) & 1u), float((code >> 3u) & 1u)) - c0;
+    vec2 e2 = vec2(float((code >> 4u) & 1u), float((code >> 5u) & 1u)) - c0;
+    vec2 w = q - c0;
+    float det = e1.x * e2.y - e1.y * e2.x;
+    return vec2(w.x * e2.y - w.y * e2.x, e1.x * w.y - e1.y * w.x) * det;
+}
+
 // The scene's enclosure tested as a closed box, `e` its record (src/tracer/enclosure.rs:
-// EnclosureRecord): from inside, the slab test names the face the ray leaves by, and only
-// that face's two triangles are tested (all twelve where rounding lets the ray slip between
-// them, or where the ray starts outside). Returns false where the record is no closed box:
+// EnclosureRecord): from inside, the slab test names the face the ray leaves by and its
+// distance, and the point's place on the face names the face's triangle and gives its
+// barycentrics, so no triangle is tested and a ray cannot slip between the two
+// (ClosedBox::exit on the CPU; testing the face's two triangles made the model series
+// 2-8% slower on the H200). A ray from the plane it leaves by (t = 0) meets no wall.
+// From outside, all twelve are tested. Returns false where the record is no closed box:
 // the walk then visits the enclosure as any instance. `blocked`: an occlusion query is
 // blocked.
 bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, inout uvec2 cost, out bool blocked) {
@@ -258,26 +275,41 @@ bool closed_box_hit(BvhNode e, vec3 o, vec3 d, bool occlusion, inout Hit hit, in
     vec3 ld = vector_to_object(inst, d);
     uint first = inst.offsets.y;
     uint before = hit.tri;
-    bool all = any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz));
-    if (!all) {
-        bvec3 up = greaterThanEqual(ld, vec3(0.0));
-        vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
-        uint axis = (t3.x <= t3.y && t3.x <= t3.z) ? 0u : (t3.y <= t3.z ? 1u : 2u);
-        // The wall beyond what was found (or an occlusion query's reach): nothing to test.
-        if (t3[axis] > hit.t * 1.0001) return true;
-        uint face = 2u * axis + (up[axis] ? 1u : 0u);
-        uint pair = face < 4u ? faces_low >> (8u * face) : floatBitsToUint(e.right_min.x) >> (8u * (face - 4u));
-        intersect_triangle(lo, ld, first + (pair & 15u), hit);
-        intersect_triangle(lo, ld, first + ((pair >> 4u) & 15u), hit);
-        cost.y += 2u;
-        all = hit.tri == before;
-    }
-    // From outside, or slipped between the face's triangles: all twelve, in order (a plain
-    // loop: lavapipe's compiler takes minutes over a kernel with more inlined copies of
-    // brute_force's unrolled one).
-    if (all) {
+    if (any(lessThan(lo, e.left_min.xyz)) || any(greaterThan(lo, e.left_max.xyz))) {
+        // From outside: all twelve, in order (a plain loop: lavapipe's compiler takes
+        // minutes over a kernel with more inlined copies of brute_force's unrolled one).
         for (uint k = 0u; k < 12u; k++) intersect_triangle(lo, ld, first + k, hit);
         cost.y += 12u;
+    } else {
+        bvec3 up = greaterThanEqual(ld, vec3(0.0));
+        vec3 t3 = (mix(e.left_min.xyz, e.left_max.xyz, up) - lo) * safe_inverse(ld);
+        // Selects, not indexing by axis: a vector indexed by a variable goes to local
+        // memory (64 more bytes a lane here, 3% slower on the H200).
+        bool x = t3.x <= t3.y && t3.x <= t3.z;
+        bool y = !x && t3.y <= t3.z;
+        float t = x ? t3.x : (y ? t3.y : t3.z);
+        // The wall beyond what was found (or an occlusion query's reach): nothing to test.
+        if (t > hit.t * 1.0001) return true;
+        cost.y += 1u;
+        if (t > 0.0 && t < hit.t) {
+            uint axis = x ? 0u : (y ? 1u : 2u);
+            uint face = 2u * axis + ((x ? up.x : (y ? up.y : up.z)) ? 1u : 0u);
+            uint pair = face < 4u ? faces_low >> (8u * face) : floatBitsToUint(e.right_min.x) >> (8u * (face - 4u));
+            uint codes = floatBitsToUint(x ? e.right_min.y : (y ? e.right_min.z : e.right_min.w)) >> (16u * (face & 1u));
+            // right_max: 1 / the box's extent. The face's in-plane axes: the next two.
+            vec3 rel = (lo + ld * t - e.left_min.xyz) * e.right_max.xyz;
+            vec2 q = clamp(x ? rel.yz : (y ? rel.zx : rel.xy), vec2(0.0), vec2(1.0));
+            vec2 uv = face_barycentrics(q, codes & 63u);
+            uint slot = pair & 15u;
+            if (uv.x < 0.0 || uv.y < 0.0 || uv.x + uv.y > 1.0) {
+                uv = face_barycentrics(q, (codes >> 6u) & 63u);
+                slot = (pair >> 4u) & 15u;
+            }
+            hit.t = t;
+            hit.u = uv.x;
+            hit.v = uv.y;
+            hit.tri = first + slot;
+        }
     }
     if (hit.tri != before) {
         hit.instance = i;

@@ -1,13 +1,11 @@
 //! The CPU tracer's walk over the instances: the top level, then each instance's mesh in
 //! its own space (the shader's `trace_instances` and `visit_instance`).
 
-use glam::Vec3;
-
 use super::{CpuScene, SceneHit};
 use crate::bvh::wide::WideNode;
 use crate::bvh::{self, TraversalStats};
 use crate::contract::EMPTY;
-use crate::geometry::{intersect_triangle, safe_inverse, Ray};
+use crate::geometry::{intersect_triangle, Ray};
 use crate::render_settings::{Accel, BvhLayout};
 use crate::tracer::enclosure::EnclosureRecord;
 use crate::tracer::packed::GpuInstance;
@@ -77,9 +75,10 @@ impl CpuScene<'_> {
     }
 
     /// The enclosure of `record` tested as a closed box (the shader's `closed_box_hit`):
-    /// from inside, the two triangles of the face the ray leaves by (all twelve where
-    /// rounding lets the ray slip between them, or from outside). None where it is no
-    /// closed box; Some(None) for no hit in (0, t_max).
+    /// from inside, the face the ray leaves by, found without testing a triangle
+    /// ([`ClosedBox::exit`](crate::tracer::enclosure::ClosedBox::exit)); from outside,
+    /// all twelve triangles. None where it is no closed box; Some(None) for no hit in
+    /// (0, t_max).
     fn closed_box_hit(
         &self,
         record: &EnclosureRecord,
@@ -92,49 +91,35 @@ impl CpuScene<'_> {
         let (min, max) = (closed.bounds.min, closed.bounds.max);
         let origin = inst.point_to_object(ray.origin);
         let dir = inst.vector_to_object(ray.dir);
-        let local = Ray::new(origin, dir);
         let base = inst.triangle_base as usize;
-        let mut best = None;
-        let mut test = |k: usize| {
-            let [v0, e1, e2] = self.edges[base + k];
-            let t = best.as_ref().map_or(t_max, |b: &SceneHit| b.t);
-            if let Some(h) = intersect_triangle(&local, v0, e1, e2, 0.0, t) {
-                let triangle = (base + k) as u32;
-                best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle, instance: 0 });
-            }
-            best.is_some()
-        };
         if origin.cmplt(min).any() || origin.cmpgt(max).any() {
             // From outside: all twelve, as the shader's brute force.
+            let local = Ray::new(origin, dir);
+            let mut best = None;
             for k in 0..12 {
-                test(k);
+                let [v0, e1, e2] = self.edges[base + k];
+                let t = best.as_ref().map_or(t_max, |b: &SceneHit| b.t);
+                if let Some(h) = intersect_triangle(&local, v0, e1, e2, 0.0, t) {
+                    let triangle = (base + k) as u32;
+                    best = Some(SceneHit { t: h.t, u: h.u, v: h.v, triangle, instance: 0 });
+                }
             }
             stats.triangles += 12;
             return Some(best);
         }
-        let up = dir.cmpge(Vec3::ZERO);
-        let t3 = (Vec3::select(up, max, min) - origin) * safe_inverse(dir);
-        let axis = if t3.x <= t3.y && t3.x <= t3.z {
-            0
-        } else if t3.y <= t3.z {
-            1
-        } else {
-            2
-        };
-        if t3[axis] > t_max * 1.0001 {
-            return Some(None); // the wall lies beyond
-        }
-        let face = 2 * axis + usize::from(up.test(axis));
-        let hits = closed.faces[face].map(|k| test(usize::from(k)));
-        stats.triangles += 2;
-        if hits == [false; 2] {
-            // Slipped between the face's triangles: all twelve, as the shader's brute force.
-            for k in 0..12 {
-                test(k);
+        match closed.exit(origin, dir) {
+            Some(exit) if exit.t > t_max * 1.0001 => Some(None), // the wall lies beyond
+            exit => {
+                stats.triangles += 1;
+                Some(exit.filter(|e| e.t < t_max).map(|e| SceneHit {
+                    t: e.t,
+                    u: e.u,
+                    v: e.v,
+                    triangle: (base + usize::from(e.slot)) as u32,
+                    instance: 0,
+                }))
             }
-            stats.triangles += 12;
         }
-        Some(best)
     }
 
     /// One instance's mesh along `ray` in (0, t_max), in the mesh's space (the shader's
