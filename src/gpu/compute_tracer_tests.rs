@@ -335,7 +335,11 @@ fn round_copies_run_the_wide_kernels_sphere_twin_and_every_kernel_as_the_cpu_tra
     let (scene, _) = spec.load().unwrap();
     let packed = PackedScene::with_layouts(&scene, Layouts::Both);
     assert!(packed.top_level.has_spheres, "geospheres' leaves are spheres");
+    assert!(crate::tracer::top_level::spheres_before_loading(&spec), "and foreseen");
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
+    // `render` makes the twin beside the load, and not the wide kernel it would not run.
+    tracer.make_kernel_for(&small_frame(&scene, BvhLayout::Wide).settings, false, true);
+    assert!(tracer.pass.made_wide_spheres() && !tracer.pass.made(Variant::Wide));
     // The wide kernel's sphere twin, the core kernel (binary) and the full one (AO), which
     // test sphere leaves always.
     for (bvh, aov) in [

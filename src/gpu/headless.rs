@@ -107,7 +107,9 @@ fn load_beside_device(
             if let Some(kernel) = on.vendor_kernel {
                 tracer.set_vendor_kernel(kernel)?;
             }
-            tracer.make_kernel_for(&spec.settings, spec.is_one_instance_before_loading());
+            let one_instance = spec.is_one_instance_before_loading();
+            let spheres = crate::tracer::top_level::spheres_before_loading(spec);
+            tracer.make_kernel_for(&spec.settings, one_instance, spheres);
             log::debug!("{:.3} s: kernels made", clock.elapsed().as_secs_f64());
             Ok(tracer)
         });

@@ -196,11 +196,11 @@ impl KernelVariants {
         })
     }
 
-    /// Make the kernel of `v` (its `ONE_INSTANCE` twin with `one_instance`) now if it is
-    /// one made on first use, so that a caller with other work to overlap can pay for the
-    /// driver's compiler early.
-    pub(crate) fn make_now(&self, v: Variant, one_instance: bool) {
-        self.made_for(v, one_instance, false);
+    /// Make the kernel of `v` (its `ONE_INSTANCE` twin with `one_instance`, its twin for
+    /// sphere leaves with `spheres`) now if it is one made on first use, so that a caller
+    /// with other work to overlap can pay for the driver's compiler early.
+    pub(crate) fn make_now(&self, v: Variant, one_instance: bool, spheres: bool) {
+        self.made_for(v, one_instance, spheres);
     }
 
     /// The kernel of `v` (or a twin: for one instance, or for sphere leaves) made on first

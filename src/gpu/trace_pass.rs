@@ -488,9 +488,9 @@ impl TracePass {
 
     /// Make the kernel of `v` now rather than at the first frame that runs it
     /// (`KernelVariants::make_now`).
-    pub(crate) fn make_kernel_now(&self, v: Variant, one_instance: bool) {
+    pub(crate) fn make_kernel_now(&self, v: Variant, one_instance: bool, spheres: bool) {
         if let Some(variants) = &self.variants {
-            variants.make_now(v, one_instance);
+            variants.make_now(v, one_instance, spheres);
         }
     }
 

@@ -17,10 +17,23 @@ use super::records::{GpuInstance, GpuMesh};
 use crate::bvh::{BuildOptions, Bvh, BvhChild, BvhNode, LeafBox};
 use crate::contract::{EMPTY, TOP_SPHERE};
 use crate::geometry::Aabb;
+use crate::scene::paper::ModelSource;
+use crate::scene::spec::SceneSpec;
 use crate::scene::Instance;
 
 mod cover;
 mod walk;
+
+/// Whether the top level of `spec`'s scene will have sphere leaves ([`TOP_SPHERE`]), as far
+/// as is known before its model is loaded: several copies of a model made in code that is
+/// round (the paper's geosphere and sphere). `render` makes the wide kernel's twin for
+/// them beside the load. A file's meshes are known only once read (false).
+pub(crate) fn spheres_before_loading(spec: &SceneSpec) -> bool {
+    match spec.model {
+        ModelSource::Paper(model) => spec.models > 1 && cover::is_round(&model.mesh()),
+        ModelSource::File(_) | ModelSource::Generated(_) => false,
+    }
+}
 pub(crate) use cover::MeshCover;
 pub(crate) use walk::{walk, Target, Visit};
 

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use crate::bvh::{BvhChild, BvhNode};
 use crate::geometry::Aabb;
+use crate::scene::Mesh;
 
 /// Cells along a side of a face of the cube of directions.
 const CELLS: usize = 8;
@@ -231,12 +232,31 @@ fn bounding_sphere(
     let center = (bounds.min + bounds.max) * 0.5;
     let box_far = |b: &Aabb| (b.min - center).abs().max((b.max - center).abs()).length_squared();
     let radius = farthest(nodes, corners, box_far, |c| (c - center).length_squared()).sqrt();
-    let radius = radius * (1.0 + 1e-5) + 1e-6 * center.abs().max_element();
+    let radius = padded(radius, center);
     if tight_enough(radius, &bounds) {
         [center.x, center.y, center.z, radius]
     } else {
         [0.0; 4]
     }
+}
+
+/// The radius through the farthest corner from `center`, padded for rounding.
+fn padded(radius: f32, center: Vec3) -> f32 {
+    radius * (1.0 + 1e-5) + 1e-6 * center.abs().max_element()
+}
+
+/// Whether `mesh` gets a bounding sphere ([`bounding_sphere`], from its corners without a
+/// tree): known before its tree is built, for the kernel a scene of its copies will run.
+pub(crate) fn is_round(mesh: &Mesh) -> bool {
+    let bounds = mesh.bounds();
+    if mesh.triangles.is_empty() || bounds.is_empty() {
+        return false;
+    }
+    let center = (bounds.min + bounds.max) * 0.5;
+    let far = (0..mesh.triangle_count())
+        .flat_map(|i| mesh.corners(i))
+        .fold(0.0f32, |far, c| far.max((c - center).length_squared()));
+    tight_enough(padded(far.sqrt(), center), &bounds)
 }
 
 /// Whether a sphere of `radius` has an outline at most [`SPHERE_MOST_OUTLINE`] of the box
