@@ -290,12 +290,17 @@ fn sah_cost(nodes: &[BvhNode]) -> f64 {
     1.0 + children.iter().map(|c| area(c) / root_area).sum::<f64>()
 }
 
+/// The sphere (`[centre, radius]`) a sphere leaf holds, as [`fit_spheres`] wrote it (the
+/// centre in the min corner, the radius in the max's x); None for any other child.
+pub(crate) fn leaf_sphere(child: &BvhChild) -> Option<[f32; 4]> {
+    let [x, y, z] = child.bounds.min.to_array();
+    (child.count == TOP_SPHERE).then_some([x, y, z, child.bounds.max.x])
+}
+
 /// The box of a top-level child: its own, or a sphere leaf's cube around the sphere.
 fn outer_box(child: &BvhChild) -> Aabb {
-    if child.count != TOP_SPHERE {
-        return child.bounds;
-    }
-    let (centre, radius) = (child.bounds.min, child.bounds.max.x);
+    let Some([x, y, z, radius]) = leaf_sphere(child) else { return child.bounds };
+    let centre = glam::Vec3::new(x, y, z);
     Aabb { min: centre - radius, max: centre + radius }
 }
 

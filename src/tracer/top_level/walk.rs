@@ -5,7 +5,6 @@
 use glam::Vec3;
 
 use crate::bvh::{BvhChild, BvhNode, TraversalStats};
-use crate::contract::TOP_SPHERE;
 use crate::geometry::{safe_inverse, Ray};
 use crate::tracer::enclosure::EnclosureRecord;
 
@@ -36,9 +35,10 @@ pub(crate) enum Target<'a> {
 }
 
 /// Walk the tree for `ray` in (0, `t_max`), calling `visit(Target::Instance(i), t_max)` for
-/// every instance whose box (or sphere, [`TOP_SPHERE`]) the ray meets before the closest hit
-/// so far, as the shader's `trace_instances` does: of a node's two children the nearer next, the farther pushed
-/// with its entry distance and dropped when popped if a hit found since ends before it.
+/// every instance whose box (or sphere, [`crate::contract::TOP_SPHERE`]) the ray meets
+/// before the closest hit so far, as the shader's `trace_instances` does: of a node's two
+/// children the nearer next, the farther pushed with its entry distance and dropped when
+/// popped if a hit found since ends before it.
 /// An enclosure (the root's left child, `TOP_ENCLOSURE`) comes first, offered as a
 /// [`Target::ClosedBox`], then the tree over the others (the root's right child); but a
 /// single instance inside a closed box comes before the box, as the `ONE_INSTANCE`
@@ -125,9 +125,8 @@ pub(crate) fn walk(
 fn entry(child: &BvhChild, ray: &Ray, inv_dir: Vec3, t_max: f32) -> Option<f32> {
     if child.is_empty() {
         None
-    } else if child.count == TOP_SPHERE {
-        let [x, y, z] = child.bounds.min.to_array();
-        sphere_entry(ray, [x, y, z, child.bounds.max.x], t_max)
+    } else if let Some(sphere) = super::leaf_sphere(child) {
+        sphere_entry(ray, sphere, t_max)
     } else {
         child.bounds.intersect(ray, inv_dir, t_max)
     }
