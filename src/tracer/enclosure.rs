@@ -121,9 +121,9 @@ impl ClosedBox {
     /// Where the ray `origin + t dir` (in the box's space, `origin` inside or on it) leaves
     /// the box, if for some t > 0. The face is the slab test's nearest exit plane, t its
     /// distance there, and the point's place on the face picks the triangle and gives its
-    /// barycentrics, so a ray cannot slip between a face's two triangles. None for a ray that starts on the plane it leaves by (t = 0), which
-    /// meets no wall: the other faces lie behind it or beside it. Mirrored step for step by
-    /// the shader's `closed_box_hit`.
+    /// barycentrics, so a ray cannot slip between a face's two triangles. None for a ray
+    /// that starts on the plane it leaves by (t = 0), which meets no wall: the other faces
+    /// lie behind it or beside it. Mirrored step for step by the shader's `closed_box_hit`.
     pub(crate) fn exit(&self, origin: Vec3, dir: Vec3) -> Option<Exit> {
         let (min, max) = (self.bounds.min, self.bounds.max);
         let up = dir.cmpge(Vec3::ZERO);
