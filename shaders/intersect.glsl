@@ -354,7 +354,8 @@ float child_entry(vec4 lo, vec4 hi, vec3 o, vec3 d, vec3 inv_d, float t_max, boo
 // the hits found meanwhile end before it. Brute force stays the paper's: every triangle of
 // every instance, no culling. The one walk for closest hits and, with `any`, occlusion
 // (true at the first blocking instance); visit_instance is called in one place only, so
-// the traversals it holds are compiled once per query.
+// the traversals it holds are compiled once per query. Instance `skip` (EMPTY for none) is
+// never visited: a convex mesh the ray leaves from outside (tracer/convex.rs).
 #ifdef ONE_INSTANCE
 // The kernel for scenes of one instance (a model alone, or inside a closed-box enclosure
 // such as the mirror box; TracePass picks it for their BVH frames): the top level's root
@@ -363,7 +364,7 @@ float child_entry(vec4 lo, vec4 hi, vec3 o, vec3 d, vec3 inv_d, float t_max, boo
 // visit) cost a model alone 3-5% and a model in the box 8-9% on the H200 (twenty-seventh
 // and twenty-eighth sessions); a loop of two visits (the box visited through its tree)
 // cost more than the walk.
-bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
+bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hit hit, inout uvec2 cost) {
     if (frame.misc.x == 0u) return false;
     uint leaf = 0u;
     if (use_bvh) {
@@ -379,8 +380,12 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
         leaf = floatBitsToUint(left ? n.left_min.w : n.right_min.w);
         vec3 lo = left ? n.left_min.xyz : n.right_min.xyz;
         vec3 hi = left ? n.left_max.xyz : n.right_max.xyz;
-        if (slab(lo, hi, o, safe_inverse(d), hit.t) < INF) {
-            if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+        // Nested ifs, not &&: naga's GLSL front end evaluates both sides of && and ||, so
+        // a visit on the right would run even where the left is false.
+        if (leaf != skip) {
+            if (slab(lo, hi, o, safe_inverse(d), hit.t) < INF) {
+                if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+            }
         }
         bool blocked = false;
         if (enclosed) closed_box_hit(top_nodes[floatBitsToUint(n.left_min.w)], o, d, any, hit, cost, blocked);
@@ -390,7 +395,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
     return any && found;
 }
 #else
-bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inout uvec2 cost) {
+bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hit hit, inout uvec2 cost) {
     uint count = frame.misc.x;
     if (count == 0u) return false;
     vec3 inv_d = safe_inverse(d);
@@ -474,22 +479,26 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hit, inou
             }
         }
         if (leaf == EMPTY) break;
-        if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+        // Not `leaf != skip && visit_instance(...)`: naga evaluates both sides of &&.
+        if (leaf != skip) {
+            if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
+        }
     }
     return false;
 }
 #endif
 
-// The closest hit over all instances in (0, inf).
-Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+// The closest hit over all instances in (0, inf), but instance `skip` (EMPTY for none),
+// which the ray cannot meet.
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, uint skip, inout uvec2 cost) {
     Hit hit = no_hit(INF);
-    trace_instances(o, d, false, use_bvh, hit, cost);
+    trace_instances(o, d, false, use_bvh, skip, hit, cost);
     return hit;
 }
 
-// Whether any instance has a triangle along the ray in (0, t_max): the AO view's
-// occlusion query.
-bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
+// Whether any instance but `skip` has a triangle along the ray in (0, t_max): the AO
+// view's occlusion query.
+bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, uint skip, inout uvec2 cost) {
     Hit hit = no_hit(t_max);
-    return trace_instances(o, d, true, use_bvh, hit, cost);
+    return trace_instances(o, d, true, use_bvh, skip, hit, cost);
 }

@@ -89,8 +89,9 @@ layout(std430, set = 0, binding = 4) readonly buffer Instances { Instance instan
 // instance each, the leaf index an index into instances[]).
 layout(std430, set = 0, binding = 20) readonly buffer TopNodes { BvhNode top_nodes[]; };
 // Per mesh, what the traversal does not read (src/tracer/records.rs: GpuMesh): x its
-// triangle slots (brute force), y its prim-id base.
-layout(std430, set = 0, binding = 21) readonly buffer Meshes { uvec2 meshes[]; };
+// triangle slots (brute force), y its prim-id base, z its convexity (CONVEX_OUTWARD,
+// CONVEX_INWARD or 0; tracer/convex.rs).
+layout(std430, set = 0, binding = 21) readonly buffer Meshes { uvec4 meshes[]; };
 layout(std430, set = 0, binding = 5) buffer OutRgba8 { uint out_rgba8[]; };
 layout(std430, set = 0, binding = 6) buffer OutFloat { vec4 out_float[]; };
 // All textures' mip chains, RGBA8 (src/tracer/textures.rs), and where each one starts.

@@ -5,8 +5,9 @@
 // accumulation, and adaptive sampling on edges seen directly or in the mirrors.
 // The CPU twin is src/tracer/cpu.rs.
 //
-// The includer declares the scene (scene.glsl), `Hit closest_hit(o, d, use_bvh, cost)` and
-// the AO view's occlusion query `bool any_hit(o, d, t_max, use_bvh, cost)`: our BVH or brute
+// The includer declares the scene (scene.glsl), `Hit closest_hit(o, d, use_bvh, skip, cost)`
+// and the AO view's occlusion query `bool any_hit(o, d, t_max, use_bvh, skip, cost)`
+// (`skip`: an instance the ray cannot meet, or EMPTY; left_behind): our BVH or brute
 // force (intersect.glsl, trace.comp) or the driver's traversal (vendor/query.comp,
 // vendor/raygen.rgen), then calls trace_pixel from its entry point.
 
@@ -27,10 +28,11 @@ float random01(inout uint seed) {
 
 // The AO view: the fraction of `frame.light_color.w` (uint bits) cosine-weighted rays
 // around the shading normal ns, leaving from p lifted off the surface along ng (facing the
-// viewer), that meet nothing closer than the radius `frame.light_pos.w`. Each ray's
+// viewer), that meet nothing closer than the radius `frame.light_pos.w`; instance `skip`
+// (left_behind) is not looked at. Each ray's
 // direction depends only on the camera sample's seed and the ray's index, through the PCG
 // hash, so the CPU's CpuScene::ambient_occlusion draws exactly these rays.
-float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh, inout uvec2 cost) {
+float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh, uint skip, inout uvec2 cost) {
     uint rays = floatBitsToUint(frame.light_color.w);
     float radius = frame.light_pos.w;
     vec3 o = p + ng * frame.cam_origin_eps.w;
@@ -51,9 +53,19 @@ float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh
         // A smooth normal may tip a direction under the triangle: mirror it back above.
         float below = dot(d, ng);
         if (below < 0.0) d -= 2.0 * below * ng;
-        if (!any_hit(o, d, radius, use_bvh, cost)) open += 1u;
+        if (!any_hit(o, d, radius, use_bvh, skip, cost)) open += 1u;
     }
     return float(open) / float(max(rays, 1u));
+}
+
+// The instance a ray leaving a hit on instance `instance` (record `inst`) skips: the hit's
+// own where its mesh is convex and the ray met the mesh from outside (`back`: it met the
+// triangle's back, as cross(e1, e2) faces), since it leaves lifted off that side and
+// heading away from the triangle's plane, behind which the whole mesh lies
+// (tracer/convex.rs); else EMPTY. Brute force, the paper's every triangle, skips nothing.
+uint left_behind(Instance inst, uint instance, bool back, bool use_bvh) {
+    uint convex = meshes[inst.offsets.w].z;
+    return use_bvh && convex == (back ? CONVEX_INWARD : CONVEX_OUTWARD) ? instance : EMPTY;
 }
 
 // One surface of a path, for adaptive sampling's edge test: the instance, material and
@@ -109,8 +121,10 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, bool keyed
     // carries (the cost view's colour, and a single-value AOV's miss, keep this one).
     vec4 aux = vec4(-1.0, -1.0, -1.0, 0.0);
 
+    // The instance the next ray cannot meet (left_behind): none for the camera's.
+    uint skip = EMPTY;
     for (uint bounce = 0u; bounce <= bounces; bounce++) {
-        Hit hit = closest_hit(o, d, use_bvh, cost);
+        Hit hit = closest_hit(o, d, use_bvh, skip, cost);
         if (hit.tri == EMPTY) {
             if (keyed) add_to_path_key(key, EMPTY, throughput);
             vec3 miss = (flags & FLAG_ENVIRONMENT) != 0u ? sample_environment(d) : unpackUnorm4x8(frame.misc.z).rgb;
@@ -131,7 +145,8 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, bool keyed
         // by the instance's inverse transpose, which keeps a mirrored mesh's outward side.
         vec3 d_object = vector_to_object(inst, d);
         vec3 ng_object = normalize(cross(tri.e1.xyz, tri.e2.xyz));
-        if (dot(ng_object, d_object) > 0.0) ng_object = -ng_object;  // two-sided
+        bool back = dot(ng_object, d_object) > 0.0;
+        if (back) ng_object = -ng_object;  // two-sided
         vec3 ns_object = ng_object;
         bool smooth_hit = false;
         float side = 1.0;  // the corner normals flipped to the viewer's side
@@ -155,7 +170,8 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, bool keyed
         vec3 ns = normalize(normal_to_world(inst, ns_object));
 #ifndef NO_AO_VIEW
         if (aov == AOV_AO) {
-            aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, cost)), 1.0);
+            uint behind = left_behind(inst, hit.instance, back, use_bvh);
+            aux = vec4(vec3(ambient_occlusion(p, ng, ns, sample_seed, use_bvh, behind, cost)), 1.0);
             break;
         }
 #endif
@@ -221,6 +237,7 @@ vec4 trace_sample(vec2 pos, uint aov, uint sample_seed, bool use_bvh, bool keyed
         if (dot(reflected, ng) <= 0.0) reflected = reflect(d, ng);
         o = p + ng * eps;
         d = reflected;
+        skip = left_behind(inst, hit.instance, back, use_bvh);
     }
     if (aov == AOV_COLOR || aov == AOV_SAMPLES) return vec4(color, 1.0);
     return aux;

@@ -39,6 +39,14 @@ contract! {
     /// place of its box (centre in the min corner, radius in the max corner's x), tested
     /// by the walk before the instance is visited (`top_level.rs`, `fit_spheres`).
     TOP_SPHERE = 3;
+    /// A mesh's convexity (`GpuMesh::convex`): convex, every vertex behind each of its
+    /// triangles' planes as the triangle's winding faces (cross(e1, e2) points out). A ray
+    /// that leaves such a mesh's triangle from outside cannot meet the mesh again, and the
+    /// next ray skips its instance (`tracer/convex.rs`).
+    CONVEX_OUTWARD = 1;
+    /// A mesh's convexity: convex with every triangle wound to face in (cross(e1, e2)
+    /// points into the mesh), as the mirror box's walls are. 0: not known to be convex.
+    CONVEX_INWARD = 2;
 
     // The flag word, `dims.w` of the push constants (`FrameParams::flags`).
 

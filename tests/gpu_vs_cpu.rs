@@ -193,11 +193,15 @@ fn cost_view_counts_brute_force_tests_exactly() {
 fn cost_view_counts_bvh_traversal_like_the_shader() {
     // Both count the same nodes and triangles per pixel (`assert_same_cost`): one model in
     // the box (the one-instance kernel: the model, then the box's wall where it lies before
-    // the model's hit) and two (the walk: the box first).
-    for copies in [1, 2] {
-        let scene = paper(PaperModel::TorusKnot, copies);
-        let (gpu, cpu) = render_both(&scene, RenderSettings { aov: Aov::Cost, ..settings(48, 2) });
-        assert_same_cost(&gpu, &cpu, &format!("{copies} copies"));
-        assert!(cpu.pixels.iter().any(|p| p[0] > 1.0), "the BVH is traversed");
+    // the model's hit) and two (the walk: the box first); the knot, and the geosphere, which
+    // is convex: the bounces off it skip its instance on both (tracer/convex.rs).
+    for model in [PaperModel::TorusKnot, PaperModel::Geosphere] {
+        for copies in [1, 2] {
+            let scene = paper(model, copies);
+            let settings = RenderSettings { aov: Aov::Cost, ..settings(48, 2) };
+            let (gpu, cpu) = render_both(&scene, settings);
+            assert_same_cost(&gpu, &cpu, &format!("{} x{copies}", model.name()));
+            assert!(cpu.pixels.iter().any(|p| p[0] > 1.0), "the BVH is traversed");
+        }
     }
 }

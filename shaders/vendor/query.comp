@@ -9,8 +9,9 @@ layout(local_size_x = 32, local_size_y = 4, local_size_z = 1) in;
 #include "../scene.glsl"
 #include "tlas.glsl"
 
-// `use_bvh` and `cost` are our traversal's: the driver's has no cost to report.
-Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
+// `use_bvh`, `skip` and `cost` are our traversal's: the driver's has no cost to report, and
+// the instance `skip` names holds no hit for the ray anyway (tracer/convex.rs).
+Hit closest_hit(vec3 o, vec3 d, bool use_bvh, uint skip, inout uvec2 cost) {
     rayQueryEXT query;
     rayQueryInitializeEXT(query, scene_tlas, VENDOR_RAY_FLAGS, 0xFFu, o, 0.0, d, INF);
     while (rayQueryProceedEXT(query)) {
@@ -23,7 +24,7 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, inout uvec2 cost) {
 
 // The AO view's occlusion query: the driver stops at the first hit it meets within t_max
 // (any triangle will do, so no closest one is searched for).
-bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, inout uvec2 cost) {
+bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, uint skip, inout uvec2 cost) {
     rayQueryEXT query;
     rayQueryInitializeEXT(query, scene_tlas, VENDOR_RAY_FLAGS | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, o, 0.0, d, t_max);
     while (rayQueryProceedEXT(query)) {

@@ -15,7 +15,7 @@ use super::shading::{
 };
 use super::top_level::Visit;
 use crate::bvh::TraversalStats;
-use crate::contract;
+use crate::contract::{self, EMPTY};
 use crate::geometry::Ray;
 use crate::render_settings::{Accel, Aov, BvhLayout, RenderSettings};
 
@@ -73,6 +73,9 @@ struct Surface<'a> {
     ns: Vec3,
     /// The same normals in the mesh's space.
     object: ObjectNormals,
+    /// Whether the ray met the triangle's back, as `cross(e1, e2)` faces (the normals
+    /// above are turned to face it).
+    back: bool,
     /// The first corner's barycentric weight (`1 - u - v`).
     w: f32,
     /// The corner normals for the terminator offset, when smooth shading applies.
@@ -107,20 +110,22 @@ impl<'a> CpuScene<'a> {
         instance_count: u32,
         stats: &mut TraversalStats,
     ) -> Option<SceneHit> {
-        self.closest_hit_in(ray, accel, BvhLayout::Binary, instance_count, stats)
+        self.closest_hit_in(ray, accel, BvhLayout::Binary, instance_count, EMPTY, stats)
     }
 
-    /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout, where packed.
+    /// [`closest_hit`](Self::closest_hit) through the BVH of the given layout, where packed,
+    /// never visiting instance `skip` (`EMPTY` for none; [`CpuScene::left_behind`]).
     pub fn closest_hit_in(
         &self,
         ray: &Ray,
         accel: Accel,
         layout: BvhLayout,
         instance_count: u32,
+        skip: u32,
         stats: &mut TraversalStats,
     ) -> Option<SceneHit> {
         let mut best: Option<SceneHit> = None;
-        let query = (f32::INFINITY, Query::Closest);
+        let query = (f32::INFINITY, Query::Closest, skip);
         self.trace_instances(ray, query, accel, layout, instance_count, stats, |i, hit| {
             best = Some(SceneHit { instance: i, ..hit });
             Visit::Closer(hit.t)
@@ -128,9 +133,10 @@ impl<'a> CpuScene<'a> {
         best
     }
 
-    /// Whether anything of the scene lies along `ray` in (0, t_max): the AO view's
-    /// occlusion query, the shader's `any_hit` (the vendor's frames with our BVH, as for
-    /// closest hits), through `layout` where it is packed.
+    /// Whether anything of the scene but instance `skip` lies along `ray` in (0, t_max):
+    /// the AO view's occlusion query, the shader's `any_hit` (the vendor's frames with our
+    /// BVH, as for closest hits), through `layout` where it is packed.
+    #[allow(clippy::too_many_arguments)]
     pub fn any_hit(
         &self,
         ray: &Ray,
@@ -138,17 +144,20 @@ impl<'a> CpuScene<'a> {
         accel: Accel,
         layout: BvhLayout,
         instance_count: u32,
+        skip: u32,
         stats: &mut TraversalStats,
     ) -> bool {
-        let query = (t_max, Query::Any);
+        let query = (t_max, Query::Any, skip);
         self.trace_instances(ray, query, accel, layout, instance_count, stats, |_, _| {
             Visit::Blocked
         })
     }
 
     /// The AO view's value at hit point `p`: the share of the frame's AO rays from `p`
-    /// (lifted along `ng`) around `ns` that meet nothing within the radius; the shader's
-    /// `ambient_occlusion`, drawing the same directions from `sample_seed`.
+    /// (lifted along `ng`) around `ns` that meet nothing within the radius, instance `skip`
+    /// unvisited; the shader's `ambient_occlusion`, drawing the same directions from
+    /// `sample_seed`.
+    #[allow(clippy::too_many_arguments)]
     fn ambient_occlusion(
         &self,
         params: &FrameParams,
@@ -156,6 +165,7 @@ impl<'a> CpuScene<'a> {
         ng: Vec3,
         ns: Vec3,
         sample_seed: u32,
+        skip: u32,
         stats: &mut TraversalStats,
     ) -> f32 {
         let s = &params.settings;
@@ -166,7 +176,7 @@ impl<'a> CpuScene<'a> {
                 let u1 = random01(&mut seed);
                 let u2 = random01(&mut seed);
                 let ray = Ray::new(origin, ao_direction(ns, ng, u1, u2));
-                !self.any_hit(&ray, s.ao_radius, s.accel, s.bvh, params.instance_count, stats)
+                !self.any_hit(&ray, s.ao_radius, s.accel, s.bvh, params.instance_count, skip, stats)
             })
             .count();
         open as f32 / s.ao_samples.max(1) as f32
@@ -196,9 +206,11 @@ impl<'a> CpuScene<'a> {
         let mut color = Vec3::ZERO;
         let mut throughput = 1.0f32;
         let mut aux = Vec4::new(-1.0, -1.0, -1.0, 0.0);
+        // The instance the next ray cannot meet (`left_behind`): none for the camera's.
+        let mut skip = EMPTY;
 
         for bounce in 0..=bounces {
-            let hit = self.closest_hit_in(&ray, s.accel, s.bvh, params.instance_count, stats);
+            let hit = self.closest_hit_in(&ray, s.accel, s.bvh, params.instance_count, skip, stats);
             if let Some(key) = path_key.as_deref_mut() {
                 add_to_path_key(key, self.surface_key(hit), throughput);
             }
@@ -221,8 +233,17 @@ impl<'a> CpuScene<'a> {
             let surface = self.surface_at(&hit, &ray, s.smooth);
             let (p, ng, ns) = (surface.p, surface.ng, surface.ns);
             if s.aov == Aov::Ao {
-                aux = Vec3::splat(self.ambient_occlusion(params, p, ng, ns, sample_seed, stats))
-                    .extend(1.0);
+                let behind = self.left_behind(&hit, &surface, s.accel);
+                aux = Vec3::splat(self.ambient_occlusion(
+                    params,
+                    p,
+                    ng,
+                    ns,
+                    sample_seed,
+                    behind,
+                    stats,
+                ))
+                .extend(1.0);
                 break;
             }
             let gm = &self.packed.materials[surface.shading.material as usize];
@@ -264,6 +285,7 @@ impl<'a> CpuScene<'a> {
                 reflected = reflect(ray.dir, ng);
             }
             ray = Ray::new(p + ng * params.ray_epsilon, reflected);
+            skip = self.left_behind(&hit, &surface, s.accel);
         }
         match s.aov {
             Aov::Color | Aov::Samples => color.extend(1.0),
@@ -284,7 +306,8 @@ impl<'a> CpuScene<'a> {
         // the world), then carried out by the inverse transpose (the shader's comment).
         let d_object = inst.vector_to_object(ray.dir);
         let mut ng = e1.cross(e2).normalize();
-        if ng.dot(d_object) > 0.0 {
+        let back = ng.dot(d_object) > 0.0;
+        if back {
             ng = -ng;
         }
         let mut ns = ng;
@@ -307,7 +330,22 @@ impl<'a> CpuScene<'a> {
         }
         let object = ObjectNormals { ng, ns };
         let (ng, ns) = (inst.normal_to_world(ng).normalize(), inst.normal_to_world(ns).normalize());
-        Surface { tri, shading, inst, p, e1, e2, ng, ns, object, w, smooth: smooth_triangle }
+        Surface { tri, shading, inst, p, e1, e2, ng, ns, object, back, w, smooth: smooth_triangle }
+    }
+
+    /// The instance a ray leaving `surface` (lifted off it along its normal, heading away
+    /// from its plane) skips: the hit's own where its mesh is convex and the ray met it
+    /// from outside, since the whole mesh lies behind the triangle's plane
+    /// (`tracer/convex.rs`); else `EMPTY`. Brute force, the paper's every triangle, skips
+    /// nothing. The shader's `left_behind`.
+    fn left_behind(&self, hit: &SceneHit, surface: &Surface, accel: Accel) -> u32 {
+        let convex = self.packed.top_level.meshes[surface.inst.mesh as usize].convex;
+        let outside = if surface.back { contract::CONVEX_INWARD } else { contract::CONVEX_OUTWARD };
+        if accel != Accel::Brute && convex == outside {
+            hit.instance
+        } else {
+            EMPTY
+        }
     }
 
     /// The diffuse colour at the hit: the material's `diffuse`, times the vertex colours and

@@ -4,6 +4,7 @@
 //! [`Image`], and the CPU reference tracer ([`cpu`]).
 
 pub(crate) mod budget;
+pub(crate) mod convex;
 pub mod cpu;
 pub(crate) mod enclosure;
 pub mod frame;

@@ -47,6 +47,9 @@ pub struct PackedMesh {
     pub(crate) cover: MeshCover,
     /// The mesh as a closed box, if it is one (for an enclosure).
     pub(crate) closed_box: Option<ClosedBox>,
+    /// Its convexity code (`GpuMesh::convex`, `tracer/convex.rs`): 0 where the build cut
+    /// triangles into pieces, whose windings the test did not see.
+    pub(crate) convex: u32,
     /// Nodes of the mesh's BVH in `PackedScene::nodes` from `node_base` (the tree is kept
     /// only there: [`PackedMesh::bvh`] puts it back together).
     pub node_count: u32,
@@ -311,6 +314,8 @@ impl PackedScene {
                 ClosedBox::of(&slots)
             })
             .flatten();
+        let whole = on_device.is_none() && bvh.prim_indices.len() == mesh.triangle_count();
+        let convex = if whole { super::convex::winding(mesh) } else { 0 };
         if keep_binary {
             append(&mut self.nodes, bvh.nodes);
         }
@@ -330,6 +335,7 @@ impl PackedScene {
             bounds: mesh.bounds(),
             cover,
             closed_box,
+            convex,
         });
         BvhOrder { prims: bvh.prim_indices, material_base, vertex_base }
     }
@@ -494,6 +500,7 @@ fn rebuild_top_level(
             },
             cover: m.cover,
             closed_box: m.closed_box,
+            convex: m.convex,
         })
         .collect();
     top.rebuild(&places, instances);

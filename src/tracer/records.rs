@@ -197,7 +197,7 @@ pub struct GpuInstance {
     pub mesh: u32,
 }
 
-/// What is the same for every instance of a mesh (8 bytes a mesh).
+/// What is the same for every instance of a mesh (16 bytes a mesh).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -207,6 +207,10 @@ pub struct GpuMesh {
     pub triangle_count: u32,
     /// Added to a triangle's file-order index to give the prim-id AOV.
     pub(crate) prim_base: u32,
+    /// `CONVEX_OUTWARD` or `CONVEX_INWARD` for a convex mesh, whose instance a ray that
+    /// leaves it from outside skips (`tracer/convex.rs`); else 0.
+    pub(crate) convex: u32,
+    pub(crate) _unused: u32,
 }
 
 impl GpuInstance {

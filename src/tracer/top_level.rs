@@ -50,6 +50,8 @@ pub(crate) struct MeshPlace {
     pub(crate) cover: MeshCover,
     /// The mesh as a closed box, if it is one (an enclosure's fast test).
     pub(crate) closed_box: Option<ClosedBox>,
+    /// Its convexity code (`GpuMesh::convex`).
+    pub(crate) convex: u32,
 }
 
 /// The instance records, the tree over them and the mesh table they index.
@@ -120,11 +122,12 @@ impl TopLevel {
             rayon::join(|| fill_records(meshes, instances, records_out), tree);
         }
         mesh_records.clear();
-        mesh_records.extend(
-            meshes
-                .iter()
-                .map(|m| GpuMesh { triangle_count: m.triangle_count, prim_base: m.prim_base }),
-        );
+        mesh_records.extend(meshes.iter().map(|m| GpuMesh {
+            triangle_count: m.triangle_count,
+            prim_base: m.prim_base,
+            convex: m.convex,
+            _unused: 0,
+        }));
     }
 
     /// The instance the walk visits before the tree (the root's left child,

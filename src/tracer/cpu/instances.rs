@@ -23,12 +23,13 @@ impl CpuScene<'_> {
     /// closest hit so far, through the top level (brute force: every instance, no culling),
     /// calling `found(instance, hit)` for each hit closer than the last; the walk ends
     /// when it says [`Visit::Blocked`] (occlusion), which is returned as true. An
-    /// `instance_count` of 0 traces nothing; otherwise every instance is traced.
+    /// `instance_count` of 0 traces nothing; otherwise every instance is traced but `skip`
+    /// (`EMPTY` for none), which is never visited.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn trace_instances(
         &self,
         ray: &Ray,
-        (t_max, query): (f32, Query),
+        (t_max, query, skip): (f32, Query, u32),
         accel: Accel,
         layout: BvhLayout,
         instance_count: u32,
@@ -49,7 +50,7 @@ impl CpuScene<'_> {
         };
         if brute {
             let mut t = t_max;
-            for i in 0..top.instances.len() as u32 {
+            for i in (0..top.instances.len() as u32).filter(|&i| i != skip) {
                 let Some(hit) = visit(i, t, stats) else { continue };
                 match found(i, hit) {
                     Visit::Nothing => {}
@@ -62,6 +63,7 @@ impl CpuScene<'_> {
         let mut inner = TraversalStats::default();
         let blocked = top_level::walk(&top.nodes, ray, t_max, stats, |target, t| {
             let (i, hit) = match target {
+                Target::Instance(i) if i == skip => return Some(Visit::Nothing),
                 Target::Instance(i) => (i, visit(i, t, &mut inner)),
                 Target::ClosedBox(record) => {
                     (record.instance(), self.closed_box_hit(record, ray, t, &mut inner)?)

@@ -18,6 +18,7 @@ fn place(bounds: Aabb) -> MeshPlace {
         wide_words: EMPTY,
         cover: MeshCover::of_box(bounds),
         closed_box: None,
+        convex: 0,
     }
 }
 
