@@ -63,9 +63,16 @@ float ambient_occlusion(vec3 p, vec3 ng, vec3 ns, uint sample_seed, bool use_bvh
 // triangle's back, as cross(e1, e2) faces), since it leaves lifted off that side and
 // heading away from the triangle's plane, behind which the whole mesh lies
 // (tracer/convex.rs); else EMPTY. Brute force, the paper's every triangle, skips nothing.
+// The plain wide kernel skips nothing (src/gpu/shader_compile.rs: SPHERE_LEAVES): the skip
+// took it from 96 registers to 128, and the knot fields 7% slower on the H200; frames of
+// scenes with convex copies run its twin (FLAG_CONVEX).
 uint left_behind(Instance inst, uint instance, bool back, bool use_bvh) {
+#if defined(WIDE_ONLY) && !defined(SPHERE_LEAVES) && !defined(ONE_INSTANCE)
+    return EMPTY;
+#else
     uint convex = meshes[inst.offsets.w].z;
     return use_bvh && convex == (back ? CONVEX_INWARD : CONVEX_OUTWARD) ? instance : EMPTY;
+#endif
 }
 
 // One surface of a path, for adaptive sampling's edge test: the instance, material and

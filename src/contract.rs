@@ -69,6 +69,11 @@ contract! {
     /// Flag: some top-level leaf is a sphere (`TOP_SPHERE`); without it the walk tests
     /// every leaf as a box and skips the check.
     FLAG_SPHERES = 1 << 9;
+    /// Flag: some instance the walk visits has a convex mesh (`CONVEX_OUTWARD`,
+    /// `CONVEX_INWARD`), so a ray may skip the instance it leaves; wide frames then run the
+    /// wide kernel's twin, as for `FLAG_SPHERES`, since the plain wide kernel leaves the
+    /// skip out. Read by the host only.
+    FLAG_CONVEX = 1 << 10;
     /// Flag: with `FLAG_BVH`, traverse the compressed wide BVH (`--bvh wide`) instead of
     /// the binary one.
     FLAG_WIDE = 1 << 15;
@@ -145,7 +150,8 @@ const _: () = {
         | FLAG_ENVIRONMENT
         | FLAG_ADAPTIVE
         | FLAG_ID_PASS
-        | FLAG_SPHERES;
+        | FLAG_SPHERES
+        | FLAG_CONVEX;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);

@@ -134,6 +134,39 @@ fn turned_stretched_and_mirrored_instances_match_the_cpu_in_both_layouts() {
 }
 
 #[test]
+fn turned_stretched_and_mirrored_convex_copies_are_skipped_alike_by_the_gpu_and_the_cpu() {
+    // Cylinders, stretched, turned and mirrored, are convex without being round: a bounce
+    // off their outside skips their instance on both tracers (tracer/convex.rs), so both
+    // count the same work. Without sphere leaves, it is the convex copies alone that send
+    // wide frames to the wide kernel's twin (FLAG_CONVEX), whose plain sibling skips
+    // nothing and would count more.
+    let mut cylinder = PaperModel::Cylinder.mesh();
+    prepare_mesh(&mut cylinder);
+    let scene = Scene {
+        meshes: vec![cylinder],
+        instances: vec![
+            placed(0, [2.0, 0.5, 0.7], [0.3, 0.2, 0.0], [0.0, 0.0, 0.0]),
+            placed(0, [-0.6, 1.8, 0.6], [0.0, 0.9, 0.4], [1.7, 0.4, -0.6]),
+            placed(0, [0.5, 0.6, 2.2], [1.1, 0.0, 0.3], [-1.6, -0.3, 0.5]),
+        ],
+        ..instanced_scene()
+    };
+    let packed = PackedScene::new(&scene);
+    let sphere_leaf = |n: &meshtracer::bvh::BvhNode| {
+        n.children().iter().any(|c| c.count == meshtracer::contract::TOP_SPHERE)
+    };
+    assert!(!packed.top_level.nodes.iter().any(sphere_leaf), "no copy is round");
+    let mut skipped = 0.0;
+    for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
+        let cost = RenderSettings { aov: Aov::Cost, ..colour(64, bvh, false) };
+        let (gpu, cpu) = render_both(&scene, cost);
+        assert_same_cost(&gpu, &cpu, &format!("{bvh:?}"));
+        skipped += gpu.pixels.iter().map(|p| p[0] + p[1]).sum::<f32>();
+    }
+    assert!(skipped > 0.0, "the BVHs are traversed");
+}
+
+#[test]
 fn an_instanced_scene_traces_like_its_flattened_twin() {
     let scene = instanced_scene();
     let twin = flattened(&scene);

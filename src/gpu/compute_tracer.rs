@@ -241,17 +241,18 @@ impl ComputeTracer {
     }
 
     /// Make now the kernel that frames of `settings` run over a scene that is one instance
-    /// (`TopLevel::is_one_instance`) or not, and whose top level has sphere leaves or not
-    /// (`TopLevel::has_spheres`), where it is one made on first use: `render` does this
-    /// beside the load and the BVH build, so its frame does not wait for it.
+    /// (`TopLevel::is_one_instance`) or not, and that runs the wide kernel's twin or not
+    /// (`twin`: sphere leaves or convex copies, `TopLevel::has_spheres`, `has_convex`),
+    /// where it is one made on first use: `render` does this beside the load and the BVH
+    /// build, so its frame does not wait for it.
     pub(crate) fn make_kernel_for(
         &self,
         settings: &RenderSettings,
         one_instance: bool,
-        spheres: bool,
+        twin: bool,
     ) {
         let one_instance = one_instance && settings.accel == Accel::Bvh;
-        self.pass.make_kernel_now(trace_kernels::variant_for(settings), one_instance, spheres);
+        self.pass.make_kernel_now(trace_kernels::variant_for(settings), one_instance, twin);
     }
 
     /// Whether every trace kernel a frame may need is made, so that none waits for one.

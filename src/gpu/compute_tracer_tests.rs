@@ -335,7 +335,7 @@ fn round_copies_run_the_wide_kernels_sphere_twin_and_every_kernel_as_the_cpu_tra
     let (scene, _) = spec.load().unwrap();
     let packed = PackedScene::with_layouts(&scene, Layouts::Both);
     assert!(packed.top_level.has_spheres, "geospheres' leaves are spheres");
-    assert!(crate::tracer::top_level::spheres_before_loading(&spec), "and foreseen");
+    assert!(crate::tracer::top_level::wide_twin_before_loading(&spec), "and foreseen");
     let mut tracer = ComputeTracer::with_scene(&ctx, &packed).unwrap();
     // `render` makes the twin beside the load, and not the wide kernel it would not run.
     tracer.make_kernel_for(&small_frame(&scene, BvhLayout::Wide).settings, false, true);

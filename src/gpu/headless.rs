@@ -108,8 +108,8 @@ fn load_beside_device(
                 tracer.set_vendor_kernel(kernel)?;
             }
             let one_instance = spec.is_one_instance_before_loading();
-            let spheres = crate::tracer::top_level::spheres_before_loading(spec);
-            tracer.make_kernel_for(&spec.settings, one_instance, spheres);
+            let twin = crate::tracer::top_level::wide_twin_before_loading(spec);
+            tracer.make_kernel_for(&spec.settings, one_instance, twin);
             log::debug!("{:.3} s: kernels made", clock.elapsed().as_secs_f64());
             Ok(tracer)
         });

@@ -52,6 +52,9 @@ pub struct SceneBuffers {
     /// Whether the top level has a sphere leaf (`TopLevel::has_spheres`,
     /// `contract::FLAG_SPHERES`).
     pub(crate) any_sphere: bool,
+    /// Whether an instance the walk visits has a convex mesh (`TopLevel::has_convex`,
+    /// `contract::FLAG_CONVEX`).
+    pub(crate) any_convex: bool,
 }
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
@@ -216,6 +219,7 @@ impl SceneBuffers {
             bytes: 0,
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
             any_sphere: false,
+            any_convex: false,
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;
@@ -350,6 +354,7 @@ impl SceneBuffers {
         self.instance_count = top.instances.len() as u32;
         self.one_instance = top.is_one_instance();
         self.any_sphere = top.has_spheres;
+        self.any_convex = top.has_convex;
         Ok(grown)
     }
 }

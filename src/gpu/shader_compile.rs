@@ -121,9 +121,11 @@ pub(crate) const WIDE_ONLY: &str = "WIDE_ONLY";
 pub(crate) const ONE_INSTANCE: &str = "ONE_INSTANCE";
 
 /// Defined, with `WIDE_ONLY`, for the wide kernel's twin for top levels with sphere leaves
-/// (`contract::TOP_SPHERE`). The wide kernel without it takes every leaf as a box: the
-/// spheres' code in its walk cost the fields of 10,000 knots, which have none, 2-3% on the
-/// H200 (docs/BENCHMARKS.md, "Thirty-fourth session"). The other kernels test them always.
+/// (`contract::TOP_SPHERE`) or instances of convex meshes (`contract::FLAG_CONVEX`). The
+/// wide kernel without it takes every leaf as a box and skips no instance: the spheres'
+/// code in its walk cost the fields of 10,000 knots, which have none, 2-3% on the H200
+/// (docs/BENCHMARKS.md, "Thirty-fourth session"), and the skip's 7% ("Thirty-seventh
+/// session"). The other kernels do both always.
 #[cfg_attr(not(test), allow(dead_code))] // the crate compiles it only in build.rs (and a test)
 pub(crate) const SPHERE_LEAVES: &str = "SPHERE_LEAVES";
 

@@ -144,7 +144,7 @@ pub(crate) struct KernelVariants {
     order: usize,
     core: vk::Pipeline,
     wide: Lazy,
-    /// The wide kernel's twin for top levels with sphere leaves.
+    /// The wide kernel's twin for top levels with sphere leaves or convex copies.
     wide_spheres: Lazy,
     runs: Lazy,
     /// The full, core and wide kernels' `ONE_INSTANCE` twins, made on first use.
@@ -178,8 +178,9 @@ impl KernelVariants {
 
     /// The pipeline for a frame of `pc` (`full`: the pass's full kernel) over a scene that
     /// is one instance or not (`TopLevel::is_one_instance`), and whose top level has sphere
-    /// leaves where `pc` says so (`FLAG_SPHERES`); a kernel not made yet is made now, or
-    /// waited for if a background thread is making it.
+    /// leaves or convex copies where `pc` says so (`FLAG_SPHERES`, `FLAG_CONVEX`: the wide
+    /// kernel's twin); a kernel not made yet is made now, or waited for if a background
+    /// thread is making it.
     pub(crate) fn for_frame(
         &self,
         pc: &PushConstants,
@@ -189,33 +190,33 @@ impl KernelVariants {
     ) -> vk::Pipeline {
         let v = variant(pc.dims[3], every_mesh_wide);
         let one_instance = runs_one_instance(pc, one_instance);
-        let spheres = pc.dims[3] & contract::FLAG_SPHERES != 0;
-        self.made_for(v, one_instance, spheres).unwrap_or(match v {
+        let twin = pc.dims[3] & (contract::FLAG_SPHERES | contract::FLAG_CONVEX) != 0;
+        self.made_for(v, one_instance, twin).unwrap_or(match v {
             Variant::Core => self.core,
             _ => full,
         })
     }
 
     /// Make the kernel of `v` (its `ONE_INSTANCE` twin with `one_instance`, its twin for
-    /// sphere leaves with `spheres`) now if it is one made on first use, so that a caller
-    /// with other work to overlap can pay for the driver's compiler early.
-    pub(crate) fn make_now(&self, v: Variant, one_instance: bool, spheres: bool) {
-        self.made_for(v, one_instance, spheres);
+    /// sphere leaves and convex copies with `twin`) now if it is one made on first use, so
+    /// that a caller with other work to overlap can pay for the driver's compiler early.
+    pub(crate) fn make_now(&self, v: Variant, one_instance: bool, twin: bool) {
+        self.made_for(v, one_instance, twin);
     }
 
-    /// The kernel of `v` (or a twin: for one instance, or for sphere leaves) made on first
-    /// use, made now if it is not yet; None for the full and core kernels, and where the
-    /// driver failed it.
-    fn made_for(&self, v: Variant, one_instance: bool, spheres: bool) -> Option<vk::Pipeline> {
+    /// The kernel of `v` (or a twin: for one instance, or for sphere leaves and convex
+    /// copies) made on first use, made now if it is not yet; None for the full and core
+    /// kernels, and where the driver failed it.
+    fn made_for(&self, v: Variant, one_instance: bool, twin: bool) -> Option<vk::Pipeline> {
         if let Some(i) = v.one_instance_index().filter(|_| one_instance) {
             let code = TRACE_ONE_SPV[i][self.order];
             return self.one_instance[i]
                 .get_or_init(|| make(&self.ctx, self.layout, code, "one-instance"))
-                .or_else(|| self.made_for(v, false, spheres));
+                .or_else(|| self.made_for(v, false, twin));
         }
         match v {
             Variant::Full | Variant::Core => None,
-            Variant::Wide if spheres => *self.wide_spheres.get_or_init(|| {
+            Variant::Wide if twin => *self.wide_spheres.get_or_init(|| {
                 make(&self.ctx, self.layout, TRACE_WIDE_SPHERES_SPV[self.order], "wide spheres")
             }),
             Variant::Wide => *self
@@ -433,7 +434,8 @@ mod tests {
                 assert!(twins[order].len() < bases[order].len(), "{defines:?} drops the walk");
             }
         }
-        // The wide kernel's twin for sphere leaves: with the spheres' code.
+        // The wide kernel's twin for sphere leaves and convex copies: with the spheres' test
+        // and the skip.
         for (order, rows) in [vec![], vec![ROW_ORDER]].into_iter().enumerate() {
             let defines: Vec<&str> = rows.into_iter().chain([WIDE_ONLY, SPHERE_LEAVES]).collect();
             assert!(

@@ -278,6 +278,9 @@ pub(crate) struct TracePass {
     /// Whether the bound scene's top level has a sphere leaf (`SceneBuffers::any_sphere`):
     /// frames then set `FLAG_SPHERES`.
     any_sphere: AtomicBool,
+    /// Whether the bound scene has convex copies (`SceneBuffers::any_convex`): frames then
+    /// set `FLAG_CONVEX`.
+    any_convex: AtomicBool,
     /// Whether the bound scene is one instance (`SceneBuffers::one_instance`).
     one_instance: AtomicBool,
     layout: vk::PipelineLayout,
@@ -319,6 +322,7 @@ impl TracePass {
             variants,
             every_mesh_wide: AtomicBool::new(false),
             any_sphere: AtomicBool::new(false),
+            any_convex: AtomicBool::new(false),
             one_instance: AtomicBool::new(false),
             layout,
             set_layout,
@@ -383,10 +387,11 @@ impl TracePass {
 
     /// Note the bound scene's new top level (`SceneBuffers::set_instances`): whether it is
     /// one instance picks the kernels of the frames to come, and whether it has sphere
-    /// leaves their flag.
+    /// leaves and convex copies their flags.
     pub(crate) fn instances_changed(&self, scene: &SceneBuffers) {
         self.one_instance.store(scene.one_instance, Ordering::Relaxed);
         self.any_sphere.store(scene.any_sphere, Ordering::Relaxed);
+        self.any_convex.store(scene.any_convex, Ordering::Relaxed);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
@@ -438,10 +443,14 @@ impl TracePass {
     /// The push constants a frame of `pc` runs with over the bound scene, and its kernel.
     fn frame_kernel(&self, pc: &PushConstants) -> (PushConstants, vk::Pipeline) {
         // The flag says the top level has sphere leaves: the walk then tests them, and a
-        // wide frame runs the wide kernel's twin that can (`SPHERE_LEAVES`).
+        // wide frame runs the wide kernel's twin that can (`SPHERE_LEAVES`), as it does for
+        // convex copies, which the plain wide kernel never skips.
         let mut pc = *pc;
         if self.any_sphere.load(Ordering::Relaxed) {
             pc.dims[3] |= crate::contract::FLAG_SPHERES;
+        }
+        if self.any_convex.load(Ordering::Relaxed) {
+            pc.dims[3] |= crate::contract::FLAG_CONVEX;
         }
         let pipeline = match &self.variants {
             Some(variants) => variants.for_frame(
@@ -488,9 +497,9 @@ impl TracePass {
 
     /// Make the kernel of `v` now rather than at the first frame that runs it
     /// (`KernelVariants::make_now`).
-    pub(crate) fn make_kernel_now(&self, v: Variant, one_instance: bool, spheres: bool) {
+    pub(crate) fn make_kernel_now(&self, v: Variant, one_instance: bool, twin: bool) {
         if let Some(variants) = &self.variants {
-            variants.make_now(v, one_instance, spheres);
+            variants.make_now(v, one_instance, twin);
         }
     }
 

@@ -24,13 +24,17 @@ use crate::scene::Instance;
 mod cover;
 mod walk;
 
-/// Whether the top level of `spec`'s scene will have sphere leaves ([`TOP_SPHERE`]), as far
-/// as is known before its model is loaded: several copies of a model made in code that is
-/// round (the paper's geosphere and sphere). `render` makes the wide kernel's twin for
-/// them beside the load. A file's meshes are known only once read (false).
-pub(crate) fn spheres_before_loading(spec: &SceneSpec) -> bool {
+/// Whether the frames of `spec`'s scene will run the wide kernel's twin (its top level with
+/// sphere leaves, [`TOP_SPHERE`], or convex copies, [`TopLevel::has_convex`]), as far as is
+/// known before its model is loaded: several copies of a model made in code that is round
+/// or convex (the paper's geosphere, sphere and cylinder). `render` makes the twin for them
+/// beside the load. A file's meshes are known only once read (false).
+pub(crate) fn wide_twin_before_loading(spec: &SceneSpec) -> bool {
     match spec.model {
-        ModelSource::Paper(model) => spec.models > 1 && cover::is_round(&model.mesh()),
+        ModelSource::Paper(model) => {
+            let mesh = model.mesh();
+            spec.models > 1 && (cover::is_round(&mesh) || super::convex::winding(&mesh) != 0)
+        }
         ModelSource::File(_) | ModelSource::Generated(_) => false,
     }
 }
@@ -64,6 +68,11 @@ pub struct TopLevel {
     pub nodes: Vec<BvhNode>,
     /// Whether some leaf of the tree is a sphere ([`TOP_SPHERE`]).
     pub(crate) has_spheres: bool,
+    /// Whether some instance the walk visits (every one but an enclosure tested as a closed
+    /// box) has a convex mesh, which a ray that leaves it skips (`tracer/convex.rs`): such
+    /// frames run the wide kernel's twin (`contract::FLAG_CONVEX`). False for one instance,
+    /// whose kernels skip it without the walk.
+    pub(crate) has_convex: bool,
     /// The last build's leaves and their world spheres (by instance, radius 0 for none):
     /// their memory, kept for the next rebuild's.
     leaves: Vec<LeafBox>,
@@ -91,6 +100,7 @@ impl TopLevel {
             meshes: mesh_records,
             nodes,
             has_spheres,
+            has_convex,
             leaves,
             spheres,
         } = self;
@@ -111,6 +121,10 @@ impl TopLevel {
             let one = one_instance(instances.len(), closed.is_some());
             let tree_nodes = nodes.len() - usize::from(enclosure.is_some());
             *has_spheres = !one && fit_spheres(&mut nodes[..tree_nodes], spheres);
+            let boxed = enclosure.filter(|_| closed.is_some());
+            *has_convex = !one
+                && (instances.iter().enumerate())
+                    .any(|(i, inst)| meshes[inst.mesh].convex != 0 && Some(i) != boxed);
         };
         // Big fields make their records (each a double-precision inverse) beside the tree,
         // on the threads its build leaves idle: 0.1 ms off 10,000 copies' rebuild on the

@@ -406,7 +406,7 @@ fn singular_and_infinite_transforms_are_refused() {
 }
 
 #[test]
-fn sphere_leaves_are_foreseen_before_loading_for_the_models_made_in_code() {
+fn the_wide_twin_is_foreseen_before_loading_for_the_models_made_in_code() {
     use crate::scene::primitives::PaperModel;
     use crate::tracer::packed::{Layouts, PackedScene};
     let mut round = Vec::new();
@@ -421,15 +421,19 @@ fn sphere_leaves_are_foreseen_before_loading_for_the_models_made_in_code() {
             let (scene, _) = spec.load().unwrap();
             let packed = PackedScene::with_layouts(&scene, Layouts::Wide);
             let name = format!("{} x{models}, box {mirror_box}", model.name());
-            assert_eq!(spheres_before_loading(&spec), packed.top_level.has_spheres, "{name}");
-            if packed.top_level.has_spheres {
+            let top = &packed.top_level;
+            let twin = top.has_spheres || top.has_convex;
+            assert_eq!(wide_twin_before_loading(&spec), twin, "{name}");
+            if twin {
                 round.push(model);
             }
         }
     }
-    // The geosphere at least: the prediction is not false everywhere.
-    assert!(round.contains(&PaperModel::Geosphere), "{round:?}");
-    // A generated knot is no sphere (and a file is not known before it is read).
+    // The geosphere, sphere and cylinder (convex), not the knot: the prediction is neither
+    // false nor true everywhere.
+    assert_eq!(round.len(), 3 * 3, "{round:?}");
+    assert!(!round.contains(&PaperModel::TorusKnot), "{round:?}");
+    // A generated knot is neither (and a file is not known before it is read).
     let knot = SceneSpec { model: ModelSource::Generated(1000), models: 4, ..Default::default() };
-    assert!(!spheres_before_loading(&knot));
+    assert!(!wide_twin_before_loading(&knot));
 }
