@@ -232,18 +232,10 @@ impl<'a> CpuScene<'a> {
             path_length += hit.t;
             let surface = self.surface_at(&hit, &ray, s.smooth);
             let (p, ng, ns) = (surface.p, surface.ng, surface.ns);
+            let behind = self.left_behind(&hit, &surface, s.accel);
             if s.aov == Aov::Ao {
-                let behind = self.left_behind(&hit, &surface, s.accel);
-                aux = Vec3::splat(self.ambient_occlusion(
-                    params,
-                    p,
-                    ng,
-                    ns,
-                    sample_seed,
-                    behind,
-                    stats,
-                ))
-                .extend(1.0);
+                let open = self.ambient_occlusion(params, p, ng, ns, sample_seed, behind, stats);
+                aux = Vec3::splat(open).extend(1.0);
                 break;
             }
             let gm = &self.packed.materials[surface.shading.material as usize];
@@ -285,7 +277,7 @@ impl<'a> CpuScene<'a> {
                 reflected = reflect(ray.dir, ng);
             }
             ray = Ray::new(p + ng * params.ray_epsilon, reflected);
-            skip = self.left_behind(&hit, &surface, s.accel);
+            skip = behind;
         }
         match s.aov {
             Aov::Color | Aov::Samples => color.extend(1.0),
