@@ -49,12 +49,9 @@ pub struct SceneBuffers {
     /// Whether every mesh with triangles has a wide tree, so that wide frames may run the
     /// kernel without the binary traversal (`TracePass`).
     pub(crate) every_mesh_wide: bool,
-    /// Whether the top level has a sphere leaf (`TopLevel::has_spheres`,
-    /// `contract::FLAG_SPHERES`).
-    pub(crate) any_sphere: bool,
-    /// Whether an instance the walk visits has a convex mesh (`TopLevel::has_convex`,
-    /// `contract::FLAG_CONVEX`).
-    pub(crate) any_convex: bool,
+    /// The flags the top level asks of every frame (`TopLevel::frame_flags`: sphere
+    /// leaves, convex copies).
+    pub(crate) frame_flags: u32,
 }
 
 /// Refuse a scene whose buffers exceed the device's storage-buffer range or memory.
@@ -218,8 +215,7 @@ impl SceneBuffers {
             one_instance: false,
             bytes: 0,
             every_mesh_wide: packed.meshes.iter().all(|m| m.has_wide || m.triangle_count == 0),
-            any_sphere: false,
-            any_convex: false,
+            frame_flags: 0,
         };
         s.bytes = s.all().iter().map(|b| b.size).sum();
         s.set_instances(ctx, &packed.top_level)?;
@@ -353,8 +349,7 @@ impl SceneBuffers {
         self.top_nodes.upload(nodes)?;
         self.instance_count = top.instances.len() as u32;
         self.one_instance = top.is_one_instance();
-        self.any_sphere = top.has_spheres;
-        self.any_convex = top.has_convex;
+        self.frame_flags = top.frame_flags();
         Ok(grown)
     }
 }

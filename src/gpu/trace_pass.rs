@@ -5,7 +5,7 @@
 //! with the vendor's ray tracing pipeline (`khr_rt::pipeline_pass`).
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
@@ -275,12 +275,9 @@ pub(crate) struct TracePass {
     variants: Option<KernelVariants>,
     /// Whether every mesh of the bound scene has a wide tree (`SceneBuffers::every_mesh_wide`).
     every_mesh_wide: AtomicBool,
-    /// Whether the bound scene's top level has a sphere leaf (`SceneBuffers::any_sphere`):
-    /// frames then set `FLAG_SPHERES`.
-    any_sphere: AtomicBool,
-    /// Whether the bound scene has convex copies (`SceneBuffers::any_convex`): frames then
-    /// set `FLAG_CONVEX`.
-    any_convex: AtomicBool,
+    /// The flags the bound scene's top level asks of every frame
+    /// (`SceneBuffers::frame_flags`: `FLAG_SPHERES`, `FLAG_CONVEX`).
+    frame_flags: AtomicU32,
     /// Whether the bound scene is one instance (`SceneBuffers::one_instance`).
     one_instance: AtomicBool,
     layout: vk::PipelineLayout,
@@ -321,8 +318,7 @@ impl TracePass {
             pipeline,
             variants,
             every_mesh_wide: AtomicBool::new(false),
-            any_sphere: AtomicBool::new(false),
-            any_convex: AtomicBool::new(false),
+            frame_flags: AtomicU32::new(0),
             one_instance: AtomicBool::new(false),
             layout,
             set_layout,
@@ -390,8 +386,7 @@ impl TracePass {
     /// leaves and convex copies their flags.
     pub(crate) fn instances_changed(&self, scene: &SceneBuffers) {
         self.one_instance.store(scene.one_instance, Ordering::Relaxed);
-        self.any_sphere.store(scene.any_sphere, Ordering::Relaxed);
-        self.any_convex.store(scene.any_convex, Ordering::Relaxed);
+        self.frame_flags.store(scene.frame_flags, Ordering::Relaxed);
     }
 
     /// Record the trace of the pixels in `band`, with the barrier it needs first: after
@@ -442,16 +437,11 @@ impl TracePass {
 
     /// The push constants a frame of `pc` runs with over the bound scene, and its kernel.
     fn frame_kernel(&self, pc: &PushConstants) -> (PushConstants, vk::Pipeline) {
-        // The flag says the top level has sphere leaves: the walk then tests them, and a
-        // wide frame runs the wide kernel's twin that can (`SPHERE_LEAVES`), as it does for
-        // convex copies, which the plain wide kernel never skips.
+        // FLAG_SPHERES says the top level has sphere leaves: the walk then tests them, and
+        // a wide frame runs the wide kernel's twin that can (`SPHERE_LEAVES`), as it does
+        // for convex copies (FLAG_CONVEX), which the plain wide kernel never skips.
         let mut pc = *pc;
-        if self.any_sphere.load(Ordering::Relaxed) {
-            pc.dims[3] |= crate::contract::FLAG_SPHERES;
-        }
-        if self.any_convex.load(Ordering::Relaxed) {
-            pc.dims[3] |= crate::contract::FLAG_CONVEX;
-        }
+        pc.dims[3] |= self.frame_flags.load(Ordering::Relaxed);
         let pipeline = match &self.variants {
             Some(variants) => variants.for_frame(
                 &pc,

@@ -144,6 +144,14 @@ impl TopLevel {
         }));
     }
 
+    /// The flags a frame over this top level sets (`contract::FLAG_SPHERES` with sphere
+    /// leaves, `FLAG_CONVEX` with convex copies): both send wide frames to the wide
+    /// kernel's twin.
+    pub(crate) fn frame_flags(&self) -> u32 {
+        let spheres = if self.has_spheres { crate::contract::FLAG_SPHERES } else { 0 };
+        spheres | if self.has_convex { crate::contract::FLAG_CONVEX } else { 0 }
+    }
+
     /// The instance the walk visits before the tree (the root's left child,
     /// `TOP_ENCLOSURE`), if the scene has one.
     #[cfg(test)]
