@@ -42,8 +42,8 @@ pub(crate) fn winding(mesh: &Mesh) -> u32 {
     // Whether every vertex can still lie behind (outward) or in front of (inward) every
     // plane seen so far.
     let (mut outward, mut inward) = (true, true);
-    for (k, corners) in mesh.triangles.iter().enumerate() {
-        let [a, b, c] = mesh.corners(k).map(|p| p.as_dvec3());
+    for corners in &mesh.triangles {
+        let [a, b, c] = corners.map(|k| vertices[k as usize]);
         let (e1, e2) = (b - a, c - a);
         let n = e1.cross(e2);
         // The tracers' own test for a triangle they skip (records::triangle_record).
@@ -51,10 +51,8 @@ pub(crate) fn winding(mesh: &Mesh) -> u32 {
             return 0;
         }
         let n = n.normalize();
-        for (i, v) in vertices.iter().enumerate() {
-            if corners.contains(&(i as u32)) {
-                continue;
-            }
+        // The triangle's own corners too: they lie on its plane, well within the tolerance.
+        for v in &vertices {
             let height = n.dot(*v - a);
             outward &= height <= tolerance;
             inward &= height >= -tolerance;
