@@ -278,6 +278,52 @@ fn framed_series_fills_the_frame_with_the_model() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The share of the frame in a row's label ("..., 61% model"), in percent.
+fn coverage_percent(row: &Value) -> f64 {
+    let label = row["features"].as_str().unwrap();
+    let tail = label.rsplit(", ").next().unwrap();
+    tail.trim_end_matches("% model").parse().unwrap_or_else(|_| panic!("label {label:?}"))
+}
+
+#[test]
+fn fields_trace_one_copy_at_the_fields_coverage() {
+    // `bench --fields`: 10,000 copies as the window frames them, one copy with its camera
+    // moved until it covers the same share of the frame, the turned field; and the ratios.
+    let dir = scratch("fields");
+    let json = dir.join("fields.json");
+    let args = ["bench", "--fields", "--triangles", "600", "--size", "48", "--frames", "1"];
+    let out = meshtracer(
+        &[&args[..], &["--warmup", "0", "--json", json.to_str().unwrap()]].concat(),
+        true,
+    );
+    assert_success(&out, "bench --fields");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    let copies: Vec<u64> = rows.iter().map(|r| r["models"].as_u64().unwrap()).collect();
+    assert_eq!(copies, [10_000, 1, 10_000]);
+    assert!(rows.iter().all(|r| r["series"] == "field" && r["bounces"] == 0), "{rows:?}");
+    let (field, one, turned) =
+        (coverage_percent(&rows[0]), coverage_percent(&rows[1]), coverage_percent(&rows[2]));
+    // The window's view of the field leaves a margin around it; the one copy's camera is
+    // found to within a percent or two of the field's share (a pixel is 0.04% here).
+    assert!((20.0..=95.0).contains(&field), "the field framed with a margin: {field}%");
+    assert!((field - one).abs() <= 2.0, "one copy at {one}% against the field's {field}%");
+    assert!(turned > 0.0);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let ratios: Vec<&str> = stdout.lines().filter(|l| l.contains("x one copy")).collect();
+    assert_eq!(ratios.len(), 2, "a ratio for each field:\n{stdout}");
+    for line in ratios {
+        let ratio: f64 = line
+            .split(" = ")
+            .nth(1)
+            .and_then(|r| r.split('x').next())
+            .and_then(|r| r.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        assert!(ratio > 0.0, "{line}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn load_measures_every_phase_of_a_file_and_a_generated_model() {
     // `bench --load`: a file (read, parse, build, pack, upload) and a generated knot (no

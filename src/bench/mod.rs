@@ -4,6 +4,7 @@
 
 pub mod charts;
 pub mod clock_guard;
+pub mod fields;
 pub mod load;
 pub mod paper_tables;
 pub mod report;
@@ -19,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use crate::render_settings::{Accel, Aov, RenderSettings};
+use crate::scene::camera::Camera;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh, Model};
@@ -43,6 +45,23 @@ pub struct Case {
     pub features: String,
     /// For `Accel::Vendor` rows: the kind of vendor tracing (None: the device's default).
     pub vendor_kernel: Option<VendorKernel>,
+    /// Whether the model's share of the frame is measured or matched (`bench --fields`).
+    pub coverage: Coverage,
+}
+
+/// What a row does with the share of the frame its model covers (`bench --fields`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Coverage {
+    /// Nothing (a framed row reports its own).
+    #[default]
+    Unmeasured,
+    /// Measured and reported in the row's label.
+    Measured,
+    /// Measured and reported, and the share a later [`Coverage::Matched`] row of the same
+    /// mesh is given.
+    Target,
+    /// The camera moved along its view until the model covers the last target's share.
+    Matched,
 }
 
 impl Case {
@@ -56,6 +75,7 @@ impl Case {
             paper: None,
             features: String::new(),
             vendor_kernel: None,
+            coverage: Coverage::Unmeasured,
         }
     }
 
@@ -212,6 +232,10 @@ pub fn run(
     // The uploaded scene is reused while mesh (and so BVH) stays the same.
     let mut current: Option<(String, PackedScene, ComputeTracer)> = None;
     let mut clock = ClockProbe::new(ctx)?.map(ClockGuard::new).transpose()?;
+    // `bench --fields`: the last target row's share of the frame, and the camera found for
+    // it, per mesh, so that our rows and the vendor's trace the same rays.
+    let mut target: Option<(String, f64)> = None;
+    let mut matched: Option<(String, Camera)> = None;
     for (i, case) in cases.iter().enumerate() {
         let key = match &case.generated {
             Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
@@ -236,7 +260,8 @@ pub fn run(
             loaded = Some(Loaded { key: key.clone(), model, others });
         }
         let l = loaded.as_ref().unwrap();
-        let scene = case.spec.scene_of(l.model.clone(), &l.others);
+        let mut scene = case.spec.scene_of(l.model.clone(), &l.others);
+        let mesh_key = key.clone();
         let layout = case.spec.settings.bvh;
         let key = format!("{key}:{:?}:{}:{layout}", case.spec.environment, case.spec.mirror_box);
         if current.as_ref().is_none_or(|c| c.0 != key) {
@@ -262,7 +287,37 @@ pub fn run(
         let (_, packed, tracer) = current.as_mut().unwrap();
         packed.set_instances(&scene.instances);
         tracer.set_instances(&packed.top_level)?;
-        let row = measure(tracer, packed, &scene, case, options, clock.as_mut())?;
+        let s = case.spec.settings;
+        let share = match case.coverage {
+            Coverage::Unmeasured => None,
+            Coverage::Measured | Coverage::Target => {
+                let share = fields::coverage(tracer, &scene, s)?;
+                if case.coverage == Coverage::Target {
+                    target = Some((mesh_key.clone(), share));
+                }
+                Some(share)
+            }
+            Coverage::Matched => {
+                let goal = target.as_ref().filter(|t| t.0 == mesh_key).map(|t| t.1);
+                let goal = goal.ok_or_else(|| {
+                    anyhow::anyhow!("a matched row needs a target row of its mesh before it")
+                })?;
+                let key = format!("{mesh_key}:{goal}");
+                if matched.as_ref().is_none_or(|m| m.0 != key) {
+                    let camera = fields::camera_at_coverage(tracer, &mut scene, s, goal)?;
+                    matched = Some((key, camera));
+                }
+                scene.camera = matched.as_ref().unwrap().1;
+                // The label is the frame's own share, measured again with the camera set.
+                Some(fields::coverage(tracer, &scene, s)?)
+            }
+        };
+        let mut row = measure(tracer, packed, &scene, case, options, clock.as_mut())?;
+        if let Some(share) = share {
+            let label = fields::coverage_label(share);
+            row.features =
+                if row.features.is_empty() { label } else { format!("{}, {label}", row.features) };
+        }
         progress(i, &row);
         rows.push(row);
     }
@@ -373,18 +428,13 @@ fn unmeasured_row(
     }
 }
 
-/// What share of the frame the model covers, as a feature label ("framed, 40% model"),
-/// from a primitive-id render: the model's primitives come before the box's.
+/// What share of the frame the model covers, as a feature label ("framed, 40% model").
 fn framed_share(
     tracer: &mut ComputeTracer,
     scene: &crate::scene::Scene,
     s: RenderSettings,
 ) -> Result<String, GpuError> {
-    let ids = FrameParams::new(scene, RenderSettings { aov: Aov::PrimId, ..s });
-    let (image, _) = tracer.render(&ids)?;
-    let model_triangles = scene.meshes[0].triangle_count() as f32;
-    let hits = image.pixels.iter().filter(|p| p[0] >= 0.0 && p[0] < model_triangles).count();
-    Ok(format!("framed, {:.0}% model", 100.0 * hits as f64 / image.pixels.len() as f64))
+    Ok(format!("framed, {}", fields::coverage_label(fields::coverage(tracer, scene, s)?)))
 }
 
 /// The measured frames' times in milliseconds, and the GPU clock they ran at.

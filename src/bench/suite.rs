@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use super::report::{self, Report};
-use super::{charts, paper_tables, Case, Environment, Row, RunOptions};
+use super::{charts, fields, paper_tables, Case, Environment, Row, RunOptions};
 use crate::gpu::headless::{check_validation, open_context};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::GpuContext;
@@ -31,6 +31,8 @@ pub struct Suite {
     pub compare: bool,
     /// The AO view on the framed series' scenes.
     pub ao: bool,
+    /// 10,000 copies of a knot against one copy at the same coverage.
+    pub fields: bool,
     /// Occlusion rays per pixel for `ao`.
     pub ao_samples: u32,
     /// How far `ao`'s rays look.
@@ -51,6 +53,8 @@ pub struct Suite {
     pub bvh_given: bool,
     /// Triangle counts of the generated meshes.
     pub triangles: Vec<usize>,
+    /// Whether `triangles` was given.
+    pub triangles_given: bool,
     /// Resolution (square) of the series other than the paper's.
     pub size: u32,
     /// Whether `size` was given.
@@ -108,6 +112,15 @@ pub fn run(suite: &Suite) -> anyhow::Result<()> {
         println!("\nours (BVH) / vendor, GPU ms medians (below 1: ours is faster):");
         print!("{}", report::compare_table(&rows));
     }
+    let fields = fields::summary(&rows);
+    if !fields.is_empty() {
+        println!(
+            "\nfields: 10,000 copies against one at the same share of the frame (GPU ms medians):"
+        );
+        for line in fields {
+            println!("  {line}");
+        }
+    }
     check_validation(&ctx)?;
     write_outputs(&suite.outputs, &env, &suite.run, &rows)
 }
@@ -142,7 +155,9 @@ pub fn planned_cases(suite: &Suite) -> anyhow::Result<Vec<Case>> {
             log::warn!("{w}");
         }
         cases.extend(preset_cases);
-    } else if suite.paper || !(suite.scaling || suite.features || suite.framed || suite.ao) {
+    } else if suite.paper
+        || !(suite.scaling || suite.features || suite.framed || suite.ao || suite.fields)
+    {
         cases.extend(paper_tables::paper_cases(&suite.resolutions, &accels));
     }
     if suite.scaling {
@@ -156,6 +171,13 @@ pub fn planned_cases(suite: &Suite) -> anyhow::Result<Vec<Case>> {
         let (samples, radius) = (suite.ao_samples, suite.ao_radius);
         let ao = paper_tables::ao_cases(triangles, &extra, &framed_accels, size, samples, radius);
         cases.extend(ao);
+    }
+    if suite.fields {
+        // One knot unless asked: a field of the default series' 4M knot is 4 * 10^10
+        // triangles, and its small ones say little.
+        let knots =
+            if suite.triangles_given { triangles.clone() } else { vec![fields::DEFAULT_TRIANGLES] };
+        cases.extend(fields::field_cases(&knots, &framed_accels, size));
     }
     if suite.features {
         let textured = extra.first().cloned();
@@ -189,6 +211,7 @@ pub fn preset_cases(suite: &Suite, path: &Path) -> anyhow::Result<(Vec<Case>, Ve
             paper: None,
             features: features_label(&spec),
             vendor_kernel: None,
+            coverage: super::Coverage::Unmeasured,
         })
         .collect();
     Ok((cases, warnings))

@@ -40,6 +40,11 @@ pub struct BenchArgs {
     /// --compare, ours against the vendor's.
     #[arg(long)]
     pub(crate) ao: bool,
+    /// 10,000 copies of a knot (--triangles, else 1M; identical, then turned and scaled),
+    /// no box, primary rays at --size, as the window frames them, against one copy with its
+    /// camera moved until it covers the same share of the frame; ends with their ratios.
+    #[arg(long)]
+    pub(crate) fields: bool,
     /// Occlusion rays per pixel for --ao (1..=256).
     #[arg(long, value_name = "N", default_value_t = defaults().settings.ao_samples, value_parser = ranged(knobs::AO_SAMPLES), allow_negative_numbers = true)]
     pub(crate) ao_samples: u32,
@@ -94,18 +99,18 @@ pub struct BenchArgs {
     pub(crate) charts: Option<PathBuf>,
     /// Draw the charts from these saved --json reports instead of running anything
     /// (with --charts DIR).
-    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "json", "csv"])]
+    #[arg(long = "charts-from", value_name = "FILE.json", num_args = 1.., requires = "charts", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "fields", "json", "csv"])]
     pub(crate) charts_from: Vec<PathBuf>,
     /// Measure the way from each model to its first frame instead (files or names as
     /// --model takes them, e.g. torusknot:10M): each phase (read, parse, build, pack,
     /// upload), the first frame at --size in the paper's scene, the whole wait and the peak
     /// memory; with the binary tree, as the window's first frame, or each --bvh layout given.
-    #[arg(long, value_name = "MODEL", num_args = 1.., conflicts_with_all = ["paper", "scaling", "features", "framed", "compare", "charts_from", "preset"])]
+    #[arg(long, value_name = "MODEL", num_args = 1.., conflicts_with_all = ["paper", "scaling", "features", "framed", "fields", "compare", "charts_from", "preset"])]
     pub(crate) load: Vec<String>,
     /// Benchmark exactly this preset (a TOML preset or a PNG this program wrote), one row
     /// per --accel given (else the preset's); --size and --bounces given beside it
     /// override it.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "charts_from"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["paper", "scaling", "features", "framed", "ao", "fields", "charts_from"])]
     pub(crate) preset: Option<PathBuf>,
     /// Vulkan device index (see `meshtracer devices`).
     #[arg(long)]
@@ -142,6 +147,7 @@ impl BenchArgs {
             framed: self.framed,
             compare: self.compare,
             ao: self.ao,
+            fields: self.fields,
             ao_samples: self.ao_samples,
             ao_radius: self.ao_radius,
             vendor_kernels: self.vendor_kernel.clone(),
@@ -157,6 +163,7 @@ impl BenchArgs {
             bvh: self.bvh.clone(),
             bvh_given: self.given("bvh"),
             triangles: self.triangles.clone(),
+            triangles_given: self.given("triangles"),
             size: self.size,
             size_given: self.given("size"),
             bounces: self.bounces,
