@@ -74,6 +74,10 @@ contract! {
     /// wide kernel's twin, as for `FLAG_SPHERES`, since the plain wide kernel leaves the
     /// skip out. Read by the host only.
     FLAG_CONVEX = 1 << 10;
+    /// Flag: the walk visits many instances (`top_level::WARP_BLOCKS_FROM`), so each
+    /// subgroup traces an 8x4 block of its tile instead of a 32-pixel row (`tile_pixel` in
+    /// `shaders/trace.comp`): lanes of one block meet fewer instances.
+    FLAG_WARP_BLOCKS = 1 << 11;
     /// Flag: with `FLAG_BVH`, traverse the compressed wide BVH (`--bvh wide`) instead of
     /// the binary one.
     FLAG_WIDE = 1 << 15;
@@ -151,7 +155,8 @@ const _: () = {
         | FLAG_ADAPTIVE
         | FLAG_ID_PASS
         | FLAG_SPHERES
-        | FLAG_CONVEX;
+        | FLAG_CONVEX
+        | FLAG_WARP_BLOCKS;
     let (aov, spp) = (AOV_MASK << AOV_SHIFT, SPP_MASK << SPP_SHIFT);
     assert!(flags & aov == 0 && flags & spp == 0 && aov & spp == 0);
     assert!(AOV_SAMPLES <= AOV_MASK && AOV_AO <= AOV_MASK);

@@ -145,11 +145,20 @@ impl TopLevel {
     }
 
     /// The flags a frame over this top level sets (`contract::FLAG_SPHERES` with sphere
-    /// leaves, `FLAG_CONVEX` with convex copies): both send wide frames to the wide
-    /// kernel's twin.
+    /// leaves, `FLAG_CONVEX` with convex copies: both send wide frames to the wide
+    /// kernel's twin; `FLAG_WARP_BLOCKS` where the walk visits [`WARP_BLOCKS_FROM`]
+    /// instances or more).
     pub(crate) fn frame_flags(&self) -> u32 {
-        let spheres = if self.has_spheres { crate::contract::FLAG_SPHERES } else { 0 };
-        spheres | if self.has_convex { crate::contract::FLAG_CONVEX } else { 0 }
+        use crate::contract::{FLAG_CONVEX, FLAG_SPHERES, FLAG_WARP_BLOCKS};
+        let walked = self.instances.len() - usize::from(EnclosureRecord::of(&self.nodes).is_some());
+        [
+            (self.has_spheres, FLAG_SPHERES),
+            (self.has_convex, FLAG_CONVEX),
+            (walked >= WARP_BLOCKS_FROM, FLAG_WARP_BLOCKS),
+        ]
+        .into_iter()
+        .filter_map(|(on, flag)| on.then_some(flag))
+        .fold(0, |flags, flag| flags | flag)
     }
 
     /// The instance the walk visits before the tree (the root's left child,
@@ -191,6 +200,14 @@ impl TopLevel {
 
 /// Whether a scene of `count` instances, with an enclosure that is a closed box or not, is
 /// one instance to the kernels ([`TopLevel::is_one_instance`]).
+/// Instances the walk visits (an enclosure not counted) from which a frame's subgroups
+/// trace 8x4 blocks instead of 32-pixel rows (`contract::FLAG_WARP_BLOCKS`). On the H200
+/// (1024², docs/BENCHMARKS.md, thirty-eighth session) blocks made 4 to 10,000 geospheres
+/// in the box 5-13% faster and the fields of 10,000 knots 7-10%, left 4 1M knots in the box
+/// where they were and made 2 of them 11% slower: two big instances are a big mesh's
+/// case, where rows are faster.
+pub(crate) const WARP_BLOCKS_FROM: usize = 3;
+
 fn one_instance(count: usize, closed_enclosure: bool) -> bool {
     count == 1 || (count == 2 && closed_enclosure)
 }

@@ -437,3 +437,28 @@ fn the_wide_twin_is_foreseen_before_loading_for_the_models_made_in_code() {
     let knot = SceneSpec { model: ModelSource::Generated(1000), models: 4, ..Default::default() };
     assert!(!wide_twin_before_loading(&knot));
 }
+
+#[test]
+fn frames_walking_three_instances_or_more_trace_warp_blocks() {
+    use crate::contract::FLAG_WARP_BLOCKS;
+    let model = place(Aabb::from_points(&[-Vec3::ONE, Vec3::ONE]));
+    let mirror = MeshPlace { triangle_count: 12, ..model };
+    let blocks = |copies: u32, mirror_box: bool| {
+        let mut instances: Vec<Instance> = (0..copies)
+            .map(|i| Instance::placed(0, Vec3::new(i as f32 * 3.0, 0.0, 0.0), 1.0))
+            .collect();
+        if mirror_box {
+            instances.push(Instance::placed(1, Vec3::ZERO, 4.0 * copies as f32));
+        }
+        let top = TopLevel::build(&[model, mirror], &instances);
+        assert_eq!(top.enclosure().is_some(), mirror_box, "{copies} copies");
+        top.frame_flags() & FLAG_WARP_BLOCKS != 0
+    };
+    // The mirror box is no instance of the walk's: two models in it stay rows.
+    let expected = [(1, false), (2, false), (3, true), (27, true)];
+    for (copies, many) in expected {
+        assert_eq!(blocks(copies, false), many, "{copies} copies");
+        assert_eq!(blocks(copies, true), many, "{copies} copies in the box");
+    }
+    assert_eq!(WARP_BLOCKS_FROM, 3);
+}
