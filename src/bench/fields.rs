@@ -121,6 +121,62 @@ pub(super) fn coverage_label(share: f64) -> String {
     format!("{:.0}% model", 100.0 * share)
 }
 
+/// A row's `features` with its measured coverage after them.
+pub(super) fn labelled(features: &str, share: f64) -> String {
+    let label = coverage_label(share);
+    if features.is_empty() {
+        label
+    } else {
+        format!("{features}, {label}")
+    }
+}
+
+/// What a run carries from row to row for [`Coverage`]: the last target row's share of the
+/// frame and the camera found for it, per mesh, so that our rows and the vendor's trace
+/// the same rays.
+#[derive(Default)]
+pub(super) struct CoverageRuns {
+    target: Option<(String, f64)>,
+    matched: Option<(String, Camera)>,
+}
+
+impl CoverageRuns {
+    /// Before `case`'s frames, on `tracer` holding `scene` (of the mesh keyed `mesh`): its
+    /// share of the frame measured, or its camera moved to the last target's share. Returns
+    /// the share its label gives (the frame's own, measured with the camera set), or None
+    /// for a row that does neither.
+    pub(super) fn prepare(
+        &mut self,
+        case: &Case,
+        mesh: &str,
+        tracer: &mut ComputeTracer,
+        scene: &mut Scene,
+    ) -> anyhow::Result<Option<f64>> {
+        let s = case.spec.settings;
+        match case.coverage {
+            Coverage::Unmeasured => return Ok(None),
+            Coverage::Measured => {}
+            Coverage::Target => {
+                let share = coverage(tracer, scene, s)?;
+                self.target = Some((mesh.to_string(), share));
+                return Ok(Some(share));
+            }
+            Coverage::Matched => {
+                let goal = self.target.as_ref().filter(|t| t.0 == mesh).map(|t| t.1);
+                let goal = goal.ok_or_else(|| {
+                    anyhow::anyhow!("a matched row needs a target row of its mesh before it")
+                })?;
+                let key = format!("{mesh}:{goal}");
+                if self.matched.as_ref().is_none_or(|m| m.0 != key) {
+                    self.matched = Some((key, camera_at_coverage(tracer, scene, s, goal)?));
+                }
+                scene.camera = self.matched.as_ref().unwrap().1;
+            }
+        }
+        Ok(Some(coverage(tracer, scene, s)?))
+    }
+}
+
 /// After a run with field rows: per knot and tracer, each field's frame over the one
 /// copy's at the same coverage (the bar: at most 2).
 pub fn summary(rows: &[Row]) -> Vec<String> {

@@ -20,7 +20,6 @@ use serde::{Deserialize, Serialize};
 use crate::gpu::khr_rt::VendorKernel;
 use crate::gpu::{ClockProbe, ComputeTracer, GpuContext, GpuError};
 use crate::render_settings::{Accel, Aov, RenderSettings};
-use crate::scene::camera::Camera;
 use crate::scene::paper::{prepare_model, ModelSource};
 use crate::scene::spec::SceneSpec;
 use crate::scene::{EnvironmentSource, Mesh, Model};
@@ -232,10 +231,7 @@ pub fn run(
     // The uploaded scene is reused while mesh (and so BVH) stays the same.
     let mut current: Option<(String, PackedScene, ComputeTracer)> = None;
     let mut clock = ClockProbe::new(ctx)?.map(ClockGuard::new).transpose()?;
-    // `bench --fields`: the last target row's share of the frame, and the camera found for
-    // it, per mesh, so that our rows and the vendor's trace the same rays.
-    let mut target: Option<(String, f64)> = None;
-    let mut matched: Option<(String, Camera)> = None;
+    let mut coverage = fields::CoverageRuns::default();
     for (i, case) in cases.iter().enumerate() {
         let key = match &case.generated {
             Some(m) => format!("generated:{}:{}", m.name, m.triangle_count()),
@@ -287,36 +283,10 @@ pub fn run(
         let (_, packed, tracer) = current.as_mut().unwrap();
         packed.set_instances(&scene.instances);
         tracer.set_instances(&packed.top_level)?;
-        let s = case.spec.settings;
-        let share = match case.coverage {
-            Coverage::Unmeasured => None,
-            Coverage::Measured | Coverage::Target => {
-                let share = fields::coverage(tracer, &scene, s)?;
-                if case.coverage == Coverage::Target {
-                    target = Some((mesh_key.clone(), share));
-                }
-                Some(share)
-            }
-            Coverage::Matched => {
-                let goal = target.as_ref().filter(|t| t.0 == mesh_key).map(|t| t.1);
-                let goal = goal.ok_or_else(|| {
-                    anyhow::anyhow!("a matched row needs a target row of its mesh before it")
-                })?;
-                let key = format!("{mesh_key}:{goal}");
-                if matched.as_ref().is_none_or(|m| m.0 != key) {
-                    let camera = fields::camera_at_coverage(tracer, &mut scene, s, goal)?;
-                    matched = Some((key, camera));
-                }
-                scene.camera = matched.as_ref().unwrap().1;
-                // The label is the frame's own share, measured again with the camera set.
-                Some(fields::coverage(tracer, &scene, s)?)
-            }
-        };
+        let share = coverage.prepare(case, &mesh_key, tracer, &mut scene)?;
         let mut row = measure(tracer, packed, &scene, case, options, clock.as_mut())?;
         if let Some(share) = share {
-            let label = fields::coverage_label(share);
-            row.features =
-                if row.features.is_empty() { label } else { format!("{}, {label}", row.features) };
+            row.features = fields::labelled(&row.features, share);
         }
         progress(i, &row);
         rows.push(row);
