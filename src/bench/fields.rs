@@ -207,3 +207,49 @@ pub fn summary(rows: &[Row]) -> Vec<String> {
     }
     lines
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A field-series row of `copies` copies of a `per_copy`-triangle knot, traced by `accel`
+    /// (and `kernel`) in `ms`.
+    fn row(copies: u32, per_copy: u64, accel: &str, kernel: Option<&str>, ms: f64) -> Row {
+        let json = serde_json::json!({
+            "series": "field", "model": format!("torusknot-{per_copy}"), "models": copies,
+            "triangles": per_copy * u64::from(copies), "width": 64, "height": 64, "bounces": 0,
+            "accel": accel, "bvh": "wide", "features": format!("{copies} copies"),
+            "rays_per_frame": 4096,
+            "gpu_ms": {"min": ms, "mean": ms, "max": ms, "median": ms, "p10": ms, "p90": ms},
+            "wall_ms": {"min": ms, "mean": ms, "max": ms, "median": ms, "p10": ms, "p90": ms},
+            "mrays_per_s": 1.0, "fps": 1.0, "bvh_build_ms": 1.0, "scene_bytes": 1,
+            "paper_fps": null, "paper_ms": null, "skipped": null, "vendor_kernel": kernel,
+        });
+        serde_json::from_value(json).unwrap()
+    }
+
+    #[test]
+    fn each_field_is_set_against_the_one_copy_of_its_knot_and_tracer() {
+        let rows = [
+            row(10_000, 1000, "bvh", None, 3.0),
+            row(10_000, 1000, "vendor", Some("query"), 8.0),
+            row(1, 1000, "bvh", None, 1.5),
+            row(1, 1000, "vendor", Some("query"), 2.0),
+            row(10_000, 1000, "bvh", None, 4.5),
+            // Another knot's one copy is not this field's.
+            row(1, 2000, "bvh", None, 100.0),
+        ];
+        let lines = summary(&rows);
+        assert_eq!(lines.len(), 3, "{lines:#?}");
+        assert!(lines[0].starts_with("bvh (wide), torusknot-1000:"), "{}", lines[0]);
+        assert!(lines[0].contains("3.000 ms = 2.00x one copy"), "{}", lines[0]);
+        assert!(lines[1].contains("4.500 ms = 3.00x one copy"), "{}", lines[1]);
+        assert!(
+            lines[2].starts_with("vendor (query)") && lines[2].contains("= 4.00x"),
+            "{}",
+            lines[2]
+        );
+        // Without its one copy, a field has no ratio.
+        assert!(summary(&rows[..2]).is_empty());
+    }
+}
