@@ -41,13 +41,7 @@ pub fn field_cases(triangle_counts: &[usize], accels: &[Accel], size: u32) -> Ve
         ];
         for (copies, scatter, coverage, label) in rows {
             for &accel in accels {
-                let settings = RenderSettings {
-                    width: size,
-                    height: size,
-                    bounces: 0,
-                    accel,
-                    ..RenderSettings::default()
-                };
+                let settings = super::paper_tables::settings(size, 0, accel);
                 let mut case = Case {
                     generated: Some(mesh.clone()),
                     coverage,

@@ -25,7 +25,7 @@ pub const TABLE2: [(u32, [(f64, f64); 2]); 4] = [
     (4, [(76.0, 13.83), (21.0, 50.5)]),
 ];
 
-fn settings(size: u32, bounces: u32, accel: Accel) -> RenderSettings {
+pub(super) fn settings(size: u32, bounces: u32, accel: Accel) -> RenderSettings {
     RenderSettings {
         width: size,
         height: size,

@@ -151,14 +151,17 @@ impl TopLevel {
     pub(crate) fn frame_flags(&self) -> u32 {
         use crate::contract::{FLAG_CONVEX, FLAG_SPHERES, FLAG_WARP_BLOCKS};
         let walked = self.instances.len() - usize::from(EnclosureRecord::of(&self.nodes).is_some());
-        [
-            (self.has_spheres, FLAG_SPHERES),
-            (self.has_convex, FLAG_CONVEX),
-            (walked >= WARP_BLOCKS_FROM, FLAG_WARP_BLOCKS),
-        ]
-        .into_iter()
-        .filter_map(|(on, flag)| on.then_some(flag))
-        .fold(0, |flags, flag| flags | flag)
+        let mut flags = 0;
+        if self.has_spheres {
+            flags |= FLAG_SPHERES;
+        }
+        if self.has_convex {
+            flags |= FLAG_CONVEX;
+        }
+        if walked >= WARP_BLOCKS_FROM {
+            flags |= FLAG_WARP_BLOCKS;
+        }
+        flags
     }
 
     /// The instance the walk visits before the tree (the root's left child,
