@@ -130,8 +130,8 @@ pub struct Row {
 }
 
 impl Row {
-    /// The scene and rays of the row, without the acceleration and the notes (a framed
-    /// row's coverage differs by a few edge pixels between tracers).
+    /// The scene and rays of the row, without the acceleration and the notes (a vendor
+    /// row's notes also name its kernel).
     fn scene_and_rays(&self) -> (&str, &str, u32, u64, u32, u32, u32) {
         let w = &self.workload;
         (&self.series, &w.model, w.models, w.triangles, w.width, w.height, w.bounces)
