@@ -244,6 +244,29 @@ fn bench_runs_a_preset_with_flags_over_it() {
 }
 
 #[test]
+fn bench_times_a_preset_in_the_ao_view_as_ao_and_other_views_as_colour() {
+    let dir = Scratch::new("bench-ao");
+    let image = |aov: &str| format!("version = 1\n[image]\naov = \"{aov}\"\nao_samples = 3\n");
+    std::fs::write(dir.join("ao.toml"), image("ao")).unwrap();
+    std::fs::write(dir.join("depth.toml"), image("depth")).unwrap();
+    let features = |preset: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+            .current_dir(&dir.0)
+            .env("MESHTRACER_VALIDATION", "1")
+            .args(["bench", "--preset", preset, "--frames", "1", "--warmup", "1"])
+            .args(["--size", "32", "--json", "out.json"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap();
+        json["rows"][0]["features"].as_str().unwrap().to_string()
+    };
+    assert!(features("ao.toml").starts_with("ao 3 rays, r 0.25"), "{}", features("ao.toml"));
+    assert!(!features("depth.toml").contains("ao"), "a depth preset is timed as colour");
+}
+
+#[test]
 fn jpeg_output_is_rgb_and_close_to_the_png() {
     let dir = Scratch::new("jpeg");
     render(&dir.0, &["--width", "64", "--height", "48", "-o", "out.png"]);

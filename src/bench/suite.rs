@@ -191,8 +191,11 @@ pub fn planned_cases(suite: &Suite) -> anyhow::Result<Vec<Case>> {
 /// given beside it over it; and the preset's warnings.
 pub fn preset_cases(suite: &Suite, path: &Path) -> anyhow::Result<(Vec<Case>, Vec<String>)> {
     let Loaded { mut spec, warnings } = preset::read(path).map_err(anyhow::Error::msg)?;
-    // Frames are timed as colour, as the other rows are.
-    spec.settings.aov = Aov::Color;
+    // Frames are timed as colour, as the other rows are, but for the AO view, a tracer
+    // workload of its own (`--ao`'s rows): a preset saved in it times its occlusion rays.
+    if spec.settings.aov != Aov::Ao {
+        spec.settings.aov = Aov::Color;
+    }
     if suite.size_given {
         (spec.settings.width, spec.settings.height) = (suite.size, suite.size);
     }
@@ -221,6 +224,9 @@ pub fn preset_cases(suite: &Suite, path: &Path) -> anyhow::Result<(Vec<Case>, Ve
 fn features_label(spec: &SceneSpec) -> String {
     let s = &spec.settings;
     let mut on = Vec::new();
+    if s.aov == Aov::Ao {
+        on.push(format!("ao {} rays, r {}", s.ao_samples, s.ao_radius));
+    }
     if s.smooth {
         on.push("smooth".to_string());
     }
