@@ -203,33 +203,27 @@ fn unknown_preset_keys_are_warned_about_and_ignored() {
     assert_eq!((spec.settings.width, spec.settings.height, spec.settings.smooth), (32, 24, false));
 }
 
+/// `bench --preset <preset> <args> --json out.json` in `dir` under the validation layer:
+/// the JSON report.
+fn bench_preset(dir: &Scratch, preset: &str, args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
+        .current_dir(&dir.0)
+        .env("MESHTRACER_VALIDATION", "1")
+        .args(["bench", "--preset", preset])
+        .args(args)
+        .args(["--json", "out.json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap()
+}
+
 #[test]
 fn bench_runs_a_preset_with_flags_over_it() {
     let dir = Scratch::new("bench");
     std::fs::write(dir.join("look.toml"), "version = 1\n[image]\nwidth = 48\nheight = 32\n[tracing]\nbounces = 1\n[shading]\nsmooth = true\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
-        .current_dir(&dir.0)
-        .env("MESHTRACER_VALIDATION", "1")
-        .args([
-            "bench",
-            "--preset",
-            "look.toml",
-            "--frames",
-            "2",
-            "--warmup",
-            "1",
-            "--accel",
-            "bvh,brute",
-            "--size",
-            "40",
-            "--json",
-            "out.json",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap();
+    let args = ["--frames", "2", "--warmup", "1", "--accel", "bvh,brute", "--size", "40"];
+    let json = bench_preset(&dir, "look.toml", &args);
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2, "one row per --accel given");
     for (row, accel) in rows.iter().zip(["bvh", "brute"]) {
@@ -250,20 +244,13 @@ fn bench_times_a_preset_in_the_ao_view_as_ao_and_other_views_as_colour() {
     std::fs::write(dir.join("ao.toml"), image("ao")).unwrap();
     std::fs::write(dir.join("depth.toml"), image("depth")).unwrap();
     let features = |preset: &str| {
-        let out = Command::new(env!("CARGO_BIN_EXE_meshtracer"))
-            .current_dir(&dir.0)
-            .env("MESHTRACER_VALIDATION", "1")
-            .args(["bench", "--preset", preset, "--frames", "1", "--warmup", "1"])
-            .args(["--size", "32", "--json", "out.json"])
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.join("out.json")).unwrap()).unwrap();
+        let json = bench_preset(&dir, preset, &["--frames", "1", "--warmup", "1", "--size", "32"]);
         json["rows"][0]["features"].as_str().unwrap().to_string()
     };
-    assert!(features("ao.toml").starts_with("ao 3 rays, r 0.25"), "{}", features("ao.toml"));
-    assert!(!features("depth.toml").contains("ao"), "a depth preset is timed as colour");
+    let ao = features("ao.toml");
+    assert!(ao.starts_with("ao 3 rays, r 0.25"), "{ao}");
+    let depth = features("depth.toml");
+    assert!(!depth.contains("ao"), "a depth preset is timed as colour: {depth}");
 }
 
 #[test]
