@@ -69,28 +69,60 @@ void test_leaves(vec3 o, vec3 d, uint a, uint na, uint b, uint nb, inout Hit hit
     cost.y += na + nb;
 }
 
+// Whether one of leaf triangles first..first+n is hit closer than t_max (an occlusion
+// query's leaf: it stops at the first).
+bool leaf_blocks(vec3 o, vec3 d, uint first, uint n, float t_max, inout uvec2 cost) {
+    Hit hit;
+    hit.t = t_max;
+    for (uint i = 0u; i < n; i++) {
+        cost.y += 1u;
+        if (intersect_triangle(o, d, first + i, hit)) return true;
+    }
+    return false;
+}
+
 // Stack-based BVH2 traversal: leaves are tested as soon as their box is hit, inner
-// children are visited near first with the far one pushed.
-void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, inout uvec2 cost) {
+// children are visited near first with the far one pushed. Closest (`any` false): shrinks
+// `hit` to the closest hit and returns false. Any (the AO view's occlusion query, hit.t its
+// reach): returns true at the first triangle hit, leaf by leaf. One walk for both, as
+// traverse_wide is (two functions drifted apart; on the H200 the one walk took the binary
+// AO row 3% longer and Table 2's three and four geospheres 5-7% shorter, fortieth
+// session). Mirrors src/bvh/traverse.rs (walk).
+bool traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, bool any, inout Hit hit, inout uvec2 cost) {
     vec3 inv_d = safe_inverse(d);
     uint stack[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
+    // An occlusion query's reach, fixed: its boxes are cut by it alone.
+    float reach = hit.t;
     while (true) {
+        float t_max = any ? reach : hit.t;
         BvhNode n = nodes[node_base + node];
         cost.x += 1u;
         uint li = floatBitsToUint(n.left_min.w);
         uint lc = floatBitsToUint(n.left_max.w);
         uint ri = floatBitsToUint(n.right_min.w);
         uint rc = floatBitsToUint(n.right_max.w);
-        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
-        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
-        uint nl = (tl < INF) ? lc : 0u;
-        uint nr = (tr < INF) ? rc : 0u;
-        if (nl + nr > 0u) {
-            test_leaves(o, d, tri_base + li, nl, tri_base + ri, nr, hit, cost);
-            if (nl > 0u) tl = INF;
-            if (nr > 0u) tr = INF;
+        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, t_max);
+        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, t_max);
+        if (any) {
+            // Leaf by leaf, each left as soon as a triangle blocks the ray.
+            if (tl < INF && lc > 0u) {
+                if (leaf_blocks(o, d, tri_base + li, lc, reach, cost)) return true;
+                tl = INF;
+            }
+            if (tr < INF && rc > 0u) {
+                if (leaf_blocks(o, d, tri_base + ri, rc, reach, cost)) return true;
+                tr = INF;
+            }
+        } else {
+            uint nl = (tl < INF) ? lc : 0u;
+            uint nr = (tr < INF) ? rc : 0u;
+            if (nl + nr > 0u) {
+                test_leaves(o, d, tri_base + li, nl, tri_base + ri, nr, hit, cost);
+                if (nl > 0u) tl = INF;
+                if (nr > 0u) tr = INF;
+            }
         }
         if (tl < INF && tr < INF) {
             // Both inner children: near first, far on the stack.
@@ -106,6 +138,7 @@ void traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, inout Hit hit, 
             node = stack[sp];
         }
     }
+    return false;
 }
 
 #include "traverse_wide.glsl"
@@ -121,61 +154,6 @@ Hit no_hit(float t_max) {
     return hit;
 }
 
-// The binary traversal for any-hit (occlusion) queries: whether anything lies along the
-// ray in (0, t_max). The same walk as traverse_bvh, but it returns at the first triangle hit
-// instead of looking on for a closer one: an AO ray only asks whether it is blocked.
-// Mirrors src/bvh/traverse.rs (any_hit).
-
-// Whether one of leaf triangles first..first+n is hit closer than t_max.
-bool leaf_blocks(vec3 o, vec3 d, uint first, uint n, float t_max, inout uvec2 cost) {
-    Hit hit;
-    hit.t = t_max;
-    for (uint i = 0u; i < n; i++) {
-        cost.y += 1u;
-        if (intersect_triangle(o, d, first + i, hit)) return true;
-    }
-    return false;
-}
-
-// traverse_bvh's stack walk with early exit: leaves tested as their box is hit, inner
-// children near first, the first hit ends it.
-bool traverse_bvh_any(vec3 o, vec3 d, uint node_base, uint tri_base, float t_max, inout uvec2 cost) {
-    vec3 inv_d = safe_inverse(d);
-    uint stack[STACK_SIZE];
-    uint sp = 0u;
-    uint node = 0u;
-    while (true) {
-        BvhNode n = nodes[node_base + node];
-        cost.x += 1u;
-        uint li = floatBitsToUint(n.left_min.w);
-        uint lc = floatBitsToUint(n.left_max.w);
-        uint ri = floatBitsToUint(n.right_min.w);
-        uint rc = floatBitsToUint(n.right_max.w);
-        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, t_max);
-        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, t_max);
-        if (tl < INF && lc > 0u) {
-            if (leaf_blocks(o, d, tri_base + li, lc, t_max, cost)) return true;
-            tl = INF;
-        }
-        if (tr < INF && rc > 0u) {
-            if (leaf_blocks(o, d, tri_base + ri, rc, t_max, cost)) return true;
-            tr = INF;
-        }
-        if (tl < INF && tr < INF) {
-            if (tl <= tr) { stack[sp] = ri; node = li; } else { stack[sp] = li; node = ri; }
-            sp += 1u;
-        } else if (tl < INF) {
-            node = li;
-        } else if (tr < INF) {
-            node = ri;
-        } else {
-            if (sp == 0u) break;
-            sp -= 1u;
-            node = stack[sp];
-        }
-    }
-    return false;
-}
 
 
 // The paper's brute force over one mesh's triangles first..first+n, eight per iteration.
@@ -227,10 +205,8 @@ bool visit_instance(uint i, vec3 o, vec3 d, bool any, bool use_bvh, inout Hit hi
         blocked = traverse_wide(lo, ld, inst.offsets.z, first, any, hit, cost);
     } else
 #endif
-    if (use_bvh && any) {
-        blocked = traverse_bvh_any(lo, ld, inst.offsets.x, first, hit.t, cost);
-    } else if (use_bvh) {
-        traverse_bvh(lo, ld, inst.offsets.x, first, hit, cost);
+    if (use_bvh) {
+        blocked = traverse_bvh(lo, ld, inst.offsets.x, first, any, hit, cost);
     } else {
         blocked = brute_force(lo, ld, first, meshes[inst.offsets.w].x, any, hit, cost);
     }

@@ -47,9 +47,9 @@ pub fn closest_hit(
 }
 
 /// Whether `ray` hits any triangle in (t_min, t_max) through one mesh's `nodes` (laid out
-/// as for [`closest_hit`]): the AO view's occlusion query, the reference for
-/// `traverse_bvh_any` in `shaders/intersect.glsl`. The same walk as [`closest_hit`] (leaves
-/// tested as their box is hit, the near inner child next), ended by the first hit found.
+/// as for [`closest_hit`]): the AO view's occlusion query, the reference for `traverse_bvh`
+/// in `shaders/intersect.glsl` with `any`. The same walk as [`closest_hit`] (leaves tested
+/// as their box is hit, the near inner child next), ended by the first hit found.
 pub fn any_hit(
     nodes: &[BvhNode],
     ordered: &[[Vec3; 3]],
@@ -68,7 +68,8 @@ enum Stop {
     AtFirst,
 }
 
-/// The traversal both queries share (the shader's `traverse_bvh` and `traverse_bvh_any`).
+/// The traversal both queries share (the shader's `traverse_bvh`; its `any` is
+/// [`Stop::AtFirst`]).
 fn walk(
     nodes: &[BvhNode],
     ordered: &[[Vec3; 3]],
