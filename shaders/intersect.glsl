@@ -93,26 +93,23 @@ bool traverse_bvh(vec3 o, vec3 d, uint node_base, uint tri_base, bool any, inout
     uint stack[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
-    // An occlusion query's reach, fixed: its boxes are cut by it alone.
-    float reach = hit.t;
     while (true) {
-        float t_max = any ? reach : hit.t;
         BvhNode n = nodes[node_base + node];
         cost.x += 1u;
         uint li = floatBitsToUint(n.left_min.w);
         uint lc = floatBitsToUint(n.left_max.w);
         uint ri = floatBitsToUint(n.right_min.w);
         uint rc = floatBitsToUint(n.right_max.w);
-        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, t_max);
-        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, t_max);
+        float tl = (li == EMPTY) ? INF : slab(n.left_min.xyz, n.left_max.xyz, o, inv_d, hit.t);
+        float tr = (ri == EMPTY) ? INF : slab(n.right_min.xyz, n.right_max.xyz, o, inv_d, hit.t);
         if (any) {
             // Leaf by leaf, each left as soon as a triangle blocks the ray.
             if (tl < INF && lc > 0u) {
-                if (leaf_blocks(o, d, tri_base + li, lc, reach, cost)) return true;
+                if (leaf_blocks(o, d, tri_base + li, lc, hit.t, cost)) return true;
                 tl = INF;
             }
             if (tr < INF && rc > 0u) {
-                if (leaf_blocks(o, d, tri_base + ri, rc, reach, cost)) return true;
+                if (leaf_blocks(o, d, tri_base + ri, rc, hit.t, cost)) return true;
                 tr = INF;
             }
         } else {
