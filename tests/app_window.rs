@@ -1126,7 +1126,7 @@ fn an_edited_shader_is_traced_and_a_broken_one_keeps_the_last_good_image() {
     assert!(source.contains(mean), "trace.glsl no longer averages its samples as the test expects");
     std::fs::write(&comp, source.replacen(mean, "vec4 value = sum / float(spp) * 0.5;", 1))
         .unwrap();
-    let edited = wait_until(Duration::from_secs(240), "the edited shader's image", || {
+    let edited = wait_until(Duration::from_secs(480), "the edited shader's image", || {
         let shot = f12(&x, &window, dir.path(), &mut app);
         (max_diff(&start, &shot) > 1).then_some(shot)
     });

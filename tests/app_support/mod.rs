@@ -346,16 +346,17 @@ pub fn f12_file(x: &Xvfb, window: &str, dir: &Path, app: &mut Running) -> PathBu
             pressed_at = Instant::now();
         }
         // Long: the first frame after a shader reload waits for lavapipe to compile the
-        // whole kernel, 60-100 s on a 2-core machine with a cold shader cache.
+        // whole kernel, 60-100 s on a 2-core machine with a cold shader cache, and over
+        // 240 s while the other window tests run beside it (a clean-clone CI run).
         assert!(
-            start.elapsed() < Duration::from_secs(240),
+            start.elapsed() < Duration::from_secs(480),
             "timed out waiting for an F12 screenshot"
         );
         std::thread::sleep(Duration::from_millis(300));
     }
     if presses > 1 {
         let (mut count, mut since) = (new_shots().len(), Instant::now());
-        while since.elapsed() < QUIET && start.elapsed() < Duration::from_secs(300) {
+        while since.elapsed() < QUIET && start.elapsed() < Duration::from_secs(540) {
             app.assert_alive();
             std::thread::sleep(Duration::from_millis(300));
             let now = new_shots().len();
