@@ -337,7 +337,7 @@ float child_entry(vec4 lo, vec4 hi, vec3 o, vec3 d, vec3 inv_d, float t_max, boo
 // visit) cost a model alone 3-5% and a model in the box 8-9% on the H200 (twenty-seventh
 // and twenty-eighth sessions); a loop of two visits (the box visited through its tree)
 // cost more than the walk.
-bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hit hit, inout uvec2 cost) {
+bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, uint hint, inout Hit hit, inout uvec2 cost) {
     if (frame.misc.x == 0u) return false;
     uint leaf = 0u;
     if (use_bvh) {
@@ -368,7 +368,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hi
     return any && found;
 }
 #else
-bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hit hit, inout uvec2 cost) {
+bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, uint hint, inout Hit hit, inout uvec2 cost) {
     uint count = frame.misc.x;
     if (count == 0u) return false;
     vec3 inv_d = safe_inverse(d);
@@ -398,8 +398,12 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hi
             // spoilt the splits.
             cost.x += 1u;
             BvhNode e = top_nodes[floatBitsToUint(n.left_min.w)];
+            uint enclosure = floatBitsToUint(e.left_min.w);
+            if (hint == enclosure) hint = EMPTY;  // tested here, as always
             bool blocked;
-            if (!closed_box_hit(e, o, d, any, hit, cost, blocked)) first = floatBitsToUint(e.left_min.w);
+            if (!closed_box_hit(e, o, d, any, hit, cost, blocked)) {
+                if (enclosure != skip) first = enclosure;
+            }
             if (blocked) return true;
             node = EMPTY;
             uint ri = floatBitsToUint(n.right_min.w);
@@ -410,8 +414,19 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hi
             }
         }
     }
+    // The copy this pixel's camera ray hit in the last frame (`hint`, EMPTY for none) is
+    // visited before the walk: its hit, where it is still there, bounds the walk at once, and
+    // the lanes of a warp enter their copies together instead of one lane after another as
+    // the walk reaches them. The walk then leaves it out, as it leaves out `skip` (which a
+    // camera ray has none of). Any copy may be the hint: the walk still visits every copy
+    // it enters before the closest hit, so the hit is the same.
+    if (use_bvh && first == EMPTY && hint < count && skip == EMPTY) {
+        first = hint;
+        skip = hint;
+    }
     while (true) {
         uint leaf = first;
+        bool forced = leaf != EMPTY;  // the enclosure or the hint, visited whatever `skip` is
         first = EMPTY;
         if (!use_bvh) {
             if (next_brute == count) break;
@@ -453,7 +468,7 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hi
         }
         if (leaf == EMPTY) break;
         // Not `leaf != skip && visit_instance(...)`: naga evaluates both sides of &&.
-        if (leaf != skip) {
+        if (leaf != skip || forced) {
             if (visit_instance(leaf, o, d, any, use_bvh, hit, cost) && any) return true;
         }
     }
@@ -461,11 +476,34 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, inout Hi
 }
 #endif
 
+#if !defined(ONE_INSTANCE) && !defined(SPHERE_LEAVES)
+// The pixel being traced (trace_pixel sets it): a camera ray's walk starts from the copy
+// the last frame's ray hit there (walk_hints, scene.glsl), and records the copy this one
+// hits. On the H200 that took 11-12% off the fields of 10,000 1M knots, whose lanes then
+// enter their copies together
+// (docs/BENCHMARKS.md, forty-first session). Not for top levels with sphere leaves or
+// convex copies (the wide kernel's twin, SPHERE_LEAVES; FLAG_SPHERES, FLAG_CONVEX in the
+// others): the walk turns those rays away from the copies they pass by already, and the
+// hints' reads and writes cost the paper's geospheres up to 3%.
+#define HAS_WALK_HINTS
+uint hint_pixel = 0u;
+#endif
+
 // The closest hit over all instances in (0, inf), but instance `skip` (EMPTY for none),
 // which the ray cannot meet.
 Hit closest_hit(vec3 o, vec3 d, bool use_bvh, uint skip, inout uvec2 cost) {
     Hit hit = no_hit(INF);
-    trace_instances(o, d, false, use_bvh, skip, hit, cost);
+#ifdef HAS_WALK_HINTS
+    // A camera ray leaves from the camera (a bounce ray that started there would only take
+    // a hint, never another hit, and leave one).
+    bool camera = all(equal(o, frame.cam_origin_eps.xyz)) && (frame.dims.w & (FLAG_SPHERES | FLAG_CONVEX)) == 0u;
+    uint hint = EMPTY;
+    if (camera) hint = walk_hints[hint_pixel];  // not `?:`, whose both sides naga evaluates
+    trace_instances(o, d, false, use_bvh, skip, hint, hit, cost);
+    if (camera) walk_hints[hint_pixel] = hit.instance;
+#else
+    trace_instances(o, d, false, use_bvh, skip, EMPTY, hit, cost);
+#endif
     return hit;
 }
 
@@ -473,5 +511,5 @@ Hit closest_hit(vec3 o, vec3 d, bool use_bvh, uint skip, inout uvec2 cost) {
 // view's occlusion query.
 bool any_hit(vec3 o, vec3 d, float t_max, bool use_bvh, uint skip, inout uvec2 cost) {
     Hit hit = no_hit(t_max);
-    return trace_instances(o, d, true, use_bvh, skip, hit, cost);
+    return trace_instances(o, d, true, use_bvh, skip, EMPTY, hit, cost);
 }

@@ -99,6 +99,9 @@ layout(std430, set = 0, binding = 7) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 8) readonly buffer TextureInfos { uvec4 texture_infos[]; }; // offset, w, h, levels
 // Primary-hit ids of the adaptive pre-pass (one per pixel).
 layout(std430, set = 0, binding = 9) buffer PrimIds { uint prim_ids[]; };
+// Per pixel, the copy its camera ray hit in the last frame (EMPTY for a miss or none), where
+// the top level's walk starts (intersect.glsl, closest_hit).
+layout(std430, set = 0, binding = 22) buffer WalkHints { uint walk_hints[]; };
 // Equirectangular environment: [0] width, [1] height, then RGB9E5 (HDR) texels.
 layout(std430, set = 0, binding = 10) readonly buffer Environment { uint environment[]; };
 

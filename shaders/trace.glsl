@@ -270,6 +270,9 @@ uint trace_pixel(uvec2 px) {
     if (px.x >= width || px.y >= height) return 0u;
     uint pixel = px.y * width + px.x;
     uint flags = frame.dims.w;
+#ifdef HAS_WALK_HINTS
+    hint_pixel = pixel;
+#endif
 #if defined(WIDE_ONLY) && !defined(ONE_INSTANCE)
     // The wide kernel runs wide BVH frames only (TracePass picks it): known here, the top
     // level's walk loses its brute-force path and the state that path keeps (the model

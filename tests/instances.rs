@@ -266,3 +266,56 @@ fn a_lone_turned_instance_is_traced_like_the_cpu() {
     }
     common::assert_validation_clean(&common::ctx());
 }
+
+/// Small knots inside a big one, seen along its axis through its hole: a ray that hits a
+/// small knot enters the big knot's box first, and walks the big knot's far side too
+/// unless it already knows its hit.
+fn knots_in_a_knot() -> Scene {
+    let mut knot = PaperModel::TorusKnot.mesh();
+    prepare_mesh(&mut knot);
+    let small = |x: f32, y: f32, z: f32| placed(0, [0.25; 3], [0.3 * x, 0.7, 0.2 * y], [x, y, z]);
+    let mut scene = instanced_scene();
+    scene.meshes = vec![knot];
+    scene.instances = vec![
+        placed(0, [3.0; 3], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]),
+        small(0.0, 0.0, 0.0),
+        small(0.5, 0.3, -0.5),
+        small(-0.4, -0.3, 0.4),
+    ];
+    scene.camera.position = Vec3::new(0.0, 0.0, 9.0);
+    scene.camera.target = Vec3::ZERO;
+    scene
+}
+
+#[test]
+fn a_frame_started_from_the_last_frames_hits_is_the_same_frame_with_fewer_steps() {
+    // A second frame of the same view starts each camera ray's walk at the copy the first
+    // frame's ray hit (the walk hints), both layouts, 2 bounces: the same image bit for
+    // bit; and a ray that sees a small knot walks the big one only up to that hit, so the
+    // frame takes fewer steps. A new top level forgets the hints: its first frame counts
+    // what a fresh tracer's does.
+    let scene = knots_in_a_knot();
+    let ctx = ctx();
+    let steps = |cost: &Image| cost.pixels.iter().map(|p| (p[0] + p[1]) as f64).sum::<f64>();
+    for bvh in [BvhLayout::Binary, BvhLayout::Wide] {
+        let packed = PackedScene::with_layouts(&scene, Layouts::only(bvh));
+        let mut tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
+        let settings = colour(64, bvh, true);
+        let colour = FrameParams::new(&scene, settings.clone());
+        let (first, _) = tracer.render(&colour).expect("trace");
+        let (second, _) = tracer.render(&colour).expect("trace");
+        assert!(first.pixels == second.pixels, "{bvh:?}: the hinted frame differs");
+        assert!(large_neighbour_steps(&first, 0.05) > 50, "{bvh:?}: a flat image");
+
+        let cost = FrameParams::new(&scene, RenderSettings { aov: Aov::Cost, ..settings });
+        tracer.set_instances(&packed.top_level).expect("the same top level again");
+        let (fresh, _) = tracer.render(&cost).expect("trace");
+        let (hinted, _) = tracer.render(&cost).expect("trace");
+        let (before, after) = (steps(&fresh), steps(&hinted));
+        assert!(after < before, "{bvh:?}: {after} steps with hints, {before} without");
+        let mut new_tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
+        let (first_cost, _) = new_tracer.render(&cost).expect("trace");
+        assert!(fresh.pixels == first_cost.pixels, "{bvh:?}: hints survived a new top level");
+    }
+    assert_validation_clean(&ctx);
+}

@@ -160,6 +160,7 @@ impl ComputeTracer {
         (self.has_binary, self.has_wide) = (packed.has_binary(), packed.has_wide());
         self.meshes = packed.meshes.iter().map(|m| (m.triangle_base, m.triangle_count)).collect();
         self.instances = packed.top_level.instances.clone();
+        self.output.as_ref().map_or(Ok(()), |o| o.forget_hints(&self.ctx))?;
         self.rebind();
         Ok(())
     }
@@ -180,7 +181,7 @@ impl ComputeTracer {
                 v.instances_changed();
             }
         }
-        Ok(())
+        self.output.as_ref().map_or(Ok(()), |o| o.forget_hints(&self.ctx))
     }
 
     /// Replace the environment image (None: misses see the background colour).

@@ -76,6 +76,9 @@ pub(crate) enum TraceBuffer {
     OutRgba8,
     OutFloat,
     PrimIds,
+    /// Per pixel, the copy its camera ray hit in the last frame (the top level's walk
+    /// starts there).
+    WalkHints,
     TileOrder,
     TileCosts,
 }
@@ -83,7 +86,7 @@ pub(crate) enum TraceBuffer {
 impl TraceBuffer {
     /// Every buffer, each of which the shader must declare exactly once (checked by a test).
     #[cfg(test)]
-    pub const ALL: [TraceBuffer; 20] = [
+    pub const ALL: [TraceBuffer; 21] = [
         Self::Triangles,
         Self::TriangleHalves,
         Self::Shading,
@@ -102,6 +105,7 @@ impl TraceBuffer {
         Self::OutRgba8,
         Self::OutFloat,
         Self::PrimIds,
+        Self::WalkHints,
         Self::TileOrder,
         Self::TileCosts,
     ];
@@ -127,6 +131,7 @@ impl TraceBuffer {
             "OutRgba8" => Self::OutRgba8,
             "OutFloat" => Self::OutFloat,
             "PrimIds" => Self::PrimIds,
+            "WalkHints" => Self::WalkHints,
             "TileOrder" => Self::TileOrder,
             "TileCosts" => Self::TileCosts,
             _ => return None,
@@ -171,7 +176,8 @@ mod tests {
     fn only_the_outputs_are_writable() {
         use TraceBuffer::*;
         for b in BINDINGS {
-            let written = matches!(TraceBuffer::of(b), OutRgba8 | OutFloat | PrimIds | TileCosts);
+            let written =
+                matches!(TraceBuffer::of(b), OutRgba8 | OutFloat | PrimIds | WalkHints | TileCosts);
             assert_eq!(b.read_only, !written, "{b:?}");
         }
     }

@@ -23,7 +23,7 @@ use super::scene_buffers::SceneBuffers;
 use super::shader_layout::{TraceBuffer, BINDINGS, LAYOUT_SIGNATURE};
 use super::tile_order::TileSchedule;
 use super::trace_kernels::{create_pipeline, KernelVariants, Variant, TRACE_ROWS_SPV, TRACE_SPV};
-use crate::contract::{TLAS_BINDING, VENDOR_SLOTS_BINDING};
+use crate::contract::{EMPTY, TLAS_BINDING, VENDOR_SLOTS_BINDING};
 use crate::tracer::frame::{FrameParams, PushConstants};
 
 /// SPIR-V compiled from `shaders/vendor/query.comp` by build.rs (glslang).
@@ -160,6 +160,7 @@ pub(crate) fn write_set(
                 TraceBuffer::OutRgba8 => &output.rgba8,
                 TraceBuffer::OutFloat => &output.float,
                 TraceBuffer::PrimIds => &output.prim_ids,
+                TraceBuffer::WalkHints => &output.walk_hints,
                 TraceBuffer::TileOrder => &tiles.order,
                 TraceBuffer::TileCosts => &tiles.costs,
             };
@@ -205,6 +206,9 @@ pub(crate) struct TraceOutput {
     pub float: GpuBuffer,
     /// Primary-hit ids of the adaptive-sampling pre-pass.
     pub prim_ids: GpuBuffer,
+    /// Per pixel, the copy its camera ray hit in the last frame, where the top level's walk
+    /// starts (`closest_hit` in `shaders/intersect.glsl`); `EMPTY` for none.
+    pub walk_hints: GpuBuffer,
     /// The tiles' order and costs per frame slot (the host writes one slot's order while
     /// another slot's frame may run, hence the lock rather than `&mut`).
     pub tiles: Mutex<TileSchedule>,
@@ -239,6 +243,7 @@ impl TraceOutput {
             rgba8: GpuBuffer::new(ctx, pixels * 4, usage, loc, "output rgba8")?,
             float: GpuBuffer::new(ctx, pixels * 16, usage, loc, "output float")?,
             prim_ids: GpuBuffer::new(ctx, pixels * 4, usage, loc, "primary ids")?,
+            walk_hints: GpuBuffer::new(ctx, pixels * 4, usage, loc, "walk hints")?,
             tiles: Mutex::new(tiles),
         };
         output.clear(ctx)?;
@@ -255,8 +260,25 @@ impl TraceOutput {
             unsafe {
                 device.cmd_fill_buffer(cmd, self.rgba8.buffer, 0, vk::WHOLE_SIZE, CLEAR_RGBA8);
                 device.cmd_fill_buffer(cmd, self.float.buffer, 0, vk::WHOLE_SIZE, 0);
+                device.cmd_fill_buffer(cmd, self.walk_hints.buffer, 0, vk::WHOLE_SIZE, EMPTY);
             }
-            let after = [Access::ComputeWrite, Access::TransferRead];
+            let after = [Access::ComputeRead, Access::ComputeWrite, Access::TransferRead];
+            barrier::buffers(device, cmd, &[Access::TransferWrite], &after);
+        })
+    }
+
+    /// Forget the copies the last frames' camera rays hit (`walk_hints`), so that the next
+    /// frame walks from the root as a first frame does: after a new scene or top level, whose
+    /// copies the hints no longer name (a hint only changes where the walk starts, never the
+    /// hit, but a frame's counts would then depend on the scene before).
+    pub(crate) fn forget_hints(&self, ctx: &GpuContext) -> Result<(), GpuError> {
+        let device = &ctx.device;
+        ctx.one_shot(|cmd| {
+            // SAFETY: `cmd` is recording; the buffer is alive until one_shot has waited.
+            unsafe {
+                device.cmd_fill_buffer(cmd, self.walk_hints.buffer, 0, vk::WHOLE_SIZE, EMPTY)
+            };
+            let after = [Access::ComputeRead, Access::ComputeWrite];
             barrier::buffers(device, cmd, &[Access::TransferWrite], &after);
         })
     }

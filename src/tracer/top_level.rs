@@ -161,6 +161,7 @@ impl TopLevel {
         if walked >= WARP_BLOCKS_FROM {
             flags |= FLAG_WARP_BLOCKS;
         }
+
         flags
     }
 
@@ -201,8 +202,6 @@ impl TopLevel {
     }
 }
 
-/// Whether a scene of `count` instances, with an enclosure that is a closed box or not, is
-/// one instance to the kernels ([`TopLevel::is_one_instance`]).
 /// Instances the walk visits (an enclosure not counted) from which a frame's subgroups
 /// trace 8x4 blocks instead of 32-pixel rows (`contract::FLAG_WARP_BLOCKS`). On the H200
 /// (1024², docs/BENCHMARKS.md, thirty-eighth session) blocks made 4 to 10,000 geospheres
@@ -212,6 +211,8 @@ impl TopLevel {
 /// knots lost 5%.
 pub(crate) const WARP_BLOCKS_FROM: usize = 3;
 
+/// Whether a scene of `count` instances, with an enclosure that is a closed box or not, is
+/// one instance to the kernels ([`TopLevel::is_one_instance`]).
 fn one_instance(count: usize, closed_enclosure: bool) -> bool {
     count == 1 || (count == 2 && closed_enclosure)
 }
