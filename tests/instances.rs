@@ -301,7 +301,7 @@ fn a_frame_started_from_the_last_frames_hits_is_the_same_frame_with_fewer_steps(
         let packed = PackedScene::with_layouts(&scene, Layouts::only(bvh));
         let mut tracer = ComputeTracer::with_scene(&ctx, &packed).expect("upload");
         let settings = colour(64, bvh, true);
-        let colour = FrameParams::new(&scene, settings.clone());
+        let colour = FrameParams::new(&scene, settings);
         let (first, _) = tracer.render(&colour).expect("trace");
         let (second, _) = tracer.render(&colour).expect("trace");
         assert!(first.pixels == second.pixels, "{bvh:?}: the hinted frame differs");
