@@ -479,12 +479,12 @@ bool trace_instances(vec3 o, vec3 d, bool any, bool use_bvh, uint skip, uint hin
 #if !defined(ONE_INSTANCE) && !defined(SPHERE_LEAVES)
 // The pixel being traced (trace_pixel sets it): a camera ray's walk starts from the copy
 // the last frame's ray hit there (walk_hints, scene.glsl), and records the copy this one
-// hits. On the H200 that took 11-12% off the fields of 10,000 1M knots, whose lanes then
-// enter their copies together
-// (docs/BENCHMARKS.md, forty-first session). Not for top levels with sphere leaves or
-// convex copies (the wide kernel's twin, SPHERE_LEAVES; FLAG_SPHERES, FLAG_CONVEX in the
-// others): the walk turns those rays away from the copies they pass by already, and the
-// hints' reads and writes cost the paper's geospheres up to 3%.
+// hits. On the H200 that took 10-12% off the fields of 10,000 1M knots, whose lanes then
+// enter their copies together (docs/BENCHMARKS.md, forty-first session), and cost 27 and
+// 100 1M knots in the box 2.5-3.6% (the kernel at 128 registers). Not for top levels with
+// sphere leaves or convex copies (the wide kernel's twin, SPHERE_LEAVES; FLAG_SPHERES,
+// FLAG_CONVEX in the others): the walk turns those rays away from the copies they pass by
+// already, and the hints' reads and writes cost the paper's geospheres up to 3%.
 #define HAS_WALK_HINTS
 uint hint_pixel = 0u;
 #endif

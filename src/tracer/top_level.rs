@@ -161,7 +161,6 @@ impl TopLevel {
         if walked >= WARP_BLOCKS_FROM {
             flags |= FLAG_WARP_BLOCKS;
         }
-
         flags
     }
 
